@@ -1,0 +1,1 @@
+"""The iCub intention studio: a viser web app over ``promp`` and ``robots.icub``."""

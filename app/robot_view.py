@@ -1,0 +1,75 @@
+"""The iCub in the 3D view: URDF meshes, ground grid, table, camera framing."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import viser
+import yourdfpy
+from viser.extras import ViserUrdf
+
+from robots.icub.model import ground_height, natural_pose
+from robots.icub.scene import Scene
+
+ROBOT_ROOT = "/robot"
+# Camera in front of the robot and to its left, above the table, looking at the chest and the
+# table: the robot faces -x, so the viewer stands at negative x.
+CAMERA_POSITION = (-1.05, -0.75, 0.4)
+CAMERA_LOOK_AT = (-0.2, -0.05, -0.02)
+CAMERA_FOV_DEG = 55.0
+
+
+@dataclass
+class RobotView:
+    """Handles of the robot's scene nodes."""
+
+    urdf: yourdfpy.URDF
+    viser_urdf: ViserUrdf
+    root: viser.FrameHandle
+    q: np.ndarray
+
+    def set_configuration(self, q: np.ndarray) -> None:
+        """Show the actuated joint vector ``q``, shape (n_actuated,)."""
+        self.q = np.asarray(q, dtype=float).copy()
+        self.viser_urdf.update_cfg(self.q)
+
+
+def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> RobotView:
+    """Add the robot, the ground and the table to the scene and frame the camera."""
+    server.scene.set_up_direction("+z")
+    ground = ground_height(urdf)
+    server.scene.add_grid(
+        "/ground",
+        width=4.0,
+        height=4.0,
+        cell_size=0.1,
+        section_size=0.5,
+        position=(0.0, 0.0, ground),
+    )
+    root = server.scene.add_frame(ROBOT_ROOT, show_axes=False)
+    viser_urdf = ViserUrdf(server, urdf, root_node_name=ROBOT_ROOT)
+    view = RobotView(urdf=urdf, viser_urdf=viser_urdf, root=root, q=natural_pose(urdf))
+    view.set_configuration(view.q)
+
+    table = scene.table
+    server.scene.add_box(
+        "/scene/table/top",
+        dimensions=table.size,
+        position=table.center,
+        color=(176, 132, 92),
+    )
+    leg_height = table.center[2] - table.size[2] / 2 - ground
+    for i, (sx, sy) in enumerate(((-1, -1), (-1, 1), (1, -1), (1, 1))):
+        x = table.center[0] + sx * (table.size[0] / 2 - 0.03)
+        y = table.center[1] + sy * (table.size[1] / 2 - 0.03)
+        server.scene.add_box(
+            f"/scene/table/leg{i}",
+            dimensions=(0.04, 0.04, leg_height),
+            position=(x, y, ground + leg_height / 2),
+            color=(140, 100, 70),
+        )
+    server.initial_camera.position = CAMERA_POSITION
+    server.initial_camera.look_at = CAMERA_LOOK_AT
+    server.initial_camera.fov = np.deg2rad(CAMERA_FOV_DEG)
+    return view

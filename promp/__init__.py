@@ -1,0 +1,1 @@
+"""Multi-modal Probabilistic Movement Primitives: learn, recognise, predict (numpy/scipy only)."""

@@ -1,0 +1,1 @@
+"""Robots the studio can drive. Only the iCub for now (``robots.icub``)."""

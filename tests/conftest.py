@@ -1,0 +1,96 @@
+"""Shared fixtures: the real-browser harness and the shared lab data.
+
+Browser tests (marker ``browser``) drive the studio in Debian's headless Chromium through
+Playwright. Without ``/usr/bin/chromium`` they are skipped with one clear line, except in CI
+(``CI=true``), where a missing Chromium is an error.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+REPO = Path(__file__).resolve().parent.parent
+SHARED_DATA = REPO.parent / "shared" / "data"
+HEIGHTS = SHARED_DATA / "lab-records-heights"
+ARTIFACTS = REPO / "artifacts"
+
+
+def in_ci() -> bool:
+    return os.environ.get("CI", "").lower() in ("1", "true", "yes")
+
+
+def pytest_report_header(config: pytest.Config) -> str:
+    if CHROMIUM.exists():
+        return f"browser tests: ON ({CHROMIUM})"
+    return f"browser tests: SKIPPED, {CHROMIUM} not found (install it: apt-get install -y chromium)"
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    if CHROMIUM.exists():
+        return
+    if in_ci() and any("browser" in item.keywords for item in items):
+        raise pytest.UsageError(f"CI=true but {CHROMIUM} is missing: browser tests cannot run")
+    skip = pytest.mark.skip(reason=f"{CHROMIUM} not found (apt-get install -y chromium)")
+    for item in items:
+        if "browser" in item.keywords:
+            item.add_marker(skip)
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
+    if not CHROMIUM.exists():
+        terminalreporter.write_line(
+            f"NOTE: browser tests were skipped: {CHROMIUM} not found (apt-get install -y chromium)",
+            yellow=True,
+        )
+
+
+@pytest.fixture(scope="session")
+def artifacts() -> Path:
+    """Folder for screenshots and other test artefacts (kept after the run)."""
+    ARTIFACTS.mkdir(exist_ok=True)
+    return ARTIFACTS
+
+
+@pytest.fixture(scope="session")
+def heights_dir() -> Path:
+    """The shared real recordings; the test is skipped (with the reason) when absent."""
+    if not HEIGHTS.is_dir():
+        pytest.skip(f"shared lab recordings not found at {HEIGHTS}")
+    return HEIGHTS
+
+
+@pytest.fixture(scope="session")
+def browser() -> Iterator[object]:
+    """One headless Chromium for the whole session."""
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as pw:
+        chromium = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_FLAGS)
+        yield chromium
+        chromium.close()
+
+
+def wait_until(predicate, timeout: float = 30.0, interval: float = 0.05, what: str = "condition"):
+    """Poll ``predicate`` until it returns a truthy value; fail the test on timeout."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(interval)
+    pytest.fail(f"timed out after {timeout:.0f} s waiting for {what}")

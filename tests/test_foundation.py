@@ -1,0 +1,156 @@
+"""The foundation: the CLI, the robot model, and the iCub standing in a real browser."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+
+import numpy as np
+import pytest
+
+from app.cli import build_parser
+from app.net import free_port, is_loopback, port_is_free
+from robots.icub.model import DEFAULT_ROBOT, available_robots, load_urdf, natural_pose, urdf_path
+from tests.conftest import REPO, wait_until
+
+
+def test_help_documents_every_option() -> None:
+    out = subprocess.run(
+        [sys.executable, "-m", "app", "--help"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    for option in ("--host", "--port", "--workspace", "--robot"):
+        assert option in out
+    assert "127.0.0.1" in out
+
+
+def test_default_host_is_loopback() -> None:
+    args = build_parser().parse_args([])
+    assert args.host == "127.0.0.1"
+    assert is_loopback(args.host)
+    assert args.port == 8080
+
+
+@pytest.mark.parametrize(
+    "host, loopback",
+    [
+        ("127.0.0.1", True),
+        ("localhost", True),
+        ("::1", True),
+        ("0.0.0.0", False),
+        ("10.1.2.3", False),
+    ],
+)
+def test_is_loopback(host: str, loopback: bool) -> None:
+    assert is_loopback(host) is loopback
+
+
+def test_taken_port_is_a_clear_error(tmp_path) -> None:
+    with socket.socket() as blocker:
+        blocker.bind(("127.0.0.1", 0))
+        blocker.listen()
+        port = blocker.getsockname()[1]
+        assert not port_is_free("127.0.0.1", port)
+        proc = subprocess.run(
+            [sys.executable, "-m", "app", "--port", str(port), "--workspace", str(tmp_path / "ws")],
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    assert proc.returncode != 0
+    assert f"port {port}" in proc.stderr and "already in use" in proc.stderr
+
+
+def test_public_host_warns(tmp_path) -> None:
+    # An invalid port makes the CLI stop right after the host check.
+    proc = subprocess.run(
+        [sys.executable, "-m", "app", "--host", "0.0.0.0", "--port", "0"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert "WARNING" in proc.stderr and "no authentication" in proc.stderr
+    assert proc.returncode != 0
+
+
+def test_unknown_robot_is_a_clear_error() -> None:
+    with pytest.raises(ValueError, match="unknown robot 'iCubNowhere'.*iCubNancy01"):
+        urdf_path("iCubNowhere")
+    assert DEFAULT_ROBOT in available_robots()
+
+
+def test_natural_pose_is_inside_limits() -> None:
+    urdf = load_urdf(load_meshes=False)
+    q = natural_pose(urdf)
+    for name, value in zip(urdf.actuated_joint_names, q, strict=True):
+        limit = urdf.joint_map[name].limit
+        assert limit.lower <= value <= limit.upper, name
+    # The all-zero pose is not natural: the elbow limit excludes it.
+    assert q[urdf.actuated_joint_names.index("l_elbow")] > 0.5
+
+
+def test_server_serves_the_page_from_the_cli(tmp_path) -> None:
+    port = free_port()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "app", "--port", str(port), "--workspace", str(tmp_path / "ws")],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        url = f"http://127.0.0.1:{port}"
+        first_lines = []
+        while not any("running at" in line for line in first_lines):
+            line = proc.stdout.readline()
+            assert line, f"the studio exited early: {''.join(first_lines)}"
+            first_lines.append(line)
+        assert f"running at {url}" in first_lines[-1]
+
+        def page() -> bytes | None:
+            try:
+                with urllib.request.urlopen(url, timeout=2) as response:
+                    return response.read()
+            except OSError:
+                return None
+
+        body = wait_until(page, timeout=60, what="the studio's page")
+        assert b"<html" in body.lower()
+    finally:
+        proc.terminate()
+        proc.communicate(timeout=30)
+    assert proc.returncode == 0, "SIGTERM should stop the studio cleanly"
+
+
+@pytest.mark.browser
+def test_robot_is_rendered_in_chromium(browser, tmp_path, artifacts) -> None:
+    from app.studio import Studio
+
+    studio = Studio.start("127.0.0.1", free_port(), tmp_path / "ws")
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    try:
+        page.goto(f"http://127.0.0.1:{studio.port}")
+        clients = wait_until(studio.server.get_clients, what="the browser to connect")
+        client = next(iter(clients.values()))
+        time.sleep(2.0)  # let the meshes arrive and the first frames draw
+        with_robot = client.get_render(300, 400, timeout=60).astype(float)
+        page.screenshot(path=str(artifacts / "foundation.png"))
+        studio.robot.root.visible = False
+        time.sleep(1.0)
+        without_robot = client.get_render(300, 400, timeout=60).astype(float)
+    finally:
+        page.close()
+        studio.stop()
+    changed = np.abs(with_robot - without_robot).sum(axis=2) > 30
+    assert changed.mean() > 0.03, "the robot does not show in the rendered frame"
+    # The robot stands in the middle of the view, above the table: its pixels are central.
+    rows, cols = np.nonzero(changed)
+    assert 0.2 < cols.mean() / 400 < 0.8 and rows.mean() / 300 < 0.7
