@@ -1,4 +1,4 @@
-"""The iCub in the 3D view: URDF meshes, ground grid, table, camera framing."""
+"""The iCub in the 3D view: URDF meshes, ground grid, table, object, bins, partner, camera."""
 
 from __future__ import annotations
 
@@ -13,6 +13,9 @@ from robots.icub.model import ground_height, natural_pose
 from robots.icub.scene import Scene
 
 ROBOT_ROOT = "/robot"
+# The partner's head (a frame at the head centre, neutral = looking along +x; see
+# robots.icub.scene for the angle convention): set its wxyz to show the head orientation.
+PARTNER_HEAD_NODE = "/scene/partner/head"
 # Camera in front of the robot and to its left, above the table, looking at the chest and the
 # table: the robot faces -x, so the viewer stands at negative x.
 CAMERA_POSITION = (-1.05, -0.75, 0.4)
@@ -36,7 +39,8 @@ class RobotView:
 
 
 def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> RobotView:
-    """Add the robot, the ground and the table to the scene and frame the camera."""
+    """Add the robot, the ground, the table, the object, the bins and the partner's head to the
+    scene and frame the camera."""
     server.scene.set_up_direction("+z")
     ground = ground_height(urdf)
     server.scene.add_grid(
@@ -69,6 +73,28 @@ def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> R
             position=(x, y, ground + leg_height / 2),
             color=(140, 100, 70),
         )
+    server.scene.add_box(
+        "/scene/object",
+        dimensions=scene.object.size,
+        position=scene.object.center,
+        color=(200, 70, 60),
+    )
+    for i, bin_ in enumerate(scene.bins):
+        for j, part in enumerate(bin_.parts()):
+            server.scene.add_box(
+                f"/scene/bin{i}/part{j}",
+                dimensions=part.size,
+                position=part.center,
+                color=(70, 110, 170),
+            )
+    server.scene.add_frame(PARTNER_HEAD_NODE, position=scene.partner_head, show_axes=False)
+    server.scene.add_icosphere(f"{PARTNER_HEAD_NODE}/skull", radius=0.09, color=(225, 190, 160))
+    server.scene.add_box(
+        f"{PARTNER_HEAD_NODE}/nose",
+        dimensions=(0.04, 0.02, 0.03),
+        position=(0.09, 0.0, -0.01),
+        color=(205, 165, 135),
+    )
     server.initial_camera.position = CAMERA_POSITION
     server.initial_camera.look_at = CAMERA_LOOK_AT
     server.initial_camera.fov = np.deg2rad(CAMERA_FOV_DEG)

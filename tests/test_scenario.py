@@ -1,0 +1,319 @@
+"""The simulated curved/direct scenario: determinism, format, shapes of the movements, the head."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from promp.data import Demonstration
+from promp.datasets import load_csv_dataset, read_csv_demo
+from robots.icub.ik import solve_ik
+from robots.icub.kinematics import load_arm
+from robots.icub.scenario import (
+    COLUMNS,
+    PRIMITIVES,
+    THIRD_PRIMITIVE,
+    ScenarioParams,
+    generate_demonstration,
+    generate_scenario,
+    main,
+    minimum_jerk,
+)
+from robots.icub.scene import DEFAULT_SCENE, PARTNER_HEAD, head_orientation_looking_at
+from tests.conftest import REPO
+
+QUIET = ScenarioParams(
+    head_noise_deg=0.0, head_drift_deg=0.0, roll_bias_deg=0.0, head_position_jitter=0.0
+)
+
+
+@pytest.fixture(scope="module")
+def dataset() -> dict[str, list[Demonstration]]:
+    return generate_scenario(seed=0, n_demos=20, third=True)
+
+
+def _at_phase(demos: list[Demonstration], phase: float, columns: slice) -> np.ndarray:
+    """Values at a normalised phase in [0, 1], one row per demonstration."""
+    rows = []
+    for demo in demos:
+        t = demo.times[0] + phase * demo.duration
+        rows.append([np.interp(t, demo.times, demo.values[:, k]) for k in range(6)])
+    return np.array(rows)[:, columns]
+
+
+def test_primitives_counts_columns_and_rate(dataset: dict[str, list[Demonstration]]) -> None:
+    assert list(dataset) == [*PRIMITIVES, THIRD_PRIMITIVE]
+    for primitive, demos in dataset.items():
+        assert len(demos) == 20
+        assert len({d.name for d in demos}) == 20
+        for demo in demos:
+            assert demo.columns == COLUMNS
+            assert demo.name.startswith(f"{primitive}_")
+            assert demo.times[0] == 0.0
+            assert_allclose(np.diff(demo.times), 1 / 40.0, rtol=1e-9)
+            assert np.all(np.isfinite(demo.values))
+
+
+def test_same_seed_same_data_other_seed_other_data() -> None:
+    a = generate_scenario(seed=7, n_demos=3)
+    b = generate_scenario(seed=7, n_demos=3)
+    c = generate_scenario(seed=8, n_demos=3)
+    assert list(a) == list(PRIMITIVES)
+    for primitive in a:
+        for x, y, z in zip(a[primitive], b[primitive], c[primitive], strict=True):
+            assert_allclose(x.times, y.times, atol=0)
+            assert_allclose(x.values, y.values, atol=0)
+            assert x.values.shape != z.values.shape or not np.allclose(x.values, z.values)
+
+
+def test_the_third_primitive_does_not_change_the_others(
+    dataset: dict[str, list[Demonstration]],
+) -> None:
+    two = generate_scenario(seed=0, n_demos=2, third=False)
+    for primitive in PRIMITIVES:
+        for demo, other in zip(two[primitive], dataset[primitive][:2], strict=True):
+            assert_allclose(demo.values, other.values, atol=0)
+
+
+def test_curved_and_direct_share_start_and_end_but_not_the_middle(
+    dataset: dict[str, list[Demonstration]],
+) -> None:
+    hand = slice(0, 3)
+    pick = np.array(DEFAULT_SCENE.pick_position)
+    drop = DEFAULT_SCENE.bins[0].drop_position
+    for primitive in PRIMITIVES:
+        starts = _at_phase(dataset[primitive], 0.0, hand)
+        ends = _at_phase(dataset[primitive], 1.0, hand)
+        assert np.linalg.norm(starts - pick, axis=1).max() < 0.02
+        assert np.linalg.norm(ends - drop, axis=1).max() < 0.02
+    for phase in (0.0, 1.0):
+        curved = _at_phase(dataset["curved"], phase, hand).mean(axis=0)
+        direct = _at_phase(dataset["direct"], phase, hand).mean(axis=0)
+        assert np.linalg.norm(curved - direct) < 0.01
+    curved = _at_phase(dataset["curved"], 0.5, hand)
+    direct = _at_phase(dataset["direct"], 0.5, hand)
+    assert np.linalg.norm(curved.mean(axis=0) - direct.mean(axis=0)) > 0.06
+    assert curved[:, 2].min() > direct[:, 2].max(), "the curved movement bows upwards"
+    # Both begin by lifting the object: the first tenth of the movement goes mostly up.
+    for primitive in PRIMITIVES:
+        early = _at_phase(dataset[primitive], 0.2, hand) - _at_phase(dataset[primitive], 0.0, hand)
+        assert np.all(early[:, 2] > 2 * np.abs(early[:, :2]).max(axis=1))
+    # The third primitive ends at the other bin.
+    ends = _at_phase(dataset[THIRD_PRIMITIVE], 1.0, hand)
+    assert np.linalg.norm(ends - DEFAULT_SCENE.bins[1].drop_position, axis=1).max() < 0.02
+
+
+def test_durations_vary_about_three_seconds(dataset: dict[str, list[Demonstration]]) -> None:
+    for demos in dataset.values():
+        durations = np.array([d.duration for d in demos])
+        assert np.all((durations >= 0.7 * 3.0 - 0.03) & (durations <= 1.3 * 3.0 + 0.03))
+        assert durations.std() / durations.mean() > 0.08
+        assert 2.6 < durations.mean() < 3.4
+
+
+def test_minimum_jerk_timing(dataset: dict[str, list[Demonstration]]) -> None:
+    assert_allclose(minimum_jerk(np.array([0.0, 0.5, 1.0])), [0.0, 0.5, 1.0])
+    for demo in dataset["direct"][:5]:
+        hand = demo.values[:, :3]
+        speed = np.linalg.norm(np.diff(hand, axis=0), axis=1) / np.diff(demo.times)
+        # Starts and ends at rest, fastest in the middle.
+        assert speed[0] < 0.02 and speed[-1] < 0.02
+        peak = np.argmax(speed) / len(speed)
+        assert 0.25 < peak < 0.75
+
+
+def test_every_hand_sample_is_reachable_with_the_torso_locked(
+    dataset: dict[str, list[Demonstration]],
+) -> None:
+    arm = load_arm()
+    for primitive in dataset:
+        demo = dataset[primitive][0]
+        q = arm.rest
+        for target in demo.values[::4, :3]:
+            result = solve_ik(arm, target, q, lock_torso=True)
+            assert result.position_error_m < 1e-4
+            q = result.q
+
+
+def _half_change_time(times: np.ndarray, values: np.ndarray) -> float:
+    change = values[-1] - values[0]
+    progress = (values - values[0]) / change
+    return float(times[np.argmax(progress >= 0.5)])
+
+
+def _smooth(values: np.ndarray, width: int = 9) -> np.ndarray:
+    padded = np.pad(values, width // 2, mode="edge")
+    return np.convolve(padded, np.ones(width) / width, mode="valid")
+
+
+def test_the_head_leads_the_hand_without_noise() -> None:
+    arm = load_arm()
+    rng = np.random.default_rng(30)
+    for primitive, angle in (("direct", 5), ("second_bin", 5), ("curved", 4)):
+        for _ in range(3):
+            demo = generate_demonstration(arm, DEFAULT_SCENE, primitive, rng, 40.0, QUIET)
+            _, pitch, yaw = head_orientation_looking_at(demo.values[:, :3], PARTNER_HEAD)
+            assert_allclose(demo.values[:, 3], 0.0, atol=0)
+            hand_angle = yaw if angle == 5 else pitch
+            if angle == 5:
+                lead = _half_change_time(demo.times, hand_angle) - _half_change_time(
+                    demo.times, demo.values[:, 5]
+                )
+            else:  # the curved bow: the head rises (pitch falls) before the hand gets there
+                lead = demo.times[np.argmin(hand_angle)] - demo.times[np.argmin(demo.values[:, 4])]
+            assert 0.2 < lead < 1.1, f"{primitive}: head leads by {lead:.2f} s"
+
+
+def test_the_head_leads_the_hand_through_the_noise(
+    dataset: dict[str, list[Demonstration]],
+) -> None:
+    leads = []
+    for primitive in ("direct", THIRD_PRIMITIVE):
+        for demo in dataset[primitive]:
+            _, _, yaw = head_orientation_looking_at(demo.values[:, :3], PARTNER_HEAD)
+            head_yaw = _smooth(demo.values[:, 5])
+            leads.append(
+                _half_change_time(demo.times, yaw) - _half_change_time(demo.times, head_yaw)
+            )
+    assert np.mean(leads) > 0.25
+    assert np.mean(np.array(leads) > 0) > 0.8
+
+
+def test_head_noise_is_webcam_like(dataset: dict[str, list[Demonstration]]) -> None:
+    # Sample-to-sample jitter of a few degrees, not more.
+    jumps = np.concatenate([np.diff(d.values[:, 3:], axis=0) for d in dataset["direct"]])
+    jitter_deg = np.rad2deg(jumps.std(axis=0)) / np.sqrt(2)
+    assert np.all((jitter_deg > 1.0) & (jitter_deg < 4.0))
+    # The curved movement makes the head rise more (smaller pitch) in the middle.
+    mid_pitch = {p: _at_phase(dataset[p], 0.45, slice(4, 5)).mean() for p in PRIMITIVES}
+    assert mid_pitch["curved"] < mid_pitch["direct"] - np.deg2rad(2.0)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"seed": -1}, "seed must be >= 0"),
+        ({"seed": 1.5}, "seed must be an integer"),
+        ({"seed": True}, "seed must be an integer"),
+        ({"n_demos": 1}, "n_demos must be between 2 and 1000"),
+        ({"n_demos": 1001}, "n_demos must be between 2 and 1000"),
+        ({"rate_hz": 29.0}, "rate_hz must be between 30 and 50"),
+        ({"rate_hz": 51.0}, "rate_hz must be between 30 and 50"),
+        ({"rate_hz": float("nan")}, "rate_hz must be between 30 and 50"),
+        ({"robot": "iCubNowhere"}, "unknown robot 'iCubNowhere'"),
+        ({"robot": "left_hand_mk3"}, "no tip link 'l_hand_dh_frame'"),
+    ],
+)
+def test_bad_arguments_are_clear_errors(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        generate_scenario(**{"n_demos": 2, **kwargs})
+
+
+def test_other_rates_are_honoured() -> None:
+    data = generate_scenario(seed=3, n_demos=2, rate_hz=30.0)
+    for demos in data.values():
+        for demo in demos:
+            assert_allclose(np.diff(demo.times), 1 / 30.0, rtol=1e-9)
+
+
+def test_command_line_writes_the_csv_folder_format(tmp_path: Path) -> None:
+    out = tmp_path / "scenario"
+    proc = subprocess.run(
+        [sys.executable, "-m", "robots.icub.scenario", str(out), "--demos", "2", "--seed", "4"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "wrote 4 demonstrations" in proc.stdout
+    files = sorted(p.relative_to(out).as_posix() for p in out.rglob("*.csv"))
+    assert files == ["curved/curved_000.csv", "curved/curved_001.csv",
+                     "direct/direct_000.csv", "direct/direct_001.csv"]  # fmt: skip
+    header = (out / "curved" / "curved_000.csv").read_text().splitlines()[0]
+    assert header == "t,x,y,z,roll,pitch,yaw"
+    loaded = load_csv_dataset(out)
+    expected = generate_scenario(seed=4, n_demos=2)
+    for primitive, demos in expected.items():
+        for demo, back in zip(demos, loaded[primitive], strict=True):
+            assert back.columns == COLUMNS
+            assert_allclose(back.times, demo.times, atol=0)
+            assert_allclose(back.values, demo.values, atol=0)
+
+
+def test_command_line_third_and_rate(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main([str(tmp_path / "d"), "--demos", "2", "--third", "--rate", "50"]) == 0
+    assert sorted(p.name for p in (tmp_path / "d").iterdir()) == sorted(
+        [*PRIMITIVES, THIRD_PRIMITIVE]
+    )
+    demo = read_csv_demo(tmp_path / "d" / THIRD_PRIMITIVE / f"{THIRD_PRIMITIVE}_001.csv")
+    assert_allclose(np.diff(demo.times), 0.02, rtol=1e-9)
+    assert "at 50 Hz" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--demos", "1"], "n_demos must be between 2 and 1000"),
+        (["--seed", "-3"], "seed must be >= 0"),
+        (["--rate", "60"], "rate_hz must be between 30 and 50"),
+        (["--robot", "iCubNowhere"], "unknown robot 'iCubNowhere'"),
+    ],
+)
+def test_command_line_bad_input_exits_non_zero(
+    tmp_path: Path, capsys: pytest.CaptureFixture, args: list[str], message: str
+) -> None:
+    assert main([str(tmp_path / "out"), *args]) != 0
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and message in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_command_line_refuses_a_non_empty_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    (tmp_path / "keep.txt").write_text("mine")
+    assert main([str(tmp_path), "--demos", "2"]) != 0
+    assert "not empty" in capsys.readouterr().err
+    assert main([str(tmp_path), "--demos", "2", "--force"]) == 0
+    assert (tmp_path / "keep.txt").read_text() == "mine"
+    assert len(list(tmp_path.rglob("*.csv"))) == 4
+
+
+def test_command_line_usage_errors_exit_non_zero() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-m", "robots.icub.scenario", "/tmp/x", "--demos", "many"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode != 0 and "--demos" in proc.stderr
+
+
+def test_scenes_and_parameters_that_cannot_work_are_clear_errors() -> None:
+    one_bin = replace(DEFAULT_SCENE, bins=DEFAULT_SCENE.bins[:1])
+    assert list(generate_scenario(n_demos=2, scene=one_bin)) == list(PRIMITIVES)
+    with pytest.raises(ValueError, match="1 bin.*2 needed for the third primitive"):
+        generate_scenario(n_demos=2, third=True, scene=one_bin)
+    far = replace(DEFAULT_SCENE, pick_position=(-0.9, -0.1, 0.01))
+    with pytest.raises(ValueError, match="leaves the left arm's reach"):
+        generate_scenario(n_demos=2, scene=far)
+    with pytest.raises(ValueError, match="head_noise_deg"):
+        ScenarioParams(head_noise_deg=-1.0)
+    with pytest.raises(ValueError, match="gaze_lead"):
+        ScenarioParams(gaze_lead=(1.0, 0.5))
+    with pytest.raises(ValueError, match="duration_spread"):
+        ScenarioParams(duration_spread=1.0)
+
+
+def test_unknown_primitive_is_a_clear_error() -> None:
+    rng = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="unknown primitive 'wiggle'"):
+        generate_demonstration(load_arm(), DEFAULT_SCENE, "wiggle", rng)
