@@ -13,8 +13,9 @@ from robots.icub.model import ground_height, natural_pose
 from robots.icub.scene import Scene
 
 ROBOT_ROOT = "/robot"
-# The partner's head (a frame at the head centre, neutral = looking along +x; see
-# robots.icub.scene for the angle convention): set its wxyz to show the head orientation.
+# The partner's head: a frame at the head centre whose face (the nose) points along its +x. Set
+# its wxyz from robots.icub.scene.head_rotation(roll, pitch, yaw, head_position), which includes
+# the neutral frame (zero = looking at the robot's eyes), to show the head orientation.
 PARTNER_HEAD_NODE = "/scene/partner/head"
 # Camera in front of the robot and to its left, above the table, looking at the chest and the
 # table: the robot faces -x, so the viewer stands at negative x.

@@ -22,10 +22,16 @@ from robots.icub.scenario import (
     ScenarioParams,
     generate_demonstration,
     generate_scenario,
+    head_angles_following,
     main,
     minimum_jerk,
 )
-from robots.icub.scene import DEFAULT_SCENE, PARTNER_HEAD, head_orientation_looking_at
+from robots.icub.scene import (
+    DEFAULT_SCENE,
+    PARTNER_HEAD,
+    ROBOT_EYES,
+    head_orientation_looking_at,
+)
 from tests.conftest import REPO
 
 QUIET = ScenarioParams(
@@ -183,6 +189,38 @@ def test_the_head_leads_the_hand_through_the_noise(
             )
     assert np.mean(leads) > 0.25
     assert np.mean(np.array(leads) > 0) > 0.8
+
+
+def test_head_angles_are_relative_to_looking_at_the_robot_from_the_offset_head() -> None:
+    times = np.arange(41) / 40.0
+    rng = np.random.default_rng(31)
+    for head in (np.array(PARTNER_HEAD), np.array(PARTNER_HEAD) + [0.03, -0.04, 0.05]):
+        # Watching the robot's eyes is zero, from wherever the head is.
+        at_eyes = head_angles_following(times, np.tile(ROBOT_EYES, (41, 1)), head, rng, QUIET)
+        assert_allclose(at_eyes, 0.0, atol=1e-12)
+        # Watching a still point: the angles of looking at it from that head.
+        point = np.array([-0.3, -0.2, 0.05])
+        still = head_angles_following(times, np.tile(point, (41, 1)), head, rng, QUIET)
+        assert_allclose(still, np.tile(head_orientation_looking_at(point, head), (41, 1)))
+    other = head_orientation_looking_at(point, PARTNER_HEAD)
+    assert np.abs(np.subtract(other, still[0])).max() > np.deg2rad(0.5)
+
+
+def test_the_partner_looks_down_at_the_hand_below_the_robot_eyes(
+    dataset: dict[str, list[Demonstration]],
+) -> None:
+    # Zero is looking at the robot's eyes; the hand works on the table below them, so the head
+    # pitches down (positive) by about 5-25 deg, and turns towards the partner's right (negative
+    # yaw) for the first bin, on the robot's left.
+    for primitive, demos in dataset.items():
+        head = np.concatenate([d.values[:, 3:] for d in demos])
+        assert np.deg2rad(8.0) < np.median(head[:, 1]) < np.deg2rad(18.0), primitive
+        assert np.mean(head[:, 1] > 0.0) > 0.95, primitive
+        assert np.abs(head[:, 2]).max() < np.deg2rad(35.0), primitive
+        assert np.abs(np.median(head[:, 0])) < np.deg2rad(2.0), primitive
+    for primitive in PRIMITIVES:
+        assert _at_phase(dataset[primitive], 1.0, slice(5, 6)).mean() < np.deg2rad(-12.0)
+    assert abs(_at_phase(dataset[THIRD_PRIMITIVE], 1.0, slice(5, 6)).mean()) < np.deg2rad(6.0)
 
 
 def test_head_noise_is_webcam_like(dataset: dict[str, list[Demonstration]]) -> None:

@@ -10,16 +10,27 @@ from numpy.testing import assert_allclose
 
 from robots.icub.ik import solve_ik
 from robots.icub.kinematics import load_arm
-from robots.icub.model import ground_height, load_urdf
+from robots.icub.model import ground_height, load_urdf, natural_pose
 from robots.icub.scene import (
     DEFAULT_SCENE,
     PARTNER_HEAD,
+    ROBOT_EYES,
     Box,
     gaze_direction,
     head_angles,
     head_orientation_looking_at,
     head_rotation,
+    neutral_rotation,
 )
+
+# Head positions to check the convention from: the scene's partner, a jittered one, one off to
+# the side and higher, one lower than the robot's eyes.
+HEADS = [
+    np.array(PARTNER_HEAD),
+    np.array(PARTNER_HEAD) + [0.01, -0.008, 0.012],
+    np.array([-1.2, 0.3, 0.7]),
+    np.array([-0.8, -0.2, 0.1]),
+]
 
 
 def test_table_object_and_bins_stand_in_front_of_the_robot() -> None:
@@ -56,9 +67,20 @@ def test_partner_sits_across_the_table_facing_the_robot() -> None:
     floor = ground_height(load_urdf(load_meshes=False))
     assert floor == pytest.approx(-0.623, abs=0.01)
     assert 1.0 <= head[2] - floor <= 1.3, "a seated adult's head is 1.0-1.3 m above the floor"
-    # Looking straight at the robot is (about) the neutral head orientation.
-    roll, pitch, yaw = head_orientation_looking_at(np.zeros(3), head)
-    assert abs(yaw) < 0.05 and abs(roll) == 0.0
+    # Looking straight at the robot (at its eyes) is the neutral head orientation.
+    assert_allclose(head_orientation_looking_at(ROBOT_EYES, head), (0, 0, 0), atol=1e-12)
+
+
+def test_robot_eyes_are_in_front_of_the_head_link() -> None:
+    urdf = load_urdf(load_meshes=False)
+    urdf.update_cfg(natural_pose(urdf))
+    head_link = urdf.get_transform("head", "root_link")[:3, 3]
+    offset = np.array(ROBOT_EYES) - head_link
+    assert 0.04 < -offset[0] < 0.08, "the face front is ~6 cm in front (-x) of the head link"
+    assert offset[1] == pytest.approx(0.0, abs=1e-6)
+    assert 0.0 < offset[2] < 0.04
+    # The partner's head is above the robot's eyes, so the neutral gaze looks down a little.
+    assert 0.2 < PARTNER_HEAD[2] - ROBOT_EYES[2] < 0.35
 
 
 def test_scene_targets_are_reachable_by_the_arm_alone_with_a_margin() -> None:
@@ -83,77 +105,166 @@ def test_box_rejects_bad_geometry() -> None:
 # ---------------------------------------------------------------------- head convention
 
 
-def test_zero_angles_look_straight_at_the_robot_along_plus_x() -> None:
-    assert_allclose(head_rotation(0.0, 0.0, 0.0), np.eye(3))
-    assert_allclose(gaze_direction(0.0, 0.0, 0.0), [1.0, 0.0, 0.0])
-    assert_allclose(head_orientation_looking_at([0.0, 0.0, 0.0], [-1.0, 0.0, 0.0]), (0, 0, 0))
+def rx(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def ry(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def rz(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def test_neutral_frame_looks_from_the_head_at_the_robot_eyes() -> None:
+    for head in HEADS:
+        neutral = neutral_rotation(head)
+        assert_allclose(neutral.T @ neutral, np.eye(3), atol=1e-12)
+        assert np.linalg.det(neutral) == pytest.approx(1.0)
+        to_eyes = np.array(ROBOT_EYES) - head
+        assert_allclose(neutral[:, 0], to_eyes / np.linalg.norm(to_eyes), atol=1e-12)
+        forward, left, up = neutral.T
+        assert left[2] == pytest.approx(0.0, abs=1e-12), "y is horizontal"
+        assert left[1] > 0.8, "y is the partner's left, the root frame's +y when facing the robot"
+        assert up[2] > 0.8, "z is up-ish"
+        assert_allclose(np.cross(forward, left), up, atol=1e-12)
+    # Another target: the neutral frame looks at it.
+    assert_allclose(
+        neutral_rotation(HEADS[2], np.zeros(3))[:, 0], -HEADS[2] / np.linalg.norm(HEADS[2])
+    )
+    # The default partner is 0.265 m above the eyes and 0.935 m in front: the neutral frame is the
+    # root frame pitched 15.8 deg down about y.
+    down = np.arctan2(PARTNER_HEAD[2] - ROBOT_EYES[2], ROBOT_EYES[0] - PARTNER_HEAD[0])
+    assert np.rad2deg(down) == pytest.approx(15.8, abs=0.05)
+    assert_allclose(neutral_rotation(), ry(down), atol=1e-12)
+    assert_allclose(neutral_rotation(PARTNER_HEAD, ROBOT_EYES), ry(down), atol=1e-12)
+
+
+def test_zero_angles_look_at_the_robot_eyes_from_any_head_position() -> None:
+    for head in HEADS:
+        to_eyes = np.array(ROBOT_EYES) - head
+        assert_allclose(head_rotation(0.0, 0.0, 0.0, head), neutral_rotation(head), atol=0)
+        assert_allclose(gaze_direction(0.0, 0.0, 0.0, head), to_eyes / np.linalg.norm(to_eyes))
+        assert_allclose(head_orientation_looking_at(ROBOT_EYES, head), (0, 0, 0), atol=1e-12)
+        assert_allclose(head_angles(neutral_rotation(head), head), (0, 0, 0), atol=1e-12)
+    # Defaults: the scene's partner.
+    assert_allclose(head_rotation(0.0, 0.0, 0.0), neutral_rotation(PARTNER_HEAD), atol=0)
+    assert_allclose(head_orientation_looking_at(ROBOT_EYES), (0, 0, 0), atol=1e-12)
+    # Looking horizontally along +x (the old zero) is looking 15.8 deg up from the neutral.
+    down = np.arctan2(PARTNER_HEAD[2] - ROBOT_EYES[2], ROBOT_EYES[0] - PARTNER_HEAD[0])
+    horizontal = head_orientation_looking_at(np.array(PARTNER_HEAD) + [1.0, 0.0, 0.0])
+    assert_allclose(horizontal, (0.0, -down, 0.0), atol=1e-12)
+    assert_allclose(head_rotation(0.0, -down, 0.0), np.eye(3), atol=1e-12)
+    assert_allclose(head_angles(np.eye(3)), (0.0, -down, 0.0), atol=1e-12)
 
 
 def test_signs_of_the_angles() -> None:
     head = np.array([-1.0, 0.0, 0.5])
+    eyes = np.array(ROBOT_EYES)
     # A point on the partner's left (+y) is a positive yaw.
     _, _, yaw = head_orientation_looking_at(head + [1.0, 0.3, 0.0], head)
     assert yaw > 0.0
-    # A point below the eyes (the table) is a positive pitch: looking down.
+    roll, pitch, yaw = head_orientation_looking_at(eyes + [0.0, 0.2, 0.0], head)
+    assert yaw > 0.0 and abs(pitch) < 0.02 and roll == 0.0
+    _, _, yaw = head_orientation_looking_at(eyes + [0.0, -0.2, 0.0], head)
+    assert yaw < 0.0
+    # A point below the robot's eyes (the table) is a positive pitch: looking down.
     _, pitch, _ = head_orientation_looking_at(head + [0.7, 0.0, -0.5], head)
     assert pitch > 0.0
-    assert gaze_direction(0.0, 0.3, 0.0)[2] < 0.0
-    assert gaze_direction(0.0, 0.0, 0.3)[1] > 0.0
+    _, pitch, yaw = head_orientation_looking_at(eyes + [0.0, 0.0, -0.2], head)
+    assert pitch > 0.0 and yaw == pytest.approx(0.0, abs=1e-12)
+    _, pitch, _ = head_orientation_looking_at(eyes + [0.0, 0.0, 0.2], head)
+    assert pitch < 0.0
+    neutral_gaze = gaze_direction(0.0, 0.0, 0.0, head)
+    assert gaze_direction(0.0, 0.3, 0.0, head)[2] < neutral_gaze[2] < 0.0
+    assert gaze_direction(0.0, 0.0, 0.3, head)[1] > 0.0
+    assert gaze_direction(0.0, 0.0, -0.3, head)[1] < 0.0
     # Positive roll tilts the top of the head towards the partner's right shoulder (-y).
-    up = head_rotation(0.3, 0.0, 0.0)[:, 2]
+    up = head_rotation(0.3, 0.0, 0.0, head)[:, 2]
     assert up[1] < 0.0 and up[2] > 0.0
+    up = head_rotation(-0.3, 0.0, 0.0, head)[:, 2]
+    assert up[1] > 0.0 and up[2] > 0.0
     # Gaze is R[:, 0]; roll does not move it.
     assert_allclose(gaze_direction(0.4, 0.2, -0.3), head_rotation(0.4, 0.2, -0.3)[:, 0])
     assert_allclose(gaze_direction(0.4, 0.2, -0.3), gaze_direction(0.0, 0.2, -0.3))
+    assert_allclose(gaze_direction(0.4, 0.2, -0.3, head), head_rotation(0.4, 0.2, -0.3, head)[:, 0])
 
 
-def test_rotation_is_rz_ry_rx() -> None:
-    def rx(a: float) -> np.ndarray:
-        c, s = np.cos(a), np.sin(a)
-        return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+def test_the_scene_is_seen_below_and_around_the_robot_eyes() -> None:
+    # Watching the hand on the table the partner looks down (positive pitch), towards the first
+    # bin on the robot's left (the partner's right: negative yaw), the second near the middle.
+    angles = {
+        name: head_orientation_looking_at(t) for name, t in DEFAULT_SCENE.hand_targets().items()
+    }
+    for name, (_, pitch, _) in angles.items():
+        assert np.deg2rad(8.0) < pitch < np.deg2rad(25.0), name
+    assert angles["drop0"][2] < np.deg2rad(-10.0)
+    assert abs(angles["drop1"][2]) < np.deg2rad(5.0)
 
-    def ry(a: float) -> np.ndarray:
-        c, s = np.cos(a), np.sin(a)
-        return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
 
-    def rz(a: float) -> np.ndarray:
-        c, s = np.cos(a), np.sin(a)
-        return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
-
+def test_rotation_is_the_neutral_frame_times_rz_ry_rx() -> None:
     rng = np.random.default_rng(20)
-    for roll, pitch, yaw in rng.uniform(-1.5, 1.5, size=(20, 3)):
-        expected = rz(yaw) @ ry(pitch) @ rx(roll)
-        assert_allclose(head_rotation(roll, pitch, yaw), expected, atol=1e-12)
-        assert_allclose(head_angles(expected), (roll, pitch, yaw), atol=1e-9)
-    batch = head_rotation(np.zeros(4), np.linspace(-1, 1, 4), np.ones(4))
-    assert batch.shape == (4, 3, 3)
-    assert_allclose(batch[2], head_rotation(0.0, np.linspace(-1, 1, 4)[2], 1.0))
+    for head in HEADS:
+        neutral = neutral_rotation(head)
+        for roll, pitch, yaw in rng.uniform(-1.5, 1.5, size=(20, 3)):
+            expected = neutral @ rz(yaw) @ ry(pitch) @ rx(roll)
+            assert_allclose(head_rotation(roll, pitch, yaw, head), expected, atol=1e-12)
+            assert_allclose(head_angles(expected, head), (roll, pitch, yaw), atol=1e-9)
+    roll, pitch, yaw = 0.2, -0.3, 0.5
+    assert_allclose(
+        head_rotation(roll, pitch, yaw),
+        neutral_rotation() @ rz(yaw) @ ry(pitch) @ rx(roll),
+        atol=1e-12,
+    )
+    assert_allclose(head_angles(head_rotation(roll, pitch, yaw)), (roll, pitch, yaw), atol=1e-12)
+    # Angles are relative to the head position given: another head reads other angles.
+    rotation = head_rotation(roll, pitch, yaw, HEADS[0])
+    assert np.abs(np.subtract(head_angles(rotation, HEADS[2]), (roll, pitch, yaw))).max() > 0.05
+    for head in (None, HEADS[2]):
+        kwargs = {} if head is None else {"head_position": head}
+        pitches = np.linspace(-1, 1, 4)
+        batch = head_rotation(np.zeros(4), pitches, np.ones(4), **kwargs)
+        assert batch.shape == (4, 3, 3)
+        for i in range(4):
+            assert_allclose(batch[i], head_rotation(0.0, pitches[i], 1.0, **kwargs), atol=1e-12)
+        gaze = gaze_direction(np.zeros(4), pitches, np.ones(4), **kwargs)
+        assert gaze.shape == (4, 3)
+        assert_allclose(gaze, batch[:, :, 0], atol=1e-12)
+    assert head_rotation(0.1, np.zeros((2, 5)), 0.3).shape == (2, 5, 3, 3)
 
 
 def test_look_at_round_trip_points_the_gaze_at_the_point() -> None:
     rng = np.random.default_rng(21)
-    head = np.array(PARTNER_HEAD)
-    points = head + rng.uniform(-1.0, 1.0, size=(50, 3))
-    roll, pitch, yaw = head_orientation_looking_at(points, head)
-    assert roll.shape == (50,) and np.all(roll == 0.0)
-    directions = (points - head) / np.linalg.norm(points - head, axis=1, keepdims=True)
-    assert_allclose(gaze_direction(roll, pitch, yaw), directions, atol=1e-12)
-    for i in range(5):
-        single = head_orientation_looking_at(points[i], head)
-        assert isinstance(single[1], float)
-        assert_allclose(single, (roll[i], pitch[i], yaw[i]))
-        rotation = head_rotation(*single)
-        assert_allclose(rotation[:, 0], directions[i], atol=1e-12)
+    for head in HEADS:
+        points = head + rng.uniform(-1.0, 1.0, size=(50, 3))
+        roll, pitch, yaw = head_orientation_looking_at(points, head)
+        assert roll.shape == (50,) and np.all(roll == 0.0)
+        directions = (points - head) / np.linalg.norm(points - head, axis=1, keepdims=True)
+        assert_allclose(gaze_direction(roll, pitch, yaw, head), directions, atol=1e-12)
+        for i in range(5):
+            single = head_orientation_looking_at(points[i], head)
+            assert isinstance(single[1], float)
+            assert_allclose(single, (roll[i], pitch[i], yaw[i]))
+            rotation = head_rotation(*single, head_position=head)
+            assert_allclose(rotation[:, 0], directions[i], atol=1e-12)
+            assert_allclose(head_angles(rotation, head), single, atol=1e-9)
     # Default head position: the scene's partner.
+    head = np.array(PARTNER_HEAD)
     target = np.array([-0.3, -0.1, 0.0])
     d = target - head
     assert_allclose(gaze_direction(*head_orientation_looking_at(target)), d / np.linalg.norm(d))
 
 
 def test_head_angles_looking_straight_down() -> None:
-    roll, pitch, yaw = head_angles(head_rotation(0.0, np.pi / 2, 0.4))
-    assert pitch == pytest.approx(np.pi / 2)
-    assert_allclose(head_rotation(roll, pitch, yaw), head_rotation(0.0, np.pi / 2, 0.4), atol=1e-9)
+    for head in (PARTNER_HEAD, HEADS[2]):
+        rotation = head_rotation(0.0, np.pi / 2, 0.4, head)
+        roll, pitch, yaw = head_angles(rotation, head)
+        assert pitch == pytest.approx(np.pi / 2)
+        assert_allclose(head_rotation(roll, pitch, yaw, head), rotation, atol=1e-9)
 
 
 def test_head_convention_rejects_bad_input() -> None:
@@ -169,3 +280,24 @@ def test_head_convention_rejects_bad_input() -> None:
         head_orientation_looking_at([1.0, 2.0])
     with pytest.raises(ValueError, match="rotation matrix"):
         head_angles(2.0 * np.eye(3))
+    # The head position: a finite 3-vector, not at the target nor straight above/below it.
+    for bad, message in (([np.nan, 0.0, 0.5], "finite"), ([-1.0, 0.5], r"shape \(3,\)")):
+        with pytest.raises(ValueError, match=message):
+            neutral_rotation(bad)
+        with pytest.raises(ValueError, match=message):
+            head_rotation(0.0, 0.0, 0.0, bad)
+        with pytest.raises(ValueError, match=message):
+            gaze_direction(0.0, 0.0, 0.0, bad)
+        with pytest.raises(ValueError, match=message):
+            head_angles(np.eye(3), bad)
+        with pytest.raises(ValueError, match=message):
+            head_orientation_looking_at(ROBOT_EYES, bad)
+    with pytest.raises(ValueError, match="finite"):
+        neutral_rotation(PARTNER_HEAD, [0.0, np.inf, 0.0])
+    with pytest.raises(ValueError, match="head position"):
+        neutral_rotation(ROBOT_EYES)
+    above_the_eyes = np.array(ROBOT_EYES) + [0.0, 0.0, 0.3]
+    with pytest.raises(ValueError, match="straight above or below"):
+        head_rotation(0.0, 0.0, 0.0, above_the_eyes)
+    with pytest.raises(ValueError, match="straight above or below"):
+        head_orientation_looking_at([-0.3, 0.0, 0.0], above_the_eyes)

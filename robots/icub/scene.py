@@ -13,20 +13,28 @@ robot, facing it; the centre of their head is 1.14 m above the floor (a seated a
 
 Head orientation convention (shared with the camera head-pose estimator)
 ------------------------------------------------------------------------
-``roll``, ``pitch``, ``yaw`` in radians describe the orientation of the partner's head frame in
-the root frame, and are all zero when the partner looks straight at the robot (along +x).
+``roll``, ``pitch``, ``yaw`` in radians describe the orientation of the partner's head frame
+relative to a neutral frame, and are all zero when the partner looks straight at the robot: at
+its eyes (:data:`ROBOT_EYES`), where the camera of :mod:`app.headpose` sits, whose zero is
+"facing the camera" along the line of sight.
 
 - Head frame: x forward (out of the face), y the partner's LEFT, z up (out of the top of the head).
-  The partner faces the robot, so the neutral head frame has the same axes as the root frame.
-- ``R = Rz(yaw) @ Ry(pitch) @ Rx(roll)`` maps head-frame vectors to root-frame vectors
-  (intrinsic z-y'-x'' angles: yaw first, then pitch, then roll).
+- Neutral frame (:func:`neutral_rotation`): x from the head centre towards the robot's eyes, y
+  horizontal to the partner's left, z completing it (up, tilted forward). From the default
+  partner (:data:`PARTNER_HEAD`, 0.265 m above the eyes and 0.935 m in front of them) x points
+  15.8 deg below the horizontal and y is the root frame's +y.
+- ``R = N @ Rz(yaw) @ Ry(pitch) @ Rx(roll)`` maps head-frame vectors to root-frame vectors, ``N``
+  the neutral frame of the head's position (intrinsic z-y'-x'' angles about the neutral axes:
+  yaw first, then pitch, then roll).
 - Signs: positive yaw turns the head to the partner's left (+y, the robot's right); positive
-  pitch looks DOWN; positive roll tilts the head towards the partner's right shoulder (-y).
+  pitch looks DOWN (the hand's targets on the table are at pitch 12-19 deg); positive roll tilts
+  the head towards the partner's right shoulder (-y).
 - Gaze direction (the face's forward axis) = ``R[:, 0]`` =
-  ``(cos(yaw) cos(pitch), sin(yaw) cos(pitch), -sin(pitch))``.
+  ``N @ (cos(yaw) cos(pitch), sin(yaw) cos(pitch), -sin(pitch))``.
 
-:func:`head_rotation`, :func:`gaze_direction`, :func:`head_orientation_looking_at` and
-:func:`head_angles` implement it.
+:func:`neutral_rotation`, :func:`head_rotation`, :func:`gaze_direction`,
+:func:`head_orientation_looking_at` and :func:`head_angles` implement it; each takes the head's
+position (default the scene's partner), since the neutral frame depends on it.
 """
 
 from __future__ import annotations
@@ -39,6 +47,10 @@ import numpy as np
 PICK_POSITION = (-0.27, -0.10, 0.01)
 DROP_HEIGHT_ABOVE_RIM = 0.09
 PARTNER_HEAD = (-1.0, 0.0, 0.52)
+# The point between the robot's eyes at the natural pose: the URDF has no eye links, so ~6 cm in
+# front of and 2 cm above the ``head`` link origin (-0.008, 0, 0.235). It approximates where a
+# camera at the robot's eyes would be, the reference of the partner's zero head orientation.
+ROBOT_EYES = (-0.065, 0.0, 0.255)
 
 
 @dataclass(frozen=True)
@@ -178,19 +190,68 @@ def _angle(value: object, what: str) -> np.ndarray:
     return arr
 
 
-def head_rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """Rotation of the head frame in the root frame, ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
+def _point(value: object, what: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (3,):
+        raise ValueError(f"{what} must have shape (3,), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{what} must be finite (no NaN or inf)")
+    return arr
+
+
+def neutral_rotation(
+    head_position: np.ndarray = PARTNER_HEAD, target: np.ndarray = ROBOT_EYES
+) -> np.ndarray:
+    """The neutral head frame: looking from ``head_position`` at ``target``, shape (3, 3).
+
+    Columns, in the root frame: x the unit vector from the head to the target, y horizontal to
+    the partner's left (``z_root x x``, normalised), z = x cross y (up, tilted towards the gaze).
+
+    Parameters
+    ----------
+    head_position : array, shape (3,)
+        Centre of the partner's head; default the scene's partner.
+    target : array, shape (3,)
+        What the neutral head looks at; default the robot's eyes.
+
+    Raises
+    ------
+    ValueError
+        If an input is not a finite 3-vector, or the target is at or straight above/below the
+        head (no horizontal "left").
+    """
+    head = _point(head_position, "head_position")
+    forward = _point(target, "target") - head
+    norm = np.linalg.norm(forward)
+    if norm < 1e-9:
+        raise ValueError("cannot look at a point at the head position: no direction")
+    forward /= norm
+    left = np.cross([0.0, 0.0, 1.0], forward)
+    left_norm = np.linalg.norm(left)
+    if left_norm < 1e-9:
+        raise ValueError("the target is straight above or below the head: no neutral frame")
+    left /= left_norm
+    return np.column_stack([forward, left, np.cross(forward, left)])
+
+
+def head_rotation(
+    roll: float, pitch: float, yaw: float, head_position: np.ndarray = PARTNER_HEAD
+) -> np.ndarray:
+    """Rotation of the head frame in the root frame, ``N @ Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
 
     Parameters
     ----------
     roll, pitch, yaw : float or array, shape (n,)
         Head angles in radians (see the module docstring for the convention).
+    head_position : array, shape (3,)
+        Centre of the head, which sets the neutral frame ``N`` (:func:`neutral_rotation`).
 
     Returns
     -------
     array, shape (3, 3) or (n, 3, 3)
     """
     r, p, y = np.broadcast_arrays(_angle(roll, "roll"), _angle(pitch, "pitch"), _angle(yaw, "yaw"))
+    neutral = neutral_rotation(head_position)
     cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
     rot = np.empty(r.shape + (3, 3))
     rot[..., 0, 0] = cy * cp
@@ -202,42 +263,55 @@ def head_rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
     rot[..., 2, 0] = -sp
     rot[..., 2, 1] = cp * sr
     rot[..., 2, 2] = cp * cr
-    return rot
+    return neutral @ rot
 
 
-def head_angles(rotation: np.ndarray) -> tuple[float, float, float]:
+def head_angles(
+    rotation: np.ndarray, head_position: np.ndarray = PARTNER_HEAD
+) -> tuple[float, float, float]:
     """Inverse of :func:`head_rotation`: ``(roll, pitch, yaw)`` of a rotation, shape (3, 3).
 
-    Pitch is returned in [-pi/2, pi/2], roll and yaw in (-pi, pi].
+    ``rotation`` is the head frame in the root frame; the angles are relative to the neutral
+    frame of ``head_position``. Pitch is returned in [-pi/2, pi/2], roll and yaw in (-pi, pi].
 
     Raises
     ------
     ValueError
-        If ``rotation`` is not a finite 3x3 rotation matrix.
+        If ``rotation`` is not a finite 3x3 rotation matrix, or ``head_position`` is bad.
     """
     rot = np.asarray(rotation, dtype=float)
     if rot.shape != (3, 3) or not np.all(np.isfinite(rot)):
         raise ValueError(f"rotation must be a finite array of shape (3, 3), got {rot.shape}")
     if np.abs(rot @ rot.T - np.eye(3)).max() > 1e-6 or np.linalg.det(rot) < 0.0:
         raise ValueError("rotation must be a rotation matrix (orthonormal, det +1)")
-    pitch = float(np.arcsin(np.clip(-rot[2, 0], -1.0, 1.0)))
-    if abs(rot[2, 0]) < 1.0 - 1e-12:
-        roll = float(np.arctan2(rot[2, 1], rot[2, 2]))
-        yaw = float(np.arctan2(rot[1, 0], rot[0, 0]))
-    else:  # looking straight up or down: only yaw - roll (or yaw + roll) is defined
-        roll = 0.0
-        yaw = float(np.arctan2(-rot[0, 1], rot[1, 1]))
+    rot = neutral_rotation(head_position).T @ rot
+    # arctan2 rather than arcsin: accurate near +-pi/2, where rounding in rot[2, 0] would cost
+    # ~1e-8 rad.
+    cos_pitch = float(np.hypot(rot[0, 0], rot[1, 0]))
+    pitch = float(np.arctan2(-rot[2, 0], cos_pitch))
+    if cos_pitch < 1e-12:  # looking straight up or down: only yaw - roll (or yaw + roll) is defined
+        return 0.0, pitch, float(np.arctan2(-rot[0, 1], rot[1, 1]))
+    yaw = float(np.arctan2(rot[1, 0], rot[0, 0]))
+    # Row 1 of Rz(yaw).T @ R is row 1 of Rx(roll), (0, cos, -sin): stable near gimbal lock, where
+    # an error in yaw is then made up by roll.
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    roll = float(np.arctan2(sy * rot[0, 2] - cy * rot[1, 2], cy * rot[1, 1] - sy * rot[0, 1]))
     return roll, pitch, yaw
 
 
-def gaze_direction(roll: float, pitch: float, yaw: float) -> np.ndarray:
+def gaze_direction(
+    roll: float, pitch: float, yaw: float, head_position: np.ndarray = PARTNER_HEAD
+) -> np.ndarray:
     """Unit gaze direction in the root frame, ``R[:, 0]``; shape (3,) or (n, 3) for arrays.
 
-    Roll does not change it (the face turns about its own forward axis).
+    Roll does not change it (the face turns about its own forward axis). ``head_position`` sets
+    the neutral frame, as in :func:`head_rotation`.
     """
     _angle(roll, "roll")
     p, y = np.broadcast_arrays(_angle(pitch, "pitch"), _angle(yaw, "yaw"))
-    return np.stack([np.cos(y) * np.cos(p), np.sin(y) * np.cos(p), -np.sin(p)], axis=-1)
+    neutral = neutral_rotation(head_position)
+    local = np.stack([np.cos(y) * np.cos(p), np.sin(y) * np.cos(p), -np.sin(p)], axis=-1)
+    return local @ neutral.T
 
 
 def head_orientation_looking_at(
@@ -250,12 +324,14 @@ def head_orientation_looking_at(
     point : array, shape (3,) or (n, 3)
         Where the partner looks, root frame, metres.
     head_position : array, shape (3,)
-        Centre of the partner's head; default the scene's partner.
+        Centre of the partner's head; default the scene's partner. The angles are relative to
+        its neutral frame: looking at :data:`ROBOT_EYES` is (0, 0, 0) from any head position.
 
     Returns
     -------
     roll, pitch, yaw : float, or arrays of shape (n,) for n points
-        Radians; ``gaze_direction(roll, pitch, yaw)`` is the unit vector towards ``point``.
+        Radians; ``gaze_direction(roll, pitch, yaw, head_position)`` is the unit vector towards
+        ``point``.
 
     Raises
     ------
@@ -270,7 +346,7 @@ def head_orientation_looking_at(
         raise ValueError(f"head_position must have shape (3,), got {head.shape}")
     if not np.all(np.isfinite(target)) or not np.all(np.isfinite(head)):
         raise ValueError("point and head_position must be finite (no NaN or inf)")
-    d = target - head
+    d = (target - head) @ neutral_rotation(head)  # in the neutral frame
     horizontal = np.hypot(d[..., 0], d[..., 1])
     if np.any(horizontal + np.abs(d[..., 2]) < 1e-9):
         raise ValueError("cannot look at a point at the head position: no direction")
