@@ -99,14 +99,14 @@ def read_csv_demo(path: Path) -> Demonstration:
     header = [cell.strip() for cell in rows[0]]
     if "t" not in header:
         raise ValueError(f"{path}: the header {header} has no 't' (time in seconds) column")
+    if len(rows) < 2:
+        raise ValueError(f"{path}: no samples after the header")
+    if any(len(row) != len(header) for row in rows[1:]):
+        raise ValueError(f"{path}: every row must have {len(header)} values like the header")
     try:
         table = np.array([[float(cell) for cell in row] for row in rows[1:]], dtype=float)
     except ValueError as exc:
         raise ValueError(f"{path}: non-numeric value ({exc})") from exc
-    if table.size == 0:
-        raise ValueError(f"{path}: no samples after the header")
-    if any(len(row) != len(header) for row in rows[1:]):
-        raise ValueError(f"{path}: every row must have {len(header)} values like the header")
     t_index = header.index("t")
     columns = [name for i, name in enumerate(header) if i != t_index]
     values = np.delete(table, t_index, axis=1)

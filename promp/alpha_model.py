@@ -1,0 +1,135 @@
+"""The "model" estimate of the time modulation (paper Eq. 7).
+
+Faster movements cover more ground in the same number of samples, so the displacement
+``delta = X(n_o) - X(1)`` of an observed modality after ``n_o`` samples predicts alpha. For every
+``n_o`` of a grid (1 .. the longest training demonstration), alpha is regressed on normalised
+Gaussian RBFs of each component of ``delta`` (5 per component, spread over the training range),
+by ridge regression whose strength is chosen by generalised cross-validation. Training
+demonstrations shorter than ``n_o`` contribute their final displacement, as in the original
+toolbox. Each primitive learns its own model from its own training demonstrations, one per
+modality; several observed modalities are combined by inverse-variance weighting, with each
+model's GCV residual variance at that ``n_o``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+N_RBF = 5
+_RIDGES = np.logspace(-8, 2, 11)
+
+
+def _features(delta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """RBF features of displacements.
+
+    Parameters
+    ----------
+    delta : array, shape (..., n_components)
+    lo, hi : array, shape (..., n_components)
+        Range of the training displacements spanned by the centres.
+
+    Returns
+    -------
+    array, shape (..., n_components * N_RBF)
+    """
+    span = np.maximum(hi - lo, 1e-12)
+    u = (delta - lo) / span  # 0..1 over the training range
+    centres = np.linspace(0.0, 1.0, N_RBF)
+    sigma = 1.0 / (N_RBF - 1)
+    exponent = -0.5 * ((u[..., None] - centres) / sigma) ** 2
+    exponent -= exponent.max(axis=-1, keepdims=True)
+    values = np.exp(exponent)
+    values /= values.sum(axis=-1, keepdims=True)
+    return values.reshape(*values.shape[:-2], -1)
+
+
+@dataclass(frozen=True, eq=False)
+class AlphaModel:
+    """Eq. 7 for one primitive and one modality.
+
+    Attributes
+    ----------
+    lo, hi : array, shape (n_grid, n_components)
+        Training displacement range per ``n_o`` (row ``n_o - 1``).
+    weights : array, shape (n_grid, n_components * N_RBF)
+    residual_var : array, shape (n_grid,)
+        GCV estimate of the squared alpha error at each ``n_o``.
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+    weights: np.ndarray
+    residual_var: np.ndarray
+
+    @property
+    def n_grid(self) -> int:
+        return int(self.weights.shape[0])
+
+    @classmethod
+    def fit(cls, trajectories: Sequence[np.ndarray], alphas: np.ndarray) -> AlphaModel:
+        """Learn from training trajectories of one modality.
+
+        Parameters
+        ----------
+        trajectories : list of arrays, shape (n_j, n_components)
+            Each training demonstration's values of the modality, at the model's sample rate.
+        alphas : array, shape (n_demos,)
+        """
+        alphas = np.asarray(alphas, dtype=float)
+        n_grid = max(t.shape[0] for t in trajectories)
+        # deltas[g, j] = X_j(min(g + 1, n_j)) - X_j(1)
+        deltas = np.stack(
+            [
+                np.concatenate([t - t[0], np.repeat(t[-1:] - t[0], n_grid - t.shape[0], 0)])
+                for t in trajectories
+            ],
+            axis=1,
+        )  # (n_grid, n_demos, n_components)
+        lo = deltas.min(axis=1)
+        hi = deltas.max(axis=1)
+        feats = _features(deltas, lo[:, None, :], hi[:, None, :])  # (n_grid, n_demos, F)
+        u, s, vt = np.linalg.svd(feats, full_matrices=False)
+        uty = np.einsum("gnk,n->gk", u, alphas)  # (n_grid, K)
+        n = alphas.shape[0]
+        best_w = np.zeros((n_grid, feats.shape[2]))
+        best_score = np.full(n_grid, np.inf)
+        best_var = np.zeros(n_grid)
+        for ridge in _RIDGES * max(float(np.max(s)) ** 2, 1e-12):
+            shrink = s**2 / (s**2 + ridge)  # (n_grid, K)
+            fitted = np.einsum("gnk,gk->gn", u, shrink * uty)
+            rss = ((alphas[None, :] - fitted) ** 2).sum(axis=1)
+            dof = np.maximum(n - shrink.sum(axis=1), 1e-3)
+            score = n * rss / dof**2
+            better = score < best_score
+            coef = np.einsum("gkf,gk->gf", vt, shrink / np.maximum(s, 1e-300) * uty)
+            best_w[better] = coef[better]
+            best_score[better] = score[better]
+            best_var[better] = rss[better] / dof[better]
+        return cls(lo=lo, hi=hi, weights=best_w, residual_var=best_var)
+
+    def predict(self, delta: np.ndarray, n_observed: int) -> tuple[float, float]:
+        """Alpha and its error variance after ``n_observed`` samples moved by ``delta``."""
+        row = min(max(int(n_observed), 1), self.n_grid) - 1
+        feats = _features(np.asarray(delta, dtype=float), self.lo[row], self.hi[row])
+        return float(feats @ self.weights[row]), float(self.residual_var[row])
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        return {
+            "lo": self.lo,
+            "hi": self.hi,
+            "weights": self.weights,
+            "residual_var": self.residual_var,
+        }
+
+
+def combine(
+    models: Mapping[str, AlphaModel], deltas: Mapping[str, np.ndarray], n_observed: int
+) -> float:
+    """Inverse-variance weighted alpha from the models of several observed modalities."""
+    estimates = [models[name].predict(deltas[name], n_observed) for name in deltas]
+    inv = np.array([1.0 / max(var, 1e-12) for _, var in estimates])
+    values = np.array([alpha for alpha, _ in estimates])
+    return float((values * inv).sum() / inv.sum())

@@ -1,0 +1,77 @@
+"""Radial basis functions over the phase (paper Eq. 1).
+
+A trajectory of one dimension is ``xi(z) = phi(z)^T w``, with ``phi`` the normalised Gaussian
+basis over the phase ``z`` in [0, 1]. Several dimensions use the same basis each, so the
+multi-dimensional basis is block-diagonal: weights are stored dimension-major,
+``w = [w_dim0 (M), w_dim1 (M), ...]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class RBFBasis:
+    """``n_basis`` normalised Gaussians with centres evenly spaced on [0, 1].
+
+    Parameters
+    ----------
+    n_basis : int
+        M, the number of basis functions per dimension (>= 2).
+    width : float
+        Standard deviation of each Gaussian as a multiple of the spacing between centres
+        (``1 / (M - 1)``): the widths are tied to the spacing, so the same ``width`` gives the
+        same overlap for any M.
+    """
+
+    n_basis: int = 20
+    width: float = 1.0
+
+    def __post_init__(self) -> None:
+        if int(self.n_basis) != self.n_basis or self.n_basis < 2:
+            raise ValueError(f"n_basis must be an integer >= 2, got {self.n_basis}")
+        if not np.isfinite(self.width) or self.width <= 0:
+            raise ValueError(f"width must be a positive number, got {self.width}")
+
+    @property
+    def centres(self) -> np.ndarray:
+        return np.linspace(0.0, 1.0, self.n_basis)
+
+    @property
+    def sigma(self) -> float:
+        return self.width / (self.n_basis - 1)
+
+    def __call__(self, z: np.ndarray) -> np.ndarray:
+        """Basis values at phases ``z``, array of shape (len(z), n_basis); rows sum to 1."""
+        z = np.asarray(z, dtype=float).reshape(-1, 1)
+        # Subtract the row maximum of the exponent before exp: phases far outside [0, 1]
+        # would otherwise underflow every Gaussian and leave 0/0.
+        exponent = -0.5 * ((z - self.centres[None, :]) / self.sigma) ** 2
+        exponent -= exponent.max(axis=1, keepdims=True)
+        values = np.exp(exponent)
+        return values / values.sum(axis=1, keepdims=True)
+
+
+@dataclass(frozen=True)
+class SeedBasis:
+    """The original toolbox's basis, kept only for the ``--method seed`` baseline.
+
+    ``M`` Gaussians with centres ``(i - 1) / M`` (i = 1..M, so none at z = 1) and
+    ``exp(-(z - c)^2 / (1 / M^2))``, normalised.
+    """
+
+    n_basis: int = 5
+
+    @property
+    def centres(self) -> np.ndarray:
+        return np.arange(self.n_basis) / self.n_basis
+
+    def __call__(self, z: np.ndarray) -> np.ndarray:
+        z = np.asarray(z, dtype=float).reshape(-1, 1)
+        exponent = -((z - self.centres[None, :]) ** 2) * self.n_basis**2
+        exponent -= exponent.max(axis=1, keepdims=True)
+        values = np.exp(exponent)
+        return values / values.sum(axis=1, keepdims=True)

@@ -1,0 +1,1 @@
+"""Leave-one-out evaluation of the method on any dataset (``python -m promp.evaluate``)."""

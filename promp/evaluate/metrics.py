@@ -1,0 +1,64 @@
+"""Metrics of one inference against the true demonstration.
+
+Definitions (``n`` true samples, ``n_o`` observed, the predicted mean spans the predicted
+duration on ``n_f`` evenly spaced phases):
+
+* ``position_error_m``: mean Euclidean distance, over the unobserved true samples
+  ``n_o .. n - 1``, between the true hand position and the predicted one at the same phase of
+  the remainder: the predicted remainder (fractional sample index ``n_o`` to ``n_f - 1`` of the
+  prediction) is resampled linearly onto the ``n - n_o`` true samples. When the prediction ends
+  before ``n_o`` the remainder is its final position.
+* ``goal_error_m``: distance between the true and the predicted final hand positions.
+* ``duration_error_s``: ``|t_f predicted - t_f true|``.
+* ``nrmse_prior`` / ``nrmse_posterior``: RMSE of the prior / posterior mean against the truth
+  over the whole movement (both resampled onto the true samples by phase), divided per hand
+  dimension by the range of the truth in that dimension, averaged over the hand dimensions.
+  ``nrmse_posterior - nrmse_prior < 0`` means that conditioning on the observation helped
+  (paper Fig. 6c).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def resample(values: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """Linear interpolation of ``values`` (n, d) at fractional row indices ``positions``."""
+    index = np.arange(values.shape[0])
+    clipped = np.clip(positions, 0, values.shape[0] - 1)
+    return np.column_stack(
+        [np.interp(clipped, index, values[:, j]) for j in range(values.shape[1])]
+    )
+
+
+def remainder_error(truth: np.ndarray, predicted: np.ndarray, n_observed: int) -> float:
+    """``position_error_m`` for one trial (see the module docstring); NaN if nothing remains."""
+    n = truth.shape[0]
+    n_remaining = n - n_observed
+    if n_remaining <= 0:
+        return float("nan")
+    n_f = predicted.shape[0]
+    start = float(n_observed)
+    stop = float(n_f - 1)
+    if stop <= start:
+        positions = np.full(n_remaining, stop)
+    elif n_remaining == 1:
+        positions = np.array([start])
+    else:
+        positions = np.linspace(start, stop, n_remaining)
+    pred = resample(predicted, positions)
+    return float(np.linalg.norm(truth[n_observed:] - pred, axis=1).mean())
+
+
+def goal_error(truth: np.ndarray, predicted: np.ndarray) -> float:
+    return float(np.linalg.norm(truth[-1] - predicted[-1]))
+
+
+def nrmse(truth: np.ndarray, predicted: np.ndarray) -> float:
+    """Range-normalised RMSE over the whole movement, averaged over dimensions."""
+    positions = np.linspace(0.0, predicted.shape[0] - 1, truth.shape[0])
+    pred = resample(predicted, positions)
+    rmse = np.sqrt(((truth - pred) ** 2).mean(axis=0))
+    span = np.ptp(truth, axis=0)
+    span = np.where(span > 1e-12, span, 1.0)
+    return float((rmse / span).mean())

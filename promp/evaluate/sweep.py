@@ -1,0 +1,170 @@
+"""Leave-one-out sweep: the protocol behind the paper's curves.
+
+Every demonstration of every primitive is held out in turn; the method is fitted on all the
+others (weights, covariance, noise, alpha models: nothing sees the held-out demonstration).
+The first ``n_o = ceil(p / 100 * n)`` samples of the observed modalities are shown, the
+primitive is recognised, the weights are conditioned on the recognised primitive, and the rest
+is predicted. Results are averaged per (percent, alpha method, observed modalities).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from promp.data import Demonstration, Layout
+from promp.evaluate import metrics
+from promp.evaluate.methods import Inferred
+from promp.model import sample_period_of
+
+Progress = Callable[[int, int], None]
+
+
+@dataclass
+class Trial:
+    """One held-out demonstration at one setting."""
+
+    primitive: int
+    demo: str
+    percent: float
+    alpha_method: str
+    observed: tuple[str, ...]
+    inferred: Inferred
+    position_error_m: float
+    goal_error_m: float
+    duration_error_s: float
+    nrmse_prior: float
+    nrmse_posterior: float
+
+
+@dataclass
+class SweepResult:
+    rows: list[dict] = field(default_factory=list)
+    trials: list[Trial] = field(default_factory=list)
+
+
+def n_observed_for(percent: float, n_samples: int) -> int:
+    """``ceil(p / 100 * n)``, at least 1."""
+    return max(1, math.ceil(percent / 100.0 * n_samples - 1e-9))
+
+
+def position_modality(layout: Layout) -> str:
+    """The modality the position errors are measured on: ``hand`` or ``position``."""
+    for name in ("hand", "position"):
+        if name in layout.names:
+            return name
+    raise ValueError(
+        f"the layout {list(layout.names)} has no 'hand' or 'position' modality to measure "
+        "position errors on"
+    )
+
+
+def stderr_progress(label: str) -> Progress:
+    """A one-line progress bar on stderr."""
+    start = time.monotonic()
+
+    def report(done: int, total: int) -> None:
+        width = 30
+        filled = int(width * done / max(total, 1))
+        elapsed = time.monotonic() - start
+        sys.stderr.write(
+            f"\r{label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total} {elapsed:5.1f} s"
+        )
+        if done >= total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+    return report
+
+
+def run_sweep(
+    method_factory: Callable[[], object],
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+    percents: Sequence[float],
+    alpha_methods: Sequence[str],
+    observe_sets: Sequence[Sequence[str]],
+    method_name: str,
+    progress: Progress | None = None,
+    keep_trials: bool = False,
+) -> SweepResult:
+    """Run the leave-one-out protocol; one result row per (percent, alpha, observed)."""
+    names = list(dataset)
+    for name, demos in dataset.items():
+        if len(demos) < 3:
+            raise ValueError(
+                f"leave-one-out needs at least 3 demonstrations per primitive; "
+                f"{name!r} has {len(demos)}"
+            )
+    pos_dims = layout.dims([position_modality(layout)])
+    dt = sample_period_of([d for demos in dataset.values() for d in demos])
+    held_out = [(k, j) for k, name in enumerate(names) for j in range(len(dataset[name]))]
+    acc: dict[tuple, list[Trial]] = {}
+    for done, (k, j) in enumerate(held_out):
+        train = {
+            name: [d for i, d in enumerate(demos) if not (kk == k and i == j)]
+            for kk, (name, demos) in enumerate(dataset.items())
+        }
+        demo = dataset[names[k]][j]
+        method = method_factory()
+        method.fit(train, dt)
+        truth = layout.extract(demo)[:, pos_dims]
+        for percent in percents:
+            n_o = n_observed_for(percent, demo.n_samples)
+            for observed in observe_sets:
+                for alpha_method in alpha_methods:
+                    inferred = method.infer(demo, n_o, observed, alpha_method)
+                    trial = Trial(
+                        primitive=k,
+                        demo=demo.name,
+                        percent=float(percent),
+                        alpha_method=alpha_method,
+                        observed=tuple(observed),
+                        inferred=inferred,
+                        position_error_m=metrics.remainder_error(
+                            truth, inferred.posterior_mean[:, pos_dims], n_o
+                        ),
+                        goal_error_m=metrics.goal_error(
+                            truth, inferred.posterior_mean[:, pos_dims]
+                        ),
+                        duration_error_s=abs(inferred.duration - demo.duration),
+                        nrmse_prior=metrics.nrmse(truth, inferred.prior_mean[:, pos_dims]),
+                        nrmse_posterior=metrics.nrmse(truth, inferred.posterior_mean[:, pos_dims]),
+                    )
+                    acc.setdefault((float(percent), alpha_method, tuple(observed)), []).append(
+                        trial
+                    )
+        if progress is not None:
+            progress(done + 1, len(held_out))
+    result = SweepResult()
+    for (percent, alpha_method, observed), trials in acc.items():
+        result.rows.append(
+            {
+                "percent": percent,
+                "alpha_method": alpha_method,
+                "observed": list(observed),
+                "method": method_name,
+                "recognition_errors": int(sum(t.inferred.index != t.primitive for t in trials)),
+                "trials": len(trials),
+                "position_error_m": _nanmean([t.position_error_m for t in trials]),
+                "goal_error_m": _nanmean([t.goal_error_m for t in trials]),
+                "duration_error_s": _nanmean([t.duration_error_s for t in trials]),
+                "nrmse_prior": _nanmean([t.nrmse_prior for t in trials]),
+                "nrmse_posterior": _nanmean([t.nrmse_posterior for t in trials]),
+            }
+        )
+        if keep_trials:
+            result.trials.extend(trials)
+    result.rows.sort(key=lambda r: (r["observed"], r["alpha_method"], r["percent"]))
+    return result
+
+
+def _nanmean(values: list[float]) -> float:
+    arr = np.asarray(values, dtype=float)
+    arr = arr[np.isfinite(arr)]
+    return float(arr.mean()) if arr.size else float("nan")

@@ -1,0 +1,292 @@
+"""File formats: versioned JSON for models, NPZ (or CSV, see :mod:`promp.datasets`) for
+demonstrations. No pickle anywhere: NPZ files are read with ``allow_pickle=False``.
+
+Model JSON, schema version 1::
+
+    {
+      "format": "icub-intention-studio/promp-model",
+      "version": 1,
+      "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"},
+                 ...],
+      "settings": {"n_basis": 20, "width": 1.0, "ridge": 1e-06, "s_bar": 100.0,
+                   "shrinkage": null, "noise_std": {}, "noise_scale": 1.0},
+      "sample_period": 0.02,                       # seconds
+      "primitives": [{
+          "name": "curved",
+          "mean": [...],                           # (n_dims * n_basis,), dimension-major
+          "cov_diag": [...],                       # (n_dims * n_basis,)
+          "cov_factor": [[...], ...],              # (n_dims * n_basis, rank)
+          "noise_var": [...],                      # (n_dims,)
+          "alphas": [...],                         # (n_demos,)
+          "shrinkage": 0.0,
+          "log_alpha_mean": -0.1,                  # mean log(alpha) of the training demos
+          "alpha_slope": [...],                    # (n_dims * n_basis,): d mean / d log(alpha)
+          "alpha_models": {"hand": {"lo": [[...]], "hi": [[...]], "weights": [[...]],
+                                    "residual_var": [...]}, ...}
+      }, ...]
+    }
+
+Sigma_w = diag(cov_diag) + cov_factor cov_factor^T. Floats are written with Python's shortest
+round-trip representation, so saving and loading is exact.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from promp.alpha_model import N_RBF, AlphaModel
+from promp.data import Demonstration, Layout, Modality
+from promp.datasets import atomic_write_text
+from promp.model import Primitive, ProMPModel, Settings
+
+MODEL_FORMAT = "icub-intention-studio/promp-model"
+MODEL_VERSION = 1
+
+
+def _array(value: Any, what: str, shape: tuple[int | None, ...]) -> np.ndarray:
+    """A finite float array of the given shape (None = any length) or a ValueError."""
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{what}: not an array of numbers ({exc})") from exc
+    if arr.ndim != len(shape) or any(
+        want is not None and got != want for got, want in zip(arr.shape, shape, strict=True)
+    ):
+        expected = "(" + ", ".join("n" if s is None else str(s) for s in shape)
+        expected += ",)" if len(shape) == 1 else ")"
+        raise ValueError(f"{what}: expected shape {expected}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{what}: contains NaN or infinite values")
+    return arr
+
+
+def _field(obj: Mapping, key: str, what: str) -> Any:
+    if not isinstance(obj, Mapping) or key not in obj:
+        raise ValueError(f"{what}: missing field {key!r}")
+    return obj[key]
+
+
+def model_to_dict(model: ProMPModel) -> dict[str, Any]:
+    """The JSON-ready description of ``model`` (schema in the module docstring)."""
+    s = model.settings
+    return {
+        "format": MODEL_FORMAT,
+        "version": MODEL_VERSION,
+        "layout": [
+            {"name": m.name, "columns": list(m.columns), "unit": m.unit, "kind": m.kind}
+            for m in model.layout.modalities
+        ],
+        "settings": {
+            "n_basis": s.n_basis,
+            "width": s.width,
+            "ridge": s.ridge,
+            "s_bar": s.s_bar,
+            "shrinkage": s.shrinkage,
+            "noise_std": dict(s.noise_std),
+            "noise_scale": s.noise_scale,
+        },
+        "sample_period": model.sample_period,
+        "primitives": [
+            {
+                "name": p.name,
+                "mean": p.mean.tolist(),
+                "cov_diag": p.cov_diag.tolist(),
+                "cov_factor": p.cov_factor.tolist(),
+                "noise_var": p.noise_var.tolist(),
+                "alphas": p.alphas.tolist(),
+                "shrinkage": p.shrinkage,
+                "log_alpha_mean": p.log_alpha_mean,
+                "alpha_slope": p.alpha_slope.tolist(),
+                "alpha_models": {
+                    name: {key: value.tolist() for key, value in am.to_arrays().items()}
+                    for name, am in p.alpha_models.items()
+                },
+            }
+            for p in model.primitives
+        ],
+    }
+
+
+def model_to_json(model: ProMPModel) -> str:
+    return json.dumps(model_to_dict(model), allow_nan=False)
+
+
+def model_from_dict(data: Any) -> ProMPModel:
+    """Rebuild a model from :func:`model_to_dict` output, validating everything.
+
+    Raises
+    ------
+    ValueError
+        Wrong format tag, unknown version, missing fields, wrong shapes, non-finite numbers.
+    """
+    if not isinstance(data, Mapping):
+        raise ValueError("a model file must hold a JSON object")
+    if data.get("format") != MODEL_FORMAT:
+        raise ValueError(
+            f"not a model file: 'format' is {data.get('format')!r}, expected {MODEL_FORMAT!r}"
+        )
+    version = data.get("version")
+    if version != MODEL_VERSION:
+        raise ValueError(
+            f"unsupported model version {version!r}; this version reads version {MODEL_VERSION}"
+        )
+    try:
+        layout = Layout(
+            tuple(
+                Modality(
+                    name=str(_field(m, "name", "layout")),
+                    columns=tuple(str(c) for c in _field(m, "columns", "layout")),
+                    unit=str(_field(m, "unit", "layout")),
+                    kind=_field(m, "kind", "layout"),
+                )
+                for m in _field(data, "layout", "model")
+            )
+        )
+        raw = _field(data, "settings", "model")
+        settings = Settings(
+            n_basis=int(_field(raw, "n_basis", "settings")),
+            width=float(_field(raw, "width", "settings")),
+            ridge=float(_field(raw, "ridge", "settings")),
+            s_bar=float(_field(raw, "s_bar", "settings")),
+            shrinkage=None if raw.get("shrinkage") is None else float(raw["shrinkage"]),
+            noise_std={str(k): float(v) for k, v in dict(raw.get("noise_std", {})).items()},
+            noise_scale=float(raw.get("noise_scale", 1.0)),
+        )
+    except (TypeError, AttributeError) as exc:
+        raise ValueError(f"malformed layout or settings ({exc})") from exc
+    sample_period = float(_field(data, "sample_period", "model"))
+    if not np.isfinite(sample_period) or sample_period <= 0:
+        raise ValueError(f"sample_period must be positive, got {sample_period}")
+    n_dims = layout.n_dims
+    n_weights = n_dims * settings.n_basis
+    primitives = []
+    raw_prims = _field(data, "primitives", "model")
+    if not isinstance(raw_prims, list) or not raw_prims:
+        raise ValueError("a model needs a non-empty list of primitives")
+    names = set()
+    for i, p in enumerate(raw_prims):
+        name = str(_field(p, "name", f"primitive {i}"))
+        if name in names:
+            raise ValueError(f"duplicate primitive name {name!r}")
+        names.add(name)
+        what = f"primitive {name!r}"
+        factor = _array(_field(p, "cov_factor", what), f"{what} cov_factor", (n_weights, None))
+        cov_diag = _array(_field(p, "cov_diag", what), f"{what} cov_diag", (n_weights,))
+        if np.any(cov_diag <= 0):
+            raise ValueError(f"{what} cov_diag: variances must be positive")
+        noise_var = _array(_field(p, "noise_var", what), f"{what} noise_var", (n_dims,))
+        if np.any(noise_var <= 0):
+            raise ValueError(f"{what} noise_var: variances must be positive")
+        alphas = _array(_field(p, "alphas", what), f"{what} alphas", (None,))
+        if alphas.size == 0 or np.any(alphas <= 0):
+            raise ValueError(f"{what} alphas: need at least one, all positive")
+        alpha_models = {}
+        raw_models = _field(p, "alpha_models", what)
+        if not isinstance(raw_models, Mapping):
+            raise ValueError(f"{what} alpha_models: expected an object")
+        for modality in layout.modalities:
+            am = _field(raw_models, modality.name, f"{what} alpha_models")
+            width = len(modality.columns)
+            label = f"{what} alpha model {modality.name!r}"
+            lo = _array(_field(am, "lo", label), f"{label} lo", (None, width))
+            alpha_models[modality.name] = AlphaModel(
+                lo=lo,
+                hi=_array(_field(am, "hi", label), f"{label} hi", (lo.shape[0], width)),
+                weights=_array(
+                    _field(am, "weights", label), f"{label} weights", (lo.shape[0], width * N_RBF)
+                ),
+                residual_var=_array(
+                    _field(am, "residual_var", label), f"{label} residual_var", (lo.shape[0],)
+                ),
+            )
+        shrinkage = float(_field(p, "shrinkage", what))
+        log_alpha_mean = float(_field(p, "log_alpha_mean", what))
+        if not np.isfinite(log_alpha_mean):
+            raise ValueError(f"{what} log_alpha_mean: must be finite")
+        alpha_slope = _array(_field(p, "alpha_slope", what), f"{what} alpha_slope", (n_weights,))
+        primitives.append(
+            Primitive(
+                name=name,
+                mean=_array(_field(p, "mean", what), f"{what} mean", (n_weights,)),
+                cov_diag=cov_diag,
+                cov_factor=factor,
+                noise_var=noise_var,
+                alphas=alphas,
+                alpha_models=alpha_models,
+                shrinkage=shrinkage,
+                log_alpha_mean=log_alpha_mean,
+                alpha_slope=alpha_slope,
+            )
+        )
+    return ProMPModel(
+        layout=layout, settings=settings, sample_period=sample_period, primitives=tuple(primitives)
+    )
+
+
+def model_from_json(text: str | bytes) -> ProMPModel:
+    try:
+        data = json.loads(text)
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"not valid JSON ({exc})") from exc
+    return model_from_dict(data)
+
+
+def save_model(path: Path, model: ProMPModel) -> None:
+    """Write ``model`` as JSON, atomically."""
+    atomic_write_text(Path(path), model_to_json(model))
+
+
+def load_model(path: Path) -> ProMPModel:
+    path = Path(path)
+    try:
+        text = path.read_bytes()
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read ({exc})") from exc
+    try:
+        return model_from_json(text)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from exc
+
+
+def demo_to_npz_bytes(demo: Demonstration) -> bytes:
+    """NPZ with ``times`` (n,), ``values`` (n, D), ``columns`` (D,) unicode, ``name`` ()."""
+    buffer = io.BytesIO()
+    np.savez(
+        buffer,
+        times=demo.times,
+        values=demo.values,
+        columns=np.array(demo.columns, dtype=str),
+        name=np.array(demo.name, dtype=str),
+    )
+    return buffer.getvalue()
+
+
+def demo_from_npz_bytes(data: bytes, label: str = "demonstration") -> Demonstration:
+    """Read :func:`demo_to_npz_bytes` output (never unpickles)."""
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            if not isinstance(npz, np.lib.npyio.NpzFile):
+                raise ValueError("a single array, not an archive")
+            missing = {"times", "values", "columns"} - set(npz.files)
+            if missing:
+                raise ValueError(f"NPZ lacks {sorted(missing)}")
+            times, values = npz["times"], npz["values"]
+            columns = tuple(str(c) for c in npz["columns"].reshape(-1))
+            name = str(npz["name"]) if "name" in npz.files else ""
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        # numpy's own message for object arrays suggests loading unsafely: never do that.
+        reason = "object arrays are refused" if "pickle" in str(exc) else str(exc)
+        raise ValueError(f"{label}: not an NPZ file of numeric arrays ({reason})") from None
+    if times.dtype.kind not in "fiu" or values.dtype.kind not in "fiu":
+        raise ValueError(f"{label}: times and values must be numeric")
+    try:
+        return Demonstration(times, values, columns, name=name)
+    except ValueError as exc:
+        raise ValueError(f"{label}: {exc}") from exc

@@ -1,0 +1,47 @@
+"""Brute-force dense ProMP computations: the textbook formulas with explicit matrices, used only
+to check the structured implementation in :mod:`promp.inference`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from promp.inference import Observation
+from promp.model import Primitive, ProMPModel
+from promp.timing import duration_from_alpha
+
+
+def design(model: ProMPModel, obs: Observation, alpha: float) -> np.ndarray:
+    """Block-diagonal observation matrix A, shape (n_observed * n_obs_dims, n_weights)."""
+    dims = model.layout.dims(obs.modalities)
+    duration = duration_from_alpha(alpha, model.sample_period, model.settings.s_bar)
+    psi = model.basis(obs.elapsed / duration)
+    m = model.basis.n_basis
+    a = np.zeros((len(dims) * obs.n_observed, model.n_dims * m))
+    for i, d in enumerate(dims):
+        a[i * obs.n_observed : (i + 1) * obs.n_observed, d * m : (d + 1) * m] = psi
+    return a
+
+
+def _parts(model: ProMPModel, prim: Primitive, obs: Observation, alpha: float):
+    dims = model.layout.dims(obs.modalities)
+    a = design(model, obs, alpha)
+    noise = np.diag(np.repeat(prim.noise_var[dims], obs.n_observed))
+    y = obs.values.T.reshape(-1)
+    return a, noise, y
+
+
+def log_likelihood(model: ProMPModel, prim: Primitive, obs: Observation, alpha: float) -> float:
+    a, noise, y = _parts(model, prim, obs, alpha)
+    mean = a @ prim.mean_at(alpha)
+    cov = a @ prim.cov @ a.T + noise
+    r = y - mean
+    sign, logdet = np.linalg.slogdet(cov)
+    assert sign > 0
+    return float(-0.5 * (r @ np.linalg.inv(cov) @ r + logdet + len(y) * np.log(2 * np.pi)))
+
+
+def condition(model: ProMPModel, prim: Primitive, obs: Observation, alpha: float):
+    a, noise, y = _parts(model, prim, obs, alpha)
+    mu = prim.mean_at(alpha)
+    gain = prim.cov @ a.T @ np.linalg.inv(a @ prim.cov @ a.T + noise)
+    return mu + gain @ (y - a @ mu), prim.cov - gain @ a @ prim.cov

@@ -1,0 +1,223 @@
+"""Recognition, conditioning and prediction: against a dense brute force, properties, bad input."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+
+from promp.inference import (
+    Gaussian,
+    Observation,
+    condition,
+    log_likelihoods,
+    predict,
+    recognise,
+)
+from promp.model import Settings, fit
+from tests import dense_reference as dense
+from tests.synthetic import LAYOUT, make_dataset, make_demo
+
+SMALL = Settings(n_basis=6)
+
+
+@pytest.fixture(scope="module")
+def model():
+    return fit(make_dataset(seed=1, n_demos=6), LAYOUT, SMALL)
+
+
+@pytest.fixture(scope="module")
+def test_demo():
+    return make_demo(np.random.default_rng(7), np.array([0.2, -0.2, 0.1, 0.0, 0.3, -0.6]))
+
+
+@pytest.mark.parametrize("modalities", [["hand"], ["head"], ["hand", "head"]])
+@pytest.mark.parametrize("n_observed", [1, 2, 7, 40])
+def test_likelihood_matches_dense_brute_force(model, test_demo, modalities, n_observed) -> None:
+    obs = Observation.from_demo(model, test_demo, n_observed, modalities)
+    for prim in model.primitives:
+        alphas = prim.alphas[:3]
+        fast = log_likelihoods(model, prim, obs, alphas)
+        slow = [dense.log_likelihood(model, prim, obs, a) for a in alphas]
+        assert_allclose(fast, slow, rtol=1e-9, atol=1e-6)
+
+
+@pytest.mark.parametrize("modalities", [["hand"], ["head"], ["hand", "head"]])
+@pytest.mark.parametrize("n_observed", [1, 3, 15, 60])
+def test_conditioning_matches_dense_brute_force(model, test_demo, modalities, n_observed) -> None:
+    # Small observations take the observation-space branch, long ones the weight-space one.
+    obs = Observation.from_demo(model, test_demo, n_observed, modalities)
+    prim = model.primitives[0]
+    alpha = float(prim.alphas.min())
+    post = condition(model, prim, obs, alpha)
+    mean, cov = dense.condition(model, prim, obs, alpha)
+    scale = np.abs(prim.cov).max()
+    assert_allclose(post.mean, mean, atol=1e-9)
+    assert_allclose(post.cov, cov, atol=1e-9 * scale)
+
+
+def test_conditioning_returns_new_objects(model, test_demo) -> None:
+    prim = model.primitives[0]
+    before_mean, before_cov = prim.mean.copy(), prim.cov.copy()
+    obs = Observation.from_demo(model, test_demo, 20, ["hand"])
+    values_before = obs.values.copy()
+    post = condition(model, prim, obs, float(prim.alphas.min()))
+    assert post.mean is not prim.mean and post.cov is not prim.cov
+    assert_allclose(prim.mean, before_mean, rtol=0, atol=0)
+    assert_allclose(prim.cov, before_cov, rtol=0, atol=0)
+    assert_allclose(obs.values, values_before, rtol=0, atol=0)
+
+
+def test_unobserved_modality_is_predicted_from_the_observed_one(model) -> None:
+    # Observe the hand of a "right" movement: the head's yaw must follow (positive target).
+    demo = make_demo(np.random.default_rng(11), np.array([0.2, 0.2, 0.1, 0.0, 0.3, 0.6]))
+    prim = model.primitive("right")
+    obs = Observation.from_demo(model, demo, demo.n_samples // 2, ["hand"])
+    alpha = float(np.median(prim.alphas))
+    prior = predict(model, prim, alpha)
+    post = predict(model, condition(model, prim, obs, alpha), alpha)
+    yaw = LAYOUT.dims(["head"])[2]
+    assert post.std[-1, yaw] <= prior.std[-1, yaw] + 1e-12
+    assert abs(post.mean[-1, yaw] - 0.6) < 0.1
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    n_observed=st.integers(min_value=1, max_value=80),
+    which=st.sampled_from([["hand"], ["head"], ["hand", "head"]]),
+    seed=st.integers(min_value=0, max_value=10_000),
+)
+def test_conditioning_never_increases_a_marginal_variance(model, n_observed, which, seed) -> None:
+    rng = np.random.default_rng(seed)
+    demo = make_demo(rng, rng.normal(scale=0.3, size=6), duration=2.0)
+    prim = model.primitives[seed % 2]
+    obs = Observation.from_demo(model, demo, min(n_observed, demo.n_samples), which)
+    alpha = float(prim.alphas.min())
+    post = condition(model, prim, obs, alpha)
+    prior_std = predict(model, prim, alpha).std
+    post_std = predict(model, post, alpha).std
+    assert np.all(np.diag(post.cov) <= np.diag(prim.cov) * (1 + 1e-9) + 1e-15)
+    assert np.all(post_std <= prior_std * (1 + 1e-7) + 1e-12)
+
+
+@settings(max_examples=15, deadline=None)
+@given(noise=st.sampled_from([1e-2, 1e-4, 1e-6, 1e-8]))
+def test_posterior_mean_goes_through_the_observations_as_noise_vanishes(noise) -> None:
+    # A full-rank prior (half shrunk to its diagonal), so every noise level tested is far below
+    # the prior's smallest standard deviation: the asymptotic regime of the property.
+    base = fit(make_dataset(seed=2, n_demos=10), LAYOUT, Settings(n_basis=8, shrinkage=0.5))
+    prim = dataclasses.replace(base.primitives[0], noise_var=np.full(6, noise**2))
+    model = dataclasses.replace(base, primitives=(prim,))
+    demo = make_demo(np.random.default_rng(5), np.array([0.25, -0.15, 0.1, 0.05, 0.3, -0.5]))
+    # Four samples spread over the movement (fewer than the weights, so they can be met
+    # exactly), in both modalities.
+    index = np.array([0, 20, 40, 60])
+    values = LAYOUT.extract(demo)[index]
+    obs = Observation(demo.times[index], values, ("hand", "head"))
+    alpha = float(prim.alphas.max())
+    post = condition(model, prim, obs, alpha)
+    fitted = (
+        model.basis(obs.elapsed / predict(model, post, alpha).duration) @ post.mean.reshape(6, -1).T
+    )
+    error = np.abs(fitted - obs.values).max()
+    assert error < 1e-3 * np.abs(obs.values).max() + 50 * noise
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(min_value=0, max_value=1000), n_observed=st.integers(5, 60))
+def test_recognition_does_not_depend_on_the_order_of_primitives(seed, n_observed) -> None:
+    dataset = make_dataset(seed=seed % 7, n_demos=5)
+    forward = fit(dataset, LAYOUT, SMALL)
+    backward = fit(dict(reversed(list(dataset.items()))), LAYOUT, SMALL)
+    demo = make_demo(np.random.default_rng(seed), np.array([0.2, 0.0, 0.1, 0.0, 0.3, 0.1]))
+    n = min(n_observed, demo.n_samples)
+    a = recognise(forward, Observation.from_demo(forward, demo, n, ["hand", "head"]))
+    b = recognise(backward, Observation.from_demo(backward, demo, n, ["hand", "head"]))
+    assert a.primitive == b.primitive
+    assert_allclose(a.probabilities, b.probabilities[::-1], atol=1e-9)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(min_value=0, max_value=1000), which=st.sampled_from(["hand", "head"]))
+def test_a_demo_of_primitive_k_is_recognised_as_k_when_primitives_are_far_apart(seed, which):
+    rng = np.random.default_rng(seed)
+    targets = {f"p{i}": rng.normal(scale=1.0, size=6) for i in range(4)}
+    dataset = make_dataset(seed=seed, n_demos=6, targets=targets)
+    model = fit(dataset, LAYOUT, SMALL)
+    k = seed % 4
+    demo = make_demo(rng, targets[f"p{k}"], duration=2.0)
+    reco = recognise(model, Observation.from_demo(model, demo, demo.n_samples * 3 // 4, [which]))
+    assert reco.primitive == f"p{k}"
+    assert reco.probabilities[k] > 0.9
+
+
+def test_recognition_returns_the_likelihood_table(model, test_demo) -> None:
+    obs = Observation.from_demo(model, test_demo, 30, ["hand"])
+    reco = recognise(model, obs)
+    assert reco.primitive == "left"
+    assert_allclose(reco.probabilities.sum(), 1.0)
+    for prim, cands, table in zip(
+        model.primitives, reco.candidates, reco.log_likelihoods, strict=True
+    ):
+        assert_allclose(cands, prim.alphas)
+        assert table.shape == cands.shape
+    assert reco.alpha in reco.candidates[reco.index]
+    refined = recognise(model, obs, refine=True)
+    best = np.max(reco.log_likelihoods[reco.index])
+    assert log_likelihoods(model, model.primitives[reco.index], obs, [refined.alpha])[0] >= best
+    by_model = recognise(model, obs, alpha_method="model")
+    assert by_model.candidates[by_model.index].shape == (1,)
+
+
+def test_prediction_spans_the_predicted_duration(model) -> None:
+    prim = model.primitives[0]
+    alpha = 0.8
+    pred = predict(model, prim, alpha)
+    n = model.settings.s_bar / alpha
+    assert pred.times.shape == (round(n),)
+    assert_allclose(pred.duration, (n - 1) * model.sample_period)
+    assert pred.mean.shape == pred.std.shape == (round(n), 6)
+    assert np.all(pred.std >= 0)
+
+
+def test_bad_inputs_are_clear_errors(model, test_demo) -> None:
+    prim = model.primitives[0]
+    with pytest.raises(ValueError, match="empty"):
+        Observation(np.zeros(0), np.zeros((0, 3)), ("hand",))
+    with pytest.raises(ValueError, match="NaN"):
+        Observation(np.array([0.0, 0.1]), np.array([[0.0, 0, 0], [np.nan, 0, 0]]), ("hand",))
+    with pytest.raises(ValueError, match="unknown modality 'gaze'"):
+        Observation.from_demo(model, test_demo, 5, ["gaze"])
+    obs = Observation.from_demo(model, test_demo, 5, ["hand"])
+    with pytest.raises(ValueError, match="unknown modality"):
+        recognise(model, Observation(obs.times, obs.values, ("gaze",)))
+    with pytest.raises(ValueError, match="3 columns but modalities"):
+        recognise(model, Observation(obs.times, obs.values, ("hand", "head")))
+    with pytest.raises(ValueError, match="alpha must be a positive"):
+        condition(model, prim, obs, 0.0)
+    with pytest.raises(ValueError, match="alpha must be a positive"):
+        log_likelihoods(model, prim, obs, [-1.0])
+    long_obs = Observation.from_demo(model, test_demo, test_demo.n_samples, ["hand"])
+    with pytest.raises(ValueError, match="longer than the predicted duration"):
+        condition(model, prim, long_obs, 10.0)  # alpha 10: a 10-sample movement
+    too_long = Observation(np.arange(1000) * model.sample_period, np.zeros((1000, 3)), ("hand",))
+    with pytest.raises(ValueError, match="longer than every candidate duration"):
+        recognise(model, too_long)
+    with pytest.raises(ValueError, match="alpha_method"):
+        recognise(model, obs, alpha_method="guess")
+    with pytest.raises(ValueError, match="n_observed"):
+        Observation.from_demo(model, test_demo, 0, ["hand"])
+
+
+def test_gaussian_prior_override(model, test_demo) -> None:
+    prim = model.primitives[0]
+    alpha = float(prim.alphas.min())
+    obs = Observation.from_demo(model, test_demo, 10, ["hand"])
+    explicit = condition(model, prim, obs, alpha, prior=Gaussian(prim.mean_at(alpha), prim.cov))
+    implicit = condition(model, prim, obs, alpha)
+    assert_allclose(explicit.mean, implicit.mean, atol=1e-12)
+    assert_allclose(explicit.cov, implicit.cov, atol=1e-15)
