@@ -2,7 +2,8 @@
 
 Faster movements cover more ground in the same number of samples, so the displacement
 ``delta = X(n_o) - X(1)`` of an observed modality after ``n_o`` samples predicts alpha. For every
-``n_o`` of a grid (1 .. the longest training demonstration), alpha is regressed on normalised
+``n_o`` of a grid (1 .. the longest training demonstration, in at most ~60 steps; an observation
+uses the grid point at or below its length), alpha is regressed on normalised
 Gaussian RBFs of each component of ``delta`` (5 per component, spread over the training range),
 by ridge regression whose strength is chosen by generalised cross-validation. Training
 demonstrations shorter than ``n_o`` contribute their final displacement, as in the original
@@ -19,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 N_RBF = 5
+GRID_POINTS = 60
 _RIDGES = np.logspace(-8, 2, 11)
 
 
@@ -52,13 +54,16 @@ class AlphaModel:
 
     Attributes
     ----------
+    n_observed : array of int, shape (n_grid,)
+        The ``n_o`` of each row, increasing from 1.
     lo, hi : array, shape (n_grid, n_components)
-        Training displacement range per ``n_o`` (row ``n_o - 1``).
+        Training displacement range per ``n_o``.
     weights : array, shape (n_grid, n_components * N_RBF)
     residual_var : array, shape (n_grid,)
         GCV estimate of the squared alpha error at each ``n_o``.
     """
 
+    n_observed: np.ndarray
     lo: np.ndarray
     hi: np.ndarray
     weights: np.ndarray
@@ -79,45 +84,49 @@ class AlphaModel:
         alphas : array, shape (n_demos,)
         """
         alphas = np.asarray(alphas, dtype=float)
-        n_grid = max(t.shape[0] for t in trajectories)
-        # deltas[g, j] = X_j(min(g + 1, n_j)) - X_j(1)
+        longest = max(t.shape[0] for t in trajectories)
+        step = max(1, -(-longest // GRID_POINTS))
+        n_observed = np.arange(1, longest + 1, step)
+        n_grid = n_observed.shape[0]
+        # deltas[g, j] = X_j(min(n_observed[g], n_j)) - X_j(1)
         deltas = np.stack(
-            [
-                np.concatenate([t - t[0], np.repeat(t[-1:] - t[0], n_grid - t.shape[0], 0)])
-                for t in trajectories
-            ],
-            axis=1,
+            [t[np.minimum(n_observed, t.shape[0]) - 1] - t[0] for t in trajectories], axis=1
         )  # (n_grid, n_demos, n_components)
         lo = deltas.min(axis=1)
         hi = deltas.max(axis=1)
         feats = _features(deltas, lo[:, None, :], hi[:, None, :])  # (n_grid, n_demos, F)
-        u, s, vt = np.linalg.svd(feats, full_matrices=False)
-        uty = np.einsum("gnk,n->gk", u, alphas)  # (n_grid, K)
+        # Ridge regressions for every n_o at once, through the eigendecomposition of the
+        # F x F Gram matrices: with F^T F = V diag(e) V^T and b = V^T F^T y, the coefficients
+        # are V diag(1 / (e + ridge)) b and the hat matrix has trace sum(e / (e + ridge)).
+        gram = feats.transpose(0, 2, 1) @ feats  # (n_grid, F, F)
+        eig, vec = np.linalg.eigh(gram)
+        eig = np.maximum(eig, 0.0)
+        b = np.einsum("gfk,gnf,n->gk", vec, feats, alphas)
         n = alphas.shape[0]
         best_w = np.zeros((n_grid, feats.shape[2]))
         best_score = np.full(n_grid, np.inf)
         best_var = np.zeros(n_grid)
-        for ridge in _RIDGES * max(float(np.max(s)) ** 2, 1e-12):
-            shrink = s**2 / (s**2 + ridge)  # (n_grid, K)
-            fitted = np.einsum("gnk,gk->gn", u, shrink * uty)
+        for ridge in _RIDGES * max(float(np.max(eig)), 1e-12):
+            coef = np.einsum("gfk,gk->gf", vec, b / (eig + ridge))
+            fitted = np.einsum("gnf,gf->gn", feats, coef)
             rss = ((alphas[None, :] - fitted) ** 2).sum(axis=1)
-            dof = np.maximum(n - shrink.sum(axis=1), 1e-3)
+            dof = np.maximum(n - (eig / (eig + ridge)).sum(axis=1), 1e-3)
             score = n * rss / dof**2
             better = score < best_score
-            coef = np.einsum("gkf,gk->gf", vt, shrink / np.maximum(s, 1e-300) * uty)
             best_w[better] = coef[better]
             best_score[better] = score[better]
             best_var[better] = rss[better] / dof[better]
-        return cls(lo=lo, hi=hi, weights=best_w, residual_var=best_var)
+        return cls(n_observed=n_observed, lo=lo, hi=hi, weights=best_w, residual_var=best_var)
 
     def predict(self, delta: np.ndarray, n_observed: int) -> tuple[float, float]:
         """Alpha and its error variance after ``n_observed`` samples moved by ``delta``."""
-        row = min(max(int(n_observed), 1), self.n_grid) - 1
+        row = max(int(np.searchsorted(self.n_observed, n_observed, side="right")) - 1, 0)
         feats = _features(np.asarray(delta, dtype=float), self.lo[row], self.hi[row])
         return float(feats @ self.weights[row]), float(self.residual_var[row])
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         return {
+            "n_observed": self.n_observed,
             "lo": self.lo,
             "hi": self.hi,
             "weights": self.weights,

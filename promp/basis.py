@@ -35,10 +35,13 @@ class RBFBasis:
             raise ValueError(f"n_basis must be an integer >= 2, got {self.n_basis}")
         if not np.isfinite(self.width) or self.width <= 0:
             raise ValueError(f"width must be a positive number, got {self.width}")
+        centres = np.linspace(0.0, 1.0, self.n_basis)
+        centres.setflags(write=False)
+        object.__setattr__(self, "_centres", centres)
 
     @property
     def centres(self) -> np.ndarray:
-        return np.linspace(0.0, 1.0, self.n_basis)
+        return self._centres
 
     @property
     def sigma(self) -> float:
@@ -48,9 +51,11 @@ class RBFBasis:
         """Basis values at phases ``z``, array of shape (len(z), n_basis); rows sum to 1."""
         z = np.asarray(z, dtype=float).reshape(-1, 1)
         # Subtract the row maximum of the exponent before exp: phases far outside [0, 1]
-        # would otherwise underflow every Gaussian and leave 0/0.
-        exponent = -0.5 * ((z - self.centres[None, :]) / self.sigma) ** 2
-        exponent -= exponent.max(axis=1, keepdims=True)
+        # would otherwise underflow every Gaussian and leave 0/0. The maximum is at the
+        # nearest centre, so it is the exponent of the clipped phase.
+        scaled = (z - self._centres[None, :]) / self.sigma
+        nearest = (z - np.clip(z, 0.0, 1.0)) / self.sigma
+        exponent = -0.5 * (scaled**2 - nearest**2)
         values = np.exp(exponent)
         return values / values.sum(axis=1, keepdims=True)
 

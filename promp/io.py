@@ -9,7 +9,8 @@ Model JSON, schema version 1::
       "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"},
                  ...],
       "settings": {"n_basis": 20, "width": 1.0, "ridge": 1e-06, "s_bar": 100.0,
-                   "shrinkage": null, "noise_std": {}, "noise_scale": 1.0},
+                   "shrinkage": null, "noise_std": {}, "noise_scale": 1.0,
+                   "alpha_coupling": true, "noise_correlation": true},
       "sample_period": 0.02,                       # seconds
       "primitives": [{
           "name": "curved",
@@ -17,12 +18,13 @@ Model JSON, schema version 1::
           "cov_diag": [...],                       # (n_dims * n_basis,)
           "cov_factor": [[...], ...],              # (n_dims * n_basis, rank)
           "noise_var": [...],                      # (n_dims,)
+          "noise_tau": [...],                      # (n_dims,) noise correlation time, s
           "alphas": [...],                         # (n_demos,)
           "shrinkage": 0.0,
           "log_alpha_mean": -0.1,                  # mean log(alpha) of the training demos
           "alpha_slope": [...],                    # (n_dims * n_basis,): d mean / d log(alpha)
-          "alpha_models": {"hand": {"lo": [[...]], "hi": [[...]], "weights": [[...]],
-                                    "residual_var": [...]}, ...}
+          "alpha_models": {"hand": {"n_observed": [...], "lo": [[...]], "hi": [[...]],
+                                    "weights": [[...]], "residual_var": [...]}, ...}
       }, ...]
     }
 
@@ -91,6 +93,8 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
             "shrinkage": s.shrinkage,
             "noise_std": dict(s.noise_std),
             "noise_scale": s.noise_scale,
+            "alpha_coupling": s.alpha_coupling,
+            "noise_correlation": s.noise_correlation,
         },
         "sample_period": model.sample_period,
         "primitives": [
@@ -100,6 +104,7 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
                 "cov_diag": p.cov_diag.tolist(),
                 "cov_factor": p.cov_factor.tolist(),
                 "noise_var": p.noise_var.tolist(),
+                "noise_tau": p.noise_tau.tolist(),
                 "alphas": p.alphas.tolist(),
                 "shrinkage": p.shrinkage,
                 "log_alpha_mean": p.log_alpha_mean,
@@ -158,6 +163,8 @@ def model_from_dict(data: Any) -> ProMPModel:
             shrinkage=None if raw.get("shrinkage") is None else float(raw["shrinkage"]),
             noise_std={str(k): float(v) for k, v in dict(raw.get("noise_std", {})).items()},
             noise_scale=float(raw.get("noise_scale", 1.0)),
+            alpha_coupling=bool(raw.get("alpha_coupling", True)),
+            noise_correlation=bool(raw.get("noise_correlation", True)),
         )
     except (TypeError, AttributeError) as exc:
         raise ValueError(f"malformed layout or settings ({exc})") from exc
@@ -184,6 +191,9 @@ def model_from_dict(data: Any) -> ProMPModel:
         noise_var = _array(_field(p, "noise_var", what), f"{what} noise_var", (n_dims,))
         if np.any(noise_var <= 0):
             raise ValueError(f"{what} noise_var: variances must be positive")
+        noise_tau = _array(_field(p, "noise_tau", what), f"{what} noise_tau", (n_dims,))
+        if np.any(noise_tau < 0):
+            raise ValueError(f"{what} noise_tau: correlation times must be >= 0")
         alphas = _array(_field(p, "alphas", what), f"{what} alphas", (None,))
         if alphas.size == 0 or np.any(alphas <= 0):
             raise ValueError(f"{what} alphas: need at least one, all positive")
@@ -196,7 +206,11 @@ def model_from_dict(data: Any) -> ProMPModel:
             width = len(modality.columns)
             label = f"{what} alpha model {modality.name!r}"
             lo = _array(_field(am, "lo", label), f"{label} lo", (None, width))
+            grid = _array(_field(am, "n_observed", label), f"{label} n_observed", (lo.shape[0],))
+            if grid.size == 0 or grid[0] != 1 or np.any(np.diff(grid) <= 0):
+                raise ValueError(f"{label} n_observed: must increase from 1")
             alpha_models[modality.name] = AlphaModel(
+                n_observed=grid.astype(int),
                 lo=lo,
                 hi=_array(_field(am, "hi", label), f"{label} hi", (lo.shape[0], width)),
                 weights=_array(
@@ -218,6 +232,7 @@ def model_from_dict(data: Any) -> ProMPModel:
                 cov_diag=cov_diag,
                 cov_factor=factor,
                 noise_var=noise_var,
+                noise_tau=noise_tau,
                 alphas=alphas,
                 alpha_models=alpha_models,
                 shrinkage=shrinkage,

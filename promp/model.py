@@ -2,11 +2,17 @@
 
 Per demonstration, the weights of every dimension are fitted by ridge regression on the phase
 basis (Eq. 2); per primitive, their mean and covariance define the prior over trajectories
-(Eqs. 3-4). With fewer demonstrations than weights the sample covariance is singular, so it is
-shrunk towards its diagonal with the Schafer-Strimmer (2005) estimate of the optimal intensity
-("target D": correlations are shrunk, variances kept). The result is stored as a diagonal plus
-a low-rank factor, ``Sigma_w = diag(cov_diag) + cov_factor @ cov_factor.T``, which is always SPD
-and which inference exploits (determinant lemma / Woodbury).
+(Eqs. 3-4). With fewer demonstrations than weights the sample covariance ``S`` is singular, so
+it is shrunk linearly towards ``F = blockdiag(tau_d I_M)``, where ``tau_d`` is the average
+variance of dimension d's weights (Ledoit-Wolf's scaled-identity target, one scale per dimension
+because dimensions have different units): ``Sigma_w = (1 - lambda) S + lambda F``. The default
+intensity, ``lambda = 1e-6``, only makes ``Sigma_w`` positive definite: the prior then stays
+essentially within the span of the demonstrations, which recognised held-out recordings best
+(see the README's evaluation). ``shrinkage=None`` uses the Ledoit-Wolf (2004) estimate of the
+intensity that is optimal for estimating the covariance itself. The result is stored as a
+diagonal plus a low-rank factor, ``Sigma_w = diag(cov_diag) + cov_factor @ cov_factor.T``, and
+inference exploits that structure (determinant lemma / Woodbury); the diagonal is constant within
+each dimension's block, which lets likelihoods share one eigendecomposition per dimension.
 
 Observation noise is a property of the sensor, not of a primitive: per modality, it is the mean
 squared fit residual of its dimensions over the demonstrations of all primitives, with the
@@ -28,9 +34,8 @@ from promp.basis import RBFBasis
 from promp.data import Demonstration, Layout
 from promp.timing import alpha_from_duration, demo_phases
 
-# Relative floor on the variances of the diagonal part, so Sigma_w stays SPD when a weight never
-# varies across demonstrations (e.g. every demonstration starts at the same point).
-VARIANCE_FLOOR = 1e-10
+# Smallest shrinkage intensity: keeps Sigma_w positive definite.
+MIN_SHRINKAGE = 1e-12
 
 
 @dataclass(frozen=True)
@@ -49,12 +54,18 @@ class Settings:
     s_bar : float
         Reference length of the time modulation (alpha = s_bar / n_samples).
     shrinkage : float or None
-        Covariance shrinkage intensity in [0, 1]; None estimates it from the data.
+        Covariance shrinkage intensity in (0, 1] towards the per-dimension scaled identity;
+        None uses the Ledoit-Wolf estimate.
     noise_std : mapping of str to float
         Observation noise standard deviation per modality, in the modality's unit; modalities
         not listed use the estimate from the fit residuals.
     noise_scale : float
         Multiplies every estimated noise standard deviation.
+    noise_correlation : bool
+        Model the observation noise as an Ornstein-Uhlenbeck process whose correlation time is
+        estimated from the fit residuals (they are strongly correlated from one sample to the
+        next: a white-noise likelihood would count every densely sampled point as independent
+        evidence); off: white noise.
     alpha_coupling : bool
         Learn how the shape depends on the speed: the weights are regressed on log(alpha) and
         the prior at a candidate alpha is the conditional Gaussian (see :class:`Primitive`).
@@ -64,10 +75,11 @@ class Settings:
     width: float = 1.0
     ridge: float = 1e-6
     s_bar: float = 100.0
-    shrinkage: float | None = None
+    shrinkage: float | None = 1e-6
     noise_std: Mapping[str, float] = field(default_factory=dict)
     noise_scale: float = 1.0
     alpha_coupling: bool = True
+    noise_correlation: bool = True
 
     def __post_init__(self) -> None:
         RBFBasis(self.n_basis, self.width)  # validates both
@@ -75,8 +87,8 @@ class Settings:
             raise ValueError(f"ridge must be >= 0, got {self.ridge}")
         if not np.isfinite(self.s_bar) or self.s_bar <= 0:
             raise ValueError(f"s_bar must be positive, got {self.s_bar}")
-        if self.shrinkage is not None and not 0.0 <= self.shrinkage <= 1.0:
-            raise ValueError(f"shrinkage must be in [0, 1] or None, got {self.shrinkage}")
+        if self.shrinkage is not None and not 0.0 < self.shrinkage <= 1.0:
+            raise ValueError(f"shrinkage must be in (0, 1] or None, got {self.shrinkage}")
         for name, std in self.noise_std.items():
             if not np.isfinite(std) or std <= 0:
                 raise ValueError(f"noise_std[{name!r}] must be positive, got {std}")
@@ -103,6 +115,10 @@ class Primitive:
         ``Sigma_w = diag(cov_diag) + cov_factor @ cov_factor.T``.
     noise_var : array, shape (n_dims,)
         Observation noise variance of every dimension.
+    noise_tau : array, shape (n_dims,)
+        Correlation time (s) of the observation noise of every dimension: the noise is an
+        Ornstein-Uhlenbeck process, ``cov = noise_var * exp(-|t_i - t_j| / noise_tau)``; 0 for
+        white noise.
     alphas : array, shape (n_demos,)
         Time modulation of each training demonstration.
     alpha_models : mapping of str to AlphaModel
@@ -128,10 +144,19 @@ class Primitive:
     shrinkage: float
     log_alpha_mean: float = 0.0
     alpha_slope: np.ndarray | None = None
+    noise_tau: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        blocks = np.asarray(self.cov_diag).reshape(np.asarray(self.noise_var).shape[0], -1)
+        if np.any(blocks != blocks[:, :1]):
+            raise ValueError(
+                f"primitive {self.name!r}: cov_diag must be constant within each dimension's "
+                "block of weights (the shrinkage target is one scaled identity per dimension)"
+            )
         if self.alpha_slope is None:
             object.__setattr__(self, "alpha_slope", np.zeros_like(self.mean))
+        if self.noise_tau is None:
+            object.__setattr__(self, "noise_tau", np.zeros_like(self.noise_var))
 
     def mean_at(self, alpha: float | np.ndarray) -> np.ndarray:
         """Prior mean of the weights at time modulation ``alpha``.
@@ -153,9 +178,51 @@ class Primitive:
         return np.diag(self.cov_diag) + self.cov_factor @ self.cov_factor.T
 
     @functools.cached_property
+    def cov_blocks(self) -> np.ndarray:
+        """Covariance of each dimension's weights, shape (n_dims, n_basis, n_basis)."""
+        n_dims = self.noise_var.shape[0]
+        u = self.cov_factor.reshape(n_dims, -1, self.cov_factor.shape[1])
+        t = self.cov_diag.reshape(n_dims, -1)[:, 0]
+        return t[:, None, None] * np.eye(u.shape[1]) + u @ u.transpose(0, 2, 1)
+
+    @functools.cached_property
     def cov_cholesky(self) -> np.ndarray:
         """Lower Cholesky factor of Sigma_w."""
         return np.linalg.cholesky(self.cov)
+
+
+class PhaseBasisCache:
+    """The basis at the phases ``elapsed / duration``, cached per duration.
+
+    Scrubbing an observation re-scores the same candidate durations on a growing prefix of the
+    same samples, so each duration keeps the longest ``elapsed`` seen and its basis rows; a
+    request for a prefix of it is a slice. Bounded; not shared between threads.
+    """
+
+    def __init__(self, basis: RBFBasis, max_entries: int = 512):
+        self.basis = basis
+        self.max_entries = max_entries
+        self._entries: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+    def __call__(self, elapsed: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """Basis rows, shape (len(durations), len(elapsed), n_basis)."""
+        n = elapsed.shape[0]
+        out = np.empty((durations.shape[0], n, self.basis.n_basis))
+        for i, duration in enumerate(durations.tolist()):
+            entry = self._entries.get(duration)
+            if (
+                entry is not None
+                and entry[0].shape[0] >= n
+                and np.array_equal(entry[0][:n], elapsed)
+            ):
+                out[i] = entry[1][:n]
+                continue
+            rows = self.basis(elapsed / duration)
+            if len(self._entries) >= self.max_entries:
+                self._entries.clear()
+            self._entries[duration] = (elapsed.copy(), rows)
+            out[i] = rows
+        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -170,9 +237,14 @@ class ProMPModel:
     sample_period: float
     primitives: tuple[Primitive, ...]
 
-    @property
+    @functools.cached_property
     def basis(self) -> RBFBasis:
         return self.settings.basis
+
+    @functools.cached_property
+    def phase_basis(self) -> PhaseBasisCache:
+        """Basis values at observed times, cached per duration (see :class:`PhaseBasisCache`)."""
+        return PhaseBasisCache(self.basis)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -203,42 +275,46 @@ def fit_weights(
     -------
     weights : array, shape (n_dims * n_basis,)
         Dimension-major.
-    sse : array, shape (n_dims,)
-        Sum of squared residuals per dimension.
+    residuals : array, shape (n_samples, n_dims)
     """
     phi = basis(demo_phases(times))
     gram = phi.T @ phi
     lam = ridge * np.trace(gram) / gram.shape[0]
     chol = np.linalg.cholesky(gram + (lam + 1e-12) * np.eye(gram.shape[0]))
     w = np.linalg.solve(chol.T, np.linalg.solve(chol, phi.T @ values))  # (n_basis, n_dims)
-    sse = ((values - phi @ w) ** 2).sum(axis=0)
-    return w.T.reshape(-1), sse
+    return w.T.reshape(-1), values - phi @ w
 
 
-def shrinkage_intensity(weights: np.ndarray) -> float:
-    """Schafer-Strimmer optimal shrinkage of correlations towards zero (target D).
+def block_target(centred: np.ndarray, n_dims: int, dof: float) -> np.ndarray:
+    """Average weight variance of each dimension, repeated over its block, shape (n_weights,)."""
+    variances = (centred**2).sum(axis=0) / dof
+    block = variances.reshape(n_dims, -1)
+    tau = np.maximum(block.mean(axis=1, keepdims=True), 1e-300)
+    return np.broadcast_to(tau, block.shape).reshape(-1).copy()
+
+
+def ledoit_wolf_intensity(centred: np.ndarray, target_diag: np.ndarray) -> float:
+    """Ledoit-Wolf (2004) optimal intensity of shrinking ``S = X^T X / n`` towards
+    ``diag(target_diag)``.
 
     Parameters
     ----------
-    weights : array, shape (n_demos, n_weights)
+    centred : array, shape (n_demos, n_weights)
+        Centred weights X.
+    target_diag : array, shape (n_weights,)
     """
-    n = weights.shape[0]
-    centred = weights - weights.mean(axis=0)
-    std = centred.std(axis=0, ddof=1)
-    ok = std > 1e-12 * max(float(std.max()), 1e-300)
-    x = centred[:, ok] / std[ok]
-    if x.shape[1] < 2 or n < 3:
+    n = centred.shape[0]
+    cov = centred.T @ centred / n
+    norms = (centred**2).sum(axis=1)
+    quad = np.einsum("kp,pq,kq->k", centred, cov, centred)
+    # sum_k || x_k x_k^T - S ||_F^2, expanded without forming the outer products.
+    spread = float((norms**2 - 2.0 * quad).sum() + n * (cov**2).sum()) / n**2
+    distance = float(
+        (cov**2).sum() - 2 * (np.diag(cov) * target_diag).sum() + (target_diag**2).sum()
+    )
+    if distance <= 0:
         return 1.0
-    corr = x.T @ x / (n - 1)
-    # Var of each sample correlation: n / (n - 1)^3 * sum_k (x_ki x_kj - mean_k x_ki x_kj)^2.
-    second = (x**2).T @ (x**2)  # sum_k x_ki^2 x_kj^2
-    mean_prod = corr * (n - 1) / n
-    var_corr = n / (n - 1) ** 3 * (second - n * mean_prod**2)
-    off = ~np.eye(corr.shape[0], dtype=bool)
-    denom = float((corr[off] ** 2).sum())
-    if denom <= 0:
-        return 1.0
-    return float(np.clip(var_corr[off].sum() / denom, 0.0, 1.0))
+    return float(np.clip(min(spread, distance) / distance, MIN_SHRINKAGE, 1.0))
 
 
 def _resample_uniform(demo: Demonstration, values: np.ndarray, dt: float) -> np.ndarray:
@@ -250,27 +326,48 @@ def _resample_uniform(demo: Demonstration, values: np.ndarray, dt: float) -> np.
 
 
 def estimate_noise(
-    demos: Sequence[Demonstration], layout: Layout, settings: Settings
-) -> np.ndarray:
-    """Observation noise variance per dimension, shape (n_dims,): one level per modality.
+    residuals: Sequence[np.ndarray],
+    times: Sequence[np.ndarray],
+    layout: Layout,
+    settings: Settings,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Observation noise per dimension, one level per modality (see the module docstring).
 
-    The pooled residual variance of the per-demonstration fits (see the module docstring),
-    scaled by ``settings.noise_scale``, or ``settings.noise_std`` where given.
+    Parameters
+    ----------
+    residuals : list of arrays, shape (n_j, n_dims)
+        Fit residuals of every demonstration (of every primitive).
+    times : list of arrays, shape (n_j,)
+        Their sample times.
+
+    Returns
+    -------
+    noise_var : array, shape (n_dims,)
+        Pooled residual variance of the per-demonstration fits, with the regression's degrees
+        of freedom removed, scaled by ``settings.noise_scale``, or ``settings.noise_std``
+        squared where given.
+    noise_tau : array, shape (n_dims,)
+        Correlation time (s) of an Ornstein-Uhlenbeck noise with the residuals' pooled lag-one
+        autocorrelation ``rho`` at the mean sample step ``dt``: ``-dt / log(rho)``; 0 (white)
+        when ``rho <= 0`` or ``settings.noise_correlation`` is off.
     """
-    basis = settings.basis
-    sse = np.zeros(layout.n_dims)
-    dof = 0.0
-    for demo in demos:
-        sse += fit_weights(basis, demo.times, layout.extract(demo), settings.ridge)[1]
-        dof += max(demo.n_samples - basis.n_basis, 1)
+    n_basis = settings.n_basis
+    sse = sum((r**2).sum(axis=0) for r in residuals)
+    lagged = sum((r[1:] * r[:-1]).sum(axis=0) for r in residuals)  # sum of r_i r_(i-1)
+    dof = sum(max(r.shape[0] - n_basis, 1) for r in residuals)
+    dt = float(np.concatenate([np.diff(t) for t in times]).mean())
     noise_var = sse / dof
+    noise_tau = np.zeros(layout.n_dims)
     for modality in layout.modalities:
         dims = layout.dims([modality.name])
+        rho = float(lagged[dims].sum() / max(sse[dims].sum(), 1e-300))
+        if settings.noise_correlation and 0.0 < rho < 1.0:
+            noise_tau[dims] = -dt / np.log(rho)
         if modality.name in settings.noise_std:
             noise_var[dims] = settings.noise_std[modality.name] ** 2
         else:
             noise_var[dims] = noise_var[dims].mean() * settings.noise_scale**2
-    return np.maximum(noise_var, 1e-20)
+    return np.maximum(noise_var, 1e-20), noise_tau
 
 
 def fit_primitive(
@@ -280,8 +377,14 @@ def fit_primitive(
     settings: Settings,
     sample_period: float,
     noise_var: np.ndarray,
+    noise_tau: np.ndarray,
+    weights: np.ndarray | None = None,
 ) -> Primitive:
-    """Learn one primitive from its demonstrations (>= 2), given the observation noise."""
+    """Learn one primitive from its demonstrations (>= 2), given the observation noise.
+
+    ``weights`` (n_demos, n_weights) may pass the demonstrations' fitted weights (Eq. 2) when
+    they are already known.
+    """
     if len(demos) < 2:
         raise ValueError(
             f"primitive {name!r} has {len(demos)} demonstration(s); at least 2 are needed "
@@ -289,14 +392,20 @@ def fit_primitive(
         )
     basis = settings.basis
     n_dims = layout.n_dims
-    weights = np.empty((len(demos), n_dims * basis.n_basis))
-    alphas = np.empty(len(demos))
-    trajectories = []
-    for j, demo in enumerate(demos):
-        values = layout.extract(demo)
-        weights[j] = fit_weights(basis, demo.times, values, settings.ridge)[0]
-        alphas[j] = alpha_from_duration(demo.duration, sample_period, settings.s_bar)
-        trajectories.append(_resample_uniform(demo, values, sample_period))
+    values = [layout.extract(demo) for demo in demos]
+    if weights is None:
+        weights = np.array(
+            [
+                fit_weights(basis, d.times, v, settings.ridge)[0]
+                for d, v in zip(demos, values, strict=True)
+            ]
+        )
+    alphas = np.array(
+        [alpha_from_duration(d.duration, sample_period, settings.s_bar) for d in demos]
+    )
+    trajectories = [
+        _resample_uniform(d, v, sample_period) for d, v in zip(demos, values, strict=True)
+    ]
 
     mean = weights.mean(axis=0)
     centred = weights - mean
@@ -309,12 +418,12 @@ def fit_primitive(
         slope = centred.T @ a_c / float(a_c @ a_c)
         centred = centred - np.outer(a_c, slope)
         dof = len(demos) - 2
-    variances = (centred**2).sum(axis=0) / dof
-    lam = shrinkage_intensity(centred) if settings.shrinkage is None else settings.shrinkage
-    # Floor per dimension block, relative to that dimension's typical weight variance.
-    block = variances.reshape(n_dims, basis.n_basis)
-    floor = VARIANCE_FLOOR * np.maximum(block.mean(axis=1, keepdims=True), 1e-30)
-    cov_diag = lam * variances + np.broadcast_to(floor, block.shape).reshape(-1)
+    target = block_target(centred, n_dims, dof)
+    if settings.shrinkage is None:
+        lam = ledoit_wolf_intensity(centred, target)
+    else:
+        lam = max(settings.shrinkage, MIN_SHRINKAGE)
+    cov_diag = lam * target
     cov_factor = np.sqrt((1.0 - lam) / dof) * centred.T
 
     alpha_models = {
@@ -327,6 +436,7 @@ def fit_primitive(
         cov_diag=cov_diag,
         cov_factor=cov_factor,
         noise_var=np.array(noise_var, dtype=float),
+        noise_tau=np.array(noise_tau, dtype=float),
         alphas=alphas,
         alpha_models=alpha_models,
         shrinkage=lam,
@@ -367,9 +477,28 @@ def fit(
                 f"primitive {name!r} has {len(demos)} demonstration(s); at least 2 are needed "
                 "to learn a distribution"
             )
-    noise_var = estimate_noise(all_demos, layout, settings)
+    basis = settings.basis
+    fits = {
+        name: [fit_weights(basis, d.times, layout.extract(d), settings.ridge) for d in demos]
+        for name, demos in dataset.items()
+    }
+    noise_var, noise_tau = estimate_noise(
+        [resid for per_demo in fits.values() for _, resid in per_demo],
+        [d.times for d in all_demos],
+        layout,
+        settings,
+    )
     primitives = tuple(
-        fit_primitive(name, demos, layout, settings, dt, noise_var)
+        fit_primitive(
+            name,
+            demos,
+            layout,
+            settings,
+            dt,
+            noise_var,
+            noise_tau,
+            weights=np.array([w for w, _ in fits[name]]),
+        )
         for name, demos in dataset.items()
     )
     return ProMPModel(layout=layout, settings=settings, sample_period=dt, primitives=primitives)

@@ -4,6 +4,7 @@ to check the structured implementation in :mod:`promp.inference`."""
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg import block_diag
 
 from promp.inference import Observation
 from promp.model import Primitive, ProMPModel
@@ -25,7 +26,12 @@ def design(model: ProMPModel, obs: Observation, alpha: float) -> np.ndarray:
 def _parts(model: ProMPModel, prim: Primitive, obs: Observation, alpha: float):
     dims = model.layout.dims(obs.modalities)
     a = design(model, obs, alpha)
-    noise = np.diag(np.repeat(prim.noise_var[dims], obs.n_observed))
+    lag = np.abs(obs.elapsed[:, None] - obs.elapsed[None, :])
+    blocks = [
+        var * (np.exp(-lag / tau) if tau > 0 else np.eye(obs.n_observed))
+        for var, tau in zip(prim.noise_var[dims], prim.noise_tau[dims], strict=True)
+    ]
+    noise = block_diag(*blocks)  # Ornstein-Uhlenbeck noise, one block per dimension
     y = obs.values.T.reshape(-1)
     return a, noise, y
 

@@ -57,6 +57,9 @@ def test_conditioning_matches_dense_brute_force(model, test_demo, modalities, n_
     mean, cov = dense.condition(model, prim, obs, alpha)
     scale = np.abs(prim.cov).max()
     assert_allclose(post.mean, mean, atol=1e-9)
+    # The structured per-dimension blocks and the on-demand full covariance.
+    dense_blocks = np.stack([cov[d * 6 : (d + 1) * 6, d * 6 : (d + 1) * 6] for d in range(6)])
+    assert_allclose(post.blocks(6), dense_blocks, atol=1e-9 * scale)
     assert_allclose(post.cov, cov, atol=1e-9 * scale)
 
 

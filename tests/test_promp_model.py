@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 
 from promp.basis import RBFBasis, SeedBasis
 from promp.data import Demonstration
-from promp.model import Settings, fit, fit_weights, shrinkage_intensity
+from promp.model import Settings, fit, fit_weights, ledoit_wolf_intensity
 from promp.timing import alpha_from_duration, duration_from_alpha
 from tests.synthetic import COLUMNS, LAYOUT, make_dataset
 
@@ -32,9 +32,9 @@ def test_ridge_fit_recovers_a_trajectory_in_the_span_of_the_basis() -> None:
     times = np.linspace(0.0, 2.0, 101)
     w_true = np.random.default_rng(0).normal(size=(8, 2))
     values = basis(times / 2.0) @ w_true
-    w, sse = fit_weights(basis, times, values, ridge=1e-12)
+    w, resid = fit_weights(basis, times, values, ridge=1e-12)
     assert_allclose(w.reshape(2, 8).T, w_true, atol=1e-6)
-    assert np.all(sse < 1e-12)
+    assert np.all(np.abs(resid) < 1e-6)
 
 
 def test_alpha_and_duration_convention_round_trip() -> None:
@@ -99,13 +99,25 @@ def test_alpha_coupling_is_the_conditional_of_the_joint_gaussian() -> None:
     assert_allclose(off.primitives[0].mean_at(0.5), off.primitives[0].mean)
 
 
-def test_shrinkage_intensity_is_small_for_strong_correlations_and_large_for_noise() -> None:
+def test_ledoit_wolf_intensity_is_small_with_many_samples_and_large_with_few() -> None:
     rng = np.random.default_rng(0)
-    latent = rng.normal(size=(200, 1))
-    correlated = latent @ np.ones((1, 10)) + 0.01 * rng.normal(size=(200, 10))
-    independent = rng.normal(size=(12, 10))
-    assert shrinkage_intensity(correlated) < 0.05
-    assert shrinkage_intensity(independent) > 0.5
+    latent = rng.normal(size=(500, 2))
+    many = latent @ rng.normal(size=(2, 10)) + 0.05 * rng.normal(size=(500, 10))
+    few = rng.normal(size=(5, 40))
+    target_many = np.full(10, (many**2).mean())
+    target_few = np.full(40, (few**2).mean())
+    assert ledoit_wolf_intensity(many - many.mean(0), target_many) < 0.05
+    assert ledoit_wolf_intensity(few - few.mean(0), target_few) > 0.5
+
+
+def test_shrinkage_target_is_one_scaled_identity_per_dimension() -> None:
+    model = fit(make_dataset(seed=2, n_demos=5), LAYOUT, Settings(n_basis=6, shrinkage=0.3))
+    prim = model.primitives[0]
+    blocks = prim.cov_diag.reshape(6, 6)
+    assert_allclose(blocks, blocks[:, :1] * np.ones((1, 6)))  # constant within a dimension
+    assert prim.shrinkage == 0.3
+    estimated = fit(make_dataset(seed=2, n_demos=5), LAYOUT, Settings(n_basis=6, shrinkage=None))
+    assert 0.0 < estimated.primitives[0].shrinkage <= 1.0
 
 
 def test_fit_does_not_mutate_the_demonstrations() -> None:
@@ -131,6 +143,7 @@ def test_bad_training_input_is_a_clear_error() -> None:
         dict(ridge=-1.0),
         dict(s_bar=0.0),
         dict(shrinkage=1.5),
+        dict(shrinkage=0.0),
         dict(noise_std={"hand": 0.0}),
         dict(noise_scale=0.0),
     ):

@@ -1,0 +1,5 @@
+import sys
+
+from promp.evaluate.cli import main
+
+sys.exit(main())

@@ -1,0 +1,185 @@
+"""The evaluation: metrics with known answers, the leave-one-out protocol, the command line."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from promp.data import Layout, Modality
+from promp.datasets import write_csv_dataset
+from promp.evaluate import metrics
+from promp.evaluate.cli import main
+from promp.evaluate.methods import Inferred
+from promp.evaluate.sweep import n_observed_for, run_sweep
+from tests.conftest import REPO
+from tests.synthetic import make_dataset
+
+
+def test_n_observed_is_the_ceiling_of_the_percentage() -> None:
+    assert n_observed_for(40, 100) == 40
+    assert n_observed_for(40, 101) == 41
+    assert n_observed_for(10, 5) == 1
+    assert n_observed_for(100, 7) == 7
+
+
+def test_remainder_error_of_a_constant_offset() -> None:
+    truth = np.column_stack([np.linspace(0, 1, 50), np.zeros(50), np.zeros(50)])
+    predicted = truth + np.array([0.0, 0.03, 0.04])  # 5 cm away everywhere
+    assert metrics.remainder_error(truth, predicted, 20) == pytest.approx(0.05)
+    assert metrics.goal_error(truth, predicted) == pytest.approx(0.05)
+
+
+def test_remainder_is_compared_at_the_same_phase_when_durations_differ() -> None:
+    # The prediction is the same straight line sampled twice as densely (a longer predicted
+    # duration): the remainder resampled onto the true samples matches the truth exactly.
+    truth = np.column_stack([np.linspace(0, 1, 51), np.zeros(51)])
+    predicted = np.column_stack([np.linspace(0, 1, 101), np.zeros(101)])
+    n_o = 25
+    # The true remainder runs from x = 0.5 to 1; the predicted one from sample 25 (x = 0.25):
+    # the error grows linearly from 0.25 to 0 along the remainder.
+    expected = np.mean(np.abs(np.linspace(0.5, 1, 26) - np.linspace(0.25, 1, 26)))
+    assert metrics.remainder_error(truth, predicted, n_o) == pytest.approx(expected)
+    # A prediction that ended before the observation: its final point is the remainder.
+    short = np.column_stack([np.linspace(0, 0.2, 10), np.zeros(10)])
+    assert metrics.remainder_error(truth, short, 30) == pytest.approx(
+        np.mean(np.abs(truth[30:, 0] - 0.2))
+    )
+    assert np.isnan(metrics.remainder_error(truth, predicted, 51))
+
+
+def test_nrmse_is_normalised_by_the_range_of_the_truth() -> None:
+    truth = np.column_stack([np.linspace(0, 2, 11), np.linspace(0, 0.5, 11)])
+    assert metrics.nrmse(truth, truth) == pytest.approx(0.0)
+    shifted = truth + np.array([0.2, 0.05])  # 10 % of each range
+    assert metrics.nrmse(truth, shifted) == pytest.approx(0.1)
+
+
+LAYOUT = Layout((Modality("hand", ("x", "y", "z")),))
+
+
+class Oracle:
+    """A fake method that knows the truth: recognises primitive 'a' whatever it sees and
+    predicts the held-out trajectory itself, with the exact duration."""
+
+    def __init__(self, dataset):
+        self.dataset = dataset
+
+    def fit(self, train, sample_period):
+        self.names = list(train)
+
+    def infer(self, demo, n_observed, observe, alpha_method) -> Inferred:
+        values = LAYOUT.extract(demo)
+        return Inferred(
+            index=0,
+            probabilities=np.array([1.0, 0.0]),
+            alpha=1.0,
+            duration=demo.duration,
+            prior_mean=values + 0.1,
+            prior_std=np.zeros_like(values),
+            posterior_mean=values,
+            posterior_std=np.zeros_like(values),
+        )
+
+
+def test_sweep_protocol_and_aggregation_with_known_answers() -> None:
+    dataset = {k: v[:4] for k, v in make_dataset(seed=0, n_demos=4).items()}
+    result = run_sweep(
+        lambda: Oracle(dataset),
+        dataset,
+        LAYOUT,
+        percents=[30, 60],
+        alpha_methods=["ml"],
+        observe_sets=[["hand"]],
+        method_name="oracle",
+    )
+    assert len(result.rows) == 2
+    for row in result.rows:
+        assert row["trials"] == 8
+        assert row["recognition_errors"] == 4  # every demo of the second primitive
+        assert row["position_error_m"] == pytest.approx(0.0, abs=1e-12)
+        assert row["goal_error_m"] == pytest.approx(0.0, abs=1e-12)
+        assert row["duration_error_s"] == pytest.approx(0.0, abs=1e-12)
+        assert row["nrmse_posterior"] == pytest.approx(0.0, abs=1e-12)
+        assert row["nrmse_prior"] > 0
+
+
+def test_sweep_needs_three_demos_per_primitive() -> None:
+    dataset = make_dataset(seed=0, n_demos=2)
+    with pytest.raises(ValueError, match="at least 3 demonstrations"):
+        run_sweep(lambda: None, dataset, LAYOUT, [50], ["ml"], [["hand"]], "x")
+
+
+def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
+    write_csv_dataset(tmp_path / "data", make_dataset(seed=2, n_demos=4))
+    out = tmp_path / "out.json"
+    code = main(
+        [
+            str(tmp_path / "data"),
+            "--format", "csv",
+            "--modality", "hand=x,y,z",
+            "--modality", "head=roll,pitch,yaw",
+            "--observe", "head",
+            "--observe", "hand,head",
+            "--percent", "30", "70",
+            "--json", str(out),
+            "--plots", str(tmp_path / "plots"),
+        ]
+    )  # fmt: skip
+    assert code == 0
+    report = json.loads(out.read_text())
+    assert report["settings"]["observe"] == [["head"], ["hand", "head"]]
+    rows = report["results"]
+    assert len(rows) == 2 * 2 * 2  # observe sets x alpha methods x percents
+    keys = {
+        "percent", "alpha_method", "observed", "method", "recognition_errors", "trials",
+        "position_error_m", "goal_error_m", "duration_error_s", "nrmse_prior", "nrmse_posterior",
+    }  # fmt: skip
+    for row in rows:
+        assert set(row) == keys
+        assert row["trials"] == 8 and row["method"] == "ours"
+    # Far-apart synthetic primitives: no recognition error from 70 % of the head.
+    late_head = [r for r in rows if r["observed"] == ["head"] and r["percent"] == 70]
+    assert all(r["recognition_errors"] == 0 for r in late_head)
+    pngs = sorted(p.name for p in (tmp_path / "plots").iterdir())
+    assert pngs == ["curves_ours.png", "example_ours_hand+head.png", "example_ours_head.png"]
+
+
+def test_command_line_rejects_bad_arguments(tmp_path: Path, capsys) -> None:
+    write_csv_dataset(tmp_path / "data", make_dataset(seed=2, n_demos=3))
+    assert main([str(tmp_path / "data"), "--format", "csv", "--observe", "gaze"]) == 2
+    assert "unknown modality 'gaze'" in capsys.readouterr().err
+    assert main([str(tmp_path / "data"), "--format", "csv", "--modality", "hand"]) == 2
+    assert "NAME=COL" in capsys.readouterr().err
+    assert main([str(tmp_path / "nowhere"), "--format", "records"]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main([str(tmp_path / "data"), "--format", "csv", "--percent", "0"]) == 2
+
+
+def test_python_dash_m_entry_point(tmp_path: Path) -> None:
+    write_csv_dataset(tmp_path / "data", make_dataset(seed=5, n_demos=3))
+    proc = subprocess.run(
+        [sys.executable, "-m", "promp.evaluate", str(tmp_path / "data"), "--format", "csv",
+         "--percent", "50", "--alpha", "ml", "--method", "seed"],
+        cwd=REPO, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert "leave-one-out over 6 demos" in proc.stderr  # the progress bar
+    assert "hand" in proc.stdout and "/6" in proc.stdout
+
+
+@pytest.mark.data
+def test_heights_targets_of_the_issue(heights_dir: Path, tmp_path: Path) -> None:
+    """The accuracy goals on the real recordings, measured by the evaluation command."""
+    out = tmp_path / "heights.json"
+    code = main([str(heights_dir), "--format", "records", "--percent", "40", "80", "--alpha",
+                 "ml", "--json", str(out)])  # fmt: skip
+    assert code == 0
+    rows = {r["percent"]: r for r in json.loads(out.read_text())["results"]}
+    assert rows[40]["trials"] == 122
+    assert rows[40]["recognition_errors"] <= 13 and rows[40]["position_error_m"] <= 0.018
+    assert rows[80]["recognition_errors"] <= 4 and rows[80]["position_error_m"] <= 0.009
