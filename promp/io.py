@@ -20,7 +20,7 @@ Model JSON, schema version 1::
           "noise_var": [...],                      # (n_dims,)
           "noise_tau": [...],                      # (n_dims,) noise correlation time, s
           "alphas": [...],                         # (n_demos,)
-          "shrinkage": 0.0,
+          "shrinkage": [...],                      # (n_dims,) intensity per dimension
           "log_alpha_mean": -0.1,                  # mean log(alpha) of the training demos
           "alpha_slope": [...],                    # (n_dims * n_basis,): d mean / d log(alpha)
           "alpha_models": {"hand": {"n_observed": [...], "lo": [[...]], "hi": [[...]],
@@ -106,7 +106,7 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
                 "noise_var": p.noise_var.tolist(),
                 "noise_tau": p.noise_tau.tolist(),
                 "alphas": p.alphas.tolist(),
-                "shrinkage": p.shrinkage,
+                "shrinkage": p.shrinkage.tolist(),
                 "log_alpha_mean": p.log_alpha_mean,
                 "alpha_slope": p.alpha_slope.tolist(),
                 "alpha_models": {
@@ -158,7 +158,7 @@ def model_from_dict(data: Any) -> ProMPModel:
         settings = Settings(
             n_basis=int(_field(raw, "n_basis", "settings")),
             width=float(_field(raw, "width", "settings")),
-            ridge=float(_field(raw, "ridge", "settings")),
+            ridge=None if raw.get("ridge") is None else float(raw["ridge"]),
             s_bar=float(_field(raw, "s_bar", "settings")),
             shrinkage=None if raw.get("shrinkage") is None else float(raw["shrinkage"]),
             noise_std={str(k): float(v) for k, v in dict(raw.get("noise_std", {})).items()},
@@ -220,7 +220,9 @@ def model_from_dict(data: Any) -> ProMPModel:
                     _field(am, "residual_var", label), f"{label} residual_var", (lo.shape[0],)
                 ),
             )
-        shrinkage = float(_field(p, "shrinkage", what))
+        shrinkage = _array(_field(p, "shrinkage", what), f"{what} shrinkage", (n_dims,))
+        if np.any((shrinkage <= 0) | (shrinkage > 1)):
+            raise ValueError(f"{what} shrinkage: intensities must be in (0, 1]")
         log_alpha_mean = float(_field(p, "log_alpha_mean", what))
         if not np.isfinite(log_alpha_mean):
             raise ValueError(f"{what} log_alpha_mean: must be finite")

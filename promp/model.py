@@ -3,9 +3,9 @@
 Per demonstration, the weights of every dimension are fitted by ridge regression on the phase
 basis (Eq. 2); per primitive, their mean and covariance define the prior over trajectories
 (Eqs. 3-4). With fewer demonstrations than weights the sample covariance ``S`` is singular, so
-it is shrunk linearly towards ``F = blockdiag(tau_d I_M)``, where ``tau_d`` is the average
-variance of dimension d's weights (Ledoit-Wolf's scaled-identity target, one scale per dimension
-because dimensions have different units): ``Sigma_w = (1 - lambda) S + lambda F``. The default
+it is shrunk linearly towards ``F = blockdiag(tau_d I_M)``, a scaled identity per dimension
+(dimensions have different units) whose scale gives trajectories the demonstrations' average
+spread in that dimension: ``Sigma_w = (1 - lambda) S + lambda F``. The default
 intensity, ``lambda = 1e-6``, only makes ``Sigma_w`` positive definite: the prior then stays
 essentially within the span of the demonstrations, which recognised held-out recordings best
 (see the README's evaluation). ``shrinkage=None`` uses the Ledoit-Wolf (2004) estimate of the
@@ -48,14 +48,17 @@ class Settings:
         M, basis functions per dimension.
     width : float
         RBF standard deviation as a multiple of the spacing of the centres.
-    ridge : float
+    ridge : float or None
         Ridge strength of the per-demonstration weight regression, relative to the mean
-        diagonal of ``Phi^T Phi``.
+        diagonal of ``Phi^T Phi``; None (the default) chooses it per modality by generalised
+        cross-validation pooled over all demonstrations, so noisy modalities (a webcam's head
+        angles) get smooth weights instead of fitted noise, and clean ones (the hand) keep
+        their detail.
     s_bar : float
         Reference length of the time modulation (alpha = s_bar / n_samples).
     shrinkage : float or None
         Covariance shrinkage intensity in (0, 1] towards the per-dimension scaled identity;
-        None uses the Ledoit-Wolf estimate.
+        None uses the Ledoit-Wolf estimate, one per modality.
     noise_std : mapping of str to float
         Observation noise standard deviation per modality, in the modality's unit; modalities
         not listed use the estimate from the fit residuals.
@@ -73,7 +76,7 @@ class Settings:
 
     n_basis: int = 20
     width: float = 1.0
-    ridge: float = 1e-6
+    ridge: float | None = None
     s_bar: float = 100.0
     shrinkage: float | None = 1e-6
     noise_std: Mapping[str, float] = field(default_factory=dict)
@@ -83,8 +86,8 @@ class Settings:
 
     def __post_init__(self) -> None:
         RBFBasis(self.n_basis, self.width)  # validates both
-        if not np.isfinite(self.ridge) or self.ridge < 0:
-            raise ValueError(f"ridge must be >= 0, got {self.ridge}")
+        if self.ridge is not None and (not np.isfinite(self.ridge) or self.ridge < 0):
+            raise ValueError(f"ridge must be >= 0 or None, got {self.ridge}")
         if not np.isfinite(self.s_bar) or self.s_bar <= 0:
             raise ValueError(f"s_bar must be positive, got {self.s_bar}")
         if self.shrinkage is not None and not 0.0 < self.shrinkage <= 1.0:
@@ -123,8 +126,8 @@ class Primitive:
         Time modulation of each training demonstration.
     alpha_models : mapping of str to AlphaModel
         Eq. 7 model per modality.
-    shrinkage : float
-        The covariance shrinkage intensity used.
+    shrinkage : array, shape (n_dims,)
+        The covariance shrinkage intensity used for each dimension (one per modality).
     log_alpha_mean : float
         Mean of log(alpha) over the training demonstrations.
     alpha_slope : array, shape (n_weights,)
@@ -141,7 +144,7 @@ class Primitive:
     noise_var: np.ndarray
     alphas: np.ndarray
     alpha_models: Mapping[str, AlphaModel]
-    shrinkage: float
+    shrinkage: np.ndarray
     log_alpha_mean: float = 0.0
     alpha_slope: np.ndarray | None = None
     noise_tau: np.ndarray | None = None
@@ -285,12 +288,99 @@ def fit_weights(
     return w.T.reshape(-1), values - phi @ w
 
 
-def block_target(centred: np.ndarray, n_dims: int, dof: float) -> np.ndarray:
-    """Average weight variance of each dimension, repeated over its block, shape (n_weights,)."""
-    variances = (centred**2).sum(axis=0) / dof
-    block = variances.reshape(n_dims, -1)
-    tau = np.maximum(block.mean(axis=1, keepdims=True), 1e-300)
-    return np.broadcast_to(tau, block.shape).reshape(-1).copy()
+RIDGE_GRID = np.logspace(-10, 1, 23)
+
+
+@dataclass
+class WeightFits:
+    """Per-demonstration weights (Eq. 2) of a set of demonstrations.
+
+    Attributes
+    ----------
+    weights : list of arrays, shape (n_dims * n_basis,)
+    residuals : list of arrays, shape (n_samples_j, n_dims)
+    dof : list of arrays, shape (n_dims,)
+        Residual degrees of freedom, ``n_j - trace(hat matrix)``.
+    ridge : array, shape (n_dims,)
+        The relative ridge strength used for each dimension.
+    """
+
+    weights: list[np.ndarray]
+    residuals: list[np.ndarray]
+    dof: list[np.ndarray]
+    ridge: np.ndarray
+
+
+def fit_all_weights(
+    basis: RBFBasis,
+    demos: Sequence[Demonstration],
+    layout: Layout,
+    ridge: float | None,
+) -> WeightFits:
+    """Ridge weights of every demonstration; the ridge per modality by pooled GCV if None.
+
+    Generalised cross-validation (Golub, Heath & Wahba 1979), pooled over demonstrations:
+    ``sum_j n_j RSS_j(lambda) / (n_j - df_j(lambda))^2`` summed over a modality's dimensions,
+    minimised over a log grid of relative strengths. Computed through the eigendecomposition of
+    each ``Phi_j^T Phi_j``, so every candidate costs O(M D) per demonstration.
+    """
+    n_dims = layout.n_dims
+    parts = []
+    for demo in demos:
+        values = layout.extract(demo)
+        phi = basis(demo_phases(demo.times))
+        eig, vec = np.linalg.eigh(phi.T @ phi)
+        eig = np.maximum(eig, 0.0)
+        scale = float(eig.sum()) / eig.shape[0]  # mean diagonal of Phi^T Phi
+        proj = vec.T @ (phi.T @ values)  # (M, D)
+        parts.append((values, phi, eig, vec, scale, proj))
+
+    def gcv(rel: float) -> np.ndarray:
+        score = np.zeros(n_dims)
+        for values, _, eig, _, scale, proj in parts:
+            shrink = 1.0 / (eig + rel * scale + 1e-12 * scale)
+            coef = proj * shrink[:, None]
+            rss = (values**2).sum(axis=0) - 2 * (coef * proj).sum(axis=0)
+            rss += (coef**2 * eig[:, None]).sum(axis=0)
+            df = float((eig * shrink).sum())
+            n = values.shape[0]
+            score += n * np.maximum(rss, 0.0) / max(n - df, 1e-3) ** 2
+        return score
+
+    rel = np.full(n_dims, ridge if ridge is not None else 0.0)
+    if ridge is None:
+        scores = np.array([gcv(r) for r in RIDGE_GRID])  # (grid, D)
+        for modality in layout.modalities:
+            dims = layout.dims([modality.name])
+            rel[dims] = RIDGE_GRID[int(np.argmin(scores[:, dims].sum(axis=1)))]
+    fits = WeightFits(weights=[], residuals=[], dof=[], ridge=rel)
+    for values, phi, eig, vec, scale, proj in parts:
+        shrink = 1.0 / (eig[:, None] + (rel[None, :] + 1e-12) * scale)  # (M, D)
+        w = vec @ (proj * shrink)  # (M, D)
+        fits.weights.append(w.T.reshape(-1))
+        fits.residuals.append(values - phi @ w)
+        fits.dof.append(values.shape[0] - (eig[:, None] * shrink).sum(axis=0))
+    return fits
+
+
+def block_target(
+    centred: np.ndarray, n_dims: int, dof: float, basis: RBFBasis, n_phases: int = 101
+) -> np.ndarray:
+    """Diagonal of the shrinkage target F, one scaled identity per dimension, (n_weights,).
+
+    The scale is set in trajectory space, where it means something: independent weights of
+    variance ``tau_d`` give trajectories whose variance, averaged over the phase, equals the
+    demonstrations' own average variance in dimension d. (Set from the weights' variances
+    instead, an overlapping basis, whose near-collinear weights vary wildly while their
+    trajectory does not, would give a target of metres.)
+    """
+    phi = basis(np.linspace(0.0, 1.0, n_phases))  # (Z, M)
+    blocks = centred.reshape(centred.shape[0], n_dims, -1)  # (N, D, M)
+    trajectories = np.einsum("ndm,zm->ndz", blocks, phi)
+    spread = (trajectories**2).sum(axis=0).mean(axis=-1) / dof  # (D,)
+    gain = float((phi**2).sum(axis=1).mean())  # trajectory variance per unit weight variance
+    tau = np.maximum(spread / gain, 1e-300)
+    return np.repeat(tau, phi.shape[1])
 
 
 def ledoit_wolf_intensity(centred: np.ndarray, target_diag: np.ndarray) -> float:
@@ -317,6 +407,53 @@ def ledoit_wolf_intensity(centred: np.ndarray, target_diag: np.ndarray) -> float
     return float(np.clip(min(spread, distance) / distance, MIN_SHRINKAGE, 1.0))
 
 
+SHRINKAGE_GRID = (1e-6, 1e-4, 1e-3, 1e-2, 0.03, 0.1, 0.3, 0.6)
+
+
+def loo_shrinkage(centred: np.ndarray, target_diag: np.ndarray, dof: float) -> float:
+    """Shrinkage intensity maximising the leave-one-out likelihood of the demonstrations.
+
+    Hoffbeck and Landgrebe's rule for covariance estimation with limited training data
+    (IEEE TPAMI 1996): each demonstration's weights are scored under the Gaussian estimated
+    from the others, ``N(mean_-j, lambda F + (1 - lambda) S_-j)``, and the intensity on
+    :data:`SHRINKAGE_GRID` with the highest total wins. Clean modalities keep almost the sample
+    covariance (the span of the demonstrations); noisy ones are shrunk. Woodbury's identity
+    keeps every score an (n - 1) x (n - 1) factorisation.
+
+    Parameters
+    ----------
+    centred : array, shape (n_demos, n_weights)
+        Centred weights (or regression residuals) of one modality.
+    target_diag : array, shape (n_weights,)
+        Diagonal of the target F.
+    dof : float
+        Degrees of freedom of the full sample covariance (n - 1, or n - 2 with the alpha
+        regression); leaving one out removes one.
+    """
+    n = centred.shape[0]
+    if n < 4:
+        return SHRINKAGE_GRID[-1]
+    best, best_score = SHRINKAGE_GRID[-1], -np.inf
+    for lam in SHRINKAGE_GRID:
+        d = lam * target_diag  # (P,)
+        score = 0.0
+        for j in range(n):
+            others = np.delete(centred, j, axis=0)
+            mean_others = others.mean(axis=0)
+            x = centred[j] - mean_others
+            v = np.sqrt((1.0 - lam) / (dof - 1.0)) * (others - mean_others).T  # (P, n - 1)
+            dv = v / d[:, None]
+            inner = np.eye(n - 1) + v.T @ dv
+            chol = np.linalg.cholesky(inner)
+            b = np.linalg.solve(chol, dv.T @ x)
+            quad = float(x @ (x / d) - b @ b)
+            logdet = float(np.log(d).sum() + 2.0 * np.log(np.diag(chol)).sum())
+            score -= 0.5 * (quad + logdet)
+        if score > best_score:
+            best, best_score = lam, score
+    return float(best)
+
+
 def _resample_uniform(demo: Demonstration, values: np.ndarray, dt: float) -> np.ndarray:
     """Values on a uniform grid of period ``dt`` from the first sample (for Eq. 7)."""
     n = int(round(demo.duration / dt)) + 1
@@ -326,7 +463,7 @@ def _resample_uniform(demo: Demonstration, values: np.ndarray, dt: float) -> np.
 
 
 def estimate_noise(
-    residuals: Sequence[np.ndarray],
+    fits: WeightFits,
     times: Sequence[np.ndarray],
     layout: Layout,
     settings: Settings,
@@ -335,10 +472,10 @@ def estimate_noise(
 
     Parameters
     ----------
-    residuals : list of arrays, shape (n_j, n_dims)
-        Fit residuals of every demonstration (of every primitive).
+    fits : WeightFits
+        Fits of every demonstration (of every primitive).
     times : list of arrays, shape (n_j,)
-        Their sample times.
+        Their sample times, in the same order.
 
     Returns
     -------
@@ -351,10 +488,10 @@ def estimate_noise(
         autocorrelation ``rho`` at the mean sample step ``dt``: ``-dt / log(rho)``; 0 (white)
         when ``rho <= 0`` or ``settings.noise_correlation`` is off.
     """
-    n_basis = settings.n_basis
+    residuals = fits.residuals
     sse = sum((r**2).sum(axis=0) for r in residuals)
     lagged = sum((r[1:] * r[:-1]).sum(axis=0) for r in residuals)  # sum of r_i r_(i-1)
-    dof = sum(max(r.shape[0] - n_basis, 1) for r in residuals)
+    dof = np.maximum(sum(fits.dof), 1.0)
     dt = float(np.concatenate([np.diff(t) for t in times]).mean())
     noise_var = sse / dof
     noise_tau = np.zeros(layout.n_dims)
@@ -394,12 +531,7 @@ def fit_primitive(
     n_dims = layout.n_dims
     values = [layout.extract(demo) for demo in demos]
     if weights is None:
-        weights = np.array(
-            [
-                fit_weights(basis, d.times, v, settings.ridge)[0]
-                for d, v in zip(demos, values, strict=True)
-            ]
-        )
+        weights = np.array(fit_all_weights(basis, demos, layout, settings.ridge).weights)
     alphas = np.array(
         [alpha_from_duration(d.duration, sample_period, settings.s_bar) for d in demos]
     )
@@ -418,13 +550,20 @@ def fit_primitive(
         slope = centred.T @ a_c / float(a_c @ a_c)
         centred = centred - np.outer(a_c, slope)
         dof = len(demos) - 2
-    target = block_target(centred, n_dims, dof)
-    if settings.shrinkage is None:
-        lam = ledoit_wolf_intensity(centred, target)
-    else:
-        lam = max(settings.shrinkage, MIN_SHRINKAGE)
-    cov_diag = lam * target
-    cov_factor = np.sqrt((1.0 - lam) / dof) * centred.T
+    target = block_target(centred, n_dims, dof, basis)
+    # One intensity per modality: a noisy modality (head angles) needs far more than a clean
+    # one (the hand), and the estimate of one should not be diluted by the other.
+    lam = np.empty(n_dims)
+    for modality in layout.modalities:
+        dims = layout.dims([modality.name])
+        cols = (dims[:, None] * basis.n_basis + np.arange(basis.n_basis)).reshape(-1)
+        if settings.shrinkage is None:
+            lam[dims] = loo_shrinkage(centred[:, cols], target[cols], dof)
+        else:
+            lam[dims] = max(settings.shrinkage, MIN_SHRINKAGE)
+    per_weight = np.repeat(lam, basis.n_basis)
+    cov_diag = per_weight * target
+    cov_factor = np.sqrt((1.0 - per_weight) / dof)[:, None] * centred.T
 
     alpha_models = {
         m.name: AlphaModel.fit([t[:, layout.dims([m.name])] for t in trajectories], alphas)
@@ -477,17 +616,9 @@ def fit(
                 f"primitive {name!r} has {len(demos)} demonstration(s); at least 2 are needed "
                 "to learn a distribution"
             )
-    basis = settings.basis
-    fits = {
-        name: [fit_weights(basis, d.times, layout.extract(d), settings.ridge) for d in demos]
-        for name, demos in dataset.items()
-    }
-    noise_var, noise_tau = estimate_noise(
-        [resid for per_demo in fits.values() for _, resid in per_demo],
-        [d.times for d in all_demos],
-        layout,
-        settings,
-    )
+    fits = fit_all_weights(settings.basis, all_demos, layout, settings.ridge)
+    noise_var, noise_tau = estimate_noise(fits, [d.times for d in all_demos], layout, settings)
+    offsets = np.cumsum([0] + [len(demos) for demos in dataset.values()])
     primitives = tuple(
         fit_primitive(
             name,
@@ -497,8 +628,8 @@ def fit(
             dt,
             noise_var,
             noise_tau,
-            weights=np.array([w for w, _ in fits[name]]),
+            weights=np.array(fits.weights[offsets[k] : offsets[k + 1]]),
         )
-        for name, demos in dataset.items()
+        for k, (name, demos) in enumerate(dataset.items())
     )
     return ProMPModel(layout=layout, settings=settings, sample_period=dt, primitives=primitives)

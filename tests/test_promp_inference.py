@@ -107,27 +107,31 @@ def test_conditioning_never_increases_a_marginal_variance(model, n_observed, whi
     assert np.all(post_std <= prior_std * (1 + 1e-7) + 1e-12)
 
 
-@settings(max_examples=15, deadline=None)
-@given(noise=st.sampled_from([1e-2, 1e-4, 1e-6, 1e-8]))
-def test_posterior_mean_goes_through_the_observations_as_noise_vanishes(noise) -> None:
-    # A full-rank prior (half shrunk to its diagonal), so every noise level tested is far below
-    # the prior's smallest standard deviation: the asymptotic regime of the property.
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(min_value=0, max_value=1000))
+def test_posterior_mean_goes_through_the_observations_as_noise_vanishes(seed) -> None:
+    # A full-rank prior (half shrunk to its target), so the property's asymptotic regime is
+    # reached at the noise levels tested.
     base = fit(make_dataset(seed=2, n_demos=10), LAYOUT, Settings(n_basis=8, shrinkage=0.5))
-    prim = dataclasses.replace(base.primitives[0], noise_var=np.full(6, noise**2))
-    model = dataclasses.replace(base, primitives=(prim,))
-    demo = make_demo(np.random.default_rng(5), np.array([0.25, -0.15, 0.1, 0.05, 0.3, -0.5]))
+    rng = np.random.default_rng(seed)
+    demo = make_demo(rng, rng.normal(scale=0.3, size=6))
     # Four samples spread over the movement (fewer than the weights, so they can be met
     # exactly), in both modalities.
     index = np.array([0, 20, 40, 60])
-    values = LAYOUT.extract(demo)[index]
-    obs = Observation(demo.times[index], values, ("hand", "head"))
-    alpha = float(prim.alphas.max())
-    post = condition(model, prim, obs, alpha)
-    fitted = (
-        model.basis(obs.elapsed / predict(model, post, alpha).duration) @ post.mean.reshape(6, -1).T
-    )
-    error = np.abs(fitted - obs.values).max()
-    assert error < 1e-3 * np.abs(obs.values).max() + 50 * noise
+    obs = Observation(demo.times[index], LAYOUT.extract(demo)[index], ("hand", "head"))
+    errors = []
+    for noise in (1e-2, 1e-4, 1e-6, 1e-8):
+        prim = dataclasses.replace(
+            base.primitives[0], noise_var=np.full(6, noise**2), noise_tau=np.zeros(6)
+        )
+        model = dataclasses.replace(base, primitives=(prim,))
+        alpha = float(prim.alphas.max())
+        post = condition(model, prim, obs, alpha)
+        duration = predict(model, post, alpha).duration
+        fitted = model.basis(obs.elapsed / duration) @ post.mean.reshape(6, -1).T
+        errors.append(float(np.abs(fitted - obs.values).max()))
+    assert all(b <= a * 1.01 + 1e-12 for a, b in zip(errors, errors[1:], strict=False))
+    assert errors[-1] < 1e-5 * np.abs(obs.values).max() + 1e-9
 
 
 @settings(max_examples=10, deadline=None)

@@ -39,7 +39,8 @@ def test_model_round_trip_is_exact(model, tmp_path: Path) -> None:
     assert loaded.settings == model.settings
     assert loaded.sample_period == model.sample_period
     for a, b in zip(model.primitives, loaded.primitives, strict=True):
-        assert a.name == b.name and a.shrinkage == b.shrinkage
+        assert a.name == b.name
+        assert_array_equal(a.shrinkage, b.shrinkage)
         for field in (
             "mean",
             "cov_diag",
