@@ -40,6 +40,21 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--robot", default="iCubNancy01", help="robot model from the icub-models package"
     )
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument(
+        "--camera",
+        type=int,
+        default=None,
+        metavar="INDEX",
+        help="take the partner's head pose from this webcam (default: a simulated partner)",
+    )
+    source.add_argument(
+        "--video",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="take the partner's head pose from this video file",
+    )
     return parser
 
 
@@ -68,7 +83,12 @@ def main(argv: list[str] | None = None) -> None:
 
     try:
         studio = Studio.start(
-            host=args.host, port=args.port, workspace=args.workspace, robot=args.robot
+            host=args.host,
+            port=args.port,
+            workspace=args.workspace,
+            robot=args.robot,
+            camera=args.camera,
+            video=args.video,
         )
     except ValueError as exc:
         sys.exit(f"error: {exc}")

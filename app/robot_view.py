@@ -1,4 +1,7 @@
-"""The iCub in the 3D view: URDF meshes, ground grid, table, object, bins, partner, camera."""
+"""The iCub in the 3D view: URDF meshes, ground grid, table, object, bins, camera framing.
+
+The partner's head avatar is drawn by :mod:`app.scene_view`, which also orients it.
+"""
 
 from __future__ import annotations
 
@@ -13,14 +16,10 @@ from robots.icub.model import ground_height, natural_pose
 from robots.icub.scene import Scene
 
 ROBOT_ROOT = "/robot"
-# The partner's head: a frame at the head centre whose face (the nose) points along its +x. Set
-# its wxyz from robots.icub.scene.head_rotation(roll, pitch, yaw, head_position), which includes
-# the neutral frame (zero = looking at the robot's eyes), to show the head orientation.
-PARTNER_HEAD_NODE = "/scene/partner/head"
-# Camera in front of the robot and to its left, above the table, looking at the chest and the
-# table: the robot faces -x, so the viewer stands at negative x.
-CAMERA_POSITION = (-1.05, -0.75, 0.4)
-CAMERA_LOOK_AT = (-0.2, -0.05, -0.02)
+# Camera on the robot's left (-y), above the table, framing the robot's upper body, the table
+# workspace and the partner's head across the table (at x = -1).
+CAMERA_POSITION = (-0.55, -1.55, 0.6)
+CAMERA_LOOK_AT = (-0.5, -0.08, 0.05)
 CAMERA_FOV_DEG = 55.0
 
 
@@ -40,8 +39,7 @@ class RobotView:
 
 
 def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> RobotView:
-    """Add the robot, the ground, the table, the object, the bins and the partner's head to the
-    scene and frame the camera."""
+    """Add the robot, the ground, the table, the object and the bins, and frame the camera."""
     server.scene.set_up_direction("+z")
     ground = ground_height(urdf)
     server.scene.add_grid(
@@ -88,14 +86,6 @@ def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> R
                 position=part.center,
                 color=(70, 110, 170),
             )
-    server.scene.add_frame(PARTNER_HEAD_NODE, position=scene.partner_head, show_axes=False)
-    server.scene.add_icosphere(f"{PARTNER_HEAD_NODE}/skull", radius=0.09, color=(225, 190, 160))
-    server.scene.add_box(
-        f"{PARTNER_HEAD_NODE}/nose",
-        dimensions=(0.04, 0.02, 0.03),
-        position=(0.09, 0.0, -0.01),
-        color=(205, 165, 135),
-    )
     server.initial_camera.position = CAMERA_POSITION
     server.initial_camera.look_at = CAMERA_LOOK_AT
     server.initial_camera.fov = np.deg2rad(CAMERA_FOV_DEG)

@@ -94,3 +94,35 @@ def wait_until(predicate, timeout: float = 30.0, interval: float = 0.05, what: s
             return value
         time.sleep(interval)
     pytest.fail(f"timed out after {timeout:.0f} s waiting for {what}")
+
+
+def start_studio(workspace: Path, **kwargs):
+    """A studio on a free loopback port, in this process (stop it with ``studio.stop()``)."""
+    from app.net import free_port
+    from app.studio import Studio
+
+    return Studio.start("127.0.0.1", free_port(), workspace, **kwargs)
+
+
+def open_page(browser, studio, width: int = 1400, height: int = 900):
+    """A Chromium tab connected to ``studio``; returns (page, viser client handle).
+
+    Waits for the client to connect and for the first frames, and closes viser's "software
+    WebGL" notice (headless Chromium renders without a GPU) so screenshots show the studio.
+    """
+    page = browser.new_page(viewport={"width": width, "height": height})
+    known = set(studio.server.get_clients())
+    page.goto(f"http://127.0.0.1:{studio.port}")
+    client_id = wait_until(
+        lambda: next((c for c in studio.server.get_clients() if c not in known), None),
+        what="the browser to connect",
+    )
+    client = studio.server.get_clients()[client_id]
+    notice = page.get_by_text("Software WebGL rendering detected")
+    try:
+        notice.wait_for(timeout=5000)
+        page.locator(".mantine-Notification-closeButton").first.click()
+    except Exception:  # the notice is optional: a GPU-backed browser shows none
+        pass
+    time.sleep(1.0)
+    return page, client

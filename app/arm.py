@@ -1,0 +1,124 @@
+"""Dragging the iCub's left hand: a transform gizmo on ``l_hand_dh_frame`` driving the arm by IK.
+
+The gizmo's callback only records the latest target pose; :meth:`ArmController.step`, called
+by the studio's loop, solves the IK from that latest target alone (warm-started from the current
+pose), so a fast drag never queues stale targets and the arm follows smoothly.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import viser
+import viser.transforms as vtf
+
+from app.robot_view import RobotView
+from robots.icub.ik import IKResult, solve_ik
+from robots.icub.kinematics import ArmChain
+
+GIZMO_NODE = "/hand_gizmo"
+
+
+class ArmController:
+    """The left arm of the displayed robot, moved by dragging its hand (see module docstring).
+
+    Attributes
+    ----------
+    q : array, shape (n_arm_joints,)
+        Current arm configuration (torso + left arm), in the chain's joint order.
+    last : IKResult or None
+        Outcome of the latest solve (``reached`` False when the target is out of reach).
+    """
+
+    def __init__(
+        self, server: viser.ViserServer, robot: RobotView, arm: ArmChain, lock_torso: bool = True
+    ):
+        self.server = server
+        self.robot = robot
+        self.arm = arm
+        self.lock_torso = lock_torso
+        self.q = arm.from_full(robot.q)
+        self.last: IKResult | None = None
+        self._lock = threading.Lock()
+        self._target: tuple[np.ndarray, np.ndarray] | None = None
+        pose = arm.fk(self.q)
+        self.gizmo = server.scene.add_transform_controls(
+            GIZMO_NODE,
+            scale=0.12,
+            line_width=3.0,
+            position=pose[:3, 3],
+            wxyz=vtf.SO3.from_matrix(pose[:3, :3]).wxyz,
+            depth_test=False,
+        )
+        self.dragging = False
+        self._snap_pending = False
+
+        @self.gizmo.on_update
+        def _(event) -> None:
+            with self._lock:
+                self._target = (
+                    np.array(self.gizmo.position, dtype=float),
+                    vtf.SO3(np.array(self.gizmo.wxyz)).as_matrix(),
+                )
+
+        @self.gizmo.on_drag_start
+        def _(event) -> None:
+            self.dragging = True
+
+        @self.gizmo.on_drag_end
+        def _(event) -> None:
+            self.dragging = False
+            self._snap_pending = True
+
+    def hand_pose(self) -> np.ndarray:
+        """Homogeneous pose of the hand frame in the root frame, shape (4, 4)."""
+        return self.arm.fk(self.q)
+
+    def hand_position(self) -> np.ndarray:
+        return self.arm.position(self.q)
+
+    def step(self) -> bool:
+        """Solve for the latest gizmo target, if any; True when the arm moved."""
+        with self._lock:
+            target, self._target = self._target, None
+        if target is None:
+            if self._snap_pending:  # after a drag the gizmo returns onto the reached hand
+                self._snap_pending = False
+                self.snap_gizmo()
+            return False
+        position, rotation = target
+        try:
+            result = solve_ik(
+                self.arm,
+                position,
+                self.q,
+                target_rotation=rotation,
+                lock_torso=self.lock_torso,
+                max_iterations=60,
+            )
+        except ValueError:
+            return False
+        self.last = result
+        self.set_q(result.q, move_gizmo=False)
+        return True
+
+    def set_q(self, q: np.ndarray, move_gizmo: bool = True) -> None:
+        """Show the arm configuration ``q`` (e.g. during a replay)."""
+        self.q = self.arm.clip(np.asarray(q, dtype=float))
+        self.robot.set_configuration(self.arm.into_full(self.q, self.robot.q))
+        if move_gizmo:
+            self.snap_gizmo()
+
+    def snap_gizmo(self) -> None:
+        """Put the gizmo back on the hand (after an out-of-reach drag, or a replay)."""
+        pose = self.hand_pose()
+        self.gizmo.position = pose[:3, 3]
+        self.gizmo.wxyz = vtf.SO3.from_matrix(pose[:3, :3]).wxyz
+
+    def move_hand_to(self, position: np.ndarray) -> IKResult:
+        """Solve and show the arm reaching ``position`` (position only); gizmo follows."""
+        result = solve_ik(self.arm, position, self.q, lock_torso=self.lock_torso)
+        self.last = result
+        self.set_q(result.q)
+        return result

@@ -1,0 +1,282 @@
+"""The studio's session: primitives, demonstrations, settings and the learned model.
+
+One :class:`Session` per server, shared by every browser tab, so two tabs always show the same
+state. Every mutation validates first, writes the workspace (atomically), then updates memory
+and bumps :attr:`Session.version`; panels redraw when the version they drew is stale. A lock
+serialises mutations coming from GUI callbacks (which viser runs on a thread pool).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from app.workspace import (
+    COLUMNS,
+    LAYOUT,
+    PALETTE,
+    PrimitiveEntry,
+    Workspace,
+    WorkspaceData,
+    check_color,
+    check_name,
+)
+from promp.data import Demonstration
+from promp.inference import Observation, log_likelihoods
+from promp.model import ProMPModel, Settings, fit
+
+DEFAULT_SETTINGS = {"n_basis": 15, "width": 1.5}
+
+
+@dataclass(frozen=True)
+class Typicality:
+    """How a demonstration compares with its primitive's other demonstrations.
+
+    ``percentile`` is the fraction of the primitive's demonstrations (each scored by a model
+    learned without it) whose log-likelihood is lower than this one's: near 0 means an
+    outlier.
+    """
+
+    log_likelihood: float
+    percentile: float
+
+    @property
+    def label(self) -> str:
+        if self.percentile < 0.05:
+            return "outlier"
+        if self.percentile < 0.2:
+            return "unusual"
+        return "typical"
+
+
+class Session:
+    """Shared state of the studio (see the module docstring)."""
+
+    def __init__(self, workspace: Workspace, data: WorkspaceData):
+        self.workspace = workspace
+        self.lock = threading.RLock()
+        self.primitives: list[PrimitiveEntry] = list(data.primitives)
+        self.demos: dict[str, list[Demonstration]] = {
+            p.name: list(data.demos.get(p.name, [])) for p in self.primitives
+        }
+        self.settings: dict = {**DEFAULT_SETTINGS, **data.settings}
+        self.problems: list[str] = list(data.problems)
+        self.hidden: set[tuple[str, str]] = set()  # (primitive, demo) not drawn
+        self.typicality: dict[tuple[str, str], Typicality] = {}
+        self.model: ProMPModel | None = None
+        self.fit_ms = 0.0
+        self.fit_error: str | None = None
+        self.version = 0
+        self._listeners: list[Callable[[], None]] = []
+        self.refit()
+
+    @classmethod
+    def open(cls, root: Path, default: Callable[[], WorkspaceData] | None = None) -> Session:
+        """Open the workspace at ``root``; an empty one is first filled by ``default()``."""
+        workspace = Workspace(root)
+        if workspace.is_empty() and default is not None:
+            workspace.replace_all(default())
+        workspace.root.mkdir(parents=True, exist_ok=True)
+        return cls(workspace, workspace.load())
+
+    # ------------------------------------------------------------------ observers
+
+    def on_change(self, callback: Callable[[], None]) -> None:
+        """Call ``callback()`` after every change (from the thread that made it)."""
+        self._listeners.append(callback)
+
+    def _changed(self, refit: bool = True) -> None:
+        if refit:
+            self.refit()
+        self.version += 1
+        for callback in list(self._listeners):
+            callback()
+
+    # ------------------------------------------------------------------ queries
+
+    def names(self) -> list[str]:
+        with self.lock:
+            return [p.name for p in self.primitives]
+
+    def entry(self, name: str) -> PrimitiveEntry:
+        for p in self.primitives:
+            if p.name == name:
+                return p
+        raise ValueError(f"unknown primitive {name!r}")
+
+    def color(self, name: str) -> tuple[int, int, int]:
+        return self.entry(name).color
+
+    def learning_settings(self) -> Settings:
+        return Settings(n_basis=int(self.settings["n_basis"]), width=float(self.settings["width"]))
+
+    # ------------------------------------------------------------------ learning
+
+    def refit(self) -> None:
+        """Learn the model from every primitive with at least two demonstrations."""
+        with self.lock:
+            trainable = {n: d for n, d in self.demos.items() if len(d) >= 2}
+            start = time.perf_counter()
+            if not trainable:
+                self.model, self.fit_error = None, "record at least two demonstrations"
+            else:
+                try:
+                    self.model = fit(trainable, LAYOUT, self.learning_settings())
+                    self.fit_error = None
+                except ValueError as exc:
+                    self.model, self.fit_error = None, str(exc)
+            self.fit_ms = 1e3 * (time.perf_counter() - start)
+
+    def score(self, primitive: str, demo: Demonstration) -> Typicality | None:
+        """Typicality of ``demo`` against the model learned from ``primitive``'s other
+        demonstrations (None when fewer than three exist)."""
+        with self.lock:
+            others = [d for d in self.demos.get(primitive, []) if d.name != demo.name]
+            if len(others) < 3:
+                return None
+            try:
+                model = fit({primitive: others}, LAYOUT, self.learning_settings())
+            except ValueError:
+                return None
+            settings = self.learning_settings()
+
+            def loglik(m: ProMPModel, d: Demonstration) -> float:
+                obs = Observation.from_demo(m, d, d.n_samples, LAYOUT.names)
+                alpha = settings.s_bar / (d.duration / m.sample_period + 1.0)
+                value = log_likelihoods(m, m.primitives[0], obs, [alpha * (1 - 1e-9)])[0]
+                return float(value) / d.n_samples
+
+            score = loglik(model, demo)
+            references = []
+            for i, other in enumerate(others):
+                rest = others[:i] + others[i + 1 :]
+                if len(rest) < 2:
+                    continue
+                references.append(loglik(fit({primitive: rest}, LAYOUT, settings), other))
+            percentile = float(np.mean(np.array(references) < score)) if references else 0.5
+            return Typicality(score, percentile)
+
+    # ------------------------------------------------------------------ mutations
+
+    def create_primitive(self, name: str, color: tuple[int, int, int] | None = None) -> None:
+        with self.lock:
+            check_name(name)
+            if name in self.names():
+                raise ValueError(f"a primitive named {name!r} already exists")
+            if color is None:
+                color = PALETTE[len(self.primitives) % len(PALETTE)]
+            entry = PrimitiveEntry(name, check_color(color))
+            self.workspace.demo_dir(name).mkdir(parents=True, exist_ok=True)
+            self.workspace.save_index([*self.primitives, entry], self.settings)
+            self.primitives.append(entry)
+            self.demos[name] = []
+            self._changed(refit=False)
+
+    def rename_primitive(self, old: str, new: str) -> None:
+        with self.lock:
+            self.entry(old)
+            check_name(new)
+            if new == old:
+                return
+            if new in self.names():
+                raise ValueError(f"a primitive named {new!r} already exists")
+            self.workspace.rename_primitive(old, new)
+            primitives = [replace(p, name=new) if p.name == old else p for p in self.primitives]
+            self.workspace.save_index(primitives, self.settings)
+            self.primitives = primitives
+            self.demos[new] = self.demos.pop(old)
+            self.hidden = {(new if p == old else p, d) for p, d in self.hidden}
+            self.typicality = {
+                (new if p == old else p, d): t for (p, d), t in self.typicality.items()
+            }
+            self._changed()
+
+    def recolor_primitive(self, name: str, color: tuple[int, int, int]) -> None:
+        with self.lock:
+            self.entry(name)
+            rgb = check_color(color)
+            primitives = [replace(p, color=rgb) if p.name == name else p for p in self.primitives]
+            self.workspace.save_index(primitives, self.settings)
+            self.primitives = primitives
+            self._changed(refit=False)
+
+    def delete_primitive(self, name: str) -> None:
+        with self.lock:
+            self.entry(name)
+            primitives = [p for p in self.primitives if p.name != name]
+            self.workspace.save_index(primitives, self.settings)
+            self.workspace.delete_primitive(name)
+            self.primitives = primitives
+            self.demos.pop(name, None)
+            self._changed()
+
+    def next_demo_name(self, primitive: str) -> str:
+        existing = {d.name for d in self.demos.get(primitive, [])}
+        i = len(existing)
+        while (
+            f"{primitive}_{i:03d}" in existing
+            or self.workspace.demo_path(primitive, f"{primitive}_{i:03d}").exists()
+        ):
+            i += 1
+        return f"{primitive}_{i:03d}"
+
+    def add_demo(self, primitive: str, times: np.ndarray, values: np.ndarray) -> Demonstration:
+        """Store a new demonstration (times (n,), values (n, 6) in COLUMNS order): written to
+        disk before it joins the session. Returns it (with its name)."""
+        with self.lock:
+            self.entry(primitive)
+            times = np.asarray(times, dtype=float)
+            demo = Demonstration(
+                times - times[0], values, COLUMNS, name=self.next_demo_name(primitive)
+            )
+            typicality = self.score(primitive, demo)
+            self.workspace.write_demo(primitive, demo)
+            self.demos[primitive].append(demo)
+            if typicality is not None:
+                self.typicality[(primitive, demo.name)] = typicality
+            self._changed()
+            return demo
+
+    def delete_demo(self, primitive: str, demo: str) -> None:
+        with self.lock:
+            self.entry(primitive)
+            if demo not in {d.name for d in self.demos[primitive]}:
+                raise ValueError(f"primitive {primitive!r} has no demonstration {demo!r}")
+            self.workspace.delete_demo(primitive, demo)
+            self.demos[primitive] = [d for d in self.demos[primitive] if d.name != demo]
+            self.hidden.discard((primitive, demo))
+            self.typicality.pop((primitive, demo), None)
+            self._changed()
+
+    def set_hidden(self, primitive: str, demo: str, hidden: bool) -> None:
+        with self.lock:
+            (self.hidden.add if hidden else self.hidden.discard)((primitive, demo))
+            self._changed(refit=False)
+
+    def set_learning(self, n_basis: int, width: float) -> None:
+        with self.lock:
+            Settings(n_basis=int(n_basis), width=float(width))  # validates
+            settings = {**self.settings, "n_basis": int(n_basis), "width": float(width)}
+            self.workspace.save_index(self.primitives, settings)
+            self.settings = settings
+            self._changed()
+
+    def replace(self, data: WorkspaceData) -> None:
+        """Swap the whole session for ``data`` (an import), on disk first."""
+        with self.lock:
+            for entry in data.primitives:
+                check_name(entry.name)
+                check_color(entry.color)
+            Settings(**{**DEFAULT_SETTINGS, **data.settings})
+            self.workspace.replace_all(data)
+            self.primitives = list(data.primitives)
+            self.demos = {p.name: list(data.demos.get(p.name, [])) for p in self.primitives}
+            self.settings = {**DEFAULT_SETTINGS, **data.settings}
+            self.hidden.clear()
+            self.typicality.clear()
+            self._changed()
