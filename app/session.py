@@ -30,7 +30,7 @@ from promp.data import Demonstration
 from promp.inference import Observation, log_likelihoods
 from promp.model import ProMPModel, Settings, fit
 
-DEFAULT_SETTINGS = {"n_basis": 15, "width": 1.5}
+DEFAULT_SETTINGS = {"n_basis": Settings().n_basis, "width": Settings().width}
 
 
 @dataclass(frozen=True)
@@ -71,6 +71,10 @@ class Session:
         self.model: ProMPModel | None = None
         self.fit_ms = 0.0
         self.fit_error: str | None = None
+        # A model imported from a file (Data tab) that inference uses instead of the learned
+        # one until the demonstrations or settings next change (see use_imported_model).
+        self.imported_model: ProMPModel | None = None
+        self.imported_from = ""
         self.version = 0
         self._listeners: list[Callable[[], None]] = []
         self.refit()
@@ -93,6 +97,7 @@ class Session:
     def _changed(self, refit: bool = True) -> None:
         if refit:
             self.refit()
+            self.imported_model, self.imported_from = None, ""
         self.version += 1
         for callback in list(self._listeners):
             callback()
@@ -111,6 +116,11 @@ class Session:
 
     def color(self, name: str) -> tuple[int, int, int]:
         return self.entry(name).color
+
+    def inference_model(self) -> ProMPModel | None:
+        """The model inference uses: the imported one if any, else the learned one."""
+        with self.lock:
+            return self.imported_model if self.imported_model is not None else self.model
 
     def learning_settings(self) -> Settings:
         return Settings(n_basis=int(self.settings["n_basis"]), width=float(self.settings["width"]))
@@ -265,6 +275,20 @@ class Session:
             self.workspace.save_index(self.primitives, settings)
             self.settings = settings
             self._changed()
+
+    def use_imported_model(self, model: ProMPModel | None, source: str = "") -> None:
+        """Infer with ``model`` (e.g. read from an uploaded file) instead of the model learned
+        from the demonstrations, until the demonstrations or learning settings next change;
+        None goes back to the learned model. Not written to the workspace."""
+        with self.lock:
+            if model is not None and model.layout != LAYOUT:
+                raise ValueError(
+                    f"the model's modalities {list(model.layout.columns)} are not the studio's "
+                    f"{list(LAYOUT.columns)}"
+                )
+            self.imported_model = model
+            self.imported_from = source if model is not None else ""
+            self._changed(refit=False)
 
     def replace(self, data: WorkspaceData) -> None:
         """Swap the whole session for ``data`` (an import), on disk first."""

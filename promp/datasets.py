@@ -93,27 +93,40 @@ def read_csv_demo(path: Path) -> Demonstration:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path}: cannot read as text ({exc})") from exc
+    return demo_from_csv(text, name=path.stem, label=str(path))
+
+
+def demo_from_csv(text: str, name: str = "", label: str = "CSV") -> Demonstration:
+    """Parse the CSV text of one demonstration (the inverse of :func:`demo_to_csv`).
+
+    ``label`` names the source in error messages (a path, an archive member).
+
+    Raises
+    ------
+    ValueError
+        As :func:`read_csv_demo`.
+    """
     rows = [row for row in csv.reader(io.StringIO(text)) if any(cell.strip() for cell in row)]
     if not rows:
-        raise ValueError(f"{path}: empty file, expected a header row 't,<columns>' and samples")
+        raise ValueError(f"{label}: empty file, expected a header row 't,<columns>' and samples")
     header = [cell.strip() for cell in rows[0]]
     if "t" not in header:
-        raise ValueError(f"{path}: the header {header} has no 't' (time in seconds) column")
+        raise ValueError(f"{label}: the header {header} has no 't' (time in seconds) column")
     if len(rows) < 2:
-        raise ValueError(f"{path}: no samples after the header")
+        raise ValueError(f"{label}: no samples after the header")
     if any(len(row) != len(header) for row in rows[1:]):
-        raise ValueError(f"{path}: every row must have {len(header)} values like the header")
+        raise ValueError(f"{label}: every row must have {len(header)} values like the header")
     try:
         table = np.array([[float(cell) for cell in row] for row in rows[1:]], dtype=float)
     except ValueError as exc:
-        raise ValueError(f"{path}: non-numeric value ({exc})") from exc
+        raise ValueError(f"{label}: non-numeric value ({exc})") from exc
     t_index = header.index("t")
-    columns = [name for i, name in enumerate(header) if i != t_index]
+    columns = [column for i, column in enumerate(header) if i != t_index]
     values = np.delete(table, t_index, axis=1)
     try:
-        return Demonstration(table[:, t_index], values, tuple(columns), name=path.stem)
+        return Demonstration(table[:, t_index], values, tuple(columns), name=name)
     except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from exc
+        raise ValueError(f"{label}: {exc}") from exc
 
 
 def _sorted_files(folder: Path, pattern: str) -> list[Path]:

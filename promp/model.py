@@ -74,7 +74,7 @@ class Settings:
         the prior at a candidate alpha is the conditional Gaussian (see :class:`Primitive`).
     """
 
-    n_basis: int = 20
+    n_basis: int = 10
     width: float = 1.0
     ridge: float | None = None
     s_bar: float = 100.0

@@ -70,7 +70,8 @@ def curves(rows: list[dict], path: Path, method: str) -> None:
 def example(trial: Trial, dataset: Dataset, layout: Layout, path: Path) -> None:
     """One inference like Figs. 4, 7, 9: observed samples, prior and posterior bands, truth."""
     plt = _pyplot()
-    demo = next(d for demos in dataset.values() for d in demos if d.name == trial.demo)
+    names = list(dataset)  # demo names repeat across primitives: look in the right one
+    demo = next(d for d in dataset[names[trial.primitive]] if d.name == trial.demo)
     truth = layout.extract(demo)
     t_true = demo.times - demo.times[0]
     n_obs = max(1, int(np.ceil(trial.percent / 100 * demo.n_samples - 1e-9)))
@@ -104,8 +105,9 @@ def example(trial: Trial, dataset: Dataset, layout: Layout, path: Path) -> None:
         ax.set_xlabel("s")
     axes[0][0].legend(fontsize=7)
     fig.suptitle(
-        f"{trial.demo}: {trial.percent:.0f} % of {'+'.join(trial.observed)} observed, "
-        f"alpha {trial.alpha_method}"
+        f"{names[trial.primitive]} {trial.demo}: {trial.percent:.0f} % of "
+        f"{'+'.join(trial.observed)} observed, alpha {trial.alpha_method}, recognised "
+        f"{names[inf.index]} (p = {inf.probabilities[inf.index]:.2f})"
     )
     fig.tight_layout()
     fig.savefig(path, dpi=100)
