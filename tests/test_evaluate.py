@@ -194,3 +194,20 @@ def test_heights_accuracy_against_the_original_toolbox(heights_dir: Path, tmp_pa
     assert ours[80]["recognition_errors"] <= 4 and ours[80]["position_error_m"] <= 0.009
     assert ours[40]["position_error_m"] <= 0.018
     assert ours[40]["recognition_errors"] <= 0.6 * seed[40]["recognition_errors"]
+
+
+def test_selection_rule_scores_every_candidate_and_picks_the_lowest_log_loss(
+    tmp_path: Path, monkeypatch
+) -> None:
+    from promp.evaluate import select
+
+    monkeypatch.setattr(select, "CANDIDATES", ((6, 1.0), (8, 1.0)))
+    monkeypatch.setattr(select, "PERCENTS", (40, 80))
+    write_csv_dataset(tmp_path / "data", make_dataset(seed=3, n_demos=4))
+    out = tmp_path / "select.json"
+    assert select.main([str(tmp_path / "data"), "--format", "csv", "--json", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert [(c["n_basis"], c["width"]) for c in report["candidates"]] == [(6, 1.0), (8, 1.0)]
+    best = min(report["candidates"], key=lambda c: c["log_loss"])
+    assert report["chosen"] == best
+    assert all(c["trials"] == 2 * 8 for c in report["candidates"])
