@@ -22,7 +22,13 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from promp.data import Layout, Modality
-from promp.datasets import Dataset, load_csv_dataset, load_records_dataset, records_layout
+from promp.datasets import (
+    Dataset,
+    check_columns,
+    load_csv_dataset,
+    load_records_dataset,
+    records_layout,
+)
 from promp.evaluate.methods import Ours
 from promp.evaluate.seed import Seed
 from promp.evaluate.sweep import position_modality, run_sweep, stderr_progress
@@ -110,8 +116,6 @@ def load(args: argparse.Namespace) -> tuple[Dataset, Layout, list[list[str]]]:
             layout = Layout(tuple(parse_modalities(args.modality)))
         else:
             layout = default_csv_layout(dataset)
-        from promp.datasets import check_columns
-
         check_columns(dataset, layout.columns)
         observe = observe or [[position_modality(layout)]]
     for names in observe:

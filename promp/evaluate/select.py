@@ -15,6 +15,7 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -39,13 +40,12 @@ def score(rows: list[dict], trials) -> dict:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m promp.evaluate.select", description=__doc__)
-    parser.add_argument("dataset")
+    parser.add_argument("dataset", type=Path)
     parser.add_argument("--format", choices=("records", "csv"), required=True)
     parser.add_argument("--modality", action="append", default=[])
     parser.add_argument("--observe", action="append", default=None)
     parser.add_argument("--json", default=None)
     args = parser.parse_args(argv)
-    args.dataset = __import__("pathlib").Path(args.dataset)
     try:
         dataset, layout, observe = load(args)
     except ValueError as exc:
