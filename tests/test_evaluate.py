@@ -201,13 +201,13 @@ def test_selection_rule_scores_every_candidate_and_picks_the_lowest_log_loss(
 ) -> None:
     from promp.evaluate import select
 
-    monkeypatch.setattr(select, "CANDIDATES", ((6, 1.0), (8, 1.0)))
+    monkeypatch.setattr(select, "CANDIDATES", ((6, 1.0, 1e-6), (8, 1.0, None)))
     monkeypatch.setattr(select, "PERCENTS", (40, 80))
     write_csv_dataset(tmp_path / "data", make_dataset(seed=3, n_demos=4))
     out = tmp_path / "select.json"
     assert select.main([str(tmp_path / "data"), "--format", "csv", "--json", str(out)]) == 0
     report = json.loads(out.read_text())
-    assert [(c["n_basis"], c["width"]) for c in report["candidates"]] == [(6, 1.0), (8, 1.0)]
+    assert [(c["n_basis"], c["shrinkage"]) for c in report["candidates"]] == [(6, 1e-6), (8, None)]
     best = min(report["candidates"], key=lambda c: c["log_loss"])
     assert report["chosen"] == best
     assert all(c["trials"] == 2 * 8 for c in report["candidates"])

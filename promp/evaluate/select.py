@@ -1,12 +1,12 @@
-"""Choosing the basis by a rule: leave-one-out recognition log-loss.
+"""Choosing the settings by a rule: leave-one-out recognition log-loss.
 
-``python -m promp.evaluate.select DATASET --format ...`` scores each candidate basis (number of
-functions per dimension M and width) by the mean negative log posterior probability of the true
-primitive, over every held-out demonstration and every observed percentage (10 ... 90 %): a
-proper scoring rule of what the studio does, averaged over the whole movement rather than one
-percentage, so it is not tuned to a single operating point. The lowest wins. It works on any
-dataset the evaluation reads; the defaults of :class:`promp.model.Settings` are its choice on
-the lab recordings (see the README).
+``python -m promp.evaluate.select DATASET --format ...`` scores each candidate setting (number
+of basis functions per dimension M, width, covariance shrinkage) by the mean negative log
+posterior probability of the true primitive, over every held-out demonstration and every
+observed percentage (10 ... 90 %): a proper scoring rule of what the studio does, averaged over
+the whole movement rather than one percentage, so it is not tuned to a single operating point.
+The lowest wins. It works on any dataset the evaluation reads; the defaults of
+:class:`promp.model.Settings` are its choice on the lab recordings (see the README).
 """
 
 from __future__ import annotations
@@ -24,7 +24,17 @@ from promp.evaluate.methods import Ours
 from promp.evaluate.sweep import run_sweep, stderr_progress
 from promp.model import Settings
 
-CANDIDATES = ((10, 1.0), (12, 1.0), (15, 1.5), (15, 2.0), (20, 2.0), (25, 2.5))
+# (basis functions per dimension, width, covariance shrinkage: a fixed intensity, or None for
+# the leave-one-out estimate per modality)
+CANDIDATES = (
+    (10, 1.0, 1e-6),
+    (12, 1.0, 1e-6),
+    (15, 1.5, 1e-6),
+    (15, 2.0, 1e-6),
+    (20, 2.0, 1e-6),
+    (10, 1.0, None),
+    (15, 1.5, None),
+)
 PERCENTS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
 
 
@@ -52,8 +62,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     results = []
-    for n_basis, width in CANDIDATES:
-        settings = Settings(n_basis=n_basis, width=width)
+    for n_basis, width, shrinkage in CANDIDATES:
+        settings = Settings(n_basis=n_basis, width=width, shrinkage=shrinkage)
         sweep = run_sweep(
             lambda settings=settings: Ours(layout, settings),
             dataset,
@@ -62,18 +72,24 @@ def main(argv: Sequence[str] | None = None) -> int:
             alpha_methods=["ml"],
             observe_sets=observe,
             method_name="ours",
-            progress=stderr_progress(f"M={n_basis} width={width}"),
+            progress=stderr_progress(f"M={n_basis} width={width} shrinkage={shrinkage}"),
             keep_trials=True,
         )
-        row = {"n_basis": n_basis, "width": width, **score(sweep.rows, sweep.trials)}
+        row = {
+            "n_basis": n_basis,
+            "width": width,
+            "shrinkage": shrinkage,
+            **score(sweep.rows, sweep.trials),
+        }
         results.append(row)
         print(
-            f"M={n_basis:3d} width={width:4.1f}: log-loss {row['log_loss']:.3f}, "
+            f"M={n_basis:3d} width={width:4.1f} shrinkage={shrinkage}: "
+            f"log-loss {row['log_loss']:.3f}, "
             f"errors {row['errors']}/{row['trials']}",
             flush=True,
         )
     best = min(results, key=lambda r: r["log_loss"])
-    print(f"chosen: n_basis={best['n_basis']} width={best['width']}")
+    print(f"chosen: n_basis={best['n_basis']} width={best['width']} shrinkage={best['shrinkage']}")
     if args.json:
         with open(args.json, "w") as handle:
             json.dump({"candidates": results, "chosen": best}, handle, indent=1)
