@@ -20,11 +20,14 @@ from robots.icub.scenario import (
     PRIMITIVES,
     THIRD_PRIMITIVE,
     ScenarioParams,
+    arc_progress,
     generate_demonstration,
     generate_scenario,
     head_angles_following,
+    landmark_gaze,
     main,
     minimum_jerk,
+    smooth_path,
 )
 from robots.icub.scene import (
     DEFAULT_SCENE,
@@ -102,17 +105,111 @@ def test_curved_and_direct_share_start_and_end_but_not_the_middle(
         curved = _at_phase(dataset["curved"], phase, hand).mean(axis=0)
         direct = _at_phase(dataset["direct"], phase, hand).mean(axis=0)
         assert np.linalg.norm(curved - direct) < 0.01
-    curved = _at_phase(dataset["curved"], 0.5, hand)
-    direct = _at_phase(dataset["direct"], 0.5, hand)
-    assert np.linalg.norm(curved.mean(axis=0) - direct.mean(axis=0)) > 0.06
-    assert curved[:, 2].min() > direct[:, 2].max(), "the curved movement bows upwards"
-    # Both begin by lifting the object: the first tenth of the movement goes mostly up.
-    for primitive in PRIMITIVES:
-        early = _at_phase(dataset[primitive], 0.2, hand) - _at_phase(dataset[primitive], 0.0, hand)
-        assert np.all(early[:, 2] > 2 * np.abs(early[:, :2]).max(axis=1))
+    for phase in (0.6, 0.7):
+        curved = _at_phase(dataset["curved"], phase, hand)
+        direct = _at_phase(dataset["direct"], phase, hand)
+        assert np.linalg.norm(curved.mean(axis=0) - direct.mean(axis=0)) > 0.12
+        assert curved[:, 2].min() > direct[:, 2].max() + 0.08, "the curved movement arches up"
+    # All begin by lifting the object: the first 35 % of the movement goes mostly up.
+    for primitive in dataset:
+        early = _at_phase(dataset[primitive], 0.35, hand) - _at_phase(dataset[primitive], 0.0, hand)
+        assert np.all(early[:, 2] > 0.04)
+        assert np.all(early[:, 2] > 5 * np.linalg.norm(early[:, :2], axis=1))
     # The third primitive ends at the other bin.
     ends = _at_phase(dataset[THIRD_PRIMITIVE], 1.0, hand)
     assert np.linalg.norm(ends - DEFAULT_SCENE.bins[1].drop_position, axis=1).max() < 0.02
+
+
+def test_curved_and_direct_hands_coincide_for_the_first_40_percent_then_part(
+    dataset: dict[str, list[Demonstration]],
+) -> None:
+    # Early hand observations are ambiguous: the same lift with the same timing, up to the
+    # per-demonstration jitter (same mean, same spread) ...
+    hand = slice(0, 3)
+    for phase in np.arange(0.0, 0.401, 0.05):
+        curved = _at_phase(dataset["curved"], phase, hand)
+        direct = _at_phase(dataset["direct"], phase, hand)
+        assert np.linalg.norm(curved.mean(axis=0) - direct.mean(axis=0)) < 0.005, phase
+        assert_allclose(curved.std(axis=0), direct.std(axis=0), atol=0.003)
+    # ... then they part: several centimetres at half the movement, far apart after.
+    curved = _at_phase(dataset["curved"], 0.5, hand)
+    direct = _at_phase(dataset["direct"], 0.5, hand)
+    assert np.linalg.norm(curved.mean(axis=0) - direct.mean(axis=0)) > 0.04
+    for phase in (0.6, 0.7):
+        curved = _at_phase(dataset["curved"], phase, hand)
+        direct = _at_phase(dataset["direct"], phase, hand)
+        assert np.linalg.norm(curved[:, None] - direct[None], axis=-1).min() > 0.1
+
+
+def test_without_jitter_curved_and_direct_share_path_and_timing_up_to_40_percent() -> None:
+    exact = replace(QUIET, via_jitter=0.0, end_jitter=0.0, duration_spread=0.0)
+    arm = load_arm()
+    curved, direct = (
+        generate_demonstration(arm, DEFAULT_SCENE, p, np.random.default_rng(5), 40.0, exact)
+        for p in PRIMITIVES
+    )
+    assert_allclose(curved.times, direct.times, atol=0)
+    distance = np.linalg.norm(curved.values[:, :3] - direct.values[:, :3], axis=1)
+    phase = curved.times / curved.times[-1]
+    assert distance[phase <= 0.4].max() < 1e-5  # 10 um: the IK's and the arc tables' precision
+    assert distance[np.argmin(np.abs(phase - 0.5))] > 0.04
+    assert distance[-1] < 1e-5
+
+
+def test_the_head_tells_curved_from_direct_while_the_hands_coincide(
+    dataset: dict[str, list[Demonstration]],
+) -> None:
+    def gap_and_spread(phase: float) -> tuple[float, float]:
+        curved = np.rad2deg(_at_phase(dataset["curved"], phase, slice(4, 6)))
+        direct = np.rad2deg(_at_phase(dataset["direct"], phase, slice(4, 6)))
+        gap = float(np.linalg.norm(curved.mean(axis=0) - direct.mean(axis=0)))
+        spread = max(
+            float(np.sqrt(((a - a.mean(axis=0)) ** 2).sum(axis=1).mean())) for a in (curved, direct)
+        )
+        return gap, spread
+
+    # Both watch the object until it leaves the table ...
+    for phase in (0.0, 0.05):
+        gap, spread = gap_and_spread(phase)
+        assert gap < 3.0
+    # ... then look where the hand is going: the apex, well above the bin as seen from the
+    # partner, or the bin. The difference in (pitch, yaw) dwarfs the spread between
+    # demonstrations (noise, drift, head position, timing) well before the hands part.
+    gap, spread = gap_and_spread(0.15)
+    assert gap > spread
+    for phase in np.arange(0.2, 0.451, 0.05):
+        gap, spread = gap_and_spread(phase)
+        assert gap > 10.0 and gap > 2.5 * spread, (phase, gap, spread)
+
+
+def test_timing_path_and_gaze_building_blocks() -> None:
+    # The detour's extra submovement leaves the direct timing untouched until it starts.
+    tau = np.linspace(0.0, 1.0, 401)
+    direct = arc_progress(tau, 0.3, 0.3, 0.45)
+    assert_allclose(direct, 0.3 * minimum_jerk(tau))
+    curved = arc_progress(tau, 0.6, 0.3, 0.45)
+    assert_allclose(curved[tau <= 0.45], direct[tau <= 0.45], atol=0)
+    assert curved[-1] == pytest.approx(0.6) and np.all(np.diff(curved) >= 0.0)
+    assert np.diff(curved)[[0, -1]].max() < 1e-6, "starts and ends at rest"
+    with pytest.raises(ValueError, match="moving backwards"):
+        arc_progress(tau, 0.1, 0.3, 0.45)
+    # Paths through the same first via points share their first pieces exactly.
+    pick, lift = np.array([-0.27, -0.1, 0.01]), np.array([-0.27, -0.1, 0.12])
+    apex, drop = np.array([-0.25, -0.13, 0.33]), np.array([-0.24, -0.29, 0.1])
+    with_apex = smooth_path(np.array([pick, lift, apex, drop]))
+    without = smooth_path(np.array([pick, lift, drop]))
+    assert_allclose(with_apex.knot_arc[:2], without.knot_arc[:2])
+    s = np.linspace(0.0, with_apex.knot_arc[1], 50)
+    assert_allclose(with_apex.at(s), without.at(s), atol=1e-12)
+    assert_allclose(with_apex.at(with_apex.knot_arc), [pick, lift, apex, drop], atol=1e-6)
+    # The gaze: object until the shift, apex until `lead` before the hand gets there, then drop.
+    landmarks = np.array([pick, apex, drop])
+    times = np.arange(7) * 0.5
+    gaze = landmark_gaze(times, landmarks, np.array([0.0, 2.0, 3.0]), shift=0.6, lead=0.5)
+    assert_allclose(gaze, landmarks[[0, 0, 1, 2, 2, 2, 2]])
+    # Too late to look at the apex: straight to the drop point.
+    gaze = landmark_gaze(times, landmarks, np.array([0.0, 1.0, 3.0]), shift=0.6, lead=0.5)
+    assert_allclose(gaze, landmarks[[0, 0, 2, 2, 2, 2, 2]])
 
 
 def test_durations_vary_about_three_seconds(dataset: dict[str, list[Demonstration]]) -> None:
@@ -158,22 +255,51 @@ def _smooth(values: np.ndarray, width: int = 9) -> np.ndarray:
     return np.convolve(padded, np.ones(width) / width, mode="valid")
 
 
+def _looking_at_deg(head: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Largest of the pitch and yaw differences between ``head`` (n, 3) or (3,) and looking at
+    ``points`` (n, 3) or (3,) from the default partner, degrees."""
+    _, pitch, yaw = head_orientation_looking_at(points, PARTNER_HEAD)
+    looking = np.stack([np.asarray(pitch), np.asarray(yaw)], axis=-1)
+    return np.rad2deg(np.abs(np.asarray(head)[..., 1:] - looking).max(axis=-1))
+
+
 def test_the_head_leads_the_hand_without_noise() -> None:
+    # The gaze goes from landmark to landmark ahead of the hand: the object, then (curved) the
+    # apex, then the drop point; the head follows it.
     arm = load_arm()
     rng = np.random.default_rng(30)
-    for primitive, angle in (("direct", 5), ("second_bin", 5), ("curved", 4)):
+    for primitive in ("direct", "second_bin", "curved"):
         for _ in range(3):
             demo = generate_demonstration(arm, DEFAULT_SCENE, primitive, rng, 40.0, QUIET)
-            _, pitch, yaw = head_orientation_looking_at(demo.values[:, :3], PARTNER_HEAD)
-            assert_allclose(demo.values[:, 3], 0.0, atol=0)
-            hand_angle = yaw if angle == 5 else pitch
-            if angle == 5:
-                lead = _half_change_time(demo.times, hand_angle) - _half_change_time(
-                    demo.times, demo.values[:, 5]
-                )
-            else:  # the curved bow: the head rises (pitch falls) before the hand gets there
-                lead = demo.times[np.argmin(hand_angle)] - demo.times[np.argmin(demo.values[:, 4])]
-            assert 0.2 < lead < 1.1, f"{primitive}: head leads by {lead:.2f} s"
+            hand, head, times = demo.values[:, :3], demo.values[:, 3:], demo.times
+            assert_allclose(head[:, 0], 0.0, atol=0)
+            # At the start the partner looks at the object, in the hand.
+            assert _looking_at_deg(head[0], hand[0]) < 0.1
+            # At 35 % of the movement, while the hand is still lifting, the head already points
+            # at where the hand goes next: the drop point, or the curved movement's apex, which
+            # the hand reaches only after 55 % of the movement.
+            k = int(0.35 * (len(times) - 1))
+            assert hand[k, 2] - hand[0, 2] < 0.09
+            fine = np.linspace(0.0, times[-1], 20 * len(times))
+            path = np.column_stack([np.interp(fine, times, hand[:, j]) for j in range(3)])
+            errors = _looking_at_deg(np.tile(head[k], (len(fine), 1)), path)
+            assert errors.min() < 1.5, primitive
+            if primitive == "curved":
+                assert fine[np.argmin(errors)] > 0.55 * times[-1]
+            else:
+                assert errors[-1] < 1.5
+            # And it stays on the drop point for the end of the movement.
+            assert _looking_at_deg(head[-1], hand[-1]) < 0.5
+            _, pitch, yaw = head_orientation_looking_at(hand, PARTNER_HEAD)
+            if primitive == "curved":
+                # The head leaves the apex for the drop point just before the hand gets there.
+                top = times[np.argmin(pitch)]
+                leaves = times[np.nonzero(head[:, 1] < head[:, 1].min() + np.deg2rad(0.5))[0][-1]]
+                lead = top - leaves
+                assert 0.05 < lead < 0.5, f"{primitive}: head leaves the apex {lead:.2f} s ahead"
+            else:
+                lead = _half_change_time(times, yaw) - _half_change_time(times, head[:, 2])
+                assert 0.5 < lead < 2.0, f"{primitive}: head turns {lead:.2f} s ahead"
 
 
 def test_the_head_leads_the_hand_through_the_noise(
@@ -211,13 +337,22 @@ def test_the_partner_looks_down_at_the_hand_below_the_robot_eyes(
 ) -> None:
     # Zero is looking at the robot's eyes; the hand works on the table below them, so the head
     # pitches down (positive) by about 5-25 deg, and turns towards the partner's right (negative
-    # yaw) for the first bin, on the robot's left.
+    # yaw) for the first bin, on the robot's left. The curved movement's apex is about as high
+    # as the robot's eyes: the head rises to it.
     for primitive, demos in dataset.items():
         head = np.concatenate([d.values[:, 3:] for d in demos])
-        assert np.deg2rad(8.0) < np.median(head[:, 1]) < np.deg2rad(18.0), primitive
-        assert np.mean(head[:, 1] > 0.0) > 0.95, primitive
         assert np.abs(head[:, 2]).max() < np.deg2rad(35.0), primitive
         assert np.abs(np.median(head[:, 0])) < np.deg2rad(2.0), primitive
+        start = _at_phase(demos, 0.0, slice(4, 6)).mean(axis=0)
+        assert np.deg2rad(15.0) < start[0] < np.deg2rad(25.0), "the object, down on the table"
+        end = _at_phase(demos, 1.0, slice(4, 6)).mean(axis=0)
+        assert np.deg2rad(8.0) < end[0] < np.deg2rad(18.0), "the bin, down on the table"
+        if primitive == "curved":
+            continue
+        assert np.deg2rad(8.0) < np.median(head[:, 1]) < np.deg2rad(18.0), primitive
+        assert np.mean(head[:, 1] > 0.0) > 0.95, primitive
+    apex = _at_phase(dataset["curved"], 0.4, slice(4, 5))
+    assert abs(np.median(apex)) < np.deg2rad(5.0)
     for primitive in PRIMITIVES:
         assert _at_phase(dataset[primitive], 1.0, slice(5, 6)).mean() < np.deg2rad(-12.0)
     assert abs(_at_phase(dataset[THIRD_PRIMITIVE], 1.0, slice(5, 6)).mean()) < np.deg2rad(6.0)
@@ -230,7 +365,7 @@ def test_head_noise_is_webcam_like(dataset: dict[str, list[Demonstration]]) -> N
     assert np.all((jitter_deg > 1.0) & (jitter_deg < 4.0))
     # The curved movement makes the head rise more (smaller pitch) in the middle.
     mid_pitch = {p: _at_phase(dataset[p], 0.45, slice(4, 5)).mean() for p in PRIMITIVES}
-    assert mid_pitch["curved"] < mid_pitch["direct"] - np.deg2rad(2.0)
+    assert mid_pitch["curved"] < mid_pitch["direct"] - np.deg2rad(8.0)
 
 
 @pytest.mark.parametrize(
@@ -349,6 +484,12 @@ def test_scenes_and_parameters_that_cannot_work_are_clear_errors() -> None:
         ScenarioParams(gaze_lead=(1.0, 0.5))
     with pytest.raises(ValueError, match="duration_spread"):
         ScenarioParams(duration_spread=1.0)
+    with pytest.raises(ValueError, match="shared_fraction"):
+        ScenarioParams(shared_fraction=1.0)
+    with pytest.raises(ValueError, match="lift > 0"):
+        ScenarioParams(lift=0.0)
+    with pytest.raises(ValueError, match="gaze_latency"):
+        ScenarioParams(gaze_latency=(0.2, 0.1))
 
 
 def test_unknown_primitive_is_a_clear_error() -> None:

@@ -2,30 +2,76 @@
 
 The experiment of Dermy, Charpillet and Ivaldi: the robot's left hand carries an object from the
 same start (the pick position) to the same drop point above a bin along two different movements,
-**curved** and **direct**. Their beginnings look alike (both lift the object first), so early hand
-observations are ambiguous; the partner's head, which looks where the hand is going, tells them
-apart. ``--third`` adds **second_bin**, a direct movement to the other bin.
+**curved** and **direct**. Their beginnings are the same (both lift the object first), so early
+hand observations are ambiguous; the partner's head, which looks ahead to where the hand is
+going, tells them apart. ``--third`` adds **second_bin**, a direct movement to the other bin.
 
 Each demonstration is built like a human-guided one:
 
-- Path: a smooth cubic spline (lifting vertically at the start) through via points: the grasp, a
-  lift point 9 cm above it, for ``curved`` an apex bowing 13 cm up and 3 cm towards the partner
-  halfway, and the drop point. Via points are jittered by ~1.2 cm (the start, the end and the
-  lift's horizontal position by 3 mm), once per demonstration.
-- Timing: minimum-jerk along the arc length (bell-shaped speed, zero velocity at both ends), the
-  duration drawn uniformly within +-30 % of 3 s.
+- Path: the **lift** is common to all: from the grasp straight up to a lift point 11 cm above
+  it. Then ``direct`` turns towards the drop point and carries the object there (rising ~4 cm
+  more on the way); ``curved`` keeps rising and arches over an apex 20 cm above the middle of
+  the lift-to-drop segment and 8 cm towards the robot's midline, then comes down onto the drop
+  point. The path is a C2 piecewise quintic through these via points
+  (``scipy.interpolate.BPoly.from_derivatives``: tangent up at the grasp and the lift point,
+  horizontal towards the bin at the apex, from the previous via point towards the drop point at
+  the end, zero curvature at every via point). Each piece depends only on its two end via
+  points, so the lift is exactly the same curve whichever movement follows it. Via points are
+  jittered by ~1.2 cm (the start, the end and the lift point's horizontal position by 3 mm),
+  once per demonstration.
+- Timing: minimum jerk along the arc length ``s``, the duration ``T`` drawn uniformly within
+  +-30 % of 3 s. Early hand observations are only ambiguous if the first ~40 % of the *time*
+  coincides, which one minimum-jerk law over paths of different lengths would not give (the
+  curved path, nearly twice as long, would be ahead from the first sample). So every movement starts
+  with the law of the plain carry, ``s(tau) = L_direct mj(tau)`` (``L_direct`` the length of
+  the direct path through the same grasp, lift and drop points), and the extra length of a
+  detour is covered by a second minimum-jerk submovement superimposed from ``shared_fraction``
+  on, ``s(tau) = L_direct mj(tau) + (L - L_direct) mj((tau - 0.45) / 0.55)`` (superposition of
+  minimum-jerk units, Flash and Henis 1991). ``direct`` and ``second_bin`` are then exactly
+  minimum jerk; all start and end at rest. The hand reaches the end of the lift at ~42 % of
+  the movement, so the hands of curved and direct coincide (up to the per-demonstration
+  jitter) until ~40 %; then direct turns towards the bin while curved keeps rising, and from
+  45 % curved speeds up to cover its detour: the mean hands are ~1.5 cm apart at 45 %, ~6 cm
+  at 50 % and ~19 cm at 60-70 %. (Starting the extra submovement a little after the direct
+  movement starts turning, rather than at the same instant, keeps the very beginning of the
+  divergence out of the first 40 %.)
 - Reachability: every sample goes through the IK of the left arm with the **torso locked** (the
   arm alone is guided, as in kinesthetic teaching), warm-started along the path; the hand
   positions written are the forward kinematics of the IK solutions, so the data is exactly what
   the robot can do.
-- Head: the partner looks where the hand will be 0.5-1.0 s later (clipped to the end of the
-  movement), the head follows with a first-order lag of 0.1-0.2 s, and the angles carry the
-  noise of a webcam head-pose estimator: 2 deg white noise plus a slow drift (1.5 deg, time
-  constant 1 s), a small per-demonstration roll bias and head-position offset. Angles follow the
-  convention of :mod:`robots.icub.scene`. Seen from the partner, the curved movement's bow is
-  mostly upwards, so the head's pitch tells curved from direct (on average the head rises up
-  to ~5 deg more for curved, early, since the gaze leads) while the yaw tells which bin the
-  hand goes to.
+- Head: gaze in object manipulation jumps from landmark to landmark ahead of the hand, and
+  people watching someone else's manipulation do the same (Johansson et al. 2001, "Eye-hand
+  coordination in object manipulation": the grasp site, the tip of the obstacle the object has
+  to clear, the target, each reached by the eyes before the hand; Flanagan and Johansson 2003,
+  "Action plans used in action observation"). The partner looks at the object until it leaves
+  the table (the hand has risen 2 mm, ~9 % of the movement), then after a latency of 0-0.15 s
+  at the next landmark: the apex for ``curved``, the drop point above the bin otherwise. For
+  ``curved`` the gaze moves on from the apex to the drop point 0.1-0.3 s before the hand
+  reaches the apex (at ~66 % of the movement). The head follows the gaze with a first-order
+  lag of 0.1-0.2 s. Seen from the partner, the apex is ~12 deg higher (pitch) and ~10 deg more
+  to the partner's left (yaw) than the drop point, so from ~15 % to ~60 % of the movement,
+  while the hands still coincide or have only begun to part, the mean head angles of the two
+  movements differ by ~15 deg, several times their spread between demonstrations (2-4 deg per
+  angle); the yaw at the end tells which bin the hand goes to.
+- Head-pose estimator noise: 2 deg white noise plus a slow drift (Ornstein-Uhlenbeck, 1.5 deg,
+  time constant 1 s) on each angle, a small per-demonstration roll bias and head-position
+  offset (1 cm, which shifts every angle a little). Angles follow the convention of
+  :mod:`robots.icub.scene` (zero when looking at the robot's eyes).
+
+Why these values. The apex is about as far from the bin, seen from the partner, as the left arm
+reaches with the torso locked (with room for 5 standard deviations of its jitter), so that the
+head's early difference is several times its spread. The gaze switch is tied to the lift-off, an
+event of the movement (gaze in manipulation is time-locked to such events), rather than to a time
+after the start: every demonstration then switches at about the same phase, ~10-15 %, so the head
+is uninformative at 10 % and clearly informative by 20 %. A switch spread over time (0.1-0.4 s
+after the start) gave a head signal that was still ambiguous at 20 % in the short demonstrations,
+where the combined hand and head did worse than the head alone: with few demonstrations per
+primitive, the very clean hand adds evidence of its own that is spurious while the paths coincide
+(chiefly which primitive has a training duration closest to the observed one), and it outweighs a
+weak head signal. With ``python -m promp.evaluate`` (ML alpha, 20 demonstrations per primitive,
+seeds 0-3) the head recognises without error from 20 % observed, the hand alone stays at chance
+until 40 % and is without error from 50 %, and hand and head together recognise as the head does
+(at most one more error, at 20 %).
 
 All columns share one time base, sampled at a fixed rate (default 40 Hz, allowed 30-50 Hz).
 Deterministic: demonstration ``i`` of primitive ``k`` draws from ``SeedSequence([seed, k, i])``,
@@ -47,7 +93,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import CubicSpline
+from scipy.interpolate import BPoly
 
 from promp.data import Demonstration
 from promp.datasets import write_csv_demo
@@ -65,6 +111,12 @@ RATE_RANGE_HZ = (30.0, 50.0)
 DEFAULT_RATE_HZ = 40.0
 # Largest distance between a sample of the planned path and the IK's hand position.
 MAX_TRACKING_ERROR_M = 1e-3
+# Samples of the dense path used to measure its arc length.
+_DENSE_SAMPLES = 4000
+_UP = np.array([0.0, 0.0, 1.0])
+# Speed of the path's parameter at the lift point, relative to elsewhere: a tighter turn into the
+# carry (the direct movement rises ~4 cm above the lift point rather than ~6 cm).
+_LIFT_TANGENT = 0.5
 
 
 @dataclass(frozen=True)
@@ -76,16 +128,24 @@ class ScenarioParams:
     base_duration, duration_spread : float
         Durations are uniform in ``base_duration * (1 +- duration_spread)``.
     lift : float
-        Height of the lift point above the grasp.
-    curve_rise, curve_out : float
-        The curved movement's apex: this much above and towards the partner (-x) from the middle
-        of the straight lift-to-drop segment.
+        Height of the lift point above the grasp: the first part of every movement.
+    shared_fraction : float
+        Fraction of the movement's duration, in (0, 1), from which the curved movement's extra
+        submovement starts; before it, every movement has the timing of the direct one.
+    curve_rise, curve_side, curve_out : float
+        The curved movement's apex: this much above, towards the robot's midline (+y) and
+        towards the partner (-x) from the middle of the straight lift-to-drop segment.
     via_jitter, end_jitter : float
         Standard deviation of the via points' jitter; ``end_jitter`` for the start, the end and
         the lift point's horizontal position.
+    lift_off : float
+        How far the hand rises (the object leaves the table) before the gaze leaves the object.
+    gaze_latency : (float, float)
+        Range of the delay after that lift-off at which the gaze moves to the next landmark,
+        drawn once per demonstration.
     gaze_lead, head_lag : (float, float)
-        Ranges of the gaze's look-ahead and of the head's first-order time constant, drawn once
-        per demonstration.
+        Ranges of how long before the hand reaches the apex the gaze moves on to the drop
+        point, and of the head's first-order time constant, drawn once per demonstration.
     head_noise_deg, head_drift_deg, head_drift_time : float
         White noise and slow drift (Ornstein-Uhlenbeck: stationary std, time constant) of the
         estimated head angles.
@@ -95,12 +155,16 @@ class ScenarioParams:
 
     base_duration: float = 3.0
     duration_spread: float = 0.3
-    lift: float = 0.09
-    curve_rise: float = 0.13
-    curve_out: float = 0.03
+    lift: float = 0.11
+    shared_fraction: float = 0.45
+    curve_rise: float = 0.20
+    curve_side: float = 0.08
+    curve_out: float = 0.0
     via_jitter: float = 0.012
     end_jitter: float = 0.003
-    gaze_lead: tuple[float, float] = (0.5, 1.0)
+    lift_off: float = 0.002
+    gaze_latency: tuple[float, float] = (0.0, 0.15)
+    gaze_lead: tuple[float, float] = (0.1, 0.3)
     head_lag: tuple[float, float] = (0.10, 0.20)
     head_noise_deg: float = 2.0
     head_drift_deg: float = 1.5
@@ -115,7 +179,9 @@ class ScenarioParams:
                 raise ValueError(f"ScenarioParams.{name} must be finite and >= 0, got {value!r}")
         if self.base_duration <= 0.0 or not self.duration_spread < 1.0:
             raise ValueError("ScenarioParams needs base_duration > 0 and duration_spread < 1")
-        for name in ("gaze_lead", "head_lag"):
+        if self.lift <= 0.0 or not 0.0 < self.shared_fraction < 1.0:
+            raise ValueError("ScenarioParams needs lift > 0 and 0 < shared_fraction < 1")
+        for name in ("gaze_latency", "gaze_lead", "head_lag"):
             low, high = getattr(self, name)
             if not low <= high:
                 raise ValueError(f"ScenarioParams.{name} must be a (low, high) range")
@@ -152,7 +218,10 @@ def minimum_jerk(tau: np.ndarray) -> np.ndarray:
 def via_points(
     primitive: str, scene: Scene, rng: np.random.Generator, params: ScenarioParams
 ) -> np.ndarray:
-    """The jittered via points of one demonstration of ``primitive``, shape (n_via, 3)."""
+    """The jittered via points of one demonstration of ``primitive``, shape (n_via, 3).
+
+    The grasp, the lift point, for ``curved`` the apex, and the drop point.
+    """
     if primitive not in ALL_PRIMITIVES:
         raise ValueError(f"unknown primitive {primitive!r}; known: {', '.join(ALL_PRIMITIVES)}")
     pick = np.array(scene.pick_position, dtype=float)
@@ -160,7 +229,8 @@ def via_points(
     lift = pick + np.array([0.0, 0.0, params.lift])
     points = [pick, lift]
     if primitive == "curved":
-        points.append(0.5 * (lift + drop) + np.array([-params.curve_out, 0.0, params.curve_rise]))
+        offset = np.array([-params.curve_out, params.curve_side, params.curve_rise])
+        points.append(0.5 * (lift + drop) + offset)
     points.append(drop)
     # Start and end vary little (same object, same bin); the lift mostly in height; the apex
     # freely. One draw per demonstration: the path's shape is consistent within it.
@@ -170,31 +240,108 @@ def via_points(
     return np.array(points) + rng.normal(size=(len(points), 3)) * jitter
 
 
-def path_positions(points: np.ndarray, progress: np.ndarray) -> np.ndarray:
-    """Positions along the smooth path through ``points`` at arc-length fractions ``progress``.
+def _unit(vector: np.ndarray) -> np.ndarray:
+    norm = float(np.linalg.norm(vector))
+    if norm < 1e-9:
+        raise ValueError("two consecutive via points coincide: no direction between them")
+    return vector / norm
+
+
+@dataclass(frozen=True, eq=False)
+class SmoothPath:
+    """A smooth path through via points, sampled densely and measured along its length.
+
+    Attributes
+    ----------
+    dense : array, shape (n_dense, 3)
+        Points along the path.
+    arc : array, shape (n_dense,)
+        Arc length at each dense point, from 0 to :attr:`length`.
+    knot_arc : array, shape (n_via,)
+        Arc length at each via point.
+    """
+
+    dense: np.ndarray
+    arc: np.ndarray
+    knot_arc: np.ndarray
+
+    @property
+    def length(self) -> float:
+        return float(self.arc[-1])
+
+    def at(self, s: np.ndarray) -> np.ndarray:
+        """Positions at arc lengths ``s``, shape (n,) -> (n, 3)."""
+        return np.column_stack([np.interp(s, self.arc, self.dense[:, k]) for k in range(3)])
+
+
+def smooth_path(points: np.ndarray) -> SmoothPath:
+    """The C2 piecewise-quintic path through ``points`` (grasp, lift, [apex], drop).
+
+    Tangents: up at the grasp and the lift point, horizontal towards the drop point at an apex,
+    from the previous via point towards the drop point at the end; zero curvature at every via
+    point. Each piece depends only on its two end via points (and their tangents), so paths
+    that share their first via points share their first pieces exactly.
 
     Parameters
     ----------
-    points : array, shape (n_via, 3)
-        Via points; the path leaves the first one vertically (lifting) and ends at the last.
-    progress : array, shape (n,)
-        Fractions of the path's length in [0, 1].
+    points : array, shape (n_via, 3), n_via >= 3
 
     Returns
     -------
-    array, shape (n, 3)
+    SmoothPath
     """
+    points = np.asarray(points, dtype=float)
+    if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] < 3:
+        raise ValueError(f"points must have shape (n_via >= 3, 3), got {points.shape}")
+    drop = points[-1]
+    across = drop - points[1]
+    across[2] = 0.0
+    apexes = [_unit(across)] * (points.shape[0] - 3)
+    tangents = [_UP, _LIFT_TANGENT * _UP, *apexes, _unit(drop - points[-2])]
     chords = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    if chords.min() < 1e-9:
+        raise ValueError("two consecutive via points coincide: no direction between them")
     u = np.concatenate([[0.0], np.cumsum(chords)])
-    spline = CubicSpline(u, points, bc_type=((1, np.array([0.0, 0.0, 1.0])), "natural"))
-    dense_u = np.linspace(0.0, u[-1], 2000)
-    dense = spline(dense_u)
+    # Parameter ~ arc length: unit tangents give about unit speed along each piece.
+    poly = BPoly.from_derivatives(
+        u, [[p, t, np.zeros(3)] for p, t in zip(points, tangents, strict=True)]
+    )
+    dense_u = np.linspace(0.0, u[-1], _DENSE_SAMPLES)
+    dense = poly(dense_u)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0), axis=1))])
-    return spline(np.interp(np.asarray(progress) * arc[-1], arc, dense_u))
+    return SmoothPath(dense=dense, arc=arc, knot_arc=np.interp(u, dense_u, arc))
+
+
+def arc_progress(
+    tau: np.ndarray, length: float, direct_length: float, shared_fraction: float
+) -> np.ndarray:
+    """Arc length travelled at phase ``tau`` (see the module docstring), same shape as ``tau``.
+
+    ``direct_length * mj(tau) + (length - direct_length) * mj((tau - f) / (1 - f))``: the timing
+    of the direct movement, plus a minimum-jerk submovement from ``f = shared_fraction`` on that
+    covers the extra length of a detour. Zero velocity and acceleration at both ends.
+
+    Raises
+    ------
+    ValueError
+        If the path is so much shorter than the direct one that the hand would move backwards.
+    """
+    f = shared_fraction
+    s = direct_length * minimum_jerk(tau) + (length - direct_length) * minimum_jerk(
+        (np.asarray(tau, dtype=float) - f) / (1.0 - f)
+    )
+    if np.any(np.diff(s) < -1e-12):
+        raise ValueError(
+            f"a path of {length:.3f} m cannot start with the timing of the {direct_length:.3f} m "
+            "direct movement without moving backwards"
+        )
+    return s
 
 
 def track_with_ik(arm: ArmChain, targets: np.ndarray, label: str) -> np.ndarray:
-    """Hand positions, shape (n, 3), of IK solutions (torso locked) along ``targets`` (n, 3).
+    """IK solutions (torso locked) along ``targets`` (n, 3), each warm-started from the last.
+
+    Returns the joint configurations, shape (n, n_joints).
 
     Raises
     ------
@@ -202,7 +349,7 @@ def track_with_ik(arm: ArmChain, targets: np.ndarray, label: str) -> np.ndarray:
         If a target is out of the arm's reach (more than 1 mm away).
     """
     q = solve_ik(arm, targets[0], arm.rest, lock_torso=True, restarts=5).q
-    hand = np.empty_like(targets)
+    joints = np.empty((targets.shape[0], q.shape[0]))
     for k, target in enumerate(targets):
         result = solve_ik(arm, target, q, lock_torso=True, position_tolerance=1e-5)
         if result.position_error_m > MAX_TRACKING_ERROR_M:
@@ -211,36 +358,57 @@ def track_with_ik(arm: ArmChain, targets: np.ndarray, label: str) -> np.ndarray:
                 f"(closest {1e3 * result.position_error_m:.1f} mm away)"
             )
         q = result.q
-        hand[k] = arm.position(q)
-    return hand
+        joints[k] = q
+    return joints
 
 
-def head_angles_following(
-    times: np.ndarray,
-    hand: np.ndarray,
-    head_position: np.ndarray,
-    rng: np.random.Generator,
-    params: ScenarioParams,
+def landmark_gaze(
+    times: np.ndarray, landmarks: np.ndarray, arrivals: np.ndarray, shift: float, lead: float
 ) -> np.ndarray:
-    """The partner's head angles while watching the hand, shape (n, 3): roll, pitch, yaw (rad).
+    """Where the partner looks, shape (n, 3): fixations on the landmarks of the movement.
 
-    The gaze leads the hand (looks where it will be ``gaze_lead`` s later), the head lags the gaze
-    (first-order, ``head_lag``), and estimator noise is added (see the module docstring).
+    The gaze is on ``landmarks[0]`` (the object, where the hand starts) until ``shift`` s after
+    the start, then on each next landmark in turn; it leaves an intermediate landmark (the
+    apex) ``lead`` s before the hand reaches it, and stays on the last one (the drop point).
 
     Parameters
     ----------
     times : array, shape (n,)
-    hand : array, shape (n, 3)
-        Hand positions at ``times``.
+        Seconds from the start of the movement.
+    landmarks : array, shape (n_landmarks, 3)
+    arrivals : array, shape (n_landmarks,)
+        When the hand reaches each landmark.
+    shift, lead : float
+        Seconds.
+    """
+    switches = [shift] + [max(shift, float(a) - lead) for a in arrivals[1:-1]]
+    index = np.searchsorted(np.maximum.accumulate(switches), times, side="right")
+    return np.asarray(landmarks, dtype=float)[index]
+
+
+def head_angles_following(
+    times: np.ndarray,
+    looked_at: np.ndarray,
+    head_position: np.ndarray,
+    rng: np.random.Generator,
+    params: ScenarioParams,
+) -> np.ndarray:
+    """The partner's head angles while looking at ``looked_at``, shape (n, 3): roll, pitch, yaw.
+
+    The head turns towards where the gaze is with a first-order lag (``head_lag``), and the
+    estimator's noise is added (see the module docstring). Radians.
+
+    Parameters
+    ----------
+    times : array, shape (n,)
+    looked_at : array, shape (n, 3)
+        Where the gaze is at ``times``.
     head_position : array, shape (3,)
     rng : numpy.random.Generator
     params : ScenarioParams
     """
-    lead = rng.uniform(*params.gaze_lead)
     lag = rng.uniform(*params.head_lag)
-    looked_at = np.minimum(times + lead, times[-1])
-    gaze_points = np.column_stack([np.interp(looked_at, times, hand[:, k]) for k in range(3)])
-    _, pitch, yaw = head_orientation_looking_at(gaze_points, head_position)
+    _, pitch, yaw = head_orientation_looking_at(looked_at, head_position)
     wanted = np.column_stack([np.zeros_like(pitch), pitch, yaw])
     head = np.empty_like(wanted)
     head[0] = wanted[0]
@@ -279,12 +447,25 @@ def generate_demonstration(
     )
     n = int(round(duration * rate)) + 1
     times = np.arange(n) / rate
-    targets = path_positions(points, minimum_jerk(times / times[-1]))
-    hand = track_with_ik(arm, targets, name or primitive)
+    path = smooth_path(points)
+    # The timing of the plain carry through the same grasp, lift and drop points.
+    direct_length = smooth_path(points[[0, 1, -1]]).length if len(points) > 3 else path.length
+    tau = times / times[-1]
+    progress = arc_progress(tau, path.length, direct_length, params.shared_fraction)
+    joints = track_with_ik(arm, path.at(progress), name or primitive)
+    hand = np.array([arm.position(q) for q in joints])
+
     head_position = np.asarray(scene.partner_head) + rng.normal(
         scale=params.head_position_jitter, size=3
     )
-    head = head_angles_following(times, hand, head_position, rng, params)
+    # Landmarks: the object (where the hand starts), the apex, the drop point.
+    landmarks = np.vstack([points[:1], points[2:]])
+    knot_tau = np.interp(path.knot_arc[[0, *range(2, len(points))]], progress, tau)
+    lifted = float(np.interp(params.lift_off, progress, times))
+    shift = lifted + rng.uniform(*params.gaze_latency)
+    lead = rng.uniform(*params.gaze_lead)
+    gaze = landmark_gaze(times, landmarks, knot_tau * times[-1], shift, lead)
+    head = head_angles_following(times, gaze, head_position, rng, params)
     return Demonstration(times, np.column_stack([hand, head]), COLUMNS, name=name)
 
 
