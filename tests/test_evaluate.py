@@ -126,6 +126,7 @@ def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
             "--observe", "head",
             "--observe", "hand,head",
             "--percent", "30", "70",
+            "--basis", "8", "--shrinkage", "loo",
             "--json", str(out),
             "--plots", str(tmp_path / "plots"),
         ]
@@ -133,6 +134,7 @@ def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
     assert code == 0
     report = json.loads(out.read_text())
     assert report["settings"]["observe"] == [["head"], ["hand", "head"]]
+    assert report["settings"]["basis"] == {"n_basis": 8, "width": 1.0, "shrinkage": "loo"}
     rows = report["results"]
     assert len(rows) == 2 * 2 * 2  # observe sets x alpha methods x percents
     keys = {
@@ -158,6 +160,10 @@ def test_command_line_rejects_bad_arguments(tmp_path: Path, capsys) -> None:
     assert main([str(tmp_path / "nowhere"), "--format", "records"]) == 2
     assert "does not exist" in capsys.readouterr().err
     assert main([str(tmp_path / "data"), "--format", "csv", "--percent", "0"]) == 2
+    assert main([str(tmp_path / "data"), "--format", "csv", "--shrinkage", "lots"]) == 2
+    assert "'loo'" in capsys.readouterr().err
+    assert main([str(tmp_path / "data"), "--format", "csv", "--shrinkage", "2"]) == 2
+    assert "shrinkage must be in (0, 1]" in capsys.readouterr().err
 
 
 def test_python_dash_m_entry_point(tmp_path: Path) -> None:

@@ -4,7 +4,7 @@
 
     python -m promp.evaluate DATASET --format records|csv [--modality NAME=COL,COL,...]...
         [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
-        [--json OUT.json] [--plots DIR]
+        [--json OUT.json] [--plots DIR] [--basis M] [--width W] [--shrinkage S|loo]
 
 ``--format records`` reads the lab-record format (modalities ``position`` and ``wrench``
 predefined, default ``--observe position``); ``--format csv`` reads ``DATASET/<primitive>/
@@ -68,6 +68,22 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--percent", type=float, nargs="+", default=list(DEFAULT_PERCENTS))
     parser.add_argument("--alpha", nargs="+", choices=("ml", "model"), default=["ml", "model"])
     parser.add_argument("--method", choices=("ours", "seed"), default="ours")
+    parser.add_argument(
+        "--basis",
+        type=int,
+        default=Settings().n_basis,
+        metavar="M",
+        help="basis functions per dimension (ours)",
+    )
+    parser.add_argument(
+        "--width", type=float, default=Settings().width, help="basis width, in spacings (ours)"
+    )
+    parser.add_argument(
+        "--shrinkage",
+        default=str(Settings().shrinkage),
+        help="covariance shrinkage intensity in (0, 1], or 'loo' for the leave-one-out "
+        "estimate per modality (ours); python -m promp.evaluate.select chooses these three",
+    )
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
     parser.add_argument("--plots", type=Path, default=None, help="write PNG figures here")
     return parser
@@ -136,7 +152,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                 return Seed(layout)
 
         else:
-            settings = Settings()
+            try:
+                shrinkage = None if args.shrinkage == "loo" else float(args.shrinkage)
+            except ValueError:
+                raise ValueError(
+                    f"--shrinkage expects a number in (0, 1] or 'loo', got {args.shrinkage!r}"
+                ) from None
+            settings = Settings(n_basis=args.basis, width=args.width, shrinkage=shrinkage)
 
             def factory():
                 return Ours(layout, settings)
@@ -165,6 +187,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "observe": observe,
             "percents": list(args.percent),
             "alpha": list(args.alpha),
+            "basis": {"n_basis": args.basis, "width": args.width, "shrinkage": args.shrinkage},
             "primitives": {name: len(demos) for name, demos in dataset.items()},
         },
         "results": result.rows,
