@@ -1,0 +1,476 @@
+"""Export and import files of the studio, built and checked without a browser.
+
+Two kinds of file leave and enter the studio:
+
+* a **model**, ``model-YYYYmmdd-HHMMSS.json``: :func:`promp.io.model_to_json` of the model
+  learned from the demonstrations; robot-side code loads it with :func:`promp.io.load_model`;
+* a **workspace**, ``workspace-YYYYmmdd-HHMMSS.zip`` (deflated)::
+
+      studio.json                     primitives (name, colour, order), learning settings
+      demos/<primitive>/<demo>.csv    t, x, y, z, roll, pitch, yaw
+      model.json                      the learned model, when there is one
+
+  the workspace folder's own format (:mod:`app.workspace`) plus the model.
+
+Reading an upload validates **everything** in memory before anything may change: a model must
+parse (:func:`promp.io.model_from_json`) and use the studio's modalities; a workspace archive
+must pass the extraction rules (no absolute paths, ``..``, symlinks, encrypted or unexpected
+members; bounded member count and uncompressed size against zip bombs) and every member must
+parse (UTF-8 CSV with exactly the studio's columns, valid names, a valid ``studio.json``, a
+valid ``model.json``). Every problem is a ``ValueError`` whose message names the file and says
+what is wrong. Nothing is ever unpickled.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import stat
+import time
+import zipfile
+import zlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import PurePosixPath
+
+from app.session import DEFAULT_SETTINGS
+from app.workspace import (
+    COLUMNS,
+    FORMAT,
+    LAYOUT,
+    VERSION,
+    PrimitiveEntry,
+    WorkspaceData,
+    check_color,
+    check_name,
+)
+from promp.data import Demonstration, Layout
+from promp.datasets import demo_from_csv, demo_to_csv
+from promp.io import model_from_json, model_to_json
+from promp.model import ProMPModel, Settings
+
+MAX_UPLOAD_BYTES = 20 * 2**20  # an upload (model or archive) larger than this is refused
+MAX_MEMBERS = 10_000  # files in a workspace archive
+MAX_UNCOMPRESSED_BYTES = 256 * 2**20  # sum of the archive's uncompressed sizes
+INDEX_NAME = "studio.json"
+MODEL_NAME = "model.json"
+DEMOS_DIR = "demos"
+_SETTING_NAMES = {f.name for f in fields(Settings)}
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Bounds on what an upload may hold (see the module constants)."""
+
+    max_upload_bytes: int = MAX_UPLOAD_BYTES
+    max_members: int = MAX_MEMBERS
+    max_uncompressed_bytes: int = MAX_UNCOMPRESSED_BYTES
+
+
+@dataclass(frozen=True, eq=False)
+class ModelUpload:
+    """A validated model file."""
+
+    filename: str
+    model: ProMPModel
+
+
+@dataclass(eq=False)
+class WorkspaceUpload:
+    """A validated workspace archive, parsed into memory; ``model`` is its model.json, if any
+    (validated; the studio re-learns from the demonstrations, which are the source of truth)."""
+
+    filename: str
+    data: WorkspaceData
+    model: ProMPModel | None = None
+    ignored: list[str] = field(default_factory=list)  # __MACOSX/ and hidden files skipped
+
+    @property
+    def n_demos(self) -> int:
+        return sum(len(v) for v in self.data.demos.values())
+
+
+# ---------------------------------------------------------------------------------- export
+
+
+def export_filename(kind: str, extension: str, when: float | None = None) -> str:
+    """``<kind>-YYYYmmdd-HHMMSS.<extension>`` in local time (now by default)."""
+    stamp = time.strftime("%Y%m%d-%H%M%S", time.localtime(when))
+    return f"{kind}-{stamp}.{extension}"
+
+
+def model_bytes(model: ProMPModel) -> bytes:
+    """The model file: UTF-8 JSON (:func:`promp.io.model_to_json`)."""
+    return model_to_json(model).encode("utf-8")
+
+
+def index_json(primitives: list[PrimitiveEntry], settings: Mapping) -> str:
+    """The text of ``studio.json``, as :meth:`app.workspace.Workspace.save_index` writes it."""
+    index = {
+        "format": FORMAT,
+        "version": VERSION,
+        "layout": _layout_listing(LAYOUT),
+        "primitives": [{"name": p.name, "color": list(p.color)} for p in primitives],
+        "settings": dict(settings),
+    }
+    return json.dumps(index, indent=1)
+
+
+def workspace_zip(
+    data: WorkspaceData, model: ProMPModel | None = None, when: float | None = None
+) -> bytes:
+    """The workspace archive of ``data`` (and ``model``), deflated.
+
+    Parameters
+    ----------
+    data : WorkspaceData
+        Primitives, their demonstrations (columns in any order, at least the studio's) and the
+        learning settings.
+    model : ProMPModel, optional
+        Stored as ``model.json``.
+    when : float, optional
+        Time stamp of the members (seconds since the epoch; now by default).
+    """
+    stamp = time.localtime(when)[:6]
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+
+        def add(name: str, text: str) -> None:
+            info = zipfile.ZipInfo(name, date_time=stamp)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = (stat.S_IFREG | 0o644) << 16
+            archive.writestr(info, text.encode("utf-8"))
+
+        add(INDEX_NAME, index_json(data.primitives, data.settings))
+        for entry in data.primitives:
+            check_name(entry.name)
+            for demo in data.demos.get(entry.name, []):
+                check_name(demo.name, "demonstration")
+                ordered = Demonstration(demo.times, demo.select(COLUMNS), COLUMNS, name=demo.name)
+                add(f"{DEMOS_DIR}/{entry.name}/{demo.name}.csv", demo_to_csv(ordered))
+        if model is not None:
+            add(MODEL_NAME, model_to_json(model))
+    return buffer.getvalue()
+
+
+# ---------------------------------------------------------------------------------- import
+
+
+def read_upload(
+    filename: str, content: bytes, limits: Limits = Limits()
+) -> ModelUpload | WorkspaceUpload:
+    """Validate an uploaded file: a model (``.json``) or a workspace archive (``.zip``).
+
+    Raises
+    ------
+    ValueError
+        Empty or too large, an unknown extension, or any problem :func:`read_model` or
+        :func:`read_workspace_zip` finds. The message says what is wrong (the caller adds the
+        file name).
+    """
+    size = len(content)
+    if size > limits.max_upload_bytes:
+        raise ValueError(
+            f"the file is {format_size(size)}, over the {format_size(limits.max_upload_bytes)} "
+            "upload limit"
+        )
+    if size == 0:
+        raise ValueError("the file is empty")
+    suffix = PurePosixPath(filename).suffix.lower()
+    if suffix == ".json":
+        return ModelUpload(filename, read_model(content))
+    if suffix == ".zip":
+        return read_workspace_zip(content, filename, limits)
+    raise ValueError(
+        f"expected a model (.json) or a workspace (.zip), not a {suffix or 'extension-less'} file"
+    )
+
+
+def read_model(content: bytes) -> ProMPModel:
+    """Parse a model file and check it fits the studio (its modalities are hand and head).
+
+    Raises
+    ------
+    ValueError
+        Not a model file (see :func:`promp.io.model_from_dict`), other modalities, or a
+        primitive name the studio could not use.
+    """
+    try:
+        text = content.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"not a model file: not UTF-8 text ({exc})") from None
+    try:
+        model = model_from_json(text)
+    except (TypeError, AttributeError, KeyError, IndexError, OverflowError) as exc:
+        # promp.io checks the schema; a value of the wrong JSON type can still slip through.
+        raise ValueError(f"malformed model file ({type(exc).__name__}: {exc})") from None
+    except RecursionError:
+        raise ValueError("not valid JSON (nested too deeply)") from None
+    check_model(model)
+    return model
+
+
+def check_model(model: ProMPModel) -> ProMPModel:
+    """Raise ValueError unless ``model`` uses the studio's layout and valid primitive names."""
+    if model.layout != LAYOUT:
+        raise ValueError(
+            f"the model's modalities are {_describe_layout(model.layout)}; the studio's are "
+            f"{_describe_layout(LAYOUT)}"
+        )
+    for primitive in model.primitives:
+        check_name(primitive.name)
+    return model
+
+
+def read_workspace_zip(
+    content: bytes, filename: str = "workspace.zip", limits: Limits = Limits()
+) -> WorkspaceUpload:
+    """Parse a workspace archive into memory, checking everything (module docstring).
+
+    Raises
+    ------
+    ValueError
+        The first problem found, naming the archive member it concerns.
+    """
+    try:
+        archive = zipfile.ZipFile(io.BytesIO(content))
+    except (
+        zipfile.BadZipFile,
+        zipfile.LargeZipFile,
+        NotImplementedError,  # e.g. an unknown zip version
+        ValueError,
+        EOFError,
+        OSError,
+    ) as exc:
+        raise ValueError(f"not a zip archive ({exc})") from None
+    with archive:
+        infos = archive.infolist()
+        if len(infos) > limits.max_members:
+            raise ValueError(
+                f"the archive holds {len(infos)} entries; at most {limits.max_members} allowed"
+            )
+        total = sum(info.file_size for info in infos)
+        if total > limits.max_uncompressed_bytes:
+            raise ValueError(
+                f"the archive expands to {format_size(total)}, over the "
+                f"{format_size(limits.max_uncompressed_bytes)} limit"
+            )
+        files: dict[str, zipfile.ZipInfo] = {}
+        ignored: list[str] = []
+        for info in infos:
+            name = _check_member(info)
+            if info.is_dir():
+                continue
+            if name in files:
+                raise ValueError(f"{name}: appears twice in the archive")
+            files[name] = info
+        for name in list(files):
+            parts = name.split("/")
+            if parts[0] == "__MACOSX" or parts[-1].startswith("."):  # Finder's and hidden files
+                ignored.append(name)
+                del files[name]
+        prefix = _common_root(files)
+        members = {name[len(prefix) :]: info for name, info in files.items()}
+        if INDEX_NAME not in members:
+            raise ValueError(
+                f"no {INDEX_NAME}: not a studio workspace (a workspace archive holds "
+                f"{INDEX_NAME}, {DEMOS_DIR}/<primitive>/<demo>.csv and optionally {MODEL_NAME})"
+            )
+        budget = [limits.max_uncompressed_bytes]
+
+        def read(inner: str) -> bytes:
+            return _read_member(archive, members[inner], prefix + inner, budget)
+
+        primitives, settings = _parse_index(read(INDEX_NAME), prefix + INDEX_NAME)
+        demos: dict[str, list[Demonstration]] = {p.name: [] for p in primitives}
+        model = None
+        for inner in sorted(members):
+            label = prefix + inner
+            if inner == INDEX_NAME:
+                continue
+            if inner == MODEL_NAME:
+                try:
+                    model = read_model(read(inner))
+                except ValueError as exc:
+                    raise ValueError(f"{label}: {exc}") from None
+                continue
+            parts = inner.split("/")
+            if len(parts) != 3 or parts[0] != DEMOS_DIR or not parts[2].endswith(".csv"):
+                raise ValueError(
+                    f"{label}: unexpected file; a workspace archive holds {INDEX_NAME}, "
+                    f"{DEMOS_DIR}/<primitive>/<demo>.csv and optionally {MODEL_NAME}"
+                )
+            primitive, stem = parts[1], parts[2][: -len(".csv")]
+            try:
+                check_name(primitive)
+                check_name(stem, "demonstration")
+            except ValueError as exc:
+                raise ValueError(f"{label}: {exc}") from None
+            if primitive not in demos:
+                raise ValueError(f"{label}: primitive {primitive!r} is not listed in {INDEX_NAME}")
+            demos[primitive].append(_parse_demo(read(inner), stem, label))
+    data = WorkspaceData(primitives=primitives, demos=demos, settings=settings)
+    return WorkspaceUpload(filename, data, model, ignored)
+
+
+# ---------------------------------------------------------------------------------- helpers
+
+
+def format_size(n_bytes: int) -> str:
+    """``"1.5 MB"``-style size (powers of 1024)."""
+    if n_bytes < 1024:
+        return f"{n_bytes} bytes"
+    if n_bytes < 1024**2:
+        return f"{n_bytes / 1024:.1f} KB"
+    return f"{n_bytes / 1024**2:.1f} MB"
+
+
+def _layout_listing(layout: Layout) -> list[dict]:
+    return [
+        {"name": m.name, "columns": list(m.columns), "unit": m.unit, "kind": m.kind}
+        for m in layout.modalities
+    ]
+
+
+def _describe_layout(layout: Layout) -> str:
+    return ", ".join(
+        f"{m.name} = {'/'.join(m.columns)} ({m.unit}, {m.kind})" for m in layout.modalities
+    )
+
+
+def _check_member(info: zipfile.ZipInfo) -> str:
+    """The member's name if it is safe to read, else ValueError."""
+    name = info.filename
+    if "\\" in name or "\x00" in name:
+        raise ValueError(f"{name!r}: a member name with a backslash or NUL is refused")
+    if name.startswith("/") or (len(name) > 1 and name[1] == ":"):
+        raise ValueError(f"{name}: absolute paths are refused")
+    parts = name.rstrip("/").split("/")
+    if any(part in ("", ".", "..") for part in parts):
+        raise ValueError(f"{name}: '..', '.' and empty path components are refused")
+    mode = info.external_attr >> 16
+    if stat.S_ISLNK(mode):
+        raise ValueError(f"{name}: symbolic links are refused")
+    if info.flag_bits & 0x1:
+        raise ValueError(f"{name}: encrypted members are refused")
+    return name
+
+
+def _common_root(files: Mapping[str, zipfile.ZipInfo]) -> str:
+    """``"<folder>/"`` when every file is under one folder that holds studio.json (a zipped
+    workspace folder), else ``""``."""
+    if INDEX_NAME in files or not files:
+        return ""
+    roots = {name.split("/", 1)[0] for name in files}
+    if len(roots) == 1 and all("/" in name for name in files):
+        root = roots.pop() + "/"
+        if root + INDEX_NAME in files:
+            return root
+    return ""
+
+
+def _read_member(
+    archive: zipfile.ZipFile, info: zipfile.ZipInfo, label: str, budget: list[int]
+) -> bytes:
+    """A member's bytes, never more than its declared size nor the remaining budget."""
+    try:
+        with archive.open(info) as handle:
+            data = handle.read(min(info.file_size, budget[0]) + 1)
+    except (
+        zipfile.BadZipFile,
+        zlib.error,
+        NotImplementedError,
+        RuntimeError,
+        EOFError,
+        OSError,
+        ValueError,
+    ) as exc:
+        raise ValueError(f"{label}: cannot be read from the archive ({exc})") from None
+    if len(data) > info.file_size or len(data) > budget[0]:
+        raise ValueError(f"{label}: larger than the archive declares")
+    budget[0] -= len(data)
+    return data
+
+
+def _text(data: bytes, label: str) -> str:
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{label}: not UTF-8 text ({exc})") from None
+
+
+def _parse_demo(data: bytes, name: str, label: str) -> Demonstration:
+    demo = demo_from_csv(_text(data, label), name=name, label=label)
+    missing = [c for c in COLUMNS if c not in demo.columns]
+    extra = [c for c in demo.columns if c not in COLUMNS]
+    if missing or extra:
+        problem = []
+        if missing:
+            problem.append(f"lacks column(s) {missing}")
+        if extra:
+            problem.append(f"has unknown column(s) {extra}")
+        raise ValueError(
+            f"{label}: {' and '.join(problem)}; a studio demonstration has the columns "
+            f"t, {', '.join(COLUMNS)}"
+        )
+    return Demonstration(demo.times, demo.select(COLUMNS), COLUMNS, name=name)
+
+
+def _parse_index(data: bytes, label: str) -> tuple[list[PrimitiveEntry], dict]:
+    try:
+        index = json.loads(_text(data, label))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{label}: not valid JSON ({exc})") from None
+    except RecursionError:
+        raise ValueError(f"{label}: not valid JSON (nested too deeply)") from None
+    if not isinstance(index, dict) or index.get("format") != FORMAT:
+        raise ValueError(f"{label}: not a studio workspace index ('format' is not {FORMAT!r})")
+    if index.get("version") != VERSION:
+        raise ValueError(
+            f"{label}: unsupported workspace version {index.get('version')!r}; "
+            f"this studio reads version {VERSION}"
+        )
+    if "layout" in index and index["layout"] != _layout_listing(LAYOUT):
+        raise ValueError(
+            f"{label}: the workspace's modalities are not the studio's ({_describe_layout(LAYOUT)})"
+        )
+    raw = index.get("primitives", [])
+    if not isinstance(raw, list):
+        raise ValueError(f"{label}: 'primitives' must be a list")
+    primitives: list[PrimitiveEntry] = []
+    for i, entry in enumerate(raw):
+        if not isinstance(entry, dict) or "name" not in entry or "color" not in entry:
+            raise ValueError(f"{label}: primitive {i} needs a 'name' and a 'color'")
+        try:
+            name = check_name(entry["name"])
+            color = entry["color"]
+            if not (
+                isinstance(color, list)
+                and all(isinstance(c, int) and not isinstance(c, bool) for c in color)
+            ):
+                raise ValueError(f"a colour is three integers in 0-255, got {color!r}")
+            rgb = check_color(color)
+        except ValueError as exc:
+            raise ValueError(f"{label}: {exc}") from None
+        if name in {p.name for p in primitives}:
+            raise ValueError(f"{label}: primitive {name!r} is listed twice")
+        primitives.append(PrimitiveEntry(name, rgb))
+    settings = index.get("settings", {})
+    if not isinstance(settings, dict):
+        raise ValueError(f"{label}: 'settings' must be an object")
+    unknown = sorted(set(settings) - _SETTING_NAMES)
+    if unknown:
+        raise ValueError(f"{label}: unknown setting(s) {unknown}")
+    if "n_basis" in settings and (
+        not isinstance(settings["n_basis"], int) or isinstance(settings["n_basis"], bool)
+    ):
+        raise ValueError(f"{label}: 'n_basis' must be an integer, got {settings['n_basis']!r}")
+    if "width" in settings and (
+        not isinstance(settings["width"], (int, float)) or isinstance(settings["width"], bool)
+    ):
+        raise ValueError(f"{label}: 'width' must be a number, got {settings['width']!r}")
+    try:
+        Settings(**{**DEFAULT_SETTINGS, **settings})
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{label}: invalid learning settings ({exc})") from None
+    return primitives, dict(settings)

@@ -1,0 +1,108 @@
+"""Refuse an upload larger than a limit as soon as it starts, before viser buffers it.
+
+viser assembles an upload in memory (``GuiApi._current_file_upload_states``) from a
+``FileTransferStartUpload`` message, which declares the size, then one ``FileTransferPart``
+message per 512 KB chunk, and calls the button's ``on_upload`` callbacks with the whole file.
+:class:`UploadGuard` adds its own handlers for these two messages on the same websocket
+interface. viser's handlers run first (they were registered first), so the guard then drops
+the transfer's state when
+
+* the declared size is over the limit (the normal case: nothing is ever buffered), or
+* the bytes received so far exceed the limit (a client lying about the size): at most the
+  limit plus one message is buffered.
+
+Later parts of a dropped transfer find no state and are ignored by viser. The browser, which
+keeps its upload button disabled until every byte is acknowledged, is sent a final
+acknowledgement and its "uploading" notification is closed; the ``refused`` callback then tells
+the user why. This relies on viser internals (checked at construction: :attr:`active` is False
+when they are missing, and callers must then check the size after the upload, as the studio
+always does anyway).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import viser
+from viser import _messages
+
+Refused = Callable[[viser.ClientHandle | None, str, int], None]
+
+
+class UploadGuard:
+    """Size cap on one upload button (see the module docstring).
+
+    Parameters
+    ----------
+    server : viser.ViserServer
+    button : viser.GuiUploadButtonHandle
+        The guarded button (a server-level GUI element).
+    max_bytes : int
+        Largest accepted upload, in bytes; may be changed later through :attr:`max_bytes`.
+    refused : callable
+        ``refused(client or None, filename, size_bytes)``, called on viser's event loop: keep
+        it short (e.g. add a notification).
+    """
+
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        button: viser.GuiUploadButtonHandle,
+        max_bytes: int,
+        refused: Refused,
+    ):
+        self.max_bytes = int(max_bytes)
+        self._server = server
+        self._uuid = button._impl.uuid
+        self._refused = refused
+        self._interface = getattr(server.gui, "_websock_interface", None)
+        self._states = getattr(server.gui, "_current_file_upload_states", None)
+        self.active = isinstance(self._states, dict) and hasattr(
+            self._interface, "register_handler"
+        )
+        self.refusals = 0
+        if self.active:
+            self._interface.register_handler(_messages.FileTransferStartUpload, self._on_start)
+            self._interface.register_handler(_messages.FileTransferPart, self._on_part)
+
+    def close(self) -> None:
+        if self.active:
+            self._interface.unregister_handler(_messages.FileTransferStartUpload, self._on_start)
+            self._interface.unregister_handler(_messages.FileTransferPart, self._on_part)
+            self.active = False
+
+    def _on_start(self, client_id: int, message: _messages.FileTransferStartUpload) -> None:
+        if message.source_component_uuid != self._uuid:
+            return
+        if message.size_bytes > self.max_bytes:
+            self._refuse(client_id, message.transfer_uuid, message.filename, message.size_bytes)
+
+    def _on_part(self, client_id: int, message: _messages.FileTransferPart) -> None:
+        if message.source_component_uuid != self._uuid:
+            return
+        state = self._states.get(message.transfer_uuid)
+        if state is not None and state["transferred_bytes"] > self.max_bytes:
+            self._refuse(
+                client_id, message.transfer_uuid, state["filename"], state["transferred_bytes"]
+            )
+
+    def _refuse(self, client_id: int, transfer_uuid: str, filename: str, size: int) -> None:
+        if self._states.pop(transfer_uuid, None) is None:
+            return
+        self.refusals += 1
+        client = self._server.get_clients().get(client_id)
+        connection = getattr(client, "_websock_connection", None)
+        if connection is not None:
+            # Release the browser's button (it waits for every byte to be acknowledged) and
+            # close its "uploading" notification, whose id the browser derives from the
+            # transfer id.
+            connection.queue_message(
+                _messages.FileTransferPartAck(
+                    source_component_uuid=self._uuid,
+                    transfer_uuid=transfer_uuid,
+                    transferred_bytes=size,
+                    total_bytes=size,
+                )
+            )
+            connection.queue_message(_messages.RemoveNotificationMessage(f"upload-{transfer_uuid}"))
+        self._refused(client, filename, size)

@@ -1,0 +1,386 @@
+"""The Data tab in a real browser: export and re-import a model and a workspace, refused files
+leave the workspace byte for byte unchanged, the early size cap, and the leave-one-out
+evaluation with its progress bar and curves. Plus the tab's pure helpers."""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import re
+import threading
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app import exchange
+from app.panels.data import (
+    curves,
+    display_name,
+    evaluation_dataset,
+    parse_percents,
+    results_table,
+)
+from app.session import DEFAULT_SETTINGS
+from app.workspace import PALETTE, PrimitiveEntry, Workspace, WorkspaceData
+from promp.evaluate.sweep import run_sweep
+from promp.io import model_from_json, model_to_dict
+from tests.conftest import open_page, start_studio, wait_until
+
+# ---------------------------------------------------------------------------- pure helpers
+
+
+def test_parse_percents() -> None:
+    assert parse_percents("10 20 30") == [10.0, 20.0, 30.0]
+    assert parse_percents(" 50, 10;10 ") == [10.0, 50.0]
+    for text, message in [
+        ("", "at least one"),
+        ("ten", "must be numbers"),
+        ("0 50", r"in \(0, 100\]"),
+        ("120", r"in \(0, 100\]"),
+        ("nan", r"in \(0, 100\]"),
+        (" ".join(str(i) for i in range(1, 30)), "at most 20"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            parse_percents(text)
+
+
+def test_evaluation_dataset_keeps_primitives_with_three_demos() -> None:
+    demos = {"a": [1, 2, 3], "b": [1, 2], "c": [1, 2, 3, 4]}
+    dataset, skipped = evaluation_dataset(["c", "b", "a", "d"], demos)
+    assert list(dataset) == ["c", "a"] and skipped == {"b": 2, "d": 0}
+
+
+def test_curves_and_table_from_sweep_rows() -> None:
+    rows = [
+        {"percent": p, "alpha_method": a, "observed": o, "recognition_errors": e,
+         "trials": 12, "position_error_m": 0.01 * e, "duration_error_s": 0.1}
+        for o, a, e0 in ((["hand", "head"], "ml", 2), (["hand"], "ml", 5), (["hand"], "model", 6))
+        for p, e in ((50.0, e0 - 1), (10.0, e0))
+    ]  # fmt: skip
+    series = curves(rows)
+    assert list(series) == ["hand, alpha ml", "hand, alpha model", "hand+head, alpha ml"]
+    np.testing.assert_array_equal(series["hand, alpha ml"]["percent"], [10, 50])
+    np.testing.assert_array_equal(series["hand, alpha ml"]["recognition_errors"], [5, 4])
+    np.testing.assert_allclose(series["hand, alpha model"]["position_cm"], [6, 5])
+    table = results_table(rows).splitlines()
+    assert table[0] == "| errors (of 12) | hand ml | hand model | hand+head ml |"
+    assert table[2:4] == ["| 10 % | 5 | 6 | 2 |", "| 50 % | 4 | 5 | 1 |"]
+    assert table[5] == "| position (cm) | hand ml | hand model | hand+head ml |"
+    assert table[7:] == ["| 10 % | 5.0 | 6.0 | 2.0 |", "| 50 % | 4.0 | 5.0 | 1.0 |"]
+
+
+def test_display_name_is_markdown_safe() -> None:
+    assert display_name("model-2024.json") == "model-2024.json"
+    assert display_name("<img src=x>`**.json") == "_img src_x____.json"
+    assert display_name("../../a.zip") == "a.zip"
+    assert len(display_name("x" * 200 + ".zip")) == 60
+
+
+# ---------------------------------------------------------------------------- browser
+
+
+def until(predicate, what: str):
+    """:func:`wait_until` with room for a loaded machine (the browser renders in software)."""
+    return wait_until(predicate, timeout=120.0, what=what)
+
+
+def workspace_hash(root: Path) -> str:
+    """SHA-256 over every file's relative path and bytes."""
+    digest = hashlib.sha256()
+    for path in sorted(p for p in root.rglob("*") if p.is_file()):
+        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory):
+    """A studio on 3 primitives x 4 demonstrations of the simulated scenario."""
+    from robots.icub.scenario import generate_scenario
+
+    root = tmp_path_factory.mktemp("data") / "ws"
+    dataset = generate_scenario(seed=1, n_demos=4, third=True)
+    Workspace(root).replace_all(
+        WorkspaceData(
+            primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
+            demos=dataset,
+            # Explicit, as the studio writes them back: a re-import then gives identical files.
+            settings=dict(DEFAULT_SETTINGS),
+        )
+    )
+    studio = start_studio(root)
+    yield studio
+    studio.stop()
+
+
+@pytest.fixture(scope="module")
+def page(browser, studio):
+    page, _client = open_page(browser, studio, width=1200, height=800)
+    page.set_default_timeout(120_000)  # software WebGL on a shared, loaded machine is slow
+    page.get_by_role("tab", name="Data").click()
+    page.get_by_role("button", name="Export model").wait_for()
+    yield page
+    page.close()
+
+
+def panel_of(studio):
+    from app.panels.data import DataPanel
+
+    return next(p for p in studio.panels if isinstance(p, DataPanel))
+
+
+def upload(page, studio, name: str, content: bytes) -> None:
+    """Choose a file in the Data tab's upload button, as the browser's file dialog does."""
+    uuid = panel_of(studio).upload_button._impl.uuid
+    page.set_input_files(
+        f"#file_upload_{uuid}",
+        files=[{"name": name, "mimeType": "application/octet-stream", "buffer": content}],
+    )
+
+
+def screenshot(page, path: Path) -> None:
+    """A screenshot without viser's late "software WebGL" notice."""
+    notice = page.locator(".mantine-Notification-root", has_text="Software WebGL rendering")
+    try:  # cosmetic: a notice re-rendered while clicked is left alone
+        if notice.count():
+            notice.first.locator(".mantine-Notification-closeButton").click(timeout=5_000)
+    except Exception:
+        pass
+    page.screenshot(path=str(path))
+
+
+def notification(page, title: str, body: str | None = None) -> str:
+    """The text (title and body) of the first notification with this title (and containing
+    ``body``), once shown."""
+    box = page.locator(".mantine-Notification-root", has_text=title)
+    if body is not None:
+        box = box.filter(has_text=body)
+    box.first.wait_for()
+    return box.first.inner_text()
+
+
+@pytest.mark.browser
+def test_export_model_and_upload_it_back(page, studio, artifacts) -> None:
+    session = studio.session
+    before = workspace_hash(studio.workspace)
+    with page.expect_download() as info:
+        page.get_by_role("button", name="Export model").click()
+    download = info.value
+    assert re.fullmatch(r"model-\d{8}-\d{6}\.json", download.suggested_filename)
+    content = Path(download.path()).read_bytes()
+    assert model_to_dict(model_from_json(content)) == model_to_dict(session.model)
+
+    upload(page, studio, "exported-model.json", content)
+    text = notification(page, "Model imported")
+    assert "exported-model.json: primitives curved, direct, second_bin" in text
+    until(lambda: session.imported_model is not None, what="the imported model")
+    assert session.imported_from == "exported-model.json"
+    assert model_to_dict(session.inference_model()) == model_to_dict(session.model)
+    page.get_by_text("imported from").wait_for()
+    screenshot(page, artifacts / "data_model_imported.png")
+    assert workspace_hash(studio.workspace) == before  # a model import writes nothing
+
+    page.get_by_role("button", name="Use the learned model").click()
+    until(lambda: session.imported_model is None, what="the learned model back")
+    page.get_by_text("learned from the demonstrations (curved").wait_for()
+
+
+def zip_with_parent_entry() -> bytes:
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        archive.writestr("studio.json", json.dumps({"format": exchange.FORMAT, "version": 1}))
+        archive.writestr("../evil", "owned")
+    return buffer.getvalue()
+
+
+@pytest.mark.browser
+@pytest.mark.parametrize(
+    "name, content, reason",
+    [
+        ("model.json", np.random.default_rng(0).bytes(4096), "not a model file: not UTF-8"),
+        ("evil.zip", zip_with_parent_entry(), "../evil: '..', '.' and empty path components"),
+    ],
+)
+def test_a_bad_file_is_refused_and_changes_nothing(page, studio, artifacts, name, content, reason):
+    session = studio.session
+    before = workspace_hash(studio.workspace)
+    version, model = session.version, session.model
+    upload(page, studio, name, content)
+    text = notification(page, f"Cannot import {name}")
+    assert reason in text and "Nothing was changed." in text, text
+    if name == "evil.zip":
+        screenshot(page, artifacts / "data_refused_zip.png")
+    time.sleep(0.2)
+    assert workspace_hash(studio.workspace) == before
+    assert session.version == version and session.model is model
+    assert session.imported_model is None
+    assert not (studio.workspace.parent / "evil").exists()
+
+
+@pytest.mark.browser
+def test_an_oversized_upload_is_refused_before_it_is_buffered(page, studio) -> None:
+    panel = panel_of(studio)
+    before = workspace_hash(studio.workspace)
+    received, refusals = panel.uploads_received, panel.guard.refusals
+    assert panel.guard.active
+    panel.max_upload_bytes = 256 * 1024
+    try:
+        upload(page, studio, "huge.zip", b"\0" * (3 * 2**20))
+        text = notification(page, "Cannot import huge.zip")
+        assert "3.0 MB, over the 256.0 KB upload limit. Nothing was changed." in text
+        until(lambda: panel.guard.refusals == refusals + 1, what="the guard's refusal")
+        time.sleep(1.0)  # the browser keeps sending the parts: none may be kept
+        assert studio.server.gui._current_file_upload_states == {}
+        assert panel.uploads_received == received  # the callback never saw the file
+        button = page.get_by_role("button", name="Import model or workspace")
+        until(button.is_enabled, what="the upload button to be usable again")
+    finally:
+        panel.max_upload_bytes = exchange.MAX_UPLOAD_BYTES
+    assert workspace_hash(studio.workspace) == before
+    # Under the cap, the same path accepts a file.
+    upload(page, studio, "small.json", b"{}")
+    assert "not a model file" in notification(page, "Cannot import small.json")
+    assert panel.uploads_received == received + 1
+
+
+@pytest.mark.browser
+def test_export_the_workspace_and_import_it_back(page, studio, artifacts) -> None:
+    session = studio.session
+    before = workspace_hash(studio.workspace)
+    demos_before = {n: [d.name for d in v] for n, v in session.demos.items()}
+    with page.expect_download() as info:
+        page.get_by_role("button", name="Export workspace").click()
+    download = info.value
+    assert re.fullmatch(r"workspace-\d{8}-\d{6}\.zip", download.suggested_filename)
+    content = Path(download.path()).read_bytes()
+    with zipfile.ZipFile(io.BytesIO(content)) as archive:
+        names = set(archive.namelist())
+    assert {"studio.json", "model.json", "demos/curved/curved_000.csv"} <= names
+    assert len([n for n in names if n.endswith(".csv")]) == 12
+
+    # Cancelling the confirmation changes nothing.
+    upload(page, studio, "exported.zip", content)
+    page.get_by_text("Replace the workspace?").wait_for()
+    page.get_by_role("button", name="Cancel", exact=True).click()
+    notification(page, "Import cancelled")
+    assert workspace_hash(studio.workspace) == before
+
+    version = session.version
+    upload(page, studio, "exported.zip", content)
+    page.get_by_text("holds 3 primitives (curved, direct, second_bin) and 12").wait_for()
+    screenshot(page, artifacts / "data_confirm_replace.png")
+    page.get_by_role("button", name="Replace the workspace").click()
+    text = notification(page, "Workspace imported")
+    assert "exported.zip: 3 primitives, 12 demonstrations." in text
+    assert session.version > version
+    # The same content, written again by the studio: identical files.
+    assert workspace_hash(studio.workspace) == before
+    assert {n: [d.name for d in v] for n, v in session.demos.items()} == demos_before
+
+
+def gate_sweep(monkeypatch) -> threading.Event:
+    """Make the next sweep wait after its first held-out demonstration until the returned
+    event is set (the sweep itself is the real one)."""
+    import app.panels.data as data_panel
+
+    gate = threading.Event()
+    real = run_sweep
+
+    def gated(*args, progress, **kwargs):
+        def report(done: int, total: int) -> None:
+            progress(done, total)
+            if done == 1:
+                gate.wait(120)
+
+        return real(*args, progress=report, **kwargs)
+
+    monkeypatch.setattr(data_panel, "run_sweep", gated)
+    return gate
+
+
+@pytest.mark.browser
+def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypatch) -> None:
+    panel = panel_of(studio)
+    # viser labels its inputs with <label for=uuid> but gives the input no id.
+    percents = page.locator(
+        f"label[for='{panel.percents_text._impl.uuid}'] >> xpath=ancestor::*[.//input][1]//input"
+    )
+    percents.fill("abc")
+    until(lambda: panel.percents_text.value == "abc", what="the typed percents")
+    page.get_by_role("button", name="Run leave-one-out evaluation").click()
+    assert "percentages must be numbers" in notification(page, "Cannot evaluate")
+
+    percents.fill("10 30 50 70 90")
+    until(lambda: panel.percents_text.value == "10 30 50 70 90", what="the percents")
+    panel.observe_dropdown.value = "compare all three"
+    panel.alpha_dropdown.value = "both"
+    gate = gate_sweep(monkeypatch)
+    run = page.get_by_role("button", name="Run leave-one-out evaluation")
+    run.click()
+    job = until(lambda: panel._job, what="the evaluation to start")
+    # Held after the first of 12 held-out demonstrations: the page shows a running job.
+    until(lambda: job.done == 1, what="the first held-out demonstration")
+    bar = page.locator("[role=progressbar]").first
+    until(lambda: bar.get_attribute("aria-valuenow") == f"{100 / 12}", what="the bar at 1/12")
+    assert not run.is_enabled()
+    assert page.get_by_role("button", name="Cancel evaluation").is_visible()
+    screenshot(page, artifacts / "data_evaluation_running.png")
+    gate.set()
+    until(lambda: bar.get_attribute("aria-valuenow") == "100", what="the bar at 100")
+    until(run.is_enabled, what="the button to be enabled again")
+    assert job.finished and job.error is None and not job.cancelled
+
+    chart_title = page.get_by_text("Recognition errors (of 12)")
+    chart_title.wait_for()
+    page.get_by_text("Position error of the remainder").first.wait_for()
+    charts = page.evaluate(
+        "Object.values(window.__viserTestpoints.uplots).map(t => "
+        "({series: t.chart.series.map(s => s.label), x: Array.from(t.chart.data[0])}))"
+    )
+    charts = [c for c in charts if c["series"][0] == "% observed"]  # other tabs have charts
+    assert len(charts) == 2
+    labels = {label for chart in charts for label in chart["series"]}
+    assert {"hand, alpha ml", "head, alpha model", "hand+head, alpha ml"} <= labels
+    assert all(chart["x"] == [10, 30, 50, 70, 90] for chart in charts)
+    assert "| errors (of 12) | hand ml | hand model | head ml |" in panel._result_handles[2].content
+    status = panel.eval_status.content
+    assert "Held out each of 12 demonstrations of curved, direct, second_bin" in status
+    page.set_viewport_size({"width": 1200, "height": 1700})  # the whole tab in the picture
+    page.get_by_text("position (cm)").wait_for()
+    time.sleep(0.5)
+    screenshot(page, artifacts / "data_evaluation.png")
+    page.set_viewport_size({"width": 1200, "height": 800})
+
+    # The curves are the sweep's: recognition improves as more is observed (hand+head).
+    rows = [r for r in job.result.rows if r["observed"] == ["hand", "head"]]
+    errors = {r["percent"]: r["recognition_errors"] for r in rows if r["alpha_method"] == "ml"}
+    assert errors[90.0] <= errors[10.0]
+
+    # A second run, cancelled while it runs: the previous results stay.
+    gate = gate_sweep(monkeypatch)
+    run.click()
+    second = until(lambda: panel._job is not job and panel._job, what="a second run")
+    until(lambda: second.done == 1, what="the second run to start")
+    page.get_by_role("button", name="Cancel evaluation").click()
+    until(second.cancel.is_set, what="the cancel click")
+    gate.set()
+    until(lambda: second.finished, what="the cancelled run to end")
+    assert second.cancelled and second.result is None
+    page.get_by_text("Evaluation cancelled.").wait_for()
+    until(run.is_enabled, what="the button after the cancel")
+    assert len(panel._result_handles) == 3 and panel.results_folder.visible
+
+
+@pytest.mark.browser
+def test_evaluation_needs_three_demonstrations(page, studio) -> None:
+    session = studio.session
+    for name in session.names():
+        for demo in list(session.demos[name])[2:]:
+            session.delete_demo(name, demo.name)
+    page.get_by_role("button", name="Run leave-one-out evaluation").click()
+    notification(
+        page, "Cannot evaluate", "at least 3 demonstrations (curved: 2, direct: 2, second_bin: 2)"
+    )
