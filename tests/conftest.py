@@ -113,8 +113,9 @@ def open_page(browser, studio, width: int = 1400, height: int = 900):
     page = browser.new_page(viewport={"width": width, "height": height})
     known = set(studio.server.get_clients())
     page.goto(f"http://127.0.0.1:{studio.port}")
-    client_id = wait_until(
-        lambda: next((c for c in studio.server.get_clients() if c not in known), None),
+    # Wrapped in a tuple: the first client's id is 0, which is falsy.
+    (client_id,) = wait_until(
+        lambda: next(((c,) for c in studio.server.get_clients() if c not in known), None),
         what="the browser to connect",
     )
     client = studio.server.get_clients()[client_id]
