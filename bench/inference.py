@@ -128,7 +128,7 @@ def main() -> None:
         for percent in (10, 25, 50, 75, 100):
             n_obs = max(1, math.ceil(percent / 100 * test.n_samples))
             obs = Observation.from_demo(model, test, n_obs, OBSERVED)
-            ms = median_ms(lambda: scrub_step(model, obs), 30)
+            ms = median_ms(lambda m=model, o=obs: scrub_step(m, o), 30)
             results[f"scrub_step_ms_k{n_prims}_{percent}"] = ms
             print(f"K={n_prims:2d} {percent:3d} % observed ({n_obs:3d} samples): {ms:7.2f} ms")
         if n_prims == 2:
@@ -138,7 +138,7 @@ def main() -> None:
             slow = [naive_log_likelihood(model, prim, obs, a)[0] for a in prim.alphas]
             finite = np.isfinite(fast)
             diff = float(np.max(np.abs(fast[finite] - np.array(slow)[finite])))
-            naive = median_ms(lambda: naive_scrub_step(model, obs), 3)
+            naive = median_ms(lambda m=model, o=obs: naive_scrub_step(m, o), 3)
             results["naive_ms_k2_full"] = naive
             results["naive_ratio_k2_full"] = naive / results["scrub_step_ms_k2_100"]
             results["max_abs_loglik_difference"] = diff
