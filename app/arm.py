@@ -61,15 +61,12 @@ class ArmController:
                     np.array(self.gizmo.position, dtype=float),
                     vtf.SO3(np.array(self.gizmo.wxyz)).as_matrix(),
                 )
-
-        @self.gizmo.on_drag_start
-        def _(event) -> None:
-            self.dragging = True
-
-        @self.gizmo.on_drag_end
-        def _(event) -> None:
-            self.dragging = False
-            self._snap_pending = True
+            phase = getattr(event, "phase", "update")
+            if phase == "start":
+                self.dragging = True
+            elif phase == "end":
+                self.dragging = False
+                self._snap_pending = True
 
     def hand_pose(self) -> np.ndarray:
         """Homogeneous pose of the hand frame in the root frame, shape (4, 4)."""

@@ -109,7 +109,8 @@ class StreamHeadSource(HeadSource):
 
     def _check(self) -> None:
         if self.stream is not None and self.stream.error is not None and self.error is None:
-            self.error = f"{self.name}: {self.stream.error}"
+            reason = str(self.stream.error)  # the stream's errors usually name the source
+            self.error = reason if reason.startswith(self.name) else f"{self.name}: {reason}"
 
     def read(self, hand_position: np.ndarray) -> HeadReading:
         now = time.monotonic()

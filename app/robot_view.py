@@ -16,11 +16,12 @@ from robots.icub.model import ground_height, natural_pose
 from robots.icub.scene import Scene
 
 ROBOT_ROOT = "/robot"
-# Camera on the robot's left (-y), above the table, framing the robot's upper body, the table
-# workspace and the partner's head across the table (at x = -1).
-CAMERA_POSITION = (-0.55, -1.55, 0.6)
-CAMERA_LOOK_AT = (-0.5, -0.08, 0.05)
-CAMERA_FOV_DEG = 55.0
+# Camera on the robot's left (-y), a little behind it and above the table: the robot, the table
+# with the hand paths and their prior tubes, and the partner's head across the table (at
+# x = -1), all left of the GUI panel, which covers the right ~30 % of a 1400 px wide window.
+CAMERA_POSITION = (0.3, -1.5, 0.85)
+CAMERA_LOOK_AT = (-0.3, -0.12, 0.12)
+CAMERA_FOV_DEG = 50.0
 
 
 @dataclass

@@ -44,9 +44,10 @@ class SceneView:
         )  # fmt: skip
         self.gaze = server.scene.add_spline_catmull_rom(
             f"{HEAD_NODE}/gaze",
-            positions=np.array([[0.0, 0.0, 0.0], [GAZE_LENGTH, 0.0, 0.0]]),
+            points=np.array([[0.0, 0.0, 0.0], [GAZE_LENGTH, 0.0, 0.0]]),
             color=(255, 200, 0),
-            line_width=3.0,
+            thickness=3.0,
+            thickness_units="screen",
         )
         self.head_status = "no face"
 
@@ -93,9 +94,10 @@ class SceneView:
                 points = LAYOUT.extract(demo)[:, cols]
                 self.lines[key] = self.server.scene.add_spline_catmull_rom(
                     f"/demos/{name}/{demo.name}",
-                    positions=resample(points, min(len(points), 60)),
+                    points=resample(points, min(len(points), 60)),
                     color=colors[name],
-                    line_width=1.5,
+                    thickness=1.5,
+                    thickness_units="screen",
                     visible=key not in hidden,
                 )
         for key in list(self.lines):

@@ -31,6 +31,7 @@ from promp.inference import Observation, log_likelihoods
 from promp.model import ProMPModel, Settings, fit
 
 DEFAULT_SETTINGS = {"n_basis": Settings().n_basis, "width": Settings().width}
+KEEP = object()  # set_learning: leave a setting as it is
 
 
 @dataclass(frozen=True)
@@ -123,7 +124,9 @@ class Session:
             return self.imported_model if self.imported_model is not None else self.model
 
     def learning_settings(self) -> Settings:
-        return Settings(n_basis=int(self.settings["n_basis"]), width=float(self.settings["width"]))
+        # Every stored setting is honoured (an imported workspace may set the ridge or the
+        # noise, for example); absent ones take the engine's defaults.
+        return Settings(**self.settings)
 
     # ------------------------------------------------------------------ learning
 
@@ -268,10 +271,15 @@ class Session:
             (self.hidden.add if hidden else self.hidden.discard)((primitive, demo))
             self._changed(refit=False)
 
-    def set_learning(self, n_basis: int, width: float) -> None:
+    def set_learning(self, n_basis: int, width: float, shrinkage: object = KEEP) -> None:
+        """Change the learning settings. ``shrinkage``: a float in (0, 1], or None for the
+        leave-one-out estimate; when omitted, the current one is kept."""
         with self.lock:
-            Settings(n_basis=int(n_basis), width=float(width))  # validates
-            settings = {**self.settings, "n_basis": int(n_basis), "width": float(width)}
+            extra = {}
+            if shrinkage is not KEEP:
+                extra["shrinkage"] = None if shrinkage is None else float(shrinkage)
+            Settings(n_basis=int(n_basis), width=float(width), **extra)  # validates
+            settings = {**self.settings, "n_basis": int(n_basis), "width": float(width), **extra}
             self.workspace.save_index(self.primitives, settings)
             self.settings = settings
             self._changed()

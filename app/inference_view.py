@@ -1,0 +1,345 @@
+"""One scrub step of the Infer tab as pure computation: no viser, testable without a browser.
+
+Given a model and an early observation (the first samples of a held-out test demonstration, or
+of the live stream), a scrub step recognises the primitive and its time modulation alpha
+(Eq. 6, ML over the training alphas or the Eq. 7 model), conditions the recognised primitive on
+the observation (Eq. 8) and predicts the prior and posterior trajectory distributions (mean and
+standard deviation of every dimension over the predicted duration). With the true
+demonstration, it also measures the errors the evaluation reports (:mod:`promp.evaluate.metrics`):
+position error of the remainder, goal error and duration error.
+
+A test demonstration is held out from the model while it is inspected: :class:`HeldOutModels`
+fits (and caches) the model on the session's demonstrations minus that one.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.workspace import LAYOUT
+from promp.data import Demonstration
+from promp.evaluate import metrics
+from promp.inference import (
+    Observation,
+    Prediction,
+    Recognition,
+    condition,
+    predict,
+    recognise,
+)
+from promp.model import ProMPModel, Settings, fit
+
+# What the GUI offers, and what the engine calls it.
+OBSERVED_CHOICES: dict[str, tuple[str, ...]] = {
+    "hand + head": ("hand", "head"),
+    "hand": ("hand",),
+    "head": ("head",),
+}
+ALPHA_CHOICES: dict[str, str] = {"ML": "ml", "model": "model"}
+TUBE_POINTS = 100  # rings of the posterior tube (fixed mesh topology)
+PATH_POINTS = 60  # samples of the predicted future hand path
+HAND = "hand"
+HEAD = "head"
+
+
+def n_observed_for(percent: float, n_samples: int) -> int:
+    """Samples observed at ``percent`` of a movement of ``n_samples``: ``ceil(p / 100 * n)``,
+    at least 1 (the evaluation's rule).
+
+    Raises
+    ------
+    ValueError
+        If ``percent`` is not in (0, 100] or ``n_samples`` < 1.
+    """
+    if not math.isfinite(percent) or not 0.0 < percent <= 100.0:
+        raise ValueError(f"the observed percentage must be in (0, 100], got {percent}")
+    if n_samples < 1:
+        raise ValueError(f"a movement has at least one sample, got {n_samples}")
+    return max(1, min(n_samples, math.ceil(percent / 100.0 * n_samples - 1e-9)))
+
+
+def held_out_training(
+    demos: Mapping[str, Sequence[Demonstration]], primitive: str, demo_name: str
+) -> dict[str, list[Demonstration]]:
+    """The training set of the model that must not see ``demo_name`` of ``primitive``: every
+    primitive with at least two demonstrations once the test one is removed.
+
+    Raises
+    ------
+    ValueError
+        Unknown primitive or demonstration, or fewer than two demonstrations of ``primitive``
+        left (its model could not be learned, so it could not be recognised).
+    """
+    if primitive not in demos:
+        raise ValueError(f"unknown primitive {primitive!r}")
+    if demo_name not in {d.name for d in demos[primitive]}:
+        raise ValueError(f"primitive {primitive!r} has no demonstration {demo_name!r}")
+    train = {
+        name: [d for d in items if not (name == primitive and d.name == demo_name)]
+        for name, items in demos.items()
+    }
+    if len(train[primitive]) < 2:
+        raise ValueError(
+            f"holding out {demo_name!r} leaves {primitive!r} with {len(train[primitive])} "
+            "demonstration(s); record at least three to test one"
+        )
+    return {name: items for name, items in train.items() if len(items) >= 2}
+
+
+class HeldOutModels:
+    """Models learned without one test demonstration, cached by (session version, primitive,
+    demonstration): scrubbing never refits; a change of the session does."""
+
+    def __init__(self, max_entries: int = 8):
+        self.max_entries = max_entries
+        self._cache: OrderedDict[tuple[int, str, str], ProMPModel] = OrderedDict()
+
+    def get(
+        self,
+        version: int,
+        demos: Mapping[str, Sequence[Demonstration]],
+        primitive: str,
+        demo_name: str,
+        settings: Settings,
+    ) -> ProMPModel:
+        """The model fitted on ``demos`` minus ``demo_name`` (see :func:`held_out_training`)."""
+        key = (version, primitive, demo_name)
+        model = self._cache.get(key)
+        if model is None:
+            model = fit(held_out_training(demos, primitive, demo_name), LAYOUT, settings)
+            self._cache[key] = model
+            while len(self._cache) > self.max_entries:
+                self._cache.popitem(last=False)
+        else:
+            self._cache.move_to_end(key)
+        return model
+
+    def __len__(self) -> int:
+        return len(self._cache)
+
+    def __contains__(self, key: tuple[int, str, str]) -> bool:
+        return key in self._cache
+
+
+@dataclass(frozen=True, eq=False)
+class ScrubResult:
+    """Everything the Infer tab shows for one observation.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The model's primitives, in the order of ``recognition.probabilities``.
+    observation : Observation
+    recognition : Recognition
+    prior, posterior : Prediction
+        The recognised primitive's prior and posterior at the recognised alpha, on
+        ``TUBE_POINTS`` evenly spaced phases of the predicted duration.
+    observed_until : float
+        Seconds from the start of the movement to the last observed sample.
+    future_times : array, shape (PATH_POINTS,)
+        Seconds from the start, from ``observed_until`` to the predicted end.
+    future_hand : array, shape (PATH_POINTS, 3)
+        Posterior mean hand position at ``future_times``.
+    truth : Demonstration or None
+        The whole test demonstration (None for the live stream).
+    position_error_m, goal_error_m, duration_error_s : float
+        Against the truth (NaN without one; the position error is NaN when nothing remains).
+    """
+
+    names: tuple[str, ...]
+    observation: Observation
+    recognition: Recognition
+    prior: Prediction
+    posterior: Prediction
+    observed_until: float
+    future_times: np.ndarray
+    future_hand: np.ndarray
+    truth: Demonstration | None
+    position_error_m: float
+    goal_error_m: float
+    duration_error_s: float
+
+    @property
+    def primitive(self) -> str:
+        return self.recognition.primitive
+
+    @property
+    def alpha(self) -> float:
+        return self.recognition.alpha
+
+    @property
+    def probabilities(self) -> np.ndarray:
+        return self.recognition.probabilities
+
+    @property
+    def duration(self) -> float:
+        """Predicted duration of the whole movement, seconds."""
+        return self.posterior.duration
+
+    @property
+    def true_duration(self) -> float:
+        return self.truth.duration if self.truth is not None else math.nan
+
+    @property
+    def remaining(self) -> float:
+        """Predicted time left after the observation, seconds."""
+        return max(0.0, self.duration - self.observed_until)
+
+
+def hand_dims() -> np.ndarray:
+    return LAYOUT.dims([HAND])
+
+
+def scrub_step(
+    model: ProMPModel,
+    observation: Observation,
+    alpha_method: str,
+    truth: Demonstration | None = None,
+) -> ScrubResult:
+    """Recognise, condition on the recognised primitive, predict, and measure the errors.
+
+    Parameters
+    ----------
+    model : ProMPModel
+    observation : Observation
+        Its times start at the start of the movement.
+    alpha_method : {"ml", "model"}
+    truth : Demonstration, optional
+        The whole movement the observation was taken from (errors are NaN without it).
+
+    Raises
+    ------
+    ValueError
+        From the engine: an unknown modality, an unknown alpha method, or an observation longer
+        than every candidate duration.
+    """
+    reco = recognise(model, observation, alpha_method=alpha_method)
+    prim = model.primitives[reco.index]
+    posterior = condition(model, prim, observation, reco.alpha)
+    prior_pred = predict(model, prim, reco.alpha, n_points=TUBE_POINTS)
+    post_pred = predict(model, posterior, reco.alpha, n_points=TUBE_POINTS)
+    duration = post_pred.duration
+    observed_until = float(observation.elapsed[-1])
+    z_start = min(observed_until / duration, 1.0) if duration > 0 else 1.0
+    phases = np.linspace(z_start, 1.0, PATH_POINTS)
+    hand = hand_dims()
+    weights = posterior.mean.reshape(model.n_dims, -1)[hand]  # (3, M)
+    future_hand = model.basis(phases) @ weights.T
+    position_error = goal_error = duration_error = math.nan
+    if truth is not None:
+        true_hand = model.layout.extract(truth)[:, hand]
+        # The evaluation's metrics are defined on the prediction's own samples (n_f of them).
+        natural = predict(model, posterior, reco.alpha).mean[:, hand]
+        position_error = metrics.remainder_error(true_hand, natural, observation.n_observed)
+        goal_error = metrics.goal_error(true_hand, natural)
+        duration_error = abs(duration - truth.duration)
+    return ScrubResult(
+        names=model.names,
+        observation=observation,
+        recognition=reco,
+        prior=prior_pred,
+        posterior=post_pred,
+        observed_until=observed_until,
+        future_times=phases * duration,
+        future_hand=future_hand,
+        truth=truth,
+        position_error_m=position_error,
+        goal_error_m=goal_error,
+        duration_error_s=duration_error,
+    )
+
+
+def demo_observation(
+    model: ProMPModel, demo: Demonstration, percent: float, modalities: Sequence[str]
+) -> Observation:
+    """The first ``ceil(percent / 100 * n)`` samples of ``demo`` in ``modalities``."""
+    return Observation.from_demo(
+        model, demo, n_observed_for(percent, demo.n_samples), tuple(modalities)
+    )
+
+
+class LiveBuffer:
+    """Samples of the live stream since "Start observing": (t, hand (3,), head (3,) or NaN).
+
+    Bounded (``max_seconds``): :meth:`append` returns False once full.
+    """
+
+    def __init__(self, max_seconds: float = 30.0):
+        self.max_seconds = max_seconds
+        self._t: list[float] = []
+        self._hand: list[np.ndarray] = []
+        self._head: list[np.ndarray] = []
+
+    def __len__(self) -> int:
+        return len(self._t)
+
+    def clear(self) -> None:
+        self._t.clear()
+        self._hand.clear()
+        self._head.clear()
+
+    @property
+    def duration(self) -> float:
+        return self._t[-1] - self._t[0] if self._t else 0.0
+
+    def append(self, t: float, hand: np.ndarray, head: np.ndarray | None) -> bool:
+        """Add a sample taken at monotonic time ``t``; samples not after the last are ignored.
+        False when the buffer is full (nothing added)."""
+        if self._t and t - self._t[0] > self.max_seconds:
+            return False
+        if self._t and t <= self._t[-1]:
+            return True
+        self._t.append(float(t))
+        self._hand.append(np.array(hand, dtype=float).reshape(3))
+        self._head.append(
+            np.full(3, np.nan) if head is None else np.array(head, dtype=float).reshape(3)
+        )
+        return True
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Times (n,) from 0, hand (n, 3), head (n, 3) with NaN rows where there was no face."""
+        if not self._t:
+            return np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3))
+        t = np.array(self._t)
+        return t - t[0], np.array(self._hand), np.array(self._head)
+
+    def observation(self, percent: float, modalities: Sequence[str]) -> Observation:
+        """The first ``ceil(percent / 100 * n)`` samples of the buffer in ``modalities``;
+        samples without a face are dropped when the head is observed.
+
+        Raises
+        ------
+        ValueError
+            If there is nothing (usable) to observe yet.
+        """
+        times, hand, head = self.arrays()
+        if times.shape[0] == 0:
+            raise ValueError("nothing observed yet: press Start observing and move the hand")
+        n_o = n_observed_for(percent, times.shape[0])
+        times, hand, head = times[:n_o], hand[:n_o], head[:n_o]
+        columns = []
+        keep = np.ones(n_o, dtype=bool)
+        for name in LAYOUT.names:
+            if name not in modalities:
+                continue
+            if name == HAND:
+                columns.append(hand)
+            elif name == HEAD:
+                columns.append(head)
+                keep &= np.all(np.isfinite(head), axis=1)
+            else:
+                raise ValueError(f"the live stream has no modality {name!r}")
+        if not columns:
+            raise ValueError("choose at least one observed modality")
+        if not keep.any():
+            raise ValueError("no face seen yet: the head cannot be observed")
+        values = np.hstack(columns)[keep]
+        kept = times[keep]
+        return Observation(
+            kept - kept[0], values, tuple(m for m in LAYOUT.names if m in modalities)
+        )

@@ -1,0 +1,161 @@
+"""Server-side time of one scrub step of the Infer tab, in the running studio.
+
+A scrub step is what the studio's loop does after the observation slider moved: recognise the
+primitive and alpha, condition, predict the prior and the posterior, then redraw: the posterior
+tube's vertices, the predicted path and its end point, the probability bars, the status, and
+the six per-dimension uPlot charts. The studio runs as ``make run`` starts it (its loop thread at
+60 Hz, every panel built) on a temporary workspace filled with the default scenario (2 x 20
+simulated demonstrations). The slider is set from Python to each percentage of a sweep, 5 to
+100 % and back in steps of 5, and the time the panel itself measured for that step (from the
+start of the recomputation to the last GUI update queued) is collected; the held-out fit, done
+once per test demonstration and cached, is not part of a scrub step and is reported apart.
+Then the same sweep on the live stream (the buffer filled with a demonstration's samples).
+
+With ``--browser``, a headless Chromium is connected while measuring, so every update is also
+serialised and sent to a real client.
+
+Run: ``.venv/bin/python bench/scrub.py [--browser]``. The last line is one JSON object.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from app.inference_view import held_out_training  # noqa: E402
+from app.net import free_port  # noqa: E402
+from app.panels.infer import LIVE, InferPanel  # noqa: E402
+from app.studio import Studio  # noqa: E402
+from app.workspace import LAYOUT  # noqa: E402
+from promp.model import fit  # noqa: E402
+
+TARGET_MS = 16.0
+REFIT_TARGET_MS = 100.0
+SWEEP = list(range(5, 101, 5)) + list(range(95, 4, -5))
+
+
+def scrub_to(panel: InferPanel, percent: int, timeout: float = 30.0) -> float:
+    """Set the slider (as a browser would), wait for the loop's scrub step, return its ms."""
+    count = panel.scrub_count
+    panel.percent.value = percent
+    deadline = time.monotonic() + timeout
+    while panel.scrub_count == count:
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"no scrub step within {timeout} s at {percent} %")
+        time.sleep(0.002)
+    if panel.result is None:
+        raise RuntimeError(f"the scrub step at {percent} % failed: {panel.message}")
+    return panel.scrub_ms
+
+
+def sweep(panel: InferPanel, label: str) -> list[float]:
+    scrub_to(panel, 50)  # warm up (and fit the held-out model once)
+    times = []
+    print(f"{label}: percent, recognised, step ms")
+    for percent in SWEEP:
+        ms = scrub_to(panel, percent)
+        times.append(ms)
+        print(f"  {percent:3d} %  {panel.result.primitive:>10s}  {ms:6.2f}")
+    return times
+
+
+def fill_live_buffer(panel: InferPanel) -> None:
+    """The live buffer as if the first demonstration had just been observed."""
+    demo = panel.studio.session.demos[panel.primitive.value][0]
+    values = demo.select(("x", "y", "z", "roll", "pitch", "yaw"))
+    panel.live.clear()
+    for t, row in zip(demo.times, values, strict=True):
+        panel.live.append(1000.0 + float(t), row[:3], row[3:])
+
+
+def main(browser: bool = False) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        studio = Studio.start("127.0.0.1", free_port(), Path(tmp) / "workspace")
+        pw = chromium = None
+        try:
+            panel = next(p for p in studio.panels if isinstance(p, InferPanel))
+            deadline = time.monotonic() + 60.0
+            while panel.scrub_count == 0 and time.monotonic() < deadline:
+                time.sleep(0.01)  # the loop's first step syncs the choices and scrubs
+            if browser:
+                from playwright.sync_api import sync_playwright
+
+                from tests.conftest import CHROMIUM, CHROMIUM_FLAGS
+
+                pw = sync_playwright().start()
+                chromium = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_FLAGS)
+                page = chromium.new_page(viewport={"width": 1400, "height": 900})
+                page.goto(f"http://127.0.0.1:{studio.port}")
+                page.get_by_role("tab", name="Infer").click(timeout=60_000)
+                time.sleep(2.0)
+            test = sweep(panel, f"test demonstration {panel.demo.value} (held out)")
+            fit_ms = _fit_ms(panel)
+            refit_ms = _refit_ms(studio.session)
+            panel.source.value = LIVE
+            fill_live_buffer(panel)
+            live = sweep(panel, "live stream (buffer of one demonstration)")
+        finally:
+            if chromium is not None:
+                chromium.close()
+            if pw is not None:
+                pw.stop()
+            studio.stop()
+    result = {
+        "scrub_ms_median": round(statistics.median(test), 3),
+        "scrub_ms_p90": round(sorted(test)[int(0.9 * (len(test) - 1))], 3),
+        "scrub_ms_max": round(max(test), 3),
+        "live_scrub_ms_median": round(statistics.median(live), 3),
+        "held_out_fit_ms": round(fit_ms, 1),
+        "refit_ms_median": round(refit_ms, 1),
+        "refit_target_ms": REFIT_TARGET_MS,
+        "steps": len(test),
+        "target_ms": TARGET_MS,
+        "browser_connected": browser,
+        "load_average_1min": round(os.getloadavg()[0], 2),
+        "cpus": os.cpu_count(),
+    }
+    print(
+        f"scrub step median {result['scrub_ms_median']:.2f} ms (p90 {result['scrub_ms_p90']:.2f},"
+        f" max {result['scrub_ms_max']:.2f}); live stream {result['live_scrub_ms_median']:.2f} ms;"
+        f" target <= {TARGET_MS:.0f} ms; refit of the workspace {result['refit_ms_median']:.1f} ms"
+        f" (Teach tab, target well under {REFIT_TARGET_MS:.0f} ms);"
+        f" machine load {result['load_average_1min']}"
+    )
+    print(json.dumps(result))
+
+
+def _refit_ms(session, repeats: int = 7) -> float:
+    """Median time of the Teach tab's refit of the whole workspace (every primitive, with the
+    workspace's learning settings), as the session measures it after every change."""
+    timings = []
+    for _ in range(repeats):
+        session.refit()
+        timings.append(session.fit_ms)
+    return statistics.median(timings)
+
+
+def _fit_ms(panel: InferPanel) -> float:
+    """Time of one held-out fit, as the panel does it when a new test demo is picked."""
+    session = panel.studio.session
+    with session.lock:
+        demos = {name: list(items) for name, items in session.demos.items()}
+        settings = session.learning_settings()
+    start = time.perf_counter()
+    fit(held_out_training(demos, panel.primitive.value, panel.demo.value), LAYOUT, settings)
+    return 1e3 * (time.perf_counter() - start)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--browser", action="store_true", help="connect a headless Chromium while measuring"
+    )
+    main(**vars(parser.parse_args()))

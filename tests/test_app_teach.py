@@ -1,0 +1,618 @@
+"""The Teach tab (issue 7): recording by dragging the hand in a real browser, the demonstration
+list, primitives, head sources, learning settings, two tabs, and SIGKILL + restart; plus the
+recorder and the uPlot band helpers without a browser."""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import viser.transforms as vtf
+
+from app.plots import Band, Trace, band_chart, y_range
+from app.recorder import MAX_GAP_S, Recorder, Recording
+from app.session import Session
+from app.studio import default_workspace
+from app.workspace import LAYOUT
+from promp.datasets import read_csv_demo
+from tests.conftest import REPO, open_page, start_studio, wait_until
+
+# ====================================================================== without a browser
+
+
+def _recording(times, head_rows) -> Recording:
+    times = np.asarray(times, dtype=float)
+    hand = np.column_stack([times, 2 * times, -times])
+    return Recording(times, hand, np.asarray(head_rows, dtype=float))
+
+
+def test_head_gaps_are_interpolated_between_readings_and_held_at_the_ends() -> None:
+    t = np.arange(8) * 0.02
+    nan = [np.nan] * 3
+    head = [nan, [0.0, 1.0, 2.0], [0.2, 1.0, 2.0], nan, nan, [0.8, 1.6, 2.0], [1.0, 1.6, 2.0], nan]
+    values, fill = _recording(t, head).values()
+    np.testing.assert_allclose(values[:, :3], np.column_stack([t, 2 * t, -t]))
+    np.testing.assert_allclose(values[:, 3], [0.0, 0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 1.0])
+    np.testing.assert_allclose(values[:, 4], [1.0, 1.0, 1.0, 1.2, 1.4, 1.6, 1.6, 1.6])
+    assert np.all(np.isfinite(values))
+    assert fill.n_filled == 4 and fill.n_samples == 8
+    assert "no face in 4 of 8 samples" in fill.message
+
+
+def test_a_recording_without_any_face_or_with_a_long_gap_is_refused() -> None:
+    t = np.arange(100) * 0.02
+    with pytest.raises(ValueError, match="no face during the whole recording"):
+        _recording(t, np.full((100, 3), np.nan)).values()
+    head = np.zeros((100, 3))
+    head[20:60] = np.nan  # 0.8 s without a face
+    with pytest.raises(ValueError, match=r"lost for 0\.8 s \(from 0\.4 s to 1\.2 s"):
+        _recording(t, head).values()
+    head = np.zeros((100, 3))
+    head[:30] = np.nan  # the first 0.6 s
+    with pytest.raises(ValueError, match="lost for 0.6 s"):
+        _recording(t, head).values()
+    head = np.zeros((100, 3))
+    head[20:30] = np.nan  # 0.22 s: filled
+    assert _recording(t, head).values()[1].longest_gap_s < MAX_GAP_S
+    with pytest.raises(ValueError, match="at least 2 are needed"):
+        _recording([0.0], [[0.0, 0.0, 0.0]]).values()
+
+
+def test_recorder_samples_at_its_rate_what_the_sampler_reads() -> None:
+    counter = iter(range(10**6))
+
+    def sample():
+        i = next(counter)
+        return np.array([i, 0.0, 0.0]), (None if i % 5 == 4 else np.array([0.1, 0.2, 0.3]))
+
+    recorder = Recorder(sample, rate_hz=100.0)
+    recorder.start()
+    wait_until(lambda: recorder.n_samples >= 40, timeout=10, what="40 samples")
+    recording = recorder.stop()
+    n = recording.n_samples
+    assert n >= 40 and not recorder.running
+    assert recording.times[0] == 0.0 and np.all(np.diff(recording.times) > 0)
+    assert 0.007 < np.median(np.diff(recording.times)) < 0.013  # 100 Hz
+    np.testing.assert_array_equal(recording.hand[:, 0], np.arange(n))  # every tick sampled once
+    assert np.isnan(recording.head[4::5]).all() and not np.isnan(recording.head[0::5]).any()
+    time.sleep(0.05)
+    assert recorder.n_samples == n, "a stopped recorder must not sample"
+    with pytest.raises(ValueError, match="already been started"):
+        recorder.start()
+    with pytest.raises(ValueError, match="1-1000 Hz"):
+        Recorder(sample, rate_hz=0.0)
+
+
+def test_band_chart_shares_one_grid_and_leaves_nan_only_outside_each_span() -> None:
+    t1, t2 = np.linspace(0.0, 2.0, 5), np.linspace(0.0, 3.0, 4)
+    band = Band("a", t1, t1**2, 0.1 * np.ones(5), (200, 10, 10))
+    other = Band("b", t2, -t2, np.zeros(4), (10, 10, 200))
+    samples = Trace(
+        "observed", np.array([0.25, 0.75]), np.array([1.0, 2.0]), (0, 0, 0), points=True
+    )
+    truth = Trace("truth", np.array([1.0, 2.5]), np.array([5.0, 6.0]), (0, 90, 0), dash=(4, 2))
+    chart = band_chart([band, other], [samples, truth])
+    grid = chart.grid
+    np.testing.assert_array_equal(grid, np.unique(np.concatenate([t1, t2, [0.25, 0.75, 2.5]])))
+    assert len(chart.data) == len(chart.series) == 1 + 3 * 2 + 2
+    assert {len(d) for d in chart.data} == {len(grid)}
+    upper, lower, mean = chart.data[1:4]
+    inside = grid <= 2.0
+    np.testing.assert_allclose(mean[inside], np.interp(grid[inside], t1, t1**2))
+    np.testing.assert_allclose(upper[inside] - lower[inside], 0.4)
+    assert np.isnan(mean[~inside]).all()  # the mean line ends with its span
+    np.testing.assert_array_equal(upper[~inside], 4.0)  # the band has zero width beyond it
+    np.testing.assert_array_equal(lower[~inside], 4.0)
+    assert all(np.isfinite(chart.data[i]).all() for i in (1, 2, 4, 5))  # edges: never NaN
+    assert chart.bands[0]["series"] == (1, 2) and chart.bands[1]["series"] == (4, 5)
+    observed = chart.data[7]
+    assert np.count_nonzero(np.isfinite(observed)) == 2
+    np.testing.assert_array_equal(observed[np.searchsorted(grid, [0.25, 0.75])], [1.0, 2.0])
+    truth_line = chart.data[8]
+    span = (grid >= 1.0) & (grid <= 2.5)
+    assert np.isfinite(truth_line[span]).all() and np.isnan(truth_line[~span]).all()
+    assert chart.series[8]["dash"] == (4.0, 2.0)
+    lo, hi = chart.y_range
+    finite = np.concatenate([d[np.isfinite(d)] for d in chart.data[1:]])
+    assert lo < finite.min() and hi > finite.max()
+    assert chart.scales == {"x": {"time": False, "range": (0.0, 3.0)}, "y": {"range": (lo, hi)}}
+
+
+def test_band_chart_rejects_bad_input() -> None:
+    t = np.linspace(0, 1, 3)
+    with pytest.raises(ValueError, match="finite"):
+        Band("a", t, np.array([0.0, np.nan, 1.0]), np.zeros(3), (0, 0, 0))
+    with pytest.raises(ValueError, match="strictly increasing"):
+        Trace("a", np.array([0.0, 0.0, 1.0]), np.zeros(3), (0, 0, 0))
+    with pytest.raises(ValueError, match="std must be >= 0"):
+        Band("a", t, np.zeros(3), -np.ones(3), (0, 0, 0))
+    with pytest.raises(ValueError, match="colour"):
+        Trace("a", t, np.zeros(3), (0, 0, 300))
+    with pytest.raises(ValueError, match="at least one band or trace"):
+        band_chart([])
+    assert y_range([np.array([2.0, 2.0])]) == pytest.approx((1.88, 2.12))
+
+
+def test_default_workspace_refits_every_primitive_and_reports_the_time(tmp_path) -> None:
+    """The refit's speed is measured by ``bench/scrub.py`` (``refit_ms_median``), not here."""
+    session = Session.open(tmp_path / "ws", default=default_workspace)
+    assert sum(len(d) for d in session.demos.values()) == 40
+    session.model = None
+    session.refit()
+    assert session.model is not None and tuple(session.model.names) == ("curved", "direct")
+    assert session.model.basis.n_basis == 15 and session.fit_ms > 0.0
+
+
+# ====================================================================== in a real browser
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory):
+    studio = start_studio(tmp_path_factory.mktemp("teach") / "ws")
+    yield studio
+    studio.stop()
+
+
+@pytest.fixture(scope="module")
+def tab(browser, studio):
+    page, client = open_page(browser, studio)
+    yield page, client
+    page.close()
+
+
+def panel(studio):
+    from app.panels.teach import TeachPanel
+
+    return next(p for p in studio.panels if isinstance(p, TeachPanel))
+
+
+def text(page) -> str:
+    return page.inner_text("body")
+
+
+def wait_text(page, wanted: str, timeout: float = 60.0, present: bool = True) -> None:
+    what = f"{wanted!r} to {'appear' if present else 'disappear'}"
+    wait_until(lambda: (wanted in text(page)) == present, timeout=timeout, what=what)
+
+
+def row(page, label: str):
+    """The GUI row (label + control) whose label contains ``label``."""
+    return page.locator("label", has_text=label).first.locator(
+        "xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]"
+    )
+
+
+def type_name(page, studio, name: str) -> None:
+    """Type into the Name field and wait until the server has it (viser throttles text
+    updates to 50 ms, so an immediate click could overtake them)."""
+    row(page, "Name").locator("input").first.fill(name)
+    wait_until(lambda: panel(studio).new_name.value == name, what=f"the name {name!r} typed")
+
+
+def choose(page, label: str, option: str) -> None:
+    """Pick ``option`` in a dropdown (scrolled into view first: the options list hides while
+    its input is scrolled out of the panel)."""
+    field = row(page, label).locator("input").first
+    field.evaluate("e => e.scrollIntoView({block: 'center'})")
+    field.dispatch_event("click")
+    page.get_by_role("option", name=option, exact=True).dispatch_event("click")
+
+
+def click(page, name: str) -> None:
+    """Click a GUI button. A DOM click event: Playwright's actionability checks wait for
+    animation frames, which software WebGL on a loaded machine makes take seconds each."""
+    page.get_by_role("button", name=name, exact=True).first.dispatch_event("click")
+
+
+def close_notifications(page) -> None:
+    buttons = page.locator(".mantine-Notification-closeButton")
+    for _ in range(buttons.count()):
+        buttons.first.dispatch_event("click")
+        time.sleep(0.2)
+
+
+# Records every digit the countdown shows (a MutationObserver sees each DOM change, however
+# slowly the page is polled).
+COUNTDOWN_OBSERVER = """() => {
+    window.__countdown = [];
+    new MutationObserver(() => {
+        const shown = document.querySelector("div[style*='font-size: 2.4em']");
+        if (shown) window.__countdown.push(shown.innerText);
+    }).observe(document.body, {subtree: true, childList: true, characterData: true});
+}"""
+
+
+def project(client, points: np.ndarray) -> np.ndarray:
+    """Pixel coordinates (n, 2) of world points (n, 3) in the client's view (OpenCV camera:
+    x right, y down, z forward; ``wxyz``/``position`` give the camera-to-world pose)."""
+    camera = client.camera
+    rotation = vtf.SO3(np.asarray(camera.wxyz)).as_matrix()
+    local = (np.atleast_2d(points) - camera.position) @ rotation
+    height, width = camera.image_height, camera.image_width
+    focal = (height / 2.0) / math.tan(camera.fov / 2.0)
+    return np.column_stack(
+        [
+            width / 2 + focal * local[:, 0] / local[:, 2],
+            height / 2 + focal * local[:, 1] / local[:, 2],
+        ]
+    )
+
+
+def drag_hand(page, client, studio, direction, pixels: float, steps: int = 4) -> None:
+    """Drag the gizmo with the real mouse, in a few steps, by the arrow of the hand-frame axis
+    closest to the world ``direction`` (3,) among those seen side-on, so that the hand moves
+    along it. (Each mouse event waits for the page to render a frame, which software WebGL
+    makes slow, so the steps are few and large; the gizmo follows the pointer anyway.)"""
+    gizmo = studio.arm.gizmo
+    centre = np.asarray(gizmo.position, dtype=float)
+    axes = vtf.SO3(np.asarray(gizmo.wxyz)).as_matrix()
+    alignment = np.asarray(direction, dtype=float) @ axes  # cosine with each axis
+    best = None
+    for k in np.argsort(-np.abs(alignment)):
+        axis = gizmo.scale * axes[:, k]
+        origin, grab, tip = project(client, np.stack([centre, centre + 0.85 * axis, centre + axis]))
+        if np.linalg.norm(tip - origin) > 40.0:  # an arrow seen side-on, easy to grab
+            best = (k, grab, tip)
+            break
+    assert best is not None, "every arrow of the gizmo points at the camera"
+    k, grab, tip = best
+    screen = (tip - grab) / np.linalg.norm(tip - grab) * np.sign(alignment[k])
+    camera = np.array(client.camera.position)
+    page.mouse.move(*grab)
+    page.mouse.down()
+    for i in range(1, steps + 1):
+        page.mouse.move(*(grab + screen * pixels * i / steps))
+        time.sleep(0.05)
+    page.mouse.up()
+    np.testing.assert_allclose(client.camera.position, camera, err_msg="the drag orbited the view")
+
+
+UP = (0.0, 0.0, 1.0)
+
+
+def test_the_head_source_stays_during_a_recording(studio) -> None:
+    """GUI logic, driven from Python (setting a value runs its callbacks)."""
+    from app.head_sources import SimulatedPartner
+
+    teach = panel(studio)
+    source = studio.head_source
+    assert isinstance(source, SimulatedPartner)
+    with teach._intents:
+        teach._record_clicked = True
+    wait_until(lambda: teach.take is not None, what="the countdown")
+    teach.source.value = "Camera"
+    assert teach.source.value == "Simulated partner" and studio.head_source is source
+    with teach._intents:
+        teach._record_clicked = True  # cancel
+    wait_until(lambda: teach.take is None, what="the cancellation")
+    wait_until(lambda: teach.record.label == "Record", what="the Record button back")
+    assert "Recording cancelled." in teach.record_status.content
+    teach.last_message = ""
+
+
+@pytest.mark.browser
+def test_panel_lists_primitives_demonstrations_and_prior_plots(studio, tab) -> None:
+    page, _ = tab
+    body = text(page)
+    for wanted in ("Primitive", "Record", "Head source", "Learn", "Prior of curved"):
+        assert wanted in body
+    assert "20 demonstration(s) of curved" in body
+    assert "simulated partner: tracking" in body
+    charts = page.evaluate("Object.keys(window.__viserTestpoints?.uplots ?? {}).length")
+    assert charts >= 6
+    wait_text(page, f"Fit in {studio.session.fit_ms:.0f} ms")
+
+
+@pytest.mark.browser
+def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> None:
+    page, client = tab
+    session, teach = studio.session, panel(studio)
+    assert teach.selected() == "curved"
+    tube_before = np.array(studio.view.tubes["curved"].vertices)
+    q_before, hand_before = studio.arm.q.copy(), studio.arm.hand_position()
+    page.evaluate(COUNTDOWN_OBSERVER)
+    click(page, "Record")
+    wait_text(page, "● Recording into curved")
+    seen = page.evaluate("window.__countdown")
+    digits = [d for i, d in enumerate(seen) if i == 0 or d != seen[i - 1]]
+    assert digits == ["3", "2", "1"], f"countdown shown: {seen}"
+    drag_hand(page, client, studio, UP, pixels=110)
+    wait_until(lambda: teach.take.recorder.snapshot().duration > 2.2, what="a 2.2 s recording")
+    assert np.abs(studio.arm.q - q_before).max() > 0.05, "the arm did not follow the gizmo"
+    assert studio.arm.hand_position()[2] - hand_before[2] > 0.05, "the hand did not go up 5 cm"
+    close_notifications(page)
+    page.screenshot(path=str(artifacts / "teach_recording.png"))
+    click(page, "Stop")
+    wait_text(page, "Saved curved_020")
+    demo = session.demos["curved"][-1]
+    assert demo.name == "curved_020"
+    hand = demo.select(("x", "y", "z"))
+    assert np.ptp(hand[:, 2]) > 0.05, "the recorded hand does not move"
+    assert 0.015 < demo.sample_period < 0.025  # 50 Hz
+    assert np.all(np.isfinite(demo.values))
+    # Listed with its typicality, drawn, on disk, and the prior changed.
+    assert row(page, "curved_020").count() == 1
+    typicality = session.typicality[("curved", "curved_020")]
+    assert f"curved_020 · {'⚠ ' if typicality.label != 'typical' else ''}{typicality.label}" in (
+        text(page)
+    )
+    assert "21 demonstration(s) of curved" in text(page)
+    assert studio.view.lines[("curved", "curved_020")].visible
+    path = session.workspace.demo_path("curved", "curved_020")
+    on_disk = read_csv_demo(path)
+    np.testing.assert_allclose(on_disk.select(demo.columns), demo.values, atol=1e-9)
+    wait_until(
+        lambda: not np.allclose(np.array(studio.view.tubes["curved"].vertices), tube_before),
+        what="the prior tube of curved to change",
+    )
+
+
+@pytest.mark.browser
+def test_hide_and_delete_a_demonstration(studio, tab) -> None:
+    page, _ = tab
+    session = studio.session
+    line = studio.view.lines[("curved", "curved_020")]
+    row(page, "curved_020").get_by_role("button", name="Hide").dispatch_event("click")
+    wait_until(lambda: ("curved", "curved_020") in session.hidden, what="the demo to be hidden")
+    wait_until(lambda: not line.visible, what="its line to be hidden")
+    wait_until(lambda: "hidden" in row(page, "curved_020").inner_text(), what="'hidden' shown")
+    row(page, "curved_020").get_by_role("button", name="Show").dispatch_event("click")
+    wait_until(lambda: line.visible, what="its line to be shown again")
+    wait_until(lambda: "hidden" not in row(page, "curved_020").inner_text(), what="'Hide' back")
+    path = session.workspace.demo_path("curved", "curved_020")
+    row(page, "curved_020").get_by_role("button", name="Delete").dispatch_event("click")
+    wait_text(page, "20 demonstration(s) of curved")
+    assert not path.exists()
+    assert [d.name for d in session.demos["curved"]][-1] == "curved_019"
+    assert ("curved", "curved_020") not in studio.view.lines
+    assert row(page, "curved_020").count() == 0
+
+
+@pytest.mark.browser
+def test_primitives_are_managed_from_the_gui_and_two_tabs_agree(browser, studio, tab) -> None:
+    page, _ = tab
+    session = studio.session
+    other, _ = open_page(browser, studio)
+    try:
+        # A bad name changes nothing and says why.
+        type_name(page, studio, "bad name!")
+        click(page, "Create")
+        wait_text(page, "invalid primitive name")
+        assert session.names() == ["curved", "direct"]
+        # Create in one tab, see it in the other.
+        type_name(page, studio, "wave")
+        click(page, "Create")
+        wait_until(lambda: "wave" in session.names(), what="the primitive to be created")
+        wait_text(other, "No demonstration of wave yet")
+        assert row(other, "Primitive").locator("input").first.input_value() == "wave"
+        assert session.workspace.demo_dir("wave").is_dir()
+        # Rename from the other tab.
+        type_name(other, studio, "wave2")
+        click(other, "Rename")
+        wait_until(lambda: session.names() == ["curved", "direct", "wave2"], what="the rename")
+        wait_text(page, "No demonstration of wave2 yet")
+        assert not session.workspace.demo_dir("wave").exists()
+        # Recolour.
+        colour = row(page, "Colour").locator("input").first
+        colour.fill("rgb(10, 200, 30)")
+        colour.press("Enter")
+        wait_until(lambda: session.color("wave2") == (10, 200, 30), what="the new colour")
+        index = json.loads(session.workspace.index_path.read_text())
+        assert {"name": "wave2", "color": [10, 200, 30]} in index["primitives"]
+        wait_until(
+            lambda: "10, 200, 30" in row(other, "Colour").locator("input").first.input_value(),
+            what="the other tab to show the colour",
+        )
+        # Delete: cancel first, then confirm.
+        click(page, "Delete primitive")
+        wait_text(other, "Delete wave2 and its 0 demonstration(s)")
+        click(page, "Cancel")
+        wait_text(page, "Delete wave2 and its", present=False)
+        assert "wave2" in session.names()
+        click(other, "Delete primitive")
+        click(other, "Yes, delete")
+        wait_until(lambda: session.names() == ["curved", "direct"], what="the deletion")
+        assert not session.workspace.demo_dir("wave2").exists()
+        wait_until(
+            lambda: row(page, "Primitive").locator("input").first.input_value() == "curved",
+            what="the selection to fall back to curved",
+        )
+    finally:
+        other.close()
+
+
+@pytest.mark.browser
+def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, tab) -> None:
+    page, _ = tab
+    choose(page, "Source", "Camera")
+    index = row(page, "Camera index").locator("input").first
+    index.fill("99")
+    index.press("Enter")
+    wait_until(lambda: panel(studio).camera_index.value == 99, what="camera index 99")
+    click(page, "Connect")
+    wait_text(page, "camera 99: cannot be opened")
+    wait_text(page, "Head source failed")
+    assert "keeps working" in text(page)
+    # The rest works: recording refuses clearly, learning still refits, the arm still moves.
+    click(page, "Record")
+    wait_text(page, "The head source failed")
+    assert panel(studio).take is None
+    version = studio.session.version
+    choose(page, "Shrinkage", "0.01")
+    wait_until(lambda: studio.session.version > version, what="a refit")
+    assert studio.session.settings["shrinkage"] == 0.01
+    assert studio.arm.move_hand_to(studio.arm.hand_position() + [0, 0, 0.01]).reached
+    choose(page, "Source", "Simulated partner")
+    wait_text(page, "simulated partner: tracking")
+    wait_text(page, "The head source failed", present=False)  # the refusal no longer holds
+    choose(page, "Shrinkage", "leave-one-out estimate")  # back to the workspace's default
+    wait_until(lambda: studio.session.settings["shrinkage"] is None, what="the default back")
+
+
+@pytest.mark.browser
+def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
+    studio, tab, tmp_path
+) -> None:
+    from app.head_sources import StreamHeadSource, TrackHeadSource
+    from app.headpose.models import models_available
+    from app.headpose.synthetic import ASTRONAUT_FACE_CENTRE, place_face
+
+    if not models_available()[0]:
+        pytest.skip(models_available()[1])
+    from skimage.data import astronaut
+
+    face = np.ascontiguousarray(astronaut()[:, :, ::-1])
+    path = tmp_path / "face.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 15.0, (640, 480))
+    for roll in np.linspace(-10, 10, 60):  # 4 s
+        writer.write(place_face(face, ASTRONAUT_FACE_CENTRE, (640, 480), roll_deg=roll, scale=1.5))
+    writer.release()
+    page, _ = tab
+    choose(page, "Source", "Video file")
+    row(page, "Video file").locator("input").first.fill(str(path))
+    wait_until(lambda: panel(studio).video_path.value == str(path), what="the path typed")
+    click(page, "Connect")
+    wait_until(lambda: isinstance(studio.head_source, StreamHeadSource), what="the video source")
+    wait_text(page, f"video {path}: tracking")
+    preview = page.locator("img[src^='blob:']")
+    wait_until(lambda: preview.count() and preview.first.is_visible(), what="the preview image")
+    assert preview.first.bounding_box()["width"] > 150
+    click(page, "Calibrate neutral")
+    wait_text(page, "Neutral pose set")
+    # The same video uploaded from the browser becomes a head-pose track.
+    choose(page, "Source", "Uploaded video")
+    page.locator("input[type=file]").first.set_input_files(str(path))
+    wait_text(page, "Video ready", timeout=60)
+    assert isinstance(studio.head_source, TrackHeadSource)
+    assert not preview.first.is_visible()
+    choose(page, "Source", "Simulated partner")
+    wait_text(page, "simulated partner: tracking")
+    wait_text(page, "The head source failed", present=False)  # the refusal no longer holds
+
+
+@pytest.mark.browser
+def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None:
+    page, _ = tab
+    session = studio.session
+    n_basis = session.learning_settings().n_basis
+    thumb = row(page, "Basis functions").get_by_role("slider")
+    thumb.focus()
+    thumb.press("ArrowRight")
+    wait_until(lambda: session.settings["n_basis"] == n_basis + 1, what="n_basis + 1")
+    assert session.model.basis.n_basis == n_basis + 1
+    assert f'"n_basis": {n_basis + 1}' in session.workspace.index_path.read_text()
+    wait_text(page, f"Fit in {session.fit_ms:.0f} ms")
+    assert session.settings["shrinkage"] is None  # the scenario's default: leave-one-out
+    choose(page, "Shrinkage", "1e-6 (span of the demos)")
+    wait_until(lambda: session.settings["shrinkage"] == 1e-6, what="shrinkage 1e-6")
+    assert '"shrinkage": 1e-06' in session.workspace.index_path.read_text()
+    wait_until(
+        lambda: np.allclose(session.model.primitive("curved").shrinkage, 1e-6),
+        what="the model refitted with shrinkage 1e-6",
+    )
+    thumb.press("ArrowLeft")
+    choose(page, "Shrinkage", "leave-one-out estimate")
+    wait_until(lambda: session.settings["shrinkage"] is None, what="leave-one-out shrinkage")
+    assert '"shrinkage": null' in session.workspace.index_path.read_text()
+    wait_until(lambda: session.settings["n_basis"] == n_basis, what="n_basis back")
+
+
+@pytest.mark.browser
+def test_readme_screenshot(studio, tab, artifacts) -> None:
+    """The Teach view seen from the partner's side: the demonstrations of both primitives and
+    their prior tubes over the table, the Learn settings and the prior plot of curved."""
+    page, client = tab
+    teach = panel(studio)
+    teach.primitive.value = "curved"
+    for folder in ("Primitive", "Demonstrations"):
+        page.get_by_text(folder, exact=True).first.dispatch_event("click")  # collapse
+    page.get_by_role("tab", name="Teach").evaluate("e => e.scrollIntoView({block: 'start'})")
+    start = LAYOUT.extract(studio.session.demos["curved"][0])[0, :3]
+    studio.call_in_loop(lambda: studio.arm.move_hand_to(start))  # the hand at the object
+    page.evaluate("document.activeElement && document.activeElement.blur()")
+    client.camera.position = np.array([-0.95, -0.35, 0.95])
+    client.camera.look_at = np.array([-0.22, -0.12, 0.08])
+    client.camera.fov = np.deg2rad(42.0)
+    close_notifications(page)
+    page.mouse.move(5, 450)
+    time.sleep(2.0)
+    page.screenshot(path=str(artifacts / "teach.png"))
+    assert (artifacts / "teach.png").stat().st_size > 50_000
+    for folder in ("Primitive", "Demonstrations"):
+        page.get_by_text(folder, exact=True).first.dispatch_event("click")  # as it was
+
+
+# ====================================================================== SIGKILL and restart
+
+
+def _snapshot(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+
+
+def _serve(workspace: Path) -> tuple[subprocess.Popen, int]:
+    from app.net import free_port
+
+    port = free_port()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "app", "--workspace", str(workspace), "--port", str(port)],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    lines = []
+    while not any("running at" in line for line in lines):
+        line = proc.stdout.readline()
+        assert line, f"the studio exited early: {''.join(lines)}"
+        lines.append(line)
+    return proc, port
+
+
+@pytest.mark.browser
+def test_sigkill_loses_nothing_recorded_and_restart_restores_the_workspace(
+    browser, tmp_path
+) -> None:
+    workspace = tmp_path / "ws"
+    proc, port = _serve(workspace)
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    try:
+        page.goto(f"http://127.0.0.1:{port}")
+        wait_text(page, "Ready to record into curved", timeout=60)
+        click(page, "Record")
+        wait_text(page, "● Recording into curved")
+        time.sleep(0.5)
+        click(page, "Stop")
+        wait_text(page, "Saved curved_020")
+        saved = _snapshot(workspace)
+        assert "demos/curved/curved_020.csv" in saved and len(saved) == 42
+        # Killed in the middle of the next recording: nothing half-written appears.
+        click(page, "Record")
+        wait_text(page, "● Recording into curved")
+        proc.kill()
+        proc.wait(timeout=30)
+        assert proc.returncode == -signal.SIGKILL
+        assert _snapshot(workspace) == saved
+    finally:
+        page.close()
+        if proc.poll() is None:
+            proc.kill()
+        proc.stdout.close()
+    proc, port = _serve(workspace)
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    try:
+        page.goto(f"http://127.0.0.1:{port}")
+        wait_text(page, "21 demonstration(s) of curved", timeout=60)
+        assert row(page, "curved_020").count() == 1
+        assert _snapshot(workspace) == saved, "restarting must not rewrite the workspace"
+    finally:
+        page.close()
+        proc.terminate()
+        proc.communicate(timeout=30)

@@ -1,0 +1,201 @@
+"""The studio's session: every mutation is on disk before it is in memory, a refused one changes
+nothing, reopening restores the session exactly, typicality flags outliers, the learning
+settings (shrinkage included) refit and persist, and concurrent mutations stay consistent."""
+
+from __future__ import annotations
+
+import shutil
+import threading
+
+import numpy as np
+import pytest
+
+from app.session import Session
+from app.studio import SCENARIO_SETTINGS, default_workspace
+from app.workspace import COLUMNS, LAYOUT, Workspace
+
+
+@pytest.fixture(scope="module")
+def default_folder(tmp_path_factory):
+    """The default scenario written once (copied by each test)."""
+    root = tmp_path_factory.mktemp("default") / "ws"
+    Workspace(root).replace_all(default_workspace())
+    return root
+
+
+@pytest.fixture
+def session(default_folder, tmp_path) -> Session:
+    root = tmp_path / "ws"
+    shutil.copytree(default_folder, root)
+    return Session.open(root)
+
+
+def files(session: Session) -> dict[str, bytes]:
+    root = session.workspace.root
+    return {str(p.relative_to(root)): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+
+
+def assert_same_state(a: Session, b: Session) -> None:
+    assert a.primitives == b.primitives
+    assert a.settings == b.settings
+    assert a.demos.keys() == b.demos.keys()
+    for name in a.demos:
+        assert [d.name for d in a.demos[name]] == [d.name for d in b.demos[name]]
+        for x, y in zip(a.demos[name], b.demos[name], strict=True):
+            np.testing.assert_array_equal(x.times, y.times)
+            np.testing.assert_array_equal(x.select(COLUMNS), y.select(COLUMNS))
+
+
+def test_an_empty_workspace_opens_on_the_default_scenario(tmp_path) -> None:
+    session = Session.open(tmp_path / "ws", default=default_workspace)
+    assert session.names() == ["curved", "direct"]
+    assert [len(session.demos[n]) for n in session.names()] == [20, 20]
+    assert session.model is not None and session.model.names == ("curved", "direct")
+    assert session.fit_error is None and session.fit_ms > 0
+
+
+def test_every_mutation_is_on_disk_and_reopening_restores_it_exactly(session) -> None:
+    demo = session.demos["curved"][3]
+    session.create_primitive("lift", (1, 2, 3))
+    session.add_demo("lift", demo.times + 5.0, demo.select(COLUMNS))
+    session.add_demo("lift", demo.times, demo.select(COLUMNS) + 0.01)
+    session.rename_primitive("lift", "lift_2")
+    session.recolor_primitive("lift_2", (9, 8, 7))
+    session.delete_demo("curved", "curved_005")
+    session.delete_primitive("direct")
+    session.set_learning(12, 1.25, shrinkage=0.1)
+    reopened = Session.open(session.workspace.root)
+    assert_same_state(session, reopened)
+    assert reopened.names() == ["curved", "lift_2"]
+    assert reopened.color("lift_2") == (9, 8, 7)
+    assert [d.name for d in reopened.demos["lift_2"]] == ["lift_000", "lift_001"]  # files kept
+    assert reopened.demos["lift_2"][0].times[0] == 0.0  # times start at the first sample
+    assert "curved_005" not in {d.name for d in reopened.demos["curved"]}
+    assert not session.workspace.demo_dir("direct").exists()
+    assert reopened.learning_settings().shrinkage == 0.1
+    np.testing.assert_allclose(reopened.model.primitive("curved").shrinkage, 0.1)
+
+
+@pytest.mark.parametrize(
+    "mutation, message",
+    [
+        (lambda s: s.create_primitive("curved"), "already exists"),
+        (lambda s: s.create_primitive("a/b"), "invalid primitive name"),
+        (lambda s: s.create_primitive("ok", (0, 0, 300)), "0-255"),
+        (lambda s: s.rename_primitive("curved", "direct"), "already exists"),
+        (lambda s: s.rename_primitive("nope", "x"), "unknown primitive"),
+        (lambda s: s.recolor_primitive("curved", (1, 2)), "three integers"),
+        (lambda s: s.delete_primitive("nope"), "unknown primitive"),
+        (lambda s: s.delete_demo("curved", "direct_000"), "no demonstration 'direct_000'"),
+        (lambda s: s.add_demo("nope", np.arange(3.0), np.zeros((3, 6))), "unknown primitive"),
+        (lambda s: s.add_demo("curved", np.arange(3.0), np.zeros((3, 5))), "column"),
+        (lambda s: s.set_learning(0, 1.0), "n_basis"),
+        (lambda s: s.set_learning(10, 1.0, shrinkage=0.0), "shrinkage"),
+        (lambda s: s.set_learning(10, 1.0, shrinkage=1.5), "shrinkage"),
+    ],
+)
+def test_a_refused_mutation_changes_nothing(session, mutation, message) -> None:
+    before_files, before_version = files(session), session.version
+    before_names, before_settings = session.names(), dict(session.settings)
+    with pytest.raises(ValueError, match=message):
+        mutation(session)
+    assert files(session) == before_files
+    assert session.version == before_version
+    assert session.names() == before_names and session.settings == before_settings
+
+
+def test_a_failed_write_keeps_the_demonstration_out_of_the_session(session, monkeypatch) -> None:
+    demo = session.demos["curved"][0]
+
+    def full_disk(primitive, demo):
+        raise OSError("No space left on device")
+
+    monkeypatch.setattr(session.workspace, "write_demo", full_disk)
+    with pytest.raises(OSError, match="No space"):
+        session.add_demo("curved", demo.times, demo.select(COLUMNS))
+    assert len(session.demos["curved"]) == 20
+
+
+def test_typicality_flags_an_outlier_and_not_a_typical_demonstration(session) -> None:
+    rng = np.random.default_rng(1)
+    typical = session.demos["curved"][7]
+    values = typical.select(COLUMNS).copy()  # the head angles re-measured (0.5 deg noise);
+    values[:, 3:] += rng.normal(scale=np.radians(0.5), size=(len(values), 3))  # the hand is exact
+    normal = session.add_demo("curved", typical.times, values)
+    odd = session.demos["direct"][2]  # a direct movement filed under curved
+    outlier = session.add_demo("curved", odd.times, odd.select(COLUMNS))
+    good, bad = (
+        session.typicality[("curved", normal.name)],
+        session.typicality[("curved", outlier.name)],
+    )
+    assert good.label == "typical" and good.percentile > 0.2
+    assert bad.label == "outlier" and bad.percentile < 0.05
+    assert bad.log_likelihood < good.log_likelihood
+
+
+def test_typicality_needs_three_other_demonstrations(session) -> None:
+    session.create_primitive("new")
+    demo = session.demos["curved"][0]
+    for _ in range(4):
+        session.add_demo("new", demo.times, demo.select(COLUMNS))
+    scored = [d.name for d in session.demos["new"] if ("new", d.name) in session.typicality]
+    assert scored == ["new_003"]
+
+
+def test_hiding_redraws_without_refitting_and_listeners_hear_every_change(session) -> None:
+    heard = []
+    session.on_change(lambda: heard.append(session.version))
+    model = session.model
+    session.set_hidden("curved", "curved_000", True)
+    assert session.model is model and ("curved", "curved_000") in session.hidden
+    session.set_hidden("curved", "curved_000", False)
+    session.set_learning(8, 1.0)
+    assert session.model is not model and session.model.basis.n_basis == 8
+    assert heard == [1, 2, 3]
+
+
+def test_shrinkage_settings(session) -> None:
+    # The default workspace starts on the selection rule's choice for the scenario.
+    assert session.settings == SCENARIO_SETTINGS
+    session.set_learning(10, 1.0, shrinkage=1e-6)
+    np.testing.assert_allclose(session.model.primitive("curved").shrinkage, 1e-6)
+    session.set_learning(10, 1.0, shrinkage=None)  # the leave-one-out estimate
+    assert session.settings["shrinkage"] is None
+    loo = session.model.primitive("curved").shrinkage
+    hand, head = LAYOUT.dims(["hand"]), LAYOUT.dims(["head"])
+    assert len(set(loo[hand])) == 1 and len(set(loo[head])) == 1  # one per modality
+    session.set_learning(11, 1.0)  # keeps the shrinkage
+    assert session.settings["shrinkage"] is None
+    session.set_learning(11, 1.0, shrinkage=0.3)
+    np.testing.assert_allclose(session.model.primitive("direct").shrinkage, 0.3)
+
+
+def test_primitives_with_fewer_than_two_demonstrations_are_not_learned(session) -> None:
+    session.create_primitive("alone")
+    demo = session.demos["curved"][0]
+    session.add_demo("alone", demo.times, demo.select(COLUMNS))
+    assert "alone" not in session.model.names
+    session.delete_primitive("curved")
+    session.delete_primitive("direct")
+    assert session.model is None and "at least two" in session.fit_error
+
+
+def test_concurrent_recordings_get_distinct_names_and_files(session) -> None:
+    demo = session.demos["curved"][0]
+    errors = []
+
+    def record() -> None:
+        try:
+            session.add_demo("curved", demo.times, demo.select(COLUMNS))
+        except Exception as exc:  # pragma: no cover - reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=record) for _ in range(4)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == []
+    names = [d.name for d in session.demos["curved"]]
+    assert len(names) == len(set(names)) == 24
+    assert len(list(session.workspace.demo_dir("curved").glob("*.csv"))) == 24
