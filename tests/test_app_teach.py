@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import viser.transforms as vtf
 
+from app.panels.teach import MAX_VIDEO_BYTES
 from app.plots import Band, Trace, band_chart, y_range
 from app.recorder import MAX_GAP_S, Recorder, Recording
 from app.session import Session
@@ -487,9 +488,27 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     assert preview.first.bounding_box()["width"] > 150
     click(page, "Calibrate neutral")
     wait_text(page, "Neutral pose set")
-    # The same video uploaded from the browser becomes a head-pose track.
+    # An uploaded video over the size limit is refused before it is buffered; nothing changes.
     choose(page, "Source", "Uploaded video")
-    page.locator("input[type=file]").first.set_input_files(str(path))
+    teach, source = panel(studio), studio.head_source
+    assert teach.video_guard.active
+    teach.max_video_bytes = 1024
+    try:
+        page.set_input_files(
+            f"#file_upload_{teach.upload._impl.uuid}",
+            files=[{"name": "big.avi", "mimeType": "video/x-msvideo", "buffer": path.read_bytes()}],
+        )
+        wait_text(page, "Cannot use the video big.avi")
+        assert "over the 1.0 KB limit for an uploaded video" in text(page)
+        wait_until(lambda: teach.video_guard.refusals == 1, what="the guard's refusal")
+        assert studio.head_source is source and teach._upload_thread is None
+    finally:
+        teach.max_video_bytes = MAX_VIDEO_BYTES
+    close_notifications(page)
+    button = page.get_by_role("button", name="Upload a video")
+    wait_until(button.is_enabled, what="the upload button to be usable again")
+    # Under the limit, the same video uploaded from the browser becomes a head-pose track.
+    page.set_input_files(f"#file_upload_{teach.upload._impl.uuid}", str(path))
     wait_text(page, "Video ready", timeout=60)
     assert isinstance(studio.head_source, TrackHeadSource)
     assert not preview.first.is_visible()

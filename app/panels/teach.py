@@ -31,10 +31,12 @@ import cv2
 import numpy as np
 import viser
 
+from app.exchange import format_size
 from app.head_sources import HeadSource, SimulatedPartner, StreamHeadSource, TrackHeadSource
 from app.plots import Band, Trace, add_band_chart, band_chart, update_band_chart
 from app.recorder import DEFAULT_RATE_HZ, Recorder, Recording
 from app.session import Typicality
+from app.upload_guard import UploadGuard
 from app.workspace import LAYOUT
 from promp.inference import predict
 from promp.model import Settings
@@ -47,6 +49,7 @@ STATUS_PERIOD_S = 0.2  # recording / head status text
 LIVE_PLOT_PERIOD_S = 0.25  # prior plots with the demonstration being recorded
 PREVIEW_PERIOD_S = 0.1  # camera preview, 10 Hz
 PREVIEW_WIDTH = 320
+MAX_VIDEO_BYTES = 500 * 2**20  # an uploaded video is held in memory while it is processed
 LEARN_DEBOUNCE_S = 0.15  # a slider being dragged refits once it pauses
 PLOT_POINTS = 100
 NO_PRIMITIVE = "(no primitive)"
@@ -276,7 +279,14 @@ class TeachPanel:
             self.video_path = gui.add_text("Video file", path, hint="Path on the server.")
             self.connect = gui.add_button("Connect", icon=viser.Icon.PLUG)
             self.upload = gui.add_upload_button(
-                "Upload a video", icon=viser.Icon.UPLOAD, mime_type="video/*"
+                "Upload a video",
+                icon=viser.Icon.UPLOAD,
+                mime_type="video/*",
+                hint=f"Up to {format_size(MAX_VIDEO_BYTES)}; processed on the server.",
+            )
+            self._max_video_bytes = MAX_VIDEO_BYTES
+            self.video_guard = UploadGuard(
+                self.server, self.upload, MAX_VIDEO_BYTES, self._video_refused
             )
             self.head_status = gui.add_markdown("")
             self.calibrate = gui.add_button(
@@ -321,6 +331,9 @@ class TeachPanel:
             if self._recording(event):
                 return
             upload = event.target.value
+            if len(upload.content) > self.max_video_bytes:  # the guard was bypassed
+                self._video_refused(event.client, upload.name, len(upload.content))
+                return
             self._start_upload(upload.name, upload.content)
 
         @self.calibrate.on_click
@@ -419,6 +432,28 @@ class TeachPanel:
         self.video_path.visible = kind == VIDEO
         self.connect.visible = kind in (CAMERA, VIDEO)
         self.upload.visible = kind == UPLOAD
+
+    def _video_refused(self, client, filename: str, size: int) -> None:
+        title = f"Cannot use the video {filename}"
+        body = (
+            f"The file is {format_size(size)}, over the {format_size(self.max_video_bytes)} "
+            "limit for an uploaded video. Trim it, or give its path as a video file."
+        )
+        if client is None:
+            self.studio.notify(title, body, "red")
+        else:
+            client.add_notification(title=title, body=body, color="red", auto_close_seconds=8.0)
+
+    @property
+    def max_video_bytes(self) -> int:
+        return self._max_video_bytes
+
+    @max_video_bytes.setter
+    def max_video_bytes(self, value: int) -> None:
+        self._max_video_bytes = self.video_guard.max_bytes = int(value)
+
+    def close(self) -> None:
+        self.video_guard.close()
 
     def _start_upload(self, name: str, content: bytes) -> None:
         if self._upload_thread is not None and self._upload_thread.is_alive():
