@@ -30,24 +30,23 @@ import time
 import zipfile
 import zlib
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import PurePosixPath
 
-from app.session import DEFAULT_SETTINGS
 from app.workspace import (
     COLUMNS,
-    FORMAT,
     LAYOUT,
-    VERSION,
     PrimitiveEntry,
     WorkspaceData,
-    check_color,
+    check_index,
     check_name,
+    describe_layout,
+    index_json,
 )
-from promp.data import Demonstration, Layout
+from promp.data import Demonstration
 from promp.datasets import demo_from_csv, demo_to_csv
 from promp.io import model_from_json, model_to_json
-from promp.model import ProMPModel, Settings
+from promp.model import ProMPModel
 
 MAX_UPLOAD_BYTES = 20 * 2**20  # an upload (model or archive) larger than this is refused
 MAX_MEMBERS = 10_000  # files in a workspace archive
@@ -55,7 +54,6 @@ MAX_UNCOMPRESSED_BYTES = 256 * 2**20  # sum of the archive's uncompressed sizes
 INDEX_NAME = "studio.json"
 MODEL_NAME = "model.json"
 DEMOS_DIR = "demos"
-_SETTING_NAMES = {f.name for f in fields(Settings)}
 
 
 @dataclass(frozen=True)
@@ -102,18 +100,6 @@ def export_filename(kind: str, extension: str, when: float | None = None) -> str
 def model_bytes(model: ProMPModel) -> bytes:
     """The model file: UTF-8 JSON (:func:`promp.io.model_to_json`)."""
     return model_to_json(model).encode("utf-8")
-
-
-def index_json(primitives: list[PrimitiveEntry], settings: Mapping) -> str:
-    """The text of ``studio.json``, as :meth:`app.workspace.Workspace.save_index` writes it."""
-    index = {
-        "format": FORMAT,
-        "version": VERSION,
-        "layout": _layout_listing(LAYOUT),
-        "primitives": [{"name": p.name, "color": list(p.color)} for p in primitives],
-        "settings": dict(settings),
-    }
-    return json.dumps(index, indent=1)
 
 
 def workspace_zip(
@@ -214,8 +200,8 @@ def check_model(model: ProMPModel) -> ProMPModel:
     """Raise ValueError unless ``model`` uses the studio's layout and valid primitive names."""
     if model.layout != LAYOUT:
         raise ValueError(
-            f"the model's modalities are {_describe_layout(model.layout)}; the studio's are "
-            f"{_describe_layout(LAYOUT)}"
+            f"the model's modalities are {describe_layout(model.layout)}; the studio's are "
+            f"{describe_layout(LAYOUT)}"
         )
     for primitive in model.primitives:
         check_name(primitive.name)
@@ -325,19 +311,6 @@ def format_size(n_bytes: int) -> str:
     return f"{n_bytes / 1024**2:.1f} MB"
 
 
-def _layout_listing(layout: Layout) -> list[dict]:
-    return [
-        {"name": m.name, "columns": list(m.columns), "unit": m.unit, "kind": m.kind}
-        for m in layout.modalities
-    ]
-
-
-def _describe_layout(layout: Layout) -> str:
-    return ", ".join(
-        f"{m.name} = {'/'.join(m.columns)} ({m.unit}, {m.kind})" for m in layout.modalities
-    )
-
-
 def _check_member(info: zipfile.ZipInfo) -> str:
     """The member's name if it is safe to read, else ValueError."""
     name = info.filename
@@ -423,54 +396,4 @@ def _parse_index(data: bytes, label: str) -> tuple[list[PrimitiveEntry], dict]:
         raise ValueError(f"{label}: not valid JSON ({exc})") from None
     except RecursionError:
         raise ValueError(f"{label}: not valid JSON (nested too deeply)") from None
-    if not isinstance(index, dict) or index.get("format") != FORMAT:
-        raise ValueError(f"{label}: not a studio workspace index ('format' is not {FORMAT!r})")
-    if index.get("version") != VERSION:
-        raise ValueError(
-            f"{label}: unsupported workspace version {index.get('version')!r}; "
-            f"this studio reads version {VERSION}"
-        )
-    if "layout" in index and index["layout"] != _layout_listing(LAYOUT):
-        raise ValueError(
-            f"{label}: the workspace's modalities are not the studio's ({_describe_layout(LAYOUT)})"
-        )
-    raw = index.get("primitives", [])
-    if not isinstance(raw, list):
-        raise ValueError(f"{label}: 'primitives' must be a list")
-    primitives: list[PrimitiveEntry] = []
-    for i, entry in enumerate(raw):
-        if not isinstance(entry, dict) or "name" not in entry or "color" not in entry:
-            raise ValueError(f"{label}: primitive {i} needs a 'name' and a 'color'")
-        try:
-            name = check_name(entry["name"])
-            color = entry["color"]
-            if not (
-                isinstance(color, list)
-                and all(isinstance(c, int) and not isinstance(c, bool) for c in color)
-            ):
-                raise ValueError(f"a colour is three integers in 0-255, got {color!r}")
-            rgb = check_color(color)
-        except ValueError as exc:
-            raise ValueError(f"{label}: {exc}") from None
-        if name in {p.name for p in primitives}:
-            raise ValueError(f"{label}: primitive {name!r} is listed twice")
-        primitives.append(PrimitiveEntry(name, rgb))
-    settings = index.get("settings", {})
-    if not isinstance(settings, dict):
-        raise ValueError(f"{label}: 'settings' must be an object")
-    unknown = sorted(set(settings) - _SETTING_NAMES)
-    if unknown:
-        raise ValueError(f"{label}: unknown setting(s) {unknown}")
-    if "n_basis" in settings and (
-        not isinstance(settings["n_basis"], int) or isinstance(settings["n_basis"], bool)
-    ):
-        raise ValueError(f"{label}: 'n_basis' must be an integer, got {settings['n_basis']!r}")
-    if "width" in settings and (
-        not isinstance(settings["width"], (int, float)) or isinstance(settings["width"], bool)
-    ):
-        raise ValueError(f"{label}: 'width' must be a number, got {settings['width']!r}")
-    try:
-        Settings(**{**DEFAULT_SETTINGS, **settings})
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{label}: invalid learning settings ({exc})") from None
-    return primitives, dict(settings)
+    return check_index(index, label)

@@ -20,11 +20,12 @@ import json
 import re
 import shutil
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from promp.data import Demonstration, Layout, Modality
 from promp.datasets import atomic_write_text, read_csv_demo, write_csv_demo
+from promp.model import Settings
 
 FORMAT = "icub-intention-studio/workspace"
 VERSION = 1
@@ -66,6 +67,92 @@ def check_color(color: Sequence[int]) -> tuple[int, int, int]:
 class PrimitiveEntry:
     name: str
     color: tuple[int, int, int]
+
+
+def layout_listing(layout: Layout) -> list[dict]:
+    """The modalities as ``studio.json`` lists them."""
+    return [
+        {"name": m.name, "columns": list(m.columns), "unit": m.unit, "kind": m.kind}
+        for m in layout.modalities
+    ]
+
+
+def describe_layout(layout: Layout) -> str:
+    return ", ".join(
+        f"{m.name} = {'/'.join(m.columns)} ({m.unit}, {m.kind})" for m in layout.modalities
+    )
+
+
+def index_json(primitives: Sequence[PrimitiveEntry], settings: Mapping) -> str:
+    """The text of ``studio.json``."""
+    index = {
+        "format": FORMAT,
+        "version": VERSION,
+        "layout": layout_listing(LAYOUT),
+        "primitives": [{"name": p.name, "color": list(p.color)} for p in primitives],
+        "settings": dict(settings),
+    }
+    return json.dumps(index, indent=1)
+
+
+_SETTING_NAMES = {f.name for f in fields(Settings)}
+
+
+def check_index(index: object, label: str) -> tuple[list[PrimitiveEntry], dict]:
+    """The primitives and learning settings of a decoded ``studio.json``; a ``ValueError``
+    starting with ``label`` says what is wrong (the workspace on disk and an imported archive
+    are checked alike)."""
+    if not isinstance(index, dict) or index.get("format") != FORMAT:
+        raise ValueError(f"{label}: not a studio workspace index ('format' is not {FORMAT!r})")
+    if index.get("version") != VERSION:
+        raise ValueError(
+            f"{label}: unsupported workspace version {index.get('version')!r}; "
+            f"this studio reads version {VERSION}"
+        )
+    if "layout" in index and index["layout"] != layout_listing(LAYOUT):
+        raise ValueError(
+            f"{label}: the workspace's modalities are not the studio's ({describe_layout(LAYOUT)})"
+        )
+    raw = index.get("primitives", [])
+    if not isinstance(raw, list):
+        raise ValueError(f"{label}: 'primitives' must be a list")
+    primitives: list[PrimitiveEntry] = []
+    for i, entry in enumerate(raw):
+        if not isinstance(entry, dict) or "name" not in entry or "color" not in entry:
+            raise ValueError(f"{label}: primitive {i} needs a 'name' and a 'color'")
+        try:
+            name = check_name(entry["name"])
+            color = entry["color"]
+            if not (
+                isinstance(color, list)
+                and all(isinstance(c, int) and not isinstance(c, bool) for c in color)
+            ):
+                raise ValueError(f"a colour is three integers in 0-255, got {color!r}")
+            rgb = check_color(color)
+        except ValueError as exc:
+            raise ValueError(f"{label}: {exc}") from None
+        if name in {p.name for p in primitives}:
+            raise ValueError(f"{label}: primitive {name!r} is listed twice")
+        primitives.append(PrimitiveEntry(name, rgb))
+    settings = index.get("settings", {})
+    if not isinstance(settings, dict):
+        raise ValueError(f"{label}: 'settings' must be an object")
+    unknown = sorted(set(settings) - _SETTING_NAMES)
+    if unknown:
+        raise ValueError(f"{label}: unknown setting(s) {unknown}")
+    if "n_basis" in settings and (
+        not isinstance(settings["n_basis"], int) or isinstance(settings["n_basis"], bool)
+    ):
+        raise ValueError(f"{label}: 'n_basis' must be an integer, got {settings['n_basis']!r}")
+    if "width" in settings and (
+        not isinstance(settings["width"], (int, float)) or isinstance(settings["width"], bool)
+    ):
+        raise ValueError(f"{label}: 'width' must be a number, got {settings['width']!r}")
+    try:
+        Settings(**settings)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{label}: invalid learning settings ({exc})") from None
+    return primitives, dict(settings)
 
 
 @dataclass
@@ -112,17 +199,8 @@ class Workspace:
             index = json.loads(self.index_path.read_text(encoding="utf-8"))
         except (OSError, ValueError) as exc:
             raise ValueError(f"{self.index_path}: not a readable workspace index ({exc})") from exc
-        if not isinstance(index, Mapping) or index.get("format") != FORMAT:
-            raise ValueError(f"{self.index_path}: not a studio workspace index")
-        if index.get("version") != VERSION:
-            raise ValueError(
-                f"{self.index_path}: unsupported workspace version {index.get('version')!r}"
-            )
-        for entry in index.get("primitives", []):
-            name = check_name(entry["name"])
-            data.primitives.append(PrimitiveEntry(name, check_color(entry["color"])))
-            data.demos[name] = []
-        data.settings = dict(index.get("settings", {}))
+        data.primitives, data.settings = check_index(index, str(self.index_path))
+        data.demos = {entry.name: [] for entry in data.primitives}
         for entry in data.primitives:
             folder = self.demo_dir(entry.name)
             if not folder.is_dir():
@@ -140,17 +218,7 @@ class Workspace:
     # ------------------------------------------------------------------ writing
 
     def save_index(self, primitives: Sequence[PrimitiveEntry], settings: Mapping) -> None:
-        index = {
-            "format": FORMAT,
-            "version": VERSION,
-            "layout": [
-                {"name": m.name, "columns": list(m.columns), "unit": m.unit, "kind": m.kind}
-                for m in LAYOUT.modalities
-            ],
-            "primitives": [{"name": p.name, "color": list(p.color)} for p in primitives],
-            "settings": dict(settings),
-        }
-        atomic_write_text(self.index_path, json.dumps(index, indent=1))
+        atomic_write_text(self.index_path, index_json(primitives, settings))
 
     def write_demo(self, primitive: str, demo: Demonstration) -> Path:
         """Write one demonstration (its ``name`` is the file stem), atomically."""

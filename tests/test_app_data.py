@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app import exchange
+from app import exchange, workspace
 from app.panels.data import (
     curves,
     display_name,
@@ -191,7 +191,7 @@ def test_export_model_and_upload_it_back(page, studio, artifacts) -> None:
 def zip_with_parent_entry() -> bytes:
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as archive:
-        archive.writestr("studio.json", json.dumps({"format": exchange.FORMAT, "version": 1}))
+        archive.writestr("studio.json", json.dumps({"format": workspace.FORMAT, "version": 1}))
         archive.writestr("../evil", "owned")
     return buffer.getvalue()
 

@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
-from app import exchange
+from app import exchange, workspace
 from app.exchange import Limits, ModelUpload, WorkspaceUpload, read_upload, workspace_zip
 from app.session import Session
 from app.workspace import COLUMNS, LAYOUT, PALETTE, PrimitiveEntry, Workspace, WorkspaceData
@@ -62,8 +62,8 @@ def make_zip(members: dict[str, bytes | str], modes: dict[str, int] | None = Non
 
 def index(primitives=(("a", [1, 2, 3]),), settings=None, **extra) -> str:
     body = {
-        "format": exchange.FORMAT,
-        "version": exchange.VERSION,
+        "format": workspace.FORMAT,
+        "version": workspace.VERSION,
         "primitives": [{"name": n, "color": c} for n, c in primitives],
         "settings": settings or {},
         **extra,

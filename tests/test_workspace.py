@@ -123,6 +123,15 @@ def test_unreadable_demonstrations_are_reported_and_the_rest_loads(tmp_path) -> 
         ("{not json", "not a readable workspace index"),
         (json.dumps({"format": "other"}), "not a studio workspace index"),
         (json.dumps({"format": FORMAT, "version": 99}), "unsupported workspace version 99"),
+        # Checked as an imported archive's index is (app.workspace.check_index).
+        (
+            json.dumps({"format": FORMAT, "version": 1, "primitives": [{"name": "a"}]}),
+            "primitive 0 needs a 'name' and a 'color'",
+        ),
+        (
+            json.dumps({"format": FORMAT, "version": 1, "settings": {"n_basis": 0}}),
+            "invalid learning settings",
+        ),
     ],
 )
 def test_a_bad_index_is_a_clear_error(tmp_path, content, message) -> None:
