@@ -185,10 +185,20 @@ class Studio:
             panel.step()
         self.timing.step_ms = 1e3 * (time.perf_counter() - start)
 
-    def notify(self, title: str, body: str, color: str = "blue") -> None:
-        """A notification in every connected browser tab."""
-        for client in self.server.get_clients().values():
-            client.add_notification(title=title, body=body, color=color, auto_close_seconds=8.0)
+    def notify(
+        self,
+        title: str,
+        body: str,
+        color: str = "blue",
+        client: viser.ClientHandle | None = None,
+        auto_close_seconds: float = 8.0,
+    ) -> None:
+        """A notification in ``client``'s browser tab, or in every connected tab when None."""
+        clients = [client] if client is not None else self.server.get_clients().values()
+        for target in clients:
+            target.add_notification(
+                title=title, body=body, color=color, auto_close_seconds=auto_close_seconds
+            )
 
     def hand_and_head(self) -> tuple[np.ndarray, np.ndarray | None]:
         """The current hand position (3,) and head angles (3,) or None."""

@@ -316,17 +316,12 @@ class DataPanel:
     def _notify(
         self, client: viser.ClientHandle | None, title: str, body: str, color: str = "blue"
     ) -> None:
-        """To the client that acted (every tab when unknown)."""
+        """To the client that acted (every tab when unknown); errors stay longer."""
         if client is None:
             self.studio.notify(title, body, color=color)
-            return
-        client.add_notification(
-            title=title,
-            body=body,
-            color=color,
-            with_close_button=True,
-            auto_close_seconds=20.0 if color == "red" else 10.0,
-        )
+        else:
+            seconds = 20.0 if color == "red" else 10.0
+            self.studio.notify(title, body, color, client=client, auto_close_seconds=seconds)
 
     # ------------------------------------------------------------------ export
 

@@ -396,11 +396,7 @@ class TeachPanel:
 
     def _tell(self, event, title: str, body: str, color: str = "red") -> None:
         """A notification to the client behind ``event`` (every client when unknown)."""
-        client = getattr(event, "client", None)
-        if client is None:
-            self.studio.notify(title, body, color)
-        else:
-            client.add_notification(title=title, body=body, color=color, auto_close_seconds=8.0)
+        self.studio.notify(title, body, color, client=getattr(event, "client", None))
 
     def _mutate(self, event, what: str, action) -> bool:
         """Run one session mutation; a refusal is a notification, and nothing changes."""
@@ -439,10 +435,7 @@ class TeachPanel:
             f"The file is {format_size(size)}, over the {format_size(self.max_video_bytes)} "
             "limit for an uploaded video. Trim it, or give its path as a video file."
         )
-        if client is None:
-            self.studio.notify(title, body, "red")
-        else:
-            client.add_notification(title=title, body=body, color="red", auto_close_seconds=8.0)
+        self.studio.notify(title, body, "red", client=client)
 
     @property
     def max_video_bytes(self) -> int:
