@@ -67,6 +67,19 @@ def artifacts() -> Path:
 
 
 @pytest.fixture(scope="session")
+def installed() -> None:
+    """The face models of the head-pose estimator: the test is skipped (with the command that
+    installs them) when they are missing, except in CI, where that is a failure."""
+    from app.headpose.models import models_available
+
+    available, reason = models_available()
+    if not available:
+        if in_ci():
+            pytest.fail(f"CI=true but the face models are missing: {reason}")
+        pytest.skip(reason)
+
+
+@pytest.fixture(scope="session")
 def heights_dir() -> Path:
     """The shared real recordings; the test is skipped (with the reason) when absent."""
     if not HEIGHTS.is_dir():

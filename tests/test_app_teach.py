@@ -460,15 +460,13 @@ def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, 
 
 @pytest.mark.browser
 def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
-    studio, tab, tmp_path
+    installed, studio, tab, tmp_path
 ) -> None:
+    from skimage.data import astronaut
+
     from app.head_sources import StreamHeadSource, TrackHeadSource
-    from app.headpose.models import models_available
     from app.headpose.synthetic import ASTRONAUT_FACE_CENTRE, place_face
 
-    if not models_available()[0]:
-        pytest.skip(models_available()[1])
-    from skimage.data import astronaut
 
     face = np.ascontiguousarray(astronaut()[:, :, ::-1])
     path = tmp_path / "face.avi"

@@ -13,21 +13,10 @@ import pytest
 from numpy.testing import assert_allclose
 
 from app.headpose import HeadPoseEstimator, OneEuroConfig, draw_overlay
-from app.headpose.models import models_available
 from app.headpose.pose import camera_matrix
 from app.headpose.synthetic import ASTRONAUT_FACE_CENTRE, place_face, turn_face
-from tests.conftest import in_ci
 
 CENTRE = (320.0, 240.0)
-
-
-@pytest.fixture(scope="module")
-def installed() -> None:
-    available, reason = models_available()
-    if not available:
-        if in_ci():
-            pytest.fail(f"CI=true but the face models are missing: {reason}")
-        pytest.skip(reason)
 
 
 @pytest.fixture(scope="module")

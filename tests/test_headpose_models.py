@@ -7,16 +7,6 @@ import importlib.metadata
 import pytest
 
 from app.headpose import models
-from tests.conftest import in_ci
-
-
-@pytest.fixture
-def installed() -> None:
-    available, reason = models.models_available()
-    if not available:
-        if in_ci():
-            pytest.fail(f"CI=true but the face models are missing: {reason}")
-        pytest.skip(reason)
 
 
 def test_models_are_found_and_verified(installed):

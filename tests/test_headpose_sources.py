@@ -20,22 +20,12 @@ from app.headpose import (
     open_video,
     track_video,
 )
-from app.headpose.models import models_available
 from app.headpose.synthetic import ASTRONAUT_FACE_CENTRE, place_face
-from tests.conftest import in_ci, wait_until
+from tests.conftest import wait_until
 
 N_FRAMES = 24
 FPS = 30.0
 MISSING_CAMERA = 99
-
-
-@pytest.fixture(scope="module")
-def installed() -> None:
-    available, reason = models_available()
-    if not available:
-        if in_ci():
-            pytest.fail(f"CI=true but the face models are missing: {reason}")
-        pytest.skip(reason)
 
 
 @pytest.fixture(scope="module")
