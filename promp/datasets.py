@@ -11,9 +11,13 @@ Lab-record format (``lab-records-heights``)::
 The class of a record is its first-level folder; deeper folders (one per person) are grouped
 under it. Columns: 0 time (s), 1-3 hand in the haptic device's frame, 4-9 force and moment, 10-12
 hand position in the robot's root frame. Rows whose six wrench values are all -1 have no wrench
-reading: when a layout uses the ``wrench`` modality those rows are **dropped** (the phase of
-every sample comes from its time stamp, so the remaining samples keep their true phase);
-otherwise they are kept, since their positions are valid.
+reading: when a layout uses a wrench column those rows are **dropped** (the phase of every
+sample comes from its time stamp, so the remaining samples keep their true phase); otherwise
+they are kept, since their positions are valid.
+
+:func:`read_dataset` is the one entry point of both formats (the evaluation and the studio's
+import use it): it reads a folder and pairs it with a layout of modalities, given or guessed
+from the columns.
 """
 
 from __future__ import annotations
@@ -21,13 +25,14 @@ from __future__ import annotations
 import csv
 import io
 import os
+import re
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from promp.data import Demonstration, Layout, Modality
+from promp.data import Demonstration, Kind, Layout, Modality
 
 Dataset = dict[str, list[Demonstration]]
 
@@ -37,10 +42,6 @@ RECORD_COLUMNS = (
     "x", "y", "z",
 )  # fmt: skip
 WRENCH_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
-RECORD_MODALITIES = {
-    "position": Modality("position", ("x", "y", "z"), unit="m", kind="linear"),
-    "wrench": Modality("wrench", WRENCH_COLUMNS, unit="N|N m", kind="linear"),
-}
 
 
 def atomic_write_text(path: Path, text: str) -> None:
@@ -79,7 +80,7 @@ def write_csv_demo(path: Path, demo: Demonstration) -> None:
     atomic_write_text(Path(path), demo_to_csv(demo))
 
 
-def read_csv_demo(path: Path) -> Demonstration:
+def read_csv_demo(path: Path, name: str = "") -> Demonstration:
     """Read one CSV demonstration (header row with a ``t`` column, then named columns).
 
     Raises
@@ -93,7 +94,7 @@ def read_csv_demo(path: Path) -> Demonstration:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path}: cannot read as text ({exc})") from exc
-    return demo_from_csv(text, name=path.stem, label=str(path))
+    return demo_from_csv(text, name=name or path.stem, label=str(path))
 
 
 def demo_from_csv(text: str, name: str = "", label: str = "CSV") -> Demonstration:
@@ -133,17 +134,26 @@ def _sorted_files(folder: Path, pattern: str) -> list[Path]:
     return sorted(p for p in folder.rglob(pattern) if p.is_file() and not p.name.startswith("."))
 
 
+def _class_folders(root: Path) -> list[Path]:
+    root = Path(root)
+    if not root.is_dir():
+        raise ValueError(f"dataset folder {root} does not exist")
+    return sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
+
+
+def _demo_name(path: Path, class_folder: Path) -> str:
+    """The file's path below its class folder, without the suffix (``person1/record0``)."""
+    return path.relative_to(class_folder).with_suffix("").as_posix()
+
+
 def load_csv_dataset(root: Path, layout: Layout | None = None) -> Dataset:
     """Read ``root/<primitive>/<demo>.csv`` into {primitive: [demonstrations]}.
 
     When ``layout`` is given, every demonstration must have its columns.
     """
-    root = Path(root)
-    if not root.is_dir():
-        raise ValueError(f"dataset folder {root} does not exist")
     dataset: Dataset = {}
-    for folder in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
-        demos = [read_csv_demo(p) for p in _sorted_files(folder, "*.csv")]
+    for folder in _class_folders(root):
+        demos = [read_csv_demo(p, _demo_name(p, folder)) for p in _sorted_files(folder, "*.csv")]
         if demos:
             dataset[folder.name] = demos
     if not dataset:
@@ -160,7 +170,7 @@ def write_csv_dataset(root: Path, dataset: Dataset) -> None:
             write_csv_demo(Path(root) / primitive / f"{demo.name or f'demo{i:03d}'}.csv", demo)
 
 
-def read_record(path: Path, drop_missing_wrench: bool = False) -> Demonstration:
+def read_record(path: Path, drop_missing_wrench: bool = False, name: str = "") -> Demonstration:
     """Read one lab record (13 whitespace-separated columns, see the module docstring)."""
     path = Path(path)
     try:
@@ -175,37 +185,29 @@ def read_record(path: Path, drop_missing_wrench: bool = False) -> Demonstration:
     if drop_missing_wrench:
         wrench = table[:, 4:10]
         table = table[~np.all(wrench == -1.0, axis=1)]
-    name = "/".join(path.parts[-2:])[: -len(path.suffix)]
+    name = name or path.with_suffix("").name
     try:
         return Demonstration(table[:, 0], table[:, 1:], RECORD_COLUMNS[1:], name=name)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from exc
 
 
-def load_records_dataset(root: Path, modalities: Sequence[str] = ("position",)) -> Dataset:
-    """Read the lab-record format into {class: [demonstrations]} (see the module docstring)."""
-    root = Path(root)
-    if not root.is_dir():
-        raise ValueError(f"dataset folder {root} does not exist")
-    drop = "wrench" in modalities
+def load_records_dataset(root: Path, drop_missing_wrench: bool = False) -> Dataset:
+    """Read the lab-record format into {class: [demonstrations]} (see the module docstring).
+
+    A demonstration is named by its path below the class folder (``person1/record0``).
+    """
     dataset: Dataset = {}
-    for folder in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
-        demos = [read_record(p, drop) for p in _sorted_files(folder, "*.txt")]
+    for folder in _class_folders(root):
+        demos = [
+            read_record(p, drop_missing_wrench, name=_demo_name(p, folder))
+            for p in _sorted_files(folder, "*.txt")
+        ]
         if demos:
             dataset[folder.name] = demos
     if not dataset:
         raise ValueError(f"{root}: no <class>/.../<record>.txt files found")
     return dataset
-
-
-def records_layout(modalities: Sequence[str] = ("position",)) -> Layout:
-    """The layout of the predefined lab-record modalities ``position`` and ``wrench``."""
-    unknown = [m for m in modalities if m not in RECORD_MODALITIES]
-    if unknown:
-        raise ValueError(
-            f"unknown lab-record modality {unknown}; available: {sorted(RECORD_MODALITIES)}"
-        )
-    return Layout(tuple(RECORD_MODALITIES[m] for m in modalities))
 
 
 def check_columns(dataset: Dataset, columns: Sequence[str]) -> None:
@@ -218,3 +220,140 @@ def check_columns(dataset: Dataset, columns: Sequence[str]) -> None:
                     f"{primitive}/{demo.name}: missing column(s) {missing}; "
                     f"it has {list(demo.columns)}"
                 )
+
+
+# ------------------------------------------------------------------------------ modalities
+
+FORMATS = ("records", "csv")
+# Unit and kind of the column names the readers know; any other column is a dimensionless
+# linear signal unless a modality says otherwise.
+KNOWN_COLUMNS: dict[str, tuple[str, Kind]] = {
+    **{c: ("m", "linear") for c in ("x", "y", "z", "device_x", "device_y", "device_z")},
+    **{c: ("rad", "angle") for c in ("roll", "pitch", "yaw")},
+    **{c: ("N", "linear") for c in ("fx", "fy", "fz")},
+    **{c: ("N m", "linear") for c in ("mx", "my", "mz")},
+}
+MODALITY_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,39}$")
+# The modalities guessed from a header, in this order, when all their columns exist.
+GUESSED = (
+    ("hand", ("x", "y", "z")),
+    ("head", ("roll", "pitch", "yaw")),
+)
+
+
+def modality_from_columns(name: str, columns: Sequence[str]) -> Modality:
+    """A modality over ``columns`` with the unit and kind their names imply.
+
+    Columns all named roll/pitch/yaw are angles (radians); columns of one known unit take it;
+    mixed known units are joined with ``|``; unknown names have no unit.
+    """
+    if not MODALITY_NAME.match(name or ""):
+        raise ValueError(
+            f"invalid modality name {name!r}: use 1-40 letters, digits, '_' or '-', "
+            "starting with a letter"
+        )
+    columns = tuple(columns)
+    known = [KNOWN_COLUMNS.get(c) for c in columns]
+    if columns and all(k is not None and k[1] == "angle" for k in known):
+        return Modality(name, columns, unit="rad", kind="angle")
+    units = list(dict.fromkeys(k[0] if k is not None else "" for k in known))
+    return Modality(name, columns, unit="|".join(units) if any(units) else "", kind="linear")
+
+
+def parse_modality(spec: str) -> Modality:
+    """``"NAME=COL,COL,..."`` (as on the command line) as a :class:`Modality`."""
+    name, sep, cols = str(spec).partition("=")
+    columns = tuple(c.strip() for c in cols.split(",") if c.strip())
+    if not sep or not name.strip() or not columns:
+        raise ValueError(f"a modality is NAME=COL,COL,..., got {spec!r}")
+    return modality_from_columns(name.strip(), columns)
+
+
+def parse_modalities(text: str) -> tuple[Modality, ...]:
+    """Several modalities separated by ``;`` or new lines: ``"hand=x,y,z; head=roll,pitch,yaw"``."""
+    specs = [s.strip() for s in re.split(r"[;\n]+", str(text)) if s.strip()]
+    if not specs:
+        raise ValueError("name at least one modality, e.g. hand=x,y,z")
+    return tuple(parse_modality(s) for s in specs)
+
+
+def format_modalities(layout: Layout) -> str:
+    """The inverse of :func:`parse_modalities`."""
+    return "; ".join(f"{m.name}={','.join(m.columns)}" for m in layout.modalities)
+
+
+def guess_layout(columns: Sequence[str]) -> Layout:
+    """The modalities a header suggests: ``hand`` = x, y, z and ``head`` = roll, pitch, yaw when
+    those columns exist; otherwise one modality ``signal`` over every column.
+
+    Raises
+    ------
+    ValueError
+        If there is no column at all.
+    """
+    available = [c for c in columns if c != "t"]
+    modalities = [
+        modality_from_columns(name, cols)
+        for name, cols in GUESSED
+        if set(cols) <= set(available)
+    ]
+    if not modalities:
+        if not available:
+            raise ValueError("the demonstrations have no column besides the time")
+        modalities = [modality_from_columns("signal", available)]
+    return Layout(tuple(modalities))
+
+
+def dataset_columns(dataset: Dataset) -> tuple[str, ...]:
+    """The columns every demonstration of ``dataset`` has, in the first one's order."""
+    demos = [d for items in dataset.values() for d in items]
+    if not demos:
+        return ()
+    common = set(demos[0].columns).intersection(*(d.columns for d in demos[1:]))
+    return tuple(c for c in demos[0].columns if c in common)
+
+
+def read_dataset(
+    root: Path, format: str, modalities: Sequence[Modality] | None = None
+) -> tuple[Dataset, Layout]:
+    """Read a dataset folder and the layout of modalities it is used with.
+
+    The one reader behind ``python -m promp.evaluate`` and the studio's dataset import.
+
+    Parameters
+    ----------
+    root : path
+        ``records``: ``root/<class>/.../<record>.txt`` (13 columns, see the module docstring);
+        ``csv``: ``root/<primitive>/.../<demo>.csv`` with a header row.
+    format : {"records", "csv"}
+    modalities : sequence of Modality, optional
+        Which columns form which modality. Default: guessed from the columns
+        (:func:`guess_layout`; for records, ``hand`` = x, y, z, the hand in the robot's root
+        frame).
+
+    Raises
+    ------
+    ValueError
+        Unknown format, no demonstrations, an unreadable file (named), or a modality naming a
+        column that a demonstration lacks (named).
+    """
+    if format not in FORMATS:
+        raise ValueError(f"unknown dataset format {format!r}; expected one of {FORMATS}")
+    if format == "records":
+        names = RECORD_COLUMNS[1:]
+        layout = Layout(tuple(modalities)) if modalities else guess_layout(names)
+        unknown = [c for c in layout.columns if c not in names]
+        if unknown:
+            raise ValueError(
+                f"lab records have no column(s) {unknown}; their columns are {list(names)}"
+            )
+        uses_wrench = bool(set(layout.columns) & set(WRENCH_COLUMNS))
+        dataset = load_records_dataset(root, drop_missing_wrench=uses_wrench)
+    else:
+        dataset = load_csv_dataset(root)
+        if modalities:
+            layout = Layout(tuple(modalities))
+        else:
+            layout = guess_layout(dataset_columns(dataset))
+        check_columns(dataset, layout.columns)
+    return dataset, layout

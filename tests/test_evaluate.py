@@ -106,6 +106,41 @@ def test_sweep_protocol_and_aggregation_with_known_answers() -> None:
         assert row["duration_error_s"] == pytest.approx(0.0, abs=1e-12)
         assert row["nrmse_posterior"] == pytest.approx(0.0, abs=1e-12)
         assert row["nrmse_prior"] > 0
+        # Certain and right on half the trials (-ln 1 = 0), certain and wrong on the other
+        # half (p = 0, clipped at 1e-300).
+        assert row["log_loss"] == pytest.approx(0.5 * -np.log(1e-300))
+        assert row["failed"] == []
+    assert result.failures == []
+
+
+class FailsOnOne(Oracle):
+    """The oracle, except that it cannot explain one demonstration (as the engine once could
+    not explain an observation longer than every training demonstration)."""
+
+    def infer(self, demo, n_observed, observe, alpha_method) -> Inferred:
+        if demo.name == self.dataset["right"][1].name and n_observed > 10:
+            raise ValueError("the observation lasts longer than every candidate duration")
+        return super().infer(demo, n_observed, observe, alpha_method)
+
+
+def test_a_trial_the_method_fails_on_is_listed_and_the_sweep_goes_on() -> None:
+    dataset = {k: v[:4] for k, v in make_dataset(seed=0, n_demos=4).items()}
+    slow = dataset["right"][1].name
+    result = run_sweep(
+        lambda: FailsOnOne(dataset), dataset, LAYOUT, [1, 60], ["ml"], [["hand"]], "oracle",
+        keep_trials=True,
+    )  # fmt: skip
+    early, late = sorted(result.rows, key=lambda r: r["percent"])
+    assert early["failed"] == [] and early["recognition_errors"] == 4
+    assert late["failed"] == [f"right/{slow}"]
+    assert late["recognition_errors"] == 4  # still the four of "right": the failure is one of them
+    assert late["trials"] == 8
+    assert late["position_error_m"] == pytest.approx(0.0, abs=1e-12)  # measured on the 7 others
+    (failure,) = result.failures
+    assert failure["demo"] == slow and failure["primitive"] == "right" and failure["percent"] == 60
+    assert "longer than every candidate duration" in failure["error"]
+    (failed,) = [t for t in result.trials if t.inferred is None]
+    assert failed.log_loss(2) == pytest.approx(np.log(2))  # a uniform guess
 
 
 def test_sweep_needs_three_demos_per_primitive() -> None:
@@ -136,10 +171,12 @@ def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
     assert report["settings"]["observe"] == [["head"], ["hand", "head"]]
     assert report["settings"]["basis"] == {"n_basis": 8, "width": 1.0, "shrinkage": "loo"}
     rows = report["results"]
+    assert report["failures"] == []
     assert len(rows) == 2 * 2 * 2  # observe sets x alpha methods x percents
     keys = {
         "percent", "alpha_method", "observed", "method", "recognition_errors", "trials",
         "position_error_m", "goal_error_m", "duration_error_s", "nrmse_prior", "nrmse_posterior",
+        "log_loss", "failed",
     }  # fmt: skip
     for row in rows:
         assert set(row) == keys

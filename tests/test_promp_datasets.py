@@ -9,11 +9,14 @@ import pytest
 from numpy.testing import assert_array_equal
 
 from promp.datasets import (
+    guess_layout,
     load_csv_dataset,
     load_records_dataset,
+    parse_modalities,
+    parse_modality,
     read_csv_demo,
+    read_dataset,
     read_record,
-    records_layout,
     write_csv_dataset,
     write_csv_demo,
 )
@@ -83,13 +86,19 @@ def test_records_group_sub_folders_by_class_and_drop_missing_wrench(tmp_path: Pa
     _write_record(tmp_path / "up" / "person1" / "record0.txt", rows)
     _write_record(tmp_path / "up" / "person2" / "record0.txt", rows)
     _write_record(tmp_path / "down" / "person1" / "record0.txt", rows)
-    position = load_records_dataset(tmp_path, ["position"])
+    position, layout = read_dataset(tmp_path, "records")
+    assert layout.names == ("hand",) and layout.modality("hand").unit == "m"
     assert {k: len(v) for k, v in position.items()} == {"down": 1, "up": 2}
+    assert [d.name for d in position["up"]] == ["person1/record0", "person2/record0"]
     assert position["up"][0].n_samples == 5  # positions are valid in that row: kept
-    assert_array_equal(records_layout(["position"]).extract(position["up"][0]), rows[:, 10:13])
-    wrench = load_records_dataset(tmp_path, ["position", "wrench"])
+    assert_array_equal(layout.extract(position["up"][0]), rows[:, 10:13])
+    wrench, layout = read_dataset(
+        tmp_path, "records", parse_modalities("hand=x,y,z; wrench=fx,fy,fz,mx,my,mz")
+    )
+    assert layout.modality("wrench").unit == "N|N m"
     assert wrench["up"][0].n_samples == 4  # dropped when the wrench is used
     assert 0.02 not in wrench["up"][0].times
+    assert load_records_dataset(tmp_path, drop_missing_wrench=True)["up"][0].n_samples == 4
 
 
 def test_records_reject_wrong_files(tmp_path: Path) -> None:
@@ -100,12 +109,51 @@ def test_records_reject_wrong_files(tmp_path: Path) -> None:
     path.write_text("not numbers at all\n")
     with pytest.raises(ValueError, match="not a lab record"):
         read_record(path)
-    with pytest.raises(ValueError, match="unknown lab-record modality"):
-        records_layout(["gaze"])
+    with pytest.raises(ValueError, match=r"lab records have no column\(s\) \['gaze'\]"):
+        read_dataset(tmp_path, "records", [parse_modality("eyes=gaze")])
+    with pytest.raises(ValueError, match="unknown dataset format"):
+        read_dataset(tmp_path, "xls")
+
+
+def test_modalities_are_parsed_and_guessed_from_the_columns() -> None:
+    hand, head = parse_modalities("hand=x,y,z;\n head = roll, pitch,yaw")
+    assert (hand.name, hand.columns) == ("hand", ("x", "y", "z"))
+    assert (hand.unit, hand.kind) == ("m", "linear")
+    assert (head.unit, head.kind) == ("rad", "angle")
+    assert parse_modality("emg=e1,e2").unit == ""
+    for bad, message in [
+        ("hand", "NAME=COL"),
+        ("=x", "NAME=COL"),
+        ("hand=", "NAME=COL"),
+        ("1hand=x", "invalid modality name"),
+        ("h and=x", "invalid modality name"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            parse_modality(bad)
+    with pytest.raises(ValueError, match="at least one modality"):
+        parse_modalities(" ; ")
+    assert guess_layout(["t", "x", "y", "z", "roll", "pitch", "yaw"]).names == ("hand", "head")
+    assert guess_layout(["t", "yaw", "pitch", "roll"]).names == ("head",)
+    signal = guess_layout(["t", "emg1", "emg2"])
+    assert signal.names == ("signal",) and signal.columns == ("emg1", "emg2")
+    with pytest.raises(ValueError, match="no column besides the time"):
+        guess_layout(["t"])
+
+
+def test_csv_demonstrations_in_sub_folders_are_named_by_their_path(tmp_path: Path) -> None:
+    for person in ("ann", "bob"):
+        folder = tmp_path / "reach" / person
+        folder.mkdir(parents=True)
+        (folder / "take1.csv").write_text("t,x,y,z\n0,0,0,0\n1,1,1,1\n")
+    dataset, layout = read_dataset(tmp_path, "csv")
+    assert [d.name for d in dataset["reach"]] == ["ann/take1", "bob/take1"]
+    assert layout.names == ("hand",)
+    with pytest.raises(ValueError, match=r"missing column\(s\) \['w'\]"):
+        read_dataset(tmp_path, "csv", [parse_modality("hand=x,y,w")])
 
 
 def test_real_heights_records(heights_dir: Path) -> None:
-    dataset = load_records_dataset(heights_dir)
+    dataset, _ = read_dataset(heights_dir, "records")
     assert {k: len(v) for k, v in dataset.items()} == {"bottom": 40, "middle": 40, "top": 42}
     lengths = [d.n_samples for demos in dataset.values() for d in demos]
     assert min(lengths) == 63 and max(lengths) == 405

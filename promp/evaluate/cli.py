@@ -6,11 +6,12 @@
         [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
         [--json OUT.json] [--plots DIR] [--basis M] [--width W] [--shrinkage S|loo]
 
-``--format records`` reads the lab-record format (modalities ``position`` and ``wrench``
-predefined, default ``--observe position``); ``--format csv`` reads ``DATASET/<primitive>/
-<demo>.csv`` with modalities named by ``--modality`` (``hand=x,y,z`` is assumed when none is
-given and the columns exist; columns named roll/pitch/yaw form an angular ``head`` modality by
-default). ``--observe`` may be repeated to sweep several modality sets in one run.
+``--format records`` reads the lab-record format, ``--format csv`` reads ``DATASET/<primitive>/
+<demo>.csv`` (:func:`promp.datasets.read_dataset`, the reader the studio's import uses too).
+``--modality`` maps columns to modalities; without it they are guessed from the columns
+(``hand`` = x, y, z, ``head`` = roll, pitch, yaw; for lab records, ``hand`` is the hand in the
+robot's root frame). ``--observe`` (default: the hand) may be repeated to sweep several
+modality sets in one run.
 """
 
 from __future__ import annotations
@@ -21,21 +22,14 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from promp.data import Layout, Modality
-from promp.datasets import (
-    Dataset,
-    check_columns,
-    load_csv_dataset,
-    load_records_dataset,
-    records_layout,
-)
+from promp.data import Layout
+from promp.datasets import Dataset, parse_modality, read_dataset
 from promp.evaluate.methods import Ours
 from promp.evaluate.seed import Seed
 from promp.evaluate.sweep import position_modality, run_sweep, stderr_progress
 from promp.model import Settings
 
 DEFAULT_PERCENTS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
-ANGLE_COLUMNS = {"roll", "pitch", "yaw"}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -55,15 +49,15 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="NAME=COL,COL,...",
-        help="a modality of a CSV dataset (repeatable); e.g. hand=x,y,z head=roll,pitch,yaw",
+        help="a modality: a name and its columns (repeatable); e.g. hand=x,y,z "
+        "head=roll,pitch,yaw, or for lab records wrench=fx,fy,fz,mx,my,mz",
     )
     parser.add_argument(
         "--observe",
         action="append",
         default=None,
         metavar="NAME[,NAME...]",
-        help="observed modalities (repeatable to sweep several sets); default: position for "
-        "records, hand for csv",
+        help="observed modalities (repeatable to sweep several sets); default: hand",
     )
     parser.add_argument("--percent", type=float, nargs="+", default=list(DEFAULT_PERCENTS))
     parser.add_argument("--alpha", nargs="+", choices=("ml", "model"), default=["ml", "model"])
@@ -89,54 +83,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def parse_modalities(specs: Sequence[str]) -> list[Modality]:
-    modalities = []
-    for spec in specs:
-        name, sep, cols = spec.partition("=")
-        columns = tuple(c.strip() for c in cols.split(",") if c.strip())
-        if not sep or not name.strip() or not columns:
-            raise ValueError(f"--modality expects NAME=COL,COL,..., got {spec!r}")
-        kind = "angle" if set(columns) <= ANGLE_COLUMNS else "linear"
-        unit = "rad" if kind == "angle" else "m"
-        modalities.append(Modality(name.strip(), columns, unit=unit, kind=kind))
-    return modalities
-
-
-def default_csv_layout(dataset: Dataset) -> Layout:
-    """``hand`` = x, y, z and ``head`` = roll, pitch, yaw when the columns exist."""
-    columns = set(next(iter(dataset.values()))[0].columns)
-    modalities = []
-    if {"x", "y", "z"} <= columns:
-        modalities.append(Modality("hand", ("x", "y", "z"), unit="m"))
-    if {"roll", "pitch", "yaw"} <= columns:
-        modalities.append(Modality("head", ("roll", "pitch", "yaw"), unit="rad", kind="angle"))
-    if not modalities:
-        raise ValueError("no --modality given and the CSV has no x,y,z or roll,pitch,yaw columns")
-    return Layout(tuple(modalities))
-
-
 def load(args: argparse.Namespace) -> tuple[Dataset, Layout, list[list[str]]]:
+    """The dataset, its layout and the observed modality sets the arguments name."""
     observe = [
         [name.strip() for name in spec.split(",") if name.strip()] for spec in (args.observe or [])
     ]
-    if args.format == "records":
-        if args.modality:
-            raise ValueError("--modality is for --format csv; records have position and wrench")
-        observe = observe or [["position"]]
-        needed = sorted({name for names in observe for name in names} | {"position"})
-        layout = records_layout(needed)
-        dataset = load_records_dataset(args.dataset, needed)
-    else:
-        dataset = load_csv_dataset(args.dataset)
-        if args.modality:
-            layout = Layout(tuple(parse_modalities(args.modality)))
-        else:
-            layout = default_csv_layout(dataset)
-        check_columns(dataset, layout.columns)
-        observe = observe or [[position_modality(layout)]]
+    modalities = [parse_modality(spec) for spec in args.modality]
+    dataset, layout = read_dataset(args.dataset, args.format, modalities or None)
+    observe = observe or [[position_modality(layout)]]
     for names in observe:
         layout.dims(names)  # unknown names are an error before any work
-    position_modality(layout)
     return dataset, layout, observe
 
 
@@ -191,8 +147,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             "primitives": {name: len(demos) for name, demos in dataset.items()},
         },
         "results": result.rows,
+        "failures": result.failures,
     }
     print_table(result.rows)
+    for failure in result.failures:
+        print(
+            f"failed: {failure['primitive']}/{failure['demo']} at {failure['percent']:g} % "
+            f"({'+'.join(failure['observed'])}, alpha {failure['alpha_method']}): "
+            f"{failure['error']}"
+        )
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(report, indent=1))

@@ -123,12 +123,13 @@ def write_figures(
     paths = [folder / f"curves_{method}.png"]
     curves(result.rows, paths[0], method)
     position_modality(layout)
-    for observed in sorted({t.observed for t in result.trials}):
-        candidates = [
-            t for t in result.trials if t.observed == observed and t.alpha_method == "ml"
-        ] or [t for t in result.trials if t.observed == observed]
+    ran = [t for t in result.trials if t.inferred is not None]
+    for observed in sorted({t.observed for t in ran}):
+        candidates = [t for t in ran if t.observed == observed and t.alpha_method == "ml"] or [
+            t for t in ran if t.observed == observed
+        ]
         # A correctly recognised trial near 40 % observed, as in the paper's figures.
-        candidates.sort(key=lambda t: (t.inferred.index != t.primitive, abs(t.percent - 40)))
+        candidates.sort(key=lambda t: (not t.correct, abs(t.percent - 40)))
         path = folder / f"example_{method}_{'+'.join(observed)}.png"
         example(candidates[0], dataset, layout, path)
         paths.append(path)

@@ -17,8 +17,6 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
 from promp.evaluate.cli import load
 from promp.evaluate.methods import Ours
 from promp.evaluate.sweep import run_sweep, stderr_progress
@@ -38,11 +36,11 @@ CANDIDATES = (
 PERCENTS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
 
 
-def score(rows: list[dict], trials) -> dict:
+def score(rows: list[dict]) -> dict:
     """Mean log-loss and total recognition errors of one sweep."""
-    losses = [-np.log(max(t.inferred.probabilities[t.primitive], 1e-300)) for t in trials]
+    n = sum(r["trials"] for r in rows)
     return {
-        "log_loss": float(np.mean(losses)),
+        "log_loss": float(sum(r["log_loss"] * r["trials"] for r in rows) / n),
         "errors": int(sum(r["recognition_errors"] for r in rows)),
         "trials": int(sum(r["trials"] for r in rows)),
     }
@@ -73,13 +71,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             observe_sets=observe,
             method_name="ours",
             progress=stderr_progress(f"M={n_basis} width={width} shrinkage={shrinkage}"),
-            keep_trials=True,
         )
         row = {
             "n_basis": n_basis,
             "width": width,
             "shrinkage": shrinkage,
-            **score(sweep.rows, sweep.trials),
+            **score(sweep.rows),
         }
         results.append(row)
         print(

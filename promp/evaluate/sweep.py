@@ -5,6 +5,11 @@ others (weights, covariance, noise, alpha models: nothing sees the held-out demo
 The first ``n_o = ceil(p / 100 * n)`` samples of the observed modalities are shown, the
 primitive is recognised, the weights are conditioned on the recognised primitive, and the rest
 is predicted. Results are averaged per (percent, alpha method, observed modalities).
+
+A trial the method cannot run (it raises ``ValueError``: e.g. an observation it has no
+explanation for) does not end the sweep: it counts as a recognition error, is left out of the
+trajectory metrics, and is listed by primitive, demonstration and reason in the row's
+``failed`` and in :attr:`SweepResult.failures`.
 """
 
 from __future__ import annotations
@@ -27,25 +32,38 @@ Progress = Callable[[int, int], None]
 
 @dataclass
 class Trial:
-    """One held-out demonstration at one setting."""
+    """One held-out demonstration at one setting; ``inferred`` is None (and ``error`` says
+    why) when the method failed on it."""
 
     primitive: int
     demo: str
     percent: float
     alpha_method: str
     observed: tuple[str, ...]
-    inferred: Inferred
-    position_error_m: float
-    goal_error_m: float
-    duration_error_s: float
-    nrmse_prior: float
-    nrmse_posterior: float
+    inferred: Inferred | None
+    position_error_m: float = math.nan
+    goal_error_m: float = math.nan
+    duration_error_s: float = math.nan
+    nrmse_prior: float = math.nan
+    nrmse_posterior: float = math.nan
+    error: str = ""
+
+    @property
+    def correct(self) -> bool:
+        return self.inferred is not None and self.inferred.index == self.primitive
+
+    def log_loss(self, n_primitives: int) -> float:
+        """``-ln p(true primitive)``; a failed trial counts as a uniform guess, ``ln K``."""
+        if self.inferred is None:
+            return math.log(n_primitives)
+        return -math.log(max(float(self.inferred.probabilities[self.primitive]), 1e-300))
 
 
 @dataclass
 class SweepResult:
     rows: list[dict] = field(default_factory=list)
     trials: list[Trial] = field(default_factory=list)
+    failures: list[dict] = field(default_factory=list)  # trials the method failed on
 
 
 def n_observed_for(percent: float, n_samples: int) -> int:
@@ -54,14 +72,12 @@ def n_observed_for(percent: float, n_samples: int) -> int:
 
 
 def position_modality(layout: Layout) -> str:
-    """The modality the position errors are measured on: ``hand`` or ``position``."""
+    """The modality the trajectory errors are measured on: ``hand`` (or ``position``) when the
+    layout has it, else its first modality (the errors are then in that modality's unit)."""
     for name in ("hand", "position"):
         if name in layout.names:
             return name
-    raise ValueError(
-        f"the layout {list(layout.names)} has no 'hand' or 'position' modality to measure "
-        "position errors on"
-    )
+    return layout.names[0]
 
 
 def stderr_progress(label: str) -> Progress:
@@ -112,33 +128,27 @@ def run_sweep(
         }
         demo = dataset[names[k]][j]
         method = method_factory()
-        method.fit(train, dt)
+        try:
+            method.fit(train, dt)
+            fit_error = ""
+        except ValueError as exc:
+            fit_error = f"fit without it failed: {exc}"
         truth = layout.extract(demo)[:, pos_dims]
         for percent in percents:
             n_o = n_observed_for(percent, demo.n_samples)
             for observed in observe_sets:
                 for alpha_method in alpha_methods:
-                    inferred = method.infer(demo, n_o, observed, alpha_method)
-                    trial = Trial(
-                        primitive=k,
-                        demo=demo.name,
-                        percent=float(percent),
-                        alpha_method=alpha_method,
-                        observed=tuple(observed),
-                        inferred=inferred,
-                        position_error_m=metrics.remainder_error(
-                            truth, inferred.posterior_mean[:, pos_dims], n_o
-                        ),
-                        goal_error_m=metrics.goal_error(
-                            truth, inferred.posterior_mean[:, pos_dims]
-                        ),
-                        duration_error_s=abs(inferred.duration - demo.duration),
-                        nrmse_prior=metrics.nrmse(truth, inferred.prior_mean[:, pos_dims]),
-                        nrmse_posterior=metrics.nrmse(truth, inferred.posterior_mean[:, pos_dims]),
-                    )
-                    acc.setdefault((float(percent), alpha_method, tuple(observed)), []).append(
-                        trial
-                    )
+                    key = (float(percent), alpha_method, tuple(observed))
+                    trial = Trial(k, demo.name, float(percent), alpha_method, tuple(observed), None)
+                    try:
+                        if fit_error:
+                            raise ValueError(fit_error)
+                        inferred = method.infer(demo, n_o, observed, alpha_method)
+                    except ValueError as exc:
+                        trial.error = str(exc)
+                    else:
+                        _measure(trial, inferred, truth, demo.duration, n_o, pos_dims)
+                    acc.setdefault(key, []).append(trial)
         if progress is not None:
             progress(done + 1, len(held_out))
     result = SweepResult()
@@ -149,19 +159,52 @@ def run_sweep(
                 "alpha_method": alpha_method,
                 "observed": list(observed),
                 "method": method_name,
-                "recognition_errors": int(sum(t.inferred.index != t.primitive for t in trials)),
+                "recognition_errors": int(sum(not t.correct for t in trials)),
                 "trials": len(trials),
+                "log_loss": float(np.mean([t.log_loss(len(names)) for t in trials])),
                 "position_error_m": _nanmean([t.position_error_m for t in trials]),
                 "goal_error_m": _nanmean([t.goal_error_m for t in trials]),
                 "duration_error_s": _nanmean([t.duration_error_s for t in trials]),
                 "nrmse_prior": _nanmean([t.nrmse_prior for t in trials]),
                 "nrmse_posterior": _nanmean([t.nrmse_posterior for t in trials]),
+                "failed": [f"{names[t.primitive]}/{t.demo}" for t in trials if t.inferred is None],
             }
+        )
+        result.failures.extend(
+            {
+                "primitive": names[t.primitive],
+                "demo": t.demo,
+                "percent": t.percent,
+                "alpha_method": t.alpha_method,
+                "observed": list(t.observed),
+                "error": t.error,
+            }
+            for t in trials
+            if t.inferred is None
         )
         if keep_trials:
             result.trials.extend(trials)
     result.rows.sort(key=lambda r: (r["observed"], r["alpha_method"], r["percent"]))
     return result
+
+
+def _measure(
+    trial: Trial,
+    inferred: Inferred,
+    truth: np.ndarray,
+    true_duration: float,
+    n_observed: int,
+    pos_dims: np.ndarray,
+) -> None:
+    """Fill ``trial`` with ``inferred`` and its errors against ``truth`` (the true values of
+    the measured modality, shape (n, len(pos_dims)))."""
+    posterior = inferred.posterior_mean[:, pos_dims]
+    trial.inferred = inferred
+    trial.position_error_m = metrics.remainder_error(truth, posterior, n_observed)
+    trial.goal_error_m = metrics.goal_error(truth, posterior)
+    trial.duration_error_s = abs(inferred.duration - true_duration)
+    trial.nrmse_prior = metrics.nrmse(truth, inferred.prior_mean[:, pos_dims])
+    trial.nrmse_posterior = metrics.nrmse(truth, posterior)
 
 
 def _nanmean(values: list[float]) -> float:
