@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from app.net import is_loopback, port_is_free
+from promp.datasets import FORMATS
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -35,7 +36,33 @@ def build_parser() -> argparse.ArgumentParser:
         "--workspace",
         type=Path,
         default=DEFAULT_WORKSPACE,
-        help="folder holding the demonstrations and models (plain files); created if missing",
+        help="the studio's folder of demonstrations (plain files): a studio workspace, or an "
+        "absent or empty folder, which is created with the simulated experiment (or with "
+        "--import-dataset). Any other folder is refused untouched",
+    )
+    parser.add_argument(
+        "--import-dataset",
+        type=Path,
+        default=None,
+        metavar="DATASET",
+        help="create the (absent or empty) --workspace from this dataset folder, then serve it; "
+        "the dataset is only read",
+    )
+    parser.add_argument(
+        "--format",
+        choices=FORMATS,
+        default=None,
+        help="format of --import-dataset: csv (<primitive>/<demo>.csv) or records (the "
+        "13-column lab records); default: csv if it holds .csv files, else records",
+    )
+    parser.add_argument(
+        "--modality",
+        action="append",
+        default=[],
+        metavar="NAME=COL,COL,...",
+        help="with --import-dataset, a modality and its columns (repeatable), e.g. "
+        "hand=x,y,z head=roll,pitch,yaw; default: guessed from the columns (hand = x,y,z, "
+        "head = roll,pitch,yaw)",
     )
     parser.add_argument(
         "--robot", default="iCubNancy01", help="robot model from the icub-models package"
@@ -58,6 +85,49 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def prepare_workspace(args: argparse.Namespace) -> None:
+    """Check the --workspace folder before anything starts, and create it from
+    --import-dataset when given (printing what was imported).
+
+    Raises
+    ------
+    ValueError
+        The folder holds something other than a studio workspace (nothing is touched), or the
+        import is refused (nothing is written).
+    """
+    from app.dataset_import import detect_format, read_folder
+    from app.workspace import FolderKind, Workspace, inspect_folder
+    from promp.datasets import parse_modality
+
+    kind, message = inspect_folder(args.workspace)
+    if args.import_dataset is None:
+        if args.format is not None or args.modality:
+            raise ValueError("--format and --modality go with --import-dataset")
+        if kind is FolderKind.FOREIGN:
+            raise ValueError(message)
+        return
+    source = args.import_dataset
+    if not source.is_dir():
+        raise ValueError(f"--import-dataset {source}: no such folder")
+    if kind is FolderKind.WORKSPACE:
+        raise ValueError(
+            f"--import-dataset creates a new workspace, but {args.workspace} already is one; "
+            "choose an absent or empty --workspace folder"
+        )
+    if kind is FolderKind.FOREIGN:
+        raise ValueError(f"--import-dataset needs an absent or empty --workspace: {message}")
+    new, src = args.workspace.resolve(), source.resolve()
+    if new == src or src in new.parents or new in src.parents:
+        raise ValueError(
+            "the new workspace and the dataset must be separate folders (the dataset is only "
+            "read): choose a --workspace outside it"
+        )
+    modalities = [parse_modality(spec) for spec in args.modality] or None
+    data, summary = read_folder(source, args.format or detect_format(source), modalities)
+    Workspace.create(args.workspace, data)
+    print(f"Created the workspace {args.workspace} from {source}: {summary.describe()}", flush=True)
+
+
 def _interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
@@ -78,6 +148,11 @@ def main(argv: list[str] | None = None) -> None:
             f"error: port {args.port} on {args.host} is already in use; "
             "stop the other program or choose another --port"
         )
+
+    try:
+        prepare_workspace(args)
+    except ValueError as exc:
+        sys.exit(f"error: {exc}")
 
     from app.studio import Studio  # heavy imports after the argument checks
 

@@ -6,17 +6,18 @@ Two kinds of file leave and enter the studio:
   learned from the demonstrations; robot-side code loads it with :func:`promp.io.load_model`;
 * a **workspace**, ``workspace-YYYYmmdd-HHMMSS.zip`` (deflated)::
 
-      studio.json                     primitives (name, colour, order), learning settings
-      demos/<primitive>/<demo>.csv    t, x, y, z, roll, pitch, yaw
+      studio.json                     layout, primitives (name, colour, order), settings
+      demos/<primitive>/<demo>.csv    t and the layout's columns
       model.json                      the learned model, when there is one
 
   the workspace folder's own format (:mod:`app.workspace`) plus the model.
 
 Reading an upload validates **everything** in memory before anything may change: a model must
-parse (:func:`promp.io.model_from_json`) and use the studio's modalities; a workspace archive
-must pass the extraction rules (no absolute paths, ``..``, symlinks, encrypted or unexpected
+parse (:func:`promp.io.model_from_json`) with primitive names the studio can use (the session
+checks that its modalities are the workspace's); a workspace archive must pass the extraction
+rules (:func:`check_member`: no absolute paths, ``..``, symlinks, encrypted or unexpected
 members; bounded member count and uncompressed size against zip bombs) and every member must
-parse (UTF-8 CSV with exactly the studio's columns, valid names, a valid ``studio.json``, a
+parse (UTF-8 CSV with exactly the layout's columns, valid names, a valid ``studio.json``, a
 valid ``model.json``). Every problem is a ``ValueError`` whose message names the file and says
 what is wrong. Nothing is ever unpickled.
 """
@@ -34,16 +35,15 @@ from dataclasses import dataclass, field
 from pathlib import PurePosixPath
 
 from app.workspace import (
-    COLUMNS,
-    LAYOUT,
-    PrimitiveEntry,
+    DEMOS_DIR,
+    INDEX_NAME,
+    Index,
     WorkspaceData,
     check_index,
     check_name,
-    describe_layout,
     index_json,
 )
-from promp.data import Demonstration
+from promp.data import Demonstration, Layout
 from promp.datasets import demo_from_csv, demo_to_csv
 from promp.io import model_from_json, model_to_json
 from promp.model import ProMPModel
@@ -51,9 +51,7 @@ from promp.model import ProMPModel
 MAX_UPLOAD_BYTES = 20 * 2**20  # an upload (model or archive) larger than this is refused
 MAX_MEMBERS = 10_000  # files in a workspace archive
 MAX_UNCOMPRESSED_BYTES = 256 * 2**20  # sum of the archive's uncompressed sizes
-INDEX_NAME = "studio.json"
 MODEL_NAME = "model.json"
-DEMOS_DIR = "demos"
 
 
 @dataclass(frozen=True)
@@ -110,8 +108,8 @@ def workspace_zip(
     Parameters
     ----------
     data : WorkspaceData
-        Primitives, their demonstrations (columns in any order, at least the studio's) and the
-        learning settings.
+        Primitives, their demonstrations (columns in any order, at least the layout's), the
+        learning settings and the layout.
     model : ProMPModel, optional
         Stored as ``model.json``.
     when : float, optional
@@ -127,12 +125,13 @@ def workspace_zip(
             info.external_attr = (stat.S_IFREG | 0o644) << 16
             archive.writestr(info, text.encode("utf-8"))
 
-        add(INDEX_NAME, index_json(data.primitives, data.settings))
+        add(INDEX_NAME, index_json(data.primitives, data.settings, data.layout))
+        columns = data.layout.columns
         for entry in data.primitives:
             check_name(entry.name)
             for demo in data.demos.get(entry.name, []):
                 check_name(demo.name, "demonstration")
-                ordered = Demonstration(demo.times, demo.select(COLUMNS), COLUMNS, name=demo.name)
+                ordered = Demonstration(demo.times, demo.select(columns), columns, name=demo.name)
                 add(f"{DEMOS_DIR}/{entry.name}/{demo.name}.csv", demo_to_csv(ordered))
         if model is not None:
             add(MODEL_NAME, model_to_json(model))
@@ -173,13 +172,13 @@ def read_upload(
 
 
 def read_model(content: bytes) -> ProMPModel:
-    """Parse a model file and check it fits the studio (its modalities are hand and head).
+    """Parse a model file and check the studio can name its primitives.
 
     Raises
     ------
     ValueError
-        Not a model file (see :func:`promp.io.model_from_dict`), other modalities, or a
-        primitive name the studio could not use.
+        Not a model file (see :func:`promp.io.model_from_dict`), or a primitive name the
+        studio could not use.
     """
     try:
         text = content.decode("utf-8-sig")
@@ -197,12 +196,7 @@ def read_model(content: bytes) -> ProMPModel:
 
 
 def check_model(model: ProMPModel) -> ProMPModel:
-    """Raise ValueError unless ``model`` uses the studio's layout and valid primitive names."""
-    if model.layout != LAYOUT:
-        raise ValueError(
-            f"the model's modalities are {describe_layout(model.layout)}; the studio's are "
-            f"{describe_layout(LAYOUT)}"
-        )
+    """Raise ValueError unless the studio can use ``model``'s primitive names."""
     for primitive in model.primitives:
         check_name(primitive.name)
     return model
@@ -244,7 +238,7 @@ def read_workspace_zip(
         files: dict[str, zipfile.ZipInfo] = {}
         ignored: list[str] = []
         for info in infos:
-            name = _check_member(info)
+            name = check_member(info)
             if info.is_dir():
                 continue
             if name in files:
@@ -267,8 +261,8 @@ def read_workspace_zip(
         def read(inner: str) -> bytes:
             return _read_member(archive, members[inner], prefix + inner, budget)
 
-        primitives, settings = _parse_index(read(INDEX_NAME), prefix + INDEX_NAME)
-        demos: dict[str, list[Demonstration]] = {p.name: [] for p in primitives}
+        index = _parse_index(read(INDEX_NAME), prefix + INDEX_NAME)
+        demos: dict[str, list[Demonstration]] = {p.name: [] for p in index.primitives}
         model = None
         for inner in sorted(members):
             label = prefix + inner
@@ -294,8 +288,8 @@ def read_workspace_zip(
                 raise ValueError(f"{label}: {exc}") from None
             if primitive not in demos:
                 raise ValueError(f"{label}: primitive {primitive!r} is not listed in {INDEX_NAME}")
-            demos[primitive].append(_parse_demo(read(inner), stem, label))
-    data = WorkspaceData(primitives=primitives, demos=demos, settings=settings)
+            demos[primitive].append(_parse_demo(read(inner), stem, label, index.layout))
+    data = WorkspaceData(index.primitives, demos, index.settings, layout=index.layout)
     return WorkspaceUpload(filename, data, model, ignored)
 
 
@@ -311,7 +305,7 @@ def format_size(n_bytes: int) -> str:
     return f"{n_bytes / 1024**2:.1f} MB"
 
 
-def _check_member(info: zipfile.ZipInfo) -> str:
+def check_member(info: zipfile.ZipInfo) -> str:
     """The member's name if it is safe to read, else ValueError."""
     name = info.filename
     if "\\" in name or "\x00" in name:
@@ -372,10 +366,11 @@ def _text(data: bytes, label: str) -> str:
         raise ValueError(f"{label}: not UTF-8 text ({exc})") from None
 
 
-def _parse_demo(data: bytes, name: str, label: str) -> Demonstration:
+def _parse_demo(data: bytes, name: str, label: str, layout: Layout) -> Demonstration:
+    columns = layout.columns
     demo = demo_from_csv(_text(data, label), name=name, label=label)
-    missing = [c for c in COLUMNS if c not in demo.columns]
-    extra = [c for c in demo.columns if c not in COLUMNS]
+    missing = [c for c in columns if c not in demo.columns]
+    extra = [c for c in demo.columns if c not in columns]
     if missing or extra:
         problem = []
         if missing:
@@ -383,13 +378,13 @@ def _parse_demo(data: bytes, name: str, label: str) -> Demonstration:
         if extra:
             problem.append(f"has unknown column(s) {extra}")
         raise ValueError(
-            f"{label}: {' and '.join(problem)}; a studio demonstration has the columns "
-            f"t, {', '.join(COLUMNS)}"
+            f"{label}: {' and '.join(problem)}; the workspace's demonstrations have the "
+            f"columns t, {', '.join(columns)}"
         )
-    return Demonstration(demo.times, demo.select(COLUMNS), COLUMNS, name=name)
+    return Demonstration(demo.times, demo.select(columns), columns, name=name)
 
 
-def _parse_index(data: bytes, label: str) -> tuple[list[PrimitiveEntry], dict]:
+def _parse_index(data: bytes, label: str) -> Index:
     try:
         index = json.loads(_text(data, label))
     except json.JSONDecodeError as exc:

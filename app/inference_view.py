@@ -21,8 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.workspace import LAYOUT
-from promp.data import Demonstration
+from promp.data import Demonstration, Layout
 from promp.evaluate import metrics
 from promp.inference import (
     Observation,
@@ -35,11 +34,6 @@ from promp.inference import (
 from promp.model import ProMPModel, Settings, fit
 
 # What the GUI offers, and what the engine calls it.
-OBSERVED_CHOICES: dict[str, tuple[str, ...]] = {
-    "hand + head": ("hand", "head"),
-    "hand": ("hand",),
-    "head": ("head",),
-}
 ALPHA_CHOICES: dict[str, str] = {"ML": "ml", "model": "model"}
 TUBE_POINTS = 100  # rings of the posterior tube (fixed mesh topology)
 PATH_POINTS = 60  # samples of the predicted future hand path
@@ -106,12 +100,13 @@ class HeldOutModels:
         primitive: str,
         demo_name: str,
         settings: Settings,
+        layout: Layout,
     ) -> ProMPModel:
         """The model fitted on ``demos`` minus ``demo_name`` (see :func:`held_out_training`)."""
         key = (version, primitive, demo_name)
         model = self._cache.get(key)
         if model is None:
-            model = fit(held_out_training(demos, primitive, demo_name), LAYOUT, settings)
+            model = fit(held_out_training(demos, primitive, demo_name), layout, settings)
             self._cache[key] = model
             while len(self._cache) > self.max_entries:
                 self._cache.popitem(last=False)
@@ -134,6 +129,8 @@ class ScrubResult:
     ----------
     names : tuple of str
         The model's primitives, in the order of ``recognition.probabilities``.
+    layout : Layout
+        The model's modalities (what ``prior`` and ``posterior`` have columns for).
     observation : Observation
     recognition : Recognition
     prior, posterior : Prediction
@@ -143,8 +140,8 @@ class ScrubResult:
         Seconds from the start of the movement to the last observed sample.
     future_times : array, shape (PATH_POINTS,)
         Seconds from the start, from ``observed_until`` to the predicted end.
-    future_hand : array, shape (PATH_POINTS, 3)
-        Posterior mean hand position at ``future_times``.
+    future_hand : array, shape (PATH_POINTS, 3), or None
+        Posterior mean hand position at ``future_times`` (None when the layout has no hand).
     truth : Demonstration or None
         The whole test demonstration (None for the live stream).
     position_error_m, goal_error_m, duration_error_s : float
@@ -152,13 +149,14 @@ class ScrubResult:
     """
 
     names: tuple[str, ...]
+    layout: Layout
     observation: Observation
     recognition: Recognition
     prior: Prediction
     posterior: Prediction
     observed_until: float
     future_times: np.ndarray
-    future_hand: np.ndarray
+    future_hand: np.ndarray | None
     truth: Demonstration | None
     position_error_m: float
     goal_error_m: float
@@ -191,8 +189,16 @@ class ScrubResult:
         return max(0.0, self.duration - self.observed_until)
 
 
-def hand_dims() -> np.ndarray:
-    return LAYOUT.dims([HAND])
+def hand_dims(layout: Layout) -> np.ndarray | None:
+    """The dimensions of the ``hand`` modality (drawn in 3D), None when there is none."""
+    return layout.dims([HAND]) if HAND in layout.names else None
+
+
+def error_dims(layout: Layout) -> np.ndarray:
+    """The dimensions the errors are measured on: the hand, else the first modality (as the
+    evaluation does)."""
+    hand = hand_dims(layout)
+    return hand if hand is not None else layout.dims([layout.names[0]])
 
 
 def scrub_step(
@@ -227,19 +233,23 @@ def scrub_step(
     observed_until = float(observation.elapsed[-1])
     z_start = min(observed_until / duration, 1.0) if duration > 0 else 1.0
     phases = np.linspace(z_start, 1.0, PATH_POINTS)
-    hand = hand_dims()
-    weights = posterior.mean.reshape(model.n_dims, -1)[hand]  # (3, M)
-    future_hand = model.basis(phases) @ weights.T
+    hand = hand_dims(model.layout)
+    future_hand = None
+    if hand is not None:
+        weights = posterior.mean.reshape(model.n_dims, -1)[hand]  # (3, M)
+        future_hand = model.basis(phases) @ weights.T
     position_error = goal_error = duration_error = math.nan
     if truth is not None:
-        true_hand = model.layout.extract(truth)[:, hand]
+        measured = error_dims(model.layout)
+        true_hand = model.layout.extract(truth)[:, measured]
         # The evaluation's metrics are defined on the prediction's own samples (n_f of them).
-        natural = predict(model, posterior, reco.alpha).mean[:, hand]
+        natural = predict(model, posterior, reco.alpha).mean[:, measured]
         position_error = metrics.remainder_error(true_hand, natural, observation.n_observed)
         goal_error = metrics.goal_error(true_hand, natural)
         duration_error = abs(duration - truth.duration)
     return ScrubResult(
         names=model.names,
+        layout=model.layout,
         observation=observation,
         recognition=reco,
         prior=prior_pred,
@@ -308,9 +318,11 @@ class LiveBuffer:
         t = np.array(self._t)
         return t - t[0], np.array(self._hand), np.array(self._head)
 
-    def observation(self, percent: float, modalities: Sequence[str]) -> Observation:
-        """The first ``ceil(percent / 100 * n)`` samples of the buffer in ``modalities``;
-        samples without a face are dropped when the head is observed.
+    def observation(
+        self, percent: float, modalities: Sequence[str], layout: Layout
+    ) -> Observation:
+        """The first ``ceil(percent / 100 * n)`` samples of the buffer in ``modalities`` (of
+        ``layout``); samples without a face are dropped when the head is observed.
 
         Raises
         ------
@@ -324,7 +336,7 @@ class LiveBuffer:
         times, hand, head = times[:n_o], hand[:n_o], head[:n_o]
         columns = []
         keep = np.ones(n_o, dtype=bool)
-        for name in LAYOUT.names:
+        for name in layout.names:
             if name not in modalities:
                 continue
             if name == HAND:
@@ -341,5 +353,5 @@ class LiveBuffer:
         values = np.hstack(columns)[keep]
         kept = times[keep]
         return Observation(
-            kept - kept[0], values, tuple(m for m in LAYOUT.names if m in modalities)
+            kept - kept[0], values, tuple(m for m in layout.names if m in modalities)
         )

@@ -29,6 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from promp.data import Layout
+from robots.icub.layout import HAND, HEAD, STUDIO_LAYOUT
+
 DEFAULT_RATE_HZ = 50.0
 MAX_GAP_S = 0.5
 
@@ -84,20 +87,39 @@ class Recording:
         """Which samples have a head reading, bool array of shape (n,)."""
         return np.all(np.isfinite(self.head), axis=1)
 
-    def values(self, max_gap_s: float = MAX_GAP_S) -> tuple[np.ndarray, HeadFill]:
-        """The demonstration's columns x, y, z, roll, pitch, yaw, shape (n, 6), all finite.
+    def values(
+        self, layout: Layout = STUDIO_LAYOUT, max_gap_s: float = MAX_GAP_S
+    ) -> tuple[np.ndarray, HeadFill]:
+        """The demonstration's columns in ``layout``'s order (the studio's: x, y, z, roll,
+        pitch, yaw), shape (n, D), all finite.
 
         Raises
         ------
         ValueError
-            Fewer than two samples, no head reading at all, or the face missing for longer
-            than ``max_gap_s`` in one stretch (the message says when).
+            Fewer than two samples, a modality the studio cannot record (see
+            :func:`unrecordable`), or, when the head is recorded, no head reading at all or
+            the face missing for longer than ``max_gap_s`` in one stretch (the message says
+            when).
         """
         n = self.n_samples
         if n < 2:
             raise ValueError(
                 f"the recording has {n} sample(s); at least 2 are needed: record for longer"
             )
+        missing = unrecordable(layout)
+        if missing:
+            raise ValueError(
+                f"the studio cannot record {', '.join(missing)}: this workspace's "
+                "demonstrations have modalities only an imported dataset provides"
+            )
+        head, fill = None, HeadFill(n, 0, 0.0)
+        if HEAD.name in layout.names:
+            head, fill = self._filled_head(max_gap_s)
+        blocks = {HAND.name: self.hand, HEAD.name: head}
+        return np.column_stack([blocks[name] for name in layout.names]), fill
+
+    def _filled_head(self, max_gap_s: float) -> tuple[np.ndarray, HeadFill]:
+        n = self.n_samples
         face = self.face
         if not face.any():
             raise ValueError(
@@ -121,8 +143,14 @@ class Recording:
         valid = np.flatnonzero(face)
         for j in range(3):  # np.interp holds the end values beyond the first/last reading
             head[:, j] = np.interp(self.times, self.times[valid], self.head[valid, j])
-        fill = HeadFill(n, int((~face).sum()), longest)
-        return np.column_stack([self.hand, head]), fill
+        return head, HeadFill(n, int((~face).sum()), longest)
+
+
+def unrecordable(layout: Layout) -> list[str]:
+    """The modalities of ``layout`` the studio cannot sample: any but the hand and the head
+    (with the studio's columns)."""
+    recordable = {HAND.name: HAND, HEAD.name: HEAD}
+    return [m.name for m in layout.modalities if recordable.get(m.name) != m]
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

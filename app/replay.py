@@ -121,15 +121,21 @@ class Replay:
         self.move_hand(self.position_at(0.0))
 
     def step(self) -> bool:
-        """Advance by the time elapsed since the previous step; True when the hand moved."""
+        """Advance by the time elapsed since the previous step; True when the hand moved.
+
+        The hand is moved first and the state (``elapsed``, ``playing``) updated after, so
+        anyone who sees the replay finished (another thread, a test) also sees the hand at
+        its end.
+        """
         if not self.playing or not self.has_path:
             return False
         now = self.clock()
         last = self._last if self._last is not None else now
+        elapsed = min(self.duration, self.elapsed + max(0.0, now - last))
+        self.move_hand(self.position_at(elapsed))
         self._last = now
-        self.elapsed = min(self.duration, self.elapsed + max(0.0, now - last))
-        self.move_hand(self.position_at(self.elapsed))
-        if self.elapsed >= self.duration:
+        self.elapsed = elapsed
+        if elapsed >= self.duration:
             self.playing = False
             self._last = None
         return True

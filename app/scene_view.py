@@ -1,8 +1,9 @@
 """What the session looks like in 3D: demonstrations as thin lines, priors as tubes, and the
 partner's head avatar with its gaze ray.
 
-Redrawn by the studio's loop when the session's version changes; tubes keep their mesh
-topology (100 rings of 12 vertices), so a refit only replaces vertices.
+Lines and tubes are the ``hand`` modality's (a workspace without one has none). Redrawn by the
+studio's loop when the session's version changes; tubes keep their mesh topology (100 rings of
+12 vertices), so a refit only replaces vertices.
 """
 
 from __future__ import annotations
@@ -10,19 +11,15 @@ from __future__ import annotations
 import numpy as np
 import viser
 
+from app.inference_view import hand_dims
 from app.session import Session
 from app.tubes import resample, tube_faces, tube_vertices
-from app.workspace import LAYOUT
 from promp.inference import predict
 from robots.icub.scene import DEFAULT_SCENE, head_rotation
 
 TUBE_POINTS = 100
 HEAD_NODE = "/partner"
 GAZE_LENGTH = 0.9
-
-
-def hand_columns() -> np.ndarray:
-    return LAYOUT.dims(["hand"])
 
 
 class SceneView:
@@ -33,6 +30,7 @@ class SceneView:
         self.session = session
         self.drawn_version = -1
         self.lines: dict[tuple[str, str], viser.SceneNodeHandle] = {}
+        self._drawn_demo: dict[tuple[str, str], object] = {}  # the demonstration each line shows
         self.tubes: dict[str, viser.MeshHandle] = {}
         self.faces = tube_faces(TUBE_POINTS)
         head = np.array(DEFAULT_SCENE.partner_head)
@@ -77,21 +75,27 @@ class SceneView:
             colors = {p.name: p.color for p in session.primitives}
             hidden = set(session.hidden)
             model = session.model
-        self._draw_lines(demos, colors, hidden)
+            layout = session.layout
+        if hand_dims(layout) is None:  # nothing of this workspace lives in 3D
+            demos, model = {}, None
+        self._draw_lines(demos, colors, hidden, layout)
         self._draw_tubes(model, colors)
         return True
 
-    def _draw_lines(self, demos, colors, hidden) -> None:
+    def _draw_lines(self, demos, colors, hidden, layout) -> None:
         wanted = set()
-        cols = hand_columns()
+        cols = hand_dims(layout)
         for name, items in demos.items():
             for demo in items:
                 key = (name, demo.name)
                 wanted.add(key)
-                if key in self.lines:
+                if key in self.lines and self._drawn_demo.get(key) is demo:
                     self.lines[key].visible = key not in hidden
                     continue
-                points = LAYOUT.extract(demo)[:, cols]
+                if key in self.lines:  # same name, other data (a restored or new workspace)
+                    self.lines.pop(key).remove()
+                self._drawn_demo[key] = demo
+                points = layout.extract(demo)[:, cols]
                 self.lines[key] = self.server.scene.add_spline_catmull_rom(
                     f"/demos/{name}/{demo.name}",
                     points=resample(points, min(len(points), 60)),
@@ -104,6 +108,7 @@ class SceneView:
             color = colors.get(key[0])
             if key not in wanted:
                 self.lines.pop(key).remove()
+                self._drawn_demo.pop(key, None)
             elif color is not None and tuple(self.lines[key].color) != tuple(color):
                 self.lines[key].color = color
 
@@ -112,7 +117,7 @@ class SceneView:
         prim = model.primitive(name)
         alpha = float(np.exp(prim.log_alpha_mean))
         prediction = predict(model, prim, alpha, n_points=TUBE_POINTS)
-        cols = hand_columns()
+        cols = hand_dims(model.layout)
         return prediction.mean[:, cols], prediction.std[:, cols]
 
     def _draw_tubes(self, model, colors) -> None:

@@ -4,6 +4,11 @@ One :class:`Session` per server, shared by every browser tab, so two tabs always
 state. Every mutation validates first, writes the workspace (atomically), then updates memory
 and bumps :attr:`Session.version`; panels redraw when the version they drew is stale. A lock
 serialises mutations coming from GUI callbacks (which viser runs on a thread pool).
+
+Deleting a demonstration or a primitive, and replacing the workspace, move the files to the
+workspace's trash (:mod:`app.trash`); :meth:`Session.restore` puts them back. The session's
+modalities are its workspace's layout: the studio's hand and head for the workspaces it
+creates, whatever an imported dataset holds otherwise.
 """
 
 from __future__ import annotations
@@ -16,17 +21,18 @@ from pathlib import Path
 
 import numpy as np
 
+from app.trash import TrashEntry
 from app.workspace import (
-    COLUMNS,
-    LAYOUT,
     PALETTE,
+    FolderKind,
     PrimitiveEntry,
     Workspace,
     WorkspaceData,
     check_color,
     check_name,
+    inspect_folder,
 )
-from promp.data import Demonstration
+from promp.data import Demonstration, Layout
 from promp.inference import Observation, log_likelihoods
 from promp.model import ProMPModel, Settings, fit
 
@@ -59,14 +65,7 @@ class Session:
     """Shared state of the studio (see the module docstring)."""
 
     def __init__(self, workspace: Workspace, data: WorkspaceData):
-        self.workspace = workspace
         self.lock = threading.RLock()
-        self.primitives: list[PrimitiveEntry] = list(data.primitives)
-        self.demos: dict[str, list[Demonstration]] = {
-            p.name: list(data.demos.get(p.name, [])) for p in self.primitives
-        }
-        self.settings: dict = {**DEFAULT_SETTINGS, **data.settings}
-        self.problems: list[str] = list(data.problems)
         self.hidden: set[tuple[str, str]] = set()  # (primitive, demo) not drawn
         self.typicality: dict[tuple[str, str], Typicality] = {}
         self.model: ProMPModel | None = None
@@ -76,18 +75,49 @@ class Session:
         # one until the demonstrations or settings next change (see use_imported_model).
         self.imported_model: ProMPModel | None = None
         self.imported_from = ""
+        self.deleted: list[TrashEntry] = []  # this run's deletions, newest last ("Undo delete")
         self.version = 0
         self._listeners: list[Callable[[], None]] = []
+        self._adopt(workspace, data)
         self.refit()
+
+    def _adopt(self, workspace: Workspace, data: WorkspaceData) -> None:
+        """Hold ``data``, read from (or just written to) ``workspace``."""
+        self.workspace = workspace
+        self.layout: Layout = data.layout
+        self.primitives: list[PrimitiveEntry] = list(data.primitives)
+        self.demos: dict[str, list[Demonstration]] = {
+            p.name: list(data.demos.get(p.name, [])) for p in self.primitives
+        }
+        self.settings: dict = {**DEFAULT_SETTINGS, **data.settings}
+        self.problems: list[str] = list(data.problems)
+        keys = {(p, d.name) for p, items in self.demos.items() for d in items}
+        self.hidden &= keys
+        self.typicality = {k: v for k, v in self.typicality.items() if k in keys}
 
     @classmethod
     def open(cls, root: Path, default: Callable[[], WorkspaceData] | None = None) -> Session:
-        """Open the workspace at ``root``; an empty one is first filled by ``default()``."""
+        """Open the workspace at ``root``. An absent or empty folder first becomes a workspace
+        holding ``default()`` (or nothing).
+
+        Raises
+        ------
+        ValueError
+            ``root`` is a folder that holds something other than a studio workspace (the
+            message says what and how to import it; nothing is touched), or its index is
+            unreadable.
+        """
+        kind, message = inspect_folder(root)
+        if kind is FolderKind.FOREIGN:
+            raise ValueError(message)
+        if kind is not FolderKind.WORKSPACE:
+            Workspace.create(root, default() if default is not None else WorkspaceData())
         workspace = Workspace(root)
-        if workspace.is_empty() and default is not None:
-            workspace.replace_all(default())
-        workspace.root.mkdir(parents=True, exist_ok=True)
         return cls(workspace, workspace.load())
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        return self.layout.columns
 
     # ------------------------------------------------------------------ observers
 
@@ -139,7 +169,7 @@ class Session:
                 self.model, self.fit_error = None, "record at least two demonstrations"
             else:
                 try:
-                    self.model = fit(trainable, LAYOUT, self.learning_settings())
+                    self.model = fit(trainable, self.layout, self.learning_settings())
                     self.fit_error = None
                 except ValueError as exc:
                     self.model, self.fit_error = None, str(exc)
@@ -152,14 +182,15 @@ class Session:
             others = [d for d in self.demos.get(primitive, []) if d.name != demo.name]
             if len(others) < 3:
                 return None
+            layout = self.layout
             try:
-                model = fit({primitive: others}, LAYOUT, self.learning_settings())
+                model = fit({primitive: others}, layout, self.learning_settings())
             except ValueError:
                 return None
             settings = self.learning_settings()
 
             def loglik(m: ProMPModel, d: Demonstration) -> float:
-                obs = Observation.from_demo(m, d, d.n_samples, LAYOUT.names)
+                obs = Observation.from_demo(m, d, d.n_samples, layout.names)
                 alpha = settings.s_bar / (d.duration / m.sample_period + 1.0)
                 value = log_likelihoods(m, m.primitives[0], obs, [alpha * (1 - 1e-9)])[0]
                 return float(value) / d.n_samples
@@ -170,7 +201,7 @@ class Session:
                 rest = others[:i] + others[i + 1 :]
                 if len(rest) < 2:
                     continue
-                references.append(loglik(fit({primitive: rest}, LAYOUT, settings), other))
+                references.append(loglik(fit({primitive: rest}, layout, settings), other))
             percentile = float(np.mean(np.array(references) < score)) if references else 0.5
             return Typicality(score, percentile)
 
@@ -185,7 +216,7 @@ class Session:
                 color = PALETTE[len(self.primitives) % len(PALETTE)]
             entry = PrimitiveEntry(name, check_color(color))
             self.workspace.demo_dir(name).mkdir(parents=True, exist_ok=True)
-            self.workspace.save_index([*self.primitives, entry], self.settings)
+            self.workspace.save_index([*self.primitives, entry], self.settings, self.layout)
             self.primitives.append(entry)
             self.demos[name] = []
             self._changed(refit=False)
@@ -200,7 +231,7 @@ class Session:
                 raise ValueError(f"a primitive named {new!r} already exists")
             self.workspace.rename_primitive(old, new)
             primitives = [replace(p, name=new) if p.name == old else p for p in self.primitives]
-            self.workspace.save_index(primitives, self.settings)
+            self.workspace.save_index(primitives, self.settings, self.layout)
             self.primitives = primitives
             self.demos[new] = self.demos.pop(old)
             self.hidden = {(new if p == old else p, d) for p, d in self.hidden}
@@ -214,19 +245,23 @@ class Session:
             self.entry(name)
             rgb = check_color(color)
             primitives = [replace(p, color=rgb) if p.name == name else p for p in self.primitives]
-            self.workspace.save_index(primitives, self.settings)
+            self.workspace.save_index(primitives, self.settings, self.layout)
             self.primitives = primitives
             self._changed(refit=False)
 
-    def delete_primitive(self, name: str) -> None:
+    def delete_primitive(self, name: str) -> TrashEntry:
+        """Take the primitive out and move its demonstrations to the trash."""
         with self.lock:
-            self.entry(name)
+            entry = self.entry(name)
+            position = self.primitives.index(entry)
             primitives = [p for p in self.primitives if p.name != name]
-            self.workspace.save_index(primitives, self.settings)
-            self.workspace.delete_primitive(name)
+            self.workspace.save_index(primitives, self.settings, self.layout)
+            trashed = self.workspace.trash_primitive(entry, position)
             self.primitives = primitives
             self.demos.pop(name, None)
+            self.deleted.append(trashed)
             self._changed()
+            return trashed
 
     def next_demo_name(self, primitive: str) -> str:
         existing = {d.name for d in self.demos.get(primitive, [])}
@@ -239,32 +274,56 @@ class Session:
         return f"{primitive}_{i:03d}"
 
     def add_demo(self, primitive: str, times: np.ndarray, values: np.ndarray) -> Demonstration:
-        """Store a new demonstration (times (n,), values (n, 6) in COLUMNS order): written to
-        disk before it joins the session. Returns it (with its name)."""
+        """Store a new demonstration (times (n,), values (n, D) in the layout's column order):
+        written to disk before it joins the session. Returns it (with its name)."""
         with self.lock:
             self.entry(primitive)
             times = np.asarray(times, dtype=float)
             demo = Demonstration(
-                times - times[0], values, COLUMNS, name=self.next_demo_name(primitive)
+                times - times[0], values, self.columns, name=self.next_demo_name(primitive)
             )
             typicality = self.score(primitive, demo)
-            self.workspace.write_demo(primitive, demo)
+            self.workspace.write_demo(primitive, demo, self.layout)
             self.demos[primitive].append(demo)
             if typicality is not None:
                 self.typicality[(primitive, demo.name)] = typicality
             self._changed()
             return demo
 
-    def delete_demo(self, primitive: str, demo: str) -> None:
+    def delete_demo(self, primitive: str, demo: str) -> TrashEntry:
+        """Move a demonstration to the trash."""
         with self.lock:
-            self.entry(primitive)
+            entry = self.entry(primitive)
             if demo not in {d.name for d in self.demos[primitive]}:
                 raise ValueError(f"primitive {primitive!r} has no demonstration {demo!r}")
-            self.workspace.delete_demo(primitive, demo)
+            trashed = self.workspace.trash_demo(entry, demo)
             self.demos[primitive] = [d for d in self.demos[primitive] if d.name != demo]
             self.hidden.discard((primitive, demo))
             self.typicality.pop((primitive, demo), None)
+            self.deleted.append(trashed)
             self._changed()
+            return trashed
+
+    def trash_entries(self) -> list[TrashEntry]:
+        """Everything in the workspace's trash, newest first."""
+        with self.lock:
+            return self.workspace.trash.entries()
+
+    def restore(self, name: str) -> TrashEntry:
+        """Put the trash entry ``name`` back (see :meth:`app.workspace.Workspace.restore`)."""
+        with self.lock:
+            entry = self.workspace.restore(name)
+            self.deleted = [e for e in self.deleted if e.name != name]
+            self._adopt(self.workspace, self.workspace.load())
+            self._changed()
+            return entry
+
+    def undo_delete(self) -> TrashEntry:
+        """Restore the latest deletion of this run."""
+        with self.lock:
+            if not self.deleted:
+                raise ValueError("nothing deleted since the studio started")
+            return self.restore(self.deleted[-1].name)
 
     def set_hidden(self, primitive: str, demo: str, hidden: bool) -> None:
         with self.lock:
@@ -280,7 +339,7 @@ class Session:
                 extra["shrinkage"] = None if shrinkage is None else float(shrinkage)
             Settings(n_basis=int(n_basis), width=float(width), **extra)  # validates
             settings = {**self.settings, "n_basis": int(n_basis), "width": float(width), **extra}
-            self.workspace.save_index(self.primitives, settings)
+            self.workspace.save_index(self.primitives, settings, self.layout)
             self.settings = settings
             self._changed()
 
@@ -289,26 +348,36 @@ class Session:
         from the demonstrations, until the demonstrations or learning settings next change;
         None goes back to the learned model. Not written to the workspace."""
         with self.lock:
-            if model is not None and model.layout != LAYOUT:
+            if model is not None and model.layout != self.layout:
                 raise ValueError(
-                    f"the model's modalities {list(model.layout.columns)} are not the studio's "
-                    f"{list(LAYOUT.columns)}"
+                    f"the model's modalities {list(model.layout.columns)} are not the "
+                    f"workspace's {list(self.layout.columns)}"
                 )
             self.imported_model = model
             self.imported_from = source if model is not None else ""
             self._changed(refit=False)
 
-    def replace(self, data: WorkspaceData) -> None:
-        """Swap the whole session for ``data`` (an import), on disk first."""
+    def replace(self, data: WorkspaceData, label: str = "replaced workspace") -> TrashEntry:
+        """Swap the whole session for ``data`` (an import), on disk first; the current
+        demonstrations and index go to the trash, restorable as one entry."""
         with self.lock:
-            for entry in data.primitives:
-                check_name(entry.name)
-                check_color(entry.color)
             Settings(**{**DEFAULT_SETTINGS, **data.settings})
-            self.workspace.replace_all(data)
-            self.primitives = list(data.primitives)
-            self.demos = {p.name: list(data.demos.get(p.name, [])) for p in self.primitives}
-            self.settings = {**DEFAULT_SETTINGS, **data.settings}
+            trashed = self.workspace.replace_all(data, label)
             self.hidden.clear()
             self.typicality.clear()
+            self._adopt(self.workspace, self.workspace.load())
+            self.deleted.append(trashed)
+            self._changed()
+            return trashed
+
+    def switch(self, root: Path, data: WorkspaceData) -> None:
+        """Create a new workspace at ``root`` (absent or empty) holding ``data`` and serve it
+        instead of the current one, which stays as it is on disk."""
+        with self.lock:
+            Settings(**{**DEFAULT_SETTINGS, **data.settings})
+            workspace = Workspace.create(root, data)
+            self.hidden.clear()
+            self.typicality.clear()
+            self.deleted = []
+            self._adopt(workspace, workspace.load())
             self._changed()

@@ -23,7 +23,7 @@ from app.head_sources import HeadReading, HeadSource, SimulatedPartner, StreamHe
 from app.robot_view import RobotView, add_robot
 from app.scene_view import SceneView
 from app.session import Session
-from app.workspace import PALETTE, PrimitiveEntry, WorkspaceData
+from app.workspace import PALETTE, FolderKind, PrimitiveEntry, WorkspaceData, inspect_folder
 from robots.icub.kinematics import ArmChain
 from robots.icub.model import load_urdf
 from robots.icub.scene import DEFAULT_SCENE
@@ -104,7 +104,8 @@ class Studio:
     ) -> Studio:
         """Serve the studio on (host, port) with its workspace in ``workspace``.
 
-        An empty workspace is first filled with the simulated scenario.
+        An absent or empty workspace folder is first filled with the simulated scenario; a
+        folder that holds anything else is refused untouched.
 
         Raises
         ------
@@ -113,8 +114,9 @@ class Studio:
             could not be bound (viser would silently pick another one).
         """
         workspace = Path(workspace)
-        if workspace.exists() and not workspace.is_dir():
-            raise ValueError(f"workspace {workspace} exists and is not a folder")
+        kind, message = inspect_folder(workspace)  # before anything slow: refuse at once
+        if kind is FolderKind.FOREIGN:
+            raise ValueError(message)
         urdf = load_urdf(robot)  # before binding: an unknown robot fails fast
         arm_chain = ArmChain.from_urdf(load_urdf(robot, load_meshes=False))
         session = Session.open(workspace, default=default_workspace)
@@ -124,7 +126,11 @@ class Studio:
         if port != 0 and server.get_port() != port:
             server.stop()
             raise ValueError(f"port {port} on {host} is already in use")
-        server.gui.configure_theme(control_width="large", dark_mode=False, show_logo=False)
+        # No "Share" button: it would publish the studio on a public URL, past the loopback
+        # default.
+        server.gui.configure_theme(
+            control_width="large", dark_mode=False, show_logo=False, show_share_button=False
+        )
         view = add_robot(server, urdf, DEFAULT_SCENE)
         arm = ArmController(server, view, arm_chain)
         if camera is not None:

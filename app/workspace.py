@@ -3,35 +3,47 @@
 ::
 
     WORKSPACE/
-      studio.json                     primitives (name, colour, order), learning settings
+      studio.json                     format, version, the layout of modalities, primitives
+                                      (name, colour, order), learning settings
       demos/<primitive>/<demo>.csv    one demonstration each, the engine's CSV format
-                                      (t, x, y, z, roll, pitch, yaw)
+      trash/                          what was deleted or replaced (app.trash), restorable
+
+The studio only ever writes inside a folder that is absent, empty, or already a studio
+workspace (it has ``studio.json``): :func:`inspect_folder` tells them apart, and any other
+folder (a user's recordings, say) is refused untouched. It deletes nothing: a deleted
+demonstration or primitive, and a replaced workspace, move to ``trash/``.
 
 Every write is atomic (temporary file, fsync, rename), and each demonstration is its own file,
 so killing the studio at any moment loses nothing already recorded and never leaves a
-half-written file. Restarting reads the same files back: the session is restored exactly.
-Mutations validate their input first and raise ``ValueError`` without touching the disk when
-it is wrong.
+half-written file. A new workspace is built in a sibling folder and renamed into place, so it
+appears whole or not at all. Restarting reads the same files back: the session is restored
+exactly. Mutations validate their input first and raise ``ValueError`` without touching the
+disk when it is wrong.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
+import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
+from enum import Enum
 from pathlib import Path
 
+from app.trash import Trash, TrashEntry
 from promp.data import Demonstration, Layout, Modality
-from promp.datasets import atomic_write_text, read_csv_demo, write_csv_demo
+from promp.datasets import MODALITY_NAME, atomic_write_text, read_csv_demo, write_csv_demo
 from promp.model import Settings
+from robots.icub.layout import STUDIO_LAYOUT
 
 FORMAT = "icub-intention-studio/workspace"
 VERSION = 1
-HAND = Modality("hand", ("x", "y", "z"), unit="m", kind="linear")
-HEAD = Modality("head", ("roll", "pitch", "yaw"), unit="rad", kind="angle")
-LAYOUT = Layout((HAND, HEAD))
+INDEX_NAME = "studio.json"
+DEMOS_DIR = "demos"
+LAYOUT = STUDIO_LAYOUT  # the layout of a workspace the studio creates and records into
 COLUMNS = LAYOUT.columns
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_\-]{0,39}$")
 PALETTE = (
@@ -63,10 +75,40 @@ def check_color(color: Sequence[int]) -> tuple[int, int, int]:
     return rgb  # type: ignore[return-value]
 
 
-@dataclass
-class PrimitiveEntry:
-    name: str
-    color: tuple[int, int, int]
+def check_layout(layout: Layout) -> Layout:
+    """``layout`` if the studio can use it: safe modality names, and a ``hand`` modality, when
+    there is one, of 3 linear columns in metres (it drives the 3D view, the tubes and the arm).
+
+    Raises
+    ------
+    ValueError
+        What is wrong and what is expected.
+    """
+    for modality in layout.modalities:
+        if not MODALITY_NAME.match(modality.name):
+            raise ValueError(
+                f"invalid modality name {modality.name!r}: use 1-40 letters, digits, '_' or "
+                "'-', starting with a letter"
+            )
+        for column in modality.columns:
+            if not column or column == "t" or "," in column or "\n" in column:
+                raise ValueError(f"modality {modality.name!r}: invalid column name {column!r}")
+    if "hand" in layout.names:
+        hand = layout.modality("hand")
+        if len(hand.columns) != 3 or hand.unit != "m" or hand.kind != "linear":
+            raise ValueError(
+                "the modality 'hand' drives the 3D view: it needs 3 linear columns in metres "
+                f"(x, y, z in the robot's root frame), got {list(hand.columns)} in "
+                f"{hand.unit or 'no unit'}; name it otherwise to import it as a plain signal"
+            )
+    return layout
+
+
+def describe_layout(layout: Layout) -> str:
+    return ", ".join(
+        f"{m.name} = {'/'.join(m.columns)} ({m.unit or 'no unit'}, {m.kind})"
+        for m in layout.modalities
+    )
 
 
 def layout_listing(layout: Layout) -> list[dict]:
@@ -77,18 +119,49 @@ def layout_listing(layout: Layout) -> list[dict]:
     ]
 
 
-def describe_layout(layout: Layout) -> str:
-    return ", ".join(
-        f"{m.name} = {'/'.join(m.columns)} ({m.unit}, {m.kind})" for m in layout.modalities
-    )
+def layout_from_listing(listing: object, label: str) -> Layout:
+    """The inverse of :func:`layout_listing`, checked (``ValueError`` starting with ``label``)."""
+    if not isinstance(listing, list) or not listing:
+        raise ValueError(f"{label}: 'layout' must be a non-empty list of modalities")
+    modalities = []
+    for i, item in enumerate(listing):
+        if not isinstance(item, dict):
+            raise ValueError(f"{label}: modality {i} must be an object")
+        columns = item.get("columns")
+        if not (
+            isinstance(item.get("name"), str)
+            and isinstance(columns, list)
+            and all(isinstance(c, str) for c in columns)
+            and isinstance(item.get("unit", ""), str)
+        ):
+            raise ValueError(
+                f"{label}: modality {i} needs a 'name', a list of 'columns', a 'unit' text"
+            )
+        try:
+            unit, kind = item.get("unit", ""), item.get("kind", "linear")
+            modalities.append(Modality(item["name"], tuple(columns), unit, kind))
+        except ValueError as exc:
+            raise ValueError(f"{label}: {exc}") from None
+    try:
+        return check_layout(Layout(tuple(modalities)))
+    except ValueError as exc:
+        raise ValueError(f"{label}: {exc}") from None
 
 
-def index_json(primitives: Sequence[PrimitiveEntry], settings: Mapping) -> str:
+@dataclass
+class PrimitiveEntry:
+    name: str
+    color: tuple[int, int, int]
+
+
+def index_json(
+    primitives: Sequence[PrimitiveEntry], settings: Mapping, layout: Layout = LAYOUT
+) -> str:
     """The text of ``studio.json``."""
     index = {
         "format": FORMAT,
         "version": VERSION,
-        "layout": layout_listing(LAYOUT),
+        "layout": layout_listing(layout),
         "primitives": [{"name": p.name, "color": list(p.color)} for p in primitives],
         "settings": dict(settings),
     }
@@ -98,10 +171,20 @@ def index_json(primitives: Sequence[PrimitiveEntry], settings: Mapping) -> str:
 _SETTING_NAMES = {f.name for f in fields(Settings)}
 
 
-def check_index(index: object, label: str) -> tuple[list[PrimitiveEntry], dict]:
-    """The primitives and learning settings of a decoded ``studio.json``; a ``ValueError``
-    starting with ``label`` says what is wrong (the workspace on disk and an imported archive
-    are checked alike)."""
+@dataclass(frozen=True)
+class Index:
+    """A decoded, checked ``studio.json``."""
+
+    primitives: list[PrimitiveEntry]
+    settings: dict
+    layout: Layout
+
+
+def check_index(index: object, label: str) -> Index:
+    """The primitives, learning settings and layout of a decoded ``studio.json``; a
+    ``ValueError`` starting with ``label`` says what is wrong (the workspace on disk and an
+    imported archive are checked alike). A workspace written before layouts were stored
+    has the studio's (hand, head)."""
     if not isinstance(index, dict) or index.get("format") != FORMAT:
         raise ValueError(f"{label}: not a studio workspace index ('format' is not {FORMAT!r})")
     if index.get("version") != VERSION:
@@ -109,10 +192,7 @@ def check_index(index: object, label: str) -> tuple[list[PrimitiveEntry], dict]:
             f"{label}: unsupported workspace version {index.get('version')!r}; "
             f"this studio reads version {VERSION}"
         )
-    if "layout" in index and index["layout"] != layout_listing(LAYOUT):
-        raise ValueError(
-            f"{label}: the workspace's modalities are not the studio's ({describe_layout(LAYOUT)})"
-        )
+    layout = layout_from_listing(index["layout"], label) if "layout" in index else LAYOUT
     raw = index.get("primitives", [])
     if not isinstance(raw, list):
         raise ValueError(f"{label}: 'primitives' must be a list")
@@ -152,7 +232,7 @@ def check_index(index: object, label: str) -> tuple[list[PrimitiveEntry], dict]:
         Settings(**settings)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{label}: invalid learning settings ({exc})") from None
-    return primitives, dict(settings)
+    return Index(primitives, dict(settings), layout)
 
 
 @dataclass
@@ -163,6 +243,53 @@ class WorkspaceData:
     demos: dict[str, list[Demonstration]] = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     problems: list[str] = field(default_factory=list)  # files that could not be read
+    layout: Layout = LAYOUT
+
+    @property
+    def n_demos(self) -> int:
+        return sum(len(v) for v in self.demos.values())
+
+
+class FolderKind(Enum):
+    ABSENT = "absent"
+    EMPTY = "empty"
+    WORKSPACE = "workspace"
+    FOREIGN = "foreign"
+
+
+def inspect_folder(root: Path) -> tuple[FolderKind, str]:
+    """What is at ``root``, and, for a folder the studio must not use, a message that says
+    what is there and what to do.
+
+    Raises
+    ------
+    ValueError
+        If ``root`` exists and is not a folder.
+    """
+    root = Path(root)
+    if not root.exists():
+        return FolderKind.ABSENT, ""
+    if not root.is_dir():
+        raise ValueError(f"workspace {root} exists and is not a folder")
+    if (root / INDEX_NAME).is_file():
+        return FolderKind.WORKSPACE, ""
+    entries = list(root.iterdir())
+    if not entries:
+        return FolderKind.EMPTY, ""
+    files = 0
+    examples: list[str] = []
+    for path in sorted(root.rglob("*")):
+        if path.is_file():
+            files += 1
+            if len(examples) < 3:
+                examples.append(path.relative_to(root).as_posix())
+    what = f"{files} file(s) (e.g. {', '.join(examples)})" if files else "only empty folders"
+    return FolderKind.FOREIGN, (
+        f"{root} holds {what} and is not a studio workspace (it has no {INDEX_NAME}); the "
+        "studio changes nothing there. To open these recordings, import them into a new "
+        f"workspace: --import-dataset {root} --format records|csv --workspace NEW_FOLDER; or "
+        "choose an absent or empty --workspace folder"
+    )
 
 
 class Workspace:
@@ -173,21 +300,62 @@ class Workspace:
         self.root = Path(root)
         if self.root.exists() and not self.root.is_dir():
             raise ValueError(f"workspace {self.root} exists and is not a folder")
+        self.trash = Trash(self.root)
 
     @property
     def index_path(self) -> Path:
-        return self.root / "studio.json"
+        return self.root / INDEX_NAME
 
     def demo_dir(self, primitive: str) -> Path:
-        return self.root / "demos" / check_name(primitive)
+        return self.root / DEMOS_DIR / check_name(primitive)
 
     def demo_path(self, primitive: str, demo: str) -> Path:
         return self.demo_dir(primitive) / f"{check_name(demo, 'demonstration')}.csv"
 
-    def is_empty(self) -> bool:
-        return not self.index_path.exists() and not (self.root / "demos").exists()
+    @staticmethod
+    def relative_demo_dir(primitive: str) -> str:
+        return f"{DEMOS_DIR}/{check_name(primitive)}"
+
+    # ------------------------------------------------------------------ creating
+
+    @classmethod
+    def create(cls, root: Path, data: WorkspaceData) -> Workspace:
+        """A new workspace at ``root`` holding ``data``; ``root`` must be absent or empty.
+
+        Built in a hidden sibling folder, then renamed to ``root``: a failure or a crash
+        leaves ``root`` as it was.
+
+        Raises
+        ------
+        ValueError
+            ``root`` holds something, or ``data`` is invalid (nothing is written then).
+        """
+        root = Path(root)
+        kind, message = inspect_folder(root)
+        if kind not in (FolderKind.ABSENT, FolderKind.EMPTY):
+            raise ValueError(message or f"{root} is already a studio workspace")
+        _check_data(data)
+        root.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{root.name}.creating-", dir=root.parent))
+        try:
+            _write_all(staging, data)
+            if kind is FolderKind.EMPTY:
+                root.rmdir()  # refuses unless still empty
+            os.rename(staging, root)
+        except BaseException:
+            if staging.exists():
+                shutil.rmtree(staging)  # the studio's own half-built folder
+            raise
+        return cls(root)
 
     # ------------------------------------------------------------------ reading
+
+    def read_index(self) -> Index:
+        try:
+            index = json.loads(self.index_path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"{self.index_path}: not a readable workspace index ({exc})") from exc
+        return check_index(index, str(self.index_path))
 
     def load(self) -> WorkspaceData:
         """Read the whole workspace. Unreadable demonstration files are skipped and reported in
@@ -195,11 +363,8 @@ class Workspace:
         data = WorkspaceData()
         if not self.index_path.exists():
             return data
-        try:
-            index = json.loads(self.index_path.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise ValueError(f"{self.index_path}: not a readable workspace index ({exc})") from exc
-        data.primitives, data.settings = check_index(index, str(self.index_path))
+        index = self.read_index()
+        data.primitives, data.settings, data.layout = index.primitives, index.settings, index.layout
         data.demos = {entry.name: [] for entry in data.primitives}
         for entry in data.primitives:
             folder = self.demo_dir(entry.name)
@@ -208,7 +373,7 @@ class Workspace:
             for path in sorted(folder.glob("*.csv")):
                 try:
                     demo = read_csv_demo(path)
-                    demo.select(COLUMNS)
+                    demo.select(data.layout.columns)
                 except ValueError as exc:
                     data.problems.append(str(exc))
                     continue
@@ -217,18 +382,16 @@ class Workspace:
 
     # ------------------------------------------------------------------ writing
 
-    def save_index(self, primitives: Sequence[PrimitiveEntry], settings: Mapping) -> None:
-        atomic_write_text(self.index_path, index_json(primitives, settings))
+    def save_index(
+        self, primitives: Sequence[PrimitiveEntry], settings: Mapping, layout: Layout
+    ) -> None:
+        atomic_write_text(self.index_path, index_json(primitives, settings, layout))
 
-    def write_demo(self, primitive: str, demo: Demonstration) -> Path:
+    def write_demo(self, primitive: str, demo: Demonstration, layout: Layout) -> Path:
         """Write one demonstration (its ``name`` is the file stem), atomically."""
         path = self.demo_path(primitive, demo.name)
-        values = demo.select(COLUMNS)
-        write_csv_demo(path, Demonstration(demo.times, values, COLUMNS, name=demo.name))
+        _write_demo(path, demo, layout)
         return path
-
-    def delete_demo(self, primitive: str, demo: str) -> None:
-        self.demo_path(primitive, demo).unlink(missing_ok=True)
 
     def rename_primitive(self, old: str, new: str) -> None:
         source, target = self.demo_dir(old), self.demo_dir(new)
@@ -237,31 +400,126 @@ class Workspace:
         if source.exists():
             source.rename(target)
 
-    def delete_primitive(self, name: str) -> None:
-        folder = self.demo_dir(name)
-        if folder.exists():
-            shutil.rmtree(folder)
+    # ------------------------------------------------------------------ trash
 
-    def replace_all(self, data: WorkspaceData) -> None:
-        """Make the workspace hold exactly ``data`` (used by imports and the default scenario).
+    def trash_demo(self, primitive: PrimitiveEntry, demo: str) -> TrashEntry:
+        """Move one demonstration's file to the trash."""
+        path = self.demo_path(primitive.name, demo)
+        relative = path.relative_to(self.root).as_posix()
+        return self.trash.put(
+            "demo",
+            f"{demo} of {primitive.name}",
+            [relative],
+            {"primitive": primitive.name, "color": list(primitive.color), "demo": demo},
+        )
 
-        Written to a sibling folder first, then swapped in, so a failure leaves the old
-        workspace untouched.
+    def trash_primitive(self, primitive: PrimitiveEntry, position: int) -> TrashEntry:
+        """Move a primitive's folder of demonstrations to the trash (the caller has already
+        taken it out of the index)."""
+        return self.trash.put(
+            "primitive",
+            primitive.name,
+            [self.relative_demo_dir(primitive.name)],
+            {"primitive": primitive.name, "color": list(primitive.color), "position": position},
+        )
+
+    def replace_all(self, data: WorkspaceData, label: str = "replaced workspace") -> TrashEntry:
+        """Make the workspace hold ``data`` (an import): the current index and demonstrations
+        go to the trash first, as one entry that restores them.
+
+        The new content is written in full in a staging folder before anything moves; the
+        index is replaced last, in one rename.
         """
-        staging = self.root.with_name(f".{self.root.name}.import")
-        if staging.exists():
-            shutil.rmtree(staging)
-        fresh = Workspace(staging)
-        for entry in data.primitives:
-            fresh.demo_dir(entry.name).mkdir(parents=True, exist_ok=True)
-            for demo in data.demos.get(entry.name, []):
-                fresh.write_demo(entry.name, demo)
-        fresh.save_index(data.primitives, data.settings)
-        old = self.root.with_name(f".{self.root.name}.old")
-        if old.exists():
-            shutil.rmtree(old)
-        if self.root.exists():
-            self.root.rename(old)
-        staging.rename(self.root)
-        if old.exists():
-            shutil.rmtree(old)
+        _check_data(data)
+        staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=self.root))
+        try:
+            _write_all(staging, data)
+            entry = self._trash_content(label)
+            os.rename(staging / DEMOS_DIR, self.root / DEMOS_DIR)
+            os.replace(staging / INDEX_NAME, self.index_path)
+        finally:
+            if staging.exists():
+                shutil.rmtree(staging)  # the studio's own staging folder
+        return entry
+
+    def _trash_content(self, label: str) -> TrashEntry:
+        """The index (copied: it stays until replaced) and the demonstrations (moved) into one
+        trash entry of kind ``workspace``."""
+        return self.trash.put("workspace", label, [DEMOS_DIR], copies=(INDEX_NAME,))
+
+    def restore(self, name: str) -> TrashEntry:
+        """Put a trash entry back; the index is updated to list what comes back.
+
+        A demonstration whose primitive is gone brings the primitive back (with its colour);
+        a primitive comes back at its place in the list; a replaced workspace swaps with the
+        current one (which goes to the trash in turn).
+
+        Raises
+        ------
+        ValueError
+            Unknown entry, missing files, or a name already taken (nothing changes then).
+        """
+        entry = self.trash.get(name)
+        missing = self.trash.missing(entry)
+        if missing:
+            raise ValueError(f"cannot restore {entry.label}: {', '.join(missing)} is gone")
+        if entry.kind == "workspace":
+            if INDEX_NAME not in entry.paths:
+                raise ValueError(f"cannot restore {entry.label}: it has no {INDEX_NAME}")
+            staging = self.trash.root / entry.name / "files"
+            check_index(
+                json.loads((staging / INDEX_NAME).read_text(encoding="utf-8")),
+                f"{entry.label} ({INDEX_NAME})",
+            )
+            self._trash_content(f"workspace replaced by restoring {entry.when}")
+            self.index_path.unlink()  # its copy is in the trash entry just made
+            self.trash.take_back(entry)
+            return entry
+        index = self.read_index()
+        primitives = list(index.primitives)
+        meta = entry.meta
+        name_, color = str(meta.get("primitive", "")), meta.get("color", [128, 128, 128])
+        known = {p.name for p in primitives}
+        if entry.kind == "primitive":
+            if name_ in known:
+                raise ValueError(
+                    f"cannot restore primitive {name_!r}: a primitive of that name exists; "
+                    "rename it first"
+                )
+            position = min(max(int(meta.get("position", len(primitives))), 0), len(primitives))
+            primitives.insert(position, PrimitiveEntry(check_name(name_), check_color(color)))
+        elif name_ not in known:
+            primitives.append(PrimitiveEntry(check_name(name_), check_color(color)))
+        self.trash.take_back(entry)
+        if [p.name for p in primitives] != [p.name for p in index.primitives]:
+            self.save_index(primitives, index.settings, index.layout)
+        return entry
+
+
+def _check_data(data: WorkspaceData) -> None:
+    check_layout(data.layout)
+    for entry in data.primitives:
+        check_name(entry.name)
+        check_color(entry.color)
+        names = [d.name for d in data.demos.get(entry.name, [])]
+        for demo_name in names:
+            check_name(demo_name, "demonstration")
+        if len(set(names)) != len(names):
+            raise ValueError(f"primitive {entry.name!r} has two demonstrations of one name")
+    Settings(**data.settings)
+
+
+def _write_demo(path: Path, demo: Demonstration, layout: Layout) -> None:
+    values = demo.select(layout.columns)
+    write_csv_demo(path, Demonstration(demo.times, values, layout.columns, name=demo.name))
+
+
+def _write_all(root: Path, data: WorkspaceData) -> None:
+    """Write ``data`` as a workspace in the (new) folder ``root``: demos, then the index."""
+    for entry in data.primitives:
+        folder = root / DEMOS_DIR / entry.name
+        folder.mkdir(parents=True, exist_ok=True)
+        for demo in data.demos.get(entry.name, []):
+            _write_demo(folder / f"{demo.name}.csv", demo, data.layout)
+    (root / DEMOS_DIR).mkdir(parents=True, exist_ok=True)
+    atomic_write_text(root / INDEX_NAME, index_json(data.primitives, data.settings, data.layout))

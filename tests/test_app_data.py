@@ -88,11 +88,14 @@ def until(predicate, what: str):
     return wait_until(predicate, timeout=120.0, what=what)
 
 
-def workspace_hash(root: Path) -> str:
-    """SHA-256 over every file's relative path and bytes."""
+def workspace_hash(root: Path, trash: bool = True) -> str:
+    """SHA-256 over every file's relative path and bytes (``trash=False``: outside trash/)."""
     digest = hashlib.sha256()
     for path in sorted(p for p in root.rglob("*") if p.is_file()):
-        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+        relative = path.relative_to(root)
+        if not trash and relative.parts[0] == "trash":
+            continue
+        digest.update(str(relative).encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()
 
 
@@ -103,13 +106,14 @@ def studio(tmp_path_factory):
 
     root = tmp_path_factory.mktemp("data") / "ws"
     dataset = generate_scenario(seed=1, n_demos=4, third=True)
-    Workspace(root).replace_all(
+    Workspace.create(
+        root,
         WorkspaceData(
             primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
             demos=dataset,
             # Explicit, as the studio writes them back: a re-import then gives identical files.
             settings=dict(DEFAULT_SETTINGS),
-        )
+        ),
     )
     studio = start_studio(root)
     yield studio
@@ -276,8 +280,11 @@ def test_export_the_workspace_and_import_it_back(page, studio, artifacts) -> Non
     text = notification(page, "Workspace imported")
     assert "exported.zip: 3 primitives, 12 demonstrations." in text
     assert session.version > version
-    # The same content, written again by the studio: identical files.
-    assert workspace_hash(studio.workspace) == before
+    # The same content, written again by the studio: identical files; the replaced ones wait
+    # in the trash.
+    assert workspace_hash(studio.workspace, trash=False) == before
+    (entry,) = session.trash_entries()
+    assert entry.kind == "workspace" and "exported.zip" in entry.label
     assert {n: [d.name for d in v] for n, v in session.demos.items()} == demos_before
 
 
@@ -315,7 +322,7 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
 
     percents.fill("10 30 50 70 90")
     until(lambda: panel.percents_text.value == "10 30 50 70 90", what="the percents")
-    panel.observe_dropdown.value = "compare all three"
+    panel.observe_dropdown.value = "compare each"
     panel.alpha_dropdown.value = "both"
     gate = gate_sweep(monkeypatch)
     run = page.get_by_role("button", name="Run leave-one-out evaluation")

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from app.display import observed_choices
 from app.inference_view import (
-    OBSERVED_CHOICES,
     HeldOutModels,
     LiveBuffer,
     demo_observation,
@@ -62,10 +62,10 @@ def test_n_observed_follows_the_evaluation_rule() -> None:
 
 def test_held_out_model_never_sees_the_test_demo(scenario) -> None:
     models = HeldOutModels()
-    model = models.get(0, scenario, "curved", "curved_003", SETTINGS)
+    model = models.get(0, scenario, "curved", "curved_003", SETTINGS, LAYOUT)
     assert model.primitive("curved").n_demos == len(scenario["curved"]) - 1
     assert model.primitive("direct").n_demos == len(scenario["direct"])
-    assert models.get(0, scenario, "curved", "curved_003", SETTINGS) is model  # cached
+    assert models.get(0, scenario, "curved", "curved_003", SETTINGS, LAYOUT) is model  # cached
     # Whatever the test demonstration holds, the held-out model is the same.
     test = next(d for d in scenario["curved"] if d.name == "curved_003")
     corrupted = Demonstration(test.times, test.values + 0.3, test.columns, name=test.name)
@@ -73,7 +73,7 @@ def test_held_out_model_never_sees_the_test_demo(scenario) -> None:
         "curved": [corrupted if d.name == test.name else d for d in scenario["curved"]],
         "direct": scenario["direct"],
     }
-    refit = models.get(1, changed, "curved", "curved_003", SETTINGS)
+    refit = models.get(1, changed, "curved", "curved_003", SETTINGS, LAYOUT)
     assert refit is not model
     assert_allclose(refit.primitive("curved").mean, model.primitive("curved").mean)
     assert_allclose(refit.primitive("curved").cov_factor, model.primitive("curved").cov_factor)
@@ -104,7 +104,7 @@ def test_recognises_every_held_out_demo_at_90_percent(scenario) -> None:
         for demo in demos:
             model = held_out_model(scenario, primitive, demo.name)
             for observed, alpha in settings:
-                obs = demo_observation(model, demo, 90, OBSERVED_CHOICES[observed])
+                obs = demo_observation(model, demo, 90, observed_choices(LAYOUT)[observed])
                 result = scrub_step(model, obs, alpha, truth=demo)
                 if result.primitive != primitive:
                     wrong.append((demo.name, observed, alpha, result.primitive))
@@ -121,7 +121,7 @@ def test_scrub_step_geometry_and_errors(scenario) -> None:
     obs = demo_observation(model, demo, 40, ("hand", "head"))
     assert obs.n_observed == math.ceil(0.4 * demo.n_samples)
     result = scrub_step(model, obs, "ml", truth=demo)
-    hand = hand_dims()
+    hand = hand_dims(LAYOUT)
     assert result.prior.mean.shape == result.posterior.mean.shape == (100, LAYOUT.n_dims)
     assert_allclose(result.observed_until, demo.times[obs.n_observed - 1] - demo.times[0])
     # The future path runs on the posterior mean from the observation point to the end.
@@ -157,14 +157,14 @@ def test_live_buffer_observation(scenario) -> None:
     values = demo.select(COLUMNS)
     buffer = LiveBuffer(max_seconds=10.0)
     with pytest.raises(ValueError, match="nothing observed"):
-        buffer.observation(100, ("hand",))
+        buffer.observation(100, ("hand",), LAYOUT)
     for t, row in zip(demo.times, values, strict=True):
         assert buffer.append(50.0 + t, row[:3], row[3:])
     assert not buffer.append(50.0 + 10.5, values[0, :3], values[0, 3:])  # full
     assert buffer.append(50.0, values[0, :3], None) and len(buffer) == demo.n_samples  # stale
     model = fit(scenario, LAYOUT, SETTINGS)
     for percent in (30, 100):
-        live = buffer.observation(percent, ("hand", "head"))
+        live = buffer.observation(percent, ("hand", "head"), LAYOUT)
         ref = demo_observation(model, demo, percent, ("hand", "head"))
         assert_allclose(live.values, ref.values)
         assert_allclose(live.elapsed, ref.elapsed)
@@ -172,13 +172,13 @@ def test_live_buffer_observation(scenario) -> None:
     buffer.clear()
     for i, (t, row) in enumerate(zip(demo.times, values, strict=True)):
         buffer.append(t, row[:3], None if i % 3 == 0 else row[3:])
-    assert buffer.observation(100, ("hand",)).n_observed == demo.n_samples
-    with_head = buffer.observation(100, ("head",))
+    assert buffer.observation(100, ("hand",), LAYOUT).n_observed == demo.n_samples
+    with_head = buffer.observation(100, ("head",), LAYOUT)
     assert with_head.n_observed == demo.n_samples - len(range(0, demo.n_samples, 3))
     buffer.clear()
     buffer.append(0.0, values[0, :3], None)
     with pytest.raises(ValueError, match="no face"):
-        buffer.observation(100, ("hand", "head"))
+        buffer.observation(100, ("hand", "head"), LAYOUT)
 
 
 # ---------------------------------------------------------------------- replay

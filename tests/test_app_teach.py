@@ -369,12 +369,33 @@ def test_hide_and_delete_a_demonstration(studio, tab) -> None:
     wait_until(lambda: line.visible, what="its line to be shown again")
     wait_until(lambda: "hidden" not in row(page, "curved_020").inner_text(), what="'Hide' back")
     path = session.workspace.demo_path("curved", "curved_020")
+    content = path.read_bytes()
+    # Deleting asks first; keeping it changes nothing.
     row(page, "curved_020").get_by_role("button", name="Delete").dispatch_event("click")
+    wait_text(page, "Delete curved_020 of curved? It moves to the workspace's trash")
+    click(page, "Keep it")
+    wait_text(page, "Delete curved_020 of curved?", present=False)
+    assert path.exists() and len(session.demos["curved"]) == 21
+    row(page, "curved_020").get_by_role("button", name="Delete").dispatch_event("click")
+    click(page, "Delete demonstration")
     wait_text(page, "20 demonstration(s) of curved")
     assert not path.exists()
     assert [d.name for d in session.demos["curved"]][-1] == "curved_019"
     assert ("curved", "curved_020") not in studio.view.lines
     assert row(page, "curved_020").count() == 0
+    # Undo brings it back, byte for byte, line and all.
+    click(page, "Undo delete (curved_020 of curved)")
+    wait_text(page, "21 demonstration(s) of curved")
+    assert path.read_bytes() == content
+    wait_until(lambda: ("curved", "curved_020") in studio.view.lines, what="its line back")
+    assert session.trash_entries() == []
+    # Deleted for good from the GUI's point of view: in the trash, kept on disk.
+    row(page, "curved_020").get_by_role("button", name="Delete").dispatch_event("click")
+    click(page, "Delete demonstration")
+    wait_text(page, "20 demonstration(s) of curved")
+    (entry,) = session.trash_entries()
+    assert (session.workspace.trash.root / entry.name / "files" / "demos/curved/curved_020.csv"
+            ).read_bytes() == content  # fmt: skip
 
 
 @pytest.mark.browser

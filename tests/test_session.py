@@ -1,9 +1,12 @@
 """The studio's session: every mutation is on disk before it is in memory, a refused one changes
 nothing, reopening restores the session exactly, typicality flags outliers, the learning
-settings (shrinkage included) refit and persist, and concurrent mutations stay consistent."""
+settings (shrinkage included) refit and persist, concurrent mutations stay consistent, a
+folder that is not a workspace is refused byte for byte untouched, and what is deleted or
+replaced comes back from the trash."""
 
 from __future__ import annotations
 
+import hashlib
 import shutil
 import threading
 
@@ -12,14 +15,14 @@ import pytest
 
 from app.session import Session
 from app.studio import SCENARIO_SETTINGS, default_workspace
-from app.workspace import COLUMNS, LAYOUT, Workspace
+from app.workspace import COLUMNS, LAYOUT, PrimitiveEntry, Workspace, WorkspaceData
 
 
 @pytest.fixture(scope="module")
 def default_folder(tmp_path_factory):
     """The default scenario written once (copied by each test)."""
     root = tmp_path_factory.mktemp("default") / "ws"
-    Workspace(root).replace_all(default_workspace())
+    Workspace.create(root, default_workspace())
     return root
 
 
@@ -72,6 +75,8 @@ def test_every_mutation_is_on_disk_and_reopening_restores_it_exactly(session) ->
     assert reopened.demos["lift_2"][0].times[0] == 0.0  # times start at the first sample
     assert "curved_005" not in {d.name for d in reopened.demos["curved"]}
     assert not session.workspace.demo_dir("direct").exists()
+    kinds = [e.kind for e in reopened.trash_entries()]
+    assert kinds == ["primitive", "demo"]  # both deletions kept, newest first
     assert reopened.learning_settings().shrinkage == 0.1
     np.testing.assert_allclose(reopened.model.primitive("curved").shrinkage, 0.1)
 
@@ -107,7 +112,7 @@ def test_a_refused_mutation_changes_nothing(session, mutation, message) -> None:
 def test_a_failed_write_keeps_the_demonstration_out_of_the_session(session, monkeypatch) -> None:
     demo = session.demos["curved"][0]
 
-    def full_disk(primitive, demo):
+    def full_disk(primitive, demo, layout):
         raise OSError("No space left on device")
 
     monkeypatch.setattr(session.workspace, "write_demo", full_disk)
@@ -199,3 +204,72 @@ def test_concurrent_recordings_get_distinct_names_and_files(session) -> None:
     names = [d.name for d in session.demos["curved"]]
     assert len(names) == len(set(names)) == 24
     assert len(list(session.workspace.demo_dir("curved").glob("*.csv"))) == 24
+
+
+def without_trash(state: dict) -> dict:
+    return {k: v for k, v in state.items() if not k.startswith("trash")}
+
+
+def checksums(root) -> dict[str, str]:
+    return {
+        p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(root.rglob("*"))
+        if p.is_file()
+    }
+
+
+def test_a_folder_of_recordings_is_refused_and_left_byte_identical(tmp_path, heights_dir) -> None:
+    mine = tmp_path / "my_recordings"
+    shutil.copytree(heights_dir, mine)
+    (mine / "notes").mkdir()
+    (mine / "notes" / "session.csv").write_text("t,x,y,z\n0,0,0,0\n1,1,1,1\n")
+    before = checksums(mine)
+    with pytest.raises(ValueError, match="is not a studio workspace") as info:
+        Session.open(mine, default=default_workspace)
+    assert f"holds {len(before)} file(s)" in str(info.value)
+    assert "--import-dataset" in str(info.value)
+    assert checksums(mine) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["my_recordings"]
+
+
+def test_deleting_and_undoing_restores_the_files_and_the_session(session) -> None:
+    before = files(session)
+    curved = session.demos["curved"][4]
+    entry = session.delete_demo("curved", curved.name)
+    assert curved.name not in {d.name for d in session.demos["curved"]}
+    session.delete_primitive("direct")
+    assert [e.name for e in session.deleted][-1] != entry.name
+    session.undo_delete()  # the primitive first
+    assert session.names() == ["curved", "direct"] and len(session.demos["direct"]) == 20
+    restored = session.undo_delete()
+    assert restored.name == entry.name
+    assert without_trash(files(session)) == before  # byte for byte
+    assert [d.name for d in session.demos["curved"]] == [f"curved_{i:03d}" for i in range(20)]
+    assert session.model is not None and session.model.names == ("curved", "direct")
+    with pytest.raises(ValueError, match="nothing deleted"):
+        session.undo_delete()
+
+
+def test_replacing_and_switching_workspaces(session, tmp_path) -> None:
+    before = files(session)
+    demo = session.demos["curved"][0]
+    data = WorkspaceData(
+        primitives=[PrimitiveEntry("wave", (1, 2, 3)), PrimitiveEntry("rest", (3, 2, 1))],
+        demos={"wave": session.demos["curved"][:3], "rest": session.demos["direct"][:3]},
+        layout=LAYOUT,
+    )
+    version = session.version
+    entry = session.replace(data, "replaced by a test")
+    assert session.names() == ["wave", "rest"] and session.version > version
+    assert session.model.names == ("wave", "rest")
+    session.restore(entry.name)
+    assert without_trash(files(session)) == before
+    old_root = session.workspace.root
+    session.switch(tmp_path / "other", data)
+    assert session.workspace.root == tmp_path / "other" and session.names() == ["wave", "rest"]
+    assert session.deleted == []
+    assert without_trash(files(Session.open(old_root))) == before
+    with pytest.raises(ValueError, match="already a studio workspace"):
+        session.switch(old_root, data)
+    session.add_demo("wave", demo.times, demo.select(COLUMNS))
+    assert (tmp_path / "other" / "demos" / "wave" / "wave_003.csv").exists()

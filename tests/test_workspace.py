@@ -1,5 +1,6 @@
-"""The workspace folder: exact round trips, atomic writes, safe names, clear errors, and a
-SIGKILL in the middle of writing that loses nothing already written."""
+"""The workspace folder: exact round trips, atomic writes, safe names, clear errors, a SIGKILL
+in the middle of writing that loses nothing already written, folders that are not the
+studio's left untouched, and deletions that go to a trash and come back byte for byte."""
 
 from __future__ import annotations
 
@@ -15,14 +16,17 @@ import pytest
 from app.workspace import (
     COLUMNS,
     FORMAT,
+    LAYOUT,
     PALETTE,
+    FolderKind,
     PrimitiveEntry,
     Workspace,
     WorkspaceData,
     check_color,
     check_name,
+    inspect_folder,
 )
-from promp.data import Demonstration
+from promp.data import Demonstration, Layout, Modality
 from tests.conftest import REPO
 
 
@@ -44,12 +48,20 @@ def make_data() -> WorkspaceData:
     )
 
 
-def test_replace_all_then_load_is_an_exact_round_trip(tmp_path) -> None:
-    workspace = Workspace(tmp_path / "ws")
-    assert workspace.is_empty()
+def snapshot(root) -> dict:
+    """Every file under ``root`` with its bytes (and every folder), to compare states."""
+    return {
+        p.relative_to(root).as_posix(): (p.read_bytes() if p.is_file() else None)
+        for p in sorted(root.rglob("*"))
+    }
+
+
+def test_create_then_load_is_an_exact_round_trip(tmp_path) -> None:
+    assert inspect_folder(tmp_path / "ws") == (FolderKind.ABSENT, "")
     data = make_data()
-    workspace.replace_all(data)
-    assert not workspace.is_empty()
+    workspace = Workspace.create(tmp_path / "ws", data)
+    assert inspect_folder(workspace.root)[0] is FolderKind.WORKSPACE
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ws"]  # no staging folder left
     loaded = workspace.load()
     assert loaded.primitives == data.primitives
     assert loaded.settings == data.settings
@@ -69,9 +81,8 @@ def test_replace_all_then_load_is_an_exact_round_trip(tmp_path) -> None:
 def test_writes_leave_no_temporary_files_and_a_failed_write_keeps_the_old_file(
     tmp_path, monkeypatch
 ) -> None:
-    workspace = Workspace(tmp_path / "ws")
-    workspace.replace_all(make_data())
-    path = workspace.write_demo("reach", make_demo("reach_002", 5))
+    workspace = Workspace.create(tmp_path / "ws", make_data())
+    path = workspace.write_demo("reach", make_demo("reach_002", 5), LAYOUT)
     before = path.read_bytes()
     assert not [p for p in workspace.root.rglob("*") if p.name.endswith(".tmp")]
 
@@ -80,7 +91,7 @@ def test_writes_leave_no_temporary_files_and_a_failed_write_keeps_the_old_file(
 
     monkeypatch.setattr(os, "replace", failing_replace)
     with pytest.raises(OSError, match="disk full"):
-        workspace.write_demo("reach", make_demo("reach_002", 6))
+        workspace.write_demo("reach", make_demo("reach_002", 6), LAYOUT)
     monkeypatch.undo()
     assert path.read_bytes() == before
     assert not [p for p in workspace.root.rglob("*") if p.name.endswith(".tmp")]
@@ -107,8 +118,7 @@ def test_demo_paths_cannot_leave_the_workspace(tmp_path) -> None:
 
 
 def test_unreadable_demonstrations_are_reported_and_the_rest_loads(tmp_path) -> None:
-    workspace = Workspace(tmp_path / "ws")
-    workspace.replace_all(make_data())
+    workspace = Workspace.create(tmp_path / "ws", make_data())
     broken = workspace.demo_path("reach", "reach_001")
     broken.write_text("t,x\n0,1\n")  # missing columns
     (workspace.demo_dir("reach") / "notes.txt").write_text("not a demo")
@@ -148,36 +158,149 @@ def test_a_file_where_the_workspace_should_be_is_an_error(tmp_path) -> None:
         Workspace(tmp_path / "ws")
 
 
-def test_rename_and_delete(tmp_path) -> None:
-    workspace = Workspace(tmp_path / "ws")
-    workspace.replace_all(make_data())
+def test_rename(tmp_path) -> None:
+    workspace = Workspace.create(tmp_path / "ws", make_data())
     workspace.rename_primitive("reach", "grasp")
     assert (workspace.demo_dir("grasp") / "reach_000.csv").exists()
     assert not workspace.demo_dir("reach").exists()
     with pytest.raises(ValueError, match="already exists"):
         workspace.rename_primitive("grasp", "to_bin-2")
-    workspace.delete_demo("grasp", "reach_000")
-    assert not (workspace.demo_dir("grasp") / "reach_000.csv").exists()
-    workspace.delete_primitive("grasp")
-    assert not workspace.demo_dir("grasp").exists()
+
+
+def test_folders_are_told_apart_and_a_foreign_one_is_described(tmp_path) -> None:
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert inspect_folder(empty) == (FolderKind.EMPTY, "")
+    mine = tmp_path / "recordings"
+    (mine / "reach").mkdir(parents=True)
+    for i in range(3):
+        (mine / "reach" / f"take{i}.csv").write_text("t,x\n0,1\n1,2\n")
+    kind, message = inspect_folder(mine)
+    assert kind is FolderKind.FOREIGN
+    assert "holds 3 file(s) (e.g. reach/take0.csv" in message
+    assert "--import-dataset" in message and "not a studio workspace" in message
+    (tmp_path / "file").write_text("")
+    with pytest.raises(ValueError, match="not a folder"):
+        inspect_folder(tmp_path / "file")
+    with pytest.raises(ValueError, match="holds 3 file"):
+        Workspace.create(mine, make_data())
+    assert len(list(mine.rglob("*"))) == 4  # untouched
+
+
+def test_a_failed_creation_leaves_nothing(tmp_path, monkeypatch) -> None:
+    def failing_rename(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "rename", failing_rename)
+    with pytest.raises(OSError, match="disk full"):
+        Workspace.create(tmp_path / "ws", make_data())
+    monkeypatch.undo()
+    assert list(tmp_path.iterdir()) == []  # neither the workspace nor its staging folder
+    bad = make_data()
+    bad.primitives.append(PrimitiveEntry("no good", (0, 0, 0)))
+    with pytest.raises(ValueError, match="invalid primitive name"):
+        Workspace.create(tmp_path / "ws", bad)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_deleted_demonstration_goes_to_the_trash_and_comes_back_byte_for_byte(tmp_path) -> None:
+    workspace = Workspace.create(tmp_path / "ws", make_data())
+    before = snapshot(workspace.root)
+    reach = PrimitiveEntry("reach", PALETTE[0])
+    entry = workspace.trash_demo(reach, "reach_001")
+    assert not workspace.demo_path("reach", "reach_001").exists()
+    assert entry.kind == "demo" and entry.paths == ("demos/reach/reach_001.csv",)
+    trashed = workspace.trash.root / entry.name / "files" / "demos/reach/reach_001.csv"
+    assert trashed.read_bytes() == before["demos/reach/reach_001.csv"]
+    (listed,) = Workspace(workspace.root).trash.entries()  # on disk: survives a restart
+    assert listed == entry
+    workspace.restore(entry.name)
+    after = snapshot(workspace.root)
+    assert {k: v for k, v in after.items() if not k.startswith("trash")} == before
+    assert workspace.trash.entries() == []
+    with pytest.raises(ValueError, match="the trash has no entry"):
+        workspace.restore(entry.name)
+
+
+def test_a_deleted_primitive_comes_back_in_its_place_with_its_colour(tmp_path) -> None:
+    workspace = Workspace.create(tmp_path / "ws", make_data())
+    before = snapshot(workspace.root)
+    index = workspace.read_index()
+    reach = index.primitives[0]
+    workspace.save_index(index.primitives[1:], index.settings, index.layout)
+    entry = workspace.trash_primitive(reach, 0)
+    assert not workspace.demo_dir("reach").exists()
+    # A demonstration of a deleted primitive brings its primitive back too.
+    other = workspace.trash_demo(index.primitives[1], "to_bin-2_000")
+    workspace.save_index([], index.settings, index.layout)
+    workspace.trash_primitive(index.primitives[1], 0)
+    workspace.restore(entry.name)
+    workspace.restore(other.name)
+    loaded = workspace.load()
+    assert [p.name for p in loaded.primitives] == ["reach", "to_bin-2"]
+    assert loaded.primitives[1].color == (1, 2, 3)
+    path = "demos/reach/reach_000.csv"
+    assert snapshot(workspace.root)[path] == before[path]
+    # A name taken since: refused, nothing moves.
+    entry = workspace.trash_demo(loaded.primitives[0], "reach_000")
+    workspace.write_demo("reach", make_demo("reach_000", 9), LAYOUT)
+    state = snapshot(workspace.root)
+    with pytest.raises(ValueError, match="already exists"):
+        workspace.restore(entry.name)
+    assert snapshot(workspace.root) == state
+
+
+def test_replacing_keeps_the_old_workspace_in_the_trash_and_restoring_swaps_back(
+    tmp_path,
+) -> None:
+    workspace = Workspace.create(tmp_path / "ws", make_data())
+    (workspace.root / "notes.txt").write_text("the user's own file")
+    before = snapshot(workspace.root)
+    other = WorkspaceData(
+        primitives=[PrimitiveEntry("wave", (9, 9, 9))],
+        demos={"wave": [make_demo("wave_000", 7), make_demo("wave_001", 8)]},
+        layout=LAYOUT,
+    )
+    entry = workspace.replace_all(other, "replaced by a test")
+    assert entry.kind == "workspace" and set(entry.paths) == {"demos", "studio.json"}
+    assert [p.name for p in workspace.load().primitives] == ["wave"]
+    assert (workspace.root / "notes.txt").read_text() == "the user's own file"
+    assert not [p for p in workspace.root.iterdir() if p.name.startswith(".staging")]
+    workspace.restore(entry.name)
+    after = snapshot(workspace.root)
+    assert {k: v for k, v in after.items() if not k.startswith("trash")} == before
+    (swapped,) = workspace.trash.entries()  # the imported content, restorable in turn
+    assert swapped.kind == "workspace"
 
 
 def test_a_failed_replace_leaves_the_old_workspace_untouched(tmp_path) -> None:
-    workspace = Workspace(tmp_path / "ws")
-    workspace.replace_all(make_data())
-    before = {p: p.read_bytes() for p in workspace.root.rglob("*") if p.is_file()}
+    workspace = Workspace.create(tmp_path / "ws", make_data())
+    before = snapshot(workspace.root)
     bad = make_data()
     bad.primitives.append(PrimitiveEntry("no good", (0, 0, 0)))
     with pytest.raises(ValueError, match="invalid primitive name"):
         workspace.replace_all(bad)
-    assert {p: p.read_bytes() for p in workspace.root.rglob("*") if p.is_file()} == before
+    assert snapshot(workspace.root) == before
+
+
+def test_a_workspace_of_other_modalities_round_trips(tmp_path) -> None:
+    layout = Layout((Modality("emg", ("e1", "e2"), unit="mV"),))
+    demo = Demonstration(np.arange(5) * 0.1, np.arange(10.0).reshape(5, 2), ("e1", "e2"), "d_0")
+    data = WorkspaceData([PrimitiveEntry("grip", (1, 1, 1))], {"grip": [demo]}, layout=layout)
+    workspace = Workspace.create(tmp_path / "ws", data)
+    loaded = workspace.load()
+    assert loaded.layout == layout
+    np.testing.assert_array_equal(loaded.demos["grip"][0].values, demo.values)
+    bad = WorkspaceData(layout=Layout((Modality("hand", ("x", "y")),)))
+    with pytest.raises(ValueError, match="'hand' drives the 3D view"):
+        Workspace.create(tmp_path / "other", bad)
 
 
 WRITER = textwrap.dedent(
     """
     import sys
     import numpy as np
-    from app.workspace import COLUMNS, Workspace
+    from app.workspace import COLUMNS, LAYOUT, Workspace
     from promp.data import Demonstration
 
     workspace = Workspace(sys.argv[1])
@@ -185,7 +308,7 @@ WRITER = textwrap.dedent(
     for i in range(100000):
         values = rng.normal(size=(4000, len(COLUMNS)))  # ~700 kB of CSV per file
         demo = Demonstration(np.arange(4000) * 0.02, values, COLUMNS, name=f"d_{i % 5:03d}")
-        workspace.write_demo("p", demo)
+        workspace.write_demo("p", demo, LAYOUT)
         print(i, flush=True)
     """
 )

@@ -34,9 +34,13 @@ import numpy as np
 import viser
 
 from app import exchange
+from app.display import observed_choices
+from app.gui_text import display_name, escape
+from app.panels.import_dataset import DatasetImport
+from app.panels.trash_list import RecentlyDeleted
 from app.upload_guard import UploadGuard
-from app.workspace import LAYOUT, WorkspaceData
-from promp.data import Demonstration
+from app.workspace import WorkspaceData
+from promp.data import Demonstration, Layout
 from promp.evaluate.cli import DEFAULT_PERCENTS
 from promp.evaluate.methods import Ours
 from promp.evaluate.sweep import SweepResult, run_sweep
@@ -46,12 +50,17 @@ if TYPE_CHECKING:
     from app.studio import Studio
 
 MIN_DEMOS = 3  # leave-one-out needs two demonstrations left to learn from
-OBSERVE_CHOICES: dict[str, list[list[str]]] = {
-    "hand+head": [["hand", "head"]],
-    "hand": [["hand"]],
-    "head": [["head"]],
-    "compare all three": [["hand"], ["head"], ["hand", "head"]],
-}
+COMPARE = "compare each"
+
+
+def observe_choices(layout: Layout) -> dict[str, list[list[str]]]:
+    """The evaluation's observed-modality choices: those of the Infer tab (all together, each
+    alone) and, with several modalities, all of them compared in one sweep."""
+    choices = {label: [list(names)] for label, names in observed_choices(layout).items()}
+    if len(layout.names) > 1:
+        choices[COMPARE] = [[name] for name in layout.names] + [list(layout.names)]
+    return choices
+
 ALPHA_CHOICES: dict[str, list[str]] = {
     "ml": ["ml"],
     "model": ["model"],
@@ -157,12 +166,6 @@ def results_table(rows: Sequence[Mapping]) -> str:
     )
 
 
-def display_name(filename: str) -> str:
-    """An uploaded file's name, safe to show in markdown (at most 60 characters)."""
-    name = re.sub(r"[^A-Za-z0-9._ ()+-]", "_", filename.rsplit("/", 1)[-1]) or "file"
-    return name if len(name) <= 60 else name[:57] + "..."
-
-
 # ------------------------------------------------------------------------------ evaluation job
 
 
@@ -180,6 +183,7 @@ class EvaluationJob:
     observe_sets: list[list[str]]
     alpha_methods: list[str]
     settings: Settings
+    layout: Layout
     total: int = 0
     done: int = 0
     result: SweepResult | None = None
@@ -199,12 +203,12 @@ class EvaluationJob:
             if self.cancel.is_set():
                 raise _Cancelled
 
-        settings = self.settings
+        settings, layout = self.settings, self.layout
         try:
             self.result = run_sweep(
-                lambda: Ours(LAYOUT, settings),
+                lambda: Ours(layout, settings),
                 self.dataset,
-                LAYOUT,
+                layout,
                 percents=self.percents,
                 alpha_methods=self.alpha_methods,
                 observe_sets=self.observe_sets,
@@ -263,10 +267,11 @@ class DataPanel:
         self.use_learned_button = gui.add_button(
             "Use the learned model", icon=viser.Icon.ARROW_BACK_UP, visible=False
         )
+        self.importer = DatasetImport(studio.server, self.session, self._notify)
+        self.trash = RecentlyDeleted(studio.server, self.session, self._notify)
+        self._observe_choices = observe_choices(self.session.layout)
         with gui.add_folder("Leave-one-out evaluation") as self.eval_folder:
-            self.observe_dropdown = gui.add_dropdown(
-                "Observed", tuple(OBSERVE_CHOICES), initial_value="hand+head"
-            )
+            self.observe_dropdown = gui.add_dropdown("Observed", tuple(self._observe_choices))
             self.alpha_dropdown = gui.add_dropdown(
                 "Alpha", tuple(ALPHA_CHOICES), initial_value="ml"
             )
@@ -433,8 +438,8 @@ class DataPanel:
             client.gui.add_markdown(
                 f"**{name}** holds {len(upload.data.primitives)} primitives ({names}) and "
                 f"{upload.n_demos} demonstrations.\n\nImporting it replaces the current "
-                f"workspace ({current_p} primitives, {current_d} demonstrations). Export the "
-                "current one first to keep it."
+                f"workspace ({current_p} primitives, {current_d} demonstrations), which moves "
+                "to the workspace's trash (*Recently deleted* restores it)."
             )
             replace = client.gui.add_button("Replace the workspace", color="red")
             cancel = client.gui.add_button("Cancel")
@@ -455,7 +460,7 @@ class DataPanel:
         """Swap the session for a validated workspace archive."""
         name = display_name(upload.filename)
         try:
-            self.session.replace(upload.data)
+            self.session.replace(upload.data, f"replaced by the import of {name}")
         except (ValueError, OSError) as exc:
             self._notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
             return False
@@ -464,7 +469,8 @@ class DataPanel:
             client,
             "Workspace imported",
             f"{name}: {len(upload.data.primitives)} primitives, {upload.n_demos} "
-            f"demonstrations{skipped}.",
+            f"demonstrations{skipped}. The previous workspace is in the trash (Recently "
+            "deleted).",
             "green",
         )
         return True
@@ -508,6 +514,11 @@ class DataPanel:
             order = [p.name for p in self.session.primitives]
             dataset, skipped = evaluation_dataset(order, self.session.demos)
             settings = self.session.learning_settings()
+            layout = self.session.layout
+        observe = self._observe_choices.get(self.observe_dropdown.value)
+        if observe is None or any(n not in layout.names for names in observe for n in names):
+            self._notify(client, "Cannot evaluate", "choose the observed modalities.", "red")
+            return None
         if not dataset:
             counts = ", ".join(f"{n}: {c}" for n, c in skipped.items()) or "no primitives"
             self._notify(
@@ -522,9 +533,10 @@ class DataPanel:
             dataset=dataset,
             skipped=skipped,
             percents=percents,
-            observe_sets=[list(s) for s in OBSERVE_CHOICES[self.observe_dropdown.value]],
+            observe_sets=[list(s) for s in observe],
             alpha_methods=list(ALPHA_CHOICES[self.alpha_dropdown.value]),
             settings=settings,
+            layout=layout,
             total=sum(len(v) for v in dataset.values()),
         )
         self._job = job
@@ -571,10 +583,21 @@ class DataPanel:
             self.progress_bar.visible = False
             self._notify(None, "Evaluation failed", str(job.error), "red")
             return
+        failed = ""
+        if job.result.failures:
+            listed = "; ".join(
+                f"{f['primitive']}/{f['demo']} at {f['percent']:g} % ({f['error']})"
+                for f in job.result.failures[:10]
+            )
+            more = len(job.result.failures) - 10
+            failed = (
+                f"  \n**{len(job.result.failures)} trial(s) failed** (counted as recognition "
+                f"errors): {escape(listed)}" + (f"; and {more} more" if more > 0 else "")
+            )
         self.eval_status.content = (
             f"Held out each of {job.total} demonstrations of {', '.join(job.dataset)} in "
             f"{job.elapsed_s:.1f} s (n_basis {job.settings.n_basis}, width "
-            f"{job.settings.width:g}).{skipped}"
+            f"{job.settings.width:g}).{skipped}{failed}"
         )
         self._draw_results(job.result.rows)
         self._notify(
@@ -633,12 +656,21 @@ class DataPanel:
     def step(self) -> None:
         if self.session.version != self._status_version:
             self._update_model_status()
+            self._sync_observe_choices()
+        self.trash.step()
         job = self._job
         if job is not None:
             self._show_job(job)
+
+    def _sync_observe_choices(self) -> None:
+        choices = observe_choices(self.session.layout)
+        if choices != self._observe_choices:
+            self._observe_choices = choices
+            self.observe_dropdown.options = tuple(choices)
 
     def close(self) -> None:
         self.cancel_evaluation()
         if self._thread is not None:
             self._thread.join(timeout=10.0)
         self.guard.close()
+        self.importer.close()

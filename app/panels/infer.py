@@ -17,7 +17,9 @@ iteration (~60 Hz); the observation is the first p % of the buffer (100 %: all o
 happens), recomputed at most ``LIVE_HZ`` times a second while observing. Samples without a
 face are left out when the head is observed. The model is the session's (or the imported one).
 
-Display units: the charts show the hand in centimetres and the head in degrees.
+Display units: those of :mod:`app.display` (the hand in centimetres, the head in degrees). The
+observed-modality choices and the charts (one chart tab per modality) follow the workspace's
+layout.
 """
 
 from __future__ import annotations
@@ -32,9 +34,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from app.display import observed_choices, quantities
 from app.inference_view import (
     ALPHA_CHOICES,
-    OBSERVED_CHOICES,
     PATH_POINTS,
     TUBE_POINTS,
     HeldOutModels,
@@ -47,7 +49,7 @@ from app.inference_view import (
 from app.plots import Band, BandChart, Trace, add_band_chart, band_chart, update_band_chart
 from app.replay import Replay
 from app.tubes import resample, tube_faces, tube_vertices
-from app.workspace import LAYOUT
+from promp.data import Layout
 
 if TYPE_CHECKING:
     from app.studio import Studio
@@ -64,15 +66,6 @@ PRIOR_COLOR = (125, 125, 125)
 OBSERVED_COLOR = (25, 25, 25)
 TRUTH_COLOR = (70, 70, 70)
 DEFAULT_COLOR = (120, 120, 120)
-# (layout dimension, chart title, display scale) per chart: hand in cm, head in degrees.
-CHARTS = (
-    (0, "hand x (cm)", 100.0),
-    (1, "hand y (cm)", 100.0),
-    (2, "hand z (cm)", 100.0),
-    (3, "head roll (°)", 180.0 / math.pi),
-    (4, "head pitch (°)", 180.0 / math.pi),
-    (5, "head yaw (°)", 180.0 / math.pi),
-)
 LEGEND_HTML = (
     '<div style="font-size:0.72em;color:#555;margin-top:4px">'
     'bands ±2σ: <b style="color:#7d7d7d">prior</b> · <b>posterior</b> (recognised primitive\'s '
@@ -142,9 +135,8 @@ class InferPanel:
             self.demo = gui.add_dropdown(
                 "Test demo", (NONE,), hint="Inferred with a model learned without it"
             )
-            self.observed = gui.add_dropdown(
-                "Observed", tuple(OBSERVED_CHOICES), initial_value="hand + head"
-            )
+            self._choices = observed_choices(self.studio.session.layout)
+            self.observed = gui.add_dropdown("Observed", tuple(self._choices))
             self.alpha = gui.add_dropdown(
                 "Alpha", tuple(ALPHA_CHOICES), initial_value="ML",
                 hint="ML: most likely training speed; model: regression on the early motion",
@@ -160,13 +152,11 @@ class InferPanel:
         self.replay_buttons = gui.add_button_group("Replay", ("Play", "Pause", "Reset"))
         self.replay_bar = gui.add_progress_bar(0.0, color="gray")
         gui.add_html(LEGEND_HTML)
-        placeholder = band_chart([], [Trace("", np.array([0.0, 1.0]), np.zeros(2), (0, 0, 0))])
-        self.charts = []
-        tabs = gui.add_tab_group()
-        for tab_name, dims in (("Hand", CHARTS[:3]), ("Head", CHARTS[3:])):
-            with tabs.add_tab(tab_name):
-                for _, title, _ in dims:
-                    self.charts.append(add_band_chart(gui, placeholder, title=title, aspect=3.3))
+        self.charts: list = []
+        self._chart_tabs = None
+        self._charts_layout: Layout | None = None
+        self._chart_slot = gui.add_folder("Charts", expand_by_default=True)
+        self._build_charts(self.studio.session.layout)
         with gui.add_folder("Display", expand_by_default=False):
             self.show_3d = gui.add_checkbox("Show in 3D", True)
             self.session_mode = gui.add_dropdown(
@@ -194,6 +184,26 @@ class InferPanel:
         @self.replay_buttons.on_click
         def _(event) -> None:
             self._replay_command = str(event.target.value)
+
+    def _build_charts(self, layout: Layout) -> None:
+        """One chart tab per modality of ``layout``, one chart per dimension."""
+        if self._chart_tabs is not None:
+            self._chart_tabs.remove()
+        gui = self.server.gui
+        placeholder = band_chart([], [Trace("", np.array([0.0, 1.0]), np.zeros(2), (0, 0, 0))])
+        self.quantities = quantities(layout)
+        self.charts = []
+        with self._chart_slot:
+            self._chart_tabs = gui.add_tab_group()
+            for modality in layout.modalities:
+                with self._chart_tabs.add_tab(modality.name.capitalize()):
+                    for q in self.quantities:
+                        if q.modality == modality.name:
+                            self.charts.append(
+                                add_band_chart(gui, placeholder, title=q.title, aspect=3.3)
+                            )
+        self._charts_layout = layout
+        self._range_key = None
 
     def _build_scene(self) -> None:
         scene = self.server.scene
@@ -260,6 +270,11 @@ class InferPanel:
             self.primitive.options = tuple(demos) or (NONE,)
             self._demos_for = ""
             self._dirty = True
+            layout = session.layout
+            if layout != self._charts_layout:
+                self._choices = observed_choices(layout)
+                self.observed.options = tuple(self._choices)
+                self._build_charts(layout)
         live = self.source.value == LIVE
         for handle in (self.primitive, self.demo):
             if handle.visible == live:
@@ -333,7 +348,9 @@ class InferPanel:
 
     def compute(self) -> ScrubResult:
         """One inference for the current choices (raises ValueError with the reason)."""
-        modalities = OBSERVED_CHOICES[self.observed.value]
+        modalities = self._choices.get(self.observed.value)
+        if modalities is None:
+            raise ValueError("choose the observed modalities")
         alpha_method = ALPHA_CHOICES[self.alpha.value]
         percent = float(self.percent.value)
         session = self.studio.session
@@ -346,12 +363,14 @@ class InferPanel:
                 if session.imported_model is not None
                 else "the session's, all demonstrations"
             )
-            return scrub_step(model, self.live.observation(percent, modalities), alpha_method)
+            observation = self.live.observation(percent, modalities, model.layout)
+            return scrub_step(model, observation, alpha_method)
         with session.lock:
             version = session.version
             imported = session.imported_model
             demos = {name: list(items) for name, items in session.demos.items()}
             settings = session.learning_settings()
+            layout = session.layout
         name, demo_name = self.primitive.value, self.demo.value
         demo = next((d for d in demos.get(name, []) if d.name == demo_name), None)
         if demo is None:
@@ -363,7 +382,7 @@ class InferPanel:
             self.model_note = f"learned without {demo_name} (held out)"
             cached = (version, name, demo_name) in self.models
             start = time.perf_counter()
-            model = self.models.get(version, demos, name, demo_name, settings)
+            model = self.models.get(version, demos, name, demo_name, settings, layout)
             if not cached:
                 self.fit_ms = 1e3 * (time.perf_counter() - start)
         return scrub_step(
@@ -404,12 +423,12 @@ class InferPanel:
             return DEFAULT_COLOR
 
     def _draw_scene(self, result: ScrubResult | None) -> None:
-        if result is None or not self.show_3d.value:
+        hand = hand_dims(result.layout) if result is not None else None
+        if result is None or not self.show_3d.value or hand is None:
             for node in self.nodes:
                 if node.visible:
                     node.visible = False
             return
-        hand = hand_dims()
         color = self._color(result.primitive)
         post = result.posterior
         self.tube.vertices = tube_vertices(post.mean[:, hand], post.std[:, hand])
@@ -421,7 +440,7 @@ class InferPanel:
         self.now_point.position = result.future_hand[0]
         obs = result.observation
         if "hand" in obs.modalities and obs.n_observed >= 2:
-            cols = np.arange(3)  # the hand comes first in the layout's order
+            cols = np.flatnonzero(np.isin(result.layout.dims(obs.modalities), hand))
             points = resample(obs.values[:, cols], min(obs.n_observed, PATH_POINTS))
             self.observed_line.points = points.astype(np.float32)
             if not self.observed_line.visible:
@@ -429,7 +448,7 @@ class InferPanel:
         elif self.observed_line.visible:
             self.observed_line.visible = False
         if result.truth is not None:
-            true_hand = LAYOUT.extract(result.truth)[:, hand]
+            true_hand = result.layout.extract(result.truth)[:, hand]
             rest = true_hand[max(obs.n_observed - 1, 0) :]
             if rest.shape[0] >= 2:
                 self.truth_line.points = resample(rest, min(rest.shape[0], PATH_POINTS)).astype(
@@ -522,9 +541,13 @@ class InferPanel:
             self._range_key, self._ranges = key, {}
         color = self._color(result.primitive)
         obs = result.observation
-        observed = list(LAYOUT.dims(obs.modalities))
-        truth = LAYOUT.extract(result.truth) if result.truth is not None else None
-        for i, (handle, (dim, _, scale)) in enumerate(zip(self.charts, CHARTS, strict=True)):
+        layout = result.layout
+        if layout != self._charts_layout:
+            return  # an imported model of other modalities: no charts to draw into
+        observed = list(layout.dims(obs.modalities))
+        truth = layout.extract(result.truth) if result.truth is not None else None
+        for i, (handle, q) in enumerate(zip(self.charts, self.quantities, strict=True)):
+            dim, scale = q.column, q.scale
             prior, post = result.prior, result.posterior
             bands = [
                 Band("prior", prior.times, scale * prior.mean[:, dim], scale * prior.std[:, dim],
@@ -562,7 +585,11 @@ class InferPanel:
 
     def _load_replay(self, result: ScrubResult) -> None:
         times = result.future_times - result.future_times[0]
-        if result.remaining < 1e-3 or not np.all(np.diff(times) > 0):
+        if (
+            result.future_hand is None
+            or result.remaining < 1e-3
+            or not np.all(np.diff(times) > 0)
+        ):
             self.replay.clear()
             return
         self.replay.load(times, result.future_hand)

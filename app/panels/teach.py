@@ -31,13 +31,15 @@ import cv2
 import numpy as np
 import viser
 
+from app.display import quantities
 from app.exchange import format_size
+from app.gui_text import GREEN, ORANGE, RED, colored, escape
 from app.head_sources import HeadSource, SimulatedPartner, StreamHeadSource, TrackHeadSource
 from app.plots import Band, Trace, add_band_chart, band_chart, update_band_chart
-from app.recorder import DEFAULT_RATE_HZ, Recorder, Recording
+from app.recorder import DEFAULT_RATE_HZ, Recorder, Recording, unrecordable
 from app.session import Typicality
 from app.upload_guard import UploadGuard
-from app.workspace import LAYOUT
+from promp.data import Layout
 from promp.inference import predict
 from promp.model import Settings
 
@@ -64,23 +66,8 @@ SHRINKAGE_CHOICES: dict[str, float | None] = {
     "0.3": 0.3,
     "leave-one-out estimate": None,
 }
-RED, ORANGE, GREEN, GREY = "#c0392b", "#d35400", "#1e8449", "#7f8c8d"
 TYPICALITY_COLORS = {"typical": GREEN, "unusual": ORANGE, "outlier": RED}
 NOTIFY_COLORS = {"typical": "green", "unusual": "yellow", "outlier": "red"}
-
-
-def escape(text: str) -> str:
-    """``text`` shown literally in markdown (paths and error messages hold '_' and '*')."""
-    text = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
-    for char in "\\`*_[]#":
-        text = text.replace(char, "\\" + char)
-    return text
-
-
-def colored(text: str, color: str, bold: bool = False) -> str:
-    """Markdown (inline HTML) of ``text`` in ``color``."""
-    weight = "font-weight:600;" if bold else ""
-    return f'<span style="color:{color};{weight}">{text}</span>'
 
 
 def typicality_text(typicality: Typicality | None) -> str:
@@ -108,26 +95,6 @@ def source_kind(source: HeadSource) -> str:
     return SIMULATED
 
 
-@dataclass(frozen=True)
-class Dimension:
-    """One plotted column: its title, and the factor from the engine's unit to the shown one."""
-
-    column: int
-    title: str
-    scale: float
-
-
-DIMENSIONS = tuple(
-    Dimension(
-        LAYOUT.columns.index(c),
-        f"{m.name} {c} ({'deg' if m.kind == 'angle' else m.unit})",
-        float(np.degrees(1.0)) if m.kind == "angle" else 1.0,
-    )
-    for m in LAYOUT.modalities
-    for c in m.columns
-)
-
-
 @dataclass
 class Take:
     """A recording in progress: counting down until ``starts_at``, then ``recorder`` runs."""
@@ -152,6 +119,7 @@ class TeachPanel:
         self._selection_dirty = True
         self._learn_changed_at: float | None = None
         self._pending_delete: str | None = None
+        self._pending_demo_delete: tuple[str, str] | None = None
         self.take: Take | None = None
         self.last_message = ""  # the latest recording outcome (also shown in the GUI)
         self._head_refusal = False  # last_message is a refusal because the head source failed
@@ -231,8 +199,8 @@ class TeachPanel:
             n = len(self.session.demos.get(name, []))
             self._pending_delete = name
             self.confirm_text.content = (
-                f"Delete **{name}** and its {n} demonstration(s) from the workspace? "
-                + colored("This cannot be undone.", RED)
+                f"Delete **{name}** and its {n} demonstration(s)? They move to the "
+                "workspace's trash: *Undo delete* brings them back."
             )
             self.confirm_text.visible = True
             self.confirm.visible = True
@@ -268,7 +236,8 @@ class TeachPanel:
             index = int(source.name.removeprefix("camera "))
         elif initial == VIDEO:
             path = source.name.removeprefix("video ")
-        with gui.add_folder("Head source"):
+        self.head_folder = gui.add_folder("Head source")
+        with self.head_folder:
             self.source = gui.add_dropdown(
                 "Source",
                 SOURCES,
@@ -347,6 +316,38 @@ class TeachPanel:
         self.demo_folder = gui.add_folder("Demonstrations")
         with self.demo_folder:
             self.demo_summary = gui.add_markdown("")
+            self.undo_delete = gui.add_button(
+                "Undo delete",
+                icon=viser.Icon.ARROW_BACK_UP,
+                visible=False,
+                hint="Bring back the latest deleted demonstration or primitive from the trash",
+            )
+            self.demo_confirm_text = gui.add_markdown("", visible=False)
+            self.demo_confirm = gui.add_button_group(
+                "", ("Delete demonstration", "Keep it"), visible=False
+            )
+
+        @self.undo_delete.on_click
+        def _(event) -> None:
+            def undo() -> None:
+                entry = self.session.undo_delete()
+                self._tell(event, "Restored", f"{entry.label} is back.", "green")
+
+            self._mutate(event, "undo", undo)
+
+        @self.demo_confirm.on_click
+        def _(event) -> None:
+            pending, self._pending_demo_delete = self._pending_demo_delete, None
+            self.demo_confirm_text.visible = self.demo_confirm.visible = False
+            if pending is None or event.target.value != "Delete demonstration":
+                return
+            primitive, demo = pending
+            if self._mutate(event, "delete", lambda: self.session.delete_demo(primitive, demo)):
+                self._tell(
+                    event, "Deleted",
+                    f"{demo} moved to the workspace's trash (Undo delete brings it back).",
+                    "gray",
+                )  # fmt: skip
 
     def _build_learn(self, gui: viser.GuiApi) -> None:
         settings = self.session.learning_settings()
@@ -381,11 +382,28 @@ class TeachPanel:
     def _build_plots(self, gui: viser.GuiApi) -> None:
         self.plot_folder = gui.add_folder("Prior")
         self.plots: list[viser.GuiUplotHandle] = []
-        placeholder = band_chart([], [Trace("", np.array([0.0, 1.0]), np.zeros(2), (0, 0, 0))])
+        self._plots_layout: Layout | None = None
         with self.plot_folder:
             self.plot_note = gui.add_markdown("")
-            for dim in DIMENSIONS:
-                self.plots.append(add_band_chart(gui, placeholder, title=dim.title))
+        self._build_charts(self.session.layout)
+
+    def _build_charts(self, layout: Layout) -> None:
+        """One prior chart per dimension of ``layout`` (rebuilt when the workspace changes)."""
+        for plot in self.plots:
+            plot.remove()
+        placeholder = band_chart([], [Trace("", np.array([0.0, 1.0]), np.zeros(2), (0, 0, 0))])
+        with self.plot_folder:
+            self.plots = [
+                add_band_chart(self.server.gui, placeholder, title=q.title)
+                for q in quantities(layout)
+            ]
+        self._plots_layout = layout
+        self._show_recordable(layout)
+
+    def _show_recordable(self, layout: Layout) -> None:
+        """The head source only matters when the workspace has a head; recording only when
+        the studio can sample every modality."""
+        self.head_folder.visible = "head" in layout.names
 
     # ================================================================== callbacks' helpers
 
@@ -544,9 +562,16 @@ class TeachPanel:
     def _begin(self, now: float) -> None:
         name = self.selected()
         error = None
+        missing = unrecordable(self.session.layout)
         if name is None:
             error = "Create a primitive first: a demonstration belongs to one."
-        elif self.studio.head_source.error is not None:
+        elif missing:
+            error = (
+                f"This workspace's demonstrations also hold {', '.join(missing)}, which the "
+                "studio cannot record: a new demonstration would lack them. Record in a "
+                "workspace of hand and head demonstrations."
+            )
+        elif "head" in self.session.layout.names and self.studio.head_source.error is not None:
             error = (
                 f"The head source failed ({self.studio.head_source.error}). Choose another "
                 "head source (e.g. the simulated partner) to record."
@@ -597,7 +622,7 @@ class TeachPanel:
 
     def _save(self, primitive: str, recording: Recording) -> None:
         try:
-            values, fill = recording.values()
+            values, fill = recording.values(self.session.layout)
             demo = self.session.add_demo(primitive, recording.times, values)
         except (ValueError, OSError) as exc:
             self._report(f"Nothing saved: {exc}", "Nothing saved", "red")  # escaped there
@@ -729,9 +754,14 @@ class TeachPanel:
         if name is not None and name in names:
             self.color.value = session.color(name)
         if version != self._drawn_version:
+            if session.layout != self._plots_layout:
+                self._build_charts(session.layout)
             if self._learn_changed_at is None:  # never undo a slider the user is moving
                 self._show_learning(session.learning_settings())
             self._show_fit()
+            self.undo_delete.visible = bool(session.deleted)
+            if session.deleted:
+                self.undo_delete.label = f"Undo delete ({session.deleted[-1].label})"
         self._drawn_version = version
         self._drawn_selection = name
         self._show_demos(name)
@@ -815,8 +845,12 @@ class TeachPanel:
         def action(event) -> None:
             choice = event.target.value
             if choice == "Delete":
-                if self._mutate(event, "delete", lambda: self.session.delete_demo(primitive, demo)):
-                    self._tell(event, "Deleted", f"{demo} was removed from the workspace.", "gray")
+                self._pending_demo_delete = (primitive, demo)
+                self.demo_confirm_text.content = (
+                    f"Delete **{demo}** of **{primitive}**? It moves to the workspace's trash: "
+                    "*Undo delete* brings it back."
+                )
+                self.demo_confirm_text.visible = self.demo_confirm.visible = True
             else:
                 hide = choice == "Hide"
                 self._mutate(event, "hide", lambda: self.session.set_hidden(primitive, demo, hide))
@@ -834,13 +868,17 @@ class TeachPanel:
         if model is not None and name in model.names:
             prim = model.primitive(name)
             prediction = predict(model, prim, float(np.exp(prim.log_alpha_mean)), PLOT_POINTS)
+        layout = session.layout
+        if layout != self._plots_layout:
+            self._build_charts(layout)
         traces: list[tuple[str, np.ndarray, np.ndarray, tuple[int, int, int]]] = []
         if live is not None and live.n_samples >= 2:
-            columns = np.column_stack([live.hand, live.head])
+            blocks = {"hand": live.hand, "head": live.head}
+            columns = np.column_stack([blocks[m] for m in layout.names if m in blocks])
             traces.append(("the recording", live.times, columns, (20, 20, 20)))
         elif demos:
             newest = demos[-1]
-            traces.append((newest.name, newest.times, LAYOUT.extract(newest), (70, 70, 70)))
+            traces.append((newest.name, newest.times, layout.extract(newest), (70, 70, 70)))
         if prediction is None and not traces:
             self.plot_folder.label = "Prior"
             self.plot_note.content = (
@@ -858,7 +896,7 @@ class TeachPanel:
             self.plot_note.content = f"Band: the prior. Line: {traces[0][0]}."
         else:
             self.plot_note.content = "Band: the prior."
-        for dim, plot in zip(DIMENSIONS, self.plots, strict=True):
+        for dim, plot in zip(quantities(layout), self.plots, strict=True):
             bands = []
             if prediction is not None:
                 bands.append(
@@ -872,6 +910,8 @@ class TeachPanel:
                 )
             lines = []
             for label, times, columns, line_color in traces:
+                if dim.column >= columns.shape[1]:
+                    continue
                 values = dim.scale * columns[:, dim.column]
                 ok = np.isfinite(values)  # a live head column has no angle without a face
                 if ok.sum() >= 1:

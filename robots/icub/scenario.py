@@ -99,13 +99,14 @@ from promp.data import Demonstration
 from promp.datasets import write_csv_demo
 from robots.icub.ik import solve_ik
 from robots.icub.kinematics import ArmChain, load_arm
+from robots.icub.layout import STUDIO_LAYOUT
 from robots.icub.model import DEFAULT_ROBOT
 from robots.icub.scene import DEFAULT_SCENE, Scene, head_orientation_looking_at
 
 PRIMITIVES = ("curved", "direct")
 THIRD_PRIMITIVE = "second_bin"
 ALL_PRIMITIVES = (*PRIMITIVES, THIRD_PRIMITIVE)
-COLUMNS = ("x", "y", "z", "roll", "pitch", "yaw")
+COLUMNS = STUDIO_LAYOUT.columns  # x, y, z, roll, pitch, yaw
 DEMOS_RANGE = (2, 1000)
 RATE_RANGE_HZ = (30.0, 50.0)
 DEFAULT_RATE_HZ = 40.0

@@ -1,0 +1,262 @@
+"""Bringing a researcher's own recordings into the studio: a dataset becomes a new workspace.
+
+A dataset is a folder in one of the formats of :mod:`promp.datasets` (``csv``:
+``<primitive>/<demo>.csv``; ``records``: the 13-column lab records, ``<class>/.../<record>.txt``),
+read by the same :func:`promp.datasets.read_dataset` as ``python -m promp.evaluate``, with a
+layout of modalities given or guessed from the columns. It arrives either as a folder on the
+server (``python -m app --import-dataset DIR``) or as an uploaded zip of that folder (the Data
+tab), which is checked member by member like a workspace archive (no absolute paths, ``..``,
+links or encrypted members; bounded count and size) and extracted into a temporary folder the
+studio makes and removes.
+
+The source is only read. Primitive and demonstration names become safe file names (other
+characters become ``_``; ``person1/record0`` becomes ``person1_record0``). Refused, with the file
+or class named and nothing written: no demonstration at all, an unreadable or non-numeric file,
+a class with fewer than two demonstrations (no distribution can be learned from one), a
+modality naming a column the files lack, a ``hand`` modality that is not 3 columns in metres.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+import shutil
+import tempfile
+import zipfile
+import zlib
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path, PurePosixPath
+
+from app.exchange import Limits, check_member, format_size
+from app.workspace import PALETTE, PrimitiveEntry, WorkspaceData, check_layout
+from promp.data import Demonstration, Layout, Modality
+from promp.datasets import FORMATS, RECORD_COLUMNS, Dataset, dataset_columns, read_dataset
+
+MIN_DEMOS = 2
+MAX_DATASET_UPLOAD_BYTES = 200 * 2**20
+
+
+def safe_name(raw: str, taken: set[str]) -> str:
+    """``raw`` as a studio name (1-40 of letters, digits, '_', '-'), unique among ``taken``."""
+    name = re.sub(r"[^A-Za-z0-9_-]+", "_", raw).strip("_-") or "demo"
+    if not name[0].isalnum():
+        name = "d" + name
+    name = name[:40]
+    candidate, i = name, 2
+    while candidate in taken:
+        tail = f"-{i}"
+        candidate = name[: 40 - len(tail)] + tail
+        i += 1
+    taken.add(candidate)
+    return candidate
+
+
+@dataclass(frozen=True)
+class DatasetSummary:
+    """What an import would create: one line per primitive, for the GUI's preview."""
+
+    source: str
+    format: str
+    layout: Layout
+    counts: dict[str, int]
+    columns: tuple[str, ...]
+
+    @property
+    def n_demos(self) -> int:
+        return sum(self.counts.values())
+
+    def describe(self) -> str:
+        classes = ", ".join(f"{name} ({n})" for name, n in self.counts.items())
+        modalities = "; ".join(
+            f"{m.name} = {','.join(m.columns)}" + (f" ({m.unit})" if m.unit else "")
+            for m in self.layout.modalities
+        )
+        return (
+            f"{len(self.counts)} primitives, {self.n_demos} demonstrations: {classes}. "
+            f"Modalities: {modalities}."
+        )
+
+
+def dataset_to_workspace(dataset: Dataset, layout: Layout) -> WorkspaceData:
+    """The workspace holding ``dataset`` with ``layout`` (names made safe, colours assigned).
+
+    Raises
+    ------
+    ValueError
+        A class with fewer than two demonstrations, or a layout the studio cannot use.
+    """
+    check_layout(layout)
+    small = {name: len(demos) for name, demos in dataset.items() if len(demos) < MIN_DEMOS}
+    if small:
+        listed = ", ".join(
+            f"{name!r} ({n}: {dataset[name][0].name if dataset[name] else 'none'})"
+            for name, n in small.items()
+        )
+        raise ValueError(
+            f"class {listed} has fewer than {MIN_DEMOS} demonstrations; a primitive is learned "
+            "from at least two. Add demonstrations or leave the class out of the dataset"
+        )
+    taken: set[str] = set()
+    primitives: list[PrimitiveEntry] = []
+    demos: dict[str, list[Demonstration]] = {}
+    for k, (raw, items) in enumerate(dataset.items()):
+        name = safe_name(raw, taken)
+        primitives.append(PrimitiveEntry(name, PALETTE[k % len(PALETTE)]))
+        names: set[str] = set()
+        demos[name] = [
+            Demonstration(
+                d.times - d.times[0],
+                d.select(layout.columns),
+                layout.columns,
+                name=safe_name(d.name, names),
+            )
+            for d in items
+        ]
+    return WorkspaceData(primitives=primitives, demos=demos, settings={}, layout=layout)
+
+
+def read_folder(
+    source: Path, format: str, modalities: Sequence[Modality] | None = None
+) -> tuple[WorkspaceData, DatasetSummary]:
+    """Read the dataset folder ``source`` as a workspace's content, and its summary."""
+    dataset, layout = read_dataset(Path(source), format, modalities)
+    data = dataset_to_workspace(dataset, layout)
+    columns = RECORD_COLUMNS[1:] if format == "records" else dataset_columns(dataset)
+    summary = DatasetSummary(
+        str(source), format, layout, {p.name: len(data.demos[p.name]) for p in data.primitives},
+        tuple(columns),
+    )  # fmt: skip
+    return data, summary
+
+
+def detect_format(folder: Path) -> str:
+    """``csv`` when the folder holds .csv files, ``records`` when it holds .txt files."""
+    suffixes = {p.suffix.lower() for p in Path(folder).rglob("*") if p.is_file()}
+    if ".csv" in suffixes:
+        return "csv"
+    if ".txt" in suffixes:
+        return "records"
+    raise ValueError(
+        "no .csv or .txt files: a dataset is <primitive>/<demo>.csv files or lab records "
+        "<class>/.../<record>.txt"
+    )
+
+
+@dataclass
+class DatasetUpload:
+    """An uploaded dataset zip, extracted into a temporary folder the studio owns; re-read
+    with other settings through :meth:`read`, then :meth:`close` removes the folder.
+
+    ``root`` is the dataset's folder inside it: the temporary folder itself, or the one folder
+    it holds when the zip was made of the dataset's folder.
+    """
+
+    filename: str
+    tempdir: Path
+    root: Path
+    format: str
+    ignored: list[str] = field(default_factory=list)
+
+    def read(
+        self, format: str | None = None, modalities: Sequence[Modality] | None = None
+    ) -> tuple[WorkspaceData, DatasetSummary]:
+        format = format or self.format
+        if format not in FORMATS:
+            raise ValueError(f"unknown dataset format {format!r}; expected one of {FORMATS}")
+        try:
+            data, summary = read_folder(self.root, format, modalities)
+        except ValueError as exc:
+            # Paths inside the temporary folder mean nothing to the user: name the member.
+            raise ValueError(str(exc).replace(str(self.root), self.filename)) from None
+        return data, DatasetSummary(
+            self.filename, summary.format, summary.layout, summary.counts, summary.columns
+        )
+
+    def close(self) -> None:
+        if self.tempdir.exists():
+            shutil.rmtree(self.tempdir)  # the temporary folder this object made
+
+
+_ZIP_ERRORS = (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, NotImplementedError,
+               RuntimeError, EOFError, OSError)  # fmt: skip
+
+
+def extract_dataset_zip(
+    content: bytes, filename: str, limits: Limits | None = None
+) -> DatasetUpload:
+    """Check and extract an uploaded dataset zip (see the module docstring).
+
+    Raises
+    ------
+    ValueError
+        Empty, too large, not a zip, an unsafe or oversized member, or no data files; the
+        message names the member. Nothing is left on disk then.
+    """
+    limits = limits or Limits(max_upload_bytes=MAX_DATASET_UPLOAD_BYTES)
+    if len(content) > limits.max_upload_bytes:
+        raise ValueError(
+            f"the file is {format_size(len(content))}, over the "
+            f"{format_size(limits.max_upload_bytes)} upload limit"
+        )
+    if not content:
+        raise ValueError("the file is empty")
+    if PurePosixPath(filename).suffix.lower() != ".zip":
+        raise ValueError("a dataset is uploaded as a .zip of its folder")
+    try:
+        archive = zipfile.ZipFile(io.BytesIO(content))
+    except (*_ZIP_ERRORS, ValueError) as exc:
+        raise ValueError(f"not a zip archive ({exc})") from None
+    tempdir = Path(tempfile.mkdtemp(prefix="icub-studio-dataset-"))
+    upload = DatasetUpload(filename, tempdir, tempdir, "csv")
+    try:
+        with archive:
+            _extract(archive, tempdir, limits, upload.ignored)
+        # A zip of the dataset folder itself: its classes are one level down.
+        entries = list(tempdir.iterdir())
+        if len(entries) == 1 and entries[0].is_dir():
+            upload.root = entries[0]
+        upload.format = detect_format(upload.root)
+    except ValueError:
+        upload.close()
+        raise
+    except _ZIP_ERRORS as exc:
+        upload.close()
+        raise ValueError(f"cannot be read as a zip archive ({exc})") from None
+    return upload
+
+
+def _extract(
+    archive: zipfile.ZipFile, folder: Path, limits: Limits, ignored: list[str]
+) -> None:
+    infos = archive.infolist()
+    if len(infos) > limits.max_members:
+        raise ValueError(f"the archive holds {len(infos)} entries; at most {limits.max_members}")
+    total = sum(info.file_size for info in infos)
+    if total > limits.max_uncompressed_bytes:
+        raise ValueError(
+            f"the archive expands to {format_size(total)}, over the "
+            f"{format_size(limits.max_uncompressed_bytes)} limit"
+        )
+    budget = limits.max_uncompressed_bytes
+    seen: set[str] = set()
+    for info in infos:
+        name = check_member(info)
+        parts = name.rstrip("/").split("/")
+        if info.is_dir():
+            continue
+        if parts[0] == "__MACOSX" or any(p.startswith(".") for p in parts):
+            ignored.append(name)  # Finder's and hidden files
+            continue
+        if name.lower() in seen:
+            raise ValueError(f"{name}: appears twice in the archive")
+        seen.add(name.lower())
+        target = folder.joinpath(*parts)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        with archive.open(info) as source:
+            data = source.read(min(info.file_size, budget) + 1)
+        if len(data) > info.file_size or len(data) > budget:
+            raise ValueError(f"{name}: larger than the archive declares")
+        budget -= len(data)
+        with open(target, "xb") as sink:
+            sink.write(data)

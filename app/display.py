@@ -1,0 +1,69 @@
+"""How the studio shows a layout's dimensions and modality choices, defined once.
+
+Every chart, table and readout of the studio takes its titles, units and scales from
+:func:`quantities`: lengths in centimetres, angles in degrees, any other unit as recorded. The
+engine keeps metres and radians; only the display converts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from promp.data import Layout, Modality
+
+# Unit conversions for display: (engine unit, kind) -> (shown unit, factor).
+_DISPLAY_UNITS = {("m", "linear"): ("cm", 100.0), ("rad", "angle"): ("°", 180.0 / math.pi)}
+
+
+def display_unit(modality: Modality) -> tuple[str, float]:
+    """(shown unit, factor from the engine's unit) of ``modality``'s values."""
+    return _DISPLAY_UNITS.get((modality.unit, modality.kind), (modality.unit, 1.0))
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """One dimension of a layout as the studio shows it.
+
+    Attributes
+    ----------
+    column : int
+        The dimension's index in the layout.
+    modality, name : str
+        Its modality and column name.
+    unit : str
+        Shown unit ("" when the data has none).
+    scale : float
+        Multiplies the engine's value into the shown unit.
+    """
+
+    column: int
+    modality: str
+    name: str
+    unit: str
+    scale: float
+
+    @property
+    def title(self) -> str:
+        """E.g. ``hand x (cm)``."""
+        return f"{self.modality} {self.name}" + (f" ({self.unit})" if self.unit else "")
+
+
+def quantities(layout: Layout) -> tuple[Quantity, ...]:
+    """Every dimension of ``layout``, in order."""
+    out = []
+    for modality in layout.modalities:
+        unit, scale = display_unit(modality)
+        for column in modality.columns:
+            out.append(Quantity(len(out), modality.name, column, unit, scale))
+    return tuple(out)
+
+
+def observed_choices(layout: Layout) -> dict[str, tuple[str, ...]]:
+    """The observed-modality choices the studio offers, by label: all modalities together
+    first ("hand + head"), then each alone."""
+    names = layout.names
+    choices = {" + ".join(names): names}
+    if len(names) > 1:
+        choices.update({name: (name,) for name in names})
+    return choices

@@ -1,0 +1,32 @@
+"""Text for the GUI's markdown and HTML elements, defined once.
+
+User-provided text (file names, paths, error messages) is shown literally: :func:`escape` for
+markdown, :func:`html.escape` for HTML elements; :func:`display_name` shortens an uploaded
+file's name to something safe to show.
+"""
+
+from __future__ import annotations
+
+import re
+
+RED, ORANGE, GREEN, GREY = "#c0392b", "#d35400", "#1e8449", "#7f8c8d"
+
+
+def escape(text: str) -> str:
+    """``text`` shown literally in markdown (paths and error messages hold '_' and '*')."""
+    text = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    for char in "\\`*_[]#":
+        text = text.replace(char, "\\" + char)
+    return text
+
+
+def colored(text: str, color: str, bold: bool = False) -> str:
+    """Markdown (inline HTML) of ``text`` in ``color``."""
+    weight = "font-weight:600;" if bold else ""
+    return f'<span style="color:{color};{weight}">{text}</span>'
+
+
+def display_name(filename: str) -> str:
+    """An uploaded file's name, safe to show in markdown (at most 60 characters)."""
+    name = re.sub(r"[^A-Za-z0-9._ ()+-]", "_", filename.rsplit("/", 1)[-1]) or "file"
+    return name if len(name) <= 60 else name[:57] + "..."

@@ -1,0 +1,263 @@
+"""The Data tab's "Import dataset": a zip of one's own recordings becomes a studio workspace.
+
+Upload a zip of a dataset folder (:mod:`app.dataset_import`: CSV or lab records); the studio
+extracts it into a temporary folder of its own, guesses the format and the modalities from the
+files, and previews what it would create. The user may change the format and the mapping of
+columns to modalities (``hand=x,y,z; head=roll,pitch,yaw``); each change re-reads and
+re-previews. Then either
+
+* **Create workspace** makes a new workspace folder beside the current one (named after the
+  zip) and the studio serves it; the current workspace stays as it is on disk; or
+* **Replace this workspace**, after a confirmation, puts the imported content in the current
+  workspace, whose demonstrations go to its trash (restorable).
+
+A refused upload or mapping is a notification naming the file and the problem, and changes
+nothing.
+"""
+
+from __future__ import annotations
+
+import threading
+import traceback
+from collections.abc import Callable
+from pathlib import Path
+
+import viser
+
+from app.dataset_import import (
+    MAX_DATASET_UPLOAD_BYTES,
+    DatasetSummary,
+    DatasetUpload,
+    extract_dataset_zip,
+    safe_name,
+)
+from app.exchange import Limits, format_size
+from app.gui_text import display_name, escape
+from app.session import Session
+from app.upload_guard import UploadGuard
+from app.workspace import WorkspaceData
+from promp.datasets import FORMATS, format_modalities, parse_modalities
+
+Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
+CREATE, REPLACE = "Create workspace", "Replace this workspace"
+
+
+def sibling_folder(root: Path, stem: str) -> Path:
+    """An absent folder beside ``root`` named after ``stem`` (``stem``, ``stem-2``, ...)."""
+    taken = {p.name for p in root.parent.iterdir()} if root.parent.is_dir() else set()
+    return root.parent / safe_name(stem, taken)
+
+
+class DatasetImport:
+    """The "Import dataset" folder of the Data tab (see the module docstring)."""
+
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        session: Session,
+        notify: Notify,
+        max_upload_bytes: int = MAX_DATASET_UPLOAD_BYTES,
+    ):
+        self.server = server
+        self.session = session
+        self.notify = notify
+        self.max_upload_bytes = max_upload_bytes
+        self._lock = threading.RLock()
+        self._quiet = False  # set while the code itself changes the inputs
+        self.upload: DatasetUpload | None = None
+        self.data: WorkspaceData | None = None
+        self.summary: DatasetSummary | None = None
+        gui = server.gui
+        with gui.add_folder("Import dataset", expand_by_default=False):
+            gui.add_markdown(
+                "Your own recordings, as a **zip of their folder**: `<primitive>/<demo>.csv` "
+                "(a header row: `t` in seconds, then named columns) or lab records "
+                "`<class>/.../<record>.txt`. The zip is only read."
+            )
+            self.upload_button = gui.add_upload_button(
+                "Upload dataset (.zip)",
+                icon=viser.Icon.UPLOAD,
+                mime_type=".zip",
+                hint=f"Up to {format_size(max_upload_bytes)}",
+            )
+            self.format = gui.add_dropdown("Format", FORMATS, visible=False)
+            self.modalities = gui.add_text(
+                "Modalities",
+                "",
+                visible=False,
+                hint="NAME=COL,COL,... separated by ';'. 'hand' (x, y, z in metres, the robot's "
+                "root frame) is drawn in 3D; other modalities get their own charts",
+            )
+            self.preview = gui.add_markdown("")
+            self.actions = gui.add_button_group("", (CREATE, REPLACE), visible=False)
+        self.guard = UploadGuard(server, self.upload_button, max_upload_bytes, self._too_large)
+        self.upload_button.on_upload(
+            lambda event: self.receive(
+                event.client, event.target.value.name, event.target.value.content
+            )
+        )
+        for handle in (self.format, self.modalities):
+            handle.on_update(lambda event: None if self._quiet else self.reread(event.client))
+        self.actions.on_click(lambda event: self.act(event.client, event.target.value))
+
+    # ------------------------------------------------------------------ steps
+
+    def _too_large(self, client, filename: str, size: int) -> None:
+        self.notify(
+            client,
+            f"Cannot import {display_name(filename)}",
+            f"The file is {format_size(size)}, over the {format_size(self.max_upload_bytes)} "
+            "limit for a dataset. Nothing was changed.",
+            "red",
+        )
+
+    def receive(self, client, filename: str, content: bytes) -> DatasetSummary | None:
+        """Extract and preview an uploaded dataset zip (None when refused)."""
+        name = display_name(filename)
+        try:
+            upload = extract_dataset_zip(
+                content, name, Limits(max_upload_bytes=self.max_upload_bytes)
+            )
+        except ValueError as exc:
+            self.notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
+            return None
+        with self._lock:
+            self._discard()
+            self.upload = upload
+            self._set_inputs(upload.format, "")
+        return self.reread(client)
+
+    def _set_inputs(self, format: str, modalities: str) -> None:
+        self._quiet = True
+        try:
+            self.format.value = format
+            self.modalities.value = modalities
+        finally:
+            self._quiet = False
+
+    def reread(self, client) -> DatasetSummary | None:
+        """Read the uploaded dataset with the chosen format and modalities; preview it."""
+        with self._lock:
+            upload = self.upload
+            if upload is None:
+                return None
+            self.format.visible = self.modalities.visible = True
+            text = self.modalities.value.strip()
+            try:
+                modalities = parse_modalities(text) if text else None
+                data, summary = upload.read(self.format.value, modalities)
+            except ValueError as exc:
+                self.data = self.summary = None
+                self.actions.visible = False
+                self.preview.content = f"**Cannot import:** {escape(str(exc))}"
+                self.notify(client, f"Cannot import {upload.filename}", str(exc), "red")
+                return None
+            except Exception as exc:  # an unforeseen reader failure is still a refusal
+                traceback.print_exc()
+                self.data = self.summary = None
+                self.actions.visible = False
+                self.preview.content = f"**Cannot import:** {escape(type(exc).__name__)}"
+                return None
+            self.data, self.summary = data, summary
+            if not text:  # show the guess
+                self._set_inputs(self.format.value, format_modalities(summary.layout))
+            lines = [
+                f"**{escape(upload.filename)}** ({summary.format}): {escape(summary.describe())}",
+                f"Columns: {escape(', '.join(summary.columns))}",
+            ]
+            if upload.ignored:
+                lines.append(f"Ignored: {escape(', '.join(upload.ignored))}")
+            self.preview.content = "  \n".join(lines)
+            self.actions.visible = True
+            return summary
+
+    def act(self, client, action: str) -> None:
+        with self._lock:
+            upload, data, summary = self.upload, self.data, self.summary
+        if upload is None or data is None or summary is None:
+            self.notify(client, "Nothing to import", "Upload a dataset zip first.", "red")
+            return
+        if action == CREATE:
+            self.create(client)
+        elif client is None:
+            self.replace(None)
+        else:
+            self._confirm_replace(client, summary)
+
+    def create(self, client) -> Path | None:
+        """Make a new workspace beside the current one from the previewed dataset, and serve
+        it. Returns its folder (None when refused)."""
+        with self._lock:
+            upload, data = self.upload, self.data
+            if upload is None or data is None:
+                return None
+            target = sibling_folder(self.session.workspace.root, Path(upload.filename).stem)
+            try:
+                self.session.switch(target, data)
+            except (ValueError, OSError) as exc:
+                self.notify(client, f"Cannot import {upload.filename}", f"{exc}.", "red")
+                return None
+            self._discard()
+        self.notify(
+            client,
+            "Workspace created",
+            f"{target.resolve()}: {data.n_demos} demonstrations of {len(data.primitives)} "
+            f"primitives. The studio now serves it (reopen it with --workspace {target}); the "
+            "previous workspace is unchanged on disk.",
+            "green",
+        )
+        return target
+
+    def _confirm_replace(self, client: viser.ClientHandle, summary: DatasetSummary) -> None:
+        with client.gui.add_modal("Replace this workspace?") as modal:
+            client.gui.add_markdown(
+                f"Import **{escape(summary.source)}** ({summary.n_demos} demonstrations) into the "
+                f"current workspace? Its demonstrations move to the workspace's trash "
+                "(*Recently deleted* restores them)."
+            )
+            yes = client.gui.add_button("Replace this workspace", color="red")
+            no = client.gui.add_button("Cancel")
+
+        @yes.on_click
+        def _(_) -> None:
+            modal.close()
+            self.replace(client)
+
+        @no.on_click
+        def _(_) -> None:
+            modal.close()
+
+    def replace(self, client) -> bool:
+        with self._lock:
+            upload, data = self.upload, self.data
+            if upload is None or data is None:
+                return False
+            try:
+                self.session.replace(data, f"replaced by the dataset {upload.filename}")
+            except (ValueError, OSError) as exc:
+                self.notify(client, f"Cannot import {upload.filename}", f"{exc}.", "red")
+                return False
+            self._discard()
+        self.notify(
+            client,
+            "Workspace replaced",
+            f"{upload.filename}: {data.n_demos} demonstrations. The previous content is in the "
+            "trash (Recently deleted).",
+            "green",
+        )
+        return True
+
+    def _discard(self) -> None:
+        """Forget the pending upload and remove its temporary folder (lock held)."""
+        if self.upload is not None:
+            self.upload.close()
+        self.upload, self.data, self.summary = None, None, None
+        self.actions.visible = False
+        self.format.visible = self.modalities.visible = False
+        self.preview.content = ""
+
+    def close(self) -> None:
+        with self._lock:
+            if self.upload is not None:
+                self.upload.close()
+        self.guard.close()

@@ -1,0 +1,18 @@
+"""The modalities the iCub studio records, defined once.
+
+- ``hand``: the position of ``l_hand_dh_frame`` in the robot's root frame (x, y, z, metres;
+  z up, the robot faces -x, its left is -y), the physical guidance;
+- ``head``: the partner's head orientation (roll, pitch, yaw, radians; the convention of
+  :mod:`robots.icub.scene`), the visual guidance.
+
+The simulated scenario writes these columns, the studio records them, and any workspace's
+``hand`` modality (3 columns, metres, root frame) drives the 3D view.
+"""
+
+from __future__ import annotations
+
+from promp.data import Layout, Modality
+
+HAND = Modality("hand", ("x", "y", "z"), unit="m", kind="linear")
+HEAD = Modality("head", ("roll", "pitch", "yaw"), unit="rad", kind="angle")
+STUDIO_LAYOUT = Layout((HAND, HEAD))
