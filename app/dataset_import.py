@@ -212,10 +212,12 @@ def extract_dataset_zip(
     try:
         with archive:
             _extract(archive, tempdir, limits, upload.ignored)
-        # A zip of the dataset folder itself: its classes are one level down.
+        # A zip of the dataset folder itself (one folder holding folders): its classes are
+        # one level down. (One folder of files is a dataset of one class.)
         entries = list(tempdir.iterdir())
         if len(entries) == 1 and entries[0].is_dir():
-            upload.root = entries[0]
+            if any(p.is_dir() for p in entries[0].iterdir()):
+                upload.root = entries[0]
         upload.format = detect_format(upload.root)
     except ValueError:
         upload.close()

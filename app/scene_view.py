@@ -53,6 +53,8 @@ class SceneView:
 
     def show_head(self, angles: np.ndarray | None) -> None:
         """Orient the avatar (angles: roll, pitch, yaw) or grey it out when there is no face."""
+        if not self.head_frame.visible:  # the workspace has no head modality
+            return
         if angles is None:
             self.gaze.visible = False
             self.head_status = "no face"
@@ -78,6 +80,9 @@ class SceneView:
             layout = session.layout
         if hand_dims(layout) is None:  # nothing of this workspace lives in 3D
             demos, model = {}, None
+        has_head = "head" in layout.names  # the partner is shown when the head is a modality
+        if self.head_frame.visible != has_head:
+            self.head_frame.visible = has_head
         self._draw_lines(demos, colors, hidden, layout)
         self._draw_tubes(model, colors)
         return True

@@ -192,6 +192,24 @@ class FakeClock:
         return self.t
 
 
+def test_a_finished_replay_has_already_moved_the_hand_to_the_end() -> None:
+    """Another thread that sees the replay finished must see the hand at the end: the state
+    changes only after the hand has moved (a test once read the hand in between)."""
+    clock = FakeClock()
+    seen = []
+    replay = Replay(lambda p: seen.append((np.array(p), replay.finished, replay.playing)),
+                    clock=clock)  # fmt: skip
+    path = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]])
+    replay.load(np.array([0.0, 1.0]), path)
+    replay.play()
+    clock.t = 2.0
+    replay.step()
+    position, finished_while_moving, playing_while_moving = seen[-1]
+    assert_allclose(position, path[-1])
+    assert not finished_while_moving and playing_while_moving
+    assert replay.finished and not replay.playing
+
+
 def test_replay_advances_by_elapsed_time() -> None:
     clock, moves = FakeClock(), []
     replay = Replay(lambda p: moves.append(np.array(p)), clock=clock)

@@ -61,14 +61,14 @@ class DatasetImport:
         self.server = server
         self.session = session
         self.notify = notify
-        self.max_upload_bytes = max_upload_bytes
+        self._max_upload_bytes = int(max_upload_bytes)
         self._lock = threading.RLock()
         self._quiet = False  # set while the code itself changes the inputs
         self.upload: DatasetUpload | None = None
         self.data: WorkspaceData | None = None
         self.summary: DatasetSummary | None = None
         gui = server.gui
-        with gui.add_folder("Import dataset", expand_by_default=False):
+        with gui.add_folder("Import dataset"):
             gui.add_markdown(
                 "Your own recordings, as a **zip of their folder**: `<primitive>/<demo>.csv` "
                 "(a header row: `t` in seconds, then named columns) or lab records "
@@ -99,6 +99,14 @@ class DatasetImport:
         for handle in (self.format, self.modalities):
             handle.on_update(lambda event: None if self._quiet else self.reread(event.client))
         self.actions.on_click(lambda event: self.act(event.client, event.target.value))
+
+    @property
+    def max_upload_bytes(self) -> int:
+        return self._max_upload_bytes
+
+    @max_upload_bytes.setter
+    def max_upload_bytes(self, value: int) -> None:
+        self._max_upload_bytes = self.guard.max_bytes = int(value)
 
     # ------------------------------------------------------------------ steps
 

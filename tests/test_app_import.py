@@ -1,0 +1,176 @@
+"""Importing one's own recordings from the Data tab, in a real browser: bad imports are refused
+with the workspace unchanged; a dataset replaces the workspace (the old one restorable from
+"Recently deleted", byte for byte); the authors' lab recordings become a new workspace whose
+122 demonstrations and 3 priors are drawn around the iCub's hand, and Infer scrubs one of them
+while the arm replays the prediction through IK."""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.workspace import PALETTE, PrimitiveEntry, Workspace, WorkspaceData
+from tests.browser import choose, click, notification, press, screenshot, upload_file
+from tests.conftest import open_page, start_studio, wait_until
+from tests.test_dataset_import import BAD_ZIPS, csv_demo, zip_folder, zip_of
+
+
+def tree_hash(root: Path, trash: bool = True) -> str:
+    digest = hashlib.sha256()
+    for path in sorted(p for p in root.rglob("*") if p.is_file()):
+        relative = path.relative_to(root)
+        if trash or relative.parts[0] != "trash":
+            digest.update(str(relative).encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory):
+    """A studio on 2 primitives x 4 demonstrations of the simulated scenario."""
+    from robots.icub.scenario import generate_scenario
+
+    root = tmp_path_factory.mktemp("import") / "ws"
+    dataset = generate_scenario(seed=2, n_demos=4)
+    Workspace.create(
+        root,
+        WorkspaceData(
+            primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
+            demos=dataset,
+        ),
+    )
+    studio = start_studio(root)
+    yield studio
+    studio.stop()
+
+
+@pytest.fixture(scope="module")
+def page(browser, studio):
+    page, _client = open_page(browser, studio, width=1400, height=900)
+    page.set_default_timeout(120_000)
+    page.get_by_role("tab", name="Data").click()
+    page.get_by_role("button", name="Upload dataset (.zip)").wait_for()
+    yield page
+    page.close()
+
+
+def importer(studio):
+    from app.panels.data import DataPanel
+
+    return next(p for p in studio.panels if isinstance(p, DataPanel)).importer
+
+
+GUI_REFUSALS = ["empty folder", "non-numeric", "one demonstration", "zip-slip", "not a zip"]
+
+
+@pytest.mark.browser
+def test_bad_imports_are_refused_and_change_nothing(page, studio) -> None:
+    session, section = studio.session, importer(studio)
+    before, version = tree_hash(studio.workspace), session.version
+    for case in GUI_REFUSALS:
+        content, reason = BAD_ZIPS[case]
+        upload_file(page, section.upload_button, f"{case.replace(' ', '-')}.zip", content)
+        text = notification(page, f"Cannot import {case.replace(' ', '-')}.zip", reason[-30:])
+        assert reason.replace("bad.zip", f"{case.replace(' ', '-')}.zip") in text, text
+    # Too large: refused as the upload starts, before anything is buffered.
+    section.max_upload_bytes = 64 * 1024
+    try:
+        upload_file(page, section.upload_button, "huge.zip", b"\0" * (2 * 2**20))
+        assert "2.0 MB, over the 64.0 KB limit" in notification(page, "Cannot import huge.zip")
+    finally:
+        section.max_upload_bytes = 200 * 2**20
+    # A mapping that names a missing column: refused, and the preview says why.
+    good = zip_of({f"{p}/d{i}.csv": csv_demo(10 * k + i) for k, p in enumerate("ab")
+                   for i in range(3)})  # fmt: skip
+    upload_file(page, section.upload_button, "mine.zip", good)
+    page.get_by_text("2 primitives, 6 demonstrations").wait_for()
+    assert section.modalities.value == "hand=x,y,z"  # guessed from the header
+    section.modalities.value = "hand=x,y,w"
+    assert "missing column(s) ['w']" in notification(page, "Cannot import mine.zip", "['w']")
+    assert not section.actions.visible
+    time.sleep(0.5)  # anything that would (wrongly) change the workspace has had time to
+    assert tree_hash(studio.workspace) == before and session.version == version
+
+
+@pytest.mark.browser
+def test_a_dataset_replaces_the_workspace_and_the_old_one_comes_back(page, studio) -> None:
+    session, section = studio.session, importer(studio)
+    before = tree_hash(studio.workspace, trash=False)
+    names = session.names()
+    data = zip_of({f"{p}/take{i}.csv": csv_demo(10 * k + i) for k, p in enumerate(("up", "down"))
+                   for i in range(3)})  # fmt: skip
+    upload_file(page, section.upload_button, "takes.zip", data)
+    page.get_by_text("2 primitives, 6 demonstrations: down (3), up (3)").wait_for()
+    click(page, "Replace this workspace")
+    page.get_by_text("Replace this workspace?").wait_for()
+    press(page, page.get_by_role("button", name="Replace this workspace").last)
+    notification(page, "Workspace replaced", "takes.zip: 6 demonstrations")
+    wait_until(lambda: session.names() == ["down", "up"], what="the imported primitives")
+    assert session.layout.names == ("hand",)
+    # The previous workspace waits in the trash: restore it from "Recently deleted".
+    from app.panels.data import DataPanel
+
+    trash = next(p for p in studio.panels if isinstance(p, DataPanel)).trash
+    wait_until(lambda: trash.choice.options[0].endswith("replaced by the dataset takes.zip"),
+               what="the trash entry listed")  # fmt: skip
+    press(page, page.get_by_text("Recently deleted", exact=True))  # open the folder
+    choose(page, trash.choice, trash.choice.options[0])
+    click(page, "Restore")
+    notification(page, "Restored")
+    wait_until(lambda: session.names() == names, what="the previous workspace back")
+    assert tree_hash(studio.workspace, trash=False) == before
+    assert session.layout.names == ("hand", "head")
+
+
+@pytest.mark.browser
+def test_the_lab_recordings_on_the_icub(page, studio, heights_dir, artifacts) -> None:
+    session, section = studio.session, importer(studio)
+    old_root, old = studio.workspace, tree_hash(studio.workspace)
+    upload_file(page, section.upload_button, "lab-records-heights.zip", zip_folder(heights_dir))
+    page.get_by_text("122 demonstrations: bottom (40), middle (40), top (42)").wait_for()
+    assert section.format.value == "records"
+    click(page, "Create workspace")
+    text = notification(page, "Workspace created")
+    assert "122 demonstrations of 3 primitives" in text
+    wait_until(lambda: session.workspace.root == old_root.parent / "lab-records-heights",
+               what="the new workspace")  # fmt: skip
+    assert tree_hash(old_root) == old  # the previous workspace is untouched
+    view = studio.view
+    wait_until(lambda: len(view.lines) == 122 and len(view.tubes) == 3, what="lines and tubes")
+    assert set(view.tubes) == {"bottom", "middle", "top"}
+    assert not view.head_frame.visible  # no head modality: no partner
+    # The priors are around the iCub's hand: their means start within a few cm of it.
+    hand = studio.arm.hand_position()
+    for name in view.tubes:
+        start = view.prior_tube(session.model, name)[0][0]
+        assert np.linalg.norm(start - hand) < 0.08, (name, start, hand)
+
+    page.get_by_role("tab", name="Teach").click()
+    page.get_by_text("40 demonstration(s) of bottom").wait_for()
+    screenshot(page, artifacts / "teach_lab_records.png")
+
+    # Infer: a held-out recording, scrubbed, then replayed by the arm through IK.
+    from app.panels.infer import InferPanel
+
+    panel = next(p for p in studio.panels if isinstance(p, InferPanel))
+    page.get_by_role("tab", name="Infer").click()
+    choose(page, panel.primitive, "top")
+    choose(page, panel.demo, "person2_record3")
+    panel.percent.value = 60
+    result = wait_until(
+        lambda: panel.result if panel.result is not None and panel.result.truth is not None
+        and panel.result.truth.name == "person2_record3" and not panel._dirty else None,
+        timeout=120, what="the scrub step",
+    )  # fmt: skip
+    assert result.primitive == "top"
+    assert "learned without person2_record3" in panel.model_note
+    page.get_by_text("Recognised: top").wait_for()
+    panel.session_mode.value = "faded"
+    screenshot(page, artifacts / "infer_lab_records.png")
+    click(page, "Play")
+    wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
+    end = result.future_hand[-1]
+    assert np.linalg.norm(studio.arm.hand_position() - end) < 0.005  # reached through IK
