@@ -67,6 +67,14 @@ GUI_REFUSALS = ["empty folder", "non-numeric", "one demonstration", "zip-slip", 
 
 
 @pytest.mark.browser
+def test_no_public_share_button(page) -> None:
+    """viser's "Share" would publish the studio on a public URL, past the loopback default
+    (its icon is there whenever the theme allows the button)."""
+    page.get_by_role("tab", name="Teach").wait_for()
+    assert page.locator(".tabler-icon-share").count() == 0
+
+
+@pytest.mark.browser
 def test_bad_imports_are_refused_and_change_nothing(page, studio) -> None:
     session, section = studio.session, importer(studio)
     before, version = tree_hash(studio.workspace), session.version
