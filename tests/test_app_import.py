@@ -182,3 +182,46 @@ def test_the_lab_recordings_on_the_icub(page, studio, heights_dir, artifacts) ->
     wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
     end = result.future_hand[-1]
     assert np.linalg.norm(studio.arm.hand_position() - end) < 0.005  # reached through IK
+
+
+def test_a_workspace_of_other_modalities_has_their_charts_and_no_recording(
+    tmp_path, heights_dir
+) -> None:
+    """Forces beside the hand: charts per dimension in Teach and Infer, observable alone or
+    together, and a Record that explains why it is off (no browser needed: the panels' state
+    is the server's)."""
+    from app.dataset_import import read_folder
+    from app.panels.infer import InferPanel
+    from app.panels.teach import TeachPanel
+    from promp.datasets import parse_modalities
+
+    data, _ = read_folder(
+        heights_dir, "records", parse_modalities("hand=x,y,z; force=fx,fy,fz")
+    )
+    data.demos = {name: demos[:6] for name, demos in data.demos.items()}  # quicker
+    Workspace.create(tmp_path / "ws", data)
+    studio = start_studio(tmp_path / "ws")
+    try:
+        teach = next(p for p in studio.panels if isinstance(p, TeachPanel))
+        infer = next(p for p in studio.panels if isinstance(p, InferPanel))
+        assert [q.title for q in infer.quantities] == [
+            "hand x (cm)", "hand y (cm)", "hand z (cm)", "force fx (N)", "force fy (N)",
+            "force fz (N)",
+        ]  # fmt: skip
+        assert len(teach.plots) == 6 and len(infer.charts) == 6
+        assert tuple(infer.observed.options) == ("hand + force", "hand", "force")
+        assert not teach.head_folder.visible
+        assert "Recording is off in this workspace" in teach.record_status.content
+        infer.observed.value = "force"
+        infer.percent.value = 70
+        result = wait_until(
+            lambda: infer.result if infer.result is not None
+            and infer.result.observation.modalities == ("force",) and not infer._dirty else None,
+            timeout=120, what="an inference from the forces alone",
+        )  # fmt: skip
+        assert result.posterior.mean.shape[1] == 6
+        teach._record_clicked = True  # what the Record button's callback records
+        wait_until(lambda: "cannot record" in teach.last_message, what="the refusal")
+        assert teach.take is None
+    finally:
+        studio.stop()

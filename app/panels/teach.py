@@ -512,7 +512,14 @@ class TeachPanel:
 
     def _idle_status(self) -> str:
         name = self.selected() if hasattr(self, "primitive") else None
-        if name is None:
+        missing = unrecordable(self.session.layout)
+        if missing:
+            text = colored(
+                f"Recording is off in this workspace: its demonstrations also hold "
+                f"{', '.join(missing)}, which the studio cannot record.",
+                ORANGE,
+            )
+        elif name is None:
             text = "Create a primitive to record into."
         else:
             text = f"Ready to record into **{name}**: drag the hand's gizmo while recording."
