@@ -34,6 +34,7 @@ import numpy as np
 import viser
 
 from app import exchange
+from app.dialogs import confirm
 from app.display import observed_choices
 from app.gui_text import display_name, escape
 from app.panels.import_dataset import DatasetImport
@@ -434,25 +435,17 @@ class DataPanel:
             current_p = len(self.session.primitives)
             current_d = sum(len(v) for v in self.session.demos.values())
         names = ", ".join(p.name for p in upload.data.primitives) or "none"
-        with client.gui.add_modal("Replace the workspace?") as modal:
-            client.gui.add_markdown(
-                f"**{name}** holds {len(upload.data.primitives)} primitives ({names}) and "
-                f"{upload.n_demos} demonstrations.\n\nImporting it replaces the current "
-                f"workspace ({current_p} primitives, {current_d} demonstrations), which moves "
-                "to the workspace's trash (*Recently deleted* restores it)."
-            )
-            replace = client.gui.add_button("Replace the workspace", color="red")
-            cancel = client.gui.add_button("Cancel")
-
-        @replace.on_click
-        def _(_) -> None:
-            modal.close()
-            self.replace_workspace(client, upload)
-
-        @cancel.on_click
-        def _(_) -> None:
-            modal.close()
-            self._notify(client, "Import cancelled", f"{name}: nothing was changed.")
+        confirm(
+            client,
+            "Replace the workspace?",
+            f"**{name}** holds {len(upload.data.primitives)} primitives ({names}) and "
+            f"{upload.n_demos} demonstrations.\n\nImporting it replaces the current "
+            f"workspace ({current_p} primitives, {current_d} demonstrations), which moves "
+            "to the workspace's trash (*Recently deleted* restores it).",
+            "Replace the workspace",
+            lambda: self.replace_workspace(client, upload),
+            lambda: self._notify(client, "Import cancelled", f"{name}: nothing was changed."),
+        )
 
     def replace_workspace(
         self, client: viser.ClientHandle | None, upload: exchange.WorkspaceUpload

@@ -31,6 +31,7 @@ from app.dataset_import import (
     extract_dataset_zip,
     safe_name,
 )
+from app.dialogs import confirm
 from app.exchange import Limits, format_size
 from app.gui_text import display_name, escape
 from app.session import Session
@@ -195,64 +196,61 @@ class DatasetImport:
     def create(self, client) -> Path | None:
         """Make a new workspace beside the current one from the previewed dataset, and serve
         it. Returns its folder (None when refused)."""
-        with self._lock:
-            upload, data = self.upload, self.data
-            if upload is None or data is None:
-                return None
+        target = None
+
+        def apply(upload: DatasetUpload, data: WorkspaceData) -> str:
+            nonlocal target
             target = sibling_folder(self.session.workspace.root, Path(upload.filename).stem)
-            try:
-                self.session.switch(target, data)
-            except (ValueError, OSError) as exc:
-                self.notify(client, f"Cannot import {upload.filename}", f"{exc}.", "red")
-                return None
-            self._discard()
-        self.notify(
-            client,
-            "Workspace created",
-            f"{target.resolve()}: {data.n_demos} demonstrations of {len(data.primitives)} "
-            f"primitives. The studio now serves it (reopen it with --workspace {target}); the "
-            "previous workspace is unchanged on disk.",
-            "green",
-        )
-        return target
+            self.session.switch(target, data)
+            return (
+                f"{target.resolve()}: {data.n_demos} demonstrations of {len(data.primitives)} "
+                f"primitives. The studio now serves it (reopen it with --workspace {target}); "
+                "the previous workspace is unchanged on disk."
+            )
+
+        return target if self._apply(client, "Workspace created", apply) else None
 
     def _confirm_replace(self, client: viser.ClientHandle, summary: DatasetSummary) -> None:
-        with client.gui.add_modal("Replace this workspace?") as modal:
-            client.gui.add_markdown(
-                f"Import **{escape(summary.source)}** ({summary.n_demos} demonstrations) into the "
-                f"current workspace? Its demonstrations move to the workspace's trash "
-                "(*Recently deleted* restores them)."
-            )
-            yes = client.gui.add_button("Replace this workspace", color="red")
-            no = client.gui.add_button("Cancel")
-
-        @yes.on_click
-        def _(_) -> None:
-            modal.close()
-            self.replace(client)
-
-        @no.on_click
-        def _(_) -> None:
-            modal.close()
+        confirm(
+            client,
+            "Replace this workspace?",
+            f"Import **{escape(summary.source)}** ({summary.n_demos} demonstrations) into the "
+            "current workspace? Its demonstrations move to the workspace's trash (*Recently "
+            "deleted* restores them).",
+            "Replace this workspace",
+            lambda: self.replace(client),
+        )
 
     def replace(self, client) -> bool:
+        """Put the previewed dataset in the current workspace (its content to the trash)."""
+
+        def apply(upload: DatasetUpload, data: WorkspaceData) -> str:
+            self.session.replace(data, f"replaced by the dataset {upload.filename}")
+            return (
+                f"{upload.filename}: {data.n_demos} demonstrations. The previous content is "
+                "in the trash (Recently deleted)."
+            )
+
+        return self._apply(client, "Workspace replaced", apply)
+
+    def _apply(
+        self,
+        client,
+        title: str,
+        apply: Callable[[DatasetUpload, WorkspaceData], str],
+    ) -> bool:
+        """Run ``apply`` on the previewed dataset, then forget it; notify the outcome."""
         with self._lock:
             upload, data = self.upload, self.data
             if upload is None or data is None:
                 return False
             try:
-                self.session.replace(data, f"replaced by the dataset {upload.filename}")
+                message = apply(upload, data)
             except (ValueError, OSError) as exc:
                 self.notify(client, f"Cannot import {upload.filename}", f"{exc}.", "red")
                 return False
             self._discard()
-        self.notify(
-            client,
-            "Workspace replaced",
-            f"{upload.filename}: {data.n_demos} demonstrations. The previous content is in the "
-            "trash (Recently deleted).",
-            "green",
-        )
+        self.notify(client, title, message, "green")
         return True
 
     def _discard(self) -> None:

@@ -1,0 +1,34 @@
+"""Dialogs shown to one browser tab."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import viser
+
+
+def confirm(
+    client: viser.ClientHandle,
+    title: str,
+    text: str,
+    action: str,
+    on_confirm: Callable[[], object],
+    on_cancel: Callable[[], object] | None = None,
+) -> None:
+    """A modal in ``client``'s tab asking ``text`` (markdown), with a red ``action`` button
+    that runs ``on_confirm()`` and a Cancel button (``on_cancel()``); either closes it."""
+    with client.gui.add_modal(title) as modal:
+        client.gui.add_markdown(text)
+        yes = client.gui.add_button(action, color="red")
+        no = client.gui.add_button("Cancel")
+
+    @yes.on_click
+    def _(_) -> None:
+        modal.close()
+        on_confirm()
+
+    @no.on_click
+    def _(_) -> None:
+        modal.close()
+        if on_cancel is not None:
+            on_cancel()
