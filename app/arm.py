@@ -18,6 +18,7 @@ from robots.icub.ik import IKResult, solve_ik
 from robots.icub.kinematics import ArmChain
 
 GIZMO_NODE = "/hand_gizmo"
+MAX_IK_STEP_M = 0.03  # longest straight move solved in one IK call, metres
 
 
 class ArmController:
@@ -114,8 +115,21 @@ class ArmController:
         self.gizmo.wxyz = vtf.SO3.from_matrix(pose[:3, :3]).wxyz
 
     def move_hand_to(self, position: np.ndarray) -> IKResult:
-        """Solve and show the arm reaching ``position`` (position only); gizmo follows."""
-        result = solve_ik(self.arm, position, self.q, lock_torso=self.lock_torso)
+        """Solve and show the arm reaching ``position`` (position only); gizmo follows.
+
+        A long move (a replay step after the loop stalled, a jump to a new path) is solved as
+        a chain of short ones along the straight line, each warm-started from the previous, as
+        if the hand had been dragged there: one long jump can end in a joint-limit corner that
+        short steps never visit.
+        """
+        position = np.asarray(position, dtype=float)
+        start = self.hand_position()
+        n_steps = max(1, int(np.ceil(np.linalg.norm(position - start) / MAX_IK_STEP_M)))
+        q = self.q
+        for k in range(1, n_steps + 1):
+            target = start + (position - start) * (k / n_steps)
+            result = solve_ik(self.arm, target, q, lock_torso=self.lock_torso)
+            q = result.q
         self.last = result
         self.set_q(result.q)
         return result

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 
 from app.workspace import PALETTE, PrimitiveEntry, Workspace, WorkspaceData
 from tests.browser import choose, click, notification, press, screenshot, upload_file
@@ -180,8 +181,12 @@ def test_the_lab_recordings_on_the_icub(page, studio, heights_dir, artifacts) ->
     screenshot(page, artifacts / "infer_lab_records.png")
     click(page, "Play")
     wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
-    end = result.future_hand[-1]
-    assert np.linalg.norm(studio.arm.hand_position() - end) < 0.005  # reached through IK
+    # The path replayed is the scrubbed prediction (the latest scrub's, should the loop have
+    # scrubbed again meanwhile), and the arm reached its end through IK.
+    played = panel.replay.positions
+    assert_allclose(played, panel.result.future_hand)
+    assert panel.result.primitive == "top"
+    assert np.linalg.norm(studio.arm.hand_position() - played[-1]) < 0.005
 
 
 def test_a_workspace_of_other_modalities_has_their_charts_and_no_recording(

@@ -488,6 +488,16 @@ def test_slider_scrubbed_in_the_browser(studio, page) -> None:
         assert max(bars, key=bars.get) == primitive
 
 
+class ManualClock:
+    """A monotonic clock that only moves when the test says."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
 class ArmSampler:
     """Samples (time, arm configuration, replay progress, playing) every 10 ms in a thread."""
 
@@ -528,18 +538,36 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
         box = buttons[name]
         page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
 
+    # Pause and resume, on a clock the test moves: how far the replay gets between two clicks
+    # must not depend on how busy the machine is.
+    clock = ManualClock()
+    panel.replay.clock = clock
+    try:
+        press("Play")
+        wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to start")
+        clock.now += 0.3 * result.remaining
+        wait_until(lambda: panel.replay.progress > 0.0, timeout=30, what="the replay to advance")
+        press("Pause")
+        wait_until(lambda: not panel.replay.playing, timeout=30, what="the pause")
+        assert 0.25 <= panel.replay.progress <= 0.35, "paused where the clock was"
+        q_paused = studio.arm.q.copy()
+        clock.now += result.remaining  # time passes while paused: the arm stays
+        time.sleep(0.3)
+        assert_allclose(studio.arm.q, q_paused)
+        assert panel.replay.progress <= 0.35
+        press("Play")
+        wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to resume")
+        clock.now += result.remaining
+        wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
+    finally:
+        panel.replay.clock = time.monotonic
+    # Then in real time, from the start.
+    press("Reset")
+    wait_until(lambda: panel.replay.progress == 0.0, timeout=30, what="the rewind")
     sampler = ArmSampler(studio, panel)
     try:
         press("Play")
         wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to start")
-        time.sleep(0.6)
-        press("Pause")
-        wait_until(lambda: not panel.replay.playing, timeout=30, what="the pause")
-        assert 0.0 < panel.replay.progress < 1.0, "paused before the end"
-        q_paused = studio.arm.q.copy()
-        time.sleep(0.5)
-        assert_allclose(studio.arm.q, q_paused)  # paused: the arm stays
-        press("Play")
         wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
     finally:
         sampler.stop()
