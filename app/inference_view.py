@@ -23,15 +23,10 @@ import numpy as np
 
 from promp.data import Demonstration, Layout
 from promp.evaluate import metrics
-from promp.inference import (
-    Observation,
-    Prediction,
-    Recognition,
-    condition,
-    predict,
-    recognise,
-)
+from promp.inference import Observation, Prediction, predict
 from promp.model import ProMPModel, Settings, fit
+from promp.pipeline import infer
+from promp.recognition import Recognition
 
 # What the GUI offers, and what the engine calls it.
 ALPHA_CHOICES: dict[str, str] = {"ML": "ml", "model": "model"}
@@ -224,11 +219,9 @@ def scrub_step(
         From the engine: an unknown modality, an unknown alpha method, or an observation longer
         than every candidate duration.
     """
-    reco = recognise(model, observation, alpha_method=alpha_method)
-    prim = model.primitives[reco.index]
-    posterior = condition(model, prim, observation, reco.alpha)
-    prior_pred = predict(model, prim, reco.alpha, n_points=TUBE_POINTS)
-    post_pred = predict(model, posterior, reco.alpha, n_points=TUBE_POINTS)
+    result = infer(model, observation, alpha_method=alpha_method, n_points=TUBE_POINTS)
+    reco, posterior = result.recognition, result.posterior
+    prior_pred, post_pred = result.prior, result.prediction
     duration = post_pred.duration
     observed_until = float(observation.elapsed[-1])
     z_start = min(observed_until / duration, 1.0) if duration > 0 else 1.0

@@ -16,7 +16,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -33,32 +33,11 @@ from app.workspace import (
     inspect_folder,
 )
 from promp.data import Demonstration, Layout
-from promp.inference import Observation, log_likelihoods
 from promp.model import ProMPModel, Settings, fit
+from promp.pipeline import Typicality, typicality
 
 DEFAULT_SETTINGS = {"n_basis": Settings().n_basis, "width": Settings().width}
 KEEP = object()  # set_learning: leave a setting as it is
-
-
-@dataclass(frozen=True)
-class Typicality:
-    """How a demonstration compares with its primitive's other demonstrations.
-
-    ``percentile`` is the fraction of the primitive's demonstrations (each scored by a model
-    learned without it) whose log-likelihood is lower than this one's: near 0 means an
-    outlier.
-    """
-
-    log_likelihood: float
-    percentile: float
-
-    @property
-    def label(self) -> str:
-        if self.percentile < 0.05:
-            return "outlier"
-        if self.percentile < 0.2:
-            return "unusual"
-        return "typical"
 
 
 class Session:
@@ -180,30 +159,7 @@ class Session:
         demonstrations (None when fewer than three exist)."""
         with self.lock:
             others = [d for d in self.demos.get(primitive, []) if d.name != demo.name]
-            if len(others) < 3:
-                return None
-            layout = self.layout
-            try:
-                model = fit({primitive: others}, layout, self.learning_settings())
-            except ValueError:
-                return None
-            settings = self.learning_settings()
-
-            def loglik(m: ProMPModel, d: Demonstration) -> float:
-                obs = Observation.from_demo(m, d, d.n_samples, layout.names)
-                alpha = settings.s_bar / (d.duration / m.sample_period + 1.0)
-                value = log_likelihoods(m, m.primitives[0], obs, [alpha * (1 - 1e-9)])[0]
-                return float(value) / d.n_samples
-
-            score = loglik(model, demo)
-            references = []
-            for i, other in enumerate(others):
-                rest = others[:i] + others[i + 1 :]
-                if len(rest) < 2:
-                    continue
-                references.append(loglik(fit({primitive: rest}, layout, settings), other))
-            percentile = float(np.mean(np.array(references) < score)) if references else 0.5
-            return Typicality(score, percentile)
+            return typicality(demo, others, self.layout, self.learning_settings())
 
     # ------------------------------------------------------------------ mutations
 
@@ -332,7 +288,7 @@ class Session:
 
     def set_learning(self, n_basis: int, width: float, shrinkage: object = KEEP) -> None:
         """Change the learning settings. ``shrinkage``: a float in (0, 1], or None for the
-        leave-one-out estimate; when omitted, the current one is kept."""
+        automatic pooled prior; when omitted, the current one is kept."""
         with self.lock:
             extra = {}
             if shrinkage is not KEEP:

@@ -31,12 +31,6 @@ from robots.icub.scene import DEFAULT_SCENE
 LOOP_HZ = 60.0
 
 
-# The learning settings ``python -m promp.evaluate.select`` picks on the scenario (leave-one-out
-# log-loss of the true primitive over 10-90 % observed; see the README's evaluation): 15 basis
-# functions per dimension, width 1.5 spacings, leave-one-out covariance shrinkage (None).
-SCENARIO_SETTINGS = {"n_basis": 15, "width": 1.5, "shrinkage": None}
-
-
 def default_workspace() -> WorkspaceData:
     """The embedded default: the paper's experiment simulated on the iCub (curved, direct)."""
     from robots.icub.scenario import generate_scenario
@@ -45,7 +39,7 @@ def default_workspace() -> WorkspaceData:
     return WorkspaceData(
         primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
         demos=dataset,
-        settings=dict(SCENARIO_SETTINGS),
+        settings={},  # the engine's defaults: the covariance prior is chosen from the data
     )
 
 

@@ -26,8 +26,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from promp.data import Demonstration, Layout, Modality  # noqa: E402
-from promp.inference import Observation, condition, predict, recognise  # noqa: E402
+from promp.inference import Observation, log_likelihoods, predict  # noqa: E402
 from promp.model import Settings, fit  # noqa: E402
+from promp.pipeline import infer  # noqa: E402
 from promp.timing import duration_from_alpha  # noqa: E402
 
 D, M, N_DEMOS, RATE = 9, 20, 20, 50.0
@@ -54,10 +55,7 @@ def make_primitive(rng: np.random.Generator, k: int) -> list[Demonstration]:
 
 
 def scrub_step(model, obs):
-    reco = recognise(model, obs)
-    prim = model.primitives[reco.index]
-    post = condition(model, prim, obs, reco.alpha)
-    return reco, predict(model, prim, reco.alpha), predict(model, post, reco.alpha)
+    return infer(model, obs)
 
 
 def naive_log_likelihood(model, prim, obs, alpha):
@@ -134,7 +132,7 @@ def main() -> None:
         if n_prims == 2:
             obs = Observation.from_demo(model, test, test.n_samples, OBSERVED)
             prim = model.primitives[0]
-            fast = recognise(model, obs).log_likelihoods[0]
+            fast = log_likelihoods(model, prim, obs, prim.alphas)
             slow = [naive_log_likelihood(model, prim, obs, a)[0] for a in prim.alphas]
             finite = np.isfinite(fast)
             diff = float(np.max(np.abs(fast[finite] - np.array(slow)[finite])))

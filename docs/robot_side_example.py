@@ -12,8 +12,9 @@ import argparse
 import numpy as np
 
 from promp.datasets import read_csv_demo
-from promp.inference import Observation, condition, predict, recognise
+from promp.inference import Observation
 from promp.io import load_model
+from promp.pipeline import infer
 
 
 def main() -> None:
@@ -42,12 +43,11 @@ def main() -> None:
         values[:, angles] = np.unwrap(values[:, angles], axis=0)  # angles must not jump
         obs = Observation(np.array(times), values, tuple(observed))
         try:
-            reco = recognise(model, obs)
-        except ValueError as exc:  # e.g. longer than every movement the model knows
+            result = infer(model, obs)  # recognise, condition, predict
+        except ValueError as exc:  # e.g. a non-finite sample
             print(f"t={t:5.2f} s  no recognition: {exc}")
             continue
-        posterior = condition(model, model.primitives[reco.index], obs, reco.alpha)
-        prediction = predict(model, posterior, reco.alpha)
+        reco, prediction = result.recognition, result.prediction
         end = prediction.mean[-1, hand]
         probabilities = " ".join(
             f"{p.name}={q:.2f}" for p, q in zip(model.primitives, reco.probabilities, strict=True)

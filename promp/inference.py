@@ -1,14 +1,11 @@
-"""Recognition, conditioning and prediction (paper Eqs. 5-8).
+"""Likelihood, conditioning and prediction (paper Eqs. 5-8).
 
 From the first samples of a movement, observed in any subset of the modalities:
 
-* :func:`recognise` scores every primitive k and candidate time modulation alpha by the log
+* :func:`log_likelihoods` scores a primitive at candidate time modulations alpha by the log
   marginal likelihood of the observation (Eq. 6),
-  ``log N(y_o | Phi_o mu_k, Phi_o Sigma_k Phi_o^T + Sigma_noise)``, and returns the chosen
-  primitive, its alpha, a posterior probability per primitive and the table of scores. Alpha is
-  either the maximum-likelihood candidate among the primitive's training alphas ("ml", with an
-  optional continuous refinement) or the Eq. 7 regression from the early displacement
-  ("model").
+  ``log N(y_o | Phi_o mu_k, Phi_o Sigma_k Phi_o^T + Sigma_noise)`` (recognition, which
+  integrates it over alpha, is :mod:`promp.recognition`).
 * :func:`condition` updates the weight distribution on the observed samples (Eq. 8) with
   Cholesky solves, in weight space or observation space, whichever is smaller.
 * :func:`predict` gives the mean and standard deviation over [0, t_f] of every modality,
@@ -26,18 +23,14 @@ import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 from scipy.linalg import cho_solve, solve_triangular
-from scipy.optimize import minimize_scalar
 
-from promp import alpha_model
 from promp.data import Demonstration
 from promp.model import Primitive, ProMPModel
 from promp.timing import check_alpha, duration_from_alpha, n_samples_from_alpha
 
-AlphaMethod = Literal["ml", "model"]
 LOG_2PI = math.log(2.0 * math.pi)
 
 
@@ -107,7 +100,7 @@ def observed_dims(model: ProMPModel, modalities: Sequence[str]) -> np.ndarray:
     return model.layout.dims(modalities)
 
 
-def _check_observation(model: ProMPModel, obs: Observation) -> np.ndarray:
+def check_observation(model: ProMPModel, obs: Observation) -> np.ndarray:
     dims = observed_dims(model, obs.modalities)
     if obs.values.shape[1] != dims.shape[0]:
         raise ValueError(
@@ -300,7 +293,7 @@ def log_likelihoods(
     """
     alphas = np.atleast_1d(np.asarray(alphas, dtype=float))
     check_alpha(alphas)
-    dims = _check_observation(model, obs)
+    dims = check_observation(model, obs)
     durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
     valid = obs.elapsed[-1] <= durations * (1.0 + 1e-9)
     out = np.full(alphas.shape, -np.inf)
@@ -315,149 +308,6 @@ def log_likelihoods(
     logdet = w.logdet_b + np.log(w.c).sum(axis=(-1, -2)) + logdet_q
     out[valid] = -0.5 * (quad + logdet + obs.values.size * LOG_2PI)
     return out
-
-
-@dataclass(frozen=True, eq=False)
-class Recognition:
-    """Which primitive the observation belongs to, and at which speed.
-
-    Attributes
-    ----------
-    index : int
-        Index of the recognised primitive in ``model.primitives``.
-    primitive : str
-    alpha : float
-        Time modulation of the recognised primitive.
-    probabilities : array, shape (n_primitives,)
-        Posterior probability of each primitive (uniform prior over primitives; for "ml", each
-        primitive's likelihood is averaged over its candidate alphas).
-    candidates : tuple of arrays
-        Per primitive, the candidate alphas scored.
-    log_likelihoods : tuple of arrays
-        Per primitive, the log-likelihood of each candidate (the table of Eq. 6).
-    alpha_method : str
-    """
-
-    index: int
-    primitive: str
-    alpha: float
-    probabilities: np.ndarray
-    candidates: tuple[np.ndarray, ...]
-    log_likelihoods: tuple[np.ndarray, ...]
-    alpha_method: str
-
-
-def model_alpha(model: ProMPModel, primitive: Primitive, obs: Observation) -> float:
-    """Alpha from the early displacement of the observed modalities (Eq. 7), kept within the
-    range where the observation fits in the predicted duration."""
-    n_obs = int(round(obs.elapsed[-1] / model.sample_period)) + 1
-    deltas = {}
-    for name in obs.modalities:
-        cols = _modality_columns(model, obs, name)
-        deltas[name] = obs.values[-1, cols] - obs.values[0, cols]
-    alpha = alpha_model.combine(primitive.alpha_models, deltas, n_obs)
-    lo = 0.5 * float(primitive.alphas.min())
-    hi = 2.0 * float(primitive.alphas.max())
-    # The predicted movement must be at least as long as what has been observed.
-    longest_fit = model.settings.s_bar / (obs.elapsed[-1] / model.sample_period + 1.0)
-    return float(np.clip(alpha, lo, min(hi, longest_fit)))
-
-
-def _modality_columns(model: ProMPModel, obs: Observation, name: str) -> np.ndarray:
-    """Columns of ``obs.values`` that hold modality ``name``."""
-    start = 0
-    for observed in model.layout.modalities:
-        if observed.name not in obs.modalities:
-            continue
-        width = len(observed.columns)
-        if observed.name == name:
-            return np.arange(start, start + width)
-        start += width
-    raise ValueError(f"modality {name!r} is not observed")
-
-
-def _refine_alpha(
-    model: ProMPModel,
-    primitive: Primitive,
-    obs: Observation,
-    alphas: np.ndarray,
-    scores: np.ndarray,
-) -> float:
-    """Continuous maximum of the likelihood around the best candidate alpha."""
-    best = int(np.argmax(scores))
-    order = np.sort(alphas[np.isfinite(scores)])
-    i = int(np.searchsorted(order, alphas[best]))
-    lo = order[i - 1] if i > 0 else 0.9 * order[0]
-    hi = order[i + 1] if i + 1 < len(order) else 1.1 * order[-1]
-    longest_fit = model.settings.s_bar / (obs.elapsed[-1] / model.sample_period + 1.0)
-    hi = min(hi, longest_fit)
-    if hi <= lo:
-        return float(alphas[best])
-    result = minimize_scalar(
-        lambda a: -log_likelihoods(model, primitive, obs, np.array([a]))[0],
-        bounds=(lo, hi),
-        method="bounded",
-        options={"xatol": 1e-3 * (hi - lo)},
-    )
-    if result.success and -result.fun > scores[best]:
-        return float(result.x)
-    return float(alphas[best])
-
-
-def recognise(
-    model: ProMPModel,
-    obs: Observation,
-    alpha_method: AlphaMethod = "ml",
-    refine: bool = False,
-    evidence: Literal["marginal", "max"] = "marginal",
-) -> Recognition:
-    """Recognise the primitive and its time modulation from an early observation (Eq. 6).
-
-    Raises
-    ------
-    ValueError
-        Unknown modality, empty observation, or an observation longer than every candidate
-        duration of every primitive.
-    """
-    _check_observation(model, obs)
-    if alpha_method not in ("ml", "model"):
-        raise ValueError(f"alpha_method must be 'ml' or 'model', got {alpha_method!r}")
-    candidates = []
-    tables = []
-    evidence_rule = evidence
-    scores_k = np.empty(len(model.primitives))
-    for k, prim in enumerate(model.primitives):
-        if alpha_method == "ml":
-            alphas = prim.alphas
-        else:
-            alphas = np.array([model_alpha(model, prim, obs)])
-        scores = log_likelihoods(model, prim, obs, alphas)
-        candidates.append(alphas)
-        tables.append(scores)
-        if evidence_rule == "max":
-            scores_k[k] = float(np.max(scores))
-        else:
-            scores_k[k] = logsumexp(scores) - math.log(len(scores))
-    evidence = scores_k
-    if not np.isfinite(evidence).any():
-        raise ValueError(
-            "the observation lasts longer than every candidate duration of every primitive"
-        )
-    probabilities = np.exp(evidence - logsumexp(evidence))
-    index = int(np.argmax(evidence))
-    alphas, scores = candidates[index], tables[index]
-    alpha = float(alphas[int(np.argmax(scores))])
-    if refine and alpha_method == "ml" and np.isfinite(scores).sum() >= 1:
-        alpha = _refine_alpha(model, model.primitives[index], obs, alphas, scores)
-    return Recognition(
-        index=index,
-        primitive=model.primitives[index].name,
-        alpha=alpha,
-        probabilities=probabilities,
-        candidates=tuple(candidates),
-        log_likelihoods=tuple(tables),
-        alpha_method=alpha_method,
-    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -539,7 +389,7 @@ def condition(
     ValueError
         Unknown modalities, alpha <= 0, or an observation longer than alpha's duration.
     """
-    dims = _check_observation(model, obs)
+    dims = check_observation(model, obs)
     observation_basis(model, obs, alpha)  # validates alpha against the observation
     if prior is not None:
         mean, cov = _condition_dense(model, primitive, obs, alpha, prior, None)
@@ -590,7 +440,7 @@ def _condition_dense(
     cov_cholesky: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The dense Kalman update of a Gaussian weight prior: (mean, covariance)."""
-    dims = _check_observation(model, obs)
+    dims = check_observation(model, obs)
     psi = observation_basis(model, obs, alpha)  # (n, M)
     m = model.basis.n_basis
     mean, cov = prior.mean, prior.cov

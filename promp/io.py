@@ -1,17 +1,19 @@
 """File formats: versioned JSON for models, NPZ (or CSV, see :mod:`promp.datasets`) for
 demonstrations. No pickle anywhere: NPZ files are read with ``allow_pickle=False``.
 
-Model JSON, schema version 1::
+Model JSON, schema version 2 (version 1 files, without ``report``, still load)::
 
     {
       "format": "icub-intention-studio/promp-model",
-      "version": 1,
+      "version": 2,
       "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"},
                  ...],
       "settings": {"n_basis": 20, "width": 1.0, "ridge": 1e-06, "s_bar": 100.0,
                    "shrinkage": null, "noise_std": {}, "noise_scale": 1.0,
                    "alpha_coupling": true, "noise_correlation": true},
       "sample_period": 0.02,                       # seconds
+      "report": {"covariance": {"rule": "...", "strength": 42.2, ...}},
+                                                   # what the fit chose from the data, and why
       "primitives": [{
           "name": "curved",
           "mean": [...],                           # (n_dims * n_basis,), dimension-major
@@ -20,7 +22,7 @@ Model JSON, schema version 1::
           "noise_var": [...],                      # (n_dims,)
           "noise_tau": [...],                      # (n_dims,) noise correlation time, s
           "alphas": [...],                         # (n_demos,)
-          "shrinkage": [...],                      # (n_dims,) intensity per dimension
+          "shrinkage": [...],                      # (n_dims,) share of the target F
           "log_alpha_mean": -0.1,                  # mean log(alpha) of the training demos
           "alpha_slope": [...],                    # (n_dims * n_basis,): d mean / d log(alpha)
           "alpha_models": {"hand": {"n_observed": [...], "lo": [[...]], "hi": [[...]],
@@ -49,7 +51,8 @@ from promp.datasets import atomic_write_text
 from promp.model import Primitive, ProMPModel, Settings
 
 MODEL_FORMAT = "icub-intention-studio/promp-model"
-MODEL_VERSION = 1
+MODEL_VERSION = 2
+READABLE_VERSIONS = (1, 2)
 
 
 def _array(value: Any, what: str, shape: tuple[int | None, ...]) -> np.ndarray:
@@ -97,6 +100,7 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
             "noise_correlation": s.noise_correlation,
         },
         "sample_period": model.sample_period,
+        "report": dict(model.report),
         "primitives": [
             {
                 "name": p.name,
@@ -138,10 +142,14 @@ def model_from_dict(data: Any) -> ProMPModel:
             f"not a model file: 'format' is {data.get('format')!r}, expected {MODEL_FORMAT!r}"
         )
     version = data.get("version")
-    if version != MODEL_VERSION:
+    if version not in READABLE_VERSIONS:
         raise ValueError(
-            f"unsupported model version {version!r}; this version reads version {MODEL_VERSION}"
+            f"unsupported model version {version!r}; this version reads versions "
+            f"{', '.join(map(str, READABLE_VERSIONS))}"
         )
+    report = data.get("report", {})
+    if not isinstance(report, Mapping):
+        raise ValueError("model 'report' must be a JSON object")
     try:
         layout = Layout(
             tuple(
@@ -243,7 +251,11 @@ def model_from_dict(data: Any) -> ProMPModel:
             )
         )
     return ProMPModel(
-        layout=layout, settings=settings, sample_period=sample_period, primitives=tuple(primitives)
+        layout=layout,
+        settings=settings,
+        sample_period=sample_period,
+        primitives=tuple(primitives),
+        report=dict(report),
     )
 
 

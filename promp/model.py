@@ -2,17 +2,16 @@
 
 Per demonstration, the weights of every dimension are fitted by ridge regression on the phase
 basis (Eq. 2); per primitive, their mean and covariance define the prior over trajectories
-(Eqs. 3-4). With fewer demonstrations than weights the sample covariance ``S`` is singular, so
-it is shrunk linearly towards ``F = blockdiag(tau_d I_M)``, a scaled identity per dimension
-(dimensions have different units) whose scale gives trajectories the demonstrations' average
-spread in that dimension: ``Sigma_w = (1 - lambda) S + lambda F``. The default
-intensity, ``lambda = 1e-6``, only makes ``Sigma_w`` positive definite: the prior then stays
-essentially within the span of the demonstrations, which recognised held-out recordings best
-(see the README's evaluation). ``shrinkage=None`` uses the Ledoit-Wolf (2004) estimate of the
-intensity that is optimal for estimating the covariance itself. The result is stored as a
-diagonal plus a low-rank factor, ``Sigma_w = diag(cov_diag) + cov_factor @ cov_factor.T``, and
-inference exploits that structure (determinant lemma / Woodbury); the diagonal is constant within
-each dimension's block, which lets likelihoods share one eigendecomposition per dimension.
+(Eqs. 3-4). With fewer demonstrations than weights the sample covariance is singular, so by
+default every primitive's covariance is estimated under a prior pooled across the primitives of
+the dataset, whose strength is chosen by marginal likelihood (:mod:`promp.covariance`): a
+primitive with few demonstrations borrows the shape the others share, one with many keeps its
+own. ``Settings(shrinkage=lambda)`` instead shrinks each primitive's sample covariance alone
+towards ``F = blockdiag(tau_d I_M)`` with a fixed intensity: ``(1 - lambda) S + lambda F``.
+Either way the result is stored as a diagonal plus a low-rank factor,
+``Sigma_w = diag(cov_diag) + cov_factor @ cov_factor.T``, and inference exploits that structure
+(determinant lemma / Woodbury); the diagonal is constant within each dimension's block, which
+lets likelihoods share one eigendecomposition per dimension.
 
 Observation noise is a property of the sensor, not of a primitive: per modality, it is the mean
 squared fit residual of its dimensions over the demonstrations of all primitives, with the
@@ -31,6 +30,7 @@ import numpy as np
 
 from promp.alpha_model import AlphaModel
 from promp.basis import RBFBasis
+from promp.covariance import block_target, pooled_covariances
 from promp.data import Demonstration, Layout
 from promp.timing import alpha_from_duration, demo_phases
 
@@ -57,8 +57,10 @@ class Settings:
     s_bar : float
         Reference length of the time modulation (alpha = s_bar / n_samples).
     shrinkage : float or None
-        Covariance shrinkage intensity in (0, 1] towards the per-dimension scaled identity;
-        None uses the Ledoit-Wolf estimate, one per modality.
+        None (the default): the hierarchical prior pooled across primitives, its strength by
+        marginal likelihood (:mod:`promp.covariance`). A number in (0, 1]: each primitive's
+        sample covariance shrunk by that fixed intensity towards the per-dimension scaled
+        identity.
     noise_std : mapping of str to float
         Observation noise standard deviation per modality, in the modality's unit; modalities
         not listed use the estimate from the fit residuals.
@@ -74,13 +76,13 @@ class Settings:
         the prior at a candidate alpha is the conditional Gaussian (see :class:`Primitive`).
     """
 
-    n_basis: int = 10
+    n_basis: int = 7
     width: float = 1.0
     ridge: float | None = None
     s_bar: float = 100.0
-    shrinkage: float | None = 1e-6
+    shrinkage: float | None = None
     noise_std: Mapping[str, float] = field(default_factory=dict)
-    noise_scale: float = 1.0
+    noise_scale: float = 1.5
     alpha_coupling: bool = True
     noise_correlation: bool = True
 
@@ -127,7 +129,8 @@ class Primitive:
     alpha_models : mapping of str to AlphaModel
         Eq. 7 model per modality.
     shrinkage : array, shape (n_dims,)
-        The covariance shrinkage intensity used for each dimension (one per modality).
+        Share of the covariance that comes from the target ``F`` in each dimension (one per
+        modality): the fixed intensity, or with the pooled prior ``beta c / (c + dof)``.
     log_alpha_mean : float
         Mean of log(alpha) over the training demonstrations.
     alpha_slope : array, shape (n_weights,)
@@ -232,13 +235,15 @@ class PhaseBasisCache:
 class ProMPModel:
     """Primitives learned over one layout of modalities, with their shared settings.
 
-    ``sample_period`` is the recording period (s) that converts alpha to durations.
+    ``sample_period`` is the recording period (s) that converts alpha to durations;
+    ``report`` says what the fit chose from the data and by which rule (JSON-ready).
     """
 
     layout: Layout
     settings: Settings
     sample_period: float
     primitives: tuple[Primitive, ...]
+    report: Mapping = field(default_factory=dict)
 
     @functools.cached_property
     def basis(self) -> RBFBasis:
@@ -363,97 +368,6 @@ def fit_all_weights(
     return fits
 
 
-def block_target(
-    centred: np.ndarray, n_dims: int, dof: float, basis: RBFBasis, n_phases: int = 101
-) -> np.ndarray:
-    """Diagonal of the shrinkage target F, one scaled identity per dimension, (n_weights,).
-
-    The scale is set in trajectory space, where it means something: independent weights of
-    variance ``tau_d`` give trajectories whose variance, averaged over the phase, equals the
-    demonstrations' own average variance in dimension d. (Set from the weights' variances
-    instead, an overlapping basis, whose near-collinear weights vary wildly while their
-    trajectory does not, would give a target of metres.)
-    """
-    phi = basis(np.linspace(0.0, 1.0, n_phases))  # (Z, M)
-    blocks = centred.reshape(centred.shape[0], n_dims, -1)  # (N, D, M)
-    trajectories = np.einsum("ndm,zm->ndz", blocks, phi)
-    spread = (trajectories**2).sum(axis=0).mean(axis=-1) / dof  # (D,)
-    gain = float((phi**2).sum(axis=1).mean())  # trajectory variance per unit weight variance
-    tau = np.maximum(spread / gain, 1e-300)
-    return np.repeat(tau, phi.shape[1])
-
-
-def ledoit_wolf_intensity(centred: np.ndarray, target_diag: np.ndarray) -> float:
-    """Ledoit-Wolf (2004) optimal intensity of shrinking ``S = X^T X / n`` towards
-    ``diag(target_diag)``.
-
-    Parameters
-    ----------
-    centred : array, shape (n_demos, n_weights)
-        Centred weights X.
-    target_diag : array, shape (n_weights,)
-    """
-    n = centred.shape[0]
-    cov = centred.T @ centred / n
-    norms = (centred**2).sum(axis=1)
-    quad = np.einsum("kp,pq,kq->k", centred, cov, centred)
-    # sum_k || x_k x_k^T - S ||_F^2, expanded without forming the outer products.
-    spread = float((norms**2 - 2.0 * quad).sum() + n * (cov**2).sum()) / n**2
-    distance = float(
-        (cov**2).sum() - 2 * (np.diag(cov) * target_diag).sum() + (target_diag**2).sum()
-    )
-    if distance <= 0:
-        return 1.0
-    return float(np.clip(min(spread, distance) / distance, MIN_SHRINKAGE, 1.0))
-
-
-SHRINKAGE_GRID = (1e-6, 1e-4, 1e-3, 1e-2, 0.03, 0.1, 0.3, 0.6)
-
-
-def loo_shrinkage(centred: np.ndarray, target_diag: np.ndarray, dof: float) -> float:
-    """Shrinkage intensity maximising the leave-one-out likelihood of the demonstrations.
-
-    Hoffbeck and Landgrebe's rule for covariance estimation with limited training data
-    (IEEE TPAMI 1996): each demonstration's weights are scored under the Gaussian estimated
-    from the others, ``N(mean_-j, lambda F + (1 - lambda) S_-j)``, and the intensity on
-    :data:`SHRINKAGE_GRID` with the highest total wins. Clean modalities keep almost the sample
-    covariance (the span of the demonstrations); noisy ones are shrunk. Woodbury's identity
-    keeps every score an (n - 1) x (n - 1) factorisation.
-
-    Parameters
-    ----------
-    centred : array, shape (n_demos, n_weights)
-        Centred weights (or regression residuals) of one modality.
-    target_diag : array, shape (n_weights,)
-        Diagonal of the target F.
-    dof : float
-        Degrees of freedom of the full sample covariance (n - 1, or n - 2 with the alpha
-        regression); leaving one out removes one.
-    """
-    n = centred.shape[0]
-    if n < 4:
-        return SHRINKAGE_GRID[-1]
-    best, best_score = SHRINKAGE_GRID[-1], -np.inf
-    for lam in SHRINKAGE_GRID:
-        d = lam * target_diag  # (P,)
-        score = 0.0
-        for j in range(n):
-            others = np.delete(centred, j, axis=0)
-            mean_others = others.mean(axis=0)
-            x = centred[j] - mean_others
-            v = np.sqrt((1.0 - lam) / (dof - 1.0)) * (others - mean_others).T  # (P, n - 1)
-            dv = v / d[:, None]
-            inner = np.eye(n - 1) + v.T @ dv
-            chol = np.linalg.cholesky(inner)
-            b = np.linalg.solve(chol, dv.T @ x)
-            quad = float(x @ (x / d) - b @ b)
-            logdet = float(np.log(d).sum() + 2.0 * np.log(np.diag(chol)).sum())
-            score -= 0.5 * (quad + logdet)
-        if score > best_score:
-            best, best_score = lam, score
-    return float(best)
-
-
 def _resample_uniform(demo: Demonstration, values: np.ndarray, dt: float) -> np.ndarray:
     """Values on a uniform grid of period ``dt`` from the first sample (for Eq. 7)."""
     n = int(round(demo.duration / dt)) + 1
@@ -507,38 +421,29 @@ def estimate_noise(
     return np.maximum(noise_var, 1e-20), noise_tau
 
 
-def fit_primitive(
-    name: str,
+@dataclass(frozen=True, eq=False)
+class _Moments:
+    """One primitive's weights summarised before its covariance is estimated."""
+
+    mean: np.ndarray
+    slope: np.ndarray
+    residuals: np.ndarray  # weights - mean - slope * (log alpha - its mean), (n, P)
+    dof: int
+    alphas: np.ndarray
+    log_alpha_mean: float
+    alpha_models: Mapping[str, AlphaModel]
+
+
+def _moments(
     demos: Sequence[Demonstration],
+    weights: np.ndarray,
     layout: Layout,
     settings: Settings,
     sample_period: float,
-    noise_var: np.ndarray,
-    noise_tau: np.ndarray,
-    weights: np.ndarray | None = None,
-) -> Primitive:
-    """Learn one primitive from its demonstrations (>= 2), given the observation noise.
-
-    ``weights`` (n_demos, n_weights) may pass the demonstrations' fitted weights (Eq. 2) when
-    they are already known.
-    """
-    if len(demos) < 2:
-        raise ValueError(
-            f"primitive {name!r} has {len(demos)} demonstration(s); at least 2 are needed "
-            "to learn a distribution"
-        )
-    basis = settings.basis
-    n_dims = layout.n_dims
-    values = [layout.extract(demo) for demo in demos]
-    if weights is None:
-        weights = np.array(fit_all_weights(basis, demos, layout, settings.ridge).weights)
+) -> _Moments:
     alphas = np.array(
         [alpha_from_duration(d.duration, sample_period, settings.s_bar) for d in demos]
     )
-    trajectories = [
-        _resample_uniform(d, v, sample_period) for d, v in zip(demos, values, strict=True)
-    ]
-
     mean = weights.mean(axis=0)
     centred = weights - mean
     log_alphas = np.log(alphas)
@@ -550,38 +455,26 @@ def fit_primitive(
         slope = centred.T @ a_c / float(a_c @ a_c)
         centred = centred - np.outer(a_c, slope)
         dof = len(demos) - 2
-    target = block_target(centred, n_dims, dof, basis)
-    # One intensity per modality: a noisy modality (head angles) needs far more than a clean
-    # one (the hand), and the estimate of one should not be diluted by the other.
-    lam = np.empty(n_dims)
-    for modality in layout.modalities:
-        dims = layout.dims([modality.name])
-        cols = (dims[:, None] * basis.n_basis + np.arange(basis.n_basis)).reshape(-1)
-        if settings.shrinkage is None:
-            lam[dims] = loo_shrinkage(centred[:, cols], target[cols], dof)
-        else:
-            lam[dims] = max(settings.shrinkage, MIN_SHRINKAGE)
-    per_weight = np.repeat(lam, basis.n_basis)
-    cov_diag = per_weight * target
-    cov_factor = np.sqrt((1.0 - per_weight) / dof)[:, None] * centred.T
-
+    trajectories = [
+        _resample_uniform(d, layout.extract(d), sample_period) for d in demos
+    ]
     alpha_models = {
         m.name: AlphaModel.fit([t[:, layout.dims([m.name])] for t in trajectories], alphas)
         for m in layout.modalities
     }
-    return Primitive(
-        name=name,
-        mean=mean,
-        cov_diag=cov_diag,
-        cov_factor=cov_factor,
-        noise_var=np.array(noise_var, dtype=float),
-        noise_tau=np.array(noise_tau, dtype=float),
-        alphas=alphas,
-        alpha_models=alpha_models,
-        shrinkage=lam,
-        log_alpha_mean=log_alpha_mean,
-        alpha_slope=slope,
-    )
+    return _Moments(mean, slope, centred, dof, alphas, log_alpha_mean, alpha_models)
+
+
+def _fixed_shrinkage(
+    moments: _Moments, layout: Layout, settings: Settings
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(1 - lambda) S + lambda F`` of one primitive alone: cov_diag, cov_factor, lambda."""
+    basis = settings.basis
+    target = block_target(moments.residuals, layout.n_dims, moments.dof, basis)
+    lam = np.full(layout.n_dims, max(float(settings.shrinkage), MIN_SHRINKAGE))
+    per_weight = np.repeat(lam, basis.n_basis)
+    factor = np.sqrt((1.0 - per_weight) / moments.dof)[:, None] * moments.residuals.T
+    return per_weight * target, factor, lam
 
 
 def sample_period_of(demos: Sequence[Demonstration]) -> float:
@@ -619,17 +512,51 @@ def fit(
     fits = fit_all_weights(settings.basis, all_demos, layout, settings.ridge)
     noise_var, noise_tau = estimate_noise(fits, [d.times for d in all_demos], layout, settings)
     offsets = np.cumsum([0] + [len(demos) for demos in dataset.values()])
-    primitives = tuple(
-        fit_primitive(
-            name,
-            demos,
-            layout,
-            settings,
-            dt,
-            noise_var,
-            noise_tau,
-            weights=np.array(fits.weights[offsets[k] : offsets[k + 1]]),
+    moments = [
+        _moments(
+            demos, np.array(fits.weights[offsets[k] : offsets[k + 1]]), layout, settings, dt
         )
-        for k, (name, demos) in enumerate(dataset.items())
+        for k, demos in enumerate(dataset.values())
+    ]
+    report: dict = {}
+    if settings.shrinkage is None:
+        covariances, prior = pooled_covariances(
+            [m.residuals for m in moments],
+            [m.dof for m in moments],
+            [layout.dims([mod.name]) for mod in layout.modalities],
+            layout.n_dims,
+            settings.basis,
+        )
+        report["covariance"] = prior.describe()
+        shares = [
+            prior.target_weight * prior.strength / (prior.strength + m.dof) for m in moments
+        ]
+    else:
+        fixed = [_fixed_shrinkage(m, layout, settings) for m in moments]
+        covariances = [(d, f) for d, f, _ in fixed]
+        shares = [lam for _, _, lam in fixed]
+        report["covariance"] = {
+            "rule": "fixed shrinkage of each primitive's sample covariance (--shrinkage)",
+            "shrinkage": float(settings.shrinkage),
+        }
+    primitives = tuple(
+        Primitive(
+            name=name,
+            mean=m.mean,
+            cov_diag=cov_diag,
+            cov_factor=cov_factor,
+            noise_var=np.array(noise_var, dtype=float),
+            noise_tau=np.array(noise_tau, dtype=float),
+            alphas=m.alphas,
+            alpha_models=m.alpha_models,
+            shrinkage=np.clip(share, MIN_SHRINKAGE, 1.0),
+            log_alpha_mean=m.log_alpha_mean,
+            alpha_slope=m.slope,
+        )
+        for name, m, (cov_diag, cov_factor), share in zip(
+            dataset, moments, covariances, shares, strict=True
+        )
     )
-    return ProMPModel(layout=layout, settings=settings, sample_period=dt, primitives=primitives)
+    return ProMPModel(
+        layout=layout, settings=settings, sample_period=dt, primitives=primitives, report=report
+    )

@@ -475,7 +475,7 @@ def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, 
     choose(page, "Source", "Simulated partner")
     wait_text(page, "simulated partner: tracking")
     wait_text(page, "The head source failed", present=False)  # the refusal no longer holds
-    choose(page, "Shrinkage", "leave-one-out estimate")  # back to the workspace's default
+    choose(page, "Shrinkage", "automatic (pooled prior)")  # back to the workspace's default
     wait_until(lambda: studio.session.settings["shrinkage"] is None, what="the default back")
 
 
@@ -548,7 +548,7 @@ def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None
     assert session.model.basis.n_basis == n_basis + 1
     assert f'"n_basis": {n_basis + 1}' in session.workspace.index_path.read_text()
     wait_text(page, f"Fit in {session.fit_ms:.0f} ms")
-    assert session.settings["shrinkage"] is None  # the scenario's default: leave-one-out
+    assert session.settings.get("shrinkage") is None  # the default: the pooled prior
     choose(page, "Shrinkage", "1e-6 (span of the demos)")
     wait_until(lambda: session.settings["shrinkage"] == 1e-6, what="shrinkage 1e-6")
     assert '"shrinkage": 1e-06' in session.workspace.index_path.read_text()
@@ -557,7 +557,7 @@ def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None
         what="the model refitted with shrinkage 1e-6",
     )
     thumb.press("ArrowLeft")
-    choose(page, "Shrinkage", "leave-one-out estimate")
+    choose(page, "Shrinkage", "automatic (pooled prior)")
     wait_until(lambda: session.settings["shrinkage"] is None, what="leave-one-out shrinkage")
     assert '"shrinkage": null' in session.workspace.index_path.read_text()
     wait_until(lambda: session.settings["n_basis"] == n_basis, what="n_basis back")

@@ -10,15 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from promp.inference import (
-    Gaussian,
-    Observation,
-    condition,
-    log_likelihoods,
-    predict,
-    recognise,
-)
+from promp.inference import Gaussian, Observation, condition, log_likelihoods, predict
 from promp.model import Settings, fit
+from promp.pipeline import infer
+from promp.recognition import AlphaPrior, recognise
 from tests import dense_reference as dense
 from tests.synthetic import LAYOUT, make_dataset, make_demo
 
@@ -162,22 +157,52 @@ def test_a_demo_of_primitive_k_is_recognised_as_k_when_primitives_are_far_apart(
     assert reco.probabilities[k] > 0.9
 
 
-def test_recognition_returns_the_likelihood_table(model, test_demo) -> None:
+def test_recognition_integrates_over_a_continuous_alpha_prior(model, test_demo) -> None:
     obs = Observation.from_demo(model, test_demo, 30, ["hand"])
     reco = recognise(model, obs)
     assert reco.primitive == "left"
     assert_allclose(reco.probabilities.sum(), 1.0)
-    for prim, cands, table in zip(
-        model.primitives, reco.candidates, reco.log_likelihoods, strict=True
+    for prim, cands, table, prior in zip(
+        model.primitives, reco.candidates, reco.log_likelihoods, reco.log_prior, strict=True
     ):
-        assert_allclose(cands, prim.alphas)
-        assert table.shape == cands.shape
-    assert reco.alpha in reco.candidates[reco.index]
-    refined = recognise(model, obs, refine=True)
-    best = np.max(reco.log_likelihoods[reco.index])
-    assert log_likelihoods(model, model.primitives[reco.index], obs, [refined.alpha])[0] >= best
+        assert table.shape == prior.shape == cands.shape
+        assert np.all(np.diff(cands) > 0)
+        # The nodes reach beyond the slowest and the fastest training demonstrations.
+        assert cands[0] < prim.alphas.min() and cands[-1] > prim.alphas.max()
+        # The tabled likelihoods are Eq. 6 at those alphas.
+        assert_allclose(table, log_likelihoods(model, prim, obs, cands), rtol=1e-10)
+    # The alpha reported is the posterior mode among the nodes of the recognised primitive.
+    k = reco.index
+    assert reco.alpha == reco.candidates[k][np.argmax(reco.log_likelihoods[k] + reco.log_prior[k])]
+    # The evidence is the likelihood integrated over the prior: brute force on a fine grid.
+    prim = model.primitives[k]
+    prior = AlphaPrior.from_alphas(prim.alphas, model.settings.s_bar)
+    bound = np.log(model.settings.s_bar / (obs.elapsed[-1] / model.sample_period + 1.0))
+    lo, hi = prior.locs[0] - 12 * prior.scales[0], prior.locs[0] + 12 * prior.scales[0]
+    grid = np.linspace(lo, min(bound, hi), 4001)
+    integrand = np.exp(log_likelihoods(model, prim, obs, np.exp(grid)) + prior.logpdf(grid)
+                       - reco.log_evidence[k])  # fmt: skip
+    assert_allclose(np.trapezoid(integrand, grid), 1.0, rtol=0.03)
     by_model = recognise(model, obs, alpha_method="model")
-    assert by_model.candidates[by_model.index].shape == (1,)
+    assert by_model.primitive == "left"
+    assert_allclose(by_model.probabilities.sum(), 1.0)
+
+
+def test_an_observation_longer_than_every_demonstration_is_still_recognised(model) -> None:
+    """A slow movement: 1.6 times the slowest training demonstration's duration, observed
+    whole. Every training alpha would end before it; the prior's tail does not."""
+    prim = model.primitives[1]
+    slowest = model.settings.s_bar / prim.alphas.min()  # samples
+    n = int(1.6 * slowest)
+    rng = np.random.default_rng(3)
+    target = np.array([0.2, 0.2, 0.1, 0.0, 0.3, 0.6])  # the "right" primitive's
+    demo = make_demo(rng, target, duration=(n - 1) * model.sample_period)
+    obs = Observation.from_demo(model, demo, demo.n_samples, ["hand", "head"])
+    for method in ("ml", "model"):
+        result = infer(model, obs, alpha_method=method)
+        assert np.isfinite(result.recognition.log_evidence).all()
+        assert result.duration >= obs.elapsed[-1] * (1 - 1e-9)
+        assert result.primitive == prim.name
 
 
 def test_prediction_spans_the_predicted_duration(model) -> None:
@@ -211,9 +236,6 @@ def test_bad_inputs_are_clear_errors(model, test_demo) -> None:
     long_obs = Observation.from_demo(model, test_demo, test_demo.n_samples, ["hand"])
     with pytest.raises(ValueError, match="longer than the predicted duration"):
         condition(model, prim, long_obs, 10.0)  # alpha 10: a 10-sample movement
-    too_long = Observation(np.arange(1000) * model.sample_period, np.zeros((1000, 3)), ("hand",))
-    with pytest.raises(ValueError, match="longer than every candidate duration"):
-        recognise(model, too_long)
     with pytest.raises(ValueError, match="alpha_method"):
         recognise(model, obs, alpha_method="guess")
     with pytest.raises(ValueError, match="n_observed"):

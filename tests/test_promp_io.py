@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from promp.inference import Observation, condition, predict, recognise
+from promp.inference import Observation, condition, predict
 from promp.io import (
     demo_from_npz_bytes,
     demo_to_npz_bytes,
@@ -21,6 +21,7 @@ from promp.io import (
     save_model,
 )
 from promp.model import Settings, fit
+from promp.recognition import recognise
 from tests.synthetic import LAYOUT, make_dataset
 
 
@@ -75,7 +76,8 @@ def _mutated(model, change) -> dict:
 @pytest.mark.parametrize(
     "change, message",
     [
-        (lambda d: d.update(version=2), "unsupported model version 2"),
+        (lambda d: d.update(version=3), "unsupported model version 3"),
+        (lambda d: d.update(report=[1]), "'report' must be a JSON object"),
         (lambda d: d.update(format="something"), "not a model file"),
         (lambda d: d.pop("layout"), "missing field 'layout'"),
         (lambda d: d["primitives"][0].update(mean=[1.0, 2.0]), r"mean: expected shape \(42,\)"),

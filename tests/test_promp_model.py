@@ -7,8 +7,9 @@ import pytest
 from numpy.testing import assert_allclose
 
 from promp.basis import RBFBasis, SeedBasis
+from promp.covariance import block_target, pooled_covariances
 from promp.data import Demonstration
-from promp.model import Settings, fit, fit_weights, ledoit_wolf_intensity
+from promp.model import Settings, fit, fit_weights
 from promp.timing import alpha_from_duration, duration_from_alpha
 from tests.synthetic import COLUMNS, LAYOUT, make_dataset
 
@@ -69,13 +70,15 @@ def test_noise_is_estimated_from_the_residuals_per_modality() -> None:
             noise = rng.normal(size=(n, 6)) * np.repeat([hand_noise, head_noise], 3)
             demos.append(Demonstration(t, clean + noise, COLUMNS, name=f"{name}{i}"))
         dataset[name] = demos
-    model = fit(dataset, LAYOUT, Settings(n_basis=10))
+    model = fit(dataset, LAYOUT, Settings(n_basis=10, noise_scale=1.0))
     noise_std = np.sqrt(model.primitives[0].noise_var)
     assert_allclose(noise_std[:3], hand_noise, rtol=0.1)
     assert_allclose(noise_std[3:], head_noise, rtol=0.1)
     # One sensor, one noise: every primitive shares it.
     assert_allclose(model.primitives[1].noise_var, model.primitives[0].noise_var)
-    override = fit(dataset, LAYOUT, Settings(n_basis=10, noise_std={"head": 0.5}))
+    scaled = fit(dataset, LAYOUT, Settings(n_basis=10, noise_scale=1.5))
+    assert_allclose(scaled.primitives[0].noise_var, 1.5**2 * model.primitives[0].noise_var)
+    override = fit(dataset, LAYOUT, Settings(n_basis=10, noise_scale=1.0, noise_std={"head": 0.5}))
     assert_allclose(override.primitives[0].noise_var[3:], 0.25)
     assert_allclose(override.primitives[0].noise_var[:3], model.primitives[0].noise_var[:3])
 
@@ -99,15 +102,62 @@ def test_alpha_coupling_is_the_conditional_of_the_joint_gaussian() -> None:
     assert_allclose(off.primitives[0].mean_at(0.5), off.primitives[0].mean)
 
 
-def test_ledoit_wolf_intensity_is_small_with_many_samples_and_large_with_few() -> None:
+def _classes(rng, n_classes: int, n_per_class: int, shared: bool, p: int = 12) -> list:
+    """Residuals of classes whose covariances are one shared matrix, or each its own."""
+    def random_cov():
+        a = rng.normal(size=(p, 3))
+        return a @ a.T + 0.05 * np.eye(p)
+
+    common = random_cov()
+    out = []
+    for _ in range(n_classes):
+        cov = common if shared else random_cov() * rng.uniform(0.2, 5.0)
+        x = rng.multivariate_normal(np.zeros(p), cov, size=n_per_class)
+        out.append(x - x.mean(axis=0))
+    return out
+
+
+def test_the_pooled_prior_is_strong_when_primitives_share_their_shape() -> None:
+    """Empirical Bayes, with a known answer: classes drawn from one covariance make the prior
+    strong (c far above each class's dof: they borrow it), classes with unrelated covariances
+    make it weak (each keeps its own)."""
     rng = np.random.default_rng(0)
-    latent = rng.normal(size=(500, 2))
-    many = latent @ rng.normal(size=(2, 10)) + 0.05 * rng.normal(size=(500, 10))
-    few = rng.normal(size=(5, 40))
-    target_many = np.full(10, (many**2).mean())
-    target_few = np.full(40, (few**2).mean())
-    assert ledoit_wolf_intensity(many - many.mean(0), target_many) < 0.05
-    assert ledoit_wolf_intensity(few - few.mean(0), target_few) > 0.5
+    basis = RBFBasis(4, 1.0)
+    dims = [np.array([0, 1, 2])]
+    shared = _classes(rng, 6, 8, shared=True)
+    _, strong = pooled_covariances(shared, [7] * 6, dims, 3, basis)
+    unrelated = _classes(rng, 6, 40, shared=False)
+    _, weak = pooled_covariances(unrelated, [39] * 6, dims, 3, basis)
+    assert strong.strength > 10 * 7
+    assert weak.strength < 39
+    described = strong.describe()
+    assert described["strength"] == strong.strength and "marginal likelihood" in str(described)
+
+
+def test_the_pooled_covariance_is_the_posterior_mean_of_its_niw_prior() -> None:
+    """Sigma_k = (1 + 1/n)(c Sigma_0 + E^T E) / (c + dof), checked densely."""
+    rng = np.random.default_rng(1)
+    basis = RBFBasis(4, 1.0)
+    residuals = _classes(rng, 3, 6, shared=True)
+    out, prior = pooled_covariances(residuals, [5, 5, 5], [np.arange(3)], 3, basis)
+    rows = np.concatenate(residuals)
+    target = block_target(rows, 3, 15, basis)
+    beta = np.repeat(prior.target_weight, 4)
+    sigma0 = np.diag(beta * target) + np.sqrt(1 - beta)[:, None] * (rows.T @ rows / 15) * np.sqrt(
+        1 - beta
+    )[None, :]
+    c = prior.strength
+    for (diag, factor), e in zip(out, residuals, strict=True):
+        expected = (1 + 1 / 6) * (c * sigma0 + e.T @ e) / (c + 5)
+        assert_allclose(np.diag(diag) + factor @ factor.T, expected, rtol=1e-9, atol=1e-12)
+
+
+def test_the_model_reports_what_it_chose() -> None:
+    model = fit(make_dataset(seed=3, n_demos=6), LAYOUT, Settings(n_basis=6))
+    cov = model.report["covariance"]
+    assert cov["strength"] > 0 and len(cov["target_weight"]) == LAYOUT.n_dims
+    fixed = fit(make_dataset(seed=3, n_demos=6), LAYOUT, Settings(n_basis=6, shrinkage=0.2))
+    assert fixed.report["covariance"]["shrinkage"] == 0.2
 
 
 def test_shrinkage_target_is_one_scaled_identity_per_dimension() -> None:
@@ -116,8 +166,11 @@ def test_shrinkage_target_is_one_scaled_identity_per_dimension() -> None:
     blocks = prim.cov_diag.reshape(6, 6)
     assert_allclose(blocks, blocks[:, :1] * np.ones((1, 6)))  # constant within a dimension
     assert_allclose(prim.shrinkage, 0.3)
-    estimated = fit(make_dataset(seed=2, n_demos=5), LAYOUT, Settings(n_basis=6, shrinkage=None))
-    lam = estimated.primitives[0].shrinkage
+    pooled = fit(make_dataset(seed=2, n_demos=5), LAYOUT, Settings(n_basis=6, shrinkage=None))
+    assert_allclose(pooled.primitives[0].cov_diag.reshape(6, 6)[:, 1:], pooled.primitives[
+        0
+    ].cov_diag.reshape(6, 6)[:, :-1])  # the pooled prior keeps the block form
+    lam = pooled.primitives[0].shrinkage
     assert lam.shape == (6,) and np.all((lam > 0) & (lam <= 1))
     assert lam[0] == lam[1] == lam[2] and lam[3] == lam[4] == lam[5]  # one per modality
 

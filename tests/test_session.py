@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from app.session import Session
-from app.studio import SCENARIO_SETTINGS, default_workspace
+from app.studio import default_workspace
 from app.workspace import COLUMNS, LAYOUT, PrimitiveEntry, Workspace, WorkspaceData
 
 
@@ -160,11 +160,12 @@ def test_hiding_redraws_without_refitting_and_listeners_hear_every_change(sessio
 
 
 def test_shrinkage_settings(session) -> None:
-    # The default workspace starts on the selection rule's choice for the scenario.
-    assert session.settings == SCENARIO_SETTINGS
+    # The default workspace starts on the engine's defaults (automatic covariance prior).
+    assert session.settings == {}
+    assert session.model.report["covariance"]["strength"] > 0
     session.set_learning(10, 1.0, shrinkage=1e-6)
     np.testing.assert_allclose(session.model.primitive("curved").shrinkage, 1e-6)
-    session.set_learning(10, 1.0, shrinkage=None)  # the leave-one-out estimate
+    session.set_learning(10, 1.0, shrinkage=None)  # the pooled prior
     assert session.settings["shrinkage"] is None
     loo = session.model.primitive("curved").shrinkage
     hand, head = LAYOUT.dims(["hand"]), LAYOUT.dims(["head"])

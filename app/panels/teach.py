@@ -37,11 +37,11 @@ from app.gui_text import GREEN, ORANGE, RED, colored, escape
 from app.head_sources import HeadSource, SimulatedPartner, StreamHeadSource, TrackHeadSource
 from app.plots import Band, Trace, add_band_chart, band_chart, update_band_chart
 from app.recorder import DEFAULT_RATE_HZ, Recorder, Recording, unrecordable
-from app.session import Typicality
 from app.upload_guard import UploadGuard
 from promp.data import Layout
 from promp.inference import predict
 from promp.model import Settings
+from promp.pipeline import Typicality
 
 if TYPE_CHECKING:
     from app.studio import Studio
@@ -58,13 +58,13 @@ NO_PRIMITIVE = "(no primitive)"
 SIMULATED, CAMERA, VIDEO, UPLOAD = "Simulated partner", "Camera", "Video file", "Uploaded video"
 SOURCES = (SIMULATED, CAMERA, VIDEO, UPLOAD)
 SHRINKAGE_CHOICES: dict[str, float | None] = {
+    "automatic (pooled prior)": None,
     "1e-6 (span of the demos)": 1e-6,
     "1e-4": 1e-4,
     "1e-3": 1e-3,
     "0.01": 0.01,
     "0.1": 0.1,
     "0.3": 0.3,
-    "leave-one-out estimate": None,
 }
 TYPICALITY_COLORS = {"typical": GREEN, "unusual": ORANGE, "outlier": RED}
 NOTIFY_COLORS = {"typical": "green", "unusual": "yellow", "outlier": "red"}

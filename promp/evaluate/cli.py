@@ -4,14 +4,16 @@
 
     python -m promp.evaluate DATASET --format records|csv [--modality NAME=COL,COL,...]...
         [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
-        [--json OUT.json] [--plots DIR] [--basis M] [--width W] [--shrinkage S|loo]
+        [--json OUT.json] [--plots DIR] [--basis M] [--width W] [--shrinkage S|auto]
+        [--jobs N] [--backend local|dask --scheduler ADDRESS]
 
 ``--format records`` reads the lab-record format, ``--format csv`` reads ``DATASET/<primitive>/
 <demo>.csv`` (:func:`promp.datasets.read_dataset`, the reader the studio's import uses too).
 ``--modality`` maps columns to modalities; without it they are guessed from the columns
 (``hand`` = x, y, z, ``head`` = roll, pitch, yaw; for lab records, ``hand`` is the hand in the
 robot's root frame). ``--observe`` (default: the hand) may be repeated to sweep several
-modality sets in one run.
+modality sets in one run. The folds run on every core (``--jobs``), or on a Dask cluster
+(``--backend dask --scheduler ADDRESS``); the results are the same.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from promp.data import Layout
 from promp.datasets import Dataset, parse_modality, read_dataset
 from promp.evaluate.methods import Ours
 from promp.evaluate.seed import Seed
-from promp.evaluate.sweep import position_modality, run_sweep, stderr_progress
+from promp.evaluate.sweep import position_modality, run_sweep, tqdm_progress
 from promp.model import Settings
 
 DEFAULT_PERCENTS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
@@ -74,9 +76,29 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--shrinkage",
-        default=str(Settings().shrinkage),
-        help="covariance shrinkage intensity in (0, 1], or 'loo' for the leave-one-out "
-        "estimate per modality (ours); python -m promp.evaluate.select chooses these three",
+        default="auto",
+        help="'auto': each primitive's covariance under a prior pooled across primitives, its "
+        "strength by marginal likelihood, chosen inside every fold; or a fixed shrinkage "
+        "intensity in (0, 1] of each primitive's own sample covariance (ours)",
+    )
+    parser.add_argument(
+        "--noise-scale",
+        type=float,
+        default=Settings().noise_scale,
+        help="multiplies the estimated observation noise (ours)",
+    )
+    parser.add_argument(
+        "--jobs", type=int, default=-1, help="processes running the folds (-1: every core)"
+    )
+    parser.add_argument(
+        "--backend",
+        choices=("local", "dask"),
+        default="local",
+        help="run the folds here, or on a Dask cluster (needs --scheduler and the "
+        "'cluster' extra)",
+    )
+    parser.add_argument(
+        "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
     )
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
     parser.add_argument("--plots", type=Path, default=None, help="write PNG figures here")
@@ -109,16 +131,25 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         else:
             try:
-                shrinkage = None if args.shrinkage == "loo" else float(args.shrinkage)
+                shrinkage = None if args.shrinkage == "auto" else float(args.shrinkage)
             except ValueError:
                 raise ValueError(
-                    f"--shrinkage expects a number in (0, 1] or 'loo', got {args.shrinkage!r}"
+                    f"--shrinkage expects a number in (0, 1] or 'auto', got {args.shrinkage!r}"
                 ) from None
-            settings = Settings(n_basis=args.basis, width=args.width, shrinkage=shrinkage)
+            settings = Settings(
+                n_basis=args.basis,
+                width=args.width,
+                shrinkage=shrinkage,
+                noise_scale=args.noise_scale,
+            )
 
             def factory():
                 return Ours(layout, settings)
 
+        if args.backend == "dask" and not args.scheduler:
+            raise ValueError("--backend dask needs --scheduler ADDRESS")
+        if args.jobs == 0 or args.jobs < -1:
+            raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
         n_demos = sum(len(v) for v in dataset.values())
         result = run_sweep(
             factory,
@@ -128,8 +159,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             alpha_methods=args.alpha,
             observe_sets=observe,
             method_name=args.method,
-            progress=stderr_progress(f"{args.method}: leave-one-out over {n_demos} demos"),
+            progress=tqdm_progress(f"{args.method}: leave-one-out over {n_demos} demos"),
             keep_trials=args.plots is not None,
+            jobs=args.jobs,
+            scheduler=args.scheduler if args.backend == "dask" else None,
         )
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -143,9 +176,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             "observe": observe,
             "percents": list(args.percent),
             "alpha": list(args.alpha),
-            "basis": {"n_basis": args.basis, "width": args.width, "shrinkage": args.shrinkage},
-            "primitives": {name: len(demos) for name, demos in dataset.items()},
+            "basis": {
+                "n_basis": args.basis,
+                "width": args.width,
+                "shrinkage": args.shrinkage,
+                "noise_scale": args.noise_scale,
+            },
+            "demonstrations": {name: len(demos) for name, demos in dataset.items()},
         },
+        "primitives": list(dataset),
         "results": result.rows,
         "failures": result.failures,
     }
@@ -169,7 +208,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 def print_table(rows: list[dict]) -> None:
     header = (
         f"{'observed':14s} {'alpha':5s} {'%':>4s} {'errors':>9s} {'pos cm':>7s} "
-        f"{'goal cm':>7s} {'dur s':>6s} {'nrmse prior':>11s} {'post':>6s}"
+        f"{'goal cm':>7s} {'dur s':>6s} {'nrmse prior':>11s} {'post':>6s} {'log-loss':>8s}"
     )
     print(header)
     for r in rows:
@@ -177,5 +216,5 @@ def print_table(rows: list[dict]) -> None:
             f"{','.join(r['observed']):14s} {r['alpha_method']:5s} {r['percent']:4.0f} "
             f"{r['recognition_errors']:>4d}/{r['trials']:<4d} {100 * r['position_error_m']:7.2f} "
             f"{100 * r['goal_error_m']:7.2f} {r['duration_error_s']:6.2f} "
-            f"{r['nrmse_prior']:11.3f} {r['nrmse_posterior']:6.3f}"
+            f"{r['nrmse_prior']:11.3f} {r['nrmse_posterior']:6.3f} {r['log_loss']:8.3f}"
         )

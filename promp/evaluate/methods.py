@@ -13,8 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp.data import Demonstration, Layout
-from promp.inference import Observation, condition, predict, recognise
+from promp.inference import Observation
 from promp.model import ProMPModel, Settings, fit
+from promp.pipeline import infer
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,21 +45,13 @@ class Inferred:
 
 
 class Ours:
-    """The method of this project (:mod:`promp.inference`)."""
+    """The method of this project (:func:`promp.pipeline.infer`)."""
 
     name = "ours"
 
-    def __init__(
-        self,
-        layout: Layout,
-        settings: Settings | None = None,
-        refine: bool = False,
-        evidence: str = "marginal",
-    ):
+    def __init__(self, layout: Layout, settings: Settings | None = None):
         self.layout = layout
         self.settings = settings or Settings()
-        self.refine = refine
-        self.evidence = evidence
         self.model: ProMPModel | None = None
 
     def fit(self, dataset: Mapping[str, Sequence[Demonstration]], sample_period: float) -> None:
@@ -70,20 +63,14 @@ class Ours:
         model = self.model
         assert model is not None, "fit() first"
         obs = Observation.from_demo(model, demo, n_observed, observe)
-        reco = recognise(
-            model, obs, alpha_method=alpha_method, refine=self.refine, evidence=self.evidence
-        )
-        prim = model.primitives[reco.index]
-        posterior = condition(model, prim, obs, reco.alpha)
-        prior = predict(model, prim, reco.alpha)
-        post = predict(model, posterior, reco.alpha)
+        result = infer(model, obs, alpha_method=alpha_method)
         return Inferred(
-            index=reco.index,
-            probabilities=reco.probabilities,
-            alpha=reco.alpha,
-            duration=post.duration,
-            prior_mean=prior.mean,
-            prior_std=prior.std,
-            posterior_mean=post.mean,
-            posterior_std=post.std,
+            index=result.index,
+            probabilities=result.probabilities,
+            alpha=result.alpha,
+            duration=result.duration,
+            prior_mean=result.prior.mean,
+            prior_std=result.prior.std,
+            posterior_mean=result.prediction.mean,
+            posterior_std=result.prediction.std,
         )

@@ -62,3 +62,50 @@ def nrmse(truth: np.ndarray, predicted: np.ndarray) -> float:
     span = np.ptp(truth, axis=0)
     span = np.where(span > 1e-12, span, 1.0)
     return float((rmse / span).mean())
+
+
+def reliability(
+    probabilities: np.ndarray, truth: np.ndarray, n_bins: int = 10
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reliability of predicted class probabilities: every (trial, class) pair is one forecast
+    ``p`` of the event "the trial is of this class", binned by ``p`` into ``n_bins`` equal bins.
+
+    Parameters
+    ----------
+    probabilities : array, shape (n_trials, n_classes)
+    truth : int array, shape (n_trials,)
+        The true class of each trial.
+
+    Returns
+    -------
+    mean_forecast, frequency, count : arrays, shape (n_bins,)
+        Per bin: the mean forecast, the observed frequency of the event (NaN in an empty bin)
+        and the number of forecasts. A calibrated forecaster has ``frequency ~ mean_forecast``.
+    """
+    probabilities = np.asarray(probabilities, dtype=float)
+    truth = np.asarray(truth, dtype=int)
+    if probabilities.ndim != 2 or truth.shape != (probabilities.shape[0],):
+        raise ValueError(
+            f"probabilities (n, K) and truth (n,) expected, got {probabilities.shape} and "
+            f"{truth.shape}"
+        )
+    events = np.zeros_like(probabilities)
+    events[np.arange(truth.size), truth] = 1.0
+    p, e = probabilities.ravel(), events.ravel()
+    index = np.minimum((p * n_bins).astype(int), n_bins - 1)
+    count = np.bincount(index, minlength=n_bins).astype(float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_forecast = np.bincount(index, weights=p, minlength=n_bins) / count
+        frequency = np.bincount(index, weights=e, minlength=n_bins) / count
+    return mean_forecast, frequency, count.astype(int)
+
+
+def calibration_error(
+    mean_forecast: np.ndarray, frequency: np.ndarray, count: np.ndarray
+) -> float:
+    """Expected calibration error: the count-weighted mean of ``|frequency - forecast|``."""
+    used = count > 0
+    if not used.any():
+        return float("nan")
+    gaps = np.abs(frequency[used] - mean_forecast[used])
+    return float((gaps * count[used]).sum() / count[used].sum())

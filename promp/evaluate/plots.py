@@ -10,7 +10,8 @@ import numpy as np
 
 from promp.data import Layout
 from promp.datasets import Dataset
-from promp.evaluate.sweep import SweepResult, Trial, position_modality
+from promp.evaluate import metrics
+from promp.evaluate.sweep import SweepResult, Trial
 
 
 def _pyplot():
@@ -62,6 +63,41 @@ def curves(rows: list[dict], path: Path, method: str) -> None:
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     fig.suptitle(f"leave-one-out, method {method}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def reliability_diagram(trials: list[Trial], n_primitives: int, path: Path, method: str) -> None:
+    """Predicted probability against observed frequency, per alpha method (all observed
+    percentages together; a failed trial counts as a uniform guess)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(5.2, 5))
+    ax.plot([0, 1], [0, 1], color="0.6", lw=1, ls="--", label="calibrated")
+    for alpha_method in sorted({t.alpha_method for t in trials}):
+        chosen = [t for t in trials if t.alpha_method == alpha_method]
+        probabilities = np.array([
+            t.inferred.probabilities if t.inferred is not None
+            else np.full(n_primitives, 1.0 / n_primitives)
+            for t in chosen
+        ])  # fmt: skip
+        truth = np.array([t.primitive for t in chosen])
+        forecast, frequency, count = metrics.reliability(probabilities, truth)
+        used = count > 0
+        ece = metrics.calibration_error(forecast, frequency, count)
+        ax.plot(
+            forecast[used], frequency[used], "o-",
+            label=f"alpha {alpha_method} (calibration error {ece:.3f})",
+        )  # fmt: skip
+        for x, y, n in zip(forecast[used], frequency[used], count[used], strict=True):
+            ax.annotate(str(n), (x, y), fontsize=6, xytext=(3, -8), textcoords="offset points")
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("predicted probability of a primitive")
+    ax.set_ylabel("observed frequency (numbers: forecasts per bin)")
+    ax.set_title(f"reliability of the recognition, method {method}")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -120,9 +156,9 @@ def write_figures(
     """Write the curves and one example per observed modality set; return the paths."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    paths = [folder / f"curves_{method}.png"]
+    paths = [folder / f"curves_{method}.png", folder / f"reliability_{method}.png"]
     curves(result.rows, paths[0], method)
-    position_modality(layout)
+    reliability_diagram(result.trials, len(dataset), paths[1], method)
     ran = [t for t in result.trials if t.inferred is not None]
     for observed in sorted({t.observed for t in ran}):
         candidates = [t for t in ran if t.observed == observed and t.alpha_method == "ml"] or [

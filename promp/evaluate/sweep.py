@@ -6,6 +6,11 @@ The first ``n_o = ceil(p / 100 * n)`` samples of the observed modalities are sho
 primitive is recognised, the weights are conditioned on the recognised primitive, and the rest
 is predicted. Results are averaged per (percent, alpha method, observed modalities).
 
+Folds are independent: ``jobs`` runs them on several processes (joblib; ``-1`` = every core)
+and ``scheduler`` on a Dask cluster (``dask.distributed``, the ``cluster`` extra), with results
+identical to one process: every fold is computed the same way wherever it runs, and the rows
+are assembled in the folds' order.
+
 A trial the method cannot run (it raises ``ValueError``: e.g. an observation it has no
 explanation for) does not end the sweep: it counts as a recognition error, is left out of the
 trajectory metrics, and is listed by primitive, demonstration and reason in the row's
@@ -14,9 +19,9 @@ trajectory metrics, and is listed by primitive, demonstration and reason in the 
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
-import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -80,22 +85,106 @@ def position_modality(layout: Layout) -> str:
     return layout.names[0]
 
 
-def stderr_progress(label: str) -> Progress:
-    """A one-line progress bar on stderr."""
-    start = time.monotonic()
+def tqdm_progress(label: str) -> Progress:
+    """A progress bar on stderr (tqdm)."""
+    from tqdm import tqdm
+
+    bar = None
 
     def report(done: int, total: int) -> None:
-        width = 30
-        filled = int(width * done / max(total, 1))
-        elapsed = time.monotonic() - start
-        sys.stderr.write(
-            f"\r{label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total} {elapsed:5.1f} s"
-        )
+        nonlocal bar
+        if bar is None:
+            bar = tqdm(total=total, desc=label, unit="fold", file=sys.stderr)
+        bar.update(done - bar.n)
         if done >= total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+            bar.close()
 
     return report
+
+
+def _run_fold(
+    method_factory: Callable[[], object],
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+    k: int,
+    j: int,
+    dt: float,
+    percents: Sequence[float],
+    alpha_methods: Sequence[str],
+    observe_sets: Sequence[Sequence[str]],
+) -> list[Trial]:
+    """Fit without demonstration ``j`` of primitive ``k``, then infer it at every setting."""
+    names = list(dataset)
+    pos_dims = layout.dims([position_modality(layout)])
+    train = {
+        name: [d for i, d in enumerate(demos) if not (kk == k and i == j)]
+        for kk, (name, demos) in enumerate(dataset.items())
+    }
+    demo = dataset[names[k]][j]
+    method = method_factory()
+    try:
+        method.fit(train, dt)
+        fit_error = ""
+    except ValueError as exc:
+        fit_error = f"fit without it failed: {exc}"
+    truth = layout.extract(demo)[:, pos_dims]
+    trials = []
+    for percent in percents:
+        n_o = n_observed_for(percent, demo.n_samples)
+        for observed in observe_sets:
+            for alpha_method in alpha_methods:
+                trial = Trial(k, demo.name, float(percent), alpha_method, tuple(observed), None)
+                try:
+                    if fit_error:
+                        raise ValueError(fit_error)
+                    inferred = method.infer(demo, n_o, observed, alpha_method)
+                except ValueError as exc:
+                    trial.error = str(exc)
+                else:
+                    _measure(trial, inferred, truth, demo.duration, n_o, pos_dims)
+                trials.append(trial)
+    return trials
+
+
+def _folds(
+    fold: Callable[[int, int], list[Trial]],
+    held_out: list[tuple[int, int]],
+    jobs: int,
+    scheduler: str | None,
+    progress: Progress | None,
+):
+    """Each fold's trials, in the order of ``held_out``."""
+    if jobs == 1 and scheduler is None:
+        for done, (k, j) in enumerate(held_out):
+            yield fold(k, j)
+            if progress is not None:
+                progress(done + 1, len(held_out))
+        return
+    import joblib
+
+    if scheduler is not None:
+        try:
+            from dask.distributed import Client
+        except ImportError:
+            raise ValueError(
+                "the Dask backend needs the 'cluster' extra: pip install 'dask[distributed]'"
+            ) from None
+        client = Client(scheduler)
+        config = joblib.parallel_config(backend="dask")
+    else:
+        client = None
+        config = joblib.parallel_config(backend="loky", n_jobs=jobs)
+    try:
+        with config:
+            parallel = joblib.Parallel(return_as="generator")
+            results = parallel(joblib.delayed(fold)(k, j) for k, j in held_out)
+            for done, trials in enumerate(results):
+                yield trials
+                if progress is not None:
+                    progress(done + 1, len(held_out))
+    finally:
+        if client is not None:
+            client.close()
 
 
 def run_sweep(
@@ -108,8 +197,14 @@ def run_sweep(
     method_name: str,
     progress: Progress | None = None,
     keep_trials: bool = False,
+    jobs: int = 1,
+    scheduler: str | None = None,
 ) -> SweepResult:
-    """Run the leave-one-out protocol; one result row per (percent, alpha, observed)."""
+    """Run the leave-one-out protocol; one result row per (percent, alpha, observed).
+
+    ``jobs`` processes run the folds (-1: every core); ``scheduler`` (a Dask scheduler's
+    address) runs them on that cluster instead. The results do not depend on either.
+    """
     names = list(dataset)
     for name, demos in dataset.items():
         if len(demos) < 3:
@@ -117,40 +212,23 @@ def run_sweep(
                 f"leave-one-out needs at least 3 demonstrations per primitive; "
                 f"{name!r} has {len(demos)}"
             )
-    pos_dims = layout.dims([position_modality(layout)])
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
     held_out = [(k, j) for k, name in enumerate(names) for j in range(len(dataset[name]))]
+    fold = functools.partial(
+        _run_fold,
+        method_factory,
+        dataset,
+        layout,
+        dt=dt,
+        percents=list(percents),
+        alpha_methods=list(alpha_methods),
+        observe_sets=[list(o) for o in observe_sets],
+    )
     acc: dict[tuple, list[Trial]] = {}
-    for done, (k, j) in enumerate(held_out):
-        train = {
-            name: [d for i, d in enumerate(demos) if not (kk == k and i == j)]
-            for kk, (name, demos) in enumerate(dataset.items())
-        }
-        demo = dataset[names[k]][j]
-        method = method_factory()
-        try:
-            method.fit(train, dt)
-            fit_error = ""
-        except ValueError as exc:
-            fit_error = f"fit without it failed: {exc}"
-        truth = layout.extract(demo)[:, pos_dims]
-        for percent in percents:
-            n_o = n_observed_for(percent, demo.n_samples)
-            for observed in observe_sets:
-                for alpha_method in alpha_methods:
-                    key = (float(percent), alpha_method, tuple(observed))
-                    trial = Trial(k, demo.name, float(percent), alpha_method, tuple(observed), None)
-                    try:
-                        if fit_error:
-                            raise ValueError(fit_error)
-                        inferred = method.infer(demo, n_o, observed, alpha_method)
-                    except ValueError as exc:
-                        trial.error = str(exc)
-                    else:
-                        _measure(trial, inferred, truth, demo.duration, n_o, pos_dims)
-                    acc.setdefault(key, []).append(trial)
-        if progress is not None:
-            progress(done + 1, len(held_out))
+    for trials in _folds(fold, held_out, jobs, scheduler, progress):
+        for trial in trials:
+            key = (trial.percent, trial.alpha_method, trial.observed)
+            acc.setdefault(key, []).append(trial)
     result = SweepResult()
     for (percent, alpha_method, observed), trials in acc.items():
         result.rows.append(
