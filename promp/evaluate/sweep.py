@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -146,6 +147,12 @@ def _run_fold(
     return trials
 
 
+def _run_folds(
+    fold: Callable[[int, int], list[Trial]], chunk: Sequence[tuple[int, int]]
+) -> list[list[Trial]]:
+    return [fold(k, j) for k, j in chunk]
+
+
 def _folds(
     fold: Callable[[int, int], list[Trial]],
     held_out: list[tuple[int, int]],
@@ -153,7 +160,11 @@ def _folds(
     scheduler: str | None,
     progress: Progress | None,
 ):
-    """Each fold's trials, in the order of ``held_out``."""
+    """Each fold's trials, in the order of ``held_out``.
+
+    In parallel, the folds travel in chunks (four per worker): each chunk carries the dataset
+    once, rather than once per fold.
+    """
     if jobs == 1 and scheduler is None:
         for done, (k, j) in enumerate(held_out):
             yield fold(k, j)
@@ -170,18 +181,27 @@ def _folds(
                 "the Dask backend needs the 'cluster' extra: pip install 'dask[distributed]'"
             ) from None
         client = Client(scheduler)
+        workers = max(1, sum(client.nthreads().values()))
         config = joblib.parallel_config(backend="dask")
     else:
         client = None
+        workers = jobs if jobs > 0 else (os.cpu_count() or 1)
         config = joblib.parallel_config(backend="loky", n_jobs=jobs)
+    n_chunks = min(len(held_out), 4 * workers)
+    chunks = [list(c) for c in np.array_split(np.arange(len(held_out)), n_chunks) if c.size]
     try:
         with config:
             parallel = joblib.Parallel(return_as="generator")
-            results = parallel(joblib.delayed(fold)(k, j) for k, j in held_out)
-            for done, trials in enumerate(results):
-                yield trials
-                if progress is not None:
-                    progress(done + 1, len(held_out))
+            results = parallel(
+                joblib.delayed(_run_folds)(fold, [held_out[i] for i in chunk]) for chunk in chunks
+            )
+            done = 0
+            for trials_of_chunk in results:
+                for trials in trials_of_chunk:
+                    done += 1
+                    yield trials
+                    if progress is not None:
+                        progress(done, len(held_out))
     finally:
         if client is not None:
             client.close()

@@ -1,0 +1,83 @@
+"""Wall time of the leave-one-out sweep on the heights recordings with 1 process and with every
+core, and the speed-up; also the studio's refit of the default workspace (the automatic
+settings, timed against its 1 s budget).
+
+The sweep is ``python -m promp.evaluate ../shared/data/lab-records-heights --format records
+--percent 20 40 60 80 --alpha ml``, run in-process through :func:`promp.evaluate.sweep.run_sweep`
+with ``jobs=1`` then ``jobs=-1``; the two results are checked identical. Both runs are measured
+in this one process, so their ratio does not depend on how fast this machine is.
+
+Run: ``.venv/bin/python bench/evaluate.py [--data DIR]``. The last line is one JSON object.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from promp.datasets import read_dataset  # noqa: E402
+from promp.evaluate.methods import Ours  # noqa: E402
+from promp.evaluate.sweep import run_sweep  # noqa: E402
+from promp.model import Settings, fit  # noqa: E402
+
+
+def sweep_seconds(dataset, layout, jobs: int) -> tuple[float, list[dict]]:
+    start = time.perf_counter()
+    result = run_sweep(
+        lambda: Ours(layout, Settings()), dataset, layout, [20, 40, 60, 80], ["ml"],
+        [["hand"]], "ours", jobs=jobs,
+    )  # fmt: skip
+    return time.perf_counter() - start, result.rows
+
+
+def refit_ms(repeats: int = 7) -> float:
+    from app.studio import default_workspace
+    from robots.icub.layout import STUDIO_LAYOUT
+
+    data = default_workspace()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fit(data.demos, STUDIO_LAYOUT, Settings(**data.settings))
+        times.append(time.perf_counter() - start)
+    return 1e3 * statistics.median(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--data", type=Path, default=ROOT.parent / "shared/data/lab-records-heights"
+    )
+    args = parser.parse_args()
+    dataset, layout = read_dataset(args.data, "records")
+    cores = os.cpu_count() or 1
+    one, rows_one = sweep_seconds(dataset, layout, 1)
+    print(f"heights sweep, 1 process: {one:6.1f} s", flush=True)
+    every, rows_all = sweep_seconds(dataset, layout, -1)
+    print(f"heights sweep, {cores} processes: {every:6.1f} s", flush=True)
+    identical = json.dumps(rows_one) == json.dumps(rows_all)
+    print(f"speed-up {one / every:.2f}x on {cores} cores; identical results: {identical}")
+    refit = refit_ms()
+    print(f"refit of the default workspace (automatic settings): {refit:.0f} ms "
+          f"({refit / 1000:.2f} of the 1 s budget)")  # fmt: skip
+    print(json.dumps({
+        "cores": cores,
+        "sweep_1_job_s": round(one, 2),
+        "sweep_all_jobs_s": round(every, 2),
+        "speedup": round(one / every, 3),
+        "identical": identical,
+        "refit_default_workspace_ms": round(refit, 1),
+        "refit_budget_fraction": round(refit / 1000, 3),
+    }))  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
