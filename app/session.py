@@ -36,7 +36,6 @@ from promp.data import Demonstration, Layout
 from promp.model import ProMPModel, Settings, fit
 from promp.pipeline import Typicality, typicality
 
-DEFAULT_SETTINGS = {"n_basis": Settings().n_basis, "width": Settings().width}
 KEEP = object()  # set_learning: leave a setting as it is
 
 
@@ -68,7 +67,8 @@ class Session:
         self.demos: dict[str, list[Demonstration]] = {
             p.name: list(data.demos.get(p.name, [])) for p in self.primitives
         }
-        self.settings: dict = {**DEFAULT_SETTINGS, **data.settings}
+        # What the workspace sets; the engine's defaults fill the rest (learning_settings).
+        self.settings: dict = dict(data.settings)
         self.problems: list[str] = list(data.problems)
         keys = {(p, d.name) for p, items in self.demos.items() for d in items}
         self.hidden &= keys
@@ -317,7 +317,7 @@ class Session:
         """Swap the whole session for ``data`` (an import), on disk first; the current
         demonstrations and index go to the trash, restorable as one entry."""
         with self.lock:
-            Settings(**{**DEFAULT_SETTINGS, **data.settings})
+            Settings(**data.settings)
             trashed = self.workspace.replace_all(data, label)
             self.hidden.clear()
             self.typicality.clear()
@@ -330,7 +330,7 @@ class Session:
         """Create a new workspace at ``root`` (absent or empty) holding ``data`` and serve it
         instead of the current one, which stays as it is on disk."""
         with self.lock:
-            Settings(**{**DEFAULT_SETTINGS, **data.settings})
+            Settings(**data.settings)
             workspace = Workspace.create(root, data)
             self.hidden.clear()
             self.typicality.clear()

@@ -24,7 +24,6 @@ from app.panels.data import (
     parse_percents,
     results_table,
 )
-from app.session import DEFAULT_SETTINGS
 from app.workspace import PALETTE, PrimitiveEntry, Workspace, WorkspaceData
 from promp.evaluate.sweep import run_sweep
 from promp.io import model_from_json, model_to_dict
@@ -111,8 +110,7 @@ def studio(tmp_path_factory):
         WorkspaceData(
             primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
             demos=dataset,
-            # Explicit, as the studio writes them back: a re-import then gives identical files.
-            settings=dict(DEFAULT_SETTINGS),
+            settings={},  # the engine's defaults, as the studio writes them back
         ),
     )
     studio = start_studio(root)

@@ -168,7 +168,7 @@ def test_the_lab_recordings_on_the_icub(page, studio, heights_dir, artifacts) ->
     page.get_by_role("tab", name="Infer").click()
     choose(page, panel.primitive, "top")
     choose(page, panel.demo, "person2_record3")
-    panel.percent.value = 60
+    panel.percent.value = 80
     result = wait_until(
         lambda: panel.result if panel.result is not None and panel.result.truth is not None
         and panel.result.truth.name == "person2_record3" and not panel._dirty else None,
