@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from promp.datasets import read_dataset  # noqa: E402
-from promp.evaluate.methods import Ours  # noqa: E402
+from promp.evaluate.methods import ProMPEngine  # noqa: E402
 from promp.evaluate.sweep import run_sweep  # noqa: E402
 from promp.model import Settings, fit  # noqa: E402
 
@@ -32,7 +32,7 @@ from promp.model import Settings, fit  # noqa: E402
 def sweep_seconds(dataset, layout, jobs: int) -> tuple[float, list[dict]]:
     start = time.perf_counter()
     result = run_sweep(
-        lambda: Ours(layout, Settings()), dataset, layout, [20, 40, 60, 80], ["ml"],
+        lambda: ProMPEngine(layout, Settings()), dataset, layout, [20, 40, 60, 80], ["ml"],
         [["hand"]], "ours", jobs=jobs,
     )  # fmt: skip
     return time.perf_counter() - start, result.rows

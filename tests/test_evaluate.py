@@ -16,7 +16,7 @@ from promp.data import Layout, Modality
 from promp.datasets import write_csv_dataset
 from promp.evaluate import metrics
 from promp.evaluate.cli import main
-from promp.evaluate.methods import Inferred, Ours
+from promp.evaluate.methods import Inferred, ProMPEngine
 from promp.evaluate.sweep import n_observed_for, run_sweep
 from promp.model import Settings
 from tests.conftest import REPO
@@ -273,8 +273,8 @@ def test_selection_rule_scores_every_candidate_and_picks_the_lowest_log_loss(
     assert all(c["trials"] == 2 * 8 for c in report["candidates"])
 
 
-class Spy(Ours):
-    """Ours, recording which demonstrations every fit saw (and what it chose from them)."""
+class Spy(ProMPEngine):
+    """The engine, recording which demonstrations every fit saw (and what it chose from them)."""
 
     seen: list = []
 
@@ -302,7 +302,7 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration() -> None:
 def _sweep(**kwargs):
     dataset = make_dataset(seed=6, n_demos=4)
     return run_sweep(
-        lambda: Ours(FULL, Settings(n_basis=6)), dataset, FULL, [30, 70], ["ml", "model"],
+        lambda: ProMPEngine(FULL, Settings(n_basis=6)), dataset, FULL, [30, 70], ["ml", "model"],
         [["hand"], ["hand", "head"]], "ours", **kwargs,
     )  # fmt: skip
 

@@ -43,7 +43,7 @@ from app.upload_guard import UploadGuard
 from app.workspace import WorkspaceData
 from promp.data import Demonstration, Layout
 from promp.evaluate.cli import DEFAULT_PERCENTS
-from promp.evaluate.methods import Ours
+from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.sweep import SweepResult, run_sweep
 from promp.model import Settings
 
@@ -207,7 +207,7 @@ class EvaluationJob:
         settings, layout = self.settings, self.layout
         try:
             self.result = run_sweep(
-                lambda: Ours(layout, settings),
+                lambda: ProMPEngine(layout, settings),
                 self.dataset,
                 layout,
                 percents=self.percents,

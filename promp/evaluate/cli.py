@@ -26,8 +26,8 @@ from pathlib import Path
 
 from promp.data import Layout
 from promp.datasets import Dataset, parse_modality, read_dataset
-from promp.evaluate.methods import Ours
-from promp.evaluate.seed import Seed
+from promp.evaluate.methods import ProMPEngine
+from promp.evaluate.seed import ToolboxBaseline
 from promp.evaluate.sweep import position_modality, run_sweep, tqdm_progress
 from promp.model import Settings
 
@@ -127,7 +127,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.method == "seed":
 
             def factory():
-                return Seed(layout)
+                return ToolboxBaseline(layout)
 
         else:
             try:
@@ -144,7 +144,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
 
             def factory():
-                return Ours(layout, settings)
+                return ProMPEngine(layout, settings)
 
         if args.backend == "dask" and not args.scheduler:
             raise ValueError("--backend dask needs --scheduler ADDRESS")

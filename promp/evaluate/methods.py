@@ -44,8 +44,8 @@ class Inferred:
     posterior_std: np.ndarray
 
 
-class Ours:
-    """The method of this project (:func:`promp.pipeline.infer`)."""
+class ProMPEngine:
+    """This project's multi-modal ProMP engine (:func:`promp.pipeline.infer`): `--method ours`."""
 
     name = "ours"
 

@@ -76,8 +76,9 @@ class _SeedPrimitive:
         self.n_dims = n_dims
 
 
-class Seed:
-    """The original toolbox (see the module docstring)."""
+class ToolboxBaseline:
+    """The authors' Matlab toolbox, reproduced as the baseline (`--method seed`; see the module
+    docstring)."""
 
     name = "seed"
 

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from promp.evaluate.cli import load
-from promp.evaluate.methods import Ours
+from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.sweep import run_sweep, tqdm_progress
 from promp.model import Settings
 
@@ -63,7 +63,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for n_basis, width, noise_scale in CANDIDATES:
         settings = Settings(n_basis=n_basis, width=width, noise_scale=noise_scale)
         sweep = run_sweep(
-            lambda settings=settings: Ours(layout, settings),
+            lambda settings=settings: ProMPEngine(layout, settings),
             dataset,
             layout,
             percents=PERCENTS,
