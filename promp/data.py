@@ -15,6 +15,22 @@ import numpy as np
 
 Kind = Literal["linear", "angle"]
 
+# No sensor in any sensible unit reads beyond this; such values (a unit or parsing mistake)
+# would overflow the squares and products of the fit.
+MAX_MAGNITUDE = 1e12
+
+
+def check_values(times: np.ndarray, values: np.ndarray, label: str) -> None:
+    """ValueError unless ``times`` and ``values`` are finite and ``values`` within
+    +-:data:`MAX_MAGNITUDE`; ``label`` names the data in the message."""
+    if not np.all(np.isfinite(times)) or not np.all(np.isfinite(values)):
+        raise ValueError(f"{label}: contains NaN or infinite values")
+    if values.size and float(np.max(np.abs(values))) > MAX_MAGNITUDE:
+        raise ValueError(
+            f"{label}: a value of magnitude {float(np.max(np.abs(values))):.3g} is beyond "
+            f"{MAX_MAGNITUDE:.0e} (check the units or the file)"
+        )
+
 
 def _frozen(array: np.ndarray) -> np.ndarray:
     out = np.array(array, dtype=float, copy=True)
@@ -69,8 +85,7 @@ class Demonstration:
             )
         if len(set(columns)) != len(columns):
             raise ValueError(f"{label}: duplicate column names in {columns}")
-        if not np.all(np.isfinite(times)) or not np.all(np.isfinite(values)):
-            raise ValueError(f"{label}: contains NaN or infinite values")
+        check_values(times, values, label)
         if np.any(np.diff(times) <= 0):
             raise ValueError(f"{label}: times must be strictly increasing")
         object.__setattr__(self, "times", _frozen(times))

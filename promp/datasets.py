@@ -27,6 +27,7 @@ import io
 import os
 import re
 import tempfile
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -174,8 +175,16 @@ def read_record(path: Path, drop_missing_wrench: bool = False, name: str = "") -
     """Read one lab record (13 whitespace-separated columns, see the module docstring)."""
     path = Path(path)
     try:
-        table = np.loadtxt(path, ndmin=2)
-    except (OSError, ValueError) as exc:
+        if not path.read_bytes().strip():
+            raise ValueError(f"{path}: empty file: a lab record needs at least 2 samples")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # numpy's "input contained no data"
+            table = np.loadtxt(path, ndmin=2)
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot be read ({exc})") from exc
+    except ValueError as exc:
+        if str(exc).startswith(str(path)):
+            raise
         raise ValueError(f"{path}: not a lab record ({exc})") from exc
     if table.shape[1] != len(RECORD_COLUMNS):
         raise ValueError(

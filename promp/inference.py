@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_solve, solve_triangular
 
-from promp.data import Demonstration
+from promp.data import Demonstration, check_values
 from promp.model import Primitive, ProMPModel
 from promp.timing import check_alpha, duration_from_alpha, n_samples_from_alpha
 
@@ -60,8 +60,7 @@ class Observation:
             raise ValueError(
                 f"observation values must have shape ({times.shape[0]}, n_dims), got {values.shape}"
             )
-        if not (np.all(np.isfinite(times)) and np.all(np.isfinite(values))):
-            raise ValueError("the observation contains NaN or infinite values")
+        check_values(times, values, "the observation")
         if np.any(np.diff(times) <= 0):
             raise ValueError("observation times must be strictly increasing")
         if not self.modalities:

@@ -55,8 +55,16 @@ MODEL_VERSION = 2
 READABLE_VERSIONS = (1, 2)
 
 
+def _has_bool(value: Any) -> bool:
+    if isinstance(value, bool):
+        return True
+    return isinstance(value, list) and any(_has_bool(v) for v in value)
+
+
 def _array(value: Any, what: str, shape: tuple[int | None, ...]) -> np.ndarray:
     """A finite float array of the given shape (None = any length) or a ValueError."""
+    if _has_bool(value):  # JSON true/false is not a number, though numpy would take it as one
+        raise ValueError(f"{what}: not an array of numbers (holds true/false)")
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -76,6 +84,16 @@ def _field(obj: Mapping, key: str, what: str) -> Any:
     if not isinstance(obj, Mapping) or key not in obj:
         raise ValueError(f"{what}: missing field {key!r}")
     return obj[key]
+
+
+def _number(obj: Mapping, key: str, what: str) -> float:
+    """The finite number ``obj[key]`` or a ValueError (true/false and strings are refused)."""
+    value = _field(obj, key, what)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{what} {key}: expected a number, got {value!r}")
+    if not np.isfinite(value):
+        raise ValueError(f"{what} {key}: must be finite, got {value!r}")
+    return float(value)
 
 
 def model_to_dict(model: ProMPModel) -> dict[str, Any]:
@@ -176,8 +194,8 @@ def model_from_dict(data: Any) -> ProMPModel:
         )
     except (TypeError, AttributeError) as exc:
         raise ValueError(f"malformed layout or settings ({exc})") from exc
-    sample_period = float(_field(data, "sample_period", "model"))
-    if not np.isfinite(sample_period) or sample_period <= 0:
+    sample_period = _number(data, "sample_period", "model")
+    if sample_period <= 0:
         raise ValueError(f"sample_period must be positive, got {sample_period}")
     n_dims = layout.n_dims
     n_weights = n_dims * settings.n_basis
@@ -231,9 +249,7 @@ def model_from_dict(data: Any) -> ProMPModel:
         shrinkage = _array(_field(p, "shrinkage", what), f"{what} shrinkage", (n_dims,))
         if np.any((shrinkage <= 0) | (shrinkage > 1)):
             raise ValueError(f"{what} shrinkage: intensities must be in (0, 1]")
-        log_alpha_mean = float(_field(p, "log_alpha_mean", what))
-        if not np.isfinite(log_alpha_mean):
-            raise ValueError(f"{what} log_alpha_mean: must be finite")
+        log_alpha_mean = _number(p, "log_alpha_mean", what)
         alpha_slope = _array(_field(p, "alpha_slope", what), f"{what} alpha_slope", (n_weights,))
         primitives.append(
             Primitive(
@@ -300,9 +316,10 @@ def demo_to_npz_bytes(demo: Demonstration) -> bytes:
 def demo_from_npz_bytes(data: bytes, label: str = "demonstration") -> Demonstration:
     """Read :func:`demo_to_npz_bytes` output (never unpickles)."""
     try:
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            if not isinstance(npz, np.lib.npyio.NpzFile):
-                raise ValueError("a single array, not an archive")
+        npz = np.load(io.BytesIO(data), allow_pickle=False)
+        if not isinstance(npz, np.lib.npyio.NpzFile):
+            raise ValueError("a single array, not an archive")
+        with npz:
             missing = {"times", "values", "columns"} - set(npz.files)
             if missing:
                 raise ValueError(f"NPZ lacks {sorted(missing)}")

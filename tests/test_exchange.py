@@ -331,7 +331,7 @@ MODEL_CASES = {
     "nested": (lambda m: b"[" * 100_000, "nested too deeply"),
     "wrong type": (
         lambda m: json.dumps({**_model_dict(m), "sample_period": [0.02]}).encode(),
-        "malformed model file",
+        "sample_period: expected a number, got [0.02]",
     ),
     "truncated": (lambda m: exchange.model_bytes(m)[:-100], "not valid JSON"),
     "bad primitive name": (

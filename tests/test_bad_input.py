@@ -1,0 +1,328 @@
+"""Bad input, counted: every loader and upload path is fed a generated corpus of malformed inputs
+(``tests/bad_inputs.py``, plus hypothesis fuzzing where it fits), and each must be refused with a
+``ValueError`` (a head-pose source error for videos) whose message names the problem, while the
+workspace stays byte-identical. Anything else (another exception, or the input accepted) is a
+crash. The module's tally is written to ``artifacts/bad_input.json`` (the README's figures).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections import Counter
+from collections.abc import Callable
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from app.dataset_import import extract_dataset_zip
+from app.exchange import Limits, read_upload, workspace_zip
+from app.headpose.sources import HeadPoseSourceError, track_video
+from app.workspace import LAYOUT, PALETTE, PrimitiveEntry, Workspace, WorkspaceData
+from promp.datasets import demo_from_csv, demo_to_csv, read_record
+from promp.inference import Observation
+from promp.io import demo_from_npz_bytes, model_to_json
+from promp.model import Settings, fit
+from promp.pipeline import infer
+from tests import bad_inputs
+from tests.synthetic import make_dataset
+
+TALLY: Counter = Counter()
+CRASHES: list[str] = []
+
+
+@pytest.fixture(scope="module", autouse=True)
+def tally(artifacts):
+    """Writes what the module tried to ``artifacts/bad_input.json`` when it ends."""
+    TALLY.clear()
+    CRASHES.clear()
+    yield TALLY
+    paths = sorted({path for path, _ in TALLY})
+    summary = {
+        "inputs_tried": sum(TALLY[(p, "tried")] for p in paths),
+        "refused_cleanly": sum(TALLY[(p, "refused")] for p in paths),
+        # fuzzed inputs that happen to be valid (e.g. a changed unit name) load as valid files
+        "accepted_as_valid": sum(TALLY[(p, "valid")] for p in paths),
+        "crashes": len(CRASHES),
+        "per_path": {
+            p: {k: TALLY[(p, k)] for k in ("tried", "refused", "valid") if TALLY[(p, k)]}
+            for p in paths
+        },
+    }
+    (artifacts / "bad_input.json").write_text(json.dumps(summary, indent=1))
+
+
+def tree_hash(root: Path) -> dict[str, str]:
+    return {
+        str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(root.rglob("*"))
+        if p.is_file()
+    }
+
+
+def refuse(
+    path: str,
+    case: str,
+    expected: str,
+    action: Callable[[], object],
+    errors: tuple[type[BaseException], ...] = (ValueError,),
+) -> str | None:
+    """Run ``action``; None when it is refused by one of ``errors`` with a message that holds
+    ``expected``, else what went wrong (and the case is counted as a crash)."""
+    TALLY[(path, "tried")] += 1
+    try:
+        action()
+    except errors as exc:
+        message = str(exc)
+        if not message.strip():
+            problem = "refused without saying why"
+        elif expected and expected not in message.lower():
+            problem = f"refused, but the message does not say {expected!r}: {message}"
+        else:
+            TALLY[(path, "refused")] += 1
+            return None
+    except Exception as exc:  # noqa: BLE001 - any other exception is what this module hunts
+        problem = f"crashed with {type(exc).__name__}: {exc}"
+    else:
+        problem = "accepted"
+    CRASHES.append(f"{path} / {case}: {problem}")
+    return f"{case}: {problem}"
+
+
+def run_corpus(path: str, cases, action, errors=(ValueError,)) -> None:
+    problems = [
+        p
+        for case, payload, expected in cases
+        if (p := refuse(path, case, expected, lambda payload=payload: action(payload), errors))
+    ]
+    assert not problems, "\n".join(problems)
+
+
+# ------------------------------------------------------------------------------ fixtures
+
+
+@pytest.fixture(scope="module")
+def dataset():
+    return make_dataset(seed=5, n_demos=4)
+
+
+@pytest.fixture(scope="module")
+def model(dataset):
+    return fit(dataset, LAYOUT, Settings())
+
+
+@pytest.fixture
+def workspace(tmp_path, dataset):
+    """A studio workspace on disk, and its checksums before the test."""
+    data = WorkspaceData(
+        primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
+        demos=dataset,
+        settings={},
+    )
+    root = tmp_path / "ws"
+    Workspace.create(root, data)
+    before = tree_hash(root)
+    yield root
+    assert tree_hash(root) == before, "a refused input changed the workspace"
+
+
+def make_csv(dataset) -> Callable[[int], bytes]:
+    demos = [d for items in dataset.values() for d in items]
+
+    def make(seed: int) -> bytes:
+        return demo_to_csv(demos[seed % len(demos)]).encode()
+
+    return make
+
+
+# ------------------------------------------------------------------------------ the paths
+
+
+def test_model_files(model, workspace) -> None:
+    valid = model_to_json(model).encode()
+    read_upload("model.json", valid)  # the corpus is made of mutations of a valid file
+    run_corpus("model JSON", bad_inputs.model_cases(valid),
+               lambda content: read_upload("model.json", content))  # fmt: skip
+    limits = Limits(max_upload_bytes=len(valid) - 1)
+    run_corpus("model JSON", [("over the limit", valid, "upload limit")],
+               lambda content: read_upload("model.json", content, limits))  # fmt: skip
+
+
+def test_workspace_archives(dataset, model, workspace) -> None:
+    data = Workspace(workspace).load()
+    archive = workspace_zip(data, model)
+    import io
+    import zipfile
+
+    with zipfile.ZipFile(io.BytesIO(archive)) as z:
+        members = {name: z.read(name) for name in z.namelist()}
+    read_upload("workspace.zip", bad_inputs.zip_of(members))
+    run_corpus(
+        "workspace zip",
+        bad_inputs.workspace_zip_cases(members, make_csv(dataset)),
+        lambda content: read_upload("workspace.zip", content),
+    )
+    limits = Limits(max_upload_bytes=len(archive) - 1)
+    tight = Limits(max_uncompressed_bytes=1000)
+    few = Limits(max_members=2)
+    run_corpus("workspace zip", [("over the limit", archive, "upload limit")],
+               lambda content: read_upload("workspace.zip", content, limits))  # fmt: skip
+    run_corpus("workspace zip", [("expands too far", archive, "expands")],
+               lambda content: read_upload("workspace.zip", content, tight))  # fmt: skip
+    run_corpus("workspace zip", [("too many members", archive, "entries")],
+               lambda content: read_upload("workspace.zip", content, few))  # fmt: skip
+    run_corpus("workspace zip", [("wrong extension", archive, "expected a model")],
+               lambda content: read_upload("workspace.tar", content))  # fmt: skip
+
+
+def test_dataset_imports(dataset, workspace, heights_record) -> None:
+    def extract_and_read(content: bytes) -> None:
+        upload = extract_dataset_zip(content, "dataset.zip")
+        try:
+            upload.read()
+        finally:
+            upload.close()
+
+    cases = list(bad_inputs.dataset_zip_cases(make_csv(dataset), heights_record))
+    run_corpus("dataset import", cases, extract_and_read)
+    limits = Limits(max_upload_bytes=10)
+    run_corpus("dataset import", [("over the limit", cases[-1][1], "upload limit")],
+               lambda content: extract_dataset_zip(content, "dataset.zip", limits))  # fmt: skip
+    run_corpus("dataset import", [("not a .zip", cases[-1][1], ".zip")],
+               lambda content: extract_dataset_zip(content, "dataset.rar"))  # fmt: skip
+
+
+def test_csv_demonstrations(dataset) -> None:
+    valid = demo_to_csv(dataset["left"][0])
+    demo_from_csv(valid)
+    run_corpus("CSV demo", bad_inputs.csv_cases(valid), demo_from_csv)
+
+
+def test_npz_demonstrations(dataset) -> None:
+    demo = dataset["left"][0]
+    run_corpus(
+        "NPZ demo", bad_inputs.npz_cases(demo.times, demo.values, demo.columns),
+        demo_from_npz_bytes,
+    )  # fmt: skip
+
+
+def test_lab_records(tmp_path, heights_record) -> None:
+    path = tmp_path / "record.txt"
+    path.write_bytes(heights_record)
+    read_record(path)
+
+    def read(text: str) -> None:
+        path.write_text(text)
+        read_record(path)
+
+    run_corpus("lab record", bad_inputs.record_cases(heights_record.decode()), read)
+
+
+def test_video_uploads(installed, tmp_path) -> None:
+    path = tmp_path / "clip.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 48))
+    for k in range(10):
+        writer.write(np.full((48, 64, 3), 20 * k, dtype=np.uint8))
+    writer.release()
+    run_corpus("video upload", bad_inputs.video_cases(path.read_bytes()),
+               lambda content: track_video(content, suffix=".mp4"),
+               errors=(ValueError, HeadPoseSourceError))  # fmt: skip
+
+
+def test_observations(model) -> None:
+    def run(triple) -> None:
+        infer(model, Observation(*triple))
+
+    run_corpus("observation", bad_inputs.observation_cases(3), run)
+
+
+# ------------------------------------------------------------------------------ fuzzing
+
+FUZZ = settings(max_examples=150, deadline=None, derandomize=True,
+                suppress_health_check=[HealthCheck.function_scoped_fixture])  # fmt: skip
+
+
+@FUZZ
+@given(st.text(alphabet=st.sampled_from("t,xyz0123456789.-e\n naNif"), max_size=400))
+def test_fuzzed_csv_text_is_parsed_or_refused(text: str) -> None:
+    TALLY[("CSV demo (fuzzed)", "tried")] += 1
+    try:
+        demo = demo_from_csv(text)
+    except ValueError as exc:
+        assert str(exc).strip()
+        TALLY[("CSV demo (fuzzed)", "refused")] += 1
+    else:  # what is accepted is a valid demonstration
+        assert demo.n_samples >= 2 and np.all(np.diff(demo.times) > 0)
+        assert np.all(np.isfinite(demo.values))
+        TALLY[("CSV demo (fuzzed)", "valid")] += 1
+
+
+JSON = st.recursive(
+    st.none() | st.booleans() | st.floats(allow_nan=True) | st.integers() | st.text(max_size=8),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner,
+                                                                 max_size=4),
+    max_leaves=20,
+)  # fmt: skip
+
+
+@FUZZ
+@given(data=st.data())
+def test_fuzzed_model_fields_are_refused(model, data) -> None:
+    """A valid model file with one field anywhere in it replaced by random JSON."""
+    doc = json.loads(model_to_json(model))
+    path, node = [], doc
+    while isinstance(node, (dict, list)) and node:
+        key = data.draw(st.sampled_from(sorted(node) if isinstance(node, dict)
+                                        else list(range(len(node)))))  # fmt: skip
+        path.append(key)
+        if data.draw(st.booleans()):
+            break
+        node = node[key]
+    value = data.draw(JSON)
+    target = doc
+    for key in path[:-1]:
+        target = target[key]
+    if not path or target[path[-1]] == value:
+        return
+    target[path[-1]] = value
+    content = json.dumps(doc).encode()
+    TALLY[("model JSON (fuzzed)", "tried")] += 1
+    try:
+        read_upload("model.json", content)
+    except ValueError as exc:
+        assert str(exc).strip()
+        TALLY[("model JSON (fuzzed)", "refused")] += 1
+    except Exception as exc:  # noqa: BLE001
+        CRASHES.append(f"model JSON (fuzzed) / {path}: {type(exc).__name__}: {exc}")
+        raise
+    else:
+        # Accepted: the replaced field was one the reader may ignore (e.g. the report) or a
+        # value it may take (a unit's name, a ridge); it loaded as a valid model.
+        TALLY[("model JSON (fuzzed)", "valid")] += 1
+
+
+def test_no_crash_in_the_whole_corpus() -> None:
+    """Runs last in this module: the tally of every path above."""
+    assert not CRASHES, "\n".join(CRASHES)
+    assert sum(v for k, v in TALLY.items() if k[1] == "tried") > 300
+
+
+# ------------------------------------------------------------------------------ data
+
+
+@pytest.fixture(scope="module")
+def heights_record() -> bytes:
+    """One real lab record when the shared data is there, else a synthetic one in its format."""
+    from tests.conftest import HEIGHTS
+
+    files = sorted(HEIGHTS.rglob("*.txt")) if HEIGHTS.exists() else []
+    if files:
+        return files[0].read_bytes()
+    rng = np.random.default_rng(0)
+    t = np.arange(50) * 0.01
+    table = np.column_stack([t, rng.normal(size=(50, 12)) * 0.1])
+    return ("\n".join(" ".join(f"{v:.6f}" for v in row) for row in table) + "\n").encode()
