@@ -330,41 +330,36 @@ def fit_all_weights(
     each ``Phi_j^T Phi_j``, so every candidate costs O(M D) per demonstration.
     """
     n_dims = layout.n_dims
-    parts = []
-    for demo in demos:
-        values = layout.extract(demo)
-        phi = basis(demo_phases(demo.times))
-        eig, vec = np.linalg.eigh(phi.T @ phi)
-        eig = np.maximum(eig, 0.0)
-        scale = float(eig.sum()) / eig.shape[0]  # mean diagonal of Phi^T Phi
-        proj = vec.T @ (phi.T @ values)  # (M, D)
-        parts.append((values, phi, eig, vec, scale, proj))
-
-    def gcv(rel: float) -> np.ndarray:
-        score = np.zeros(n_dims)
-        for values, _, eig, _, scale, proj in parts:
-            shrink = 1.0 / (eig + rel * scale + 1e-12 * scale)
-            coef = proj * shrink[:, None]
-            rss = (values**2).sum(axis=0) - 2 * (coef * proj).sum(axis=0)
-            rss += (coef**2 * eig[:, None]).sum(axis=0)
-            df = float((eig * shrink).sum())
-            n = values.shape[0]
-            score += n * np.maximum(rss, 0.0) / max(n - df, 1e-3) ** 2
-        return score
+    values = [layout.extract(demo) for demo in demos]
+    phis = [basis(demo_phases(demo.times)) for demo in demos]
+    eig, vec = np.linalg.eigh(np.stack([phi.T @ phi for phi in phis]))  # (N, M), (N, M, M)
+    eig = np.maximum(eig, 0.0)
+    scale = eig.sum(axis=1) / eig.shape[1]  # mean diagonal of Phi^T Phi, (N,)
+    proj = np.stack(
+        [v.T @ (phi.T @ y) for v, phi, y in zip(vec, phis, values, strict=True)]
+    )  # (N, M, D)
+    yy = np.stack([(y**2).sum(axis=0) for y in values])  # (N, D)
+    n = np.array([y.shape[0] for y in values], dtype=float)
 
     rel = np.full(n_dims, ridge if ridge is not None else 0.0)
     if ridge is None:
-        scores = np.array([gcv(r) for r in RIDGE_GRID])  # (grid, D)
+        grid = RIDGE_GRID[:, None, None]
+        shrink = 1.0 / (eig + (grid + 1e-12) * scale[:, None])  # (G, N, M)
+        coef = proj * shrink[..., None]  # (G, N, M, D)
+        rss = yy - 2 * (coef * proj).sum(axis=2) + (coef**2 * eig[..., None]).sum(axis=2)
+        df = (eig * shrink).sum(axis=2)  # (G, N)
+        scores = (n[:, None] * np.maximum(rss, 0.0) / np.maximum(n - df, 1e-3)[..., None] ** 2)
+        scores = scores.sum(axis=1)  # (G, D)
         for modality in layout.modalities:
             dims = layout.dims([modality.name])
             rel[dims] = RIDGE_GRID[int(np.argmin(scores[:, dims].sum(axis=1)))]
     fits = WeightFits(weights=[], residuals=[], dof=[], ridge=rel)
-    for values, phi, eig, vec, scale, proj in parts:
-        shrink = 1.0 / (eig[:, None] + (rel[None, :] + 1e-12) * scale)  # (M, D)
-        w = vec @ (proj * shrink)  # (M, D)
+    shrink = 1.0 / (eig[:, :, None] + (rel[None, None, :] + 1e-12) * scale[:, None, None])
+    w_all = vec @ (proj * shrink)  # (N, M, D)
+    for y, phi, w, e, sh in zip(values, phis, w_all, eig, shrink, strict=True):
         fits.weights.append(w.T.reshape(-1))
-        fits.residuals.append(values - phi @ w)
-        fits.dof.append(values.shape[0] - (eig[:, None] * shrink).sum(axis=0))
+        fits.residuals.append(y - phi @ w)
+        fits.dof.append(y.shape[0] - (e[:, None] * sh).sum(axis=0))
     return fits
 
 

@@ -183,7 +183,7 @@ def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
     keys = {
         "percent", "alpha_method", "observed", "method", "recognition_errors", "trials",
         "position_error_m", "goal_error_m", "duration_error_s", "nrmse_prior", "nrmse_posterior",
-        "log_loss", "failed",
+        "log_loss", "confident_mistakes", "worst_log_loss", "failed",
     }  # fmt: skip
     for row in rows:
         assert set(row) == keys

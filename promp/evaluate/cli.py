@@ -208,7 +208,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def print_table(rows: list[dict]) -> None:
     header = (
         f"{'observed':14s} {'alpha':5s} {'%':>4s} {'errors':>9s} {'pos cm':>7s} "
-        f"{'goal cm':>7s} {'dur s':>6s} {'nrmse prior':>11s} {'post':>6s} {'log-loss':>8s}"
+        f"{'goal cm':>7s} {'dur s':>6s} {'nrmse prior':>11s} {'post':>6s} {'log-loss':>8s} "
+        f"{'p<0.01':>6s} {'worst':>6s}"
     )
     print(header)
     for r in rows:
@@ -216,5 +217,6 @@ def print_table(rows: list[dict]) -> None:
             f"{','.join(r['observed']):14s} {r['alpha_method']:5s} {r['percent']:4.0f} "
             f"{r['recognition_errors']:>4d}/{r['trials']:<4d} {100 * r['position_error_m']:7.2f} "
             f"{100 * r['goal_error_m']:7.2f} {r['duration_error_s']:6.2f} "
-            f"{r['nrmse_prior']:11.3f} {r['nrmse_posterior']:6.3f} {r['log_loss']:8.3f}"
+            f"{r['nrmse_prior']:11.3f} {r['nrmse_posterior']:6.3f} {r['log_loss']:8.3f} "
+            f"{r['confident_mistakes']:6d} {r['worst_log_loss']:6.1f}"
         )
