@@ -22,6 +22,7 @@ normalising term ``n_o log sigma^2`` of the likelihood then outweighs the data.)
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -29,24 +30,32 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from promp.alpha_model import AlphaModel
-from promp.basis import RBFBasis
+from promp.basis import PhaseBasisCache, RBFBasis
 from promp.covariance import block_target, pooled_covariances
 from promp.data import Demonstration, Layout
-from promp.timing import alpha_from_duration, demo_phases
+from promp.timing import alpha_from_duration
+from promp.weights import WeightFits, fit_all_weights, fit_weights  # noqa: F401
 
 # Smallest shrinkage intensity: keeps Sigma_w positive definite.
 MIN_SHRINKAGE = 1e-12
 
 
+# Where the automatic choice starts (and what a fit uses when it cannot choose: a single
+# primitive, or no primitive with three demonstrations), see :mod:`promp.selection`.
+FALLBACK = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
+AUTOMATIC = tuple(FALLBACK)
+
+
 @dataclass(frozen=True)
 class Settings:
-    """Learning settings (the documented defaults are the ones the evaluation uses).
+    """Learning settings; ``None`` (the default of ``n_basis``, ``width``, ``noise_scale``)
+    means "chosen from the training demonstrations by every fit" (:mod:`promp.selection`).
 
     Parameters
     ----------
-    n_basis : int
+    n_basis : int or None
         M, basis functions per dimension.
-    width : float
+    width : float or None
         RBF standard deviation as a multiple of the spacing of the centres.
     ridge : float or None
         Ridge strength of the per-demonstration weight regression, relative to the mean
@@ -64,7 +73,7 @@ class Settings:
     noise_std : mapping of str to float
         Observation noise standard deviation per modality, in the modality's unit; modalities
         not listed use the estimate from the fit residuals.
-    noise_scale : float
+    noise_scale : float or None
         Multiplies every estimated noise standard deviation.
     noise_correlation : bool
         Model the observation noise as an Ornstein-Uhlenbeck process whose correlation time is
@@ -76,18 +85,21 @@ class Settings:
         the prior at a candidate alpha is the conditional Gaussian (see :class:`Primitive`).
     """
 
-    n_basis: int = 7
-    width: float = 1.0
+    n_basis: int | None = None
+    width: float | None = None
     ridge: float | None = None
     s_bar: float = 100.0
     shrinkage: float | None = None
     noise_std: Mapping[str, float] = field(default_factory=dict)
-    noise_scale: float = 1.5
+    noise_scale: float | None = None
     alpha_coupling: bool = True
     noise_correlation: bool = True
 
     def __post_init__(self) -> None:
-        RBFBasis(self.n_basis, self.width)  # validates both
+        RBFBasis(  # validates both
+            FALLBACK["n_basis"] if self.n_basis is None else self.n_basis,
+            FALLBACK["width"] if self.width is None else self.width,
+        )
         if self.ridge is not None and (not np.isfinite(self.ridge) or self.ridge < 0):
             raise ValueError(f"ridge must be >= 0 or None, got {self.ridge}")
         if not np.isfinite(self.s_bar) or self.s_bar <= 0:
@@ -97,12 +109,28 @@ class Settings:
         for name, std in self.noise_std.items():
             if not np.isfinite(std) or std <= 0:
                 raise ValueError(f"noise_std[{name!r}] must be positive, got {std}")
-        if not np.isfinite(self.noise_scale) or self.noise_scale <= 0:
-            raise ValueError(f"noise_scale must be positive, got {self.noise_scale}")
+        if self.noise_scale is not None and (
+            not np.isfinite(self.noise_scale) or self.noise_scale <= 0
+        ):
+            raise ValueError(f"noise_scale must be positive or None, got {self.noise_scale}")
         object.__setattr__(self, "noise_std", dict(self.noise_std))
 
     @property
+    def automatic(self) -> tuple[str, ...]:
+        """The settings left to the data (None), in the order of :data:`AUTOMATIC`."""
+        return tuple(name for name in AUTOMATIC if getattr(self, name) is None)
+
+    def with_fallback(self) -> Settings:
+        """These settings with every automatic one at its fallback value."""
+        return dataclasses.replace(self, **{name: FALLBACK[name] for name in self.automatic})
+
+    @property
     def basis(self) -> RBFBasis:
+        if self.n_basis is None or self.width is None:
+            raise ValueError(
+                "the basis is chosen by the fit (n_basis or width is None): use the fitted "
+                "model's settings"
+            )
         return RBFBasis(self.n_basis, self.width)
 
 
@@ -196,39 +224,25 @@ class Primitive:
         """Lower Cholesky factor of Sigma_w."""
         return np.linalg.cholesky(self.cov)
 
+    def observed_factor(self, dims: np.ndarray) -> np.ndarray:
+        """The rows of ``cov_factor`` of the weights of ``dims``, with no more columns than
+        rows: shape (len(dims), n_basis, r') with ``U_o' U_o'^T = U_o U_o^T``.
 
-class PhaseBasisCache:
-    """The basis at the phases ``elapsed / duration``, cached per duration.
-
-    Scrubbing an observation re-scores the same candidate durations on a growing prefix of the
-    same samples, so each duration keeps the longest ``elapsed`` seen and its basis rows; a
-    request for a prefix of it is a slice. Bounded; not shared between threads.
-    """
-
-    def __init__(self, basis: RBFBasis, max_entries: int = 512):
-        self.basis = basis
-        self.max_entries = max_entries
-        self._entries: dict[float, tuple[np.ndarray, np.ndarray]] = {}
-
-    def __call__(self, elapsed: np.ndarray, durations: np.ndarray) -> np.ndarray:
-        """Basis rows, shape (len(durations), len(elapsed), n_basis)."""
-        n = elapsed.shape[0]
-        out = np.empty((durations.shape[0], n, self.basis.n_basis))
-        for i, duration in enumerate(durations.tolist()):
-            entry = self._entries.get(duration)
-            if (
-                entry is not None
-                and entry[0].shape[0] >= n
-                and np.array_equal(entry[0][:n], elapsed)
-            ):
-                out[i] = entry[1][:n]
-                continue
-            rows = self.basis(elapsed / duration)
-            if len(self._entries) >= self.max_entries:
-                self._entries.clear()
-            self._entries[duration] = (elapsed.copy(), rows)
-            out[i] = rows
-        return out
+        A likelihood only sees ``U_o U_o^T`` (the covariance of the observed weights), so
+        observing 3 of 6 dimensions needs a factor of rank 3 M at most, whatever the rank of
+        the whole factor; computed once per set of dimensions (an SVD).
+        """
+        key = tuple(int(d) for d in dims)
+        cache = self.__dict__.setdefault("_observed_factors", {})
+        if key not in cache:
+            n_dims = self.noise_var.shape[0]
+            u = self.cov_factor.reshape(n_dims, -1, self.cov_factor.shape[1])[list(key)]
+            rows = u.reshape(-1, u.shape[-1])
+            if rows.shape[1] > rows.shape[0]:
+                left, sing, _ = np.linalg.svd(rows, full_matrices=False)
+                rows = left * sing
+            cache[key] = rows.reshape(len(key), u.shape[1], -1)
+        return cache[key]
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,100 +281,6 @@ class ProMPModel:
             if p.name == name:
                 return p
         raise ValueError(f"unknown primitive {name!r}; the model has {list(self.names)}")
-
-
-def fit_weights(
-    basis: RBFBasis, times: np.ndarray, values: np.ndarray, ridge: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Ridge regression of one demonstration on the basis (paper Eq. 2).
-
-    Parameters
-    ----------
-    times : array, shape (n_samples,)
-    values : array, shape (n_samples, n_dims)
-
-    Returns
-    -------
-    weights : array, shape (n_dims * n_basis,)
-        Dimension-major.
-    residuals : array, shape (n_samples, n_dims)
-    """
-    phi = basis(demo_phases(times))
-    gram = phi.T @ phi
-    lam = ridge * np.trace(gram) / gram.shape[0]
-    chol = np.linalg.cholesky(gram + (lam + 1e-12) * np.eye(gram.shape[0]))
-    w = np.linalg.solve(chol.T, np.linalg.solve(chol, phi.T @ values))  # (n_basis, n_dims)
-    return w.T.reshape(-1), values - phi @ w
-
-
-RIDGE_GRID = np.logspace(-10, 1, 23)
-
-
-@dataclass
-class WeightFits:
-    """Per-demonstration weights (Eq. 2) of a set of demonstrations.
-
-    Attributes
-    ----------
-    weights : list of arrays, shape (n_dims * n_basis,)
-    residuals : list of arrays, shape (n_samples_j, n_dims)
-    dof : list of arrays, shape (n_dims,)
-        Residual degrees of freedom, ``n_j - trace(hat matrix)``.
-    ridge : array, shape (n_dims,)
-        The relative ridge strength used for each dimension.
-    """
-
-    weights: list[np.ndarray]
-    residuals: list[np.ndarray]
-    dof: list[np.ndarray]
-    ridge: np.ndarray
-
-
-def fit_all_weights(
-    basis: RBFBasis,
-    demos: Sequence[Demonstration],
-    layout: Layout,
-    ridge: float | None,
-) -> WeightFits:
-    """Ridge weights of every demonstration; the ridge per modality by pooled GCV if None.
-
-    Generalised cross-validation (Golub, Heath & Wahba 1979), pooled over demonstrations:
-    ``sum_j n_j RSS_j(lambda) / (n_j - df_j(lambda))^2`` summed over a modality's dimensions,
-    minimised over a log grid of relative strengths. Computed through the eigendecomposition of
-    each ``Phi_j^T Phi_j``, so every candidate costs O(M D) per demonstration.
-    """
-    n_dims = layout.n_dims
-    values = [layout.extract(demo) for demo in demos]
-    phis = [basis(demo_phases(demo.times)) for demo in demos]
-    eig, vec = np.linalg.eigh(np.stack([phi.T @ phi for phi in phis]))  # (N, M), (N, M, M)
-    eig = np.maximum(eig, 0.0)
-    scale = eig.sum(axis=1) / eig.shape[1]  # mean diagonal of Phi^T Phi, (N,)
-    proj = np.stack(
-        [v.T @ (phi.T @ y) for v, phi, y in zip(vec, phis, values, strict=True)]
-    )  # (N, M, D)
-    yy = np.stack([(y**2).sum(axis=0) for y in values])  # (N, D)
-    n = np.array([y.shape[0] for y in values], dtype=float)
-
-    rel = np.full(n_dims, ridge if ridge is not None else 0.0)
-    if ridge is None:
-        grid = RIDGE_GRID[:, None, None]
-        shrink = 1.0 / (eig + (grid + 1e-12) * scale[:, None])  # (G, N, M)
-        coef = proj * shrink[..., None]  # (G, N, M, D)
-        rss = yy - 2 * (coef * proj).sum(axis=2) + (coef**2 * eig[..., None]).sum(axis=2)
-        df = (eig * shrink).sum(axis=2)  # (G, N)
-        scores = (n[:, None] * np.maximum(rss, 0.0) / np.maximum(n - df, 1e-3)[..., None] ** 2)
-        scores = scores.sum(axis=1)  # (G, D)
-        for modality in layout.modalities:
-            dims = layout.dims([modality.name])
-            rel[dims] = RIDGE_GRID[int(np.argmin(scores[:, dims].sum(axis=1)))]
-    fits = WeightFits(weights=[], residuals=[], dof=[], ridge=rel)
-    shrink = 1.0 / (eig[:, :, None] + (rel[None, None, :] + 1e-12) * scale[:, None, None])
-    w_all = vec @ (proj * shrink)  # (N, M, D)
-    for y, phi, w, e, sh in zip(values, phis, w_all, eig, shrink, strict=True):
-        fits.weights.append(w.T.reshape(-1))
-        fits.residuals.append(y - phi @ w)
-        fits.dof.append(y.shape[0] - (e[:, None] * sh).sum(axis=0))
-    return fits
 
 
 def _resample_uniform(demo: Demonstration, values: np.ndarray, dt: float) -> np.ndarray:
@@ -435,6 +355,7 @@ def _moments(
     layout: Layout,
     settings: Settings,
     sample_period: float,
+    with_alpha_models: bool = True,
 ) -> _Moments:
     alphas = np.array(
         [alpha_from_duration(d.duration, sample_period, settings.s_bar) for d in demos]
@@ -450,13 +371,13 @@ def _moments(
         slope = centred.T @ a_c / float(a_c @ a_c)
         centred = centred - np.outer(a_c, slope)
         dof = len(demos) - 2
-    trajectories = [
-        _resample_uniform(d, layout.extract(d), sample_period) for d in demos
-    ]
-    alpha_models = {
-        m.name: AlphaModel.fit([t[:, layout.dims([m.name])] for t in trajectories], alphas)
-        for m in layout.modalities
-    }
+    alpha_models = {}
+    if with_alpha_models:
+        trajectories = [_resample_uniform(d, layout.extract(d), sample_period) for d in demos]
+        alpha_models = {
+            m.name: AlphaModel.fit([t[:, layout.dims([m.name])] for t in trajectories], alphas)
+            for m in layout.modalities
+        }
     return _Moments(mean, slope, centred, dof, alphas, log_alpha_mean, alpha_models)
 
 
@@ -485,6 +406,10 @@ def fit(
 ) -> ProMPModel:
     """Learn one primitive per entry of ``dataset`` ({primitive name: demonstrations}).
 
+    Settings left to the data (None: by default the basis count, its width and the noise
+    scale) are chosen from ``dataset`` by :func:`promp.selection.choose_settings`; the model's
+    ``settings`` hold the values used and ``report["settings"]`` what was chosen, and why.
+
     Raises
     ------
     ValueError
@@ -504,12 +429,39 @@ def fit(
                 f"primitive {name!r} has {len(demos)} demonstration(s); at least 2 are needed "
                 "to learn a distribution"
             )
+    if settings.automatic:
+        # (imported here: the choice fits and scores candidate models)
+        from promp.selection import choose_settings
+
+        settings, choice = choose_settings(dataset, layout, settings, dt)
+    else:
+        choice = {"rule": "given (n_basis, width and noise_scale set explicitly)"}
+    model = fit_with(dataset, layout, settings, dt)
+    return dataclasses.replace(model, report={"settings": choice, **model.report})
+
+
+def fit_with(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+    settings: Settings,
+    dt: float,
+    alpha_models: bool = True,
+) -> ProMPModel:
+    """:func:`fit` with every setting given (no choice) and the sample period ``dt`` (s);
+    without ``alpha_models`` the primitives have no Eq. 7 models (they are not needed to
+    recognise with the "ml" alpha)."""
+    all_demos = [d for demos in dataset.values() for d in demos]
     fits = fit_all_weights(settings.basis, all_demos, layout, settings.ridge)
     noise_var, noise_tau = estimate_noise(fits, [d.times for d in all_demos], layout, settings)
     offsets = np.cumsum([0] + [len(demos) for demos in dataset.values()])
     moments = [
         _moments(
-            demos, np.array(fits.weights[offsets[k] : offsets[k + 1]]), layout, settings, dt
+            demos,
+            np.array(fits.weights[offsets[k] : offsets[k + 1]]),
+            layout,
+            settings,
+            dt,
+            alpha_models,
         )
         for k, demos in enumerate(dataset.values())
     ]

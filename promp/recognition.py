@@ -199,15 +199,33 @@ def alpha_prior(
     return prior.mixed_with(math.log(alpha), max(log_sd, prior.scales[0] / 4), prior.dofs[0], 0.5)
 
 
+def quadrature(
+    model: ProMPModel, obs: Observation, prior: AlphaPrior
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """The coarse quadrature in log alpha: :data:`N_NODES` nodes over the prior's central mass
+    truncated at the longest possible alpha, their log prior densities, and the log of the
+    prior mass below that bound."""
+    bound = math.log(longest_alpha(model, obs))
+    lo, hi = prior.span(bound)
+    nodes = np.linspace(lo, hi, N_NODES)
+    return nodes, prior.logpdf(nodes), prior.logcdf(bound)
+
+
+def quadrature_weights(nodes: np.ndarray, log_prior: np.ndarray, log_mass: float) -> np.ndarray:
+    """Log trapezoid weights of increasing ``nodes``, normalised to the prior mass ``log_mass``
+    below the bound (so the evidence is ``logsumexp(log_likelihood + weights)``)."""
+    widths = np.gradient(nodes) if nodes.size > 1 else np.ones(1)
+    log_w = log_prior + np.log(widths)
+    return log_w + log_mass - logsumexp(log_w)
+
+
 def _integrate(
     model: ProMPModel, primitive: Primitive, obs: Observation, prior: AlphaPrior
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Nodes (log alpha), their log-likelihoods and log prior densities, and the evidence."""
-    bound = math.log(longest_alpha(model, obs))
-    lo, hi = prior.span(bound)
-    nodes = np.linspace(lo, hi, N_NODES)
+    nodes, lp, log_mass = quadrature(model, obs, prior)
+    lo, hi = nodes[0], nodes[-1]
     ll = log_likelihoods(model, primitive, obs, np.exp(nodes))
-    lp = prior.logpdf(nodes)
     best = int(np.argmax(ll + lp))
     step = nodes[1] - nodes[0]
     fine = np.linspace(nodes[best] - step, nodes[best] + step, N_REFINE + 2)[1:-1]
@@ -218,11 +236,7 @@ def _integrate(
         lp = np.concatenate([lp, prior.logpdf(fine)])
         order = np.argsort(nodes)
         nodes, ll, lp = nodes[order], ll[order], lp[order]
-    # Trapezoid weights over [lo, hi], normalised to the prior mass below the bound.
-    widths = np.gradient(nodes) if nodes.size > 1 else np.ones(1)
-    log_w = lp + np.log(widths)
-    log_w += prior.logcdf(bound) - logsumexp(log_w)
-    evidence = logsumexp(ll + log_w)
+    evidence = logsumexp(ll + quadrature_weights(nodes, lp, log_mass))
     return nodes, ll, lp, evidence
 
 

@@ -32,6 +32,7 @@ from promp.data import Demonstration, Layout
 from promp.evaluate import metrics
 from promp.evaluate.methods import Inferred
 from promp.model import sample_period_of
+from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
 Progress = Callable[[int, int], None]
 # A trial whose true primitive got p < 0.01 is a confident mistake (-ln 0.01 = 4.6 nats).
@@ -73,11 +74,6 @@ class SweepResult:
     rows: list[dict] = field(default_factory=list)
     trials: list[Trial] = field(default_factory=list)
     failures: list[dict] = field(default_factory=list)  # trials the method failed on
-
-
-def n_observed_for(percent: float, n_samples: int) -> int:
-    """``ceil(p / 100 * n)``, at least 1."""
-    return max(1, math.ceil(percent / 100.0 * n_samples - 1e-9))
 
 
 def position_modality(layout: Layout) -> str:
