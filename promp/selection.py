@@ -11,7 +11,8 @@ its covariance prior still chosen by marginal likelihood) and recognises that fo
 demonstrations from their first 10, 30, 50, 70 and 90 % (:data:`PERCENTS`), every modality
 alone and all of them together; the loss is ``-ln p(true primitive)`` with the speed
 integrated over its prior (:func:`promp.recognition.recognise`'s quadrature, without the
-refinement of the mode). The lowest mean loss wins.
+refinement of the mode). The lowest mean loss wins (a tie goes to the candidate closest to the
+reference settings :data:`promp.model.FALLBACK`).
 
 The cost is bounded: at most :data:`MAX_TRIALS` (demonstration, percentage, modalities)
 trials per candidate, spread evenly over the primitives, the folds, the percentages and the
@@ -47,7 +48,7 @@ from promp.timing import n_observed_for
 
 BASIS_GRID = (5, 7, 10, 14)
 WIDTH_GRID = (0.7, 1.0, 1.5)
-NOISE_GRID = (1.0, 1.4, 2.0, 2.8, 4.0)
+NOISE_GRID = (1.0, 1.4, 2.0, 2.8, 4.0)  # factors of sqrt(2)
 INNER_FOLDS = 3
 MAX_TRIALS = 30
 PERCENTS = (10, 30, 50, 70, 90)
@@ -56,7 +57,7 @@ RULE = (
     f"demonstrations ({', '.join(map(str, PERCENTS))} % observed, every modality alone and all "
     f"together, at most {MAX_TRIALS} trials per candidate); M over {list(BASIS_GRID)} at width "
     f"1, then the width over {list(WIDTH_GRID)}, each with every noise scale of "
-    f"{list(NOISE_GRID)}"
+    f"{list(NOISE_GRID)}; the lowest mean loss"
 )
 
 
@@ -150,7 +151,8 @@ def score(
     trials: Sequence[Trial],
     noise_scales: Sequence[float],
 ) -> np.ndarray:
-    """Mean inner log-loss of ``settings`` (n_basis and width given) at every noise scale.
+    """Inner log-loss of ``settings`` (n_basis and width given) at every noise scale, per
+    trial: shape (n_scales, n_trials), in the order of ``trials``.
 
     ``settings.noise_scale`` (1 when it is chosen here) is the scale the inner models are
     fitted with; ``noise_scales`` multiply it (modalities of ``settings.noise_std`` keep
@@ -162,7 +164,7 @@ def score(
         [np.full(len(m.columns), s) for m, s in zip(layout.modalities, scaled, strict=True)]
     )
     factors = np.where(per_dim[None, :], np.square(noise_scales)[:, None], 1.0)
-    total = np.zeros(len(noise_scales))
+    out = np.zeros((len(noise_scales), len(trials)))
     for fold in sorted({t.fold for t in trials}):
         held = {(t.primitive, t.demo) for t in trials if t.fold == fold}
         train = {
@@ -171,11 +173,11 @@ def score(
         }
         model = fit_with(train, layout, settings, dt, alpha_models=False)
         priors = [AlphaPrior.from_alphas(p.alphas, settings.s_bar) for p in model.primitives]
-        for trial in trials:
+        for i, trial in enumerate(trials):
             if trial.fold == fold:
                 demo = dataset[names[trial.primitive]][trial.demo]
-                total += _losses(model, demo, trial, priors, factors)
-    return total / len(trials)
+                out[:, i] = _losses(model, demo, trial, priors, factors)
+    return out
 
 
 def _preference(n_basis: int, width: float, noise_scale: float) -> float:
@@ -230,27 +232,30 @@ def choose_settings(
         if (n_basis, width) not in scores:
             candidate = dataclasses.replace(inner, n_basis=n_basis, width=width)
             scores[(n_basis, width)] = score(dataset, layout, candidate, dt, trials, scales)
-        return float(scores[(n_basis, width)].min())
+        return float(scores[(n_basis, width)].mean(axis=1).min())
 
     best_basis = min(basis_grid, key=lambda m: (evaluate(m, start_width), abs(m - 7)))
     for width in width_grid:
         evaluate(best_basis, width)
     table = [
-        (float(loss), _preference(m, w, s * inner.noise_scale), m, w, s * inner.noise_scale)
-        for (m, w), row in scores.items()
-        for s, loss in zip(scales, row, strict=True)
+        (m, w, s * inner.noise_scale, losses)
+        for (m, w), rows in scores.items()
+        for s, losses in zip(scales, rows, strict=True)
     ]
-    loss, _, n_basis, width, noise_scale = min(table)
+    # the lowest mean loss; a tie (e.g. every candidate perfect) goes to the reference
+    n_basis, width, noise_scale, losses = min(
+        table, key=lambda c: (round(float(c[3].mean()), 9), _preference(*c[:3]))
+    )
     chosen = dataclasses.replace(settings, n_basis=n_basis, width=width, noise_scale=noise_scale)
     return chosen, {
         "rule": RULE,
         "chosen": {name: getattr(chosen, name) for name in automatic},
         "given": given,
-        "log_loss": loss,
+        "log_loss": float(losses.mean()),
         "trials": len(trials),
         "candidates": [
             {"n_basis": m, "width": w, "noise_scale": [s * inner.noise_scale for s in scales],
-             "log_loss": [round(float(x), 6) for x in row]}
-            for (m, w), row in scores.items()
-        ],  # fmt: skip
-    }
+             "log_loss": [round(float(x), 6) for x in rows.mean(axis=1)]}
+            for (m, w), rows in scores.items()
+        ],
+    }  # fmt: skip

@@ -33,6 +33,7 @@ def wiggles(seed: int, n_demos: int = 6) -> dict[str, list[Demonstration]]:
 
 
 def test_a_detail_only_many_basis_functions_represent_chooses_many() -> None:
+    """The wiggle decides the primitive, so the rule leaves the reference M = 7 for more."""
     model = fit(wiggles(seed=0), HAND)
     report = model.report["settings"]
     assert model.settings.n_basis >= 10 and report["chosen"]["n_basis"] == model.settings.n_basis
