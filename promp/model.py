@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from promp.alpha_model import AlphaModel
+from promp.alpha_model import AlphaModel, resample_uniform
 from promp.basis import PhaseBasisCache, RBFBasis
 from promp.covariance import block_target, pooled_covariances
 from promp.data import Demonstration, Layout
@@ -40,10 +40,8 @@ from promp.weights import WeightFits, fit_all_weights, fit_weights  # noqa: F401
 MIN_SHRINKAGE = 1e-12
 
 
-# Where the automatic choice starts (and what a fit uses when it cannot choose: a single
-# primitive, or no primitive with three demonstrations), see :mod:`promp.selection`.
+# The reference settings: what a fit uses when it cannot choose (see promp.selection).
 FALLBACK = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
-AUTOMATIC = tuple(FALLBACK)
 
 
 @dataclass(frozen=True)
@@ -117,8 +115,8 @@ class Settings:
 
     @property
     def automatic(self) -> tuple[str, ...]:
-        """The settings left to the data (None), in the order of :data:`AUTOMATIC`."""
-        return tuple(name for name in AUTOMATIC if getattr(self, name) is None)
+        """The settings left to the data (None), in the order of :data:`FALLBACK`."""
+        return tuple(name for name in FALLBACK if getattr(self, name) is None)
 
     def with_fallback(self) -> Settings:
         """These settings with every automatic one at its fallback value."""
@@ -283,14 +281,6 @@ class ProMPModel:
         raise ValueError(f"unknown primitive {name!r}; the model has {list(self.names)}")
 
 
-def _resample_uniform(demo: Demonstration, values: np.ndarray, dt: float) -> np.ndarray:
-    """Values on a uniform grid of period ``dt`` from the first sample (for Eq. 7)."""
-    n = int(round(demo.duration / dt)) + 1
-    grid = demo.times[0] + dt * np.arange(n)
-    grid[-1] = min(grid[-1], demo.times[-1])
-    return np.column_stack([np.interp(grid, demo.times, v) for v in values.T])
-
-
 def estimate_noise(
     fits: WeightFits,
     times: Sequence[np.ndarray],
@@ -373,7 +363,7 @@ def _moments(
         dof = len(demos) - 2
     alpha_models = {}
     if with_alpha_models:
-        trajectories = [_resample_uniform(d, layout.extract(d), sample_period) for d in demos]
+        trajectories = [resample_uniform(d, layout.extract(d), sample_period) for d in demos]
         alpha_models = {
             m.name: AlphaModel.fit([t[:, layout.dims([m.name])] for t in trajectories], alphas)
             for m in layout.modalities
