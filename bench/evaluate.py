@@ -1,6 +1,6 @@
 """Wall time of the leave-one-out sweep on the heights recordings with 1 process and with every
-core, and the speed-up; also the studio's refit of the default workspace (the automatic
-settings, timed against its 1 s budget).
+core, and the speed-up; also the studio's refit of the default workspace (the settings chosen
+from its demonstrations, timed against its 1 s budget; and with the settings given).
 
 The sweep is ``python -m promp.evaluate ../shared/data/lab-records-heights --format records
 --percent 20 40 60 80 --alpha ml``, run in-process through :func:`promp.evaluate.sweep.run_sweep`
@@ -38,7 +38,9 @@ def sweep_seconds(dataset, layout, jobs: int) -> tuple[float, list[dict]]:
     return time.perf_counter() - start, result.rows
 
 
-def refit_ms(repeats: int = 7) -> float:
+def refit_ms(settings: dict | None = None, repeats: int = 7) -> tuple[float, dict]:
+    """Median time of the studio's refit of its default workspace (its own settings, or
+    ``settings``), and what the fit chose."""
     from app.studio import default_workspace
     from robots.icub.layout import STUDIO_LAYOUT
 
@@ -46,9 +48,9 @@ def refit_ms(repeats: int = 7) -> float:
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
-        fit(data.demos, STUDIO_LAYOUT, Settings(**data.settings))
+        model = fit(data.demos, STUDIO_LAYOUT, Settings(**(settings or data.settings)))
         times.append(time.perf_counter() - start)
-    return 1e3 * statistics.median(times)
+    return 1e3 * statistics.median(times), model.report["settings"]
 
 
 def main() -> None:
@@ -65,9 +67,11 @@ def main() -> None:
     print(f"heights sweep, {cores} processes: {every:6.1f} s", flush=True)
     identical = json.dumps(rows_one) == json.dumps(rows_all)
     print(f"speed-up {one / every:.2f}x on {cores} cores; identical results: {identical}")
-    refit = refit_ms()
+    refit, choice = refit_ms()
     print(f"refit of the default workspace (automatic settings): {refit:.0f} ms "
-          f"({refit / 1000:.2f} of the 1 s budget)")  # fmt: skip
+          f"({refit / 1000:.2f} of the 1 s budget); chose {choice['chosen']}")  # fmt: skip
+    fixed, _ = refit_ms({"n_basis": 7, "width": 1.0, "noise_scale": 1.5})
+    print(f"refit with the settings given (M = 7, width 1, noise x1.5): {fixed:.0f} ms")
     print(json.dumps({
         "cores": cores,
         "sweep_1_job_s": round(one, 2),
@@ -75,6 +79,7 @@ def main() -> None:
         "speedup": round(one / every, 3),
         "identical": identical,
         "refit_default_workspace_ms": round(refit, 1),
+        "refit_given_settings_ms": round(fixed, 1),
         "refit_budget_fraction": round(refit / 1000, 3),
     }))  # fmt: skip
 

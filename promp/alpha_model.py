@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from promp.data import Demonstration
+
 N_RBF = 5
 GRID_POINTS = 60
 _RIDGES = np.logspace(-8, 2, 11)
@@ -142,3 +144,11 @@ def combine(
     inv = np.array([1.0 / max(var, 1e-12) for _, var in estimates])
     values = np.array([alpha for alpha, _ in estimates])
     return float((values * inv).sum() / inv.sum())
+
+
+def resample_uniform(demo: Demonstration, values: np.ndarray, dt: float) -> np.ndarray:
+    """Values on a uniform grid of period ``dt`` from the first sample (for Eq. 7)."""
+    n = int(round(demo.duration / dt)) + 1
+    grid = demo.times[0] + dt * np.arange(n)
+    grid[-1] = min(grid[-1], demo.times[-1])
+    return np.column_stack([np.interp(grid, demo.times, v) for v in values.T])

@@ -60,6 +60,44 @@ class RBFBasis:
         return values / values.sum(axis=1, keepdims=True)
 
 
+class PhaseBasisCache:
+    """The basis at the phases ``elapsed / duration``, cached per duration.
+
+    Scrubbing an observation re-scores the same candidate durations on a growing prefix of the
+    same samples, so each duration keeps the longest ``elapsed`` seen and its basis rows; a
+    request for a prefix of it is a slice. Bounded; not shared between threads.
+    """
+
+    def __init__(self, basis: RBFBasis, max_entries: int = 512):
+        self.basis = basis
+        self.max_entries = max_entries
+        self._entries: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+    def __call__(self, elapsed: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """Basis rows, shape (len(durations), len(elapsed), n_basis)."""
+        n = elapsed.shape[0]
+        out = np.empty((durations.shape[0], n, self.basis.n_basis))
+        missing = []
+        for i, duration in enumerate(durations.tolist()):
+            entry = self._entries.get(duration)
+            if (
+                entry is not None
+                and entry[0].shape[0] >= n
+                and np.array_equal(entry[0][:n], elapsed)
+            ):
+                out[i] = entry[1][:n]
+            else:
+                missing.append(i)
+        if missing:  # one basis evaluation for every missing duration
+            rows = self.basis((elapsed[None, :] / durations[missing, None]).reshape(-1))
+            out[missing] = rows.reshape(len(missing), n, -1)
+            if len(self._entries) + len(missing) > self.max_entries:
+                self._entries.clear()
+            for i in missing:
+                self._entries[float(durations[i])] = (elapsed.copy(), out[i].copy())
+        return out
+
+
 @dataclass(frozen=True)
 class SeedBasis:
     """The original toolbox's basis, kept only for the ``--method seed`` baseline.

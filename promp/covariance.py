@@ -69,23 +69,37 @@ def target_weight(
     n = rows.shape[0]
     order = np.random.default_rng(seed).permutation(n)
     parts = [p for p in np.array_split(order, min(folds, n)) if p.size]
-    best, best_score = TARGET_GRID[-1], -np.inf
-    for beta in TARGET_GRID:
-        score = 0.0
-        for part in parts:
-            train = np.setdiff1d(order, part)
-            sample = rows[train].T @ rows[train] / max(dof * train.size / n, 1.0)
-            cov = (1.0 - beta) * sample + beta * np.diag(target)
+    betas = np.array(TARGET_GRID)[:, None, None]
+    score = np.zeros(len(TARGET_GRID))
+    for part in parts:
+        train = np.setdiff1d(order, part)
+        sample = rows[train].T @ rows[train] / max(dof * train.size / n, 1.0)
+        covs = (1.0 - betas) * sample + betas * np.diag(target)  # every beta at once
+        score += _held_out_log_likelihood(covs, rows[part].T)
+    return float(TARGET_GRID[int(np.argmax(score))])
+
+
+def _held_out_log_likelihood(covs: np.ndarray, held_out: np.ndarray) -> np.ndarray:
+    """Gaussian log-likelihood (without the 2 pi term) of the columns of ``held_out`` (P, n)
+    under each covariance of ``covs`` (B, P, P); -inf for one that is not positive definite."""
+    try:
+        chols = [np.linalg.cholesky(covs)]  # all at once
+    except np.linalg.LinAlgError:
+        chols = []
+        for cov in covs:
             try:
-                chol = np.linalg.cholesky(cov)
+                chols.append(np.linalg.cholesky(cov)[None])
             except np.linalg.LinAlgError:
-                score = -np.inf
-                break
-            z = np.linalg.solve(chol, rows[part].T)
-            score += -0.5 * float((z**2).sum()) - part.size * float(np.log(np.diag(chol)).sum())
-        if score > best_score:
-            best, best_score = beta, score
-    return float(best)
+                chols.append(None)
+    out = []
+    for chol in chols:
+        if chol is None:
+            out.append(np.array([-np.inf]))
+            continue
+        z = np.linalg.solve(chol, np.broadcast_to(held_out, chol.shape[:1] + held_out.shape))
+        logdet = np.log(np.diagonal(chol, axis1=-2, axis2=-1)).sum(-1)
+        out.append(-0.5 * (z**2).sum(axis=(-1, -2)) - held_out.shape[1] * logdet)
+    return np.concatenate(out)
 
 
 def _log_multigamma(a: float, p: int) -> float:

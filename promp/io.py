@@ -8,11 +8,12 @@ Model JSON, schema version 2 (version 1 files, without ``report``, still load)::
       "version": 2,
       "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"},
                  ...],
-      "settings": {"n_basis": 20, "width": 1.0, "ridge": 1e-06, "s_bar": 100.0,
+      "settings": {"n_basis": 7, "width": 1.0, "ridge": 1e-06, "s_bar": 100.0,
                    "shrinkage": null, "noise_std": {}, "noise_scale": 1.0,
                    "alpha_coupling": true, "noise_correlation": true},
       "sample_period": 0.02,                       # seconds
-      "report": {"covariance": {"rule": "...", "strength": 42.2, ...}},
+      "report": {"settings": {"rule": "...", "chosen": {"n_basis": 7, ...}, ...},
+                 "covariance": {"rule": "...", "strength": 42.2, ...}},
                                                    # what the fit chose from the data, and why
       "primitives": [{
           "name": "curved",

@@ -22,31 +22,38 @@ normalising term ``n_o log sigma^2`` of the likelihood then outweighs the data.)
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from promp.alpha_model import AlphaModel
-from promp.basis import RBFBasis
+from promp.alpha_model import AlphaModel, resample_uniform
+from promp.basis import PhaseBasisCache, RBFBasis
 from promp.covariance import block_target, pooled_covariances
 from promp.data import Demonstration, Layout
-from promp.timing import alpha_from_duration, demo_phases
+from promp.timing import alpha_from_duration
+from promp.weights import WeightFits, fit_all_weights, fit_weights  # noqa: F401
 
 # Smallest shrinkage intensity: keeps Sigma_w positive definite.
 MIN_SHRINKAGE = 1e-12
 
 
+# The reference settings: what a fit uses when it cannot choose (see promp.selection).
+FALLBACK = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
+
+
 @dataclass(frozen=True)
 class Settings:
-    """Learning settings (the documented defaults are the ones the evaluation uses).
+    """Learning settings; ``None`` (the default of ``n_basis``, ``width``, ``noise_scale``)
+    means "chosen from the training demonstrations by every fit" (:mod:`promp.selection`).
 
     Parameters
     ----------
-    n_basis : int
+    n_basis : int or None
         M, basis functions per dimension.
-    width : float
+    width : float or None
         RBF standard deviation as a multiple of the spacing of the centres.
     ridge : float or None
         Ridge strength of the per-demonstration weight regression, relative to the mean
@@ -64,7 +71,7 @@ class Settings:
     noise_std : mapping of str to float
         Observation noise standard deviation per modality, in the modality's unit; modalities
         not listed use the estimate from the fit residuals.
-    noise_scale : float
+    noise_scale : float or None
         Multiplies every estimated noise standard deviation.
     noise_correlation : bool
         Model the observation noise as an Ornstein-Uhlenbeck process whose correlation time is
@@ -76,18 +83,21 @@ class Settings:
         the prior at a candidate alpha is the conditional Gaussian (see :class:`Primitive`).
     """
 
-    n_basis: int = 7
-    width: float = 1.0
+    n_basis: int | None = None
+    width: float | None = None
     ridge: float | None = None
     s_bar: float = 100.0
     shrinkage: float | None = None
     noise_std: Mapping[str, float] = field(default_factory=dict)
-    noise_scale: float = 1.5
+    noise_scale: float | None = None
     alpha_coupling: bool = True
     noise_correlation: bool = True
 
     def __post_init__(self) -> None:
-        RBFBasis(self.n_basis, self.width)  # validates both
+        RBFBasis(  # validates both
+            FALLBACK["n_basis"] if self.n_basis is None else self.n_basis,
+            FALLBACK["width"] if self.width is None else self.width,
+        )
         if self.ridge is not None and (not np.isfinite(self.ridge) or self.ridge < 0):
             raise ValueError(f"ridge must be >= 0 or None, got {self.ridge}")
         if not np.isfinite(self.s_bar) or self.s_bar <= 0:
@@ -97,12 +107,28 @@ class Settings:
         for name, std in self.noise_std.items():
             if not np.isfinite(std) or std <= 0:
                 raise ValueError(f"noise_std[{name!r}] must be positive, got {std}")
-        if not np.isfinite(self.noise_scale) or self.noise_scale <= 0:
-            raise ValueError(f"noise_scale must be positive, got {self.noise_scale}")
+        if self.noise_scale is not None and (
+            not np.isfinite(self.noise_scale) or self.noise_scale <= 0
+        ):
+            raise ValueError(f"noise_scale must be positive or None, got {self.noise_scale}")
         object.__setattr__(self, "noise_std", dict(self.noise_std))
 
     @property
+    def automatic(self) -> tuple[str, ...]:
+        """The settings left to the data (None), in the order of :data:`FALLBACK`."""
+        return tuple(name for name in FALLBACK if getattr(self, name) is None)
+
+    def with_fallback(self) -> Settings:
+        """These settings with every automatic one at its fallback value."""
+        return dataclasses.replace(self, **{name: FALLBACK[name] for name in self.automatic})
+
+    @property
     def basis(self) -> RBFBasis:
+        if self.n_basis is None or self.width is None:
+            raise ValueError(
+                "the basis is chosen by the fit (n_basis or width is None): use the fitted "
+                "model's settings"
+            )
         return RBFBasis(self.n_basis, self.width)
 
 
@@ -196,39 +222,25 @@ class Primitive:
         """Lower Cholesky factor of Sigma_w."""
         return np.linalg.cholesky(self.cov)
 
+    def observed_factor(self, dims: np.ndarray) -> np.ndarray:
+        """The rows of ``cov_factor`` of the weights of ``dims``, with no more columns than
+        rows: shape (len(dims), n_basis, r') with ``U_o' U_o'^T = U_o U_o^T``.
 
-class PhaseBasisCache:
-    """The basis at the phases ``elapsed / duration``, cached per duration.
-
-    Scrubbing an observation re-scores the same candidate durations on a growing prefix of the
-    same samples, so each duration keeps the longest ``elapsed`` seen and its basis rows; a
-    request for a prefix of it is a slice. Bounded; not shared between threads.
-    """
-
-    def __init__(self, basis: RBFBasis, max_entries: int = 512):
-        self.basis = basis
-        self.max_entries = max_entries
-        self._entries: dict[float, tuple[np.ndarray, np.ndarray]] = {}
-
-    def __call__(self, elapsed: np.ndarray, durations: np.ndarray) -> np.ndarray:
-        """Basis rows, shape (len(durations), len(elapsed), n_basis)."""
-        n = elapsed.shape[0]
-        out = np.empty((durations.shape[0], n, self.basis.n_basis))
-        for i, duration in enumerate(durations.tolist()):
-            entry = self._entries.get(duration)
-            if (
-                entry is not None
-                and entry[0].shape[0] >= n
-                and np.array_equal(entry[0][:n], elapsed)
-            ):
-                out[i] = entry[1][:n]
-                continue
-            rows = self.basis(elapsed / duration)
-            if len(self._entries) >= self.max_entries:
-                self._entries.clear()
-            self._entries[duration] = (elapsed.copy(), rows)
-            out[i] = rows
-        return out
+        A likelihood only sees ``U_o U_o^T`` (the covariance of the observed weights), so
+        observing 3 of 6 dimensions needs a factor of rank 3 M at most, whatever the rank of
+        the whole factor; computed once per set of dimensions (an SVD).
+        """
+        key = tuple(int(d) for d in dims)
+        cache = self.__dict__.setdefault("_observed_factors", {})
+        if key not in cache:
+            n_dims = self.noise_var.shape[0]
+            u = self.cov_factor.reshape(n_dims, -1, self.cov_factor.shape[1])[list(key)]
+            rows = u.reshape(-1, u.shape[-1])
+            if rows.shape[1] > rows.shape[0]:
+                left, sing, _ = np.linalg.svd(rows, full_matrices=False)
+                rows = left * sing
+            cache[key] = rows.reshape(len(key), u.shape[1], -1)
+        return cache[key]
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,113 +279,6 @@ class ProMPModel:
             if p.name == name:
                 return p
         raise ValueError(f"unknown primitive {name!r}; the model has {list(self.names)}")
-
-
-def fit_weights(
-    basis: RBFBasis, times: np.ndarray, values: np.ndarray, ridge: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Ridge regression of one demonstration on the basis (paper Eq. 2).
-
-    Parameters
-    ----------
-    times : array, shape (n_samples,)
-    values : array, shape (n_samples, n_dims)
-
-    Returns
-    -------
-    weights : array, shape (n_dims * n_basis,)
-        Dimension-major.
-    residuals : array, shape (n_samples, n_dims)
-    """
-    phi = basis(demo_phases(times))
-    gram = phi.T @ phi
-    lam = ridge * np.trace(gram) / gram.shape[0]
-    chol = np.linalg.cholesky(gram + (lam + 1e-12) * np.eye(gram.shape[0]))
-    w = np.linalg.solve(chol.T, np.linalg.solve(chol, phi.T @ values))  # (n_basis, n_dims)
-    return w.T.reshape(-1), values - phi @ w
-
-
-RIDGE_GRID = np.logspace(-10, 1, 23)
-
-
-@dataclass
-class WeightFits:
-    """Per-demonstration weights (Eq. 2) of a set of demonstrations.
-
-    Attributes
-    ----------
-    weights : list of arrays, shape (n_dims * n_basis,)
-    residuals : list of arrays, shape (n_samples_j, n_dims)
-    dof : list of arrays, shape (n_dims,)
-        Residual degrees of freedom, ``n_j - trace(hat matrix)``.
-    ridge : array, shape (n_dims,)
-        The relative ridge strength used for each dimension.
-    """
-
-    weights: list[np.ndarray]
-    residuals: list[np.ndarray]
-    dof: list[np.ndarray]
-    ridge: np.ndarray
-
-
-def fit_all_weights(
-    basis: RBFBasis,
-    demos: Sequence[Demonstration],
-    layout: Layout,
-    ridge: float | None,
-) -> WeightFits:
-    """Ridge weights of every demonstration; the ridge per modality by pooled GCV if None.
-
-    Generalised cross-validation (Golub, Heath & Wahba 1979), pooled over demonstrations:
-    ``sum_j n_j RSS_j(lambda) / (n_j - df_j(lambda))^2`` summed over a modality's dimensions,
-    minimised over a log grid of relative strengths. Computed through the eigendecomposition of
-    each ``Phi_j^T Phi_j``, so every candidate costs O(M D) per demonstration.
-    """
-    n_dims = layout.n_dims
-    parts = []
-    for demo in demos:
-        values = layout.extract(demo)
-        phi = basis(demo_phases(demo.times))
-        eig, vec = np.linalg.eigh(phi.T @ phi)
-        eig = np.maximum(eig, 0.0)
-        scale = float(eig.sum()) / eig.shape[0]  # mean diagonal of Phi^T Phi
-        proj = vec.T @ (phi.T @ values)  # (M, D)
-        parts.append((values, phi, eig, vec, scale, proj))
-
-    def gcv(rel: float) -> np.ndarray:
-        score = np.zeros(n_dims)
-        for values, _, eig, _, scale, proj in parts:
-            shrink = 1.0 / (eig + rel * scale + 1e-12 * scale)
-            coef = proj * shrink[:, None]
-            rss = (values**2).sum(axis=0) - 2 * (coef * proj).sum(axis=0)
-            rss += (coef**2 * eig[:, None]).sum(axis=0)
-            df = float((eig * shrink).sum())
-            n = values.shape[0]
-            score += n * np.maximum(rss, 0.0) / max(n - df, 1e-3) ** 2
-        return score
-
-    rel = np.full(n_dims, ridge if ridge is not None else 0.0)
-    if ridge is None:
-        scores = np.array([gcv(r) for r in RIDGE_GRID])  # (grid, D)
-        for modality in layout.modalities:
-            dims = layout.dims([modality.name])
-            rel[dims] = RIDGE_GRID[int(np.argmin(scores[:, dims].sum(axis=1)))]
-    fits = WeightFits(weights=[], residuals=[], dof=[], ridge=rel)
-    for values, phi, eig, vec, scale, proj in parts:
-        shrink = 1.0 / (eig[:, None] + (rel[None, :] + 1e-12) * scale)  # (M, D)
-        w = vec @ (proj * shrink)  # (M, D)
-        fits.weights.append(w.T.reshape(-1))
-        fits.residuals.append(values - phi @ w)
-        fits.dof.append(values.shape[0] - (eig[:, None] * shrink).sum(axis=0))
-    return fits
-
-
-def _resample_uniform(demo: Demonstration, values: np.ndarray, dt: float) -> np.ndarray:
-    """Values on a uniform grid of period ``dt`` from the first sample (for Eq. 7)."""
-    n = int(round(demo.duration / dt)) + 1
-    grid = demo.times[0] + dt * np.arange(n)
-    grid[-1] = min(grid[-1], demo.times[-1])
-    return np.column_stack([np.interp(grid, demo.times, v) for v in values.T])
 
 
 def estimate_noise(
@@ -440,6 +345,7 @@ def _moments(
     layout: Layout,
     settings: Settings,
     sample_period: float,
+    with_alpha_models: bool = True,
 ) -> _Moments:
     alphas = np.array(
         [alpha_from_duration(d.duration, sample_period, settings.s_bar) for d in demos]
@@ -455,13 +361,13 @@ def _moments(
         slope = centred.T @ a_c / float(a_c @ a_c)
         centred = centred - np.outer(a_c, slope)
         dof = len(demos) - 2
-    trajectories = [
-        _resample_uniform(d, layout.extract(d), sample_period) for d in demos
-    ]
-    alpha_models = {
-        m.name: AlphaModel.fit([t[:, layout.dims([m.name])] for t in trajectories], alphas)
-        for m in layout.modalities
-    }
+    alpha_models = {}
+    if with_alpha_models:
+        trajectories = [resample_uniform(d, layout.extract(d), sample_period) for d in demos]
+        alpha_models = {
+            m.name: AlphaModel.fit([t[:, layout.dims([m.name])] for t in trajectories], alphas)
+            for m in layout.modalities
+        }
     return _Moments(mean, slope, centred, dof, alphas, log_alpha_mean, alpha_models)
 
 
@@ -490,6 +396,10 @@ def fit(
 ) -> ProMPModel:
     """Learn one primitive per entry of ``dataset`` ({primitive name: demonstrations}).
 
+    Settings left to the data (None: by default the basis count, its width and the noise
+    scale) are chosen from ``dataset`` by :func:`promp.selection.choose_settings`; the model's
+    ``settings`` hold the values used and ``report["settings"]`` what was chosen, and why.
+
     Raises
     ------
     ValueError
@@ -509,12 +419,39 @@ def fit(
                 f"primitive {name!r} has {len(demos)} demonstration(s); at least 2 are needed "
                 "to learn a distribution"
             )
+    if settings.automatic:
+        # (imported here: the choice fits and scores candidate models)
+        from promp.selection import choose_settings
+
+        settings, choice = choose_settings(dataset, layout, settings, dt)
+    else:
+        choice = {"rule": "given (n_basis, width and noise_scale set explicitly)"}
+    model = fit_with(dataset, layout, settings, dt)
+    return dataclasses.replace(model, report={"settings": choice, **model.report})
+
+
+def fit_with(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+    settings: Settings,
+    dt: float,
+    alpha_models: bool = True,
+) -> ProMPModel:
+    """:func:`fit` with every setting given (no choice) and the sample period ``dt`` (s);
+    without ``alpha_models`` the primitives have no Eq. 7 models (they are not needed to
+    recognise with the "ml" alpha)."""
+    all_demos = [d for demos in dataset.values() for d in demos]
     fits = fit_all_weights(settings.basis, all_demos, layout, settings.ridge)
     noise_var, noise_tau = estimate_noise(fits, [d.times for d in all_demos], layout, settings)
     offsets = np.cumsum([0] + [len(demos) for demos in dataset.values()])
     moments = [
         _moments(
-            demos, np.array(fits.weights[offsets[k] : offsets[k + 1]]), layout, settings, dt
+            demos,
+            np.array(fits.weights[offsets[k] : offsets[k + 1]]),
+            layout,
+            settings,
+            dt,
+            alpha_models,
         )
         for k, demos in enumerate(dataset.values())
     ]

@@ -13,6 +13,8 @@ is only a reference length: alpha = 1 means a movement of ``s_bar`` samples.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -48,3 +50,9 @@ def demo_phases(times: np.ndarray) -> np.ndarray:
     """Phases of a whole demonstration's samples: 0 at the first, 1 at the last."""
     times = np.asarray(times, dtype=float)
     return (times - times[0]) / (times[-1] - times[0])
+
+
+def n_observed_for(percent: float, n_samples: int) -> int:
+    """The samples seen when ``percent`` % of an ``n_samples`` movement is observed:
+    ``ceil(p / 100 * n)``, at least 1."""
+    return max(1, math.ceil(percent / 100.0 * n_samples - 1e-9))

@@ -17,7 +17,7 @@ from promp.recognition import AlphaPrior, recognise
 from tests import dense_reference as dense
 from tests.synthetic import LAYOUT, make_dataset, make_demo
 
-SMALL = Settings(n_basis=6)
+SMALL = Settings(n_basis=6, width=1.0, noise_scale=1.5)
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@
     python -m promp.evaluate DATASET --format records|csv [--modality NAME=COL,COL,...]...
         [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
         [--json OUT.json] [--plots DIR] [--basis M] [--width W] [--shrinkage S|auto]
-        [--jobs N] [--backend local|dask --scheduler ADDRESS]
+        [--noise-scale X] [--jobs N] [--backend local|dask --scheduler ADDRESS]
 
 ``--format records`` reads the lab-record format, ``--format csv`` reads ``DATASET/<primitive>/
 <demo>.csv`` (:func:`promp.datasets.read_dataset`, the reader the studio's import uses too).
@@ -67,12 +67,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--basis",
         type=int,
-        default=Settings().n_basis,
+        default=None,
         metavar="M",
-        help="basis functions per dimension (ours)",
+        help="basis functions per dimension (ours); default: chosen by every fit from its "
+        "training demonstrations (promp.selection)",
     )
     parser.add_argument(
-        "--width", type=float, default=Settings().width, help="basis width, in spacings (ours)"
+        "--width",
+        type=float,
+        default=None,
+        help="basis width, in spacings (ours); default: chosen by every fit",
     )
     parser.add_argument(
         "--shrinkage",
@@ -84,8 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--noise-scale",
         type=float,
-        default=Settings().noise_scale,
-        help="multiplies the estimated observation noise (ours)",
+        default=None,
+        help="multiplies the estimated observation noise (ours); default: chosen by every fit",
     )
     parser.add_argument(
         "--jobs", type=int, default=-1, help="processes running the folds (-1: every core)"
@@ -177,10 +181,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             "percents": list(args.percent),
             "alpha": list(args.alpha),
             "basis": {
-                "n_basis": args.basis,
-                "width": args.width,
+                "n_basis": "auto" if args.basis is None else args.basis,
+                "width": "auto" if args.width is None else args.width,
                 "shrinkage": args.shrinkage,
-                "noise_scale": args.noise_scale,
+                "noise_scale": "auto" if args.noise_scale is None else args.noise_scale,
             },
             "demonstrations": {name: len(demos) for name, demos in dataset.items()},
         },
@@ -208,7 +212,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def print_table(rows: list[dict]) -> None:
     header = (
         f"{'observed':14s} {'alpha':5s} {'%':>4s} {'errors':>9s} {'pos cm':>7s} "
-        f"{'goal cm':>7s} {'dur s':>6s} {'nrmse prior':>11s} {'post':>6s} {'log-loss':>8s}"
+        f"{'goal cm':>7s} {'dur s':>6s} {'nrmse prior':>11s} {'post':>6s} {'log-loss':>8s} "
+        f"{'p<0.01':>6s} {'worst':>6s}"
     )
     print(header)
     for r in rows:
@@ -216,5 +221,6 @@ def print_table(rows: list[dict]) -> None:
             f"{','.join(r['observed']):14s} {r['alpha_method']:5s} {r['percent']:4.0f} "
             f"{r['recognition_errors']:>4d}/{r['trials']:<4d} {100 * r['position_error_m']:7.2f} "
             f"{100 * r['goal_error_m']:7.2f} {r['duration_error_s']:6.2f} "
-            f"{r['nrmse_prior']:11.3f} {r['nrmse_posterior']:6.3f} {r['log_loss']:8.3f}"
+            f"{r['nrmse_prior']:11.3f} {r['nrmse_posterior']:6.3f} {r['log_loss']:8.3f} "
+            f"{r['confident_mistakes']:6d} {r['worst_log_loss']:6.1f}"
         )

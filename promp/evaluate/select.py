@@ -5,9 +5,10 @@ of basis functions per dimension M, width, observation noise scale) by the mean 
 posterior probability of the true primitive, over every held-out demonstration and every
 observed percentage (10 ... 90 %): a proper scoring rule of what the studio does, averaged over
 the whole movement rather than one percentage, so it is not tuned to a single operating point.
-The lowest wins. It works on any dataset the evaluation reads. The defaults of
-:class:`promp.model.Settings` were chosen with it over the three lab-record sets together
-(see the README); the covariance prior needs no such search (marginal likelihood, per fit).
+The lowest wins. It works on any dataset the evaluation reads. It is an outer check of fixed
+candidates (each scored by the whole leave-one-out sweep); by default every fit chooses its own
+settings from its training demonstrations instead (:mod:`promp.selection`, the same score inside
+the training set), and the covariance prior needs no search (marginal likelihood, per fit).
 """
 
 from __future__ import annotations

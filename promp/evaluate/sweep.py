@@ -32,8 +32,11 @@ from promp.data import Demonstration, Layout
 from promp.evaluate import metrics
 from promp.evaluate.methods import Inferred
 from promp.model import sample_period_of
+from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
 Progress = Callable[[int, int], None]
+# A trial whose true primitive got p < 0.01 is a confident mistake (-ln 0.01 = 4.6 nats).
+CONFIDENT_MISTAKE = -math.log(0.01)
 
 
 @dataclass
@@ -62,7 +65,8 @@ class Trial:
         """``-ln p(true primitive)``; a failed trial counts as a uniform guess, ``ln K``."""
         if self.inferred is None:
             return math.log(n_primitives)
-        return -math.log(max(float(self.inferred.probabilities[self.primitive]), 1e-300))
+        p_true = float(self.inferred.probabilities[self.primitive])
+        return -math.log(min(max(p_true, 1e-300), 1.0))
 
 
 @dataclass
@@ -70,11 +74,6 @@ class SweepResult:
     rows: list[dict] = field(default_factory=list)
     trials: list[Trial] = field(default_factory=list)
     failures: list[dict] = field(default_factory=list)  # trials the method failed on
-
-
-def n_observed_for(percent: float, n_samples: int) -> int:
-    """``ceil(p / 100 * n)``, at least 1."""
-    return max(1, math.ceil(percent / 100.0 * n_samples - 1e-9))
 
 
 def position_modality(layout: Layout) -> str:
@@ -251,6 +250,7 @@ def run_sweep(
             acc.setdefault(key, []).append(trial)
     result = SweepResult()
     for (percent, alpha_method, observed), trials in acc.items():
+        losses = [t.log_loss(len(names)) for t in trials]
         result.rows.append(
             {
                 "percent": percent,
@@ -259,7 +259,9 @@ def run_sweep(
                 "method": method_name,
                 "recognition_errors": int(sum(not t.correct for t in trials)),
                 "trials": len(trials),
-                "log_loss": float(np.mean([t.log_loss(len(names)) for t in trials])),
+                "log_loss": float(np.mean(losses)),
+                "confident_mistakes": int(sum(loss > CONFIDENT_MISTAKE for loss in losses)),
+                "worst_log_loss": float(max(losses)),
                 "position_error_m": _nanmean([t.position_error_m for t in trials]),
                 "goal_error_m": _nanmean([t.goal_error_m for t in trials]),
                 "duration_error_s": _nanmean([t.duration_error_s for t in trials]),
