@@ -213,4 +213,5 @@ class Studio:
             if close is not None:
                 close()
         self.head_source.close()
+        self.session.close()
         self.server.stop()

@@ -418,6 +418,7 @@ def test_replacing_the_session_with_an_imported_archive(data, model, tmp_path) -
     session.replace(upload.data)
     assert session.names() == ["left", "right"]
     assert_same_data(Workspace(tmp_path / "ws").load(), data)
+    session.wait_for_model()
     assert session.model is not None
 
 
