@@ -31,16 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from app.trash import TrashEntry
-from app.workspace import (
-    PALETTE,
-    FolderKind,
-    PrimitiveEntry,
-    Workspace,
-    WorkspaceData,
-    check_color,
-    check_name,
-    inspect_folder,
-)
+from app.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
+from app.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
 from promp.data import Demonstration, Layout
 from promp.model import ProMPModel, Settings, fit
 from promp.pipeline import Typicality, typicality

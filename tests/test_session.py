@@ -15,7 +15,8 @@ import pytest
 
 from app.session import Session
 from app.studio import default_workspace
-from app.workspace import COLUMNS, LAYOUT, PrimitiveEntry, Workspace, WorkspaceData
+from app.workspace import Workspace, WorkspaceData
+from app.workspace_index import COLUMNS, LAYOUT, PrimitiveEntry
 
 
 @pytest.fixture(scope="module")

@@ -3,105 +3,65 @@
 The user picks what is observed (a test demonstration, held out from the model while inspected,
 or the live stream of the partner's head and the dragged hand), which modalities and which
 alpha method, and scrubs the observed percentage. Everything follows the slider: the posterior
-tube, the predicted future path and its end point, the probability of each primitive, the
-predicted and true durations, the errors, and the per-dimension charts (prior and posterior
-bands, observed samples, truth; the paper's Figs. 4, 7 and 9). "Play" then lets the robot
-finish the movement (:mod:`app.replay`).
+tube, the predicted future path and its end point (drawn by the scene), the probability of each
+primitive, the predicted and true durations, the errors (:mod:`app.panels.infer.readout`), and
+the per-dimension charts (:mod:`app.panels.infer.charts`). "Play" then lets the robot finish the
+movement (:mod:`app.replay`).
 
-Dirty-flag pattern: GUI callbacks only record that something changed; :meth:`InferPanel.step`,
-run by the studio's loop, recomputes one scrub step (:func:`app.inference_view.scrub_step`)
-and redraws, and measures that server-side time (shown in the tab).
+GUI callbacks only record that something changed; :meth:`InferPanel.step`, run by the studio's
+loop, recomputes one scrub step (:func:`app.scrub.scrub_step`) and redraws, and measures that
+server-side time (shown in the tab).
 
-Live stream: "Start observing" starts a buffer of (t, hand, head) samples taken at every loop
-iteration (~60 Hz); the observation is the first p % of the buffer (100 %: all of it, as it
-happens), recomputed at most ``LIVE_HZ`` times a second while observing. Samples without a
-face are left out when the head is observed. The model is the session's (or the imported one).
-
-Display units: those of :mod:`app.display` (the hand in centimetres, the head in degrees). The
-observed-modality choices and the charts (one chart tab per modality) follow the workspace's
-layout.
+Live stream: "Start observing" starts a buffer (:class:`app.live_buffer.LiveBuffer`) of
+(t, hand, head) samples taken at every loop iteration (~60 Hz); the observation is the first
+p % of the buffer (100 %: all of it, as it happens), recomputed at most ``LIVE_HZ`` times a
+second while observing. The model is the session's (or the imported one).
 """
 
 from __future__ import annotations
 
 import collections
-import dataclasses
-import html
-import math
-import statistics
 import time
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from app.display import observed_choices, quantities
-from app.inference_view import (
+from app.context import PanelContext
+from app.display import observed_choices
+from app.live_buffer import LiveBuffer
+from app.panels.infer.charts import InferCharts
+from app.panels.infer.readout import (
+    LEGEND_HTML,
+    failure_html,
+    probabilities_html,
+    status_html,
+    timing_text,
+)
+from app.replay import Replay
+from app.scene.inference_layer import DEFAULT_COLOR
+from app.scene.look import PRIOR_MODES, SHOWN
+from app.scrub import (
     ALPHA_CHOICES,
-    PATH_POINTS,
-    TUBE_POINTS,
     HeldOutModels,
-    LiveBuffer,
     ScrubResult,
     demo_observation,
-    hand_dims,
     scrub_step,
 )
-from app.plots import Band, BandChart, Trace, add_band_chart, band_chart, update_band_chart
-from app.replay import Replay
-from app.tubes import resample, tube_faces, tube_vertices
-from promp.data import Layout
-
-if TYPE_CHECKING:
-    from app.studio import Studio
 
 TEST, LIVE = "Test demonstration", "Live stream"
 SOURCES = (TEST, LIVE)
-SESSION_MODES = ("shown", "faded", "hidden")
-PRIOR_OPACITY = 0.25  # the prior tubes' own opacity (app.scene_view)
-DIMMED_OPACITY = 0.07
-POSTERIOR_OPACITY = 0.45
 LIVE_HZ = 20.0
 NONE = "(none)"
-PRIOR_COLOR = (125, 125, 125)
-OBSERVED_COLOR = (25, 25, 25)
-TRUTH_COLOR = (70, 70, 70)
-DEFAULT_COLOR = (120, 120, 120)
-LEGEND_HTML = (
-    '<div style="font-size:0.72em;color:#555;margin-top:4px">'
-    'bands ±2σ: <b style="color:#7d7d7d">prior</b> · <b>posterior</b> (recognised primitive\'s '
-    "colour) · ● observed · ╌ truth</div>"
-)
-
-
-def _darker(color, factor: float = 0.6) -> tuple[int, int, int]:
-    return tuple(int(round(c * factor)) for c in color)  # type: ignore[return-value]
-
-
-def _fmt(value: float, unit: str, scale: float = 1.0, digits: int = 1) -> str:
-    return "—" if not math.isfinite(value) else f"{value * scale:.{digits}f} {unit}"
-
-
-@dataclasses.dataclass(frozen=True)
-class _FixedRangeChart(BandChart):
-    """A band chart whose x (time) range is fixed too, in seconds."""
-
-    x_range: tuple[float, float] = (0.0, 1.0)
-
-    @property
-    def scales(self) -> dict:
-        return {"x": {"time": False, "range": self.x_range}, "y": {"range": self.y_range}}
 
 
 class InferPanel:
     """The Infer tab (see the module docstring). Built inside its tab's container."""
 
-    def __init__(self, studio: Studio) -> None:
-        self.studio = studio
-        self.server = studio.server
+    def __init__(self, ctx: PanelContext) -> None:
+        self.ctx = ctx
         self.models = HeldOutModels()
         self.live = LiveBuffer()
         self.observing = False
-        self.replay = Replay(studio.arm.move_hand_to)
+        self.replay = Replay(ctx.arm.move_hand_to)
         self.result: ScrubResult | None = None
         self.message = ""
         self.scrub_ms = 0.0  # server-side time of the latest scrub step (recompute + redraw)
@@ -116,16 +76,12 @@ class InferPanel:
         self._replay_command: str | None = None
         self._last_live_scrub = 0.0
         self._live_epoch = 0
-        self._range_key: tuple | None = None
-        self._ranges: dict[int, tuple[float, float, float]] = {}
-        self._session_faded = False
         self._build_gui()
-        self._build_scene()
 
     # ------------------------------------------------------------------ building
 
     def _build_gui(self) -> None:
-        gui = self.server.gui
+        gui, layout = self.ctx.gui, self.ctx.session.layout
         with gui.add_folder("Observation"):
             self.source = gui.add_dropdown(
                 "Source", SOURCES, initial_value=TEST,
@@ -135,7 +91,7 @@ class InferPanel:
             self.demo = gui.add_dropdown(
                 "Test demo", (NONE,), hint="Inferred with a model learned without it"
             )
-            self._choices = observed_choices(self.studio.session.layout)
+            self._choices = observed_choices(layout)
             self.observed = gui.add_dropdown("Observed", tuple(self._choices))
             self.alpha = gui.add_dropdown(
                 "Alpha", tuple(ALPHA_CHOICES), initial_value="ML",
@@ -152,15 +108,12 @@ class InferPanel:
         self.replay_buttons = gui.add_button_group("Replay", ("Play", "Pause", "Reset"))
         self.replay_bar = gui.add_progress_bar(0.0, color="gray")
         gui.add_html(LEGEND_HTML)
-        self.charts: list = []
-        self._chart_tabs = None
-        self._charts_layout: Layout | None = None
-        self._chart_slot = gui.add_folder("Charts", expand_by_default=True)
-        self._build_charts(self.studio.session.layout)
+        slot = gui.add_folder("Charts", expand_by_default=True)
+        self.charts = InferCharts(self.ctx, slot, layout)
         with gui.add_folder("Display", expand_by_default=False):
             self.show_3d = gui.add_checkbox("Show in 3D", True)
             self.session_mode = gui.add_dropdown(
-                "Session priors", SESSION_MODES, initial_value="shown",
+                "Session priors", PRIOR_MODES, initial_value=SHOWN,
                 hint="While an inference is shown, the session's prior tubes and demonstration "
                 "lines are shown; faded: tubes dimmed, lines hidden; hidden: both hidden",
             )  # fmt: skip
@@ -185,63 +138,6 @@ class InferPanel:
         def _(event) -> None:
             self._replay_command = str(event.target.value)
 
-    def _build_charts(self, layout: Layout) -> None:
-        """One chart tab per modality of ``layout``, one chart per dimension."""
-        if self._chart_tabs is not None:
-            self._chart_tabs.remove()
-        gui = self.server.gui
-        placeholder = band_chart([], [Trace("", np.array([0.0, 1.0]), np.zeros(2), (0, 0, 0))])
-        self.quantities = quantities(layout)
-        self.charts = []
-        with self._chart_slot:
-            self._chart_tabs = gui.add_tab_group()
-            for modality in layout.modalities:
-                with self._chart_tabs.add_tab(modality.name.capitalize()):
-                    for q in self.quantities:
-                        if q.modality == modality.name:
-                            self.charts.append(
-                                add_band_chart(gui, placeholder, title=q.title, aspect=3.3)
-                            )
-        self._charts_layout = layout
-        self._range_key = None
-
-    def _build_scene(self) -> None:
-        scene = self.server.scene
-        line = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]])
-        straight = np.linspace([0.0, 0.0, 0.0], [0.1, 0.0, 0.0], TUBE_POINTS)
-        self.tube = scene.add_mesh_simple(
-            "/infer/posterior",
-            vertices=tube_vertices(straight, np.full((TUBE_POINTS, 3), 0.01)),
-            faces=tube_faces(TUBE_POINTS),
-            color=DEFAULT_COLOR,
-            opacity=POSTERIOR_OPACITY,
-            flat_shading=False,
-            side="double",
-            visible=False,
-        )
-        self.future = scene.add_spline_catmull_rom(
-            "/infer/future", points=line, thickness=5.0, thickness_units="screen",
-            color=DEFAULT_COLOR, visible=False,
-        )  # fmt: skip
-        self.observed_line = scene.add_spline_catmull_rom(
-            "/infer/observed", points=line, thickness=4.0, thickness_units="screen",
-            color=OBSERVED_COLOR, visible=False,
-        )  # fmt: skip
-        self.truth_line = scene.add_spline_catmull_rom(
-            "/infer/truth", points=line, thickness=2.0, thickness_units="screen",
-            color=TRUTH_COLOR, visible=False,
-        )  # fmt: skip
-        self.end_point = scene.add_icosphere(
-            "/infer/end", radius=0.02, color=DEFAULT_COLOR, visible=False
-        )
-        self.now_point = scene.add_icosphere(
-            "/infer/now", radius=0.012, color=(250, 250, 250), visible=False
-        )
-        self.nodes = (
-            self.tube, self.future, self.observed_line, self.truth_line, self.end_point,
-            self.now_point,
-        )  # fmt: skip
-
     # ------------------------------------------------------------------ loop
 
     def step(self) -> None:
@@ -251,30 +147,30 @@ class InferPanel:
         if self.observing:
             self._sample_live()
         commanded = self._run_replay_command()
-        if self.replay.playing and self.studio.arm.dragging:
+        if self.replay.playing and self.ctx.arm.dragging:
             self.replay.pause()  # the user took the hand
         if self.replay.step() or commanded:
             self.replay_bar.value = 100.0 * self.replay.progress
         if self._dirty:
             self._dirty = False
             self.scrub()
-        self._apply_session_mode()
+        self.ctx.scene.set_inference_options(self.show_3d.value, self.session_mode.value)
 
     def _sync_choices(self) -> None:
-        session = self.studio.session
+        session = self.ctx.session
         with session.lock:
             version = session.version
             demos = {name: [d.name for d in items] for name, items in session.demos.items()}
+            layout = session.layout
         if version != self._synced_version:
             self._synced_version = version
             self.primitive.options = tuple(demos) or (NONE,)
             self._demos_for = ""
             self._dirty = True
-            layout = session.layout
-            if layout != self._charts_layout:
+            if layout != self.charts.layout:
                 self._choices = observed_choices(layout)
                 self.observed.options = tuple(self._choices)
-                self._build_charts(layout)
+                self.charts.build(layout)
         live = self.source.value == LIVE
         for handle in (self.primitive, self.demo):
             if handle.visible == live:
@@ -309,11 +205,11 @@ class InferPanel:
         self._dirty = True
 
     def _sample_live(self) -> None:
-        hand, head = self.studio.hand_and_head()
+        hand, head = self.ctx.hand_and_head()
         now = time.monotonic()
         if not self.live.append(now, hand, head):
             self.set_observing(False)
-            self.studio.notify(
+            self.ctx.notify(
                 "Observation stopped",
                 f"The live buffer is full ({self.live.max_seconds:.0f} s).",
                 color="yellow",
@@ -339,10 +235,21 @@ class InferPanel:
             elif command == "Reset":
                 self.replay.reset()
         except ValueError as exc:
-            self.studio.notify("Nothing to replay", str(exc), color="yellow")
+            self.ctx.notify("Nothing to replay", str(exc), color="yellow")
         finally:
             self._replay_command = None
         return True
+
+    def _load_replay(self, result: ScrubResult) -> None:
+        times = result.future_times - result.future_times[0]
+        if (
+            result.future_hand is None
+            or result.remaining < 1e-3
+            or not np.all(np.diff(times) > 0)
+        ):
+            self.replay.clear()
+            return
+        self.replay.load(times, result.future_hand)
 
     # ------------------------------------------------------------------ scrub step
 
@@ -353,7 +260,7 @@ class InferPanel:
             raise ValueError("choose the observed modalities")
         alpha_method = ALPHA_CHOICES[self.alpha.value]
         percent = float(self.percent.value)
-        session = self.studio.session
+        session = self.ctx.session
         if self.source.value == LIVE:
             model = session.inference_model()
             if model is None:
@@ -398,227 +305,47 @@ class InferPanel:
         except ValueError as exc:
             result, message = None, str(exc)
             if message != self.message and self.source.value == TEST:
-                self.studio.notify("Cannot infer", message, color="yellow")
+                self.ctx.notify("Cannot infer", message, color="yellow")
         self.result, self.message = result, message
         # One group of messages: the browser applies tube, bars and charts together, and the
         # websocket thread is woken once rather than once per update.
-        with self.server.atomic():
-            self._draw_scene(result)
-            self._draw_probabilities(result)
+        with self.ctx.atomic():
+            color = self._color(result.primitive) if result is not None else DEFAULT_COLOR
+            self.ctx.scene.show_inference(
+                result, color, self.show_3d.value, self.session_mode.value
+            )
             if result is not None:
-                self._draw_charts(result)
+                self.probabilities.content = probabilities_html(result, self._color)
+                self.charts.draw(result, self._movement(result), color)
                 self._load_replay(result)
             else:
+                self.probabilities.content = ""
                 self.replay.clear()
             self.replay_bar.value = 0.0
             self.scrub_ms = 1e3 * (time.perf_counter() - start) - self.fit_ms
             self.recent_ms.append(self.scrub_ms)
             self.scrub_count += 1
-            self._draw_status(result, message)
+            timing = timing_text(self.scrub_ms, self.recent_ms, self.fit_ms)
+            self.status.content = (
+                failure_html(message, timing)
+                if result is None
+                else status_html(result, self._truth_primitive(), self.model_note, timing)
+            )
 
     def _color(self, name: str) -> tuple[int, int, int]:
         try:
-            return self.studio.session.color(name)
+            return self.ctx.session.color(name)
         except ValueError:
             return DEFAULT_COLOR
-
-    def _draw_scene(self, result: ScrubResult | None) -> None:
-        hand = hand_dims(result.layout) if result is not None else None
-        if result is None or not self.show_3d.value or hand is None:
-            for node in self.nodes:
-                if node.visible:
-                    node.visible = False
-            return
-        color = self._color(result.primitive)
-        post = result.posterior
-        self.tube.vertices = tube_vertices(post.mean[:, hand], post.std[:, hand])
-        self.tube.color = color
-        self.future.points = result.future_hand.astype(np.float32)
-        self.future.color = _darker(color)
-        self.end_point.position = result.future_hand[-1]
-        self.end_point.color = color
-        self.now_point.position = result.future_hand[0]
-        obs = result.observation
-        if "hand" in obs.modalities and obs.n_observed >= 2:
-            cols = np.flatnonzero(np.isin(result.layout.dims(obs.modalities), hand))
-            points = resample(obs.values[:, cols], min(obs.n_observed, PATH_POINTS))
-            self.observed_line.points = points.astype(np.float32)
-            if not self.observed_line.visible:
-                self.observed_line.visible = True
-        elif self.observed_line.visible:
-            self.observed_line.visible = False
-        if result.truth is not None:
-            true_hand = result.layout.extract(result.truth)[:, hand]
-            rest = true_hand[max(obs.n_observed - 1, 0) :]
-            if rest.shape[0] >= 2:
-                self.truth_line.points = resample(rest, min(rest.shape[0], PATH_POINTS)).astype(
-                    np.float32
-                )
-            if self.truth_line.visible != (rest.shape[0] >= 2):
-                self.truth_line.visible = rest.shape[0] >= 2
-        elif self.truth_line.visible:
-            self.truth_line.visible = False
-        for node in (self.tube, self.future, self.end_point, self.now_point):
-            if not node.visible:
-                node.visible = True
-
-    def _draw_probabilities(self, result: ScrubResult | None) -> None:
-        if result is None:
-            self.probabilities.content = ""
-            return
-        rows = []
-        for k, (name, p) in enumerate(zip(result.names, result.probabilities, strict=True)):
-            r, g, b = self._color(name)
-            weight = "700" if k == result.recognition.index else "400"
-            rows.append(
-                f'<div data-primitive="{html.escape(name)}" data-p="{p:.6f}" '
-                'style="display:flex;align-items:center;gap:6px;margin:3px 0">'
-                f'<span style="width:92px;overflow:hidden;text-overflow:ellipsis;'
-                f'white-space:nowrap;font-weight:{weight}">{html.escape(name)}</span>'
-                '<span style="flex:1;height:11px;background:#e9ecef;border-radius:3px;'
-                'overflow:hidden">'
-                f'<span style="display:block;width:{100 * p:.1f}%;height:100%;'
-                f'background:rgb({r},{g},{b})"></span></span>'
-                '<span style="width:48px;text-align:right;font-variant-numeric:tabular-nums">'
-                f"{100 * p:.1f} %</span></div>"
-            )
-        self.probabilities.content = (
-            '<div style="font-size:0.8em;margin:2px 0 4px 0">' + "".join(rows) + "</div>"
-        )
-
-    def _draw_status(self, result: ScrubResult | None, message: str) -> None:
-        timing = (
-            f"step {self.scrub_ms:.1f} ms (server; median of the last {len(self.recent_ms)}: "
-            f"{statistics.median(self.recent_ms):.1f} ms)"
-        )
-        if self.fit_ms > 0:
-            timing += f" · held-out fit {self.fit_ms:.0f} ms"
-        if result is None:
-            self.status.content = (
-                f'<div style="font-size:0.8em;color:#a33">{html.escape(message)}</div>'
-                f'<div style="font-size:0.72em;color:#777">{timing}</div>'
-            )
-            return
-        obs = result.observation
-        truth = result.truth
-        if truth is not None:
-            verdict = self._truth_primitive()
-            mark = (
-                ""
-                if verdict is None
-                else (' <span style="color:#2b8a3e">✓</span>' if verdict == result.primitive
-                      else f' <span style="color:#c92a2a">✗ (truth: {html.escape(verdict)})</span>')
-            )  # fmt: skip
-            seen = f"{obs.n_observed} / {truth.n_samples} samples, {result.observed_until:.2f} s"
-        else:
-            mark = ""
-            seen = f"{obs.n_observed} samples, {result.observed_until:.2f} s"
-        lines = [
-            f"<b>Recognised: {html.escape(result.primitive)}</b>{mark} · α = {result.alpha:.3f}",
-            f"Observed: {seen} ({' + '.join(obs.modalities)})",
-            f"Model: {html.escape(self.model_note)}",
-            f"Duration: predicted {result.duration:.2f} s · true "
-            f"{_fmt(result.true_duration, 's', digits=2)}",
-            f"Errors: remainder {_fmt(result.position_error_m, 'cm', 100)} · goal "
-            f"{_fmt(result.goal_error_m, 'cm', 100)} · duration "
-            f"{_fmt(result.duration_error_s, 's', digits=2)}",
-        ]
-        self.status.content = (
-            '<div style="font-size:0.8em;line-height:1.55">' + "<br>".join(lines) + "</div>"
-            f'<div style="font-size:0.72em;color:#777">{timing}</div>'
-        )
 
     def _truth_primitive(self) -> str | None:
         return self.primitive.value if self.source.value == TEST else None
 
-    def _draw_charts(self, result: ScrubResult) -> None:
-        key = (
-            (TEST, self.primitive.value, self.demo.value)
-            if result.truth is not None
-            else (LIVE, self._live_epoch)
-        )
-        if key != self._range_key:
-            self._range_key, self._ranges = key, {}
-        color = self._color(result.primitive)
-        obs = result.observation
-        layout = result.layout
-        if layout != self._charts_layout:
-            return  # an imported model of other modalities: no charts to draw into
-        observed = list(layout.dims(obs.modalities))
-        truth = layout.extract(result.truth) if result.truth is not None else None
-        for i, (handle, q) in enumerate(zip(self.charts, self.quantities, strict=True)):
-            dim, scale = q.column, q.scale
-            prior, post = result.prior, result.posterior
-            bands = [
-                Band("prior", prior.times, scale * prior.mean[:, dim], scale * prior.std[:, dim],
-                     PRIOR_COLOR),
-                Band("posterior", post.times, scale * post.mean[:, dim], scale * post.std[:, dim],
-                     color),
-            ]  # fmt: skip
-            traces = []
-            if truth is not None:
-                traces.append(
-                    Trace("truth", result.truth.times, scale * truth[:, dim], TRUTH_COLOR,
-                          width=1.5, dash=(5.0, 4.0))
-                )  # fmt: skip
-            if dim in observed:
-                column = obs.values[:, observed.index(dim)]
-                traces.append(
-                    Trace("observed", obs.elapsed, scale * column, OBSERVED_COLOR, points=True)
-                )
-            chart = band_chart(bands, traces)
-            update_band_chart(self.server, handle, self._sticky(i, chart))
+    def _movement(self, result: ScrubResult) -> tuple:
+        """What is inspected: a test demonstration, or the live stream since its last clear."""
+        if result.truth is not None:
+            return (TEST, self.primitive.value, self.demo.value)
+        return (LIVE, self._live_epoch)
 
-    def _sticky(self, index: int, chart: BandChart) -> BandChart:
-        """The chart with fixed x and y ranges that only grow while the same movement is
-        inspected: scrubbing neither rescales (and so rebuilds) the chart at every step nor
-        leaves uPlot's automatic x range to the browser (viser rescales it relative to the
-        previous data, which a rebuild can leave undefined: an empty chart)."""
-        lo, hi = chart.y_range
-        x_hi = float(chart.grid[-1])
-        if index in self._ranges:
-            old_lo, old_hi, old_x = self._ranges[index]
-            lo, hi, x_hi = min(lo, old_lo), max(hi, old_hi), max(x_hi, old_x)
-        self._ranges[index] = (lo, hi, x_hi)
-        fields = {f.name: getattr(chart, f.name) for f in dataclasses.fields(chart)}
-        return _FixedRangeChart(**{**fields, "y_range": (lo, hi)}, x_range=(0.0, x_hi))
-
-    def _load_replay(self, result: ScrubResult) -> None:
-        times = result.future_times - result.future_times[0]
-        if (
-            result.future_hand is None
-            or result.remaining < 1e-3
-            or not np.all(np.diff(times) > 0)
-        ):
-            self.replay.clear()
-            return
-        self.replay.load(times, result.future_hand)
-
-    # ------------------------------------------------------------------ session drawing
-
-    def _apply_session_mode(self) -> None:
-        """Fade or hide the session's prior tubes and demonstration lines (drawn by
-        :class:`app.scene_view.SceneView`) while an inference is shown, and put them back as
-        the scene view draws them otherwise."""
-        mode = self.session_mode.value
-        active = mode != "shown" and self.result is not None and self.show_3d.value
-        view = self.studio.view
-        if not active:
-            if self._session_faded:
-                self._session_faded = False
-                with self.studio.session.lock:
-                    hidden = set(self.studio.session.hidden)
-                for tube in list(view.tubes.values()):
-                    tube.visible, tube.opacity = True, PRIOR_OPACITY
-                for key, line in list(view.lines.items()):
-                    line.visible = key not in hidden
-            return
-        self._session_faded = True
-        for tube in list(view.tubes.values()):
-            if tube.visible != (mode != "hidden"):
-                tube.visible = mode != "hidden"
-            if tube.opacity != DIMMED_OPACITY:
-                tube.opacity = DIMMED_OPACITY
-        for line in list(view.lines.values()):
-            if line.visible:
-                line.visible = False
+    def close(self) -> None:
+        """Nothing runs in the background."""
