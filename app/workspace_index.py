@@ -24,7 +24,7 @@ from dataclasses import dataclass, fields
 from promp.data import Layout, Modality
 from promp.datasets import MODALITY_NAME
 from promp.model import Settings
-from robots.icub.layout import STUDIO_LAYOUT
+from robots.icub.layout import HAND, STUDIO_LAYOUT
 
 FORMAT = "icub-intention-studio/workspace"
 VERSION = 1
@@ -79,9 +79,10 @@ def check_layout(layout: Layout) -> Layout:
         for column in modality.columns:
             if not column or column == "t" or "," in column or "\n" in column:
                 raise ValueError(f"modality {modality.name!r}: invalid column name {column!r}")
-    if "hand" in layout.names:
-        hand = layout.modality("hand")
-        if len(hand.columns) != 3 or hand.unit != "m" or hand.kind != "linear":
+    if HAND.name in layout.names:
+        hand = layout.modality(HAND.name)
+        shape = (len(hand.columns), hand.unit, hand.kind)
+        if shape != (len(HAND.columns), HAND.unit, HAND.kind):
             raise ValueError(
                 "the modality 'hand' drives the 3D view: it needs 3 linear columns in metres "
                 f"(x, y, z in the robot's root frame), got {list(hand.columns)} in "

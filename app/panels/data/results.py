@@ -15,8 +15,11 @@ import viser
 
 from app.display import LENGTH_SCALE, LENGTH_UNIT
 from promp.evaluate.plots import group_series
+from robots.icub.layout import HAND, HEAD
 
-SERIES_COLORS = {"hand": "#e4572e", "head": "#2980b9", "hand+head": "#27ae60"}
+SERIES_COLORS = {
+    HAND.name: "#e4572e", HEAD.name: "#2980b9", f"{HAND.name}+{HEAD.name}": "#27ae60"
+}
 OTHER_COLOR = "#555555"
 
 
