@@ -83,8 +83,9 @@ def held_out_training(
 
 
 class HeldOutModels:
-    """Models learned without one test demonstration, cached by (session version, primitive,
-    demonstration): scrubbing never refits; a change of the session does."""
+    """Models learned without one test demonstration, cached by (version of what is learned
+    from, primitive, demonstration): scrubbing never refits; a change of the demonstrations or
+    the settings does (:attr:`app.session.Session.learn_version`)."""
 
     def __init__(self, max_entries: int = 8):
         self.max_entries = max_entries

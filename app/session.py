@@ -90,9 +90,10 @@ class Session:
         self.imported_from = ""
         self.deleted: list[TrashEntry] = []  # this run's deletions, newest last ("Undo delete")
         self.version = 0
-        # Refit requests: the latest asked for, and the one the current model answers.
-        self.wanted_fit = 0
-        self.model_fit = 0
+        # What is learned from (demonstrations, settings, layout) changes: learn_version counts
+        # those changes, model_version is the one the current model was learned from.
+        self.learn_version = 0
+        self.model_version = 0
         self._fitted = threading.Condition(self.lock)
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="refit")
         self._closed = False
@@ -191,30 +192,30 @@ class Session:
 
     def _ask_refit(self) -> None:
         """Refit in the background from the current state (lock held)."""
-        self.wanted_fit += 1
+        self.learn_version += 1
         if self.model is not None and self.model.layout != self.layout:
             self.model = None  # another workspace's model: nothing to show meanwhile
         if not self._closed:
-            self._worker.submit(self._refit, self.wanted_fit, self._training())
+            self._worker.submit(self._refit, self.learn_version, self._training())
 
     def _refit(self, request: int, training: Training) -> None:
         """The worker's job: learn, then adopt the result if no newer request came."""
         with self.lock:
-            if request != self.wanted_fit:
+            if request != self.learn_version:
                 return  # superseded before it started
         learned = learn(training)
         with self.lock:
-            if request != self.wanted_fit:
+            if request != self.learn_version:
                 return  # superseded while it ran: the newer request's result will do
             self._use(learned)
-            self.model_fit = request
+            self.model_version = request
             self.version += 1
             self._fitted.notify_all()
 
     @property
     def refitting(self) -> bool:
         """True while the model does not yet answer the latest change."""
-        return self.model_fit != self.wanted_fit
+        return self.model_version != self.learn_version
 
     def wait_for_model(self, timeout: float = REFIT_TIMEOUT_S) -> ProMPModel | None:
         """The model of the current state, once learned (None when nothing can be learned).

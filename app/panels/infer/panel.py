@@ -273,7 +273,7 @@ class InferPanel:
             observation = self.live.observation(percent, modalities, model.layout)
             return scrub_step(model, observation, alpha_method)
         with session.lock:
-            version = session.version
+            version = session.learn_version  # what the held-out model depends on
             imported = session.imported_model
             demos = {name: list(items) for name, items in session.demos.items()}
             settings = session.learning_settings()
