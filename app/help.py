@@ -1,7 +1,8 @@
 """The "?" folder at the end of each tab: a short help text, kept in ``static/help/<tab>.md``.
 
 The texts are plain markdown files beside the code, so they can be edited without touching
-Python; a missing file is an error at start (the studio runs from its source tree).
+Python. The studio reads them from its source tree (``make run`` installs it in place); where
+one is missing, the folder says so instead.
 """
 
 from __future__ import annotations
@@ -9,6 +10,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import viser
+
+from app.gui_text import escape
 
 STATIC = Path(__file__).resolve().parent.parent / "static"
 HELP = STATIC / "help"
@@ -30,7 +33,11 @@ def help_text(tab: str) -> str:
 
 def add_help(gui: viser.GuiApi, tab: str) -> viser.GuiFolderHandle:
     """A collapsed "?" folder holding the help of ``tab`` (in the current container)."""
+    try:
+        text = help_text(tab)
+    except ValueError as exc:
+        text = f"No help: {escape(str(exc))}."
     folder = gui.add_folder("?", expand_by_default=False)
     with folder:
-        gui.add_markdown(help_text(tab))
+        gui.add_markdown(text)
     return folder

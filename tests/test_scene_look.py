@@ -62,3 +62,4 @@ def test_a_control_used_from_a_browser_makes_its_panel_the_one_in_use() -> None:
     assert used == []
     fake.callbacks[1](SimpleNamespace(client=object()))
     assert used == ["infer"]
+
