@@ -123,10 +123,9 @@ class RecordSection:
             self._show_progress(now)
 
     def _begin(self, now: float) -> None:
-        session, rate = self.ctx.session, float(self.rate.value)
-        head_error = self.ctx.head.source.error
-        reason = refusal(self.selected(), session.layout, head_error, rate)
-        event, _ = self.machine.press(now, self.selected(), rate, refused=reason)
+        name, rate = self.selected(), float(self.rate.value)
+        reason = refusal(name, self.ctx.session.layout, self.ctx.head.source.error, rate)
+        event, _ = self.machine.press(now, name, rate, refused=reason)
         if event is Event.REFUSED:
             self._report(reason, "Cannot record", "red")
             self._head_refusal = reason.startswith(HEAD_FAILED)
