@@ -13,7 +13,7 @@ import numpy as np
 import viser
 import viser.transforms as vtf
 
-from app.robot_view import RobotView
+from app.scene.robot import RobotView
 from robots.icub.ik import IKResult, solve_ik
 from robots.icub.kinematics import ArmChain
 

@@ -29,7 +29,8 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
 from app.exchange import Limits, check_member, format_size
-from app.workspace import PALETTE, PrimitiveEntry, WorkspaceData, check_layout
+from app.workspace import WorkspaceData
+from app.workspace_index import PALETTE, PrimitiveEntry, check_layout
 from promp.data import Demonstration, Layout, Modality
 from promp.datasets import FORMATS, RECORD_COLUMNS, Dataset, dataset_columns, read_dataset
 

@@ -34,15 +34,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import PurePosixPath
 
-from app.workspace import (
-    DEMOS_DIR,
-    INDEX_NAME,
-    Index,
-    WorkspaceData,
-    check_index,
-    check_name,
-    index_json,
-)
+from app.workspace import DEMOS_DIR, WorkspaceData
+from app.workspace_index import INDEX_NAME, Index, check_index, check_name, index_json
 from promp.data import Demonstration, Layout
 from promp.datasets import demo_from_csv, demo_to_csv
 from promp.io import model_from_json, model_to_json

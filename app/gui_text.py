@@ -1,12 +1,13 @@
 """Text for the GUI's markdown and HTML elements, defined once.
 
 User-provided text (file names, paths, error messages) is shown literally: :func:`escape` for
-markdown, :func:`html.escape` for HTML elements; :func:`display_name` shortens an uploaded
+markdown, :func:`escape_html` for HTML elements; :func:`display_name` shortens an uploaded
 file's name to something safe to show.
 """
 
 from __future__ import annotations
 
+import html
 import re
 
 RED, ORANGE, GREEN, GREY = "#c0392b", "#d35400", "#1e8449", "#7f8c8d"
@@ -18,6 +19,11 @@ def escape(text: str) -> str:
     for char in "\\`*_[]#":
         text = text.replace(char, "\\" + char)
     return text
+
+
+def escape_html(text: str) -> str:
+    """``text`` shown literally in an HTML element (and in an attribute's quotes)."""
+    return html.escape(text, quote=True)
 
 
 def colored(text: str, color: str, bold: bool = False) -> str:

@@ -28,19 +28,23 @@ Usage::
 
     chart = band_chart([Band("curved", t, mean, std, (228, 87, 46))],
                        [Trace("demo 3", t3, x3, (40, 40, 40))])
-    handle = add_band_chart(server.gui, chart, title="x (m)")
+    handle = add_band_chart(gui, chart, title="hand x (cm)")
     ...
-    update_band_chart(server, handle, new_chart)   # data, series and bands, atomically
+    update_band_chart(handle, new_chart, server.atomic)   # data, series and bands, atomically
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 
 import numpy as np
 import viser
 import viser.uplot as uplot
+
+from app.display import Quantity
+from promp.inference import Prediction
 
 RGB = tuple[int, int, int]
 
@@ -102,9 +106,13 @@ class Band:
         object.__setattr__(self, "color", _check_color(f"band {self.label!r}", self.color))
 
     @classmethod
-    def from_prediction(cls, prediction, dim: int, label: str, color: Sequence[int]) -> Band:
-        """The band of dimension ``dim`` of a :class:`promp.inference.Prediction`."""
-        return cls(label, prediction.times, prediction.mean[:, dim], prediction.std[:, dim], color)
+    def from_prediction(
+        cls, prediction: Prediction, quantity: Quantity, label: str, color: Sequence[int]
+    ) -> Band:
+        """The band of one dimension (``quantity``) of ``prediction``, in its display unit."""
+        dim, scale = quantity.column, quantity.scale
+        mean, std = scale * prediction.mean[:, dim], scale * prediction.std[:, dim]
+        return cls(label, prediction.times, mean, std, color)
 
 
 @dataclass(frozen=True)
@@ -320,13 +328,15 @@ def add_band_chart(
 
 
 def update_band_chart(
-    server: viser.ViserServer, handle: viser.GuiUplotHandle, chart: BandChart
+    handle: viser.GuiUplotHandle,
+    chart: BandChart,
+    atomic: Callable[[], AbstractContextManager],
 ) -> None:
     """Replace the content of a chart made by :func:`add_band_chart`.
 
     Series, bands and scales are only re-sent when they changed (they rebuild the chart in the
-    browser); when they are, everything goes in one atomic message group, so the browser never
-    sees data and series of different lengths.
+    browser); when they are, everything goes in one message group (``with atomic():``, the
+    server's), so the browser never sees data and series of different lengths.
     """
     same = (
         handle.series == chart.series
@@ -336,7 +346,7 @@ def update_band_chart(
     if same:
         handle.data = chart.data
         return
-    with server.atomic():
+    with atomic():
         handle.series = chart.series
         handle.bands = chart.bands
         handle.scales = chart.scales

@@ -5,6 +5,13 @@ state. Every mutation validates first, writes the workspace (atomically), then u
 and bumps :attr:`Session.version`; panels redraw when the version they drew is stale. A lock
 serialises mutations coming from GUI callbacks (which viser runs on a thread pool).
 
+Learning runs in one background worker: a mutation that changes what is learned (the
+demonstrations, the settings, the workspace) asks for a refit and returns at once. Meanwhile the
+previous model stays in use (and drawn); a newer request supersedes one in flight, whose result
+is then dropped, so only the model of the latest request is adopted (and bumps the version).
+:meth:`Session.wait_for_model` waits for it. A model of other modalities than the workspace's
+(after an import) is dropped at once rather than kept meanwhile.
+
 Deleting a demonstration or a primitive, and replacing the workspace, move the files to the
 workspace's trash (:mod:`app.trash`); :meth:`Session.restore` puts them back. The session's
 modalities are its workspace's layout: the studio's hand and head for the workspaces it
@@ -15,28 +22,56 @@ from __future__ import annotations
 
 import threading
 import time
+import traceback
 from collections.abc import Callable
-from dataclasses import replace
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from app.trash import TrashEntry
-from app.workspace import (
-    PALETTE,
-    FolderKind,
-    PrimitiveEntry,
-    Workspace,
-    WorkspaceData,
-    check_color,
-    check_name,
-    inspect_folder,
-)
+from app.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
+from app.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
 from promp.data import Demonstration, Layout
 from promp.model import ProMPModel, Settings, fit
 from promp.pipeline import Typicality, typicality
 
 KEEP = object()  # set_learning: leave a setting as it is
+REFIT_TIMEOUT_S = 120.0
+
+
+@dataclass(frozen=True)
+class Training:
+    """What one refit learns from: a snapshot taken when it was asked for."""
+
+    demos: dict[str, list[Demonstration]]  # the primitives with at least two demonstrations
+    layout: Layout
+    settings: Settings
+
+
+@dataclass(frozen=True)
+class Learned:
+    """The outcome of one refit: the model, or None and the reason; its time in ms."""
+
+    model: ProMPModel | None
+    error: str | None
+    ms: float
+
+
+def learn(training: Training) -> Learned:
+    """Fit every primitive of ``training`` (runs outside the session's lock)."""
+    start = time.perf_counter()
+    if not training.demos:
+        return Learned(None, "record at least two demonstrations", 0.0)
+    try:
+        model, error = fit(training.demos, training.layout, training.settings), None
+    except ValueError as exc:
+        model, error = None, str(exc)
+    except Exception as exc:  # a bug must end the refit visibly, not leave it pending
+        traceback.print_exc()
+        model, error = None, f"{type(exc).__name__}: {exc}"
+    return Learned(model, error, 1e3 * (time.perf_counter() - start))
 
 
 class Session:
@@ -55,9 +90,16 @@ class Session:
         self.imported_from = ""
         self.deleted: list[TrashEntry] = []  # this run's deletions, newest last ("Undo delete")
         self.version = 0
+        # What is learned from (demonstrations, settings, layout) changes: learn_version counts
+        # those changes, model_version is the one the current model was learned from.
+        self.learn_version = 0
+        self.model_version = 0
+        self._fitted = threading.Condition(self.lock)
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="refit")
+        self._closed = False
         self._listeners: list[Callable[[], None]] = []
         self._adopt(workspace, data)
-        self.refit()
+        self._use(learn(self._training()))  # the first model, before anyone looks
 
     def _adopt(self, workspace: Workspace, data: WorkspaceData) -> None:
         """Hold ``data``, read from (or just written to) ``workspace``."""
@@ -101,12 +143,12 @@ class Session:
     # ------------------------------------------------------------------ observers
 
     def on_change(self, callback: Callable[[], None]) -> None:
-        """Call ``callback()`` after every change (from the thread that made it)."""
+        """Call ``callback()`` after every mutation (from the thread that made it)."""
         self._listeners.append(callback)
 
     def _changed(self, refit: bool = True) -> None:
         if refit:
-            self.refit()
+            self._ask_refit()
             self.imported_model, self.imported_from = None, ""
         self.version += 1
         for callback in list(self._listeners):
@@ -139,20 +181,67 @@ class Session:
 
     # ------------------------------------------------------------------ learning
 
-    def refit(self) -> None:
-        """Learn the model from every primitive with at least two demonstrations."""
+    def _training(self) -> Training:
         with self.lock:
-            trainable = {n: d for n, d in self.demos.items() if len(d) >= 2}
-            start = time.perf_counter()
-            if not trainable:
-                self.model, self.fit_error = None, "record at least two demonstrations"
-            else:
-                try:
-                    self.model = fit(trainable, self.layout, self.learning_settings())
-                    self.fit_error = None
-                except ValueError as exc:
-                    self.model, self.fit_error = None, str(exc)
-            self.fit_ms = 1e3 * (time.perf_counter() - start)
+            trainable = {n: list(d) for n, d in self.demos.items() if len(d) >= 2}
+            return Training(trainable, self.layout, self.learning_settings())
+
+    def _use(self, learned: Learned) -> None:
+        """Adopt a refit's outcome (lock held)."""
+        self.model, self.fit_error, self.fit_ms = learned.model, learned.error, learned.ms
+
+    def _ask_refit(self) -> None:
+        """Refit in the background from the current state (lock held)."""
+        self.learn_version += 1
+        if self.model is not None and self.model.layout != self.layout:
+            self.model = None  # another workspace's model: nothing to show meanwhile
+        if not self._closed:
+            self._worker.submit(self._refit, self.learn_version, self._training())
+
+    def _refit(self, request: int, training: Training) -> None:
+        """The worker's job: learn, then adopt the result if no newer request came."""
+        with self.lock:
+            if request != self.learn_version:
+                return  # superseded before it started
+        learned = learn(training)
+        with self.lock:
+            if request != self.learn_version:
+                return  # superseded while it ran: the newer request's result will do
+            self._use(learned)
+            self.model_version = request
+            self.version += 1
+            self._fitted.notify_all()
+
+    @property
+    def refitting(self) -> bool:
+        """True while the model does not yet answer the latest change."""
+        return self.model_version != self.learn_version
+
+    def wait_for_model(self, timeout: float = REFIT_TIMEOUT_S) -> ProMPModel | None:
+        """The model of the current state, once learned (None when nothing can be learned).
+
+        Raises
+        ------
+        TimeoutError
+            If the refit takes longer than ``timeout`` seconds.
+        """
+        with self.lock:
+            if not self._fitted.wait_for(lambda: not self.refitting, timeout):
+                raise TimeoutError(f"no model learned within {timeout:g} s")
+            return self.model
+
+    def refit(self) -> ProMPModel | None:
+        """Learn the model again from every primitive with at least two demonstrations, and
+        wait for it (e.g. to time it: :attr:`fit_ms`)."""
+        with self.lock:
+            self._ask_refit()
+        return self.wait_for_model()
+
+    def close(self) -> None:
+        """Stop the refit worker (a refit under way finishes first)."""
+        with self.lock:
+            self._closed = True
+        self._worker.shutdown(wait=True, cancel_futures=True)
 
     def score(self, primitive: str, demo: Demonstration) -> Typicality | None:
         """Typicality of ``demo`` against the model learned from ``primitive``'s other

@@ -1,34 +1,44 @@
-"""The studio: one viser server composing the robot, the session and the panels.
+"""The studio: one viser server composing the robot, the session, the scene and the panels.
 
-Threading follows viser's dirty-flag pattern: GUI and gizmo callbacks (run by viser's thread
-pool) only record what changed; one loop thread (:meth:`Studio._loop`, ~60 Hz) solves the IK,
-reads the head source, samples recordings, redraws what the session changed and lets each
-panel recompute. Everything GUI-visible lives on the server (not per client), so every browser
-tab shows the same studio.
+:meth:`Studio.start` builds everything and each panel inside its tab, with a
+:class:`app.context.PanelContext` of its own. Threading follows the dirty-flag pattern: GUI and
+gizmo callbacks (run by viser's thread pool) only record what changed; one loop thread
+(:meth:`Studio.step`, ~60 Hz) solves the IK, reads the head source, redraws the scene and lets
+each panel recompute. Learning runs in the session's background worker. Everything
+GUI-visible lives on the server (not per client), so every browser tab shows the same studio.
 """
 
 from __future__ import annotations
 
 import threading
 import time
+import traceback
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import viser
 
 from app.arm import ArmController
-from app.head_sources import HeadReading, HeadSource, SimulatedPartner, StreamHeadSource
-from app.robot_view import RobotView, add_robot
-from app.scene_view import SceneView
+from app.context import Panel, PanelContext, PanelGui
+from app.head_input import HeadInput
+from app.head_sources import HeadSource, SimulatedPartner, StreamHeadSource
+from app.help import add_help
+from app.panels.data import DataPanel
+from app.panels.infer import InferPanel
+from app.panels.teach import TeachPanel
+from app.scene import Scene
+from app.scene.look import DATA, INFER, TEACH
+from app.scene.robot import RobotView, add_robot
 from app.session import Session
-from app.workspace import PALETTE, FolderKind, PrimitiveEntry, WorkspaceData, inspect_folder
+from app.upload_guard import Refused, UploadGuard
+from app.workspace import FolderKind, WorkspaceData, inspect_folder
+from app.workspace_index import PALETTE, PrimitiveEntry
 from robots.icub.kinematics import ArmChain
 from robots.icub.model import load_urdf
 from robots.icub.scene import DEFAULT_SCENE
 
 LOOP_HZ = 60.0
+TABS = (("Teach", TEACH, TeachPanel), ("Infer", INFER, InferPanel), ("Data", DATA, DataPanel))
 
 
 def default_workspace() -> WorkspaceData:
@@ -41,15 +51,6 @@ def default_workspace() -> WorkspaceData:
         demos=dataset,
         settings={},  # the engine's defaults: the covariance prior is chosen from the data
     )
-
-
-@dataclass
-class LoopTiming:
-    """Server-side durations of the loop's work, milliseconds (shown in the GUI)."""
-
-    ik_ms: float = 0.0
-    redraw_ms: float = 0.0
-    step_ms: float = 0.0
 
 
 class Studio:
@@ -67,11 +68,10 @@ class Studio:
         self.session = session
         self.robot = robot
         self.arm = arm
-        self.head_source = head_source
-        self.head: HeadReading = head_source.read(arm.hand_position())
-        self.view = SceneView(server, session)
-        self.timing = LoopTiming()
-        self.panels: list = []
+        self.head = HeadInput(head_source)
+        self.head.read(arm.hand_position())
+        self.scene = Scene(server, session)
+        self.panels: list[Panel] = []
         self._stop = threading.Event()
         self._tasks: list[Callable[[], None]] = []
         self._tasks_lock = threading.Lock()
@@ -94,7 +94,6 @@ class Studio:
         robot: str = "iCubNancy01",
         camera: int | None = None,
         video: Path | None = None,
-        with_panels: bool = True,
     ) -> Studio:
         """Serve the studio on (host, port) with its workspace in ``workspace``.
 
@@ -119,6 +118,7 @@ class Studio:
         )
         if port != 0 and server.get_port() != port:
             server.stop()
+            session.close()
             raise ValueError(f"port {port} on {host} is already in use")
         # No "Share" button: it would publish the studio on a public URL, past the loopback
         # default.
@@ -134,12 +134,37 @@ class Studio:
         else:
             source = SimulatedPartner()
         studio = cls(server, session, view, arm, source)
-        if with_panels:
-            from app.panels import build_panels
-
-            build_panels(studio)
+        studio.panels = studio._build_panels()
         studio._thread.start()
         return studio
+
+    def _context(self, panel: str) -> PanelContext:
+        """What the panel ``panel`` may read and do."""
+        server = self.server
+
+        def guard_upload(button, max_bytes: int, refused: Refused) -> UploadGuard:
+            return UploadGuard(server, button, max_bytes, refused)
+
+        return PanelContext(
+            gui=PanelGui(server.gui, lambda: self.scene.use_panel(panel)),
+            session=self.session,
+            scene=self.scene,
+            arm=self.arm,
+            head=self.head,
+            notify=self.notify,
+            atomic=server.atomic,
+            guard_upload=guard_upload,
+        )
+
+    def _build_panels(self) -> list[Panel]:
+        """One tab per panel, each ending with its help ("?", collapsed)."""
+        tabs = self.server.gui.add_tab_group()
+        panels: list[Panel] = []
+        for title, name, build in TABS:
+            with tabs.add_tab(title):
+                panels.append(build(self._context(name)))
+                add_help(self.server.gui, name)
+        return panels
 
     # ------------------------------------------------------------------ loop
 
@@ -148,11 +173,6 @@ class Studio:
         with self._tasks_lock:
             self._tasks.append(task)
 
-    def set_head_source(self, source: HeadSource) -> None:
-        old, self.head_source = self.head_source, source
-        if old is not source:
-            old.close()
-
     def _loop(self) -> None:
         period = 1.0 / LOOP_HZ
         while not self._stop.is_set():
@@ -160,8 +180,6 @@ class Studio:
             try:
                 self.step()
             except Exception as exc:  # a bug in one step must not kill the studio
-                import traceback
-
                 traceback.print_exc()
                 self.notify("Internal error", f"{type(exc).__name__}: {exc}", color="red")
             elapsed = time.perf_counter() - start
@@ -169,21 +187,15 @@ class Studio:
 
     def step(self) -> None:
         """One iteration of the loop (also callable directly, e.g. from tests)."""
-        start = time.perf_counter()
         with self._tasks_lock:
             tasks, self._tasks = self._tasks, []
         for task in tasks:
             task()
-        if self.arm.step():
-            self.timing.ik_ms = 1e3 * (time.perf_counter() - start)
-        self.head = self.head_source.read(self.arm.hand_position())
-        self.view.show_head(self.head.angles)
-        redraw = time.perf_counter()
-        if self.view.refresh():
-            self.timing.redraw_ms = 1e3 * (time.perf_counter() - redraw)
+        self.arm.step()
+        reading = self.head.read(self.arm.hand_position())
+        self.scene.refresh(reading.angles)
         for panel in self.panels:
             panel.step()
-        self.timing.step_ms = 1e3 * (time.perf_counter() - start)
 
     def notify(
         self,
@@ -200,17 +212,12 @@ class Studio:
                 title=title, body=body, color=color, auto_close_seconds=auto_close_seconds
             )
 
-    def hand_and_head(self) -> tuple[np.ndarray, np.ndarray | None]:
-        """The current hand position (3,) and head angles (3,) or None."""
-        return self.arm.hand_position(), self.head.angles
-
     def stop(self) -> None:
         self._stop.set()
         if self._thread.is_alive():
             self._thread.join(timeout=5.0)
         for panel in self.panels:
-            close = getattr(panel, "close", None)
-            if close is not None:
-                close()
-        self.head_source.close()
+            panel.close()
+        self.head.close()
+        self.session.close()
         self.server.stop()

@@ -30,11 +30,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from app.inference_view import held_out_training  # noqa: E402
 from app.net import free_port  # noqa: E402
 from app.panels.infer import LIVE, InferPanel  # noqa: E402
+from app.scrub import held_out_training  # noqa: E402
 from app.studio import Studio  # noqa: E402
-from app.workspace import LAYOUT  # noqa: E402
+from app.workspace_index import LAYOUT  # noqa: E402
 from promp.model import fit  # noqa: E402
 
 TARGET_MS = 16.0
@@ -69,7 +69,7 @@ def sweep(panel: InferPanel, label: str) -> list[float]:
 
 def fill_live_buffer(panel: InferPanel) -> None:
     """The live buffer as if the first demonstration had just been observed."""
-    demo = panel.studio.session.demos[panel.primitive.value][0]
+    demo = panel.ctx.session.demos[panel.primitive.value][0]
     values = demo.select(("x", "y", "z", "roll", "pitch", "yaw"))
     panel.live.clear()
     for t, row in zip(demo.times, values, strict=True):
@@ -144,7 +144,7 @@ def _refit_ms(session, repeats: int = 7) -> float:
 
 def _fit_ms(panel: InferPanel) -> float:
     """Time of one held-out fit, as the panel does it when a new test demo is picked."""
-    session = panel.studio.session
+    session = panel.ctx.session
     with session.lock:
         demos = {name: list(items) for name, items in session.demos.items()}
         settings = session.learning_settings()

@@ -16,15 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app import exchange, workspace
-from app.panels.data import (
-    curves,
-    display_name,
-    evaluation_dataset,
-    parse_percents,
-    results_table,
-)
-from app.workspace import PALETTE, PrimitiveEntry, Workspace, WorkspaceData
+from app import exchange
+from app.gui_text import display_name
+from app.panels.data.evaluation import evaluation_dataset, parse_percents
+from app.panels.data.results import curves, results_table
+from app.workspace import Workspace, WorkspaceData
+from app.workspace_index import FORMAT, PALETTE, PrimitiveEntry
 from promp.evaluate.sweep import run_sweep
 from promp.io import model_from_json, model_to_dict
 from tests.conftest import open_page, start_studio, wait_until
@@ -193,7 +190,7 @@ def test_export_model_and_upload_it_back(page, studio, artifacts) -> None:
 def zip_with_parent_entry() -> bytes:
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as archive:
-        archive.writestr("studio.json", json.dumps({"format": workspace.FORMAT, "version": 1}))
+        archive.writestr("studio.json", json.dumps({"format": FORMAT, "version": 1}))
         archive.writestr("../evil", "owned")
     return buffer.getvalue()
 
@@ -228,7 +225,7 @@ def test_an_oversized_upload_is_refused_before_it_is_buffered(page, studio) -> N
     before = workspace_hash(studio.workspace)
     received, refusals = panel.uploads_received, panel.guard.refusals
     assert panel.guard.active
-    panel.max_upload_bytes = 256 * 1024
+    panel.guard.max_bytes = 256 * 1024
     try:
         upload(page, studio, "huge.zip", b"\0" * (3 * 2**20))
         text = notification(page, "Cannot import huge.zip")
@@ -240,7 +237,7 @@ def test_an_oversized_upload_is_refused_before_it_is_buffered(page, studio) -> N
         button = page.get_by_role("button", name="Import model or workspace")
         until(button.is_enabled, what="the upload button to be usable again")
     finally:
-        panel.max_upload_bytes = exchange.MAX_UPLOAD_BYTES
+        panel.guard.max_bytes = exchange.MAX_UPLOAD_BYTES
     assert workspace_hash(studio.workspace) == before
     # Under the cap, the same path accepts a file.
     upload(page, studio, "small.json", b"{}")
@@ -289,7 +286,7 @@ def test_export_the_workspace_and_import_it_back(page, studio, artifacts) -> Non
 def gate_sweep(monkeypatch) -> threading.Event:
     """Make the next sweep wait after its first held-out demonstration until the returned
     event is set (the sweep itself is the real one)."""
-    import app.panels.data as data_panel
+    import app.panels.data.evaluation as data_panel
 
     gate = threading.Event()
     real = run_sweep
@@ -308,7 +305,7 @@ def gate_sweep(monkeypatch) -> threading.Event:
 
 @pytest.mark.browser
 def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypatch) -> None:
-    panel = panel_of(studio)
+    panel = panel_of(studio).evaluation
     # viser labels its inputs with <label for=uuid> but gives the input no id.
     percents = page.locator(
         f"label[for='{panel.percents_text._impl.uuid}'] >> xpath=ancestor::*[.//input][1]//input"

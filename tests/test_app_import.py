@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from app.workspace import PALETTE, PrimitiveEntry, Workspace, WorkspaceData
+from app.workspace import Workspace, WorkspaceData
+from app.workspace_index import PALETTE, PrimitiveEntry
 from tests.browser import choose, click, notification, press, screenshot, upload_file
 from tests.conftest import open_page, start_studio, wait_until
 from tests.test_dataset_import import BAD_ZIPS, csv_demo, zip_folder, zip_of
@@ -85,12 +86,12 @@ def test_bad_imports_are_refused_and_change_nothing(page, studio) -> None:
         text = notification(page, f"Cannot import {case.replace(' ', '-')}.zip", reason[-30:])
         assert reason.replace("bad.zip", f"{case.replace(' ', '-')}.zip") in text, text
     # Too large: refused as the upload starts, before anything is buffered.
-    section.max_upload_bytes = 64 * 1024
+    section.guard.max_bytes = 64 * 1024
     try:
         upload_file(page, section.upload_button, "huge.zip", b"\0" * (2 * 2**20))
         assert "2.0 MB, over the 64.0 KB limit" in notification(page, "Cannot import huge.zip")
     finally:
-        section.max_upload_bytes = 200 * 2**20
+        section.guard.max_bytes = 200 * 2**20
     # A mapping that names a missing column: refused, and the preview says why.
     good = zip_of({f"{p}/d{i}.csv": csv_demo(10 * k + i) for k, p in enumerate("ab")
                    for i in range(3)})  # fmt: skip
@@ -147,14 +148,15 @@ def test_the_lab_recordings_on_the_icub(page, studio, heights_dir, artifacts) ->
     wait_until(lambda: session.workspace.root == old_root.parent / "lab-records-heights",
                what="the new workspace")  # fmt: skip
     assert tree_hash(old_root) == old  # the previous workspace is untouched
-    view = studio.view
-    wait_until(lambda: len(view.lines) == 122 and len(view.tubes) == 3, what="lines and tubes")
-    assert set(view.tubes) == {"bottom", "middle", "top"}
-    assert not view.head_frame.visible  # no head modality: no partner
+    view = studio.scene
+    wait_until(lambda: len(view.workspace.lines) == 122 and len(view.workspace.tubes) == 3,
+               what="lines and tubes")  # fmt: skip
+    assert set(view.workspace.tubes) == {"bottom", "middle", "top"}
+    assert not view.partner.head_frame.visible  # no head modality: no partner
     # The priors are around the iCub's hand: their means start within a few cm of it.
     hand = studio.arm.hand_position()
-    for name in view.tubes:
-        start = view.prior_tube(session.model, name)[0][0]
+    for name in view.workspace.tubes:
+        start = view.workspace.prior_tube(session.model, name)[0][0]
         assert np.linalg.norm(start - hand) < 0.08, (name, start, hand)
 
     page.get_by_role("tab", name="Teach").click()
@@ -209,14 +211,14 @@ def test_a_workspace_of_other_modalities_has_their_charts_and_no_recording(
     try:
         teach = next(p for p in studio.panels if isinstance(p, TeachPanel))
         infer = next(p for p in studio.panels if isinstance(p, InferPanel))
-        assert [q.title for q in infer.quantities] == [
+        assert [q.title for q in infer.charts.quantities] == [
             "hand x (cm)", "hand y (cm)", "hand z (cm)", "force fx (N)", "force fy (N)",
             "force fz (N)",
         ]  # fmt: skip
-        assert len(teach.plots) == 6 and len(infer.charts) == 6
+        assert len(teach.prior.plots) == 6 and len(infer.charts.handles) == 6
         assert tuple(infer.observed.options) == ("hand + force", "hand", "force")
-        assert not teach.head_folder.visible
-        assert "Recording is off in this workspace" in teach.record_status.content
+        assert not teach.head.folder.visible
+        assert "Recording is off in this workspace" in teach.record.status.content
         infer.observed.value = "force"
         infer.percent.value = 70
         result = wait_until(
@@ -225,8 +227,8 @@ def test_a_workspace_of_other_modalities_has_their_charts_and_no_recording(
             timeout=120, what="an inference from the forces alone",
         )  # fmt: skip
         assert result.posterior.mean.shape[1] == 6
-        teach._record_clicked = True  # what the Record button's callback records
-        wait_until(lambda: "cannot record" in teach.last_message, what="the refusal")
-        assert teach.take is None
+        teach.record.press()  # what the Record button's callback does
+        wait_until(lambda: "cannot record" in teach.record.last_message, what="the refusal")
+        assert teach.record.take is None
     finally:
         studio.stop()

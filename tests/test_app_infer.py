@@ -1,8 +1,9 @@
-"""The Infer tab (issue 8): the scrub computation, the live buffer, the replay, and the tab in a
+"""The Infer tab: the scrub computation, the live buffer, the replay, and the tab in a
 real browser (slider scrubbed by mouse and keyboard, replay played, README screenshot)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import time
@@ -12,21 +13,21 @@ import pytest
 from numpy.testing import assert_allclose
 
 from app.display import observed_choices
-from app.inference_view import (
+from app.live_buffer import LiveBuffer
+from app.replay import Replay
+from app.scrub import (
     HeldOutModels,
-    LiveBuffer,
     demo_observation,
-    hand_dims,
     held_out_training,
     n_observed_for,
     scrub_step,
 )
-from app.replay import Replay
-from app.workspace import COLUMNS, LAYOUT
+from app.workspace_index import COLUMNS, LAYOUT
 from promp.data import Demonstration
 from promp.evaluate import metrics
 from promp.inference import condition, predict
 from promp.model import Settings, fit
+from robots.icub.layout import hand_dims
 from tests.conftest import open_page, start_studio, wait_until
 
 SETTINGS = Settings()
@@ -297,7 +298,10 @@ def test_scrub_from_python_and_bad_replay(studio, monkeypatch) -> None:
     assert result.truth.name == panel.demo.value and panel.scrub_ms > 0
     assert f"{panel.scrub_ms:.1f} ms" in panel.status.content
     notes = []
-    monkeypatch.setattr(studio, "notify", lambda title, body, color="blue": notes.append(title))
+    quiet = dataclasses.replace(
+        panel.ctx, notify=lambda title, body, color="blue": notes.append(title)
+    )
+    monkeypatch.setattr(panel, "ctx", quiet)
     panel.source.value = LIVE
     wait_until(lambda: panel.result is None and "nothing observed" in panel.message, timeout=30)
     q = studio.arm.q.copy()
@@ -451,7 +455,7 @@ def test_slider_scrubbed_in_the_browser(studio, page) -> None:
     click_slider(page, panel, 0.0)  # the track's left end: the first samples only
     wait_until(lambda: panel.percent.value <= 3, timeout=30, what="the slider at its start")
     early = wait_scrubbed(panel)
-    early_vertices = np.array(panel.tube.vertices)
+    early_vertices = np.array(studio.scene.inference.tube.vertices)
     wait_until(lambda: bars_in_page(page) and abs(
         bars_in_page(page)["curved"] - early.probabilities[0]) < 1e-4, timeout=30,
         what="the probability bars in the page",
@@ -460,7 +464,7 @@ def test_slider_scrubbed_in_the_browser(studio, page) -> None:
     wait_until(lambda: 25 <= panel.percent.value <= 35, timeout=30, what="the slider near 30 %")
     later = wait_scrubbed(panel)
     assert later.observation.n_observed > early.observation.n_observed
-    moved = np.linalg.norm(np.array(panel.tube.vertices) - early_vertices, axis=1)
+    moved = np.linalg.norm(np.array(studio.scene.inference.tube.vertices) - early_vertices, axis=1)
     assert moved.max() > 0.01, "the posterior tube did not change"
     assert np.abs(later.probabilities - early.probabilities).max() > 0.05
     wait_until(
@@ -611,11 +615,11 @@ def test_infer_view_screenshot(studio, page, artifacts) -> None:
     time.sleep(1.5)
     with_tube = client.get_render(300, 400, timeout=60).astype(float)
     panel.show_3d.value = False
-    wait_until(lambda: not panel.tube.visible, timeout=30)
+    wait_until(lambda: not studio.scene.inference.tube.visible, timeout=30)
     time.sleep(1.0)
     without = client.get_render(300, 400, timeout=60).astype(float)
     panel.show_3d.value = True
-    wait_until(lambda: panel.tube.visible, timeout=30)
+    wait_until(lambda: studio.scene.inference.tube.visible, timeout=30)
     changed = np.abs(with_tube - without).sum(axis=2) > 30
     assert changed.mean() > 0.005, "the inference does not show in the rendered frame"
     notices = page.locator(".mantine-Notification-closeButton")
@@ -625,7 +629,7 @@ def test_infer_view_screenshot(studio, page, artifacts) -> None:
         except Exception:  # closed meanwhile (notifications close themselves)
             pass
     # The hand charts (the open chart tab) show the data the server holds, on finite scales.
-    for handle in panel.charts[:3]:
+    for handle in panel.charts.handles[:3]:
         wait_until(
             lambda h=handle: chart_ok(chart_in_page(page, h), h), timeout=60,
             what="the chart drawn in the page",

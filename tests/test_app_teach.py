@@ -1,4 +1,4 @@
-"""The Teach tab (issue 7): recording by dragging the hand in a real browser, the demonstration
+"""The Teach tab: recording by dragging the hand in a real browser, the demonstration
 list, primitives, head sources, learning settings, two tabs, and SIGKILL + restart; plus the
 recorder and the uPlot band helpers without a browser."""
 
@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 import viser.transforms as vtf
 
-from app.panels.teach import MAX_VIDEO_BYTES
+from app.panels.teach.head import MAX_VIDEO_BYTES
 from app.plots import Band, Trace, band_chart, y_range
 from app.recorder import MAX_GAP_S, Recorder, Recording
 from app.session import Session
 from app.studio import default_workspace
-from app.workspace import LAYOUT
+from app.workspace_index import LAYOUT
 from promp.datasets import read_csv_demo
 from promp.model import Settings
 from tests.conftest import REPO, open_page, start_studio, wait_until
@@ -196,7 +196,8 @@ def type_name(page, studio, name: str) -> None:
     """Type into the Name field and wait until the server has it (viser throttles text
     updates to 50 ms, so an immediate click could overtake them)."""
     row(page, "Name").locator("input").first.fill(name)
-    wait_until(lambda: panel(studio).new_name.value == name, what=f"the name {name!r} typed")
+    field = panel(studio).primitives.new_name
+    wait_until(lambda: field.value == name, what=f"the name {name!r} typed")
 
 
 def choose(page, label: str, option: str) -> None:
@@ -285,19 +286,17 @@ def test_the_head_source_stays_during_a_recording(studio) -> None:
     from app.head_sources import SimulatedPartner
 
     teach = panel(studio)
-    source = studio.head_source
+    source = studio.head.source
     assert isinstance(source, SimulatedPartner)
-    with teach._intents:
-        teach._record_clicked = True
-    wait_until(lambda: teach.take is not None, what="the countdown")
-    teach.source.value = "Camera"
-    assert teach.source.value == "Simulated partner" and studio.head_source is source
-    with teach._intents:
-        teach._record_clicked = True  # cancel
-    wait_until(lambda: teach.take is None, what="the cancellation")
-    wait_until(lambda: teach.record.label == "Record", what="the Record button back")
-    assert "Recording cancelled." in teach.record_status.content
-    teach.last_message = ""
+    teach.record.press()
+    wait_until(lambda: teach.record.take is not None, what="the countdown")
+    teach.head.source.value = "Camera"
+    assert teach.head.source.value == "Simulated partner" and studio.head.source is source
+    teach.record.press()  # cancel
+    wait_until(lambda: teach.record.take is None, what="the cancellation")
+    wait_until(lambda: teach.record.button.label == "Record", what="the Record button back")
+    assert "Recording cancelled." in teach.record.status.content
+    teach.record.last_message = ""
 
 
 @pytest.mark.browser
@@ -317,8 +316,8 @@ def test_panel_lists_primitives_demonstrations_and_prior_plots(studio, tab) -> N
 def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> None:
     page, client = tab
     session, teach = studio.session, panel(studio)
-    assert teach.selected() == "curved"
-    tube_before = np.array(studio.view.tubes["curved"].vertices)
+    assert teach.primitives.selected() == "curved"
+    tube_before = np.array(studio.scene.workspace.tubes["curved"].vertices)
     q_before, hand_before = studio.arm.q.copy(), studio.arm.hand_position()
     page.evaluate(COUNTDOWN_OBSERVER)
     click(page, "Record")
@@ -327,7 +326,7 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
     digits = [d for i, d in enumerate(seen) if i == 0 or d != seen[i - 1]]
     assert digits == ["3", "2", "1"], f"countdown shown: {seen}"
     drag_hand(page, client, studio, UP, pixels=110)
-    wait_until(lambda: teach.take.recorder.snapshot().duration > 2.2, what="a 2.2 s recording")
+    wait_until(lambda: teach.record.recorder.snapshot().duration > 2.2, what="a 2.2 s recording")
     assert np.abs(studio.arm.q - q_before).max() > 0.05, "the arm did not follow the gizmo"
     assert studio.arm.hand_position()[2] - hand_before[2] > 0.05, "the hand did not go up 5 cm"
     close_notifications(page)
@@ -347,12 +346,13 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
         text(page)
     )
     assert "21 demonstration(s) of curved" in text(page)
-    assert studio.view.lines[("curved", "curved_020")].visible
+    assert studio.scene.workspace.lines[("curved", "curved_020")].visible
     path = session.workspace.demo_path("curved", "curved_020")
     on_disk = read_csv_demo(path)
     np.testing.assert_allclose(on_disk.select(demo.columns), demo.values, atol=1e-9)
+    tubes = studio.scene.workspace.tubes
     wait_until(
-        lambda: not np.allclose(np.array(studio.view.tubes["curved"].vertices), tube_before),
+        lambda: not np.allclose(np.array(tubes["curved"].vertices), tube_before),
         what="the prior tube of curved to change",
     )
 
@@ -361,7 +361,7 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
 def test_hide_and_delete_a_demonstration(studio, tab) -> None:
     page, _ = tab
     session = studio.session
-    line = studio.view.lines[("curved", "curved_020")]
+    line = studio.scene.workspace.lines[("curved", "curved_020")]
     row(page, "curved_020").get_by_role("button", name="Hide").dispatch_event("click")
     wait_until(lambda: ("curved", "curved_020") in session.hidden, what="the demo to be hidden")
     wait_until(lambda: not line.visible, what="its line to be hidden")
@@ -382,13 +382,14 @@ def test_hide_and_delete_a_demonstration(studio, tab) -> None:
     wait_text(page, "20 demonstration(s) of curved")
     assert not path.exists()
     assert [d.name for d in session.demos["curved"]][-1] == "curved_019"
-    assert ("curved", "curved_020") not in studio.view.lines
+    assert ("curved", "curved_020") not in studio.scene.workspace.lines
     assert row(page, "curved_020").count() == 0
     # Undo brings it back, byte for byte, line and all.
     click(page, "Undo delete (curved_020 of curved)")
     wait_text(page, "21 demonstration(s) of curved")
     assert path.read_bytes() == content
-    wait_until(lambda: ("curved", "curved_020") in studio.view.lines, what="its line back")
+    lines = studio.scene.workspace.lines
+    wait_until(lambda: ("curved", "curved_020") in lines, what="its line back")
     assert session.trash_entries() == []
     # Deleted for good from the GUI's point of view: in the trash, kept on disk.
     row(page, "curved_020").get_by_role("button", name="Delete").dispatch_event("click")
@@ -459,7 +460,7 @@ def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, 
     index = row(page, "Camera index").locator("input").first
     index.fill("99")
     index.press("Enter")
-    wait_until(lambda: panel(studio).camera_index.value == 99, what="camera index 99")
+    wait_until(lambda: panel(studio).head.camera_index.value == 99, what="camera index 99")
     click(page, "Connect")
     wait_text(page, "camera 99: cannot be opened")
     wait_text(page, "Head source failed")
@@ -467,7 +468,7 @@ def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, 
     # The rest works: recording refuses clearly, learning still refits, the arm still moves.
     click(page, "Record")
     wait_text(page, "The head source failed")
-    assert panel(studio).take is None
+    assert panel(studio).record.take is None
     version = studio.session.version
     choose(page, "Shrinkage", "0.01")
     wait_until(lambda: studio.session.version > version, what="a refit")
@@ -499,9 +500,9 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     page, _ = tab
     choose(page, "Source", "Video file")
     row(page, "Video file").locator("input").first.fill(str(path))
-    wait_until(lambda: panel(studio).video_path.value == str(path), what="the path typed")
+    wait_until(lambda: panel(studio).head.video_path.value == str(path), what="the path typed")
     click(page, "Connect")
-    wait_until(lambda: isinstance(studio.head_source, StreamHeadSource), what="the video source")
+    wait_until(lambda: isinstance(studio.head.source, StreamHeadSource), what="the video source")
     wait_text(page, f"video {path}: tracking")
     preview = page.locator("img[src^='blob:']")
     wait_until(lambda: preview.count() and preview.first.is_visible(), what="the preview image")
@@ -510,27 +511,27 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     wait_text(page, "Neutral pose set")
     # An uploaded video over the size limit is refused before it is buffered; nothing changes.
     choose(page, "Source", "Uploaded video")
-    teach, source = panel(studio), studio.head_source
-    assert teach.video_guard.active
-    teach.max_video_bytes = 1024
+    teach, source = panel(studio), studio.head.source
+    assert teach.head.video_guard.active
+    teach.head.video_guard.max_bytes = 1024
     try:
         page.set_input_files(
-            f"#file_upload_{teach.upload._impl.uuid}",
+            f"#file_upload_{teach.head.upload._impl.uuid}",
             files=[{"name": "big.avi", "mimeType": "video/x-msvideo", "buffer": path.read_bytes()}],
         )
         wait_text(page, "Cannot use the video big.avi")
         assert "over the 1.0 KB limit for an uploaded video" in text(page)
-        wait_until(lambda: teach.video_guard.refusals == 1, what="the guard's refusal")
-        assert studio.head_source is source and teach._upload_thread is None
+        wait_until(lambda: teach.head.video_guard.refusals == 1, what="the guard's refusal")
+        assert studio.head.source is source and teach.head._upload is None
     finally:
-        teach.max_video_bytes = MAX_VIDEO_BYTES
+        teach.head.video_guard.max_bytes = MAX_VIDEO_BYTES
     close_notifications(page)
     button = page.get_by_role("button", name="Upload a video")
     wait_until(button.is_enabled, what="the upload button to be usable again")
     # Under the limit, the same video uploaded from the browser becomes a head-pose track.
-    page.set_input_files(f"#file_upload_{teach.upload._impl.uuid}", str(path))
+    page.set_input_files(f"#file_upload_{teach.head.upload._impl.uuid}", str(path))
     wait_text(page, "Video ready", timeout=60)
-    assert isinstance(studio.head_source, TrackHeadSource)
+    assert isinstance(studio.head.source, TrackHeadSource)
     assert not preview.first.is_visible()
     choose(page, "Source", "Simulated partner")
     wait_text(page, "simulated partner: tracking")
@@ -571,7 +572,7 @@ def test_readme_screenshot(studio, tab, artifacts) -> None:
     their prior tubes over the table, the Learn settings and the prior plot of curved."""
     page, client = tab
     teach = panel(studio)
-    teach.primitive.value = "curved"
+    teach.primitives.dropdown.value = "curved"
     for folder in ("Primitive", "Demonstrations"):
         page.get_by_text(folder, exact=True).first.dispatch_event("click")  # collapse
     page.get_by_role("tab", name="Teach").evaluate("e => e.scrollIntoView({block: 'start'})")

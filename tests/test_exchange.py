@@ -19,10 +19,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
-from app import exchange, workspace
+from app import exchange, workspace_index
 from app.exchange import Limits, ModelUpload, WorkspaceUpload, read_upload, workspace_zip
 from app.session import Session
-from app.workspace import COLUMNS, LAYOUT, PALETTE, PrimitiveEntry, Workspace, WorkspaceData
+from app.workspace import Workspace, WorkspaceData
+from app.workspace_index import COLUMNS, LAYOUT, PALETTE, PrimitiveEntry
 from promp.data import Demonstration, Layout, Modality
 from promp.datasets import demo_to_csv
 from promp.io import model_to_dict
@@ -62,8 +63,8 @@ def make_zip(members: dict[str, bytes | str], modes: dict[str, int] | None = Non
 
 def index(primitives=(("a", [1, 2, 3]),), settings=None, **extra) -> str:
     body = {
-        "format": workspace.FORMAT,
-        "version": workspace.VERSION,
+        "format": workspace_index.FORMAT,
+        "version": workspace_index.VERSION,
         "primitives": [{"name": n, "color": c} for n, c in primitives],
         "settings": settings or {},
         **extra,
@@ -418,6 +419,7 @@ def test_replacing_the_session_with_an_imported_archive(data, model, tmp_path) -
     session.replace(upload.data)
     assert session.names() == ["left", "right"]
     assert_same_data(Workspace(tmp_path / "ws").load(), data)
+    session.wait_for_model()
     assert session.model is not None
 
 

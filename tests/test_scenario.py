@@ -13,21 +13,18 @@ from numpy.testing import assert_allclose
 
 from promp.data import Demonstration
 from promp.datasets import load_csv_dataset, read_csv_demo
+from robots.icub.gaze import head_angles_following, landmark_gaze
 from robots.icub.ik import solve_ik
 from robots.icub.kinematics import load_arm
+from robots.icub.motion import arc_progress, minimum_jerk, smooth_path
 from robots.icub.scenario import (
     COLUMNS,
     PRIMITIVES,
     THIRD_PRIMITIVE,
     ScenarioParams,
-    arc_progress,
     generate_demonstration,
     generate_scenario,
-    head_angles_following,
-    landmark_gaze,
     main,
-    minimum_jerk,
-    smooth_path,
 )
 from robots.icub.scene import (
     DEFAULT_SCENE,

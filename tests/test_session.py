@@ -15,7 +15,8 @@ import pytest
 
 from app.session import Session
 from app.studio import default_workspace
-from app.workspace import COLUMNS, LAYOUT, PrimitiveEntry, Workspace, WorkspaceData
+from app.workspace import Workspace, WorkspaceData
+from app.workspace_index import COLUMNS, LAYOUT, PrimitiveEntry
 
 
 @pytest.fixture(scope="module")
@@ -155,6 +156,7 @@ def test_hiding_redraws_without_refitting_and_listeners_hear_every_change(sessio
     assert session.model is model and ("curved", "curved_000") in session.hidden
     session.set_hidden("curved", "curved_000", False)
     session.set_learning(8, 1.0)
+    session.wait_for_model()
     assert session.model is not model and session.model.basis.n_basis == 8
     assert heard == [1, 2, 3]
 
@@ -164,15 +166,18 @@ def test_shrinkage_settings(session) -> None:
     assert session.settings == {}
     assert session.model.report["covariance"]["strength"] > 0
     session.set_learning(10, 1.0, shrinkage=1e-6)
+    session.wait_for_model()
     np.testing.assert_allclose(session.model.primitive("curved").shrinkage, 1e-6)
     session.set_learning(10, 1.0, shrinkage=None)  # the pooled prior
     assert session.settings["shrinkage"] is None
+    session.wait_for_model()
     loo = session.model.primitive("curved").shrinkage
     hand, head = LAYOUT.dims(["hand"]), LAYOUT.dims(["head"])
     assert len(set(loo[hand])) == 1 and len(set(loo[head])) == 1  # one per modality
     session.set_learning(11, 1.0)  # keeps the shrinkage
     assert session.settings["shrinkage"] is None
     session.set_learning(11, 1.0, shrinkage=0.3)
+    session.wait_for_model()
     np.testing.assert_allclose(session.model.primitive("direct").shrinkage, 0.3)
 
 
@@ -180,9 +185,10 @@ def test_primitives_with_fewer_than_two_demonstrations_are_not_learned(session) 
     session.create_primitive("alone")
     demo = session.demos["curved"][0]
     session.add_demo("alone", demo.times, demo.select(COLUMNS))
-    assert "alone" not in session.model.names
+    assert "alone" not in session.wait_for_model().names
     session.delete_primitive("curved")
     session.delete_primitive("direct")
+    session.wait_for_model()
     assert session.model is None and "at least two" in session.fit_error
 
 
@@ -246,6 +252,7 @@ def test_deleting_and_undoing_restores_the_files_and_the_session(session) -> Non
     assert restored.name == entry.name
     assert without_trash(files(session)) == before  # byte for byte
     assert [d.name for d in session.demos["curved"]] == [f"curved_{i:03d}" for i in range(20)]
+    session.wait_for_model()
     assert session.model is not None and session.model.names == ("curved", "direct")
     with pytest.raises(ValueError, match="nothing deleted"):
         session.undo_delete()
@@ -262,6 +269,7 @@ def test_replacing_and_switching_workspaces(session, tmp_path) -> None:
     version = session.version
     entry = session.replace(data, "replaced by a test")
     assert session.names() == ["wave", "rest"] and session.version > version
+    session.wait_for_model()
     assert session.model.names == ("wave", "rest")
     session.restore(entry.name)
     assert without_trash(files(session)) == before
@@ -274,3 +282,33 @@ def test_replacing_and_switching_workspaces(session, tmp_path) -> None:
         session.switch(old_root, data)
     session.add_demo("wave", demo.times, demo.select(COLUMNS))
     assert (tmp_path / "other" / "demos" / "wave" / "wave_003.csv").exists()
+
+
+def test_refits_run_in_the_background_and_only_the_latest_is_adopted(session, monkeypatch):
+    """A change returns at once; the previous model stays in use until the refit of the latest
+    change is done; a refit superseded while it ran is never adopted."""
+    import app.session as module
+
+    real, learned = module.learn, []
+    started, release = threading.Event(), threading.Event()
+
+    def gated(training):
+        result = real(training)
+        learned.append(training.settings.n_basis)
+        if training.settings.n_basis == 8:
+            started.set()
+            release.wait(60)
+        return result
+
+    monkeypatch.setattr(module, "learn", gated)
+    before, version = session.model, session.version
+    session.set_learning(8, 1.0)
+    assert started.wait(60), "the refit did not start"
+    assert session.model is before and session.refitting  # the previous model meanwhile
+    session.set_learning(9, 1.0)  # supersedes the refit in flight
+    release.set()
+    model = session.wait_for_model()
+    assert model.basis.n_basis == 9 and session.model is model and not session.refitting
+    assert learned == [8, 9]  # the first ran to its end, and was dropped
+    assert session.version == version + 3  # two changes, one model adopted
+    session.close()

@@ -13,18 +13,15 @@ import textwrap
 import numpy as np
 import pytest
 
-from app.workspace import (
+from app.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
+from app.workspace_index import (
     COLUMNS,
     FORMAT,
     LAYOUT,
     PALETTE,
-    FolderKind,
     PrimitiveEntry,
-    Workspace,
-    WorkspaceData,
     check_color,
     check_name,
-    inspect_folder,
 )
 from promp.data import Demonstration, Layout, Modality
 from tests.conftest import REPO
@@ -133,7 +130,7 @@ def test_unreadable_demonstrations_are_reported_and_the_rest_loads(tmp_path) -> 
         ("{not json", "not a readable workspace index"),
         (json.dumps({"format": "other"}), "not a studio workspace index"),
         (json.dumps({"format": FORMAT, "version": 99}), "unsupported workspace version 99"),
-        # Checked as an imported archive's index is (app.workspace.check_index).
+        # Checked as an imported archive's index is (app.workspace_index.check_index).
         (
             json.dumps({"format": FORMAT, "version": 1, "primitives": [{"name": "a"}]}),
             "primitive 0 needs a 'name' and a 'color'",
@@ -300,7 +297,8 @@ WRITER = textwrap.dedent(
     """
     import sys
     import numpy as np
-    from app.workspace import COLUMNS, LAYOUT, Workspace
+    from app.workspace import Workspace
+    from app.workspace_index import COLUMNS, LAYOUT
     from promp.data import Demonstration
 
     workspace = Workspace(sys.argv[1])

@@ -1,26 +1,7 @@
-"""The studio's GUI panels, one tab each: Teach (issue 7), Infer (issue 8), Data (export, import,
-evaluation). A panel is built inside its tab's container and has a ``step()`` the studio's
-loop calls at every iteration (dirty-flag pattern: callbacks record, ``step`` recomputes)."""
+"""The studio's GUI panels, one tab each: Teach (record and learn primitives), Infer (recognise
+and predict), Data (export, import, evaluation).
 
-from __future__ import annotations
-
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from app.studio import Studio
-
-
-def build_panels(studio: Studio) -> None:
-    from app.panels.data import DataPanel
-    from app.panels.infer import InferPanel
-    from app.panels.teach import TeachPanel
-
-    tabs = studio.server.gui.add_tab_group()
-    with tabs.add_tab("Teach"):
-        teach = TeachPanel(studio)
-    with tabs.add_tab("Infer"):
-        infer = InferPanel(studio)
-    with tabs.add_tab("Data"):
-        data = DataPanel(studio)
-    studio.panels = [teach, infer, data]
-    studio.tabs = tabs
+A panel is built by the studio inside its tab with a :class:`app.context.PanelContext` and
+follows the :class:`app.context.Panel` protocol: its callbacks record what changed, its
+``step()`` (the studio's loop) recomputes, its ``close()`` stops what runs in the background.
+"""

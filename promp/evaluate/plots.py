@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -23,17 +23,30 @@ def _pyplot():
     return plt
 
 
+def series_label(observed: Sequence[str], alpha_method: str) -> str:
+    """The name of one curve, e.g. ``hand+head, alpha ml``."""
+    return f"{'+'.join(observed)}, alpha {alpha_method}"
+
+
+def group_series(rows: Sequence[Mapping]) -> dict[str, list[Mapping]]:
+    """The sweep's rows as one series per (observed modalities, alpha method), by
+    :func:`series_label`: single modalities first, then larger sets, each set's alpha methods
+    in name order; each series' rows by percent."""
+    groups: dict[str, list[Mapping]] = defaultdict(list)
+    order = sorted(rows, key=lambda r: (len(r["observed"]), "+".join(r["observed"]),
+                                        r["alpha_method"], r["percent"]))  # fmt: skip
+    for row in order:
+        groups[series_label(row["observed"], row["alpha_method"])].append(row)
+    return dict(groups)
+
+
 def _series(
-    rows: list[dict], value: Callable[[dict], float]
+    rows: list[dict], value: Callable[[Mapping], float]
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """One curve per (observed modalities, alpha method): (percents, values)."""
-    groups: dict[str, list[tuple[float, float]]] = defaultdict(list)
-    for r in rows:
-        label = f"{'+'.join(r['observed'])}, alpha {r['alpha_method']}"
-        groups[label].append((r["percent"], value(r)))
+    """One curve per series of :func:`group_series`: (percents, values)."""
     return {
-        label: (np.array([p for p, _ in pts]), np.array([v for _, v in pts]))
-        for label, pts in sorted(groups.items())
+        label: (np.array([r["percent"] for r in group]), np.array([value(r) for r in group]))
+        for label, group in group_series(rows).items()
     }
 
 

@@ -2,7 +2,9 @@
 
 Modules: ``model`` (URDF loading, natural pose), ``kinematics`` (left-arm chain: FK, Jacobian),
 ``ik`` (inverse kinematics), ``scene`` (table, object, bins, partner's head and its angle
-convention), ``scenario`` (simulated demonstrations; ``python -m robots.icub.scenario``).
+convention), ``layout`` (the studio's modalities: hand and head), ``scenario`` (simulated
+demonstrations; ``python -m robots.icub.scenario``) over ``motion`` (the hand's path and
+timing) and ``gaze`` (where the partner looks, how the head follows).
 """
 
 from robots.icub.ik import IKResult, solve_ik

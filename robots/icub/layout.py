@@ -11,8 +11,15 @@ The simulated scenario writes these columns, the studio records them, and any wo
 
 from __future__ import annotations
 
+import numpy as np
+
 from promp.data import Layout, Modality
 
 HAND = Modality("hand", ("x", "y", "z"), unit="m", kind="linear")
 HEAD = Modality("head", ("roll", "pitch", "yaw"), unit="rad", kind="angle")
 STUDIO_LAYOUT = Layout((HAND, HEAD))
+
+
+def hand_dims(layout: Layout) -> np.ndarray | None:
+    """The dimensions (3,) of ``layout``'s ``hand`` modality, None when it has none."""
+    return layout.dims([HAND.name]) if HAND.name in layout.names else None

@@ -12,38 +12,30 @@ Each demonstration is built like a human-guided one:
   it. Then ``direct`` turns towards the drop point and carries the object there (rising ~4 cm
   more on the way); ``curved`` keeps rising and arches over an apex 20 cm above the middle of
   the lift-to-drop segment and 8 cm towards the robot's midline, then comes down onto the drop
-  point. The path is a C2 piecewise quintic through these via points
-  (``scipy.interpolate.BPoly.from_derivatives``: tangent up at the grasp and the lift point,
-  horizontal towards the bin at the apex, from the previous via point towards the drop point at
-  the end, zero curvature at every via point). Each piece depends only on its two end via
-  points, so the lift is exactly the same curve whichever movement follows it. Via points are
-  jittered by ~1.2 cm (the start, the end and the lift point's horizontal position by 3 mm),
-  once per demonstration.
+  point. The path is smooth through these via points (:func:`robots.icub.motion.smooth_path`),
+  and its pieces depend only on their end via points, so the lift is exactly the same curve
+  whichever movement follows it. Via points are jittered by ~1.2 cm (the start, the end and the
+  lift point's horizontal position by 3 mm), once per demonstration.
 - Timing: minimum jerk along the arc length ``s``, the duration ``T`` drawn uniformly within
   +-30 % of 3 s. Early hand observations are only ambiguous if the first ~40 % of the *time*
   coincides, which one minimum-jerk law over paths of different lengths would not give (the
-  curved path, nearly twice as long, would be ahead from the first sample). So every movement starts
-  with the law of the plain carry, ``s(tau) = L_direct mj(tau)`` (``L_direct`` the length of
-  the direct path through the same grasp, lift and drop points), and the extra length of a
-  detour is covered by a second minimum-jerk submovement superimposed from ``shared_fraction``
-  on, ``s(tau) = L_direct mj(tau) + (L - L_direct) mj((tau - 0.45) / 0.55)`` (superposition of
-  minimum-jerk units, Flash and Henis 1991). ``direct`` and ``second_bin`` are then exactly
-  minimum jerk; all start and end at rest. The hand reaches the end of the lift at ~42 % of
-  the movement, so the hands of curved and direct coincide (up to the per-demonstration
-  jitter) until ~40 %; then direct turns towards the bin while curved keeps rising, and from
-  45 % curved speeds up to cover its detour: the mean hands are ~1.5 cm apart at 45 %, ~6 cm
-  at 50 % and ~19 cm at 60-70 %. (Starting the extra submovement a little after the direct
-  movement starts turning, rather than at the same instant, keeps the very beginning of the
-  divergence out of the first 40 %.)
+  curved path, nearly twice as long, would be ahead from the first sample). So every movement
+  starts with the law of the plain carry (through the same grasp, lift and drop points) and
+  covers the extra length of a detour with a second minimum-jerk submovement from
+  ``shared_fraction`` (0.45) on (:func:`robots.icub.motion.arc_progress`). ``direct`` and
+  ``second_bin`` are then exactly minimum jerk; all start and end at rest. The hand reaches the
+  end of the lift at ~42 % of the movement, so the hands of curved and direct coincide (up to
+  the per-demonstration jitter) until ~40 %; then direct turns towards the bin while curved
+  keeps rising, and from 45 % curved speeds up to cover its detour: the mean hands are ~1.5 cm
+  apart at 45 %, ~6 cm at 50 % and ~19 cm at 60-70 %. (Starting the extra submovement a little
+  after the direct movement starts turning, rather than at the same instant, keeps the very
+  beginning of the divergence out of the first 40 %.)
 - Reachability: every sample goes through the IK of the left arm with the **torso locked** (the
   arm alone is guided, as in kinesthetic teaching), warm-started along the path; the hand
   positions written are the forward kinematics of the IK solutions, so the data is exactly what
   the robot can do.
-- Head: gaze in object manipulation jumps from landmark to landmark ahead of the hand, and
-  people watching someone else's manipulation do the same (Johansson et al. 2001, "Eye-hand
-  coordination in object manipulation": the grasp site, the tip of the obstacle the object has
-  to clear, the target, each reached by the eyes before the hand; Flanagan and Johansson 2003,
-  "Action plans used in action observation"). The partner looks at the object until it leaves
+- Head: the partner's gaze leads the hand from landmark to landmark, as people's gaze does in
+  manipulation (:mod:`robots.icub.gaze`). The partner looks at the object until it leaves
   the table (the hand has risen 2 mm, ~9 % of the movement), then after a latency of 0-0.15 s
   at the next landmark: the apex for ``curved``, the drop point above the bin otherwise. For
   ``curved`` the gaze moves on from the apex to the drop point 0.1-0.3 s before the hand
@@ -55,8 +47,7 @@ Each demonstration is built like a human-guided one:
   angle); the yaw at the end tells which bin the hand goes to.
 - Head-pose estimator noise: 2 deg white noise plus a slow drift (Ornstein-Uhlenbeck, 1.5 deg,
   time constant 1 s) on each angle, a small per-demonstration roll bias and head-position
-  offset (1 cm, which shifts every angle a little). Angles follow the convention of
-  :mod:`robots.icub.scene` (zero when looking at the robot's eyes).
+  offset (1 cm, which shifts every angle a little).
 
 Why these values. The apex is about as far from the bin, seen from the partner, as the left arm
 reaches with the torso locked (with room for 5 standard deviations of its jitter), so that the
@@ -93,15 +84,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import BPoly
 
 from promp.data import Demonstration
 from promp.datasets import write_csv_demo
+from robots.icub.gaze import head_angles_following, landmark_gaze
 from robots.icub.ik import solve_ik
 from robots.icub.kinematics import ArmChain, load_arm
 from robots.icub.layout import STUDIO_LAYOUT
 from robots.icub.model import DEFAULT_ROBOT
-from robots.icub.scene import DEFAULT_SCENE, Scene, head_orientation_looking_at
+from robots.icub.motion import arc_progress, smooth_path
+from robots.icub.scene import DEFAULT_SCENE, Scene
 
 PRIMITIVES = ("curved", "direct")
 THIRD_PRIMITIVE = "second_bin"
@@ -112,12 +104,6 @@ RATE_RANGE_HZ = (30.0, 50.0)
 DEFAULT_RATE_HZ = 40.0
 # Largest distance between a sample of the planned path and the IK's hand position.
 MAX_TRACKING_ERROR_M = 1e-3
-# Samples of the dense path used to measure its arc length.
-_DENSE_SAMPLES = 4000
-_UP = np.array([0.0, 0.0, 1.0])
-# Speed of the path's parameter at the lift point, relative to elsewhere: a tighter turn into the
-# carry (the direct movement rises ~4 cm above the lift point rather than ~6 cm).
-_LIFT_TANGENT = 0.5
 
 
 @dataclass(frozen=True)
@@ -210,12 +196,6 @@ def _check_rate(rate_hz: object) -> float:
     return rate
 
 
-def minimum_jerk(tau: np.ndarray) -> np.ndarray:
-    """Minimum-jerk progress ``10 tau^3 - 15 tau^4 + 6 tau^5`` for ``tau`` in [0, 1], same shape."""
-    tau = np.clip(np.asarray(tau, dtype=float), 0.0, 1.0)
-    return tau**3 * (10.0 + tau * (-15.0 + 6.0 * tau))
-
-
 def via_points(
     primitive: str, scene: Scene, rng: np.random.Generator, params: ScenarioParams
 ) -> np.ndarray:
@@ -241,104 +221,6 @@ def via_points(
     return np.array(points) + rng.normal(size=(len(points), 3)) * jitter
 
 
-def _unit(vector: np.ndarray) -> np.ndarray:
-    norm = float(np.linalg.norm(vector))
-    if norm < 1e-9:
-        raise ValueError("two consecutive via points coincide: no direction between them")
-    return vector / norm
-
-
-@dataclass(frozen=True, eq=False)
-class SmoothPath:
-    """A smooth path through via points, sampled densely and measured along its length.
-
-    Attributes
-    ----------
-    dense : array, shape (n_dense, 3)
-        Points along the path.
-    arc : array, shape (n_dense,)
-        Arc length at each dense point, from 0 to :attr:`length`.
-    knot_arc : array, shape (n_via,)
-        Arc length at each via point.
-    """
-
-    dense: np.ndarray
-    arc: np.ndarray
-    knot_arc: np.ndarray
-
-    @property
-    def length(self) -> float:
-        return float(self.arc[-1])
-
-    def at(self, s: np.ndarray) -> np.ndarray:
-        """Positions at arc lengths ``s``, shape (n,) -> (n, 3)."""
-        return np.column_stack([np.interp(s, self.arc, self.dense[:, k]) for k in range(3)])
-
-
-def smooth_path(points: np.ndarray) -> SmoothPath:
-    """The C2 piecewise-quintic path through ``points`` (grasp, lift, [apex], drop).
-
-    Tangents: up at the grasp and the lift point, horizontal towards the drop point at an apex,
-    from the previous via point towards the drop point at the end; zero curvature at every via
-    point. Each piece depends only on its two end via points (and their tangents), so paths
-    that share their first via points share their first pieces exactly.
-
-    Parameters
-    ----------
-    points : array, shape (n_via, 3), n_via >= 3
-
-    Returns
-    -------
-    SmoothPath
-    """
-    points = np.asarray(points, dtype=float)
-    if points.ndim != 2 or points.shape[1] != 3 or points.shape[0] < 3:
-        raise ValueError(f"points must have shape (n_via >= 3, 3), got {points.shape}")
-    drop = points[-1]
-    across = drop - points[1]
-    across[2] = 0.0
-    apexes = [_unit(across)] * (points.shape[0] - 3)
-    tangents = [_UP, _LIFT_TANGENT * _UP, *apexes, _unit(drop - points[-2])]
-    chords = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    if chords.min() < 1e-9:
-        raise ValueError("two consecutive via points coincide: no direction between them")
-    u = np.concatenate([[0.0], np.cumsum(chords)])
-    # Parameter ~ arc length: unit tangents give about unit speed along each piece.
-    poly = BPoly.from_derivatives(
-        u, [[p, t, np.zeros(3)] for p, t in zip(points, tangents, strict=True)]
-    )
-    dense_u = np.linspace(0.0, u[-1], _DENSE_SAMPLES)
-    dense = poly(dense_u)
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0), axis=1))])
-    return SmoothPath(dense=dense, arc=arc, knot_arc=np.interp(u, dense_u, arc))
-
-
-def arc_progress(
-    tau: np.ndarray, length: float, direct_length: float, shared_fraction: float
-) -> np.ndarray:
-    """Arc length travelled at phase ``tau`` (see the module docstring), same shape as ``tau``.
-
-    ``direct_length * mj(tau) + (length - direct_length) * mj((tau - f) / (1 - f))``: the timing
-    of the direct movement, plus a minimum-jerk submovement from ``f = shared_fraction`` on that
-    covers the extra length of a detour. Zero velocity and acceleration at both ends.
-
-    Raises
-    ------
-    ValueError
-        If the path is so much shorter than the direct one that the hand would move backwards.
-    """
-    f = shared_fraction
-    s = direct_length * minimum_jerk(tau) + (length - direct_length) * minimum_jerk(
-        (np.asarray(tau, dtype=float) - f) / (1.0 - f)
-    )
-    if np.any(np.diff(s) < -1e-12):
-        raise ValueError(
-            f"a path of {length:.3f} m cannot start with the timing of the {direct_length:.3f} m "
-            "direct movement without moving backwards"
-        )
-    return s
-
-
 def track_with_ik(arm: ArmChain, targets: np.ndarray, label: str) -> np.ndarray:
     """IK solutions (torso locked) along ``targets`` (n, 3), each warm-started from the last.
 
@@ -361,73 +243,6 @@ def track_with_ik(arm: ArmChain, targets: np.ndarray, label: str) -> np.ndarray:
         q = result.q
         joints[k] = q
     return joints
-
-
-def landmark_gaze(
-    times: np.ndarray, landmarks: np.ndarray, arrivals: np.ndarray, shift: float, lead: float
-) -> np.ndarray:
-    """Where the partner looks, shape (n, 3): fixations on the landmarks of the movement.
-
-    The gaze is on ``landmarks[0]`` (the object, where the hand starts) until ``shift`` s after
-    the start, then on each next landmark in turn; it leaves an intermediate landmark (the
-    apex) ``lead`` s before the hand reaches it, and stays on the last one (the drop point).
-
-    Parameters
-    ----------
-    times : array, shape (n,)
-        Seconds from the start of the movement.
-    landmarks : array, shape (n_landmarks, 3)
-    arrivals : array, shape (n_landmarks,)
-        When the hand reaches each landmark.
-    shift, lead : float
-        Seconds.
-    """
-    switches = [shift] + [max(shift, float(a) - lead) for a in arrivals[1:-1]]
-    index = np.searchsorted(np.maximum.accumulate(switches), times, side="right")
-    return np.asarray(landmarks, dtype=float)[index]
-
-
-def head_angles_following(
-    times: np.ndarray,
-    looked_at: np.ndarray,
-    head_position: np.ndarray,
-    rng: np.random.Generator,
-    params: ScenarioParams,
-) -> np.ndarray:
-    """The partner's head angles while looking at ``looked_at``, shape (n, 3): roll, pitch, yaw.
-
-    The head turns towards where the gaze is with a first-order lag (``head_lag``), and the
-    estimator's noise is added (see the module docstring). Radians.
-
-    Parameters
-    ----------
-    times : array, shape (n,)
-    looked_at : array, shape (n, 3)
-        Where the gaze is at ``times``.
-    head_position : array, shape (3,)
-    rng : numpy.random.Generator
-    params : ScenarioParams
-    """
-    lag = rng.uniform(*params.head_lag)
-    _, pitch, yaw = head_orientation_looking_at(looked_at, head_position)
-    wanted = np.column_stack([np.zeros_like(pitch), pitch, yaw])
-    head = np.empty_like(wanted)
-    head[0] = wanted[0]
-    for k in range(1, len(times)):
-        a = np.exp(-(times[k] - times[k - 1]) / lag)
-        head[k] = a * head[k - 1] + (1.0 - a) * wanted[k]
-
-    n = len(times)
-    white = rng.normal(scale=np.deg2rad(params.head_noise_deg), size=(n, 3))
-    drift = np.empty((n, 3))
-    drift_std = np.deg2rad(params.head_drift_deg)
-    drift[0] = rng.normal(scale=drift_std, size=3)
-    for k in range(1, n):  # Ornstein-Uhlenbeck, exact discretisation
-        a = np.exp(-(times[k] - times[k - 1]) / params.head_drift_time)
-        drift[k] = a * drift[k - 1] + np.sqrt(1.0 - a * a) * drift_std * rng.normal(size=3)
-    roll_bias = np.deg2rad(params.roll_bias_deg) * rng.normal()
-    head[:, 0] += roll_bias
-    return head + white + drift
 
 
 def generate_demonstration(

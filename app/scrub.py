@@ -10,6 +10,8 @@ position error of the remainder, goal error and duration error.
 
 A test demonstration is held out from the model while it is inspected: :class:`HeldOutModels`
 fits (and caches) the model on the session's demonstrations minus that one.
+:func:`typical_prior` is what the Teach tab plots and the scene's tubes show: a primitive's prior
+at its typical speed.
 """
 
 from __future__ import annotations
@@ -21,19 +23,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from promp.data import Demonstration, Layout
+from promp.data import Demonstration, Layout, Modality
 from promp.evaluate import metrics
+from promp.evaluate.sweep import position_modality
 from promp.inference import Observation, Prediction, predict
 from promp.model import ProMPModel, Settings, fit
 from promp.pipeline import infer
 from promp.recognition import Recognition
+from robots.icub.layout import hand_dims
 
 # What the GUI offers, and what the engine calls it.
 ALPHA_CHOICES: dict[str, str] = {"ML": "ml", "model": "model"}
 TUBE_POINTS = 100  # rings of the posterior tube (fixed mesh topology)
 PATH_POINTS = 60  # samples of the predicted future hand path
-HAND = "hand"
-HEAD = "head"
 
 
 def n_observed_for(percent: float, n_samples: int) -> int:
@@ -81,8 +83,9 @@ def held_out_training(
 
 
 class HeldOutModels:
-    """Models learned without one test demonstration, cached by (session version, primitive,
-    demonstration): scrubbing never refits; a change of the session does."""
+    """Models learned without one test demonstration, cached by (version of what is learned
+    from, primitive, demonstration): scrubbing never refits; a change of the demonstrations or
+    the settings does (:attr:`app.session.Session.learn_version`)."""
 
     def __init__(self, max_entries: int = 8):
         self.max_entries = max_entries
@@ -141,6 +144,7 @@ class ScrubResult:
         The whole test demonstration (None for the live stream).
     position_error_m, goal_error_m, duration_error_s : float
         Against the truth (NaN without one; the position error is NaN when nothing remains).
+        The first two are in the unit of :func:`error_modality` (metres for the hand).
     """
 
     names: tuple[str, ...]
@@ -184,16 +188,10 @@ class ScrubResult:
         return max(0.0, self.duration - self.observed_until)
 
 
-def hand_dims(layout: Layout) -> np.ndarray | None:
-    """The dimensions of the ``hand`` modality (drawn in 3D), None when there is none."""
-    return layout.dims([HAND]) if HAND in layout.names else None
-
-
-def error_dims(layout: Layout) -> np.ndarray:
-    """The dimensions the errors are measured on: the hand, else the first modality (as the
-    evaluation does)."""
-    hand = hand_dims(layout)
-    return hand if hand is not None else layout.dims([layout.names[0]])
+def error_modality(layout: Layout) -> Modality:
+    """The modality the errors are measured on, the evaluation's
+    (:func:`promp.evaluate.sweep.position_modality`): the hand when there is one."""
+    return layout.modality(position_modality(layout))
 
 
 def scrub_step(
@@ -233,7 +231,7 @@ def scrub_step(
         future_hand = model.basis(phases) @ weights.T
     position_error = goal_error = duration_error = math.nan
     if truth is not None:
-        measured = error_dims(model.layout)
+        measured = model.layout.dims([error_modality(model.layout).name])
         true_hand = model.layout.extract(truth)[:, measured]
         # The evaluation's metrics are defined on the prediction's own samples (n_f of them).
         natural = predict(model, posterior, reco.alpha).mean[:, measured]
@@ -266,85 +264,8 @@ def demo_observation(
     )
 
 
-class LiveBuffer:
-    """Samples of the live stream since "Start observing": (t, hand (3,), head (3,) or NaN).
-
-    Bounded (``max_seconds``): :meth:`append` returns False once full.
-    """
-
-    def __init__(self, max_seconds: float = 30.0):
-        self.max_seconds = max_seconds
-        self._t: list[float] = []
-        self._hand: list[np.ndarray] = []
-        self._head: list[np.ndarray] = []
-
-    def __len__(self) -> int:
-        return len(self._t)
-
-    def clear(self) -> None:
-        self._t.clear()
-        self._hand.clear()
-        self._head.clear()
-
-    @property
-    def duration(self) -> float:
-        return self._t[-1] - self._t[0] if self._t else 0.0
-
-    def append(self, t: float, hand: np.ndarray, head: np.ndarray | None) -> bool:
-        """Add a sample taken at monotonic time ``t``; samples not after the last are ignored.
-        False when the buffer is full (nothing added)."""
-        if self._t and t - self._t[0] > self.max_seconds:
-            return False
-        if self._t and t <= self._t[-1]:
-            return True
-        self._t.append(float(t))
-        self._hand.append(np.array(hand, dtype=float).reshape(3))
-        self._head.append(
-            np.full(3, np.nan) if head is None else np.array(head, dtype=float).reshape(3)
-        )
-        return True
-
-    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Times (n,) from 0, hand (n, 3), head (n, 3) with NaN rows where there was no face."""
-        if not self._t:
-            return np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3))
-        t = np.array(self._t)
-        return t - t[0], np.array(self._hand), np.array(self._head)
-
-    def observation(
-        self, percent: float, modalities: Sequence[str], layout: Layout
-    ) -> Observation:
-        """The first ``ceil(percent / 100 * n)`` samples of the buffer in ``modalities`` (of
-        ``layout``); samples without a face are dropped when the head is observed.
-
-        Raises
-        ------
-        ValueError
-            If there is nothing (usable) to observe yet.
-        """
-        times, hand, head = self.arrays()
-        if times.shape[0] == 0:
-            raise ValueError("nothing observed yet: press Start observing and move the hand")
-        n_o = n_observed_for(percent, times.shape[0])
-        times, hand, head = times[:n_o], hand[:n_o], head[:n_o]
-        columns = []
-        keep = np.ones(n_o, dtype=bool)
-        for name in layout.names:
-            if name not in modalities:
-                continue
-            if name == HAND:
-                columns.append(hand)
-            elif name == HEAD:
-                columns.append(head)
-                keep &= np.all(np.isfinite(head), axis=1)
-            else:
-                raise ValueError(f"the live stream has no modality {name!r}")
-        if not columns:
-            raise ValueError("choose at least one observed modality")
-        if not keep.any():
-            raise ValueError("no face seen yet: the head cannot be observed")
-        values = np.hstack(columns)[keep]
-        kept = times[keep]
-        return Observation(
-            kept - kept[0], values, tuple(m for m in layout.names if m in modalities)
-        )
+def typical_prior(model: ProMPModel, name: str, n_points: int) -> Prediction:
+    """The prior of primitive ``name`` at its typical speed (alpha = exp of the mean training
+    log-alpha), on ``n_points`` phases."""
+    primitive = model.primitive(name)
+    return predict(model, primitive, float(np.exp(primitive.log_alpha_mean)), n_points)

@@ -12,8 +12,8 @@ from collections.abc import Callable
 
 import viser
 
+from app.context import PanelContext
 from app.gui_text import escape
-from app.session import Session
 from app.trash import TrashEntry
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
@@ -29,12 +29,12 @@ def entry_label(entry: TrashEntry) -> str:
 class RecentlyDeleted:
     """The "Recently deleted" folder (see the module docstring)."""
 
-    def __init__(self, server: viser.ViserServer, session: Session, notify: Notify):
-        self.session = session
+    def __init__(self, ctx: PanelContext, notify: Notify):
+        self.session = ctx.session
         self.notify = notify
         self._entries: dict[str, TrashEntry] = {}
         self._shown_version = -1
-        gui = server.gui
+        gui = ctx.gui
         with gui.add_folder("Recently deleted", expand_by_default=False):
             self.summary = gui.add_markdown("")
             self.choice = gui.add_dropdown("Entry", (NOTHING,))

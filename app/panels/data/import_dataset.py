@@ -24,6 +24,7 @@ from pathlib import Path
 
 import viser
 
+from app.context import PanelContext
 from app.dataset_import import (
     MAX_DATASET_UPLOAD_BYTES,
     DatasetSummary,
@@ -34,8 +35,6 @@ from app.dataset_import import (
 from app.dialogs import confirm
 from app.exchange import Limits, format_size
 from app.gui_text import display_name, escape
-from app.session import Session
-from app.upload_guard import UploadGuard
 from app.workspace import WorkspaceData
 from promp.datasets import FORMATS, format_modalities, parse_modalities
 
@@ -54,21 +53,18 @@ class DatasetImport:
 
     def __init__(
         self,
-        server: viser.ViserServer,
-        session: Session,
+        ctx: PanelContext,
         notify: Notify,
         max_upload_bytes: int = MAX_DATASET_UPLOAD_BYTES,
     ):
-        self.server = server
-        self.session = session
+        self.session = ctx.session
         self.notify = notify
-        self._max_upload_bytes = int(max_upload_bytes)
         self._lock = threading.RLock()
         self._quiet = False  # set while the code itself changes the inputs
         self.upload: DatasetUpload | None = None
         self.data: WorkspaceData | None = None
         self.summary: DatasetSummary | None = None
-        gui = server.gui
+        gui = ctx.gui
         with gui.add_folder("Import dataset"):
             gui.add_markdown(
                 "Your own recordings, as a **zip of their folder**: `<primitive>/<demo>.csv` "
@@ -91,7 +87,7 @@ class DatasetImport:
             )
             self.preview = gui.add_markdown("")
             self.actions = gui.add_button_group("", (CREATE, REPLACE), visible=False)
-        self.guard = UploadGuard(server, self.upload_button, max_upload_bytes, self._too_large)
+        self.guard = ctx.guard_upload(self.upload_button, max_upload_bytes, self._too_large)
         self.upload_button.on_upload(
             lambda event: self.receive(
                 event.client, event.target.value.name, event.target.value.content
@@ -101,21 +97,13 @@ class DatasetImport:
             handle.on_update(lambda event: None if self._quiet else self.reread(event.client))
         self.actions.on_click(lambda event: self.act(event.client, event.target.value))
 
-    @property
-    def max_upload_bytes(self) -> int:
-        return self._max_upload_bytes
-
-    @max_upload_bytes.setter
-    def max_upload_bytes(self, value: int) -> None:
-        self._max_upload_bytes = self.guard.max_bytes = int(value)
-
     # ------------------------------------------------------------------ steps
 
     def _too_large(self, client, filename: str, size: int) -> None:
         self.notify(
             client,
             f"Cannot import {display_name(filename)}",
-            f"The file is {format_size(size)}, over the {format_size(self.max_upload_bytes)} "
+            f"The file is {format_size(size)}, over the {format_size(self.guard.max_bytes)} "
             "limit for a dataset. Nothing was changed.",
             "red",
         )
@@ -125,7 +113,7 @@ class DatasetImport:
         name = display_name(filename)
         try:
             upload = extract_dataset_zip(
-                content, name, Limits(max_upload_bytes=self.max_upload_bytes)
+                content, name, Limits(max_upload_bytes=self.guard.max_bytes)
             )
         except ValueError as exc:
             self.notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")

@@ -1,6 +1,6 @@
 """The iCub in the 3D view: URDF meshes, ground grid, table, object, bins, camera framing.
 
-The partner's head avatar is drawn by :mod:`app.scene_view`, which also orients it.
+The partner's head avatar is :mod:`app.scene.partner`.
 """
 
 from __future__ import annotations

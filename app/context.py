@@ -1,0 +1,115 @@
+"""What a panel may read and do (:class:`PanelContext`), and what the studio asks of a panel
+(:class:`Panel`).
+
+The studio builds each panel inside its tab with a context of its own: the session (state and
+mutations), the scene (told what the panel shows, never edited), the arm, the partner's head,
+notifications, and the GUI to build its controls with. Panels import nothing of the studio.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from contextlib import AbstractContextManager
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+import viser
+
+from app.arm import ArmController
+from app.head_input import HeadInput
+from app.scene import Scene
+from app.session import Session
+from app.upload_guard import Refused, UploadGuard
+
+
+class Panel(Protocol):
+    """One tab of the studio. Its GUI callbacks only record what changed."""
+
+    def step(self) -> None:
+        """Recompute and redraw what changed (the studio's loop calls it at every iteration)."""
+
+    def close(self) -> None:
+        """Stop background work and release what the panel holds (the studio is stopping)."""
+
+
+class PanelGui:
+    """viser's GUI API as one panel uses it: every control it adds tells ``used()`` when a
+    browser uses it, so that the scene shows the look of the panel in use (viser does not tell
+    the server which tab a browser shows; see :mod:`app.scene.look`). Everything else is
+    viser's own ``GuiApi``."""
+
+    def __init__(self, gui: viser.GuiApi, used: Callable[[], None]):
+        self._gui = gui
+        self._used = used
+
+    def __getattr__(self, name: str):
+        attribute = getattr(self._gui, name)
+        if not name.startswith("add_"):
+            return attribute
+
+        def add(*args, **kwargs):
+            handle = attribute(*args, **kwargs)
+            for hook in ("on_click", "on_upload", "on_update"):
+                register = getattr(handle, hook, None)
+                if register is not None:
+                    register(self._on_event)
+                    break
+            return handle
+
+        return add
+
+    def _on_event(self, event: viser.GuiEvent) -> None:
+        if event.client is not None:  # a browser, not the studio's own code, used it
+            self._used()
+
+
+@dataclass(frozen=True)
+class PanelContext:
+    """What a panel may read and do (see the module docstring).
+
+    Attributes
+    ----------
+    gui : PanelGui
+        Builds the panel's controls (inside its tab).
+    session : Session
+    scene : Scene
+    arm : ArmController
+    head : HeadInput
+    notify : callable
+        ``notify(title, body, color="blue", client=None, auto_close_seconds=8.0)``: a
+        notification in ``client``'s browser tab, or in every connected tab when None
+        (:meth:`app.studio.Studio.notify`).
+    atomic : callable
+        ``with atomic():`` sends the GUI and scene updates made inside as one group.
+    guard_upload : callable
+        ``guard_upload(button, max_bytes, refused)``: an :class:`app.upload_guard.UploadGuard`
+        on one of the panel's upload buttons.
+    """
+
+    gui: PanelGui
+    session: Session
+    scene: Scene
+    arm: ArmController
+    head: HeadInput
+    notify: Callable[..., None]
+    atomic: Callable[[], AbstractContextManager]
+    guard_upload: Callable[[viser.GuiUploadButtonHandle, int, Refused], UploadGuard]
+
+    def hand_and_head(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """The hand position (3,) now, and the latest head angles (3,) or None (thread-safe)."""
+        return self.arm.hand_position(), self.head.angles
+
+    def tell(self, event, title: str, body: str, color: str = "red") -> None:
+        """A notification to the client behind ``event`` (every client when unknown)."""
+        self.notify(title, body, color, client=getattr(event, "client", None))
+
+    def attempt(self, event, what: str, action: Callable[[], object]) -> bool:
+        """Run one session mutation; a refusal (``ValueError``, ``OSError``) is a notification
+        "Cannot <what>" to the client behind ``event``, and nothing changes."""
+        try:
+            action()
+        except (ValueError, OSError) as exc:
+            self.tell(event, f"Cannot {what}", str(exc))
+            return False
+        return True

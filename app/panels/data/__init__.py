@@ -1,0 +1,11 @@
+"""The Data tab: export and import, one's own recordings, the trash, the evaluation.
+
+:class:`app.panels.data.panel.DataPanel` (export and import of models and workspaces) with its
+sections :mod:`~app.panels.data.import_dataset`, :mod:`~app.panels.data.trash_list` and
+:mod:`~app.panels.data.evaluation_section`, which runs :mod:`~app.panels.data.evaluation` and
+shows :mod:`~app.panels.data.results`.
+"""
+
+from app.panels.data.panel import DataPanel
+
+__all__ = ["DataPanel"]

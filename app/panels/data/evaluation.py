@@ -1,0 +1,132 @@
+"""The Data tab's leave-one-out evaluation: what it runs on, and the job that runs it.
+
+The sweep is the one of ``python -m promp.evaluate`` (:func:`promp.evaluate.sweep.run_sweep`)
+on the session's demonstrations (primitives with at least :data:`MIN_DEMOS`), with the
+workspace's learning settings. :class:`EvaluationJob` runs it in a background thread; the tab
+reads its progress and result from the studio's loop.
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+import time
+import traceback
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.display import observed_choices
+from promp.data import Demonstration, Layout
+from promp.evaluate.methods import ProMPEngine
+from promp.evaluate.sweep import SweepResult, run_sweep
+from promp.model import Settings
+
+MIN_DEMOS = 3  # leave-one-out needs two demonstrations left to learn from
+MAX_PERCENTS = 20
+COMPARE = "compare each"
+ALPHA_CHOICES: dict[str, list[str]] = {
+    "ml": ["ml"],
+    "model": ["model"],
+    "both": ["ml", "model"],
+}
+
+
+def observe_choices(layout: Layout) -> dict[str, list[list[str]]]:
+    """The evaluation's observed-modality choices: those of the Infer tab (all together, each
+    alone) and, with several modalities, all of them compared in one sweep."""
+    choices = {label: [list(names)] for label, names in observed_choices(layout).items()}
+    if len(layout.names) > 1:
+        choices[COMPARE] = [[name] for name in layout.names] + [list(layout.names)]
+    return choices
+
+
+def parse_percents(text: str) -> list[float]:
+    """Percentages of the movement observed, from ``"10 20 30"`` or ``"10, 20, 30"``.
+
+    Raises
+    ------
+    ValueError
+        Nothing given, a non-number, a value outside (0, 100], or more than 20 values.
+    """
+    tokens = [t for t in re.split(r"[\s,;]+", text.strip()) if t]
+    if not tokens:
+        raise ValueError("give at least one percentage, e.g. 10 20 30 40 50 60 70 80 90")
+    try:
+        values = sorted({float(t) for t in tokens})
+    except ValueError:
+        raise ValueError(f"percentages must be numbers, got {text.strip()!r}") from None
+    if any(not (0.0 < v <= 100.0) or not np.isfinite(v) for v in values):
+        raise ValueError(f"percentages must be in (0, 100], got {text.strip()!r}")
+    if len(values) > MAX_PERCENTS:
+        raise ValueError(f"at most {MAX_PERCENTS} percentages, got {len(values)}")
+    return values
+
+
+def evaluation_dataset(
+    order: Sequence[str], demos: Mapping[str, Sequence[Demonstration]]
+) -> tuple[dict[str, list[Demonstration]], dict[str, int]]:
+    """The primitives with at least :data:`MIN_DEMOS` demonstrations, in ``order``, and the
+    demonstration counts of those left out."""
+    dataset = {n: list(demos.get(n, [])) for n in order if len(demos.get(n, [])) >= MIN_DEMOS}
+    skipped = {n: len(demos.get(n, [])) for n in order if n not in dataset}
+    return dataset, skipped
+
+
+class _Cancelled(Exception):
+    pass
+
+
+@dataclass
+class EvaluationJob:
+    """A leave-one-out sweep running in a background thread; the loop reads it."""
+
+    dataset: dict[str, list[Demonstration]]
+    skipped: dict[str, int]
+    percents: list[float]
+    observe_sets: list[list[str]]
+    alpha_methods: list[str]
+    settings: Settings
+    layout: Layout
+    total: int = 0
+    done: int = 0
+    result: SweepResult | None = None
+    error: str | None = None
+    cancelled: bool = False
+    finished: bool = False
+    elapsed_s: float = 0.0
+    cancel: threading.Event = field(default_factory=threading.Event)
+
+    def run(self) -> None:
+        """The sweep (blocking); sets ``result``, ``error`` or ``cancelled``, then
+        ``finished``."""
+        start = time.perf_counter()
+
+        def progress(done: int, total: int) -> None:
+            self.done, self.total = done, total
+            if self.cancel.is_set():
+                raise _Cancelled
+
+        settings, layout = self.settings, self.layout
+        try:
+            self.result = run_sweep(
+                lambda: ProMPEngine(layout, settings),
+                self.dataset,
+                layout,
+                percents=self.percents,
+                alpha_methods=self.alpha_methods,
+                observe_sets=self.observe_sets,
+                method_name="ours",
+                progress=progress,
+            )
+        except _Cancelled:
+            self.cancelled = True
+        except ValueError as exc:
+            self.error = str(exc)
+        except Exception as exc:  # a bug must end the job visibly, not hang the progress bar
+            traceback.print_exc()
+            self.error = f"{type(exc).__name__}: {exc}"
+        finally:
+            self.elapsed_s = time.perf_counter() - start
+            self.finished = True

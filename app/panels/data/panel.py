@@ -1,0 +1,274 @@
+"""The Data tab: export and import models and workspaces, one's own recordings, the trash, and
+the leave-one-out evaluation.
+
+* **Export model** downloads the model learned from the demonstrations (``model-<time>.json``,
+  :mod:`promp.io`'s format, what robot-side code loads); **Export workspace** downloads
+  ``workspace-<time>.zip`` (studio.json, demos/<primitive>/<demo>.csv, model.json). Both wait
+  for the model of the latest change (learning runs in the background).
+* **Import** takes either file. Everything is validated in memory first (:mod:`app.exchange`);
+  a bad file gives a notification naming the file and the problem and changes nothing. A
+  model becomes the model inference uses (:meth:`app.session.Session.use_imported_model`)
+  until the demonstrations or settings change or "Use the learned model" is clicked; it is not
+  written to the workspace. A workspace replaces the current one after a confirmation.
+  Uploads over :data:`app.exchange.MAX_UPLOAD_BYTES` are refused as soon as they start
+  (:mod:`app.upload_guard`).
+* **Import dataset** (:mod:`app.panels.data.import_dataset`), **Recently deleted**
+  (:mod:`app.panels.data.trash_list`) and the **Leave-one-out evaluation**
+  (:mod:`app.panels.data.evaluation_section`) are sections of their own.
+
+Callbacks run on viser's thread pool and only act on the session (which has its own lock) or
+record what the loop must redraw; :meth:`DataPanel.step`, on the studio's loop, updates the
+model status and the sections.
+"""
+
+from __future__ import annotations
+
+import traceback
+
+import viser
+
+from app import exchange
+from app.context import PanelContext
+from app.dialogs import confirm
+from app.gui_text import display_name, escape
+from app.panels.data.evaluation_section import EvaluationSection
+from app.panels.data.import_dataset import DatasetImport
+from app.panels.data.trash_list import RecentlyDeleted
+from app.workspace import WorkspaceData
+
+ERROR_SECONDS, NOTICE_SECONDS = 20.0, 10.0  # how long a notification to one client stays
+
+
+class DataPanel:
+    """The Data tab (see the module docstring)."""
+
+    def __init__(self, ctx: PanelContext, max_upload_bytes: int = exchange.MAX_UPLOAD_BYTES):
+        self.ctx = ctx
+        self.session = ctx.session
+        self.uploads_received = 0  # uploads that reached the callback (the guard stops others)
+        self._status_version = -1
+        gui = ctx.gui
+        gui.add_markdown("**Export**")
+        self.export_model_button = gui.add_button(
+            "Export model",
+            icon=viser.Icon.DOWNLOAD,
+            hint="Download the model learned from the demonstrations (JSON, for robot-side code)",
+        )
+        self.export_workspace_button = gui.add_button(
+            "Export workspace",
+            icon=viser.Icon.FILE_ZIP,
+            hint="Download every primitive, demonstration and the model as one zip",
+        )
+        gui.add_markdown("**Import**")
+        self.upload_button = gui.add_upload_button(
+            "Import model or workspace",
+            icon=viser.Icon.UPLOAD,
+            mime_type=".json,.zip",
+            hint="A model (.json) to infer with, or a workspace (.zip) to replace this one",
+        )
+        self.model_status = gui.add_markdown("")
+        self.use_learned_button = gui.add_button(
+            "Use the learned model", icon=viser.Icon.ARROW_BACK_UP, visible=False
+        )
+        self.importer = DatasetImport(ctx, self._notify)
+        self.trash = RecentlyDeleted(ctx, self._notify)
+        self.evaluation = EvaluationSection(ctx, self._notify)
+        self.guard = ctx.guard_upload(self.upload_button, max_upload_bytes, self._refused)
+
+        self.export_model_button.on_click(lambda event: self.export_model(event.client))
+        self.export_workspace_button.on_click(lambda event: self.export_workspace(event.client))
+        self.upload_button.on_upload(
+            lambda event: self.import_file(
+                event.client, event.target.value.name, event.target.value.content
+            )
+        )
+        self.use_learned_button.on_click(lambda event: self.use_learned_model(event.client))
+        self._update_model_status()
+
+    def _notify(
+        self, client: viser.ClientHandle | None, title: str, body: str, color: str = "blue"
+    ) -> None:
+        """To the client that acted (every tab when unknown); errors stay longer."""
+        if client is None:
+            self.ctx.notify(title, body, color=color)
+        else:
+            seconds = ERROR_SECONDS if color == "red" else NOTICE_SECONDS
+            self.ctx.notify(title, body, color, client=client, auto_close_seconds=seconds)
+
+    # ------------------------------------------------------------------ export
+
+    def export_model(self, client: viser.ClientHandle | None) -> bytes | None:
+        """Send the learned model to ``client`` as ``model-<time>.json``; returns the bytes."""
+        model = self.session.wait_for_model()
+        if model is None:
+            reason = self.session.fit_error
+            self._notify(client, "No model to export", f"The studio has no model: {reason}.", "red")
+            return None
+        content = exchange.model_bytes(model)
+        filename = exchange.export_filename("model", "json")
+        if client is not None:
+            client.send_file_download(filename, content, save_immediately=True)
+        names = ", ".join(p.name for p in model.primitives)
+        self._notify(
+            client,
+            "Model exported",
+            f"{filename} ({exchange.format_size(len(content))}): the model learned from the "
+            f"demonstrations, primitives {names}.",
+        )
+        return content
+
+    def export_workspace(self, client: viser.ClientHandle | None) -> bytes:
+        """Send the workspace to ``client`` as ``workspace-<time>.zip``; returns the bytes."""
+        session = self.session
+        session.wait_for_model()
+        with session.lock:
+            data = WorkspaceData(
+                primitives=list(session.primitives),
+                demos={name: list(demos) for name, demos in session.demos.items()},
+                settings=dict(session.settings),
+            )
+            model = session.model
+        content = exchange.workspace_zip(data, model)
+        filename = exchange.export_filename("workspace", "zip")
+        if client is not None:
+            client.send_file_download(filename, content, save_immediately=True)
+        n_demos = sum(len(v) for v in data.demos.values())
+        self._notify(
+            client,
+            "Workspace exported",
+            f"{filename} ({exchange.format_size(len(content))}): {len(data.primitives)} "
+            f"primitives, {n_demos} demonstrations" + (", the model." if model else "."),
+        )
+        return content
+
+    # ------------------------------------------------------------------ import
+
+    def _refused(self, client: viser.ClientHandle | None, filename: str, size: int) -> None:
+        self._notify(
+            client,
+            f"Cannot import {display_name(filename)}",
+            f"The file is {exchange.format_size(size)}, over the "
+            f"{exchange.format_size(self.guard.max_bytes)} upload limit. Nothing was changed.",
+            "red",
+        )
+
+    def import_file(self, client: viser.ClientHandle | None, filename: str, content: bytes):
+        """Validate an uploaded file and import it (a workspace after a confirmation).
+
+        Returns the validated upload, or None when it was refused.
+        """
+        self.uploads_received += 1
+        name = display_name(filename)
+        limits = exchange.Limits(max_upload_bytes=self.guard.max_bytes)
+        try:
+            upload = exchange.read_upload(filename, content, limits)
+        except ValueError as exc:
+            self._notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
+            return None
+        except Exception as exc:  # an unforeseen parser failure is still a refused file
+            traceback.print_exc()
+            self._notify(
+                client,
+                f"Cannot import {name}",
+                f"unreadable file ({type(exc).__name__}: {exc}). Nothing was changed.",
+                "red",
+            )
+            return None
+        if isinstance(upload, exchange.ModelUpload):
+            try:
+                self.session.use_imported_model(upload.model, name)
+            except ValueError as exc:
+                self._notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
+                return None
+            names = ", ".join(p.name for p in upload.model.primitives)
+            self._notify(
+                client,
+                "Model imported",
+                f"{name}: primitives {names}. Inference uses it until the demonstrations change "
+                "(or 'Use the learned model').",
+                "green",
+            )
+            return upload
+        if client is None:
+            self.replace_workspace(None, upload)
+        else:
+            self._confirm_replace(client, upload)
+        return upload
+
+    def _confirm_replace(
+        self, client: viser.ClientHandle, upload: exchange.WorkspaceUpload
+    ) -> None:
+        name = display_name(upload.filename)
+        with self.session.lock:
+            current_p = len(self.session.primitives)
+            current_d = sum(len(v) for v in self.session.demos.values())
+        names = ", ".join(p.name for p in upload.data.primitives) or "none"
+        confirm(
+            client,
+            "Replace the workspace?",
+            f"**{name}** holds {len(upload.data.primitives)} primitives ({names}) and "
+            f"{upload.n_demos} demonstrations.\n\nImporting it replaces the current "
+            f"workspace ({current_p} primitives, {current_d} demonstrations), which moves "
+            "to the workspace's trash (*Recently deleted* restores it).",
+            "Replace the workspace",
+            lambda: self.replace_workspace(client, upload),
+            lambda: self._notify(client, "Import cancelled", f"{name}: nothing was changed."),
+        )
+
+    def replace_workspace(
+        self, client: viser.ClientHandle | None, upload: exchange.WorkspaceUpload
+    ) -> bool:
+        """Swap the session for a validated workspace archive."""
+        name = display_name(upload.filename)
+        try:
+            self.session.replace(upload.data, f"replaced by the import of {name}")
+        except (ValueError, OSError) as exc:
+            self._notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
+            return False
+        skipped = f" (ignored: {', '.join(upload.ignored)})" if upload.ignored else ""
+        self._notify(
+            client,
+            "Workspace imported",
+            f"{name}: {len(upload.data.primitives)} primitives, {upload.n_demos} "
+            f"demonstrations{skipped}. The previous workspace is in the trash (Recently "
+            "deleted).",
+            "green",
+        )
+        return True
+
+    def use_learned_model(self, client: viser.ClientHandle | None) -> None:
+        self.session.use_imported_model(None)
+        self._notify(client, "Learned model", "Inference uses the model learned from the demos.")
+
+    def _update_model_status(self) -> None:
+        session = self.session
+        with session.lock:
+            self._status_version = session.version
+            imported, source = session.imported_model, session.imported_from
+            model, reason = session.model, session.fit_error
+        if imported is not None:
+            names = ", ".join(p.name for p in imported.primitives)
+            text = (
+                f"**Inference model:** imported from `{source}` ({names}), used until the "
+                "demonstrations change."
+            )
+        elif model is not None:
+            names = ", ".join(p.name for p in model.primitives)
+            text = f"**Inference model:** learned from the demonstrations ({names})."
+        else:
+            text = f"**Inference model:** none yet ({escape(str(reason))})."
+        self.model_status.content = text
+        self.use_learned_button.visible = imported is not None
+
+    # ------------------------------------------------------------------ loop
+
+    def step(self) -> None:
+        if self.session.version != self._status_version:
+            self._update_model_status()
+        self.trash.step()
+        self.evaluation.step()
+
+    def close(self) -> None:
+        self.evaluation.close()
+        self.guard.close()
+        self.importer.close()

@@ -1,0 +1,108 @@
+"""The leave-one-out evaluation's results as the Data tab shows them: two charts (recognition
+errors, and the position error of the remainder, against the percentage observed) and a table.
+
+The series are the evaluation's own (:func:`promp.evaluate.plots.group_series`: one per
+observed modalities and alpha method), so the tab and ``python -m promp.evaluate --plots``
+group and order them alike; positions are in the display unit of :mod:`app.display`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import viser
+
+from app.display import LENGTH_SCALE, LENGTH_UNIT
+from promp.evaluate.plots import group_series
+from robots.icub.layout import HAND, HEAD
+
+SERIES_COLORS = {
+    HAND.name: "#e4572e", HEAD.name: "#2980b9", f"{HAND.name}+{HEAD.name}": "#27ae60"
+}
+OTHER_COLOR = "#555555"
+
+
+def curves(rows: Sequence[Mapping]) -> dict[str, dict[str, np.ndarray]]:
+    """Per (observed, alpha) series: ``percent``, ``recognition_errors``, ``trials``,
+    ``position_cm``, ``duration_s``, arrays of shape (n_percents,), sorted by percent."""
+    out = {}
+    for label, group in group_series(rows).items():
+        out[label] = {
+            "percent": np.array([r["percent"] for r in group], dtype=float),
+            "recognition_errors": np.array([r["recognition_errors"] for r in group], dtype=float),
+            "trials": np.array([r["trials"] for r in group], dtype=float),
+            "position_cm": LENGTH_SCALE
+            * np.array([r["position_error_m"] for r in group], dtype=float),
+            "duration_s": np.array([r["duration_error_s"] for r in group], dtype=float),
+        }
+    return out
+
+
+def results_table(rows: Sequence[Mapping]) -> str:
+    """Markdown: one row per percentage, one column per (observed, alpha) series, the
+    recognition errors then the position error of the remainder (cm)."""
+    series = curves(rows)
+    if not series:
+        return ""
+    labels = list(series)
+    header = " | ".join(label.replace(", alpha ", " ") for label in labels)
+    trials = int(next(iter(series.values()))["trials"][0])
+    percents = sorted({float(p) for s in series.values() for p in s["percent"]})
+
+    def table(key: str, title: str, fmt: str) -> list[str]:
+        lines = [f"| {title} | {header} |", "|---:|" + "---:|" * len(labels)]
+        for p in percents:
+            cells = []
+            for label in labels:
+                i = np.flatnonzero(series[label]["percent"] == p)
+                cells.append(format(series[label][key][i[0]], fmt) if i.size else "")
+            lines.append(f"| {p:g} % | " + " | ".join(cells) + " |")
+        return lines
+
+    return "\n".join(
+        [
+            *table("recognition_errors", f"errors (of {trials})", ".0f"),
+            "",
+            *table("position_cm", f"position ({LENGTH_UNIT})", ".1f"),
+        ]
+    )
+
+
+def add_results(gui: viser.GuiApi, rows: Sequence[Mapping]) -> list:
+    """The two charts and the table of ``rows`` in the current container; their handles."""
+    series = curves(rows)
+    if not series:
+        return []
+    trials = int(next(iter(series.values()))["trials"][0])
+    labels = list(series)
+    x = next(iter(series.values()))["percent"]  # one sweep: every series has the same percents
+    styles = []
+    for label in labels:
+        observed, alpha = label.split(", alpha ")
+        style: dict = {
+            "label": label,
+            "stroke": SERIES_COLORS.get(observed, OTHER_COLOR),
+            "width": 2,
+            "points": {"show": True, "size": 6},
+        }
+        if alpha == "model":
+            style["dash"] = [6, 4]
+        styles.append(style)
+
+    def chart(title: str, key: str, unit: str):
+        return gui.add_uplot(
+            data=(x, *(series[label][key] for label in labels)),
+            series=({"label": "% observed"}, *styles),
+            title=title,
+            scales={"x": {"time": False}, "y": {"auto": True}},
+            axes=({"label": "% of the movement observed"}, {"label": unit}),
+            legend={"live": False},
+            height=240,
+        )
+
+    return [
+        chart(f"Recognition errors (of {trials})", "recognition_errors", "errors"),
+        chart("Position error of the remainder", "position_cm", LENGTH_UNIT),
+        gui.add_markdown(results_table(rows)),
+    ]

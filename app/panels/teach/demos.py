@@ -1,0 +1,154 @@
+"""The Teach tab's Demonstrations folder: the selected primitive's demonstrations, newest first.
+
+Each row shows a demonstration's typicality (how it compares with the primitive's others, from
+:meth:`app.session.Session.add_demo`) and offers Hide/Show (:meth:`app.session.Session.set_hidden`:
+its line in the 3D view) and Delete, after a confirmation (:meth:`app.session.Session.delete_demo`:
+to the workspace's trash). *Undo delete* brings back the latest deletion
+(:meth:`app.session.Session.undo_delete`).
+"""
+
+from __future__ import annotations
+
+import viser
+
+from app.context import PanelContext
+from app.gui_text import GREEN, ORANGE, RED, colored
+from promp.pipeline import Typicality
+
+TYPICALITY_COLORS = {"typical": GREEN, "unusual": ORANGE, "outlier": RED}
+NOTIFY_COLORS = {"typical": "green", "unusual": "yellow", "outlier": "red"}
+DELETE, KEEP = "Delete demonstration", "Keep it"
+
+
+def typicality_text(typicality: Typicality | None) -> str:
+    """E.g. ``typical (64th pct)``; '' without a score."""
+    if typicality is None:
+        return ""
+    return f"{typicality.label} ({100 * typicality.percentile:.0f}th pct)"
+
+
+class DemoList:
+    """The Demonstrations folder (see the module docstring)."""
+
+    def __init__(self, ctx: PanelContext):
+        self.ctx = ctx
+        self._pending_delete: tuple[str, str] | None = None
+        self._rows: list[tuple[tuple[str, str], viser.GuiButtonGroupHandle]] = []
+        self._signature: tuple | None = None
+        gui = ctx.gui
+        self.folder = gui.add_folder("Demonstrations")
+        with self.folder:
+            self.summary = gui.add_markdown("")
+            self.undo_delete = gui.add_button(
+                "Undo delete",
+                icon=viser.Icon.ARROW_BACK_UP,
+                visible=False,
+                hint="Bring back the latest deleted demonstration or primitive from the trash",
+            )
+            self.confirm_text = gui.add_markdown("", visible=False)
+            self.confirm = gui.add_button_group("", (DELETE, KEEP), visible=False)
+        self.undo_delete.on_click(self._undo)
+        self.confirm.on_click(self._confirmed)
+
+    # ------------------------------------------------------------------ callbacks
+
+    def _undo(self, event) -> None:
+        def undo() -> None:
+            entry = self.ctx.session.undo_delete()
+            self.ctx.tell(event, "Restored", f"{entry.label} is back.", "green")
+
+        self.ctx.attempt(event, "undo", undo)
+
+    def _confirmed(self, event) -> None:
+        pending, self._pending_delete = self._pending_delete, None
+        self.confirm_text.visible = self.confirm.visible = False
+        if pending is None or event.target.value != DELETE:
+            return
+        primitive, demo = pending
+        if self.ctx.attempt(event, "delete", lambda: self.ctx.session.delete_demo(primitive, demo)):
+            self.ctx.tell(
+                event, "Deleted",
+                f"{demo} moved to the workspace's trash (Undo delete brings it back).", "gray",
+            )  # fmt: skip
+
+    def _row_action(self, primitive: str, demo: str):
+        def action(event) -> None:
+            choice = event.target.value
+            if choice == "Delete":
+                self._pending_delete = (primitive, demo)
+                self.confirm_text.content = (
+                    f"Delete **{demo}** of **{primitive}**? It moves to the workspace's trash: "
+                    "*Undo delete* brings it back."
+                )
+                self.confirm_text.visible = self.confirm.visible = True
+            else:
+                hide = choice == "Hide"
+                self.ctx.attempt(
+                    event, "hide", lambda: self.ctx.session.set_hidden(primitive, demo, hide)
+                )
+
+        return action
+
+    # ------------------------------------------------------------------ display
+
+    def show_undo(self) -> None:
+        """The Undo button, labelled with the latest deletion of this run."""
+        deleted = self.ctx.session.deleted
+        self.undo_delete.visible = bool(deleted)
+        if deleted:
+            self.undo_delete.label = f"Undo delete ({deleted[-1].label})"
+
+    def show(self, name: str | None) -> None:
+        """List the demonstrations of primitive ``name`` (rebuilt only when they change)."""
+        session = self.ctx.session
+        with session.lock:
+            demos = list(session.demos.get(name, [])) if name is not None else []
+            rows = tuple(
+                (
+                    d.name,
+                    d.duration,
+                    (name, d.name) in session.hidden,
+                    session.typicality.get((name, d.name)),
+                )
+                for d in reversed(demos)  # newest first
+            )
+        signature = (name, rows)
+        if signature == self._signature:
+            return
+        self._signature = signature
+        flagged = [r[0] for r in rows if r[3] is not None and r[3].label != "typical"]
+        if name is None:
+            summary = "No primitive."
+        elif not rows:
+            summary = f"No demonstration of **{name}** yet: press Record."
+        else:
+            summary = f"{len(rows)} demonstration(s) of **{name}**, newest first."
+            if flagged:
+                summary += "  \n" + colored("⚠ To check: " + ", ".join(flagged), ORANGE, True)
+        self.summary.content = summary
+        # Same demonstrations in the same order: update the rows in place (a click on a row
+        # being rebuilt would be lost); otherwise rebuild the list.
+        keys = [(name, r[0]) for r in rows]
+        if keys != [key for key, _ in self._rows]:
+            for _, handle in self._rows:
+                handle.remove()
+            self._rows = []
+            with self.folder:
+                for demo_name, duration, *_ in rows:
+                    handle = self.ctx.gui.add_button_group(
+                        demo_name,
+                        ("Hide", "Delete"),
+                        hint=f"{demo_name}: {duration:.1f} s. Show or hide its line in the 3D "
+                        "view, or delete it from the workspace.",
+                    )
+                    handle.on_click(self._row_action(name, demo_name))
+                    self._rows.append(((name, demo_name), handle))
+        for (demo_name, _, hidden, typicality), (_, handle) in zip(rows, self._rows, strict=True):
+            label = demo_name
+            if typicality is not None:
+                flag = "" if typicality.label == "typical" else "⚠ "
+                label += f" · {flag}{typicality_text(typicality)}"
+            if hidden:
+                label += " · hidden"
+            handle.label = label
+            handle.options = ("Show" if hidden else "Hide", "Delete")

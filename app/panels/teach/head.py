@@ -1,0 +1,273 @@
+"""The Teach tab's Head source folder: where the partner's head pose comes from.
+
+A simulated partner, a camera (by index), a video file on the server, or a video uploaded from
+the browser (processed in the background into a head-pose track by
+:func:`app.headpose.track_video`). Choosing one makes it the studio's head source
+(:meth:`app.head_input.HeadInput.use`), except during a recording, whose source stays. A source
+that fails is a red message and a notification; the rest of the studio keeps working. Cameras
+and videos get a live preview and *Calibrate neutral*. The folder is shown only when the
+workspace has a ``head`` modality.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from pathlib import Path
+
+import cv2
+import numpy as np
+import viser
+
+from app.context import PanelContext
+from app.display import shown
+from app.exchange import format_size
+from app.gui_text import GREEN, ORANGE, RED, colored, escape
+from app.head_sources import HeadSource, SimulatedPartner, StreamHeadSource, TrackHeadSource
+from promp.data import Layout
+from robots.icub.layout import HEAD
+
+STATUS_PERIOD_S = 0.2  # the head's status line
+PREVIEW_PERIOD_S = 0.1  # camera preview, 10 Hz
+PREVIEW_WIDTH = 320
+MAX_VIDEO_BYTES = 500 * 2**20  # an uploaded video is held in memory while it is processed
+SIMULATED, CAMERA, VIDEO, UPLOAD = "Simulated partner", "Camera", "Video file", "Uploaded video"
+SOURCES = (SIMULATED, CAMERA, VIDEO, UPLOAD)
+
+
+def source_kind(source: HeadSource) -> str:
+    """Which entry of the Source dropdown ``source`` is."""
+    if isinstance(source, StreamHeadSource):
+        return CAMERA if source.name.startswith("camera ") else VIDEO
+    if isinstance(source, TrackHeadSource):
+        return UPLOAD
+    return SIMULATED
+
+
+def angles_text(angles: np.ndarray) -> str:
+    """E.g. ``roll +3°, pitch -2°, yaw +10°`` (angles in radians)."""
+    return ", ".join(
+        f"{name} {shown(float(value), HEAD, digits=0, signed=True)}"
+        for name, value in zip(HEAD.columns, angles, strict=True)
+    )
+
+
+class HeadSection:
+    """The Head source folder (see the module docstring).
+
+    Parameters
+    ----------
+    ctx : PanelContext
+    recording : callable
+        True while a recording is under way (its head source must stay).
+    changed : callable
+        Called after a new source is in use.
+    """
+
+    def __init__(
+        self, ctx: PanelContext, recording: Callable[[], bool], changed: Callable[[], None]
+    ):
+        self.ctx = ctx
+        self.recording = recording
+        self.changed = changed
+        self._shown_error: tuple[int, str] | None = None
+        self._next_status = 0.0
+        self._next_preview = 0.0
+        self._uploads: ThreadPoolExecutor | None = None
+        self._upload: Future | None = None
+        source, gui = ctx.head.source, ctx.gui
+        initial, index, path = source_kind(source), 0, ""
+        if initial == CAMERA:
+            index = int(source.name.removeprefix("camera "))
+        elif initial == VIDEO:
+            path = source.name.removeprefix("video ")
+        self.folder = gui.add_folder("Head source")
+        with self.folder:
+            self.source = gui.add_dropdown(
+                "Source",
+                SOURCES,
+                initial_value=initial,
+                hint="Where the partner's head pose comes from while recording.",
+            )
+            self.camera_index = gui.add_number("Camera index", index, min=0, max=63, step=1)
+            self.video_path = gui.add_text("Video file", path, hint="Path on the server.")
+            self.connect = gui.add_button("Connect", icon=viser.Icon.PLUG)
+            self.upload = gui.add_upload_button(
+                "Upload a video",
+                icon=viser.Icon.UPLOAD,
+                mime_type="video/*",
+                hint=f"Up to {format_size(MAX_VIDEO_BYTES)}; processed on the server.",
+            )
+            self.video_guard = ctx.guard_upload(self.upload, MAX_VIDEO_BYTES, self._refused)
+            self.status = gui.add_markdown("")
+            self.calibrate = gui.add_button(
+                "Calibrate neutral",
+                icon=viser.Icon.FOCUS_CENTERED,
+                hint="The partner looks at the robot's eyes: this head pose becomes zero.",
+                visible=False,
+            )
+            self.preview = gui.add_image(
+                np.zeros((240, PREVIEW_WIDTH, 3), np.uint8),
+                label="Camera",
+                jpeg_quality=75,
+                visible=False,
+            )
+        self._show_inputs()
+        self.source.on_update(self._source_chosen)
+        self.connect.on_click(self._connect)
+        self.upload.on_upload(self._uploaded)
+        self.calibrate.on_click(self._calibrate)
+
+    def show_for(self, layout: Layout) -> None:
+        """The head source only matters in a workspace with a head."""
+        self.folder.visible = HEAD.name in layout.names
+
+    # ------------------------------------------------------------------ callbacks
+
+    def _refuse_while_recording(self, event) -> bool:
+        """True (and a notification) while a recording is under way: its head source stays."""
+        if not self.recording():
+            return False
+        self.ctx.tell(event, "Recording", "Stop the recording before changing the head source.")
+        return True
+
+    def _source_chosen(self, event) -> None:
+        current = source_kind(self.ctx.head.source)
+        if self.source.value != current and self._refuse_while_recording(event):
+            self.source.value = current  # runs this callback again, which changes nothing
+            return
+        self._show_inputs()
+        if self.source.value == SIMULATED and current != SIMULATED:
+            self._use(SimulatedPartner())
+
+    def _connect(self, event) -> None:
+        if self._refuse_while_recording(event):
+            return
+        if self.source.value == CAMERA:
+            self._use(StreamHeadSource(int(self.camera_index.value)))
+            return
+        path = self.video_path.value.strip()
+        if not path:
+            self.ctx.tell(event, "No video file", "Type the path of a video file first.")
+            return
+        self._use(StreamHeadSource(str(Path(path).expanduser())))
+
+    def _uploaded(self, event) -> None:
+        if self._refuse_while_recording(event):
+            return
+        upload = event.target.value
+        if len(upload.content) > self.video_guard.max_bytes:  # the guard was bypassed
+            self._refused(event.client, upload.name, len(upload.content))
+            return
+        self._process(upload.name, upload.content)
+
+    def _calibrate(self, event) -> None:
+        source = self.ctx.head.source
+        if isinstance(source, StreamHeadSource) and source.error is None:
+            source.calibrate_neutral()
+            self.ctx.tell(event, "Neutral pose set", "The current head pose is now zero.", "green")
+
+    def _use(self, source: HeadSource) -> None:
+        self.ctx.head.use(source)
+        self.changed()
+        self._shown_error = None
+        self._next_status = 0.0
+
+    def _show_inputs(self) -> None:
+        kind = self.source.value
+        self.camera_index.visible = kind == CAMERA
+        self.video_path.visible = kind == VIDEO
+        self.connect.visible = kind in (CAMERA, VIDEO)
+        self.upload.visible = kind == UPLOAD
+
+    def _refused(self, client, filename: str, size: int) -> None:
+        title = f"Cannot use the video {filename}"
+        body = (
+            f"The file is {format_size(size)}, over the {format_size(self.video_guard.max_bytes)} "
+            "limit for an uploaded video. Trim it, or give its path as a video file."
+        )
+        self.ctx.notify(title, body, "red", client=client)
+
+    # ------------------------------------------------------------------ uploaded video
+
+    @property
+    def processing(self) -> bool:
+        return self._upload is not None and not self._upload.done()
+
+    def _process(self, name: str, content: bytes) -> None:
+        """Track the head in an uploaded video in the background, then use the track."""
+        if self.processing:
+            self.ctx.notify("Busy", "Another video is still being processed.", "yellow")
+            return
+        if self._uploads is None:
+            self._uploads = ThreadPoolExecutor(max_workers=1, thread_name_prefix="upload-video")
+        self.status.content = f"Processing **{escape(name)}**..."
+        self._upload = self._uploads.submit(self._track, name, content)
+
+    def _track(self, name: str, content: bytes) -> None:
+        from app.headpose import track_video  # OpenCV's DNN models: loaded when first needed
+
+        def progress(fraction: float) -> None:
+            self.status.content = f"Processing **{escape(name)}**: {100 * fraction:.0f} %"
+
+        try:
+            track = track_video(content, progress=progress, suffix=Path(name).suffix or ".mp4")
+            if not track.face_found.any():
+                raise ValueError(f"no face found in {name}")
+            source = TrackHeadSource(track.t, track.angles, track.face_found, name)
+        except Exception as exc:  # any decoding failure is a message, not a crash
+            message = f"uploaded video {name}: {exc}"
+            self.status.content = colored(escape(message), RED)
+            self.ctx.notify("Video not usable", message, "red")
+            return
+        self._use(source)
+        found = 100 * float(np.mean(track.face_found))
+        self.ctx.notify(
+            "Video ready", f"{name}: {len(track)} frames, face in {found:.0f} %", "green"
+        )
+
+    # ------------------------------------------------------------------ the loop
+
+    def step(self, now: float) -> None:
+        source = self.ctx.head.source
+        error = source.error
+        if error is not None and (id(source), error) != self._shown_error:
+            self._shown_error = (id(source), error)
+            self.ctx.notify(
+                "Head source failed",
+                f"{error}. The rest of the studio keeps working; choose another source.",
+                "red",
+            )
+        is_stream = isinstance(source, StreamHeadSource)
+        self.calibrate.visible = is_stream and error is None
+        if is_stream and error is None and now >= self._next_preview:
+            self._next_preview = now + PREVIEW_PERIOD_S
+            image = source.preview()
+            if image is not None:
+                height = max(1, round(image.shape[0] * PREVIEW_WIDTH / image.shape[1]))
+                self.preview.image = cv2.resize(image, (PREVIEW_WIDTH, height))
+                self.preview.visible = True
+        elif not is_stream or error is not None:
+            self.preview.visible = False
+        if now < self._next_status or self.processing:
+            return
+        self._next_status = now + STATUS_PERIOD_S
+        self.status.content = self._status(source, error)
+
+    def _status(self, source: HeadSource, error: str | None) -> str:
+        if error is not None:
+            return colored(f"⚠ {escape(error)}", RED, bold=True) + (
+                "  \nThe rest of the studio keeps working: choose another source."
+            )
+        angles = self.ctx.head.angles
+        if angles is None:
+            return f"**{escape(source.name)}**: " + colored("no face", ORANGE)
+        return (
+            f"**{escape(source.name)}**: " + colored("tracking", GREEN)
+            + f" ({angles_text(angles)})"
+        )  # fmt: skip
+
+    def close(self) -> None:
+        self.video_guard.close()
+        if self._uploads is not None:
+            self._uploads.shutdown(wait=False, cancel_futures=True)

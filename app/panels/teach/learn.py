@@ -1,0 +1,135 @@
+"""The Teach tab's Learn folder: the learning settings, and how the latest fit went.
+
+Moving a slider or choosing a shrinkage only notes the time; once the controls have been still
+for :data:`LEARN_DEBOUNCE_S`, :meth:`LearnSection.step` hands the settings to
+:meth:`app.session.Session.set_learning`, which stores them and refits in the background. The
+sliders start from the workspace's settings, whose absent entries are the engine's defaults
+(:class:`promp.model.Settings`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from app.context import PanelContext
+from app.gui_text import GREEN, ORANGE, colored, escape
+from promp.model import Settings
+
+LEARN_DEBOUNCE_S = 0.15  # a slider being dragged refits once it pauses
+FAST_FIT_MS = 100.0  # a fit slower than this is shown in orange
+SHRINKAGE_CHOICES: dict[str, float | None] = {
+    "automatic (pooled prior)": None,
+    "1e-6 (span of the demos)": 1e-6,
+    "1e-4": 1e-4,
+    "1e-3": 1e-3,
+    "0.01": 0.01,
+    "0.1": 0.1,
+    "0.3": 0.3,
+}
+
+
+def shrinkage_label(value: float | None) -> str:
+    """The Shrinkage option showing ``value`` (a number the list lacks is shown as is)."""
+    for label, choice in SHRINKAGE_CHOICES.items():
+        if same_shrinkage(choice, value):
+            return label
+    return f"{value:g}"
+
+
+def same_shrinkage(a: float | None, b: float | None) -> bool:
+    if a is None or b is None:
+        return a is b
+    return math.isclose(a, b)
+
+
+class LearnSection:
+    """The Learn folder (see the module docstring)."""
+
+    def __init__(self, ctx: PanelContext):
+        self.ctx = ctx
+        self._changed_at: float | None = None
+        settings = ctx.session.learning_settings()
+        gui = ctx.gui
+        with gui.add_folder("Learn"):
+            self.n_basis = gui.add_slider(
+                "Basis functions", 4, 30, 1, int(settings.n_basis), hint="M per dimension"
+            )
+            self.width = gui.add_slider(
+                "Width",
+                0.5,
+                3.0,
+                0.1,
+                float(settings.width),
+                hint="RBF width, in multiples of the spacing of the centres",
+            )
+            label = shrinkage_label(settings.shrinkage)
+            options = tuple(SHRINKAGE_CHOICES)
+            self.shrinkage = gui.add_dropdown(
+                "Shrinkage",
+                options if label in options else (*options, label),
+                initial_value=label,
+                hint="Regularisation of the weight covariance: the prior pooled across "
+                "primitives, or a fixed shrinkage towards a scaled identity",
+            )
+            self.fit_status = gui.add_markdown("")
+        for handle in (self.n_basis, self.width, self.shrinkage):
+            handle.on_update(self._moved)
+
+    def _moved(self, _event) -> None:
+        self._changed_at = time.monotonic()
+
+    def step(self, now: float) -> None:
+        """Store the settings once the controls have been still for a moment."""
+        changed = self._changed_at
+        if changed is None or now - changed < LEARN_DEBOUNCE_S:
+            return
+        self._changed_at = None
+        session = self.ctx.session
+        current = session.learning_settings()
+        n_basis = int(self.n_basis.value)
+        width = round(float(self.width.value), 3)
+        shrinkage = SHRINKAGE_CHOICES.get(self.shrinkage.value, current.shrinkage)
+        if (
+            n_basis == current.n_basis
+            and math.isclose(width, current.width)
+            and same_shrinkage(shrinkage, current.shrinkage)
+        ):
+            return
+        try:
+            session.set_learning(n_basis, width, shrinkage=shrinkage)
+        except (ValueError, OSError) as exc:
+            self.ctx.notify("Cannot change the learning settings", str(exc), "red")
+            self._show_settings(session.learning_settings())
+
+    def show(self) -> None:
+        """The session's settings (unless the user is moving a control) and the latest fit."""
+        if self._changed_at is None:
+            self._show_settings(self.ctx.session.learning_settings())
+        self._show_fit()
+
+    def _show_settings(self, settings: Settings) -> None:
+        self.n_basis.value = int(settings.n_basis)
+        self.width.value = float(settings.width)
+        label = shrinkage_label(settings.shrinkage)
+        if label not in self.shrinkage.options:
+            self.shrinkage.options = (*self.shrinkage.options, label)
+        self.shrinkage.value = label
+        self._changed_at = None  # these assignments ran the callbacks
+
+    def _show_fit(self) -> None:
+        session = self.ctx.session
+        with session.lock:
+            model, error, fit_ms = session.model, session.fit_error, session.fit_ms
+            n_demos = sum(len(d) for d in session.demos.values())
+        if error is not None and model is None:
+            self.fit_status.content = colored(f"Not learned: {escape(error)}", ORANGE)
+            return
+        color = GREEN if fit_ms < FAST_FIT_MS else ORANGE
+        text = colored(f"Fit in {fit_ms:.0f} ms", color, bold=True)
+        n_learned = len(model.names) if model is not None else 0
+        self.fit_status.content = (
+            f"{text}: {n_learned} primitive(s) learned from {n_demos} demonstrations."
+        )
+        if error is not None:
+            self.fit_status.content += "  \n" + colored(escape(error), ORANGE)

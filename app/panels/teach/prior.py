@@ -1,0 +1,98 @@
+"""The Teach tab's Prior folder: the selected primitive's prior, one chart per dimension.
+
+Each chart shows the prior at the primitive's typical speed (:func:`app.scrub.typical_prior`,
+mean +- 2 sd, in the display units of :mod:`app.display`) with the newest demonstration over
+it, or, while recording, the demonstration being recorded.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.context import PanelContext
+from app.display import quantities
+from app.plots import Band, Trace, add_band_chart, band_chart, update_band_chart
+from app.recorder import Recording
+from app.scrub import typical_prior
+from promp.data import Layout
+from robots.icub.layout import HAND, HEAD
+
+PLOT_POINTS = 100
+NO_COLOR = (128, 128, 128)
+LIVE_COLOR = (20, 20, 20)
+DEMO_COLOR = (70, 70, 70)
+NEEDS_TWO = "Record at least two demonstrations to learn a prior."
+
+
+class PriorCharts:
+    """The Prior folder (see the module docstring)."""
+
+    def __init__(self, ctx: PanelContext):
+        self.ctx = ctx
+        self.plots: list = []
+        self.layout: Layout | None = None
+        self.folder = ctx.gui.add_folder("Prior")
+        with self.folder:
+            self.note = ctx.gui.add_markdown("")
+        self.build(ctx.session.layout)
+
+    def build(self, layout: Layout) -> None:
+        """One chart per dimension of ``layout`` (rebuilt when the workspace changes)."""
+        for plot in self.plots:
+            plot.remove()
+        placeholder = band_chart([], [Trace("", np.array([0.0, 1.0]), np.zeros(2), (0, 0, 0))])
+        with self.folder:
+            self.plots = [
+                add_band_chart(self.ctx.gui, placeholder, title=q.title)
+                for q in quantities(layout)
+            ]
+        self.layout = layout
+
+    def draw(self, name: str | None, live: Recording | None = None) -> None:
+        """The prior of ``name`` per dimension, with its newest demonstration (or ``live``)."""
+        session = self.ctx.session
+        with session.lock:
+            model, layout = session.model, session.layout
+            demos = list(session.demos.get(name, [])) if name is not None else []
+            color = session.color(name) if name in session.names() else NO_COLOR
+        prediction = None
+        if model is not None and name in model.names and model.layout == layout:
+            prediction = typical_prior(model, name, PLOT_POINTS)
+        if layout != self.layout:
+            self.build(layout)
+        traces: list[tuple[str, np.ndarray, np.ndarray, tuple[int, int, int]]] = []
+        if live is not None and live.n_samples >= 2:
+            blocks = {HAND.name: live.hand, HEAD.name: live.head}
+            columns = np.column_stack([blocks[m] for m in layout.names if m in blocks])
+            traces.append(("the recording", live.times, columns, LIVE_COLOR))
+        elif demos:
+            newest = demos[-1]
+            traces.append((newest.name, newest.times, layout.extract(newest), DEMO_COLOR))
+        if prediction is None and not traces:
+            self.folder.label = "Prior"
+            self.note.content = NEEDS_TWO if name is not None else "No primitive."
+            for plot in self.plots:
+                plot.visible = False
+            return
+        self.folder.label = f"Prior of {name}: mean ± 2σ"
+        if prediction is None:
+            self.note.content = NEEDS_TWO
+        elif traces:
+            self.note.content = f"Band: the prior. Line: {traces[0][0]}."
+        else:
+            self.note.content = "Band: the prior."
+        for q, plot in zip(quantities(layout), self.plots, strict=True):
+            bands = [] if prediction is None else [Band.from_prediction(prediction, q, name, color)]
+            lines = []
+            for label, times, columns, line_color in traces:
+                if q.column >= columns.shape[1]:
+                    continue
+                values = q.scale * columns[:, q.column]
+                ok = np.isfinite(values)  # a live head column has no angle without a face
+                if ok.sum() >= 1:
+                    lines.append(Trace(label, times[ok], values[ok], line_color, width=1.5))
+            if not bands and not lines:
+                plot.visible = False
+                continue
+            update_band_chart(plot, band_chart(bands, lines), self.ctx.atomic)
+            plot.visible = True

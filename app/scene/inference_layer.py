@@ -1,0 +1,111 @@
+"""The Infer tab's objects in 3D: the observed hand path, the posterior tube of the recognised
+primitive, the predicted path to its end point, the point the prediction starts from, and the
+true remainder of a test demonstration.
+
+:meth:`InferenceLayer.draw` shapes them from a scrub step's result; whether they are shown is
+the scene's decision (:func:`app.scene.look.look`). The tube's mesh has a fixed topology, so a
+scrub step only replaces its vertices.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import viser
+
+from app.scene.tubes import resample, tube_faces, tube_vertices
+from app.scrub import PATH_POINTS, TUBE_POINTS, ScrubResult
+from robots.icub.layout import HAND, hand_dims
+
+POSTERIOR_OPACITY = 0.45
+OBSERVED_COLOR = (25, 25, 25)
+TRUTH_COLOR = (70, 70, 70)
+DEFAULT_COLOR = (120, 120, 120)
+
+
+def darker(color, factor: float = 0.6) -> tuple[int, int, int]:
+    return tuple(int(round(c * factor)) for c in color)  # type: ignore[return-value]
+
+
+class InferenceLayer:
+    """The Infer tab's scene nodes (see the module docstring)."""
+
+    def __init__(self, server: viser.ViserServer):
+        scene = server.scene
+        line = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]])
+        straight = np.linspace([0.0, 0.0, 0.0], [0.1, 0.0, 0.0], TUBE_POINTS)
+        self.tube = scene.add_mesh_simple(
+            "/infer/posterior",
+            vertices=tube_vertices(straight, np.full((TUBE_POINTS, 3), 0.01)),
+            faces=tube_faces(TUBE_POINTS),
+            color=DEFAULT_COLOR,
+            opacity=POSTERIOR_OPACITY,
+            flat_shading=False,
+            side="double",
+            visible=False,
+        )
+        self.future = scene.add_spline_catmull_rom(
+            "/infer/future", points=line, thickness=5.0, thickness_units="screen",
+            color=DEFAULT_COLOR, visible=False,
+        )  # fmt: skip
+        self.observed_line = scene.add_spline_catmull_rom(
+            "/infer/observed", points=line, thickness=4.0, thickness_units="screen",
+            color=OBSERVED_COLOR, visible=False,
+        )  # fmt: skip
+        self.truth_line = scene.add_spline_catmull_rom(
+            "/infer/truth", points=line, thickness=2.0, thickness_units="screen",
+            color=TRUTH_COLOR, visible=False,
+        )  # fmt: skip
+        self.end_point = scene.add_icosphere(
+            "/infer/end", radius=0.02, color=DEFAULT_COLOR, visible=False
+        )
+        self.now_point = scene.add_icosphere(
+            "/infer/now", radius=0.012, color=(250, 250, 250), visible=False
+        )
+        self.nodes = (
+            self.tube, self.future, self.observed_line, self.truth_line, self.end_point,
+            self.now_point,
+        )  # fmt: skip
+        self._drawn: set[int] = set()  # ids of the nodes the latest result shaped
+
+    @property
+    def has_shape(self) -> bool:
+        """True when the latest result had something to show in 3D."""
+        return bool(self._drawn)
+
+    def draw(self, result: ScrubResult | None, color: tuple[int, int, int]) -> None:
+        """Shape the nodes from ``result`` (drawn in ``color``, its primitive's); none without
+        a result or a hand modality."""
+        hand = hand_dims(result.layout) if result is not None else None
+        if result is None or hand is None:
+            self._drawn = set()
+            return
+        post = result.posterior
+        self.tube.vertices = tube_vertices(post.mean[:, hand], post.std[:, hand])
+        self.tube.color = color
+        self.future.points = result.future_hand.astype(np.float32)
+        self.future.color = darker(color)
+        self.end_point.position = result.future_hand[-1]
+        self.end_point.color = color
+        self.now_point.position = result.future_hand[0]
+        drawn = {id(n) for n in (self.tube, self.future, self.end_point, self.now_point)}
+        obs = result.observation
+        if HAND.name in obs.modalities and obs.n_observed >= 2:
+            cols = np.flatnonzero(np.isin(result.layout.dims(obs.modalities), hand))
+            points = resample(obs.values[:, cols], min(obs.n_observed, PATH_POINTS))
+            self.observed_line.points = points.astype(np.float32)
+            drawn.add(id(self.observed_line))
+        if result.truth is not None:
+            true_hand = result.layout.extract(result.truth)[:, hand]
+            rest = true_hand[max(obs.n_observed - 1, 0) :]
+            if rest.shape[0] >= 2:
+                points = resample(rest, min(rest.shape[0], PATH_POINTS))
+                self.truth_line.points = points.astype(np.float32)
+                drawn.add(id(self.truth_line))
+        self._drawn = drawn
+
+    def show(self, visible: bool) -> None:
+        """Show the nodes the latest result shaped (``visible``), or none."""
+        for node in self.nodes:
+            wanted = visible and id(node) in self._drawn
+            if node.visible != wanted:
+                node.visible = wanted

@@ -1,0 +1,134 @@
+"""The workspace in 3D: each demonstration as a thin line, each primitive's prior as a tube.
+
+Both are the ``hand`` modality's (a workspace without one has none). Lines keep their node while
+their demonstration is the same object; tubes keep their mesh topology (``TUBE_POINTS`` rings of
+:data:`app.scene.tubes.RING` vertices), so a refit only replaces vertices.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import viser
+
+from app.scene.look import FADED, HIDDEN, Look
+from app.scene.tubes import resample, tube_faces, tube_vertices
+from app.scrub import typical_prior
+from promp.data import Demonstration, Layout
+from promp.model import ProMPModel
+from robots.icub.layout import hand_dims
+
+TUBE_POINTS = 100
+LINE_POINTS = 60
+PRIOR_OPACITY = 0.25
+DIMMED_OPACITY = 0.07
+NO_COLOR = (200, 200, 200)
+
+Key = tuple[str, str]  # (primitive, demonstration)
+
+
+def _set(node, name: str, value) -> None:
+    """Set a node property only when it changes (every assignment is a message)."""
+    current = getattr(node, name)
+    same = (
+        tuple(current) == tuple(value)
+        if isinstance(value, tuple)
+        else current == value
+    )
+    if not same:
+        setattr(node, name, value)
+
+
+class WorkspaceLayer:
+    """Demonstration lines and prior tubes (see the module docstring)."""
+
+    def __init__(self, server: viser.ViserServer):
+        self.server = server
+        self.lines: dict[Key, viser.SceneNodeHandle] = {}
+        self._line_demo: dict[Key, Demonstration] = {}  # what each line shows
+        self.tubes: dict[str, viser.MeshHandle] = {}
+        self.faces = tube_faces(TUBE_POINTS)
+
+    def draw(
+        self,
+        demos: Mapping[str, Sequence[Demonstration]],
+        colors: Mapping[str, tuple[int, int, int]],
+        layout: Layout,
+        model: ProMPModel | None,
+        look: Look,
+        hidden: set[Key],
+    ) -> None:
+        """Lines for ``demos`` and tubes for the primitives both ``model`` and ``colors``
+        know; nothing of a layout without a hand."""
+        if hand_dims(layout) is None:
+            demos, model = {}, None
+        self._draw_lines(demos, colors, layout, look, hidden)
+        self._draw_tubes(model, colors, look)
+
+    def _draw_lines(self, demos, colors, layout: Layout, look: Look, hidden: set[Key]) -> None:
+        wanted = set()
+        cols = hand_dims(layout)
+        for name, items in demos.items():
+            for demo in items:
+                key = (name, demo.name)
+                wanted.add(key)
+                if key in self.lines and self._line_demo.get(key) is demo:
+                    continue
+                if key in self.lines:  # same name, other data (a restored or new workspace)
+                    self.lines.pop(key).remove()
+                self._line_demo[key] = demo
+                points = layout.extract(demo)[:, cols]
+                self.lines[key] = self.server.scene.add_spline_catmull_rom(
+                    f"/demos/{name}/{demo.name}",
+                    points=resample(points, min(len(points), LINE_POINTS)),
+                    color=colors[name],
+                    thickness=1.5,
+                    thickness_units="screen",
+                    visible=look.demos and key not in hidden,
+                )
+        for key in list(self.lines):
+            if key not in wanted:
+                self.lines.pop(key).remove()
+                self._line_demo.pop(key, None)
+            elif key[0] in colors:
+                _set(self.lines[key], "color", tuple(colors[key[0]]))
+
+    def prior_tube(self, model: ProMPModel, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """Mean and std (TUBE_POINTS, 3) of the prior hand path of primitive ``name``."""
+        prediction = typical_prior(model, name, TUBE_POINTS)
+        cols = hand_dims(model.layout)
+        return prediction.mean[:, cols], prediction.std[:, cols]
+
+    def _draw_tubes(self, model: ProMPModel | None, colors, look: Look) -> None:
+        # A model still being replaced may know a primitive just deleted or renamed.
+        names = [n for n in model.names if n in colors] if model is not None else []
+        for name in list(self.tubes):
+            if name not in names:
+                self.tubes.pop(name).remove()
+        for name in names:
+            vertices = tube_vertices(*self.prior_tube(model, name))
+            tube = self.tubes.get(name)
+            if tube is None:
+                self.tubes[name] = self.server.scene.add_mesh_simple(
+                    f"/priors/{name}",
+                    vertices=vertices,
+                    faces=self.faces,
+                    color=colors.get(name, NO_COLOR),
+                    opacity=DIMMED_OPACITY if look.priors == FADED else PRIOR_OPACITY,
+                    flat_shading=False,
+                    side="double",
+                    visible=look.priors != HIDDEN,
+                )
+            else:
+                tube.vertices = vertices
+                _set(tube, "color", tuple(colors.get(name, NO_COLOR)))
+
+    def apply(self, look: Look, hidden: set[Key]) -> None:
+        """Show what ``look`` asks for (``hidden``: the lines the user hid)."""
+        for key, line in list(self.lines.items()):
+            _set(line, "visible", look.demos and key not in hidden)
+        opacity = DIMMED_OPACITY if look.priors == FADED else PRIOR_OPACITY
+        for tube in list(self.tubes.values()):
+            _set(tube, "visible", look.priors != HIDDEN)
+            _set(tube, "opacity", opacity)
