@@ -69,9 +69,10 @@ class Replay:
 
     # ------------------------------------------------------------------ commands
 
-    def load(self, times: np.ndarray, positions: np.ndarray) -> None:
+    def load(self, times: np.ndarray, positions: np.ndarray, resume: bool = False) -> None:
         """A new path (times (m,) strictly increasing, seconds; positions (m, 3)); stops and
-        rewinds. An empty ``times`` clears the path.
+        rewinds, or with ``resume`` goes on playing it from the same fraction of the path (a
+        prediction updated during a replay). An empty ``times`` clears the path.
 
         Raises
         ------
@@ -89,7 +90,11 @@ class Replay:
             raise ValueError("a path must be finite (no NaN or inf)")
         if times.shape[0] > 1 and not np.all(np.diff(times) > 0):
             raise ValueError("path times must be strictly increasing")
+        fraction = self.progress
         self.times, self.positions = times, positions
+        if resume and self.playing and self.has_path:
+            self.elapsed = fraction * self.duration
+            return
         self.elapsed = 0.0
         self.playing = False
         self._last = None

@@ -84,12 +84,15 @@ def held_out_training(
 
 class HeldOutModels:
     """Models learned without one test demonstration, cached by (version of what is learned
-    from, primitive, demonstration): scrubbing never refits; a change of the demonstrations or
-    the settings does (:attr:`app.session.Session.learn_version`)."""
+    from, primitive, demonstration, settings): scrubbing never refits; a change of the
+    demonstrations or the settings does (:attr:`app.session.Session.learn_version`)."""
 
     def __init__(self, max_entries: int = 8):
         self.max_entries = max_entries
-        self._cache: OrderedDict[tuple[int, str, str], ProMPModel] = OrderedDict()
+        self._cache: OrderedDict[tuple[int, str, str, str], ProMPModel] = OrderedDict()
+
+    def has(self, version: int, primitive: str, demo_name: str, settings: Settings) -> bool:
+        return (version, primitive, demo_name, repr(settings)) in self._cache
 
     def get(
         self,
@@ -101,7 +104,7 @@ class HeldOutModels:
         layout: Layout,
     ) -> ProMPModel:
         """The model fitted on ``demos`` minus ``demo_name`` (see :func:`held_out_training`)."""
-        key = (version, primitive, demo_name)
+        key = (version, primitive, demo_name, repr(settings))
         model = self._cache.get(key)
         if model is None:
             model = fit(held_out_training(demos, primitive, demo_name), layout, settings)
@@ -115,8 +118,6 @@ class HeldOutModels:
     def __len__(self) -> int:
         return len(self._cache)
 
-    def __contains__(self, key: tuple[int, str, str]) -> bool:
-        return key in self._cache
 
 
 @dataclass(frozen=True, eq=False)

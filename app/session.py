@@ -34,7 +34,7 @@ from app.trash import TrashEntry
 from app.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
 from app.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
 from promp.data import Demonstration, Layout
-from promp.model import ProMPModel, Settings, fit
+from promp.model import FALLBACK, ProMPModel, Settings, fit
 from promp.pipeline import Typicality, typicality
 
 KEEP = object()  # set_learning: leave a setting as it is
@@ -248,7 +248,7 @@ class Session:
         demonstrations (None when fewer than three exist)."""
         with self.lock:
             others = [d for d in self.demos.get(primitive, []) if d.name != demo.name]
-            return typicality(demo, others, self.layout, self.learning_settings())
+            return typicality(demo, others, self.layout, self.resolved_settings())
 
     # ------------------------------------------------------------------ mutations
 
@@ -375,18 +375,51 @@ class Session:
             (self.hidden.add if hidden else self.hidden.discard)((primitive, demo))
             self._changed(refit=False)
 
-    def set_learning(self, n_basis: int, width: float, shrinkage: object = KEEP) -> None:
-        """Change the learning settings. ``shrinkage``: a float in (0, 1], or None for the
-        automatic pooled prior; when omitted, the current one is kept."""
+    def set_learning(
+        self,
+        n_basis: int | None,
+        width: float | None,
+        shrinkage: object = KEEP,
+        noise_scale: object = KEEP,
+    ) -> None:
+        """Change the learning settings.
+
+        ``n_basis`` and ``width`` None: the basis, its width and the noise scale are chosen
+        from the demonstrations by every fit (the engine's automatic settings). Otherwise they
+        are given, and so is ``noise_scale`` when passed (a positive factor; None leaves it to
+        the fit). ``shrinkage``: a float in (0, 1], or None for the automatic pooled prior.
+        What is omitted is kept as it is.
+        """
         with self.lock:
-            extra = {}
+            settings = dict(self.settings)
+            if n_basis is None and width is None:
+                for name in FALLBACK:  # back to the automatic choice: absent means automatic
+                    settings.pop(name, None)
+            else:
+                settings["n_basis"], settings["width"] = int(n_basis), float(width)
+                if noise_scale is None:
+                    settings.pop("noise_scale", None)
+                elif noise_scale is not KEEP:
+                    settings["noise_scale"] = float(noise_scale)
             if shrinkage is not KEEP:
-                extra["shrinkage"] = None if shrinkage is None else float(shrinkage)
-            Settings(n_basis=int(n_basis), width=float(width), **extra)  # validates
-            settings = {**self.settings, "n_basis": int(n_basis), "width": float(width), **extra}
+                settings["shrinkage"] = None if shrinkage is None else float(shrinkage)
+            Settings(**settings)  # validates
             self.workspace.save_index(self.primitives, settings, self.layout)
             self.settings = settings
             self._changed()
+
+    def resolved_settings(self) -> Settings:
+        """The settings with every automatic one at the value the current model chose (its
+        fallback value while no model is learned): what a fit of one primitive's
+        demonstrations uses, e.g. for typicality, without choosing again."""
+        with self.lock:
+            settings = self.learning_settings()
+            model = self.model
+            if model is None or not settings.automatic:
+                return settings.with_fallback()
+            return replace(
+                settings, **{name: getattr(model.settings, name) for name in settings.automatic}
+            )
 
     def use_imported_model(self, model: ProMPModel | None, source: str = "") -> None:
         """Infer with ``model`` (e.g. read from an uploaded file) instead of the model learned

@@ -200,13 +200,11 @@ def check_index(index: object, label: str) -> Index:
     unknown = sorted(set(settings) - _SETTING_NAMES)
     if unknown:
         raise ValueError(f"{label}: unknown setting(s) {unknown}")
-    if "n_basis" in settings and (
-        not isinstance(settings["n_basis"], int) or isinstance(settings["n_basis"], bool)
-    ):
+    # null (or absent) n_basis / width / noise_scale: chosen from the demonstrations
+    n_basis, width = settings.get("n_basis"), settings.get("width")
+    if n_basis is not None and (not isinstance(n_basis, int) or isinstance(n_basis, bool)):
         raise ValueError(f"{label}: 'n_basis' must be an integer, got {settings['n_basis']!r}")
-    if "width" in settings and (
-        not isinstance(settings["width"], (int, float)) or isinstance(settings["width"], bool)
-    ):
+    if width is not None and (not isinstance(width, (int, float)) or isinstance(width, bool)):
         raise ValueError(f"{label}: 'width' must be a number, got {settings['width']!r}")
     try:
         Settings(**settings)

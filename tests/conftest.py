@@ -98,15 +98,16 @@ def browser() -> Iterator[object]:
         chromium.close()
 
 
-def wait_until(predicate, timeout: float = 30.0, interval: float = 0.05, what: str = "condition"):
-    """Poll ``predicate`` until it returns a truthy value; fail the test on timeout."""
+def wait_until(predicate, timeout: float = 30.0, interval: float = 0.05, what="condition"):
+    """Poll ``predicate`` until it returns a truthy value; fail the test on timeout, saying
+    ``what`` was awaited (a string, or a callable giving one with the state at that time)."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         value = predicate()
         if value:
             return value
         time.sleep(interval)
-    pytest.fail(f"timed out after {timeout:.0f} s waiting for {what}")
+    pytest.fail(f"timed out after {timeout:.0f} s waiting for {what() if callable(what) else what}")
 
 
 def start_studio(workspace: Path, **kwargs):

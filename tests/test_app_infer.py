@@ -249,6 +249,28 @@ def test_replay_advances_by_elapsed_time() -> None:
             replay.load(bad_times, bad_path)
 
 
+def test_a_new_prediction_during_a_replay_is_followed_from_where_it_was() -> None:
+    """A refit lands while the robot finishes the movement: it goes on along the new path from
+    the same fraction, and a path loaded while stopped rewinds as before."""
+    clock, moves = FakeClock(), []
+    replay = Replay(lambda p: moves.append(np.array(p)), clock=clock)
+    replay.load(np.array([0.0, 2.0]), np.array([[0.0, 0.0, 0.0], [0.2, 0.0, 0.0]]))
+    replay.play()
+    clock.t = 0.5
+    replay.step()
+    assert_allclose(replay.progress, 0.25)
+    replay.load(np.array([0.0, 4.0]), np.array([[0.0, 0.0, 0.0], [0.0, 0.4, 0.0]]), resume=True)
+    assert replay.playing and replay.elapsed == 1.0  # a quarter of the new 4 s
+    clock.t = 1.5
+    replay.step()
+    assert_allclose(moves[-1], [0.0, 0.2, 0.0])  # half of the new path after 1 s more
+    clock.t = 10.0
+    replay.step()
+    assert replay.finished
+    replay.load(np.array([0.0, 1.0]), np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), resume=True)
+    assert not replay.playing and replay.elapsed == 0.0  # not playing: rewound
+
+
 def moved_to(moves: list[np.ndarray], where: np.ndarray) -> bool:
     return bool(moves) and np.allclose(moves[-1], where)
 

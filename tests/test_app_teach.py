@@ -24,7 +24,6 @@ from app.session import Session
 from app.studio import default_workspace
 from app.workspace_index import LAYOUT
 from promp.datasets import read_csv_demo
-from promp.model import Settings
 from tests.conftest import REPO, open_page, start_studio, wait_until
 
 # ====================================================================== without a browser
@@ -150,7 +149,8 @@ def test_default_workspace_refits_every_primitive_and_reports_the_time(tmp_path)
     session.model = None
     session.refit()
     assert session.model is not None and tuple(session.model.names) == ("curved", "direct")
-    assert session.model.basis.n_basis == Settings().n_basis and session.fit_ms > 0.0
+    assert session.model.report["settings"]["chosen"]  # the automatic settings, chosen
+    assert session.model.basis.n_basis == session.model.settings.n_basis and session.fit_ms > 0.0
 
 
 # ====================================================================== in a real browser
@@ -346,7 +346,9 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
         text(page)
     )
     assert "21 demonstration(s) of curved" in text(page)
-    assert studio.scene.workspace.lines[("curved", "curved_020")].visible
+    lines = studio.scene.workspace.lines  # drawn by the loop once the session has it
+    key = ("curved", "curved_020")
+    wait_until(lambda: key in lines and lines[key].visible, what="the new demonstration's line")
     path = session.workspace.demo_path("curved", "curved_020")
     on_disk = read_csv_demo(path)
     np.testing.assert_allclose(on_disk.select(demo.columns), demo.values, atol=1e-9)
@@ -361,7 +363,8 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
 def test_hide_and_delete_a_demonstration(studio, tab) -> None:
     page, _ = tab
     session = studio.session
-    line = studio.scene.workspace.lines[("curved", "curved_020")]
+    lines = studio.scene.workspace.lines
+    line = wait_until(lambda: lines.get(("curved", "curved_020")), what="the line of curved_020")
     row(page, "curved_020").get_by_role("button", name="Hide").dispatch_event("click")
     wait_until(lambda: ("curved", "curved_020") in session.hidden, what="the demo to be hidden")
     wait_until(lambda: not line.visible, what="its line to be hidden")
@@ -542,8 +545,19 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
 def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None:
     page, _ = tab
     session = studio.session
-    n_basis = session.learning_settings().n_basis
+    model = session.wait_for_model()
+    # Automatic: the sliders show what the fit chose, read-only.
+    assert session.learning_settings().automatic and "n_basis" not in session.settings
+    n_basis = model.settings.n_basis
+    learn = panel(studio).learn
+    wait_until(lambda: learn.automatic.value and learn.n_basis.disabled
+               and learn.n_basis.value == n_basis, what="the chosen M shown")  # fmt: skip
+    wait_text(page, f"Chosen from the demonstrations: M = {n_basis}")
+    # Unticked, the sliders set the values, starting from the chosen ones.
+    row(page, "Automatic").get_by_role("checkbox").click()
+    wait_until(lambda: session.settings.get("n_basis") == n_basis, what="M given explicitly")
     thumb = row(page, "Basis functions").get_by_role("slider")
+    wait_until(lambda: not learn.n_basis.disabled, what="the slider enabled")
     thumb.focus()
     thumb.press("ArrowRight")
     # The setting is stored, then the model refitted (on the thread of the slider's callback).
@@ -563,7 +577,14 @@ def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None
     choose(page, "Shrinkage", "automatic (pooled prior)")
     wait_until(lambda: session.settings["shrinkage"] is None, what="leave-one-out shrinkage")
     assert '"shrinkage": null' in session.workspace.index_path.read_text()
-    wait_until(lambda: session.settings["n_basis"] == n_basis, what="n_basis back")
+    wait_until(lambda: session.settings["n_basis"] == n_basis, timeout=30,
+               what=lambda: f"n_basis back (settings {session.settings}, slider "
+               f"{panel(studio).learn.n_basis.value})")  # fmt: skip
+    # Automatic again: the settings leave studio.json, the fit chooses.
+    row(page, "Automatic").get_by_role("checkbox").click()
+    wait_until(lambda: "n_basis" not in session.settings and not session.refitting
+               and session.model.report["settings"]["chosen"], what="automatic again")  # fmt: skip
+    assert '"n_basis"' not in session.workspace.index_path.read_text()
 
 
 @pytest.mark.browser

@@ -181,6 +181,23 @@ def test_shrinkage_settings(session) -> None:
     np.testing.assert_allclose(session.model.primitive("direct").shrinkage, 0.3)
 
 
+def test_automatic_settings_are_chosen_by_the_fit_and_can_be_given_back(session) -> None:
+    model = session.wait_for_model()
+    chosen = model.report["settings"]["chosen"]
+    assert set(chosen) == {"n_basis", "width", "noise_scale"}
+    resolved = session.resolved_settings()  # what typicality fits with: no new choice
+    assert not resolved.automatic
+    assert (resolved.n_basis, resolved.width) == (model.settings.n_basis, model.settings.width)
+    session.set_learning(9, 1.2)
+    assert session.wait_for_model().settings.n_basis == 9
+    assert session.resolved_settings().n_basis == 9
+    assert '"n_basis": 9' in session.workspace.index_path.read_text()
+    session.set_learning(None, None)  # back to automatic: absent from studio.json
+    assert "n_basis" not in session.settings and "width" not in session.settings
+    assert '"n_basis"' not in session.workspace.index_path.read_text()
+    assert session.wait_for_model().report["settings"]["chosen"] == chosen
+
+
 def test_primitives_with_fewer_than_two_demonstrations_are_not_learned(session) -> None:
     session.create_primitive("alone")
     demo = session.demos["curved"][0]

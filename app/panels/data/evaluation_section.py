@@ -183,10 +183,15 @@ class EvaluationSection:
                 f"  \n**{len(failures)} trial(s) failed** (counted as recognition "
                 f"errors): {escape(listed)}" + (f"; and {more} more" if more > 0 else "")
             )
+        settings = job.settings
+        how = (
+            "settings chosen from the training demonstrations in every fold"
+            if settings.automatic
+            else f"n_basis {settings.n_basis}, width {settings.width:g}"
+        )
         return (
             f"Held out each of {job.total} demonstrations of {', '.join(job.dataset)} in "
-            f"{job.elapsed_s:.1f} s (n_basis {job.settings.n_basis}, width "
-            f"{job.settings.width:g}).{skipped}{failed}"
+            f"{job.elapsed_s:.1f} s ({how}).{skipped}{failed}"
         )
 
     def close(self) -> None:

@@ -249,7 +249,8 @@ class InferPanel:
         ):
             self.replay.clear()
             return
-        self.replay.load(times, result.future_hand)
+        # A new prediction during a replay (a refit landed) is followed from where it was.
+        self.replay.load(times, result.future_hand, resume=self.replay.playing)
 
     # ------------------------------------------------------------------ scrub step
 
@@ -276,7 +277,9 @@ class InferPanel:
             version = session.learn_version  # what the held-out model depends on
             imported = session.imported_model
             demos = {name: list(items) for name, items in session.demos.items()}
-            settings = session.learning_settings()
+            # The workspace fit's choice of the automatic settings: a held-out model is then a
+            # fit of fixed settings (milliseconds), not a new choice (a second or more).
+            settings = session.resolved_settings()
             layout = session.layout
         name, demo_name = self.primitive.value, self.demo.value
         demo = next((d for d in demos.get(name, []) if d.name == demo_name), None)
@@ -287,7 +290,7 @@ class InferPanel:
             self.model_note = "imported, so NOT held out"
         else:
             self.model_note = f"learned without {demo_name} (held out)"
-            cached = (version, name, demo_name) in self.models
+            cached = self.models.has(version, name, demo_name, settings)
             start = time.perf_counter()
             model = self.models.get(version, demos, name, demo_name, settings, layout)
             if not cached:

@@ -1,10 +1,11 @@
 """The Teach tab's Learn folder: the learning settings, and how the latest fit went.
 
-Moving a slider or choosing a shrinkage only notes the time; once the controls have been still
-for :data:`LEARN_DEBOUNCE_S`, :meth:`LearnSection.step` hands the settings to
-:meth:`app.session.Session.set_learning`, which stores them and refits in the background. The
-sliders start from the workspace's settings, whose absent entries are the engine's defaults
-(:class:`promp.model.Settings`).
+*Automatic* (the default) leaves the basis count, its width and the noise scale to every fit,
+which chooses them from the demonstrations (:mod:`promp.selection`); the sliders then show what
+the latest fit chose and are read-only. Unticked, the sliders set them. Moving a control only
+notes the time; once the controls have been still for :data:`LEARN_DEBOUNCE_S`,
+:meth:`LearnSection.step` hands the settings to :meth:`app.session.Session.set_learning`, which
+stores them and refits in the background.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import time
 
 from app.context import PanelContext
 from app.gui_text import GREEN, ORANGE, colored, escape
-from promp.model import Settings
+from promp.model import FALLBACK, Settings
 
 LEARN_DEBOUNCE_S = 0.15  # a slider being dragged refits once it pauses
 FAST_FIT_MS = 100.0  # a fit slower than this is shown in orange
@@ -32,15 +33,17 @@ SHRINKAGE_CHOICES: dict[str, float | None] = {
 def shrinkage_label(value: float | None) -> str:
     """The Shrinkage option showing ``value`` (a number the list lacks is shown as is)."""
     for label, choice in SHRINKAGE_CHOICES.items():
-        if same_shrinkage(choice, value):
+        if same_value(choice, value):
             return label
     return f"{value:g}"
 
 
-def same_shrinkage(a: float | None, b: float | None) -> bool:
+def same_value(a: float | None, b: float | None) -> bool:
+    """Equal settings: both automatic (None), or the same number."""
     if a is None or b is None:
         return a is b
     return math.isclose(a, b)
+
 
 
 class LearnSection:
@@ -50,18 +53,33 @@ class LearnSection:
         self.ctx = ctx
         self._changed_at: float | None = None
         settings = ctx.session.learning_settings()
+        shown = settings.with_fallback()
         gui = ctx.gui
         with gui.add_folder("Learn"):
+            self.automatic = gui.add_checkbox(
+                "Automatic",
+                bool(settings.automatic),
+                hint="Basis functions, width and noise scale chosen from the demonstrations "
+                "by every fit (cross-validated recognition log-loss)",
+            )
             self.n_basis = gui.add_slider(
-                "Basis functions", 4, 30, 1, int(settings.n_basis), hint="M per dimension"
+                "Basis functions", 4, 30, 1, int(shown.n_basis), hint="M per dimension"
             )
             self.width = gui.add_slider(
                 "Width",
                 0.5,
                 3.0,
                 0.1,
-                float(settings.width),
+                float(shown.width),
                 hint="RBF width, in multiples of the spacing of the centres",
+            )
+            self.noise_scale = gui.add_slider(
+                "Noise scale",
+                0.5,
+                6.0,
+                0.1,
+                float(shown.noise_scale),
+                hint="Multiplies the observation noise estimated from the fit residuals",
             )
             label = shrinkage_label(settings.shrinkage)
             options = tuple(SHRINKAGE_CHOICES)
@@ -73,7 +91,8 @@ class LearnSection:
                 "primitives, or a fixed shrinkage towards a scaled identity",
             )
             self.fit_status = gui.add_markdown("")
-        for handle in (self.n_basis, self.width, self.shrinkage):
+        self.sliders = (self.n_basis, self.width, self.noise_scale)
+        for handle in (self.automatic, *self.sliders, self.shrinkage):
             handle.on_update(self._moved)
 
     def _moved(self, _event) -> None:
@@ -87,17 +106,23 @@ class LearnSection:
         self._changed_at = None
         session = self.ctx.session
         current = session.learning_settings()
-        n_basis = int(self.n_basis.value)
-        width = round(float(self.width.value), 3)
+        wanted = {
+            "n_basis": int(self.n_basis.value),
+            "width": round(float(self.width.value), 3),
+            "noise_scale": round(float(self.noise_scale.value), 3),
+        }
+        if self.automatic.value:
+            wanted = dict.fromkeys(wanted)
         shrinkage = SHRINKAGE_CHOICES.get(self.shrinkage.value, current.shrinkage)
-        if (
-            n_basis == current.n_basis
-            and math.isclose(width, current.width)
-            and same_shrinkage(shrinkage, current.shrinkage)
-        ):
+        if all(
+            same_value(value, getattr(current, name)) for name, value in wanted.items()
+        ) and same_value(shrinkage, current.shrinkage):
             return
         try:
-            session.set_learning(n_basis, width, shrinkage=shrinkage)
+            session.set_learning(
+                wanted["n_basis"], wanted["width"], shrinkage=shrinkage,
+                noise_scale=wanted["noise_scale"],
+            )  # fmt: skip
         except (ValueError, OSError) as exc:
             self.ctx.notify("Cannot change the learning settings", str(exc), "red")
             self._show_settings(session.learning_settings())
@@ -109,8 +134,15 @@ class LearnSection:
         self._show_fit()
 
     def _show_settings(self, settings: Settings) -> None:
-        self.n_basis.value = int(settings.n_basis)
-        self.width.value = float(settings.width)
+        automatic = set(settings.automatic) == set(FALLBACK)
+        # What the latest fit chose where the data chooses (the fallback values until then).
+        model = self.ctx.session.model
+        chosen = settings.with_fallback() if model is None else model.settings
+        self.automatic.value = automatic
+        for handle, name in zip(self.sliders, FALLBACK, strict=True):
+            handle.disabled = automatic
+            value = getattr(settings, name)
+            handle.value = getattr(chosen, name) if value is None else value
         label = shrinkage_label(settings.shrinkage)
         if label not in self.shrinkage.options:
             self.shrinkage.options = (*self.shrinkage.options, label)
@@ -131,5 +163,17 @@ class LearnSection:
         self.fit_status.content = (
             f"{text}: {n_learned} primitive(s) learned from {n_demos} demonstrations."
         )
+        choice = model.report.get("settings", {}) if model is not None else {}
+        if choice.get("chosen"):
+            used, rule = model.settings, str(choice.get("rule", ""))
+            how = (
+                escape(rule[0].upper() + rule[1:])
+                if rule.startswith("fallback")
+                else "Chosen from the demonstrations"
+            )
+            self.fit_status.content += (
+                f"  \n{how}: M = {used.n_basis}, width {used.width:g}, "
+                f"noise x{used.noise_scale:g}."
+            )
         if error is not None:
             self.fit_status.content += "  \n" + colored(escape(error), ORANGE)
