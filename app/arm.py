@@ -18,6 +18,7 @@ from robots.icub.ik import IKResult, solve_ik
 from robots.icub.kinematics import ArmChain
 
 GIZMO_NODE = "/hand_gizmo"
+GIZMO_SCALE = 0.12  # length of the gizmo's arrows, metres
 MAX_IK_STEP_M = 0.03  # longest straight move solved in one IK call, metres
 
 
@@ -46,7 +47,7 @@ class ArmController:
         pose = arm.fk(self.q)
         self.gizmo = server.scene.add_transform_controls(
             GIZMO_NODE,
-            scale=0.12,
+            scale=GIZMO_SCALE,
             line_width=3.0,
             position=pose[:3, 3],
             wxyz=vtf.SO3.from_matrix(pose[:3, :3]).wxyz,
