@@ -22,7 +22,8 @@ from hypothesis import strategies as st
 from app.dataset_import import extract_dataset_zip
 from app.exchange import Limits, read_upload, workspace_zip
 from app.headpose.sources import HeadPoseSourceError, track_video
-from app.workspace import LAYOUT, PALETTE, PrimitiveEntry, Workspace, WorkspaceData
+from app.workspace import Workspace, WorkspaceData
+from app.workspace_index import LAYOUT, PALETTE, PrimitiveEntry
 from promp.datasets import demo_from_csv, demo_to_csv, read_record
 from promp.inference import Observation
 from promp.io import demo_from_npz_bytes, model_to_json
@@ -238,6 +239,111 @@ def test_observations(model) -> None:
         infer(model, Observation(*triple))
 
     run_corpus("observation", bad_inputs.observation_cases(3), run)
+
+
+# ------------------------------------------------------------------------------ in the studio
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory, dataset):
+    """A running studio (no browser: the upload callbacks are called as viser calls them) whose
+    notifications are recorded."""
+    from app.studio import Studio
+    from tests.conftest import start_studio
+
+    notes: list[tuple[str, str, str]] = []
+    original = Studio.notify
+
+    def notify(self, title, body, color="blue", client=None, auto_close_seconds=8.0):
+        notes.append((title, body, color))
+        original(self, title, body, color, client, auto_close_seconds)
+
+    root = tmp_path_factory.mktemp("studio") / "ws"
+    Workspace.create(root, WorkspaceData(
+        primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
+        demos=dataset, settings={"n_basis": 7, "width": 1.0, "noise_scale": 1.5},
+    ))  # fmt: skip
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Studio, "notify", notify)
+        studio = start_studio(root)
+    studio.notes = notes
+    studio.session.wait_for_model()
+    yield studio
+    studio.stop()
+
+
+def refused_in_the_gui(studio, path: str, cases, upload, title: str) -> None:
+    """Each case given to ``upload(filename, content)`` (a GUI upload callback) is a red
+    notification titled ``title...`` holding the expected fragment, and changes nothing."""
+    session, root = studio.session, studio.session.workspace.root
+    before, version = tree_hash(root), session.version
+
+    def attempt(payload: bytes, expected: str) -> None:
+        studio.notes.clear()
+        upload(payload)
+        red = [n for n in studio.notes if n[2] == "red" and n[0].startswith(title)]
+        if not red:
+            raise AssertionError(f"no refusal shown (notifications: {studio.notes})")
+        raise ValueError(red[0][1])  # the refusal, checked by refuse() like any other
+
+    problems = [
+        p for case, payload, expected in cases
+        if (p := refuse(path, case, expected,
+                        lambda payload=payload, expected=expected: attempt(payload, expected)))
+    ]  # fmt: skip
+    assert not problems, "\n".join(problems)
+    assert tree_hash(root) == before and session.version == version, "the workspace changed"
+
+
+def test_the_data_tab_refuses_bad_model_and_workspace_files(studio, model, dataset) -> None:
+    from app.panels.data.panel import DataPanel
+
+    panel = next(p for p in studio.panels if isinstance(p, DataPanel))
+    models = list(bad_inputs.model_cases(model_to_json(model).encode()))
+    refused_in_the_gui(studio, "GUI model upload", models,
+                       lambda c: panel.import_file(None, "m.json", c), "Cannot import")  # fmt: skip
+    import io
+    import zipfile
+
+    with zipfile.ZipFile(io.BytesIO(workspace_zip(Workspace(studio.session.workspace.root)
+                                                  .load(), model))) as z:  # fmt: skip
+        members = {name: z.read(name) for name in z.namelist()}
+    archives = list(bad_inputs.workspace_zip_cases(members, make_csv(dataset)))
+    refused_in_the_gui(studio, "GUI workspace upload", archives,
+                       lambda c: panel.import_file(None, "ws.zip", c), "Cannot import")  # fmt: skip
+
+
+def test_the_dataset_import_refuses_bad_zips(studio, dataset, heights_record) -> None:
+    from app.panels.data.panel import DataPanel
+
+    section = next(p for p in studio.panels if isinstance(p, DataPanel)).importer
+    cases = list(bad_inputs.dataset_zip_cases(make_csv(dataset), heights_record))
+    refused_in_the_gui(studio, "GUI dataset import", cases,
+                       lambda c: section.receive(None, "mine.zip", c), "Cannot import")  # fmt: skip
+
+
+def test_the_head_source_refuses_bad_videos(installed, studio, tmp_path) -> None:
+    from app.panels.teach import TeachPanel
+    from tests.conftest import wait_until
+
+    head = next(p for p in studio.panels if isinstance(p, TeachPanel)).head
+    source = studio.head.source
+    path = tmp_path / "clip.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 48))
+    for k in range(10):
+        writer.write(np.full((48, 64, 3), 20 * k, dtype=np.uint8))
+    writer.release()
+    cases = [*bad_inputs.video_cases(path.read_bytes()),
+             ("a video without a face", path.read_bytes(), "no face")]  # fmt: skip
+
+    def upload(content: bytes) -> None:
+        count = len(studio.notes)
+        head._process("clip.mp4", content)
+        wait_until(lambda: len(studio.notes) > count and not head.processing, timeout=60,
+                   what="the video's outcome")  # fmt: skip
+
+    refused_in_the_gui(studio, "GUI video upload", cases, upload, "Video not usable")
+    assert studio.head.source is source  # the head source in use stays
 
 
 # ------------------------------------------------------------------------------ fuzzing
