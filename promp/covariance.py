@@ -41,7 +41,12 @@ CV_FOLDS = 10
 
 
 def block_target(
-    centred: np.ndarray, n_dims: int, dof: float, basis: RBFBasis, n_phases: int = 101
+    centred: np.ndarray,
+    n_dims: int,
+    dof: float,
+    basis: RBFBasis,
+    floor: np.ndarray,
+    n_phases: int = 101,
 ) -> np.ndarray:
     """Diagonal of the shrinkage target F, one scaled identity per dimension, (n_weights,).
 
@@ -50,13 +55,24 @@ def block_target(
     demonstrations' own average variance in dimension d. (Set from the weights' variances
     instead, an overlapping basis, whose near-collinear weights vary wildly while their
     trajectory does not, would give a target of metres.)
+
+    Parameters
+    ----------
+    centred : array, shape (n, n_dims * M)
+        Residual weights (dimension-major).
+    dof : float
+        Their degrees of freedom.
+    floor : array, shape (n_dims,)
+        The smallest trajectory variance of each dimension, in its unit squared (identical
+        demonstrations vary by nothing): a fraction of the data's own scale
+        (:mod:`promp.scale`), so that the target does not depend on the unit.
     """
     phi = basis(np.linspace(0.0, 1.0, n_phases))  # (Z, M)
     blocks = centred.reshape(centred.shape[0], n_dims, -1)  # (N, D, M)
     trajectories = np.einsum("ndm,zm->ndz", blocks, phi)
     spread = (trajectories**2).sum(axis=0).mean(axis=-1) / max(dof, 1e-12)  # (D,)
     gain = float((phi**2).sum(axis=1).mean())  # trajectory variance per unit weight variance
-    tau = np.maximum(spread / gain, 1e-12)  # identical demonstrations: a micro-unit floor
+    tau = np.maximum(spread, np.asarray(floor, dtype=float)) / gain
     return np.repeat(tau, phi.shape[1])
 
 
@@ -133,6 +149,20 @@ def niw_log_evidence(
     return total
 
 
+def compress_factor(factor: np.ndarray) -> np.ndarray:
+    """A factor with as many columns as rows and the same product: shape (P, r) -> (P, P)
+    with ``G G^T = F F^T`` (for r > P).
+
+    ``G = R^T`` from the QR factorisation ``F^T = Q R``: every row of ``G`` is the row of ``F``
+    times the same orthonormal ``Q``, computed with an error relative to that row. So
+    dimensions in units a million times apart (a hand in km beside a head in radians) keep
+    their precision, where the eigendecomposition of ``F F^T`` would lose the small ones in
+    the round-off of the large.
+    """
+    r = np.linalg.qr(factor.T, mode="r")  # (P, P) for r > P
+    return np.ascontiguousarray(r.T)
+
+
 @dataclass(frozen=True)
 class PooledPrior:
     """What :func:`pooled_covariances` chose, and why (recorded in the model file).
@@ -168,6 +198,7 @@ def pooled_covariances(
     dims_of_modality: Sequence[np.ndarray],
     n_dims: int,
     basis: RBFBasis,
+    floor: np.ndarray,
 ) -> tuple[list[tuple[np.ndarray, np.ndarray]], PooledPrior]:
     """Every primitive's predictive weight covariance (see the module docstring).
 
@@ -179,6 +210,8 @@ def pooled_covariances(
         Their degrees of freedom (n_k - 1, or n_k - 2 with the alpha regression).
     dims_of_modality : list of int arrays
         The dimensions of each modality (one ``beta`` each).
+    floor : array, shape (n_dims,)
+        The smallest trajectory variance of each dimension (see :func:`block_target`).
 
     Returns
     -------
@@ -187,7 +220,7 @@ def pooled_covariances(
     n_basis = basis.n_basis
     rows = np.concatenate(residuals)
     dof_pool = float(sum(dofs))
-    target = block_target(rows, n_dims, dof_pool, basis)
+    target = block_target(rows, n_dims, dof_pool, basis, floor)
     beta = np.empty(n_dims)
     for dims in dims_of_modality:
         cols = (np.asarray(dims)[:, None] * n_basis + np.arange(n_basis)).reshape(-1)
@@ -214,7 +247,6 @@ def pooled_covariances(
         b = inflate / (c + dof)  # weight of E_k^T E_k
         factor = np.concatenate([math.sqrt(a) * pooled_factor, math.sqrt(b) * e.T], axis=1)
         if factor.shape[1] > p:  # compress to rank <= P
-            s, v = np.linalg.eigh(factor @ factor.T)
-            factor = v * np.sqrt(np.maximum(s, 0.0))
+            factor = compress_factor(factor)
         out.append((a * beta_w * target, factor))
     return out, PooledPrior(target_weight=beta, strength=c, log_evidence=float(scores[best]))

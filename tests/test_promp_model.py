@@ -13,6 +13,8 @@ from promp.model import Settings, fit, fit_weights
 from promp.timing import alpha_from_duration, duration_from_alpha
 from tests.synthetic import COLUMNS, LAYOUT, make_dataset
 
+FLOOR = np.full(3, 1e-12)  # the smallest trajectory variance of the 3 dimensions below
+
 
 def test_basis_rows_are_normalised_and_widths_follow_the_spacing() -> None:
     for m in (2, 5, 20):
@@ -125,9 +127,9 @@ def test_the_pooled_prior_is_strong_when_primitives_share_their_shape() -> None:
     basis = RBFBasis(4, 1.0)
     dims = [np.array([0, 1, 2])]
     shared = _classes(rng, 6, 8, shared=True)
-    _, strong = pooled_covariances(shared, [7] * 6, dims, 3, basis)
+    _, strong = pooled_covariances(shared, [7] * 6, dims, 3, basis, FLOOR)
     unrelated = _classes(rng, 6, 40, shared=False)
-    _, weak = pooled_covariances(unrelated, [39] * 6, dims, 3, basis)
+    _, weak = pooled_covariances(unrelated, [39] * 6, dims, 3, basis, FLOOR)
     assert strong.strength > 10 * 7
     assert weak.strength < 39
     described = strong.describe()
@@ -139,9 +141,9 @@ def test_the_pooled_covariance_is_the_posterior_mean_of_its_niw_prior() -> None:
     rng = np.random.default_rng(1)
     basis = RBFBasis(4, 1.0)
     residuals = _classes(rng, 3, 6, shared=True)
-    out, prior = pooled_covariances(residuals, [5, 5, 5], [np.arange(3)], 3, basis)
+    out, prior = pooled_covariances(residuals, [5, 5, 5], [np.arange(3)], 3, basis, FLOOR)
     rows = np.concatenate(residuals)
-    target = block_target(rows, 3, 15, basis)
+    target = block_target(rows, 3, 15, basis, FLOOR)
     beta = np.repeat(prior.target_weight, 4)
     sigma0 = np.diag(beta * target) + np.sqrt(1 - beta)[:, None] * (rows.T @ rows / 15) * np.sqrt(
         1 - beta
