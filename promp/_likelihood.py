@@ -13,6 +13,11 @@ The terms that do not depend on the noise level (the basis at the observed phase
 whitened statistics and their eigendecompositions, the rotated prior) are computed once
 (:func:`rotate`), so the likelihood at several noise levels costs little more than at one
 (:func:`log_likelihoods_scaled`, which the automatic choice of the noise scale uses).
+
+When ``U`` is square (a primitive with as many demonstrations as observed weights), the same
+likelihood is cheaper in weight space (:mod:`promp._weight_space`: one bordered Cholesky
+factorisation per candidate, no eigendecomposition); :func:`log_likelihoods_scaled` takes the
+cheaper form by their operation counts. Both are checked against the dense formula.
 """
 
 from __future__ import annotations
@@ -22,7 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from promp import _weight_space
 from promp.model import Primitive, ProMPModel
+from promp.noise import noise_groups, whiten  # noqa: F401  (re-exported)
 from promp.observation import Observation, check_observation
 from promp.timing import check_alpha, duration_from_alpha
 
@@ -46,38 +53,6 @@ def logsumexp(values: np.ndarray) -> float:
 def per_dimension(vector: np.ndarray, n_dims: int) -> np.ndarray:
     """A dimension-major weight vector (n_dims * M,) as rows, shape (n_dims, M)."""
     return vector.reshape(n_dims, -1)
-
-
-def whiten(elapsed: np.ndarray, tau: float, x: np.ndarray) -> tuple[np.ndarray, float]:
-    """Apply the whitening transform of an Ornstein-Uhlenbeck noise along axis -2.
-
-    The noise of one dimension is ``sigma^2 K`` with ``K_ij = exp(-|t_i - t_j| / tau)``; its
-    precision is tridiagonal, ``K^-1 = W^T W`` with ``(W x)_0 = x_0`` and
-    ``(W x)_i = (x_i - rho_i x_(i-1)) / sqrt(1 - rho_i^2)``, ``rho_i = exp(-(t_i - t_(i-1)) /
-    tau)``, so that ``x^T K^-1 x = |W x|^2``. ``tau = 0`` is white noise.
-
-    Parameters
-    ----------
-    elapsed : array, shape (n,)
-    x : array, shape (..., n, k)
-
-    Returns
-    -------
-    (W x, log det K)
-    """
-    if tau <= 0 or x.shape[-2] < 2:
-        return x, 0.0
-    rho = np.exp(-np.diff(elapsed) / tau)
-    scale = np.sqrt(1.0 - rho**2)
-    out = np.array(x, dtype=float, copy=True)
-    out[..., 1:, :] = (x[..., 1:, :] - rho[:, None] * x[..., :-1, :]) / scale[:, None]
-    return out, float(2.0 * np.log(scale).sum())
-
-
-def noise_groups(primitive: Primitive, dims: np.ndarray) -> dict[float, np.ndarray]:
-    """Observed dimensions grouped by noise correlation time: {tau: positions in dims}."""
-    taus = primitive.noise_tau[dims]
-    return {float(tau): np.nonzero(taus == tau)[0] for tau in np.unique(taus)}
 
 
 def group_statistics(
@@ -275,6 +250,9 @@ def log_likelihoods_scaled(
     -------
     array, shape (n_levels, n_candidates)
         ``-inf`` where the candidate's duration is shorter than the observation.
+
+    In weight space (:mod:`promp._weight_space`) when that costs less than the Woodbury form
+    (:func:`promp._weight_space.cheaper_than_woodbury`); the two agree to round-off.
     """
     alphas = np.atleast_1d(np.asarray(alphas, dtype=float))
     check_alpha(alphas)
@@ -285,9 +263,15 @@ def log_likelihoods_scaled(
     out = np.full((factors.shape[0], alphas.shape[0]), -np.inf)
     if not valid.any():
         return out
+    noise_var = primitive.noise_var[dims][None, :] * factors[:, dims]
+    factor = primitive.observed_factor(dims)
+    if _weight_space.cheaper_than_woodbury(factor.shape[0] * factor.shape[1], factor.shape[2]):
+        out[:, valid] = _weight_space.log_likelihoods(
+            model, primitive, obs, dims, alphas[valid], durations[valid], noise_var
+        )
+        return out
     rot = rotate(model, primitive, obs, dims, alphas[valid], durations[valid])
-    w = woodbury(rot, primitive.noise_var[dims][None, :] * factors[:, dims])
-    out[:, valid] = _log_likelihood(w, obs.values.size)
+    out[:, valid] = _log_likelihood(woodbury(rot, noise_var), obs.values.size)
     return out
 
 

@@ -31,15 +31,16 @@ import numpy as np
 
 from promp.alpha_model import AlphaModel, resample_uniform
 from promp.basis import PhaseBasisCache, RBFBasis
-from promp.covariance import block_target, compress_factor, pooled_covariances
+from promp.covariance import (
+    MIN_SHRINKAGE,
+    compress_factor,
+    fixed_shrinkage,
+    pooled_covariances,
+)
 from promp.data import Demonstration, Layout
 from promp.scale import RELATIVE_FLOOR
 from promp.timing import alpha_from_duration
 from promp.weights import WeightFits, fit_all_weights, fit_weights  # noqa: F401
-
-# Smallest shrinkage intensity: keeps Sigma_w positive definite.
-MIN_SHRINKAGE = 1e-12
-
 
 # The reference settings: what a fit uses when it cannot choose (see promp.selection).
 FALLBACK = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
@@ -373,19 +374,6 @@ def _moments(
     return _Moments(mean, slope, centred, dof, alphas, log_alpha_mean, alpha_models)
 
 
-def _fixed_shrinkage(
-    moments: _Moments, layout: Layout, settings: Settings, floor: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(1 - lambda) S + lambda F`` of one primitive alone: cov_diag, cov_factor, lambda
-    (``floor``: the smallest trajectory variance per dimension, see :func:`block_target`)."""
-    basis = settings.basis
-    target = block_target(moments.residuals, layout.n_dims, moments.dof, basis, floor)
-    lam = np.full(layout.n_dims, max(float(settings.shrinkage), MIN_SHRINKAGE))
-    per_weight = np.repeat(lam, basis.n_basis)
-    factor = np.sqrt((1.0 - per_weight) / moments.dof)[:, None] * moments.residuals.T
-    return per_weight * target, factor, lam
-
-
 def sample_period_of(demos: Sequence[Demonstration]) -> float:
     """The recording period of a set of demonstrations: the median of their median steps."""
     return float(np.median([d.sample_period for d in demos]))
@@ -474,9 +462,11 @@ def fit_with(
             prior.target_weight * prior.strength / (prior.strength + m.dof) for m in moments
         ]
     else:
-        fixed = [_fixed_shrinkage(m, layout, settings, floor) for m in moments]
-        covariances = [(d, f) for d, f, _ in fixed]
-        shares = [lam for _, _, lam in fixed]
+        covariances = [
+            fixed_shrinkage(m.residuals, m.dof, settings.basis, settings.shrinkage, floor)
+            for m in moments
+        ]
+        shares = [np.full(layout.n_dims, settings.shrinkage) for _ in moments]
         report["covariance"] = {
             "rule": "fixed shrinkage of each primitive's sample covariance (--shrinkage)",
             "shrinkage": float(settings.shrinkage),

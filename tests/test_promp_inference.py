@@ -41,6 +41,34 @@ def test_likelihood_matches_dense_brute_force(model, test_demo, modalities, n_ob
         assert_allclose(fast, slow, rtol=1e-9, atol=1e-6)
 
 
+@pytest.mark.parametrize("form", ["woodbury", "weight space"])
+@pytest.mark.parametrize("modalities", [["hand"], ["head"], ["hand", "head"]])
+@pytest.mark.parametrize("n_observed", [1, 7, 40])
+def test_both_forms_of_the_likelihood_match_dense_brute_force(
+    model, test_demo, modalities, n_observed, form
+) -> None:
+    """The Woodbury form and the weight-space form (each chosen where it is cheaper), at two
+    noise levels, against the dense formula."""
+    from promp import _likelihood, _weight_space
+    from promp.timing import duration_from_alpha
+
+    obs = Observation.from_demo(model, test_demo, n_observed, modalities)
+    dims = model.layout.dims(modalities)
+    for prim in model.primitives:
+        alphas = prim.alphas[:3]
+        durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
+        noise = prim.noise_var[dims][None, :] * np.array([[1.0], [2.0]])
+        if form == "woodbury":
+            rot = _likelihood.rotate(model, prim, obs, dims, alphas, durations)
+            fast = _likelihood._log_likelihood(_likelihood.woodbury(rot, noise), obs.values.size)
+        else:
+            fast = _weight_space.log_likelihoods(model, prim, obs, dims, alphas, durations, noise)
+        for level, factor in enumerate((1.0, 2.0)):
+            louder = dataclasses.replace(prim, noise_var=prim.noise_var * factor)
+            slow = [dense.log_likelihood(model, louder, obs, a) for a in alphas]
+            assert_allclose(fast[level], slow, rtol=1e-9, atol=1e-6)
+
+
 @pytest.mark.parametrize("modalities", [["hand"], ["head"], ["hand", "head"]])
 @pytest.mark.parametrize("n_observed", [1, 3, 15, 60])
 def test_conditioning_matches_dense_brute_force(model, test_demo, modalities, n_observed) -> None:
