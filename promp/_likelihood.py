@@ -271,7 +271,9 @@ def log_likelihoods_scaled(
         )
         return out
     rot = rotate(model, primitive, obs, dims, alphas[valid], durations[valid])
-    out[:, valid] = _log_likelihood(woodbury(rot, noise_var), obs.values.size)
+    for level in range(noise_var.shape[0]):  # (one level at a time: smaller batches run faster)
+        w = woodbury(rot, noise_var[level : level + 1])
+        out[level, valid] = _log_likelihood(w, obs.values.size)[0]
     return out
 
 

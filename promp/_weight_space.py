@@ -31,7 +31,8 @@ LOG_2PI = math.log(2.0 * math.pi)
 
 
 def observed_precision(primitive: Primitive, dims: np.ndarray) -> tuple[np.ndarray, float]:
-    """``(Sigma_o^-1, log det Sigma_o)`` of the weights of ``dims``: shape (P_o, P_o), float.
+    """``(Sigma_o^-1, log det Sigma_o)`` of the weights of ``dims``: the precision padded with
+    a zero row and column, shape (P_o + 1, P_o + 1), and a float.
 
     Computed once per primitive and set of dimensions (cached on the primitive, like
     :meth:`promp.model.Primitive.observed_factor`), from the Cholesky factor of
@@ -51,7 +52,9 @@ def observed_precision(primitive: Primitive, dims: np.ndarray) -> tuple[np.ndarr
         # solves even for small matrices, which stalls on a busy machine)
         inv_chol = np.linalg.inv(chol)
         precision = inv_chol.T @ inv_chol
-        cache[key] = (0.5 * (precision + precision.T), 2.0 * float(np.log(np.diag(chol)).sum()))
+        padded = np.zeros((chol.shape[0] + 1,) * 2)  # bordered below and right (see below)
+        padded[:-1, :-1] = 0.5 * (precision + precision.T)
+        cache[key] = (padded, 2.0 * float(np.log(np.diag(chol)).sum()))
     return cache[key]
 
 
@@ -102,19 +105,24 @@ def log_likelihoods(
         logdet_k[cols] = logdet
     precision, logdet_sigma = observed_precision(primitive, dims)
     inv_s2 = 1.0 / noise_var  # (L, Do)
-    # The bordered matrix [[Sigma_o^-1 + A^T R^-1 A, b], [b^T, r^T R^-1 r + 1]]: the last
-    # diagonal of its Cholesky factor squared is r^T S^-1 r + 1 (the Schur complement).
-    bordered = np.empty((n_levels, n_cand, p + 1, p + 1))
-    bordered[..., :p, :p] = precision
-    for d in range(n_do):
-        block = slice(d * m, (d + 1) * m)
-        bordered[..., block, block] += inv_s2[:, None, d, None, None] * gram[None, :, d]
-    b = (inv_s2[:, None, :, None] * proj[None]).reshape(n_levels, n_cand, p)
-    bordered[..., :p, p] = b
-    bordered[..., p, :p] = b
-    bordered[..., p, p] = inv_s2 @ rr.T + 1.0
-    diag = np.diagonal(np.linalg.cholesky(bordered), axis1=-2, axis2=-1)
-    quad = diag[..., p] ** 2 - 1.0
-    logdet = 2.0 * np.log(diag[..., :p]).sum(-1) + logdet_sigma
+    # One noise level at a time: a batch of A matrices factorises several times faster than
+    # one of L x A (memory traffic), and one buffer serves every level.
+    bordered = np.empty((n_cand, p + 1, p + 1))
+    quad = np.empty((n_levels, n_cand))
+    logdet = np.empty((n_levels, n_cand))
+    for level in range(n_levels):
+        # [[Sigma_o^-1 + A^T R^-1 A, b], [b^T, r^T R^-1 r + 1]]: the last diagonal of its
+        # Cholesky factor squared is r^T S^-1 r + 1 (the Schur complement).
+        bordered[...] = precision  # (whole rows: faster than filling the top-left block)
+        for d in range(n_do):
+            block = slice(d * m, (d + 1) * m)
+            bordered[:, block, block] += inv_s2[level, d] * gram[:, d]
+        b = (inv_s2[level, :, None] * proj).reshape(n_cand, p)
+        bordered[:, :p, p] = b
+        bordered[:, p, :p] = b
+        bordered[:, p, p] = rr @ inv_s2[level] + 1.0
+        diag = np.diagonal(np.linalg.cholesky(bordered), axis1=-2, axis2=-1)
+        quad[level] = diag[:, p] ** 2 - 1.0
+        logdet[level] = 2.0 * np.log(diag[:, :p]).sum(-1) + logdet_sigma
     logdet_r = (obs.n_observed * np.log(noise_var) + logdet_k).sum(-1)  # (L,)
     return -0.5 * (quad + logdet + logdet_r[:, None] + obs.values.size * LOG_2PI)

@@ -43,7 +43,7 @@ def test_likelihood_matches_dense_brute_force(model, test_demo, modalities, n_ob
 
 @pytest.mark.parametrize("form", ["woodbury", "weight space"])
 @pytest.mark.parametrize("modalities", [["hand"], ["head"], ["hand", "head"]])
-@pytest.mark.parametrize("n_observed", [1, 7, 40])
+@pytest.mark.parametrize("n_observed", [1, 40])
 def test_both_forms_of_the_likelihood_match_dense_brute_force(
     model, test_demo, modalities, n_observed, form
 ) -> None:
@@ -54,8 +54,8 @@ def test_both_forms_of_the_likelihood_match_dense_brute_force(
 
     obs = Observation.from_demo(model, test_demo, n_observed, modalities)
     dims = model.layout.dims(modalities)
-    for prim in model.primitives:
-        alphas = prim.alphas[:3]
+    for prim in model.primitives[:1]:
+        alphas = prim.alphas[:2]
         durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
         noise = prim.noise_var[dims][None, :] * np.array([[1.0], [2.0]])
         if form == "woodbury":
@@ -130,12 +130,22 @@ def test_conditioning_never_increases_a_marginal_variance(model, n_observed, whi
     assert np.all(post_std <= prior_std * (1 + 1e-7) + 1e-12)
 
 
+@pytest.fixture(scope="module")
+def full_rank():
+    """A full-rank prior (half shrunk to its target), so that the asymptotic regime of the
+    property below is reached at the noise levels tested (settings given: not about the
+    automatic choice)."""
+    return fit(
+        make_dataset(seed=2, n_demos=10),
+        LAYOUT,
+        Settings(n_basis=8, width=1.0, noise_scale=1.5, shrinkage=0.5),
+    )
+
+
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(min_value=0, max_value=1000))
-def test_posterior_mean_goes_through_the_observations_as_noise_vanishes(seed) -> None:
-    # A full-rank prior (half shrunk to its target), so the property's asymptotic regime is
-    # reached at the noise levels tested.
-    base = fit(make_dataset(seed=2, n_demos=10), LAYOUT, Settings(n_basis=8, shrinkage=0.5))
+def test_posterior_mean_goes_through_the_observations_as_noise_vanishes(full_rank, seed) -> None:
+    base = full_rank
     rng = np.random.default_rng(seed)
     demo = make_demo(rng, rng.normal(scale=0.3, size=6))
     # Four samples spread over the movement (fewer than the weights, so they can be met
