@@ -47,14 +47,18 @@ def observed_precision(primitive: Primitive, dims: np.ndarray) -> tuple[np.ndarr
         u = u.reshape(n_do * m, -1)
         sigma = u @ u.T
         sigma[np.diag_indices_from(sigma)] += np.repeat(t, m)
-        chol = np.linalg.cholesky(sigma)
+        # Equilibrated first (unit diagonal): the modalities' units may be many orders of
+        # magnitude apart, and the inverse's pivoting is not blind to scale like Cholesky is.
+        scale = np.sqrt(np.diag(sigma))
+        chol = np.linalg.cholesky(sigma / np.outer(scale, scale))
         # (numpy's inverse rather than a triangular solve: OpenBLAS threads its triangular
         # solves even for small matrices, which stalls on a busy machine)
-        inv_chol = np.linalg.inv(chol)
+        inv_chol = np.linalg.inv(chol) / scale[None, :]
         precision = inv_chol.T @ inv_chol
         padded = np.zeros((chol.shape[0] + 1,) * 2)  # bordered below and right (see below)
         padded[:-1, :-1] = 0.5 * (precision + precision.T)
-        cache[key] = (padded, 2.0 * float(np.log(np.diag(chol)).sum()))
+        logdet = 2.0 * float(np.log(np.diag(chol)).sum() + np.log(scale).sum())
+        cache[key] = (padded, logdet)
     return cache[key]
 
 

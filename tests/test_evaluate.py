@@ -235,6 +235,7 @@ HEIGHTS_SUBSET = 12
 
 
 @pytest.mark.data
+@pytest.mark.slow
 def test_heights_accuracy_against_the_original_toolbox(heights_dir: Path, tmp_path: Path) -> None:
     """The accuracy targets on the real recordings, measured by the evaluation command with
     the default (automatic) settings, beside the original toolbox in the same run: no more
