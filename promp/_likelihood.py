@@ -13,6 +13,11 @@ The terms that do not depend on the noise level (the basis at the observed phase
 whitened statistics and their eigendecompositions, the rotated prior) are computed once
 (:func:`rotate`), so the likelihood at several noise levels costs little more than at one
 (:func:`log_likelihoods_scaled`, which the automatic choice of the noise scale uses).
+
+When ``U`` is square (a primitive with as many demonstrations as observed weights), the same
+likelihood is cheaper in weight space (:mod:`promp._weight_space`: one bordered Cholesky
+factorisation per candidate, no eigendecomposition); :func:`log_likelihoods_scaled` takes the
+cheaper form by their operation counts. Both are checked against the dense formula.
 """
 
 from __future__ import annotations
@@ -22,7 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from promp import _weight_space
 from promp.model import Primitive, ProMPModel
+from promp.noise import noise_groups, whiten  # noqa: F401  (re-exported)
 from promp.observation import Observation, check_observation
 from promp.timing import check_alpha, duration_from_alpha
 
@@ -48,47 +55,17 @@ def per_dimension(vector: np.ndarray, n_dims: int) -> np.ndarray:
     return vector.reshape(n_dims, -1)
 
 
-def whiten(elapsed: np.ndarray, tau: float, x: np.ndarray) -> tuple[np.ndarray, float]:
-    """Apply the whitening transform of an Ornstein-Uhlenbeck noise along axis -2.
-
-    The noise of one dimension is ``sigma^2 K`` with ``K_ij = exp(-|t_i - t_j| / tau)``; its
-    precision is tridiagonal, ``K^-1 = W^T W`` with ``(W x)_0 = x_0`` and
-    ``(W x)_i = (x_i - rho_i x_(i-1)) / sqrt(1 - rho_i^2)``, ``rho_i = exp(-(t_i - t_(i-1)) /
-    tau)``, so that ``x^T K^-1 x = |W x|^2``. ``tau = 0`` is white noise.
-
-    Parameters
-    ----------
-    elapsed : array, shape (n,)
-    x : array, shape (..., n, k)
-
-    Returns
-    -------
-    (W x, log det K)
-    """
-    if tau <= 0 or x.shape[-2] < 2:
-        return x, 0.0
-    rho = np.exp(-np.diff(elapsed) / tau)
-    scale = np.sqrt(1.0 - rho**2)
-    out = np.array(x, dtype=float, copy=True)
-    out[..., 1:, :] = (x[..., 1:, :] - rho[:, None] * x[..., :-1, :]) / scale[:, None]
-    return out, float(2.0 * np.log(scale).sum())
-
-
-def noise_groups(primitive: Primitive, dims: np.ndarray) -> dict[float, np.ndarray]:
-    """Observed dimensions grouped by noise correlation time: {tau: positions in dims}."""
-    taus = primitive.noise_tau[dims]
-    return {float(tau): np.nonzero(taus == tau)[0] for tau in np.unique(taus)}
-
-
 def group_statistics(
-    primitive: Primitive, obs: Observation, dims: np.ndarray, psi: np.ndarray
+    primitive: Primitive, obs: Observation, dims: np.ndarray, psi: np.ndarray, mu: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Whitened sufficient statistics of the observation, per noise group.
+    """Whitened sufficient statistics of the observation's residual, per noise group.
 
     Parameters
     ----------
     psi : array, shape (A, n, M)
         Basis at the observed phases for each candidate alpha.
+    mu : array, shape (A, Do, M)
+        The prior mean of the observed weights at each candidate.
 
     Returns
     -------
@@ -98,9 +75,10 @@ def group_statistics(
     group : array, shape (Do,)
         Noise group of each observed dimension.
     proj : array, shape (A, Do, M)
-        ``Psi^T K^-1 y`` per dimension.
-    yy : array, shape (Do,)
-        ``y^T K^-1 y``.
+        ``Psi^T K^-1 r`` per dimension, ``r = y - Psi mu``.
+    rr : array, shape (A, Do)
+        ``r^T K^-1 r``. (From the residual itself: expanded as ``y^T K^-1 y - 2 mu^T Psi^T
+        K^-1 y + ...``, the terms cancel to a few digits and the likelihood loses them.)
     logdet_k : array, shape (Do,)
         ``log det K``.
     """
@@ -111,17 +89,18 @@ def group_statistics(
     eigvec = np.empty((n_cand, len(groups), m, m))
     group = np.empty(n_do, dtype=int)
     proj = np.empty((n_cand, n_do, m))
-    yy = np.empty(n_do)
+    rr = np.empty((n_cand, n_do))
     logdet_k = np.empty(n_do)
     for index, (tau, cols) in enumerate(groups.items()):
         psi_w, logdet = whiten(obs.elapsed, tau, psi)
         y_w, _ = whiten(obs.elapsed, tau, obs.values[:, cols])
+        resid = y_w[None] - psi_w @ mu[:, cols].transpose(0, 2, 1)  # (A, n, Dg)
         eigval[:, index], eigvec[:, index] = np.linalg.eigh(psi_w.transpose(0, 2, 1) @ psi_w)
         group[cols] = index
-        proj[:, cols] = (psi_w.transpose(0, 2, 1) @ y_w).transpose(0, 2, 1)
-        yy[cols] = (y_w**2).sum(axis=0)
+        proj[:, cols] = (psi_w.transpose(0, 2, 1) @ resid).transpose(0, 2, 1)
+        rr[:, cols] = (resid**2).sum(axis=1)
         logdet_k[cols] = logdet
-    return np.maximum(eigval, 0.0), eigvec, group, proj, yy, logdet_k
+    return np.maximum(eigval, 0.0), eigvec, group, proj, rr, logdet_k
 
 
 @dataclass(frozen=True)
@@ -129,17 +108,16 @@ class Rotated:
     """The noise-level-free terms of the likelihood for A candidate alphas.
 
     With ``Psi^T K^-1 Psi = vec diag(e) vec^T`` per noise group (``K``: the noise correlation,
-    ``R = s2 K``), the prior mean, the projections ``Psi^T K^-1 y`` and ``U`` are rotated into
-    that eigenbasis.
+    ``R = s2 K``), the projections ``Psi^T K^-1 r`` of the residual ``r = y - Psi mu`` and
+    ``U`` are rotated into that eigenbasis.
     """
 
     eigval: np.ndarray  # (A, Do, M) e of each observed dimension's group
     eigvec: np.ndarray  # (A, n_groups, M, M) eigenvectors, per noise group
     group: np.ndarray  # (Do,) noise group of each observed dimension
-    vt_mu: np.ndarray  # (A, Do, M) vec^T mu
-    vt_proj: np.ndarray  # (A, Do, M) vec^T Psi^T K^-1 y
+    vt_proj: np.ndarray  # (A, Do, M) vec^T Psi^T K^-1 r
     u_hat: np.ndarray  # (A, Do * M, r) vec^T U, stacked over dimensions
-    yy: np.ndarray  # (Do,) y^T K^-1 y
+    rr: np.ndarray  # (A, Do) r^T K^-1 r
     logdet_k: np.ndarray  # (Do,) log det K
     t: np.ndarray  # (Do,) the diagonal of Sigma_w in each observed dimension
     n_obs: int
@@ -193,22 +171,20 @@ def rotate(
         u = primitive.observed_factor(dims)  # (Do, M, r)
     else:
         u = primitive.cov_factor.reshape(model.n_dims, m, -1)[dims]
-    eigval, eigvec, group, proj, yy, logdet_k = group_statistics(primitive, obs, dims, psi)
+    eigval, eigvec, group, proj, rr, logdet_k = group_statistics(primitive, obs, dims, psi, mu)
     n_cand, r = psi.shape[0], u.shape[-1]
-    vt_mu = np.empty_like(mu)
     vt_proj = np.empty_like(proj)
     u_hat = np.empty((n_cand, dims.shape[0], m, r))
     for index in range(eigvec.shape[1]):
         cols = np.nonzero(group == index)[0]
         vec_t = eigvec[:, index].transpose(0, 2, 1)  # (A, M, M)
-        vt_mu[:, cols] = (vec_t @ mu[:, cols].transpose(0, 2, 1)).transpose(0, 2, 1)
         vt_proj[:, cols] = (vec_t @ proj[:, cols].transpose(0, 2, 1)).transpose(0, 2, 1)
         # One (M x M)(M x Dg r) product per candidate rather than one per dimension.
         u_cols = u[cols].transpose(1, 0, 2).reshape(m, -1)
         u_hat[:, cols] = (vec_t @ u_cols).reshape(n_cand, m, cols.shape[0], r).transpose(0, 2, 1, 3)
     return Rotated(
-        eigval[:, group], eigvec, group, vt_mu, vt_proj, u_hat.reshape(n_cand, -1, r), yy,
-        logdet_k, t, obs.n_observed,
+        eigval[:, group], eigvec, group, vt_proj, u_hat.reshape(n_cand, -1, r), rr, logdet_k, t,
+        obs.n_observed,
     )  # fmt: skip
 
 
@@ -216,13 +192,13 @@ def woodbury(rot: Rotated, s2: np.ndarray) -> Woodbury:
     """The terms of :class:`Woodbury` at the noise variances ``s2``, shape (L, Do): one row
     per noise level."""
     t = rot.t[None, None, :, None]
-    vt_mu, vt_proj = rot.vt_mu[None], rot.vt_proj[None]  # (1, A, Do, M)
-    n_levels, n_cand, m = s2.shape[0], vt_mu.shape[1], vt_mu.shape[-1]
+    vt_proj = rot.vt_proj[None]  # (1, A, Do, M)
+    n_levels, n_cand, m = s2.shape[0], vt_proj.shape[1], vt_proj.shape[-1]
     s2_b = s2[:, None, :, None]
     lam = rot.eigval[None] / s2_b  # eigenvalues of Psi^T R^-1 Psi, (L, A, Do, M)
     c = 1.0 / t + lam
-    g_hat = vt_proj / s2_b - lam * vt_mu
-    rr = (rot.yy - 2.0 * (vt_proj * vt_mu).sum(-1)) / s2[:, None, :] + (lam * vt_mu**2).sum(-1)
+    g_hat = vt_proj / s2_b
+    rr = rot.rr[None] / s2[:, None, :]
     # Woodbury: B^-1 = R^-1 - R^-1 Psi C^-1 Psi^T R^-1, so in the eigenbasis
     # Psi^T B^-1 r = g / (t c) and Psi^T B^-1 Psi = e / (s2 t c).
     h_hat = g_hat / (t * c)
@@ -275,6 +251,9 @@ def log_likelihoods_scaled(
     -------
     array, shape (n_levels, n_candidates)
         ``-inf`` where the candidate's duration is shorter than the observation.
+
+    In weight space (:mod:`promp._weight_space`) when that costs less than the Woodbury form
+    (:func:`promp._weight_space.cheaper_than_woodbury`); the two agree to round-off.
     """
     alphas = np.atleast_1d(np.asarray(alphas, dtype=float))
     check_alpha(alphas)
@@ -285,9 +264,17 @@ def log_likelihoods_scaled(
     out = np.full((factors.shape[0], alphas.shape[0]), -np.inf)
     if not valid.any():
         return out
+    noise_var = primitive.noise_var[dims][None, :] * factors[:, dims]
+    factor = primitive.observed_factor(dims)
+    if _weight_space.cheaper_than_woodbury(factor.shape[0] * factor.shape[1], factor.shape[2]):
+        out[:, valid] = _weight_space.log_likelihoods(
+            model, primitive, obs, dims, alphas[valid], durations[valid], noise_var
+        )
+        return out
     rot = rotate(model, primitive, obs, dims, alphas[valid], durations[valid])
-    w = woodbury(rot, primitive.noise_var[dims][None, :] * factors[:, dims])
-    out[:, valid] = _log_likelihood(w, obs.values.size)
+    for level in range(noise_var.shape[0]):  # (one level at a time: smaller batches run faster)
+        w = woodbury(rot, noise_var[level : level + 1])
+        out[level, valid] = _log_likelihood(w, obs.values.size)[0]
     return out
 
 

@@ -26,7 +26,15 @@ GRID_POINTS = 60
 _RIDGES = np.logspace(-8, 2, 11)
 
 
-def _features(delta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+# The smallest span of displacements the features spread over, as a fraction of the largest
+# span of the modality at any n_o: the features do not depend on the modality's unit.
+RELATIVE_SPAN = 1e-9
+MAX_U = 1e6  # beyond this many spans from the range, the features are the edge RBF's alone
+
+
+def _features(
+    delta: np.ndarray, lo: np.ndarray, hi: np.ndarray, min_span: float
+) -> np.ndarray:
     """RBF features of displacements.
 
     Parameters
@@ -34,13 +42,15 @@ def _features(delta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     delta : array, shape (..., n_components)
     lo, hi : array, shape (..., n_components)
         Range of the training displacements spanned by the centres.
+    min_span : float
+        The smallest span (:func:`min_span`), in the modality's unit.
 
     Returns
     -------
     array, shape (..., n_components * N_RBF)
     """
-    span = np.maximum(hi - lo, 1e-12)
-    u = (delta - lo) / span  # 0..1 over the training range
+    span = np.maximum(hi - lo, min_span)
+    u = np.clip((delta - lo) / span, -MAX_U, MAX_U)  # 0..1 over the training range
     centres = np.linspace(0.0, 1.0, N_RBF)
     sigma = 1.0 / (N_RBF - 1)
     exponent = -0.5 * ((u[..., None] - centres) / sigma) ** 2
@@ -48,6 +58,14 @@ def _features(delta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     values = np.exp(exponent)
     values /= values.sum(axis=-1, keepdims=True)
     return values.reshape(*values.shape[:-2], -1)
+
+
+def min_span(lo: np.ndarray, hi: np.ndarray) -> float:
+    """:data:`RELATIVE_SPAN` of the largest span of displacements at any ``n_o`` (lo, hi:
+    shape (n_grid, n_components)); 1 for a modality that never moved (then every training
+    displacement is 0 and nothing depends on it)."""
+    largest = float(np.max(hi - lo)) if hi.size else 0.0
+    return RELATIVE_SPAN * largest if largest > 0.0 else 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,7 +114,7 @@ class AlphaModel:
         )  # (n_grid, n_demos, n_components)
         lo = deltas.min(axis=1)
         hi = deltas.max(axis=1)
-        feats = _features(deltas, lo[:, None, :], hi[:, None, :])  # (n_grid, n_demos, F)
+        feats = _features(deltas, lo[:, None, :], hi[:, None, :], min_span(lo, hi))
         # Ridge regressions for every n_o at once, through the eigendecomposition of the
         # F x F Gram matrices: with F^T F = V diag(e) V^T and b = V^T F^T y, the coefficients
         # are V diag(1 / (e + ridge)) b and the hat matrix has trace sum(e / (e + ridge)).
@@ -123,7 +141,9 @@ class AlphaModel:
     def predict(self, delta: np.ndarray, n_observed: int) -> tuple[float, float]:
         """Alpha and its error variance after ``n_observed`` samples moved by ``delta``."""
         row = max(int(np.searchsorted(self.n_observed, n_observed, side="right")) - 1, 0)
-        feats = _features(np.asarray(delta, dtype=float), self.lo[row], self.hi[row])
+        feats = _features(
+            np.asarray(delta, dtype=float), self.lo[row], self.hi[row], min_span(self.lo, self.hi)
+        )
         return float(feats @ self.weights[row]), float(self.residual_var[row])
 
     def to_arrays(self) -> dict[str, np.ndarray]:

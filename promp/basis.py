@@ -50,14 +50,20 @@ class RBFBasis:
     def __call__(self, z: np.ndarray) -> np.ndarray:
         """Basis values at phases ``z``, array of shape (len(z), n_basis); rows sum to 1."""
         z = np.asarray(z, dtype=float).reshape(-1, 1)
-        # Subtract the row maximum of the exponent before exp: phases far outside [0, 1]
-        # would otherwise underflow every Gaussian and leave 0/0. The maximum is at the
-        # nearest centre, so it is the exponent of the clipped phase.
-        scaled = (z - self._centres[None, :]) / self.sigma
-        nearest = (z - np.clip(z, 0.0, 1.0)) / self.sigma
-        exponent = -0.5 * (scaled**2 - nearest**2)
-        values = np.exp(exponent)
-        return values / values.sum(axis=1, keepdims=True)
+        values = (z - self._centres[None, :]) / self.sigma
+        np.square(values, out=values)
+        outside = (z < 0.0) | (z > 1.0)
+        if outside.any():
+            # Subtract the row maximum of the exponent before exp: phases far outside [0, 1]
+            # would otherwise underflow every Gaussian and leave 0/0. The maximum is at the
+            # nearest centre, so it is the exponent of the clipped phase. (Inside [0, 1] the
+            # nearest centre is at most half a spacing away: nothing underflows.)
+            nearest = (z - np.clip(z, 0.0, 1.0)) / self.sigma
+            values -= nearest**2
+        np.multiply(values, -0.5, out=values)
+        np.exp(values, out=values)
+        values /= values.sum(axis=1, keepdims=True)
+        return values
 
 
 class PhaseBasisCache:
@@ -90,11 +96,13 @@ class PhaseBasisCache:
                 missing.append(i)
         if missing:  # one basis evaluation for every missing duration
             rows = self.basis((elapsed[None, :] / durations[missing, None]).reshape(-1))
-            out[missing] = rows.reshape(len(missing), n, -1)
+            rows = rows.reshape(len(missing), n, -1)  # the cache's own: never handed out
+            out[missing] = rows
             if len(self._entries) + len(missing) > self.max_entries:
                 self._entries.clear()
-            for i in missing:
-                self._entries[float(durations[i])] = (elapsed.copy(), out[i].copy())
+            seen = elapsed.copy()
+            for j, i in enumerate(missing):
+                self._entries[float(durations[i])] = (seen, rows[j])
         return out
 
 

@@ -31,14 +31,16 @@ import numpy as np
 
 from promp.alpha_model import AlphaModel, resample_uniform
 from promp.basis import PhaseBasisCache, RBFBasis
-from promp.covariance import block_target, pooled_covariances
+from promp.covariance import (
+    MIN_SHRINKAGE,
+    compress_factor,
+    fixed_shrinkage,
+    pooled_covariances,
+)
 from promp.data import Demonstration, Layout
+from promp.scale import RELATIVE_FLOOR
 from promp.timing import alpha_from_duration
 from promp.weights import WeightFits, fit_all_weights, fit_weights  # noqa: F401
-
-# Smallest shrinkage intensity: keeps Sigma_w positive definite.
-MIN_SHRINKAGE = 1e-12
-
 
 # The reference settings: what a fit uses when it cannot choose (see promp.selection).
 FALLBACK = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
@@ -228,7 +230,7 @@ class Primitive:
 
         A likelihood only sees ``U_o U_o^T`` (the covariance of the observed weights), so
         observing 3 of 6 dimensions needs a factor of rank 3 M at most, whatever the rank of
-        the whole factor; computed once per set of dimensions (an SVD).
+        the whole factor; computed once per set of dimensions (a QR factorisation).
         """
         key = tuple(int(d) for d in dims)
         cache = self.__dict__.setdefault("_observed_factors", {})
@@ -237,8 +239,7 @@ class Primitive:
             u = self.cov_factor.reshape(n_dims, -1, self.cov_factor.shape[1])[list(key)]
             rows = u.reshape(-1, u.shape[-1])
             if rows.shape[1] > rows.shape[0]:
-                left, sing, _ = np.linalg.svd(rows, full_matrices=False)
-                rows = left * sing
+                rows = compress_factor(rows)  # row by row: the units may differ
             cache[key] = rows.reshape(len(key), u.shape[1], -1)
         return cache[key]
 
@@ -301,7 +302,9 @@ def estimate_noise(
     noise_var : array, shape (n_dims,)
         Pooled residual variance of the per-demonstration fits, with the regression's degrees
         of freedom removed, scaled by ``settings.noise_scale``, or ``settings.noise_std``
-        squared where given.
+        squared where given; never below :data:`promp.scale.RELATIVE_FLOOR` times the
+        modality's squared scale (``fits.scale``: a floor in the data's unit, not an absolute
+        one).
     noise_tau : array, shape (n_dims,)
         Correlation time (s) of an Ornstein-Uhlenbeck noise with the residuals' pooled lag-one
         autocorrelation ``rho`` at the mean sample step ``dt``: ``-dt / log(rho)``; 0 (white)
@@ -323,7 +326,7 @@ def estimate_noise(
             noise_var[dims] = settings.noise_std[modality.name] ** 2
         else:
             noise_var[dims] = noise_var[dims].mean() * settings.noise_scale**2
-    return np.maximum(noise_var, 1e-20), noise_tau
+    return np.maximum(noise_var, RELATIVE_FLOOR * fits.scale), noise_tau
 
 
 @dataclass(frozen=True, eq=False)
@@ -369,18 +372,6 @@ def _moments(
             for m in layout.modalities
         }
     return _Moments(mean, slope, centred, dof, alphas, log_alpha_mean, alpha_models)
-
-
-def _fixed_shrinkage(
-    moments: _Moments, layout: Layout, settings: Settings
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(1 - lambda) S + lambda F`` of one primitive alone: cov_diag, cov_factor, lambda."""
-    basis = settings.basis
-    target = block_target(moments.residuals, layout.n_dims, moments.dof, basis)
-    lam = np.full(layout.n_dims, max(float(settings.shrinkage), MIN_SHRINKAGE))
-    per_weight = np.repeat(lam, basis.n_basis)
-    factor = np.sqrt((1.0 - per_weight) / moments.dof)[:, None] * moments.residuals.T
-    return per_weight * target, factor, lam
 
 
 def sample_period_of(demos: Sequence[Demonstration]) -> float:
@@ -456,6 +447,7 @@ def fit_with(
         for k, demos in enumerate(dataset.values())
     ]
     report: dict = {}
+    floor = RELATIVE_FLOOR * fits.scale  # no variance below a fraction of the data's own scale
     if settings.shrinkage is None:
         covariances, prior = pooled_covariances(
             [m.residuals for m in moments],
@@ -463,15 +455,18 @@ def fit_with(
             [layout.dims([mod.name]) for mod in layout.modalities],
             layout.n_dims,
             settings.basis,
+            floor,
         )
         report["covariance"] = prior.describe()
         shares = [
             prior.target_weight * prior.strength / (prior.strength + m.dof) for m in moments
         ]
     else:
-        fixed = [_fixed_shrinkage(m, layout, settings) for m in moments]
-        covariances = [(d, f) for d, f, _ in fixed]
-        shares = [lam for _, _, lam in fixed]
+        covariances = [
+            fixed_shrinkage(m.residuals, m.dof, settings.basis, settings.shrinkage, floor)
+            for m in moments
+        ]
+        shares = [np.full(layout.n_dims, settings.shrinkage) for _ in moments]
         report["covariance"] = {
             "rule": "fixed shrinkage of each primitive's sample covariance (--shrinkage)",
             "shrinkage": float(settings.shrinkage),

@@ -39,7 +39,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from promp._likelihood import log_likelihoods_scaled, logsumexp
+from promp._likelihood import log_likelihoods_scaled
 from promp.data import Demonstration, Layout
 from promp.model import FALLBACK, ProMPModel, Settings, fit_with
 from promp.observation import Observation
@@ -117,30 +117,52 @@ def plan_trials(
     return trials
 
 
+def _rows_logsumexp(values: np.ndarray) -> np.ndarray:
+    """:func:`promp._likelihood.logsumexp` of every row of ``values`` (2-D) at once."""
+    top = values.max(axis=-1)
+    finite = np.isfinite(top)
+    out = top.copy()
+    shifted = values[finite] - top[finite, None]
+    out[finite] = top[finite] + np.log(np.exp(shifted).sum(axis=-1))
+    return out
+
+
 def _losses(
     model: ProMPModel,
     demo: Demonstration,
     trial: Trial,
     priors: Sequence[AlphaPrior],
     factors: np.ndarray,
+    cache: dict | None = None,
 ) -> np.ndarray:
-    """``-ln p(true primitive)`` of one trial at every noise level, shape (n_levels,)."""
-    obs = Observation.from_demo(
-        model, demo, n_observed_for(trial.percent, demo.n_samples), trial.modalities
-    )
+    """``-ln p(true primitive)`` of one trial at every noise level, shape (n_levels,).
+
+    ``cache`` keeps the observation and each primitive's quadrature (nodes and log weights)
+    under the trial: they depend on the fold's training alphas, never on the candidate
+    settings, so every candidate reuses them.
+    """
+    cache = {} if cache is None else cache
+    if trial not in cache:
+        obs = Observation.from_demo(
+            model, demo, n_observed_for(trial.percent, demo.n_samples), trial.modalities
+        )
+        quadratures = []
+        for prior in priors:
+            nodes, log_prior, log_mass = quadrature(model, obs, prior)
+            quadratures.append((np.exp(nodes), quadrature_weights(nodes, log_prior, log_mass)))
+        cache[trial] = (obs, quadratures)
+    obs, quadratures = cache[trial]
     evidence = np.empty((factors.shape[0], len(model.primitives)))
-    for k, (primitive, prior) in enumerate(zip(model.primitives, priors, strict=True)):
-        nodes, log_prior, log_mass = quadrature(model, obs, prior)
-        log_w = quadrature_weights(nodes, log_prior, log_mass)
-        table = log_likelihoods_scaled(model, primitive, obs, np.exp(nodes), factors)
-        evidence[:, k] = [logsumexp(row + log_w) for row in table]
-    true = trial.primitive
-    losses = np.empty(factors.shape[0])
-    for level, row in enumerate(evidence):
-        total = logsumexp(row)
-        # nothing explains the observation: a uniform guess, as in the evaluation
-        losses[level] = -(row[true] - total) if math.isfinite(total) else math.log(row.size)
-    return losses
+    for k, (primitive, (alphas, log_w)) in enumerate(
+        zip(model.primitives, quadratures, strict=True)
+    ):
+        table = log_likelihoods_scaled(model, primitive, obs, alphas, factors)
+        evidence[:, k] = _rows_logsumexp(table + log_w)
+    total = _rows_logsumexp(evidence)
+    # nothing explains the observation: a uniform guess, as in the evaluation
+    return np.where(
+        np.isfinite(total), total - evidence[:, trial.primitive], math.log(evidence.shape[1])
+    )
 
 
 def score(
@@ -150,13 +172,15 @@ def score(
     dt: float,
     trials: Sequence[Trial],
     noise_scales: Sequence[float],
+    cache: dict | None = None,
 ) -> np.ndarray:
     """Inner log-loss of ``settings`` (n_basis and width given) at every noise scale, per
     trial: shape (n_scales, n_trials), in the order of ``trials``.
 
     ``settings.noise_scale`` (1 when it is chosen here) is the scale the inner models are
     fitted with; ``noise_scales`` multiply it (modalities of ``settings.noise_std`` keep
-    their given noise).
+    their given noise). ``cache``: shared by the candidates of one choice (see
+    :func:`_losses`; the same ``dataset``, ``trials``, ``dt`` and ``s_bar``).
     """
     names = list(dataset)
     scaled = np.array([name not in settings.noise_std for name in layout.names])
@@ -176,7 +200,7 @@ def score(
         for i, trial in enumerate(trials):
             if trial.fold == fold:
                 demo = dataset[names[trial.primitive]][trial.demo]
-                out[:, i] = _losses(model, demo, trial, priors, factors)
+                out[:, i] = _losses(model, demo, trial, priors, factors, cache)
     return out
 
 
@@ -227,11 +251,12 @@ def choose_settings(
     width_grid = WIDTH_GRID if settings.width is None else (settings.width,)
     start_width = 1.0 if settings.width is None else settings.width
     scores: dict[tuple[int, float], np.ndarray] = {}
+    cache: dict = {}  # every candidate's observations and quadratures (see _losses)
 
     def evaluate(n_basis: int, width: float) -> float:
         if (n_basis, width) not in scores:
             candidate = dataclasses.replace(inner, n_basis=n_basis, width=width)
-            scores[(n_basis, width)] = score(dataset, layout, candidate, dt, trials, scales)
+            scores[(n_basis, width)] = score(dataset, layout, candidate, dt, trials, scales, cache)
         return float(scores[(n_basis, width)].mean(axis=1).min())
 
     best_basis = min(basis_grid, key=lambda m: (evaluate(m, start_width), abs(m - 7)))

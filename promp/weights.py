@@ -9,6 +9,7 @@ import numpy as np
 
 from promp.basis import RBFBasis
 from promp.data import Demonstration, Layout
+from promp.scale import modality_scale
 from promp.timing import demo_phases
 
 
@@ -51,12 +52,16 @@ class WeightFits:
         Residual degrees of freedom, ``n_j - trace(hat matrix)``.
     ridge : array, shape (n_dims,)
         The relative ridge strength used for each dimension.
+    scale : array, shape (n_dims,)
+        The squared scale of each dimension's modality (:func:`promp.scale.modality_scale`),
+        what every floor of the fit is relative to.
     """
 
     weights: list[np.ndarray]
     residuals: list[np.ndarray]
     dof: list[np.ndarray]
     ridge: np.ndarray
+    scale: np.ndarray
 
 
 def fit_all_weights(
@@ -96,7 +101,9 @@ def fit_all_weights(
         for modality in layout.modalities:
             dims = layout.dims([modality.name])
             rel[dims] = RIDGE_GRID[int(np.argmin(scores[:, dims].sum(axis=1)))]
-    fits = WeightFits(weights=[], residuals=[], dof=[], ridge=rel)
+    fits = WeightFits(
+        weights=[], residuals=[], dof=[], ridge=rel, scale=modality_scale(values, layout)
+    )
     shrink = 1.0 / (eig[:, :, None] + (rel[None, None, :] + 1e-12) * scale[:, None, None])
     w_all = vec @ (proj * shrink)  # (N, M, D)
     for y, phi, w, e, sh in zip(values, phis, w_all, eig, shrink, strict=True):

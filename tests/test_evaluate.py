@@ -17,7 +17,7 @@ from promp.datasets import write_csv_dataset
 from promp.evaluate import metrics
 from promp.evaluate.cli import main
 from promp.evaluate.methods import Inferred, ProMPEngine
-from promp.evaluate.sweep import n_observed_for, run_sweep
+from promp.evaluate.sweep import n_observed_for, run_sweep, spread_subset
 from promp.model import Settings
 from tests.conftest import REPO
 from tests.synthetic import LAYOUT as FULL
@@ -229,30 +229,70 @@ def test_python_dash_m_entry_point(tmp_path: Path) -> None:
     assert "hand" in proc.stdout and "/6" in proc.stdout
 
 
+# Held-out demonstrations per primitive in the heights test: evenly spread over each primitive's
+# list (people and heights alike), every fold still fitting on all 121 others.
+HEIGHTS_SUBSET = 12
+
+
 @pytest.mark.data
+@pytest.mark.slow
 def test_heights_accuracy_against_the_original_toolbox(heights_dir: Path, tmp_path: Path) -> None:
     """The accuracy targets on the real recordings, measured by the evaluation command with
     the default (automatic) settings, beside the original toolbox in the same run: no more
-    recognition errors, position error <= 0.8 x the toolbox's, log-loss <= ln K. (Heights at
-    40 % <= 13 errors is not met: 25 with the automatic settings, see the README.)"""
+    recognition errors, position error <= 0.8 x the toolbox's, log-loss <= ln K, errors at
+    40 % <= 0.7 x the toolbox's. On an evenly spread subset of held-out demonstrations
+    (``--subset``: the same for both methods; each fold still fits on every other
+    demonstration and chooses its settings inside it), so that the test takes seconds rather
+    than minutes; the whole leave-one-out is in the README."""
     rows = {}
     for method in ("ours", "seed"):
         out = tmp_path / f"{method}.json"
         code = main([str(heights_dir), "--format", "records", "--percent", "40", "80",
-                     "--alpha", "ml", "--method", method, "--json", str(out)])  # fmt: skip
+                     "--alpha", "ml", "--method", method, "--json", str(out),
+                     "--subset", str(HEIGHTS_SUBSET)])  # fmt: skip
         assert code == 0
         report = json.loads(out.read_text())
-        assert report["failures"] == []
+        assert report["failures"] == [] and report["settings"]["subset"] == HEIGHTS_SUBSET
         rows[method] = {r["percent"]: r for r in report["results"]}
     ours, seed = rows["ours"], rows["seed"]
-    assert ours[40]["trials"] == seed[40]["trials"] == 122
-    # The toolbox baseline as the issue describes it: ~39/122 and 2.6 cm, 11/122 and 1.3 cm.
-    assert 35 <= seed[40]["recognition_errors"] <= 43 and seed[80]["recognition_errors"] <= 14
+    n = 3 * HEIGHTS_SUBSET
+    assert ours[40]["trials"] == seed[40]["trials"] == n
+    # The toolbox baseline as the issue describes it (~39/122 and 2.6 cm at 40 %, 11/122 and
+    # 1.3 cm at 80 %), in proportion to the subset.
+    assert 35 / 122 * n - 1 <= seed[40]["recognition_errors"] <= 43 / 122 * n + 1
+    assert seed[80]["recognition_errors"] <= 14 / 122 * n + 1
     for percent in (40, 80):
         assert ours[percent]["recognition_errors"] <= seed[percent]["recognition_errors"]
         assert ours[percent]["position_error_m"] <= 0.8 * seed[percent]["position_error_m"]
         assert ours[percent]["log_loss"] <= math.log(3)
     assert ours[40]["recognition_errors"] <= 0.7 * seed[40]["recognition_errors"]
+
+
+def test_a_subset_holds_out_only_its_demonstrations_with_every_other_one_fitted() -> None:
+    """``held_out``: those demonstrations only, every primitive represented, each tested by a
+    model fitted on all the others; bad subsets are refused."""
+    dataset = make_dataset(seed=4, n_demos=5)
+    subset = spread_subset(dataset, 3)
+    assert subset == [(0, 0), (0, 2), (0, 4), (1, 0), (1, 2), (1, 4)]
+    assert spread_subset(dataset, 9) == [(k, j) for k in range(2) for j in range(5)]
+    given = Settings(n_basis=5, width=1.0, noise_scale=1.5)  # not about the choice: quick
+    Spy.seen = []
+    result = run_sweep(
+        lambda: Spy(LAYOUT, given), dataset, LAYOUT, [50], ["ml"], [["hand"]], "spy",
+        held_out=subset, keep_trials=True,
+    )  # fmt: skip
+    names = list(dataset)
+    expected = [f"{names[k]}/{dataset[names[k]][j].name}" for k, j in subset]
+    assert {f"{names[t.primitive]}/{t.demo}" for t in result.trials} == set(expected)
+    everyone = {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos}
+    # the folds in the subset's order, each fitted on every demonstration but its own
+    assert [everyone - seen for seen, *_ in Spy.seen] == [{name} for name in expected]
+    assert result.rows[0]["trials"] == 6
+    for bad in ([(0, 9)], [(0, 1), (0, 1)], []):
+        with pytest.raises(ValueError):
+            run_sweep(lambda: None, dataset, LAYOUT, [50], ["ml"], [["hand"]], "x", held_out=bad)
+    with pytest.raises(ValueError, match="at least one"):
+        spread_subset(dataset, 0)
 
 
 def test_selection_rule_scores_every_candidate_and_picks_the_lowest_log_loss(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -12,6 +14,10 @@ from promp.data import Demonstration
 from promp.model import Settings, fit, fit_weights
 from promp.timing import alpha_from_duration, duration_from_alpha
 from tests.synthetic import COLUMNS, LAYOUT, make_dataset
+
+FLOOR = np.full(3, 1e-12)  # the smallest trajectory variance of the 3 dimensions below
+# Settings given where a test is not about their automatic choice (promp.selection)
+GIVEN = Settings(n_basis=6, width=1.0, noise_scale=1.5)
 
 
 def test_basis_rows_are_normalised_and_widths_follow_the_spacing() -> None:
@@ -47,7 +53,7 @@ def test_alpha_and_duration_convention_round_trip() -> None:
 
 def test_fit_learns_spd_covariance_from_fewer_demos_than_weights() -> None:
     dataset = make_dataset(seed=0, n_demos=4)  # 4 demos, 6 x 20 = 120 weights
-    model = fit(dataset, LAYOUT, Settings(n_basis=20))
+    model = fit(dataset, LAYOUT, Settings(n_basis=20, width=1.0, noise_scale=1.5))
     for prim in model.primitives:
         assert prim.mean.shape == (120,)
         eigenvalues = np.linalg.eigvalsh(prim.cov)
@@ -70,35 +76,39 @@ def test_noise_is_estimated_from_the_residuals_per_modality() -> None:
             noise = rng.normal(size=(n, 6)) * np.repeat([hand_noise, head_noise], 3)
             demos.append(Demonstration(t, clean + noise, COLUMNS, name=f"{name}{i}"))
         dataset[name] = demos
-    model = fit(dataset, LAYOUT, Settings(n_basis=10, noise_scale=1.0))
+    model = fit(dataset, LAYOUT, Settings(n_basis=10, width=1.0, noise_scale=1.0))
     noise_std = np.sqrt(model.primitives[0].noise_var)
     assert_allclose(noise_std[:3], hand_noise, rtol=0.1)
     assert_allclose(noise_std[3:], head_noise, rtol=0.1)
     # One sensor, one noise: every primitive shares it.
     assert_allclose(model.primitives[1].noise_var, model.primitives[0].noise_var)
-    scaled = fit(dataset, LAYOUT, Settings(n_basis=10, noise_scale=1.5))
+    scaled = fit(dataset, LAYOUT, Settings(n_basis=10, width=1.0, noise_scale=1.5))
     assert_allclose(scaled.primitives[0].noise_var, 1.5**2 * model.primitives[0].noise_var)
-    override = fit(dataset, LAYOUT, Settings(n_basis=10, noise_scale=1.0, noise_std={"head": 0.5}))
+    override = fit(
+        dataset, LAYOUT, Settings(n_basis=10, width=1.0, noise_scale=1.0, noise_std={"head": 0.5})
+    )
     assert_allclose(override.primitives[0].noise_var[3:], 0.25)
     assert_allclose(override.primitives[0].noise_var[:3], model.primitives[0].noise_var[:3])
 
 
 def test_training_alphas_follow_the_durations() -> None:
     dataset = make_dataset(seed=4, n_demos=5)
-    model = fit(dataset, LAYOUT)
+    model = fit(dataset, LAYOUT, GIVEN)
     for prim, demos in zip(model.primitives, dataset.values(), strict=True):
         expected = [alpha_from_duration(d.duration, model.sample_period, 100.0) for d in demos]
         assert_allclose(prim.alphas, expected)
 
 
 def test_alpha_coupling_is_the_conditional_of_the_joint_gaussian() -> None:
-    model = fit(make_dataset(seed=5, n_demos=8), LAYOUT, Settings(n_basis=6))
+    model = fit(make_dataset(seed=5, n_demos=8), LAYOUT, GIVEN)
     prim = model.primitives[0]
     centre = np.exp(prim.log_alpha_mean)
     assert_allclose(prim.mean_at(centre), prim.mean, atol=1e-12)
     batch = prim.mean_at(np.array([0.5, 1.0]))
     assert batch.shape == (2, prim.mean.shape[0])
-    off = fit(make_dataset(seed=5, n_demos=8), LAYOUT, Settings(n_basis=6, alpha_coupling=False))
+    off = fit(
+        make_dataset(seed=5, n_demos=8), LAYOUT, dataclasses.replace(GIVEN, alpha_coupling=False)
+    )
     assert_allclose(off.primitives[0].mean_at(0.5), off.primitives[0].mean)
 
 
@@ -125,9 +135,9 @@ def test_the_pooled_prior_is_strong_when_primitives_share_their_shape() -> None:
     basis = RBFBasis(4, 1.0)
     dims = [np.array([0, 1, 2])]
     shared = _classes(rng, 6, 8, shared=True)
-    _, strong = pooled_covariances(shared, [7] * 6, dims, 3, basis)
+    _, strong = pooled_covariances(shared, [7] * 6, dims, 3, basis, FLOOR)
     unrelated = _classes(rng, 6, 40, shared=False)
-    _, weak = pooled_covariances(unrelated, [39] * 6, dims, 3, basis)
+    _, weak = pooled_covariances(unrelated, [39] * 6, dims, 3, basis, FLOOR)
     assert strong.strength > 10 * 7
     assert weak.strength < 39
     described = strong.describe()
@@ -139,9 +149,9 @@ def test_the_pooled_covariance_is_the_posterior_mean_of_its_niw_prior() -> None:
     rng = np.random.default_rng(1)
     basis = RBFBasis(4, 1.0)
     residuals = _classes(rng, 3, 6, shared=True)
-    out, prior = pooled_covariances(residuals, [5, 5, 5], [np.arange(3)], 3, basis)
+    out, prior = pooled_covariances(residuals, [5, 5, 5], [np.arange(3)], 3, basis, FLOOR)
     rows = np.concatenate(residuals)
-    target = block_target(rows, 3, 15, basis)
+    target = block_target(rows, 3, 15, basis, FLOOR)
     beta = np.repeat(prior.target_weight, 4)
     sigma0 = np.diag(beta * target) + np.sqrt(1 - beta)[:, None] * (rows.T @ rows / 15) * np.sqrt(
         1 - beta
@@ -153,20 +163,20 @@ def test_the_pooled_covariance_is_the_posterior_mean_of_its_niw_prior() -> None:
 
 
 def test_the_model_reports_what_it_chose() -> None:
-    model = fit(make_dataset(seed=3, n_demos=6), LAYOUT, Settings(n_basis=6))
+    model = fit(make_dataset(seed=3, n_demos=6), LAYOUT, GIVEN)
     cov = model.report["covariance"]
     assert cov["strength"] > 0 and len(cov["target_weight"]) == LAYOUT.n_dims
-    fixed = fit(make_dataset(seed=3, n_demos=6), LAYOUT, Settings(n_basis=6, shrinkage=0.2))
+    fixed = fit(make_dataset(seed=3, n_demos=6), LAYOUT, dataclasses.replace(GIVEN, shrinkage=0.2))
     assert fixed.report["covariance"]["shrinkage"] == 0.2
 
 
 def test_shrinkage_target_is_one_scaled_identity_per_dimension() -> None:
-    model = fit(make_dataset(seed=2, n_demos=5), LAYOUT, Settings(n_basis=6, shrinkage=0.3))
+    model = fit(make_dataset(seed=2, n_demos=5), LAYOUT, dataclasses.replace(GIVEN, shrinkage=0.3))
     prim = model.primitives[0]
     blocks = prim.cov_diag.reshape(6, 6)
     assert_allclose(blocks, blocks[:, :1] * np.ones((1, 6)))  # constant within a dimension
     assert_allclose(prim.shrinkage, 0.3)
-    pooled = fit(make_dataset(seed=2, n_demos=5), LAYOUT, Settings(n_basis=6, shrinkage=None))
+    pooled = fit(make_dataset(seed=2, n_demos=5), LAYOUT, GIVEN)
     assert_allclose(pooled.primitives[0].cov_diag.reshape(6, 6)[:, 1:], pooled.primitives[
         0
     ].cov_diag.reshape(6, 6)[:, :-1])  # the pooled prior keeps the block form

@@ -5,7 +5,7 @@
     python -m promp.evaluate DATASET --format records|csv [--modality NAME=COL,COL,...]...
         [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
         [--json OUT.json] [--plots DIR] [--basis M] [--width W] [--shrinkage S|auto]
-        [--noise-scale X] [--jobs N] [--backend local|dask --scheduler ADDRESS]
+        [--noise-scale X] [--subset N] [--jobs N] [--backend local|dask --scheduler ADDRESS]
 
 ``--format records`` reads the lab-record format, ``--format csv`` reads ``DATASET/<primitive>/
 <demo>.csv`` (:func:`promp.datasets.read_dataset`, the reader the studio's import uses too).
@@ -13,7 +13,9 @@
 (``hand`` = x, y, z, ``head`` = roll, pitch, yaw; for lab records, ``hand`` is the hand in the
 robot's root frame). ``--observe`` (default: the hand) may be repeated to sweep several
 modality sets in one run. The folds run on every core (``--jobs``), or on a Dask cluster
-(``--backend dask --scheduler ADDRESS``); the results are the same.
+(``--backend dask --scheduler ADDRESS``); the results are the same. ``--subset N`` holds out
+only N demonstrations per primitive, evenly spread (each still tested by a model fitted on
+every other demonstration): a quick run, the same for every method.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from promp.data import Layout
 from promp.datasets import Dataset, parse_modality, read_dataset
 from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.seed import ToolboxBaseline
-from promp.evaluate.sweep import position_modality, run_sweep, tqdm_progress
+from promp.evaluate.sweep import position_modality, run_sweep, spread_subset, tqdm_progress
 from promp.model import Settings
 
 DEFAULT_PERCENTS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
@@ -90,6 +92,15 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         default=None,
         help="multiplies the estimated observation noise (ours); default: chosen by every fit",
+    )
+    parser.add_argument(
+        "--subset",
+        type=int,
+        default=None,
+        metavar="N",
+        help="hold out only N demonstrations per primitive, evenly spread over each "
+        "primitive's list (deterministic; each still tested by a model fitted on all the "
+        "others); default: every demonstration",
     )
     parser.add_argument(
         "--jobs", type=int, default=-1, help="processes running the folds (-1: every core)"
@@ -154,7 +165,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise ValueError("--backend dask needs --scheduler ADDRESS")
         if args.jobs == 0 or args.jobs < -1:
             raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
-        n_demos = sum(len(v) for v in dataset.values())
+        held_out = None if args.subset is None else spread_subset(dataset, args.subset)
+        n_demos = sum(len(v) for v in dataset.values()) if held_out is None else len(held_out)
         result = run_sweep(
             factory,
             dataset,
@@ -167,6 +179,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             keep_trials=args.plots is not None,
             jobs=args.jobs,
             scheduler=args.scheduler if args.backend == "dask" else None,
+            held_out=held_out,
         )
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -187,6 +200,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 "noise_scale": "auto" if args.noise_scale is None else args.noise_scale,
             },
             "demonstrations": {name: len(demos) for name, demos in dataset.items()},
+            "subset": args.subset,
         },
         "primitives": list(dataset),
         "results": result.rows,

@@ -55,12 +55,19 @@ def goal_error(truth: np.ndarray, predicted: np.ndarray) -> float:
 
 
 def nrmse(truth: np.ndarray, predicted: np.ndarray) -> float:
-    """Range-normalised RMSE over the whole movement, averaged over dimensions."""
+    """Range-normalised RMSE over the whole movement, averaged over dimensions.
+
+    A dimension whose truth does not move (a range below 1e-12 of its magnitude: round-off) is
+    normalised by its magnitude instead, or not at all when it is zero, so the figure does not
+    depend on the unit.
+    """
     positions = np.linspace(0.0, predicted.shape[0] - 1, truth.shape[0])
     pred = resample(predicted, positions)
     rmse = np.sqrt(((truth - pred) ** 2).mean(axis=0))
     span = np.ptp(truth, axis=0)
-    span = np.where(span > 1e-12, span, 1.0)
+    magnitude = np.abs(truth).max(axis=0)
+    fallback = np.where(magnitude > 0, magnitude, 1.0)
+    span = np.where(span > 1e-12 * magnitude, span, fallback)
     return float((rmse / span).mean())
 
 

@@ -11,6 +11,11 @@ and ``scheduler`` on a Dask cluster (``dask.distributed``, the ``cluster`` extra
 identical to one process: every fold is computed the same way wherever it runs, and the rows
 are assembled in the folds' order.
 
+``held_out`` restricts the sweep to some demonstrations (:func:`spread_subset`: a few per
+primitive, evenly spread over its list, the same for every method): each is still tested by a
+model fitted on every other demonstration, so a quick run measures the same thing on fewer
+trials.
+
 A trial the method cannot run (it raises ``ValueError``: e.g. an observation it has no
 explanation for) does not end the sweep: it counts as a recognition error, is left out of the
 trajectory metrics, and is listed by primitive, demonstration and reason in the row's
@@ -146,6 +151,22 @@ def _run_fold(
     return trials
 
 
+def spread_subset(
+    dataset: Mapping[str, Sequence[Demonstration]], per_primitive: int
+) -> list[tuple[int, int]]:
+    """``per_primitive`` demonstrations of every primitive, evenly spread over its list (the
+    first, the last and equal steps between: deterministic, every primitive represented), as
+    (primitive index, demonstration index) pairs; all of a primitive that has fewer."""
+    if per_primitive < 1:
+        raise ValueError(f"hold out at least one demonstration per primitive, got {per_primitive}")
+    out = []
+    for k, demos in enumerate(dataset.values()):
+        n = len(demos)
+        picks = np.unique(np.round(np.linspace(0, n - 1, min(per_primitive, n))).astype(int))
+        out.extend((k, int(j)) for j in picks)
+    return out
+
+
 def _run_folds(
     fold: Callable[[int, int], list[Trial]], chunk: Sequence[tuple[int, int]]
 ) -> list[list[Trial]]:
@@ -218,11 +239,14 @@ def run_sweep(
     keep_trials: bool = False,
     jobs: int = 1,
     scheduler: str | None = None,
+    held_out: Sequence[tuple[int, int]] | None = None,
 ) -> SweepResult:
     """Run the leave-one-out protocol; one result row per (percent, alpha, observed).
 
     ``jobs`` processes run the folds (-1: every core); ``scheduler`` (a Dask scheduler's
     address) runs them on that cluster instead. The results do not depend on either.
+    ``held_out``: the (primitive index, demonstration index) pairs to test, each with a model
+    fitted on all the others (default: every demonstration; see :func:`spread_subset`).
     """
     names = list(dataset)
     for name, demos in dataset.items():
@@ -232,7 +256,16 @@ def run_sweep(
                 f"{name!r} has {len(demos)}"
             )
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
-    held_out = [(k, j) for k, name in enumerate(names) for j in range(len(dataset[name]))]
+    everyone = [(k, j) for k, name in enumerate(names) for j in range(len(dataset[name]))]
+    if held_out is None:
+        held_out = everyone
+    else:
+        held_out = [(int(k), int(j)) for k, j in held_out]
+        unknown = sorted(set(held_out) - set(everyone))
+        if unknown:
+            raise ValueError(f"no demonstration (primitive index, index) {unknown[0]} to hold out")
+        if len(set(held_out)) != len(held_out) or not held_out:
+            raise ValueError("held_out must name distinct demonstrations, at least one")
     fold = functools.partial(
         _run_fold,
         method_factory,

@@ -1,0 +1,132 @@
+"""The likelihood of Eq. 6 in weight space, for when the observed weights' covariance is dense.
+
+:mod:`promp._likelihood` scores an observation through ``Sigma_w = T + U U^T`` with Woodbury's
+identity: its work per candidate and noise level is an ``r x r`` factorisation and an
+``(n_o_weights x r)`` product, cheap while the rank r of ``U`` is well below the number of
+observed weights ``P_o = D_o M``. Once a primitive has as many demonstrations as that (the
+usual case for a few observed dimensions), ``U`` is square and the same determinant and
+quadratic form are cheaper from the ``P_o x P_o`` matrix of the weight-space posterior:
+
+    log det S = log det R + log det Sigma_o + log det (Sigma_o^-1 + A^T R^-1 A)
+    r^T S^-1 r = r^T R^-1 r - b^T (Sigma_o^-1 + A^T R^-1 A)^-1 b,    b = A^T R^-1 r
+
+(the determinant lemma and Woodbury's identity on ``S = A Sigma_o A^T + R``, ``r = y - A mu``),
+with ``Sigma_o^-1`` factorised once per primitive and observed set, ``A^T R^-1 A``
+block-diagonal (one whitened Gram matrix per dimension) and no eigendecomposition at all: one
+Cholesky factorisation of the bordered ``(P_o + 1)`` matrix per candidate and noise level gives
+both terms. :func:`promp._likelihood.log_likelihoods_scaled` picks the cheaper form.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from promp.model import Primitive, ProMPModel
+from promp.noise import noise_groups, whiten
+from promp.observation import Observation
+
+LOG_2PI = math.log(2.0 * math.pi)
+
+
+def observed_precision(primitive: Primitive, dims: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(Sigma_o^-1, log det Sigma_o)`` of the weights of ``dims``: the precision padded with
+    a zero row and column, shape (P_o + 1, P_o + 1), and a float.
+
+    Computed once per primitive and set of dimensions (cached on the primitive, like
+    :meth:`promp.model.Primitive.observed_factor`), from the Cholesky factor of
+    ``Sigma_o = diag(t) + U_o U_o^T``.
+    """
+    key = tuple(int(d) for d in dims)
+    cache = primitive.__dict__.setdefault("_observed_precisions", {})
+    if key not in cache:
+        u = primitive.observed_factor(dims)  # (Do, M, r)
+        n_do, m = u.shape[:2]
+        t = primitive.cov_diag.reshape(primitive.noise_var.shape[0], -1)[list(key), 0]
+        u = u.reshape(n_do * m, -1)
+        sigma = u @ u.T
+        sigma[np.diag_indices_from(sigma)] += np.repeat(t, m)
+        # Equilibrated first (unit diagonal): the modalities' units may be many orders of
+        # magnitude apart, and the inverse's pivoting is not blind to scale like Cholesky is.
+        scale = np.sqrt(np.diag(sigma))
+        chol = np.linalg.cholesky(sigma / np.outer(scale, scale))
+        # (numpy's inverse rather than a triangular solve: OpenBLAS threads its triangular
+        # solves even for small matrices, which stalls on a busy machine)
+        inv_chol = np.linalg.inv(chol) / scale[None, :]
+        precision = inv_chol.T @ inv_chol
+        padded = np.zeros((chol.shape[0] + 1,) * 2)  # bordered below and right (see below)
+        padded[:-1, :-1] = 0.5 * (precision + precision.T)
+        logdet = 2.0 * float(np.log(np.diag(chol)).sum() + np.log(scale).sum())
+        cache[key] = (padded, logdet)
+    return cache[key]
+
+
+def cheaper_than_woodbury(n_weights: int, rank: int) -> bool:
+    """Whether the weight-space form costs less than the Woodbury form for ``n_weights``
+    observed weights and a factor of rank ``rank``: one ``(P_o + 1)`` Cholesky factorisation
+    against an ``r x r`` one plus the ``(r x P_o)(P_o x r)`` product (a matrix product runs
+    about five times faster per operation than a factorisation)."""
+    return n_weights**3 / 3.0 <= 2.0 * rank * rank * n_weights / 5.0 + rank**3 / 3.0
+
+
+def log_likelihoods(
+    model: ProMPModel,
+    primitive: Primitive,
+    obs: Observation,
+    dims: np.ndarray,
+    alphas: np.ndarray,
+    durations: np.ndarray,
+    noise_var: np.ndarray,
+) -> np.ndarray:
+    """``log N(y | A mu, A Sigma_o A^T + R)`` per noise level and candidate, shape (L, A).
+
+    Parameters
+    ----------
+    dims : int array, shape (Do,)
+        The observed model dimensions.
+    alphas, durations : array, shape (A,)
+        Candidate time modulations and their durations (each at least as long as ``obs``).
+    noise_var : array, shape (L, Do)
+        The noise variance of every observed dimension at each noise level.
+    """
+    m = model.basis.n_basis
+    n_do, n_cand, n_levels = dims.shape[0], alphas.shape[0], noise_var.shape[0]
+    p = n_do * m
+    psi = model.phase_basis(obs.elapsed, durations)  # (A, n, M)
+    mu = primitive.mean_at(alphas).reshape(n_cand, model.n_dims, m)[:, dims]  # (A, Do, M)
+    gram = np.empty((n_cand, n_do, m, m))  # Psi^T K^-1 Psi of each dimension's noise group
+    proj = np.empty((n_cand, n_do, m))  # Psi^T K^-1 (y - Psi mu)
+    rr = np.empty((n_cand, n_do))  # (y - Psi mu)^T K^-1 (y - Psi mu)
+    logdet_k = np.empty(n_do)
+    for tau, cols in noise_groups(primitive, dims).items():
+        psi_w, logdet = whiten(obs.elapsed, tau, psi)
+        y_w, _ = whiten(obs.elapsed, tau, obs.values[:, cols])
+        resid = y_w[None] - psi_w @ mu[:, cols].transpose(0, 2, 1)  # (A, n, Dg)
+        gram[:, cols] = (psi_w.transpose(0, 2, 1) @ psi_w)[:, None]
+        proj[:, cols] = (psi_w.transpose(0, 2, 1) @ resid).transpose(0, 2, 1)
+        rr[:, cols] = (resid**2).sum(axis=1)
+        logdet_k[cols] = logdet
+    precision, logdet_sigma = observed_precision(primitive, dims)
+    inv_s2 = 1.0 / noise_var  # (L, Do)
+    # One noise level at a time: a batch of A matrices factorises several times faster than
+    # one of L x A (memory traffic), and one buffer serves every level.
+    bordered = np.empty((n_cand, p + 1, p + 1))
+    quad = np.empty((n_levels, n_cand))
+    logdet = np.empty((n_levels, n_cand))
+    for level in range(n_levels):
+        # [[Sigma_o^-1 + A^T R^-1 A, b], [b^T, r^T R^-1 r + 1]]: the last diagonal of its
+        # Cholesky factor squared is r^T S^-1 r + 1 (the Schur complement).
+        bordered[...] = precision  # (whole rows: faster than filling the top-left block)
+        for d in range(n_do):
+            block = slice(d * m, (d + 1) * m)
+            bordered[:, block, block] += inv_s2[level, d] * gram[:, d]
+        b = (inv_s2[level, :, None] * proj).reshape(n_cand, p)
+        bordered[:, :p, p] = b
+        bordered[:, p, :p] = b
+        bordered[:, p, p] = rr @ inv_s2[level] + 1.0
+        diag = np.diagonal(np.linalg.cholesky(bordered), axis1=-2, axis2=-1)
+        quad[level] = diag[:, p] ** 2 - 1.0
+        logdet[level] = 2.0 * np.log(diag[:, :p]).sum(-1) + logdet_sigma
+    logdet_r = (obs.n_observed * np.log(noise_var) + logdet_k).sum(-1)  # (L,)
+    return -0.5 * (quad + logdet + logdet_r[:, None] + obs.values.size * LOG_2PI)
