@@ -27,7 +27,8 @@ from promp.data import Demonstration, Layout, Modality
 from promp.evaluate import metrics
 from promp.evaluate.sweep import position_modality
 from promp.inference import Observation, Prediction, predict
-from promp.model import ProMPModel, Settings, fit
+from promp.learn import fit
+from promp.model import ProMPModel, Settings
 from promp.pipeline import infer
 from promp.recognition import Recognition
 from robots.icub.layout import hand_dims

@@ -34,7 +34,8 @@ from app.trash import TrashEntry
 from app.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
 from app.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
 from promp.data import Demonstration, Layout
-from promp.model import FALLBACK, ProMPModel, Settings, fit
+from promp.learn import fit
+from promp.model import FALLBACK, ProMPModel, Settings
 from promp.pipeline import Typicality, typicality
 
 KEEP = object()  # set_learning: leave a setting as it is

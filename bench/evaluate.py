@@ -31,7 +31,8 @@ sys.path.insert(0, str(ROOT))
 from promp.datasets import read_dataset  # noqa: E402
 from promp.evaluate.methods import ProMPEngine  # noqa: E402
 from promp.evaluate.sweep import run_sweep  # noqa: E402
-from promp.model import Settings, fit, sample_period_of  # noqa: E402
+from promp.learn import fit  # noqa: E402
+from promp.model import Settings, sample_period_of  # noqa: E402
 from promp.selection import choose_settings  # noqa: E402
 from robots.icub.layout import STUDIO_LAYOUT  # noqa: E402
 from robots.icub.scenario import generate_scenario  # noqa: E402

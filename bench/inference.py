@@ -27,7 +27,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from promp.data import Demonstration, Layout, Modality  # noqa: E402
 from promp.inference import Observation, log_likelihoods, predict  # noqa: E402
-from promp.model import Settings, fit  # noqa: E402
+from promp.learn import fit  # noqa: E402
+from promp.model import Settings  # noqa: E402
 from promp.pipeline import infer  # noqa: E402
 from promp.timing import duration_from_alpha  # noqa: E402
 

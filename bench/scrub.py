@@ -42,7 +42,7 @@ from app.panels.infer import LIVE, InferPanel  # noqa: E402
 from app.scrub import held_out_training  # noqa: E402
 from app.studio import Studio  # noqa: E402
 from app.workspace_index import LAYOUT  # noqa: E402
-from promp.model import fit  # noqa: E402
+from promp.learn import fit  # noqa: E402
 
 TARGET_MS = 16.0
 LOAD_TARGET_MS = 33.0  # p90 under load: two frames at 60 Hz

@@ -379,48 +379,6 @@ def sample_period_of(demos: Sequence[Demonstration]) -> float:
     return float(np.median([d.sample_period for d in demos]))
 
 
-def fit(
-    dataset: Mapping[str, Sequence[Demonstration]],
-    layout: Layout,
-    settings: Settings | None = None,
-    sample_period: float | None = None,
-) -> ProMPModel:
-    """Learn one primitive per entry of ``dataset`` ({primitive name: demonstrations}).
-
-    Settings left to the data (None: by default the basis count, its width and the noise
-    scale) are chosen from ``dataset`` by :func:`promp.selection.choose_settings`; the model's
-    ``settings`` hold the values used and ``report["settings"]`` what was chosen, and why.
-
-    Raises
-    ------
-    ValueError
-        No primitive, a primitive with fewer than 2 demonstrations, a demonstration without
-        the layout's columns.
-    """
-    settings = settings or Settings()
-    if not dataset:
-        raise ValueError("no primitive to learn: the dataset is empty")
-    all_demos = [d for demos in dataset.values() for d in demos]
-    dt = sample_period if sample_period is not None else sample_period_of(all_demos)
-    if not np.isfinite(dt) or dt <= 0:
-        raise ValueError(f"sample_period must be positive, got {dt}")
-    for name, demos in dataset.items():
-        if len(demos) < 2:
-            raise ValueError(
-                f"primitive {name!r} has {len(demos)} demonstration(s); at least 2 are needed "
-                "to learn a distribution"
-            )
-    if settings.automatic:
-        # (imported here: the choice fits and scores candidate models)
-        from promp.selection import choose_settings
-
-        settings, choice = choose_settings(dataset, layout, settings, dt)
-    else:
-        choice = {"rule": "given (n_basis, width and noise_scale set explicitly)"}
-    model = fit_with(dataset, layout, settings, dt)
-    return dataclasses.replace(model, report={"settings": choice, **model.report})
-
-
 def fit_with(
     dataset: Mapping[str, Sequence[Demonstration]],
     layout: Layout,
@@ -428,9 +386,9 @@ def fit_with(
     dt: float,
     alpha_models: bool = True,
 ) -> ProMPModel:
-    """:func:`fit` with every setting given (no choice) and the sample period ``dt`` (s);
-    without ``alpha_models`` the primitives have no Eq. 7 models (they are not needed to
-    recognise with the "ml" alpha)."""
+    """:func:`promp.learn.fit` with every setting given (no choice) and the sample period
+    ``dt`` (s); without ``alpha_models`` the primitives have no Eq. 7 models (they are not
+    needed to recognise with the "ml" alpha)."""
     all_demos = [d for demos in dataset.values() for d in demos]
     fits = fit_all_weights(settings.basis, all_demos, layout, settings.ridge)
     noise_var, noise_tau = estimate_noise(fits, [d.times for d in all_demos], layout, settings)

@@ -26,7 +26,8 @@ from app.workspace_index import COLUMNS, LAYOUT
 from promp.data import Demonstration
 from promp.evaluate import metrics
 from promp.inference import condition, predict
-from promp.model import Settings, fit
+from promp.learn import fit
+from promp.model import Settings
 from robots.icub.layout import hand_dims
 from tests.conftest import open_page, start_studio, wait_until
 

@@ -27,7 +27,8 @@ from app.workspace_index import LAYOUT, PALETTE, PrimitiveEntry
 from promp.datasets import demo_from_csv, demo_to_csv, read_record
 from promp.inference import Observation
 from promp.io import demo_from_npz_bytes, model_to_json
-from promp.model import Settings, fit
+from promp.learn import fit
+from promp.model import Settings
 from promp.pipeline import infer
 from tests import bad_inputs
 from tests.synthetic import make_dataset

@@ -27,7 +27,8 @@ from app.workspace_index import COLUMNS, LAYOUT, PALETTE, PrimitiveEntry
 from promp.data import Demonstration, Layout, Modality
 from promp.datasets import demo_to_csv
 from promp.io import model_to_dict
-from promp.model import Settings, fit
+from promp.learn import fit
+from promp.model import Settings
 from tests.conftest import REPO
 from tests.synthetic import make_dataset
 

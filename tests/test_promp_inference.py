@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from promp.inference import Gaussian, Observation, condition, log_likelihoods, predict
-from promp.model import Settings, fit
+from promp.learn import fit
+from promp.model import Settings
 from promp.pipeline import infer
 from promp.recognition import AlphaPrior, recognise
 from tests import dense_reference as dense

@@ -20,7 +20,8 @@ from promp.io import (
     model_to_dict,
     save_model,
 )
-from promp.model import Settings, fit
+from promp.learn import fit
+from promp.model import Settings
 from promp.recognition import recognise
 from tests.synthetic import LAYOUT, make_dataset
 

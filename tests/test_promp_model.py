@@ -11,7 +11,8 @@ from numpy.testing import assert_allclose
 from promp.basis import RBFBasis, SeedBasis
 from promp.covariance import block_target, pooled_covariances
 from promp.data import Demonstration
-from promp.model import Settings, fit, fit_weights
+from promp.learn import fit
+from promp.model import Settings, fit_weights
 from promp.timing import alpha_from_duration, duration_from_alpha
 from tests.synthetic import COLUMNS, LAYOUT, make_dataset
 

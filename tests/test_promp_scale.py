@@ -16,7 +16,8 @@ from numpy.testing import assert_allclose
 
 from promp.data import Demonstration, Layout, Modality
 from promp.inference import Observation
-from promp.model import Settings, fit
+from promp.learn import fit
+from promp.model import Settings
 from promp.pipeline import infer
 from tests.synthetic import make_dataset
 

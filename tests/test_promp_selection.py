@@ -8,7 +8,8 @@ import pytest
 from promp import selection
 from promp.data import Demonstration, Layout, Modality
 from promp.io import model_from_json, model_to_json
-from promp.model import FALLBACK, Settings, fit
+from promp.learn import fit
+from promp.model import FALLBACK, Settings
 from tests.synthetic import LAYOUT, make_dataset
 
 HAND = Layout((Modality("hand", ("x", "y", "z")),))

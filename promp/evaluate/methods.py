@@ -14,7 +14,8 @@ import numpy as np
 
 from promp.data import Demonstration, Layout
 from promp.inference import Observation
-from promp.model import ProMPModel, Settings, fit
+from promp.learn import fit
+from promp.model import ProMPModel, Settings
 from promp.pipeline import infer
 
 
