@@ -26,7 +26,7 @@ Three uPlot behaviours with NaN, seen in headless Chromium, shape this module:
 
 Usage::
 
-    chart = band_chart([Band("curved", t, mean, std, (228, 87, 46))],
+    chart = band_chart([Band("curved", t, mean, std, (213, 94, 0))],
                        [Trace("demo 3", t3, x3, (40, 40, 40))])
     handle = add_band_chart(gui, chart, title="hand x (cm)")
     ...

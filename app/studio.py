@@ -31,6 +31,7 @@ from app.scene.look import DATA, INFER, TEACH
 from app.scene.robot import RobotView, add_robot
 from app.session import Session
 from app.upload_guard import Refused, UploadGuard
+from app.view import ViewControls
 from app.workspace import FolderKind, WorkspaceData, inspect_folder
 from app.workspace_index import PALETTE, PrimitiveEntry
 from robots.icub.kinematics import ArmChain
@@ -72,6 +73,7 @@ class Studio:
         self.head.read(arm.hand_position())
         self.scene = Scene(server, session)
         self.panels: list[Panel] = []
+        self.view: ViewControls | None = None
         self._stop = threading.Event()
         self._tasks: list[Callable[[], None]] = []
         self._tasks_lock = threading.Lock()
@@ -157,7 +159,9 @@ class Studio:
         )
 
     def _build_panels(self) -> list[Panel]:
-        """One tab per panel, each ending with its help ("?", collapsed)."""
+        """The camera buttons, then one tab per panel, each ending with its help ("?",
+        collapsed)."""
+        self.view = ViewControls(self.server, self.scene)
         tabs = self.server.gui.add_tab_group()
         panels: list[Panel] = []
         for title, name, build in TABS:
@@ -194,6 +198,8 @@ class Studio:
         self.arm.step()
         reading = self.head.read(self.arm.hand_position())
         self.scene.refresh(reading.angles)
+        if self.view is not None:
+            self.view.step()
         for panel in self.panels:
             panel.step()
 

@@ -5,7 +5,6 @@ recorder and the uPlot band helpers without a browser."""
 from __future__ import annotations
 
 import json
-import math
 import signal
 import subprocess
 import sys
@@ -24,6 +23,7 @@ from app.session import Session
 from app.studio import default_workspace
 from app.workspace_index import LAYOUT
 from promp.datasets import read_csv_demo
+from tests.browser import camera_pixels
 from tests.conftest import REPO, open_page, start_studio, wait_until
 
 # ====================================================================== without a browser
@@ -233,22 +233,6 @@ COUNTDOWN_OBSERVER = """() => {
 }"""
 
 
-def project(client, points: np.ndarray) -> np.ndarray:
-    """Pixel coordinates (n, 2) of world points (n, 3) in the client's view (OpenCV camera:
-    x right, y down, z forward; ``wxyz``/``position`` give the camera-to-world pose)."""
-    camera = client.camera
-    rotation = vtf.SO3(np.asarray(camera.wxyz)).as_matrix()
-    local = (np.atleast_2d(points) - camera.position) @ rotation
-    height, width = camera.image_height, camera.image_width
-    focal = (height / 2.0) / math.tan(camera.fov / 2.0)
-    return np.column_stack(
-        [
-            width / 2 + focal * local[:, 0] / local[:, 2],
-            height / 2 + focal * local[:, 1] / local[:, 2],
-        ]
-    )
-
-
 def drag_hand(page, client, studio, direction, pixels: float, steps: int = 4) -> None:
     """Drag the gizmo with the real mouse, in a few steps, by the arrow of the hand-frame axis
     closest to the world ``direction`` (3,) among those seen side-on, so that the hand moves
@@ -261,7 +245,8 @@ def drag_hand(page, client, studio, direction, pixels: float, steps: int = 4) ->
     best = None
     for k in np.argsort(-np.abs(alignment)):
         axis = gizmo.scale * axes[:, k]
-        origin, grab, tip = project(client, np.stack([centre, centre + 0.85 * axis, centre + axis]))
+        ends = np.stack([centre, centre + 0.85 * axis, centre + axis])
+        origin, grab, tip = camera_pixels(client, ends)
         if np.linalg.norm(tip - origin) > 40.0:  # an arrow seen side-on, easy to grab
             best = (k, grab, tip)
             break

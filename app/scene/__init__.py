@@ -59,6 +59,11 @@ class Scene:
         self._inference_on, self._priors = bool(shown), priors
 
     @property
+    def drawn_version(self) -> int:
+        """The session version the workspace's objects were last drawn from."""
+        return self._drawn_version
+
+    @property
     def look(self) -> Look:
         return look(self.panel, self._inference_on and self.inference.has_shape, self._priors)
 
@@ -93,3 +98,25 @@ class Scene:
         self._applied = current
         self.workspace.apply(current, self._hidden)
         self.inference.show(current.inference)
+
+    # ------------------------------------------------------------------ what the camera frames
+
+    def paths(self, inference: bool | None = None) -> np.ndarray:
+        """The hand paths on show, points (n, 3): the Infer layer's (observation, prediction,
+        truth, posterior tube) when ``inference`` (default: when the current look shows it),
+        else the demonstration lines (but those the user hid). Empty (0, 3) without any."""
+        if inference is None:
+            inference = self.look.inference
+        if inference:
+            nodes = [n for n in self.inference.nodes if n.visible and id(n) in self.inference.drawn]
+        else:  # every line but those the user hid, whether the look shows them now or not
+            nodes = [line for key, line in self.workspace.lines.items() if key not in self._hidden]
+        arrays = []
+        for node in nodes:
+            points = getattr(node, "points", None)
+            if points is None:
+                points = getattr(node, "vertices", None)
+            if points is None:
+                points = np.atleast_2d(getattr(node, "position", np.zeros((0, 3))))
+            arrays.append(np.asarray(points, dtype=float).reshape(-1, 3))
+        return np.concatenate(arrays) if arrays else np.zeros((0, 3))
