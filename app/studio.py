@@ -19,6 +19,7 @@ from pathlib import Path
 import viser
 
 from app.arm import ArmController
+from app.client_script import add_client_script
 from app.context import Panel, PanelContext, PanelGui
 from app.head_input import HeadInput
 from app.head_sources import HeadSource, SimulatedPartner, StreamHeadSource
@@ -160,7 +161,7 @@ class Studio:
 
     def _build_panels(self) -> list[Panel]:
         """The camera buttons, then one tab per panel, each ending with its help ("?",
-        collapsed)."""
+        collapsed), then the page's script (:mod:`app.client_script`)."""
         self.view = ViewControls(self.server, self.scene)
         tabs = self.server.gui.add_tab_group()
         panels: list[Panel] = []
@@ -168,6 +169,10 @@ class Studio:
             with tabs.add_tab(title):
                 panels.append(build(self._context(name)))
                 add_help(self.server.gui, name)
+        charts = {}
+        for panel in panels:
+            charts.update(getattr(panel, "chart_sliders", dict)())
+        add_client_script(self.server.gui, charts)
         return panels
 
     # ------------------------------------------------------------------ loop
