@@ -1,7 +1,7 @@
 """The 3D view: the robot and its table (:mod:`app.scene.robot`), the partner
 (:mod:`app.scene.partner`), the workspace's demonstrations and priors
-(:mod:`app.scene.workspace_layer`) and the Infer tab's inference
-(:mod:`app.scene.inference_layer`).
+(:mod:`app.scene.workspace_layer`), the Infer tab's inference
+(:mod:`app.scene.inference_layer`) and Teach's start pose (:mod:`app.scene.start_marker`).
 
 :class:`Scene` owns every node of the last three and is the one place that decides what is
 drawn: :func:`app.scene.look.look` of the panel in use and the Infer panel's display options.
@@ -17,6 +17,7 @@ import viser
 from app.scene.inference_layer import InferenceLayer
 from app.scene.look import PANELS, SHOWN, TEACH, Look, look
 from app.scene.partner import PartnerView
+from app.scene.start_marker import StartMarker
 from app.scene.workspace_layer import WorkspaceLayer
 from app.scrub import ScrubResult
 from app.session import Session
@@ -31,6 +32,7 @@ class Scene:
         self.partner = PartnerView(server)
         self.workspace = WorkspaceLayer(server)
         self.inference = InferenceLayer(server)
+        self.start = StartMarker(server)
         self.panel = TEACH  # the panel in use: the first tab until a control is used
         self._inference_on = False
         self._priors = SHOWN
@@ -54,6 +56,12 @@ class Scene:
         self.inference.draw(result if shown else None, color)
         self.set_inference_options(shown, priors)
         self._apply(force=True)
+
+    def show_start(self, position: np.ndarray | None, color: tuple[int, int, int]) -> None:
+        """The Teach panel's start pose (its selected primitive's), None when it has none
+        (loop thread)."""
+        self.start.place(position, color)
+        self.start.show(self.look.start)
 
     def set_inference_options(self, shown: bool, priors: str) -> None:
         self._inference_on, self._priors = bool(shown), priors
@@ -98,6 +106,7 @@ class Scene:
         self._applied = current
         self.workspace.apply(current, self._hidden)
         self.inference.show(current.inference)
+        self.start.show(current.start)
 
     # ------------------------------------------------------------------ what the camera frames
 
