@@ -62,6 +62,11 @@ class Quantity:
         """E.g. ``hand x (cm)``."""
         return f"{self.modality} {self.name}" + (f" ({self.unit})" if self.unit else "")
 
+    @property
+    def axis_label(self) -> str:
+        """The y axis of its charts, e.g. ``x (cm)``."""
+        return self.name + (f" ({self.unit})" if self.unit else "")
+
 
 def quantities(layout: Layout) -> tuple[Quantity, ...]:
     """Every dimension of ``layout``, in order."""
@@ -73,11 +78,29 @@ def quantities(layout: Layout) -> tuple[Quantity, ...]:
     return tuple(out)
 
 
+# The alpha methods as every tab writes them (the engine's names are the keys).
+ALPHA_LABELS = {"ml": "ML", "model": "model"}
+ALPHA_HINT = (
+    "How the speed (alpha, the time modulation: 100 / samples of the whole movement) is "
+    "estimated. ML: the most likely of the training speeds; model: regressed on the early motion."
+)
+
+
+def observed_label(names) -> str:
+    """Observed modalities as every tab writes them, e.g. ``hand + head``."""
+    return " + ".join(names)
+
+
+def series_title(observed, alpha_method: str) -> str:
+    """One evaluation curve as the studio names it, e.g. ``hand + head, ML``."""
+    return f"{observed_label(observed)}, {ALPHA_LABELS.get(alpha_method, alpha_method)}"
+
+
 def observed_choices(layout: Layout) -> dict[str, tuple[str, ...]]:
     """The observed-modality choices the studio offers, by label: all modalities together
     first ("hand + head"), then each alone."""
     names = layout.names
-    choices = {" + ".join(names): names}
+    choices = {observed_label(names): names}
     if len(names) > 1:
         choices.update({name: (name,) for name in names})
     return choices

@@ -26,7 +26,7 @@ Three uPlot behaviours with NaN, seen in headless Chromium, shape this module:
 
 Usage::
 
-    chart = band_chart([Band("curved", t, mean, std, (228, 87, 46))],
+    chart = band_chart([Band("curved", t, mean, std, (213, 94, 0))],
                        [Trace("demo 3", t3, x3, (40, 40, 40))])
     handle = add_band_chart(gui, chart, title="hand x (cm)")
     ...
@@ -286,11 +286,22 @@ def band_chart(
     return BandChart(tuple(data), tuple(series), tuple(fills), y_range(data[1:]))
 
 
-def chart_axes(y_label: str) -> tuple[uplot.Axis, uplot.Axis]:
-    """Compact axes: time below, ``y_label`` on a narrow left axis."""
+TIME_LABEL = "time (s)"
+
+
+def chart_axes(y_label: str, x_label: str = TIME_LABEL) -> tuple[uplot.Axis, uplot.Axis]:
+    """Compact axes: ``x_label`` (time) below, ``y_label`` on a narrow left axis."""
     font = "11px sans-serif"
     return (
-        {"size": 30, "font": font, "space": 40, "ticks": {"size": 4}},
+        {
+            "label": x_label,
+            "size": 30,
+            "font": font,
+            "space": 40,
+            "ticks": {"size": 4},
+            "labelSize": 14,
+            "labelFont": font,
+        },
         {
             "label": y_label,
             "size": 46,
@@ -312,7 +323,8 @@ def add_band_chart(
     legend: bool = False,
     visible: bool = True,
 ) -> viser.GuiUplotHandle:
-    """Add ``chart`` to ``gui`` (inside the current folder/tab) and return its handle."""
+    """Add ``chart`` to ``gui`` (inside the current folder/tab) and return its handle; the x
+    axis says "time (s)", the y axis ``y_label`` (the quantity's unit)."""
     return gui.add_uplot(
         data=chart.data,
         series=chart.series,

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.display import ALPHA_LABELS
 from promp.data import Demonstration, Layout, Modality
 from promp.evaluate import metrics
 from promp.evaluate.sweep import position_modality
@@ -34,7 +35,7 @@ from promp.recognition import Recognition
 from robots.icub.layout import hand_dims
 
 # What the GUI offers, and what the engine calls it.
-ALPHA_CHOICES: dict[str, str] = {"ML": "ml", "model": "model"}
+ALPHA_CHOICES: dict[str, str] = {label: method for method, label in ALPHA_LABELS.items()}
 TUBE_POINTS = 100  # rings of the posterior tube (fixed mesh topology)
 PATH_POINTS = 60  # samples of the predicted future hand path
 
@@ -147,6 +148,9 @@ class ScrubResult:
     position_error_m, goal_error_m, duration_error_s : float
         Against the truth (NaN without one; the position error is NaN when nothing remains).
         The first two are in the unit of :func:`error_modality` (metres for the hand).
+    typical_alpha : float
+        The recognised primitive's typical alpha (exp of its training demonstrations' mean
+        log-alpha): ``alpha / typical_alpha`` is the speed relative to its usual one.
     """
 
     names: tuple[str, ...]
@@ -162,6 +166,7 @@ class ScrubResult:
     position_error_m: float
     goal_error_m: float
     duration_error_s: float
+    typical_alpha: float = math.nan
 
     @property
     def primitive(self) -> str:
@@ -183,6 +188,12 @@ class ScrubResult:
     @property
     def true_duration(self) -> float:
         return self.truth.duration if self.truth is not None else math.nan
+
+    @property
+    def relative_speed(self) -> float:
+        """The recognised alpha over the primitive's typical one: 1 is its usual speed, more
+        is faster."""
+        return self.alpha / self.typical_alpha
 
     @property
     def remaining(self) -> float:
@@ -254,6 +265,7 @@ def scrub_step(
         position_error_m=position_error,
         goal_error_m=goal_error,
         duration_error_s=duration_error,
+        typical_alpha=float(np.exp(model.primitives[reco.index].log_alpha_mean)),
     )
 
 

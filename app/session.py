@@ -319,17 +319,34 @@ class Session:
             i += 1
         return f"{primitive}_{i:03d}"
 
-    def add_demo(self, primitive: str, times: np.ndarray, values: np.ndarray) -> Demonstration:
+    def add_demo(
+        self,
+        primitive: str,
+        times: np.ndarray,
+        values: np.ndarray,
+        raw: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> Demonstration:
         """Store a new demonstration (times (n,), values (n, D) in the layout's column order):
-        written to disk before it joins the session. Returns it (with its name)."""
+        written to disk before it joins the session. ``raw``, the (times, values) of the take
+        it was trimmed from, is kept in the workspace's ``raw/`` folder (named after the
+        demonstration and the time). Returns the demonstration (with its name)."""
         with self.lock:
             self.entry(primitive)
             times = np.asarray(times, dtype=float)
             demo = Demonstration(
                 times - times[0], values, self.columns, name=self.next_demo_name(primitive)
             )
+            untrimmed = None
+            if raw is not None:
+                raw_times = np.asarray(raw[0], dtype=float)
+                stamp = time.strftime("%Y%m%d-%H%M%S")
+                untrimmed = Demonstration(
+                    raw_times - raw_times[0], raw[1], self.columns, name=f"{demo.name}_{stamp}"
+                )
             typicality = self.score(primitive, demo)
             self.workspace.write_demo(primitive, demo, self.layout)
+            if untrimmed is not None:
+                self.workspace.write_raw(primitive, untrimmed, self.layout)
             self.demos[primitive].append(demo)
             if typicality is not None:
                 self.typicality[(primitive, demo.name)] = typicality

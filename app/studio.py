@@ -19,6 +19,7 @@ from pathlib import Path
 import viser
 
 from app.arm import ArmController
+from app.client_script import add_client_script
 from app.context import Panel, PanelContext, PanelGui
 from app.head_input import HeadInput
 from app.head_sources import HeadSource, SimulatedPartner, StreamHeadSource
@@ -31,6 +32,7 @@ from app.scene.look import DATA, INFER, TEACH
 from app.scene.robot import RobotView, add_robot
 from app.session import Session
 from app.upload_guard import Refused, UploadGuard
+from app.view import ViewControls
 from app.workspace import FolderKind, WorkspaceData, inspect_folder
 from app.workspace_index import PALETTE, PrimitiveEntry
 from robots.icub.kinematics import ArmChain
@@ -72,6 +74,7 @@ class Studio:
         self.head.read(arm.hand_position())
         self.scene = Scene(server, session)
         self.panels: list[Panel] = []
+        self.view: ViewControls | None = None
         self._stop = threading.Event()
         self._tasks: list[Callable[[], None]] = []
         self._tasks_lock = threading.Lock()
@@ -157,13 +160,19 @@ class Studio:
         )
 
     def _build_panels(self) -> list[Panel]:
-        """One tab per panel, each ending with its help ("?", collapsed)."""
+        """The camera buttons, then one tab per panel, each ending with its help ("?",
+        collapsed), then the page's script (:mod:`app.client_script`)."""
+        self.view = ViewControls(self.server, self.scene)
         tabs = self.server.gui.add_tab_group()
         panels: list[Panel] = []
         for title, name, build in TABS:
             with tabs.add_tab(title):
                 panels.append(build(self._context(name)))
                 add_help(self.server.gui, name)
+        charts = {}
+        for panel in panels:
+            charts.update(getattr(panel, "chart_sliders", dict)())
+        add_client_script(self.server.gui, charts)
         return panels
 
     # ------------------------------------------------------------------ loop
@@ -194,6 +203,8 @@ class Studio:
         self.arm.step()
         reading = self.head.read(self.arm.hand_position())
         self.scene.refresh(reading.angles)
+        if self.view is not None:
+            self.view.step()
         for panel in self.panels:
             panel.step()
 

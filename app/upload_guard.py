@@ -14,7 +14,13 @@ the transfer's state when
 Later parts of a dropped transfer find no state and are ignored by viser. The browser, which
 keeps its upload button disabled until every byte is acknowledged, is sent a final
 acknowledgement and its "uploading" notification is closed; the ``refused`` callback then tells
-the user why. This relies on viser internals (checked at construction: :attr:`active` is False
+the user why.
+
+A file refused *after* it was read (bad content) has already been acknowledged in full, and the
+browser has turned its notification into "File uploaded successfully.". The guard remembers
+each client's latest transfer on its button; :meth:`UploadGuard.dismiss` closes that
+notification, so the refusal does not sit under a contradicting success toast. This relies on
+viser internals (checked at construction: :attr:`active` is False
 when they are missing, and callers must then check the size after the upload, as the studio
 always does anyway).
 """
@@ -61,6 +67,7 @@ class UploadGuard:
             self._interface, "register_handler"
         )
         self.refusals = 0
+        self._latest: dict[int, str] = {}  # client id -> its latest transfer on this button
         if self.active:
             self._interface.register_handler(_messages.FileTransferStartUpload, self._on_start)
             self._interface.register_handler(_messages.FileTransferPart, self._on_part)
@@ -71,9 +78,20 @@ class UploadGuard:
             self._interface.unregister_handler(_messages.FileTransferPart, self._on_part)
             self.active = False
 
+    def dismiss(self, client: viser.ClientHandle | None) -> None:
+        """Close the upload notification of ``client``'s latest upload on this button (its
+        file was refused after it was read)."""
+        if client is None or not self.active:
+            return
+        transfer = self._latest.pop(client.client_id, None)
+        connection = getattr(client, "_websock_connection", None)
+        if transfer is not None and connection is not None:
+            connection.queue_message(_messages.RemoveNotificationMessage(f"upload-{transfer}"))
+
     def _on_start(self, client_id: int, message: _messages.FileTransferStartUpload) -> None:
         if message.source_component_uuid != self._uuid:
             return
+        self._latest[client_id] = message.transfer_uuid
         if message.size_bytes > self.max_bytes:
             self._refuse(client_id, message.transfer_uuid, message.filename, message.size_bytes)
 

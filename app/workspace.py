@@ -6,6 +6,9 @@
       studio.json                     format, version, the layout of modalities, primitives
                                       (name, colour, order), learning settings
       demos/<primitive>/<demo>.csv    one demonstration each, the engine's CSV format
+      raw/<primitive>/<demo>_<time>.csv
+                                      each recorded take as it was sampled, before its idle
+                                      ends were trimmed (never read as a demonstration)
       trash/                          what was deleted or replaced (app.trash), restorable
 
 The studio only ever writes inside a folder that is absent, empty, or already a studio
@@ -49,6 +52,7 @@ from promp.datasets import atomic_write_text, read_csv_demo, write_csv_demo
 from promp.model import Settings
 
 DEMOS_DIR = "demos"
+RAW_DIR = "raw"  # untrimmed takes: kept for the record, not loaded
 
 
 @dataclass
@@ -206,6 +210,13 @@ class Workspace:
     def write_demo(self, primitive: str, demo: Demonstration, layout: Layout) -> Path:
         """Write one demonstration (its ``name`` is the file stem), atomically."""
         path = self.demo_path(primitive, demo.name)
+        _write_demo(path, demo, layout)
+        return path
+
+    def write_raw(self, primitive: str, demo: Demonstration, layout: Layout) -> Path:
+        """Keep an untrimmed take (its ``name`` is the file stem) in ``raw/<primitive>/``,
+        atomically; the loader never reads it."""
+        path = self.root / RAW_DIR / check_name(primitive) / f"{demo.name}.csv"
         _write_demo(path, demo, layout)
         return path
 

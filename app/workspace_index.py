@@ -4,7 +4,7 @@
 
     {"format": "icub-intention-studio/workspace", "version": 1,
      "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"}, ...],
-     "primitives": [{"name": "curved", "color": [228, 87, 46]}, ...],
+     "primitives": [{"name": "curved", "color": [213, 94, 0]}, ...],
      "settings": {"n_basis": 7, ...}}
 
 The layout lists the modalities (:func:`layout_listing`); a workspace the studio creates has
@@ -32,15 +32,18 @@ INDEX_NAME = "studio.json"
 LAYOUT = STUDIO_LAYOUT  # the layout of a workspace the studio creates and records into
 COLUMNS = LAYOUT.columns
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_\-]{0,39}$")
+# Primitive colours, in order: saturated and far apart in hue (after Okabe and Ito's
+# colour-blind-safe set), none close to the scene's neutral table, bins and object, nor to the
+# robot's pale blue-grey. Each new primitive takes the next.
 PALETTE = (
-    (228, 87, 46),
-    (41, 128, 185),
-    (39, 174, 96),
-    (142, 68, 173),
-    (243, 156, 18),
-    (22, 160, 133),
-    (192, 57, 43),
-    (52, 73, 94),
+    (213, 94, 0),
+    (0, 114, 178),
+    (0, 158, 115),
+    (204, 121, 167),
+    (230, 159, 0),
+    (86, 180, 233),
+    (120, 70, 160),
+    (140, 30, 60),
 )
 
 

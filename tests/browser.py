@@ -3,7 +3,11 @@ tests. Every wait is for a state, with a generous deadline, never a fixed sleep.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
+
+import numpy as np
+import viser.transforms as vtf
 
 from tests.conftest import wait_until
 
@@ -66,3 +70,20 @@ def screenshot(page, path: Path) -> None:
         timeout=30, what="the notifications to close",
     )  # fmt: skip
     page.screenshot(path=str(path))
+
+
+def camera_pixels(client, points) -> np.ndarray:
+    """Pixel coordinates (n, 2) of world points (n, 3) in the camera the browser reports
+    (OpenCV convention: x right, y down, z forward; ``wxyz`` and ``position`` give the
+    camera-to-world pose)."""
+    camera = client.camera
+    rotation = vtf.SO3(np.asarray(camera.wxyz)).as_matrix()
+    local = (np.atleast_2d(points) - camera.position) @ rotation
+    height, width = camera.image_height, camera.image_width
+    focal = (height / 2.0) / math.tan(camera.fov / 2.0)
+    return np.column_stack(
+        [
+            width / 2 + focal * local[:, 0] / local[:, 2],
+            height / 2 + focal * local[:, 1] / local[:, 2],
+        ]
+    )

@@ -5,7 +5,6 @@ recorder and the uPlot band helpers without a browser."""
 from __future__ import annotations
 
 import json
-import math
 import signal
 import subprocess
 import sys
@@ -22,8 +21,11 @@ from app.plots import Band, Trace, band_chart, y_range
 from app.recorder import MAX_GAP_S, Recorder, Recording
 from app.session import Session
 from app.studio import default_workspace
+from app.takes import mean_start
+from app.workspace import Workspace
 from app.workspace_index import LAYOUT
 from promp.datasets import read_csv_demo
+from tests.browser import camera_pixels
 from tests.conftest import REPO, open_page, start_studio, wait_until
 
 # ====================================================================== without a browser
@@ -233,22 +235,6 @@ COUNTDOWN_OBSERVER = """() => {
 }"""
 
 
-def project(client, points: np.ndarray) -> np.ndarray:
-    """Pixel coordinates (n, 2) of world points (n, 3) in the client's view (OpenCV camera:
-    x right, y down, z forward; ``wxyz``/``position`` give the camera-to-world pose)."""
-    camera = client.camera
-    rotation = vtf.SO3(np.asarray(camera.wxyz)).as_matrix()
-    local = (np.atleast_2d(points) - camera.position) @ rotation
-    height, width = camera.image_height, camera.image_width
-    focal = (height / 2.0) / math.tan(camera.fov / 2.0)
-    return np.column_stack(
-        [
-            width / 2 + focal * local[:, 0] / local[:, 2],
-            height / 2 + focal * local[:, 1] / local[:, 2],
-        ]
-    )
-
-
 def drag_hand(page, client, studio, direction, pixels: float, steps: int = 4) -> None:
     """Drag the gizmo with the real mouse, in a few steps, by the arrow of the hand-frame axis
     closest to the world ``direction`` (3,) among those seen side-on, so that the hand moves
@@ -261,7 +247,8 @@ def drag_hand(page, client, studio, direction, pixels: float, steps: int = 4) ->
     best = None
     for k in np.argsort(-np.abs(alignment)):
         axis = gizmo.scale * axes[:, k]
-        origin, grab, tip = project(client, np.stack([centre, centre + 0.85 * axis, centre + axis]))
+        ends = np.stack([centre, centre + 0.85 * axis, centre + axis])
+        origin, grab, tip = camera_pixels(client, ends)
         if np.linalg.norm(tip - origin) > 40.0:  # an arrow seen side-on, easy to grab
             best = (k, grab, tip)
             break
@@ -279,6 +266,19 @@ def drag_hand(page, client, studio, direction, pixels: float, steps: int = 4) ->
 
 
 UP = (0.0, 0.0, 1.0)
+
+
+def side_camera(client) -> None:
+    """From the robot's left, behind it: the gizmo's arrows and rings apart on screen, for
+    the drags (the studio's start view looks from the partner's side, where they overlap);
+    returns once the browser reports the new camera."""
+    client.camera.fov = np.deg2rad(50.0)
+    client.camera.position = np.array([0.3, -1.5, 0.85])
+    client.camera.look_at = np.array([-0.3, -0.12, 0.12])
+    wait_until(lambda: np.allclose(client.camera.position, [0.3, -1.5, 0.85], atol=1e-3)
+               and np.allclose(client.camera.look_at, [-0.3, -0.12, 0.12], atol=1e-3),
+               what="the side camera")  # fmt: skip
+    time.sleep(0.5)  # the frame with the new camera drawn
 
 
 def test_the_head_source_stays_during_a_recording(studio) -> None:
@@ -319,6 +319,7 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
     assert teach.primitives.selected() == "curved"
     tube_before = np.array(studio.scene.workspace.tubes["curved"].vertices)
     q_before, hand_before = studio.arm.q.copy(), studio.arm.hand_position()
+    side_camera(client)
     page.evaluate(COUNTDOWN_OBSERVER)
     click(page, "Record")
     wait_text(page, "● Recording into curved")
@@ -401,6 +402,73 @@ def test_hide_and_delete_a_demonstration(studio, tab) -> None:
     (entry,) = session.trash_entries()
     assert (session.workspace.trash.root / entry.name / "files" / "demos/curved/curved_020.csv"
             ).read_bytes() == content  # fmt: skip
+
+
+@pytest.mark.browser
+def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
+    studio, tab
+) -> None:
+    """Go to start puts the hand on the ghost of the primitive's start; Space records (the 3D
+    view has the focus); the still time before and after the drag is cut from the saved
+    demonstration and kept, untrimmed, in raw/ (which the workspace does not load); the hand
+    goes back to the start after Stop; Discard last take sends it to the trash, undoably."""
+    page, client = tab
+    session, teach = studio.session, panel(studio)
+    record = teach.record
+    assert record.trim.value and record.back_to_start.value
+    wait_text(page, "Still ends are trimmed: hand below 2 cm/s, head below 10°/s.")
+    start = mean_start(session.demos["curved"], session.layout)
+    ghost = studio.scene.start.sphere
+    wait_until(lambda: ghost.visible and np.allclose(ghost.position, start, atol=1e-6),
+               what="the ghost at the mean start of curved")  # fmt: skip
+    # The previous take left the hand at the start (Back to start after Stop): lift it.
+    studio.call_in_loop(lambda: studio.arm.move_hand_to(start + [0.0, 0.0, 0.08]))
+    wait_until(lambda: np.linalg.norm(studio.arm.hand_position() - start) > 0.05,
+               what="the hand away from the start")  # fmt: skip
+    click(page, "Go to start")
+    wait_until(lambda: np.linalg.norm(studio.arm.hand_position() - start) < 0.005,
+               what="the hand at the start")  # fmt: skip
+    side_camera(client)
+    # Space, with the 3D view focused (not a control), presses Record, then Stop.
+    n_before = len(session.demos["curved"])
+    page.evaluate("document.activeElement && document.activeElement.blur()")
+    page.keyboard.press("Space")
+    wait_text(page, "● Recording into curved")
+    wait_until(lambda: record.recorder.snapshot().duration > 1.5, what="1.5 s of stillness")
+    drag_hand(page, client, studio, UP, pixels=110)
+    moved_until = record.recorder.snapshot().duration
+    wait_until(lambda: record.recorder.snapshot().duration > moved_until + 1.5,
+               what="1.5 s of stillness after the drag")  # fmt: skip
+    page.evaluate("document.activeElement && document.activeElement.blur()")
+    page.keyboard.press("Space")
+    wait_until(lambda: len(session.demos["curved"]) == n_before + 1, what="the take saved")
+    demo = session.demos["curved"][-1]
+    wait_text(page, f"Saved {demo.name}")
+    assert "still ends cut" in record.last_message
+    # The newest take of that name (an earlier take of a deleted curved_020 may be there too).
+    raw_path = max((session.workspace.root / "raw" / "curved").glob(f"{demo.name}_*.csv"))
+    raw = read_csv_demo(raw_path)
+    assert raw.duration > demo.duration + 2.5, (raw.duration, demo.duration)
+    z = demo.select(("z",))[:, 0]
+    assert np.ptp(z) > 0.05 and np.ptp(z[:5]) < 0.003 and np.ptp(z[-5:]) < 0.003
+    assert Workspace(session.workspace.root).load().demos["curved"][-1].name == demo.name
+    assert len(Workspace(session.workspace.root).load().demos["curved"]) == n_before + 1
+    # Back at the start, ready for the next take.
+    new_start = mean_start(session.demos["curved"], session.layout)
+    wait_until(lambda: np.linalg.norm(studio.arm.hand_position() - new_start) < 0.005,
+               what="the hand back at the start")  # fmt: skip
+    # Discard last take: to the trash, and Undo delete brings it back.
+    click(page, "Discard last take")
+    wait_until(lambda: len(session.demos["curved"]) == n_before, what="the take discarded")
+    assert not session.workspace.demo_path("curved", demo.name).exists()
+    assert raw_path.exists()  # the record of what was sampled stays
+    click(page, f"Undo delete ({demo.name} of curved)")
+    wait_until(lambda: len(session.demos["curved"]) == n_before + 1, what="the take back")
+    # A focused control keeps Space: no recording starts.
+    page.get_by_role("tab", name="Teach").focus()
+    page.keyboard.press("Space")
+    time.sleep(0.5)  # the hotkey would have reached the server by now
+    assert record.take is None and "● Recording" not in text(page)
 
 
 @pytest.mark.browser
@@ -648,6 +716,10 @@ def test_sigkill_loses_nothing_recorded_and_restart_restores_the_workspace(
     try:
         page.goto(f"http://127.0.0.1:{port}")
         wait_text(page, "Ready to record into curved", timeout=60)
+        # A still take is all idle: keep it whole (trimming would refuse it).
+        page.get_by_text("Take options", exact=True).first.dispatch_event("click")
+        row(page, "Trim idle ends").locator("input").first.dispatch_event("click")
+        wait_text(page, "Still ends are trimmed", present=False)
         click(page, "Record")
         wait_text(page, "● Recording into curved")
         time.sleep(0.5)

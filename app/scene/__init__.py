@@ -1,7 +1,7 @@
 """The 3D view: the robot and its table (:mod:`app.scene.robot`), the partner
 (:mod:`app.scene.partner`), the workspace's demonstrations and priors
-(:mod:`app.scene.workspace_layer`) and the Infer tab's inference
-(:mod:`app.scene.inference_layer`).
+(:mod:`app.scene.workspace_layer`), the Infer tab's inference
+(:mod:`app.scene.inference_layer`) and Teach's start pose (:mod:`app.scene.start_marker`).
 
 :class:`Scene` owns every node of the last three and is the one place that decides what is
 drawn: :func:`app.scene.look.look` of the panel in use and the Infer panel's display options.
@@ -17,6 +17,7 @@ import viser
 from app.scene.inference_layer import InferenceLayer
 from app.scene.look import PANELS, SHOWN, TEACH, Look, look
 from app.scene.partner import PartnerView
+from app.scene.start_marker import StartMarker
 from app.scene.workspace_layer import WorkspaceLayer
 from app.scrub import ScrubResult
 from app.session import Session
@@ -31,6 +32,7 @@ class Scene:
         self.partner = PartnerView(server)
         self.workspace = WorkspaceLayer(server)
         self.inference = InferenceLayer(server)
+        self.start = StartMarker(server)
         self.panel = TEACH  # the panel in use: the first tab until a control is used
         self._inference_on = False
         self._priors = SHOWN
@@ -55,8 +57,19 @@ class Scene:
         self.set_inference_options(shown, priors)
         self._apply(force=True)
 
+    def show_start(self, position: np.ndarray | None, color: tuple[int, int, int]) -> None:
+        """The Teach panel's start pose (its selected primitive's), None when it has none
+        (loop thread)."""
+        self.start.place(position, color)
+        self.start.show(self.look.start)
+
     def set_inference_options(self, shown: bool, priors: str) -> None:
         self._inference_on, self._priors = bool(shown), priors
+
+    @property
+    def drawn_version(self) -> int:
+        """The session version the workspace's objects were last drawn from."""
+        return self._drawn_version
 
     @property
     def look(self) -> Look:
@@ -93,3 +106,26 @@ class Scene:
         self._applied = current
         self.workspace.apply(current, self._hidden)
         self.inference.show(current.inference)
+        self.start.show(current.start)
+
+    # ------------------------------------------------------------------ what the camera frames
+
+    def paths(self, inference: bool | None = None) -> np.ndarray:
+        """The hand paths on show, points (n, 3): the Infer layer's (observation, prediction,
+        truth, posterior tube) when ``inference`` (default: when the current look shows it),
+        else the demonstration lines (but those the user hid). Empty (0, 3) without any."""
+        if inference is None:
+            inference = self.look.inference
+        if inference:
+            nodes = [n for n in self.inference.nodes if n.visible and id(n) in self.inference.drawn]
+        else:  # every line but those the user hid, whether the look shows them now or not
+            nodes = [line for key, line in self.workspace.lines.items() if key not in self._hidden]
+        arrays = []
+        for node in nodes:
+            points = getattr(node, "points", None)
+            if points is None:
+                points = getattr(node, "vertices", None)
+            if points is None:
+                points = np.atleast_2d(getattr(node, "position", np.zeros((0, 3))))
+            arrays.append(np.asarray(points, dtype=float).reshape(-1, 3))
+        return np.concatenate(arrays) if arrays else np.zeros((0, 3))

@@ -65,19 +65,19 @@ class InferenceLayer:
             self.tube, self.future, self.observed_line, self.truth_line, self.end_point,
             self.now_point,
         )  # fmt: skip
-        self._drawn: set[int] = set()  # ids of the nodes the latest result shaped
+        self.drawn: set[int] = set()  # ids of the nodes the latest result shaped
 
     @property
     def has_shape(self) -> bool:
         """True when the latest result had something to show in 3D."""
-        return bool(self._drawn)
+        return bool(self.drawn)
 
     def draw(self, result: ScrubResult | None, color: tuple[int, int, int]) -> None:
         """Shape the nodes from ``result`` (drawn in ``color``, its primitive's); none without
         a result or a hand modality."""
         hand = hand_dims(result.layout) if result is not None else None
         if result is None or hand is None:
-            self._drawn = set()
+            self.drawn = set()
             return
         post = result.posterior
         self.tube.vertices = tube_vertices(post.mean[:, hand], post.std[:, hand])
@@ -101,11 +101,11 @@ class InferenceLayer:
                 points = resample(rest, min(rest.shape[0], PATH_POINTS))
                 self.truth_line.points = points.astype(np.float32)
                 drawn.add(id(self.truth_line))
-        self._drawn = drawn
+        self.drawn = drawn
 
     def show(self, visible: bool) -> None:
         """Show the nodes the latest result shaped (``visible``), or none."""
         for node in self.nodes:
-            wanted = visible and id(node) in self._drawn
+            wanted = visible and id(node) in self.drawn
             if node.visible != wanted:
                 node.visible = wanted

@@ -2,7 +2,8 @@
 the Infer panel's display options.
 
 - **Teach** (and **Data**, which has nothing of its own in 3D): the workspace, i.e. the
-  demonstrations (those the user hid excepted) and the prior tubes.
+  demonstrations (those the user hid excepted) and the prior tubes; Teach adds the ghost of
+  the selected primitive's start (where its demonstrations begin, where a take should too).
 - **Infer**, while it shows an inference in 3D: the observation, the posterior tube and the
   predicted path, with the workspace as its "Session priors" option says: *shown* as in Teach,
   *faded* (tubes dimmed, demonstrations hidden) or *hidden*.
@@ -35,14 +36,18 @@ class Look:
         The prior tubes: at their own opacity, dimmed, or not drawn.
     inference : bool
         The Infer layer: observation, posterior tube, predicted path and end point.
+    start : bool
+        The ghost of the selected primitive's start pose (Teach).
     """
 
     demos: bool
     priors: str
     inference: bool
+    start: bool = False
 
 
 WORKSPACE_LOOK = Look(demos=True, priors=SHOWN, inference=False)
+TEACH_LOOK = Look(demos=True, priors=SHOWN, inference=False, start=True)
 
 
 def look(panel: str, inference_shown: bool, priors: str = SHOWN) -> Look:
@@ -66,6 +71,8 @@ def look(panel: str, inference_shown: bool, priors: str = SHOWN) -> Look:
         raise ValueError(f"unknown panel {panel!r}; expected one of {', '.join(PANELS)}")
     if priors not in PRIOR_MODES:
         raise ValueError(f"unknown priors option {priors!r}; expected {', '.join(PRIOR_MODES)}")
+    if panel == TEACH:
+        return TEACH_LOOK
     if panel != INFER or not inference_shown:
         return WORKSPACE_LOOK
     return Look(demos=priors == SHOWN, priors=priors, inference=True)

@@ -1,4 +1,4 @@
-"""The iCub in the 3D view: URDF meshes, ground grid, table, object, bins, camera framing.
+"""The iCub in the 3D view: URDF meshes, ground grid, table, object, bins.
 
 The partner's head avatar is :mod:`app.scene.partner`.
 """
@@ -16,12 +16,12 @@ from robots.icub.model import ground_height, natural_pose
 from robots.icub.scene import Scene
 
 ROBOT_ROOT = "/robot"
-# Camera on the robot's left (-y), a little behind it and above the table: the robot, the table
-# with the hand paths and their prior tubes, and the partner's head across the table (at
-# x = -1), all left of the GUI panel, which covers the right ~30 % of a 1400 px wide window.
-CAMERA_POSITION = (0.3, -1.5, 0.85)
-CAMERA_LOOK_AT = (-0.3, -0.12, 0.12)
-CAMERA_FOV_DEG = 50.0
+# The scene in neutral tones, so that the primitives' colours (app.workspace_index.PALETTE)
+# stand out: the paths cross the bins and the table, and start at the object.
+TABLE_COLOR = (212, 202, 186)
+LEG_COLOR = (170, 162, 150)
+OBJECT_COLOR = (92, 92, 98)
+BIN_COLOR = (150, 152, 158)
 
 
 @dataclass
@@ -40,7 +40,8 @@ class RobotView:
 
 
 def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> RobotView:
-    """Add the robot, the ground, the table, the object and the bins, and frame the camera."""
+    """Add the robot, the ground, the table, the object and the bins (the camera is
+    :mod:`app.view`'s)."""
     server.scene.set_up_direction("+z")
     ground = ground_height(urdf)
     server.scene.add_grid(
@@ -61,7 +62,7 @@ def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> R
         "/scene/table/top",
         dimensions=table.size,
         position=table.center,
-        color=(176, 132, 92),
+        color=TABLE_COLOR,
     )
     leg_height = table.center[2] - table.size[2] / 2 - ground
     for i, (sx, sy) in enumerate(((-1, -1), (-1, 1), (1, -1), (1, 1))):
@@ -71,13 +72,13 @@ def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> R
             f"/scene/table/leg{i}",
             dimensions=(0.04, 0.04, leg_height),
             position=(x, y, ground + leg_height / 2),
-            color=(140, 100, 70),
+            color=LEG_COLOR,
         )
     server.scene.add_box(
         "/scene/object",
         dimensions=scene.object.size,
         position=scene.object.center,
-        color=(200, 70, 60),
+        color=OBJECT_COLOR,
     )
     for i, bin_ in enumerate(scene.bins):
         for j, part in enumerate(bin_.parts()):
@@ -85,9 +86,6 @@ def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> R
                 f"/scene/bin{i}/part{j}",
                 dimensions=part.size,
                 position=part.center,
-                color=(70, 110, 170),
+                color=BIN_COLOR,
             )
-    server.initial_camera.position = CAMERA_POSITION
-    server.initial_camera.look_at = CAMERA_LOOK_AT
-    server.initial_camera.fov = np.deg2rad(CAMERA_FOV_DEG)
     return view

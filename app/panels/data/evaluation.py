@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.display import observed_choices
+from app.display import ALPHA_LABELS, observed_choices
 from promp.data import Demonstration, Layout
 from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.sweep import SweepResult, run_sweep
@@ -27,9 +27,8 @@ MIN_DEMOS = 3  # leave-one-out needs two demonstrations left to learn from
 MAX_PERCENTS = 20
 COMPARE = "compare each"
 ALPHA_CHOICES: dict[str, list[str]] = {
-    "ml": ["ml"],
-    "model": ["model"],
-    "both": ["ml", "model"],
+    **{label: [method] for method, label in ALPHA_LABELS.items()},
+    "both": list(ALPHA_LABELS),
 }
 
 

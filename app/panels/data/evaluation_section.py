@@ -14,6 +14,7 @@ from collections.abc import Callable
 import viser
 
 from app.context import PanelContext
+from app.display import ALPHA_HINT
 from app.gui_text import escape
 from app.panels.data.evaluation import (
     ALPHA_CHOICES,
@@ -47,7 +48,8 @@ class EvaluationSection:
         with gui.add_folder("Leave-one-out evaluation"):
             self.observe_dropdown = gui.add_dropdown("Observed", tuple(self._observe_choices))
             self.alpha_dropdown = gui.add_dropdown(
-                "Alpha", tuple(ALPHA_CHOICES), initial_value="ml"
+                "Alpha", tuple(ALPHA_CHOICES), initial_value="ML",
+                hint=ALPHA_HINT + " Both: one curve for each.",
             )
             self.percents_text = gui.add_text(
                 "Percents", " ".join(f"{p:g}" for p in DEFAULT_PERCENTS)

@@ -116,13 +116,17 @@ class DatasetImport:
                 content, name, Limits(max_upload_bytes=self.guard.max_bytes)
             )
         except ValueError as exc:
+            self.guard.dismiss(client)  # no "uploaded successfully" under the refusal
             self.notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
             return None
         with self._lock:
             self._discard()
             self.upload = upload
             self._set_inputs(upload.format, "")
-        return self.reread(client)
+        summary = self.reread(client)
+        if summary is None:
+            self.guard.dismiss(client)
+        return summary
 
     def _set_inputs(self, format: str, modalities: str) -> None:
         self._quiet = True

@@ -152,6 +152,12 @@ class DataPanel:
             "red",
         )
 
+    def _refuse_upload(self, client: viser.ClientHandle | None, name: str, why: str) -> None:
+        """A file refused after it was read: its "uploaded successfully" toast goes, the
+        reason comes."""
+        self.guard.dismiss(client)
+        self._notify(client, f"Cannot import {name}", why, "red")
+
     def import_file(self, client: viser.ClientHandle | None, filename: str, content: bytes):
         """Validate an uploaded file and import it (a workspace after a confirmation).
 
@@ -163,22 +169,19 @@ class DataPanel:
         try:
             upload = exchange.read_upload(filename, content, limits)
         except ValueError as exc:
-            self._notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
+            self._refuse_upload(client, name, f"{exc}. Nothing was changed.")
             return None
         except Exception as exc:  # an unforeseen parser failure is still a refused file
             traceback.print_exc()
-            self._notify(
-                client,
-                f"Cannot import {name}",
-                f"unreadable file ({type(exc).__name__}: {exc}). Nothing was changed.",
-                "red",
+            self._refuse_upload(
+                client, name, f"unreadable file ({type(exc).__name__}: {exc}). Nothing was changed."
             )
             return None
         if isinstance(upload, exchange.ModelUpload):
             try:
                 self.session.use_imported_model(upload.model, name)
             except ValueError as exc:
-                self._notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
+                self._refuse_upload(client, name, f"{exc}. Nothing was changed.")
                 return None
             names = ", ".join(p.name for p in upload.model.primitives)
             self._notify(

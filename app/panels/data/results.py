@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import viser
 
-from app.display import LENGTH_SCALE, LENGTH_UNIT
+from app.display import LENGTH_SCALE, LENGTH_UNIT, series_title
 from promp.evaluate.plots import group_series
 from robots.icub.layout import HAND, HEAD
 
@@ -23,12 +23,17 @@ SERIES_COLORS = {
 OTHER_COLOR = "#555555"
 
 
-def curves(rows: Sequence[Mapping]) -> dict[str, dict[str, np.ndarray]]:
-    """Per (observed, alpha) series: ``percent``, ``recognition_errors``, ``trials``,
-    ``position_cm``, ``duration_s``, arrays of shape (n_percents,), sorted by percent."""
+def curves(rows: Sequence[Mapping]) -> dict[str, dict]:
+    """Per (observed, alpha) series, named as the studio writes it (``hand + head, ML``,
+    :func:`app.display.series_title`): ``observed`` and ``alpha_method`` (the engine's
+    names), then ``percent``, ``recognition_errors``, ``trials``, ``position_cm``,
+    ``duration_s``, arrays of shape (n_percents,), sorted by percent."""
     out = {}
-    for label, group in group_series(rows).items():
-        out[label] = {
+    for group in group_series(rows).values():
+        observed, alpha_method = list(group[0]["observed"]), group[0]["alpha_method"]
+        out[series_title(observed, alpha_method)] = {
+            "observed": observed,
+            "alpha_method": alpha_method,
             "percent": np.array([r["percent"] for r in group], dtype=float),
             "recognition_errors": np.array([r["recognition_errors"] for r in group], dtype=float),
             "trials": np.array([r["trials"] for r in group], dtype=float),
@@ -46,7 +51,7 @@ def results_table(rows: Sequence[Mapping]) -> str:
     if not series:
         return ""
     labels = list(series)
-    header = " | ".join(label.replace(", alpha ", " ") for label in labels)
+    header = " | ".join(labels)
     trials = int(next(iter(series.values()))["trials"][0])
     percents = sorted({float(p) for s in series.values() for p in s["percent"]})
 
@@ -79,30 +84,30 @@ def add_results(gui: viser.GuiApi, rows: Sequence[Mapping]) -> list:
     x = next(iter(series.values()))["percent"]  # one sweep: every series has the same percents
     styles = []
     for label in labels:
-        observed, alpha = label.split(", alpha ")
+        observed = "+".join(series[label]["observed"])
         style: dict = {
             "label": label,
             "stroke": SERIES_COLORS.get(observed, OTHER_COLOR),
             "width": 2,
             "points": {"show": True, "size": 6},
         }
-        if alpha == "model":
+        if series[label]["alpha_method"] == "model":
             style["dash"] = [6, 4]
         styles.append(style)
 
-    def chart(title: str, key: str, unit: str):
+    def chart(title: str, key: str, y_label: str):
         return gui.add_uplot(
             data=(x, *(series[label][key] for label in labels)),
-            series=({"label": "% observed"}, *styles),
+            series=({"label": "observed (%)"}, *styles),
             title=title,
             scales={"x": {"time": False}, "y": {"auto": True}},
-            axes=({"label": "% of the movement observed"}, {"label": unit}),
+            axes=({"label": "observed (% of the movement)"}, {"label": y_label}),
             legend={"live": False},
             height=240,
         )
 
     return [
-        chart(f"Recognition errors (of {trials})", "recognition_errors", "errors"),
-        chart("Position error of the remainder", "position_cm", LENGTH_UNIT),
+        chart(f"Recognition errors (of {trials})", "recognition_errors", f"errors (of {trials})"),
+        chart("Position error of the remainder", "position_cm", f"error ({LENGTH_UNIT})"),
         gui.add_markdown(results_table(rows)),
     ]

@@ -65,7 +65,13 @@ class InferCharts:
                     for q in self.quantities:
                         if q.modality == modality.name:
                             self.handles.append(
-                                add_band_chart(gui, placeholder, title=q.title, aspect=ASPECT)
+                                add_band_chart(
+                                    gui,
+                                    placeholder,
+                                    title=q.title,
+                                    y_label=q.axis_label,
+                                    aspect=ASPECT,
+                                )
                             )
         self.layout = layout
         self._range_key = None

@@ -25,8 +25,9 @@ import time
 
 import numpy as np
 
+from app.client_script import ChartSlider
 from app.context import PanelContext
-from app.display import observed_choices
+from app.display import ALPHA_HINT, observed_choices
 from app.live_buffer import LiveBuffer
 from app.panels.infer.charts import InferCharts
 from app.panels.infer.readout import (
@@ -36,9 +37,16 @@ from app.panels.infer.readout import (
     status_html,
     timing_text,
 )
+from app.panels.infer.recognition import (
+    LIVE_NOTE,
+    TITLE,
+    X_RANGE,
+    CurveRequest,
+    RecognitionChart,
+)
 from app.replay import Replay
 from app.scene.inference_layer import DEFAULT_COLOR
-from app.scene.look import PRIOR_MODES, SHOWN
+from app.scene.look import FADED, PRIOR_MODES
 from app.scrub import (
     ALPHA_CHOICES,
     HeldOutModels,
@@ -76,6 +84,7 @@ class InferPanel:
         self._replay_command: str | None = None
         self._last_live_scrub = 0.0
         self._live_epoch = 0
+        self._curve_request: CurveRequest | None = None  # what the recognition chart shows
         self._build_gui()
 
     # ------------------------------------------------------------------ building
@@ -95,7 +104,7 @@ class InferPanel:
             self.observed = gui.add_dropdown("Observed", tuple(self._choices))
             self.alpha = gui.add_dropdown(
                 "Alpha", tuple(ALPHA_CHOICES), initial_value="ML",
-                hint="ML: most likely training speed; model: regression on the early motion",
+                hint=ALPHA_HINT,
             )  # fmt: skip
             self.live_button = gui.add_button("Start observing", visible=False)
             self.live_clear = gui.add_button("Clear observation", visible=False)
@@ -104,6 +113,7 @@ class InferPanel:
             hint="How much of the movement is seen (live: of the buffer)",
         )  # fmt: skip
         self.probabilities = gui.add_html("")
+        self.recognition = RecognitionChart(self.ctx, self._color)
         self.status = gui.add_html("")
         self.replay_buttons = gui.add_button_group("Replay", ("Play", "Pause", "Reset"))
         self.replay_bar = gui.add_progress_bar(0.0, color="gray")
@@ -113,7 +123,7 @@ class InferPanel:
         with gui.add_folder("Display", expand_by_default=False):
             self.show_3d = gui.add_checkbox("Show in 3D", True)
             self.session_mode = gui.add_dropdown(
-                "Session priors", PRIOR_MODES, initial_value=SHOWN,
+                "Session priors", PRIOR_MODES, initial_value=FADED,
                 hint="While an inference is shown, the session's prior tubes and demonstration "
                 "lines are shown; faded: tubes dimmed, lines hidden; hidden: both hidden",
             )  # fmt: skip
@@ -154,6 +164,7 @@ class InferPanel:
         if self._dirty:
             self._dirty = False
             self.scrub()
+        self.recognition.show(self.percent.value)
         self.ctx.scene.set_inference_options(self.show_3d.value, self.session_mode.value)
 
     def _sync_choices(self) -> None:
@@ -262,6 +273,7 @@ class InferPanel:
         alpha_method = ALPHA_CHOICES[self.alpha.value]
         percent = float(self.percent.value)
         session = self.ctx.session
+        self._curve_request = None
         if self.source.value == LIVE:
             model = session.inference_model()
             if model is None:
@@ -295,6 +307,12 @@ class InferPanel:
             model = self.models.get(version, demos, name, demo_name, settings, layout)
             if not cached:
                 self.fit_ms = 1e3 * (time.perf_counter() - start)
+        origin = ("imported", id(imported)) if imported is not None else ("held out", version)
+        self._curve_request = CurveRequest(
+            key=(origin, name, demo_name, repr(settings), tuple(modalities), alpha_method),
+            model=model, demo=demo, modalities=tuple(modalities), alpha_method=alpha_method,
+            truth=name,
+        )  # fmt: skip
         return scrub_step(
             model, demo_observation(model, demo, percent, modalities), alpha_method, truth=demo
         )
@@ -310,6 +328,10 @@ class InferPanel:
             if message != self.message and self.source.value == TEST:
                 self.ctx.notify("Cannot infer", message, color="yellow")
         self.result, self.message = result, message
+        if self.source.value == LIVE:
+            self.recognition.request(None, LIVE_NOTE)
+        else:
+            self.recognition.request(self._curve_request if result is not None else None)
         # One group of messages: the browser applies tube, bars and charts together, and the
         # websocket thread is woken once rather than once per update.
         with self.ctx.atomic():
@@ -350,5 +372,11 @@ class InferPanel:
             return (TEST, self.primitive.value, self.demo.value)
         return (LIVE, self._live_epoch)
 
+    def chart_sliders(self) -> dict[str, ChartSlider]:
+        """A click on the recognition chart moves the Observed % slider (the page's script)."""
+        slider = self.percent
+        return {TITLE: ChartSlider(slider._impl.uuid, slider.min, slider.max, X_RANGE)}
+
     def close(self) -> None:
-        """Nothing runs in the background."""
+        """Stop the recognition chart's worker."""
+        self.recognition.close()

@@ -14,10 +14,16 @@ from app.display import shown
 from app.gui_text import escape_html
 from app.scrub import ScrubResult, error_modality
 
+# Right padding: viser's panel scrollbar lies over the last pixels of a full-width element.
+PAD = "padding-right:14px;box-sizing:border-box"
+ALPHA_HELP = (
+    "α, the time modulation: 100 / the number of samples of the whole movement (higher is "
+    "faster). × typical: relative to the primitive's usual speed (1 = typical, > 1 faster)."
+)
 LEGEND_HTML = (
-    '<div style="font-size:0.72em;color:#555;margin-top:4px">'
-    'bands ±2σ: <b style="color:#7d7d7d">prior</b> · <b>posterior</b> (recognised primitive\'s '
-    "colour) · ● observed · ╌ truth</div>"
+    f'<div style="font-size:0.72em;color:#555;margin-top:4px;{PAD}">'
+    'Charts: bands ±2σ: <b style="color:#7d7d7d">prior</b> · <b>posterior</b> (recognised '
+    "primitive's colour) · ● observed · ╌ truth</div>"
 )
 
 
@@ -46,7 +52,7 @@ def probabilities_html(
             '<span style="width:48px;text-align:right;font-variant-numeric:tabular-nums">'
             f"{100 * p:.1f} %</span></div>"
         )
-    return '<div style="font-size:0.8em;margin:2px 0 4px 0">' + "".join(rows) + "</div>"
+    return f'<div style="font-size:0.8em;margin:2px 0 4px 0;{PAD}">' + "".join(rows) + "</div>"
 
 
 def timing_text(scrub_ms: float, recent_ms: Sequence[float], fit_ms: float) -> str:
@@ -62,8 +68,18 @@ def timing_text(scrub_ms: float, recent_ms: Sequence[float], fit_ms: float) -> s
 
 def failure_html(message: str, timing: str) -> str:
     return (
-        f'<div style="font-size:0.8em;color:#a33">{escape_html(message)}</div>'
-        f'<div style="font-size:0.72em;color:#777">{timing}</div>'
+        f'<div style="font-size:0.8em;color:#a33;{PAD}">{escape_html(message)}</div>'
+        f'<div style="font-size:0.72em;color:#777;{PAD}">{timing}</div>'
+    )
+
+
+def alpha_html(result: ScrubResult) -> str:
+    """``α = 0.688 (0.97 × typical)``, explained on hover."""
+    relative = result.relative_speed
+    typical = f" ({relative:.2f} × typical)" if math.isfinite(relative) else ""
+    return (
+        f'<span title="{escape_html(ALPHA_HELP)}" style="text-decoration:underline dotted">'
+        f"α = {result.alpha:.3f}{typical}</span>"
     )
 
 
@@ -88,7 +104,7 @@ def status_html(
         seen = f"{obs.n_observed} samples, {result.observed_until:.2f} s"
     measured = error_modality(result.layout)
     lines = [
-        f"<b>Recognised: {escape_html(result.primitive)}</b>{mark} · α = {result.alpha:.3f}",
+        f"<b>Recognised: {escape_html(result.primitive)}</b>{mark} · {alpha_html(result)}",
         f"Observed: {seen} ({' + '.join(obs.modalities)})",
         f"Model: {escape_html(model_note)}",
         f"Duration: predicted {result.duration:.2f} s · true {seconds(result.true_duration)}",
@@ -97,6 +113,6 @@ def status_html(
         f"{seconds(result.duration_error_s)}",
     ]
     return (
-        '<div style="font-size:0.8em;line-height:1.55">' + "<br>".join(lines) + "</div>"
-        f'<div style="font-size:0.72em;color:#777">{timing}</div>'
+        f'<div style="font-size:0.8em;line-height:1.55;{PAD}">' + "<br>".join(lines) + "</div>"
+        f'<div style="font-size:0.72em;color:#777;{PAD}">{timing}</div>'
     )

@@ -157,9 +157,10 @@ class HeadSection:
             return
         upload = event.target.value
         if len(upload.content) > self.video_guard.max_bytes:  # the guard was bypassed
+            self.video_guard.dismiss(event.client)
             self._refused(event.client, upload.name, len(upload.content))
             return
-        self._process(upload.name, upload.content)
+        self._process(upload.name, upload.content, event.client)
 
     def _calibrate(self, event) -> None:
         source = self.ctx.head.source
@@ -194,7 +195,7 @@ class HeadSection:
     def processing(self) -> bool:
         return self._upload is not None and not self._upload.done()
 
-    def _process(self, name: str, content: bytes) -> None:
+    def _process(self, name: str, content: bytes, client=None) -> None:
         """Track the head in an uploaded video in the background, then use the track."""
         if self.processing:
             self.ctx.notify("Busy", "Another video is still being processed.", "yellow")
@@ -202,9 +203,9 @@ class HeadSection:
         if self._uploads is None:
             self._uploads = ThreadPoolExecutor(max_workers=1, thread_name_prefix="upload-video")
         self.status.content = f"Processing **{escape(name)}**..."
-        self._upload = self._uploads.submit(self._track, name, content)
+        self._upload = self._uploads.submit(self._track, name, content, client)
 
-    def _track(self, name: str, content: bytes) -> None:
+    def _track(self, name: str, content: bytes, client=None) -> None:
         from app.headpose import track_video  # OpenCV's DNN models: loaded when first needed
 
         def progress(fraction: float) -> None:
@@ -218,6 +219,7 @@ class HeadSection:
         except Exception as exc:  # any decoding failure is a message, not a crash
             message = f"uploaded video {name}: {exc}"
             self.status.content = colored(escape(message), RED)
+            self.video_guard.dismiss(client)  # not under an "uploaded successfully" toast
             self.ctx.notify("Video not usable", message, "red")
             return
         self._use(source)

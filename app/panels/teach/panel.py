@@ -77,6 +77,7 @@ class TeachPanel:
             self.demos.show_undo()
         self._drawn_version = version
         self.demos.show(name)
+        self.record.show_start()
         if not self.record.sampling:
             self.prior.draw(name)
         if self.record.idle:

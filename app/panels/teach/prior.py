@@ -43,7 +43,7 @@ class PriorCharts:
         placeholder = band_chart([], [Trace("", np.array([0.0, 1.0]), np.zeros(2), (0, 0, 0))])
         with self.folder:
             self.plots = [
-                add_band_chart(self.ctx.gui, placeholder, title=q.title)
+                add_band_chart(self.ctx.gui, placeholder, title=q.title, y_label=q.axis_label)
                 for q in quantities(layout)
             ]
         self.layout = layout

@@ -1,17 +1,25 @@
-"""The Teach tab's Record folder: the Record button, the recording's status and its rate.
+"""The Teach tab's Record folder: the Record button (also Space, when the 3D view has the
+focus), the recording's status, *Go to start*, *Discard last take*, and the take's options
+(rate, trimming of the idle ends and its thresholds, back to the start after Stop).
 
-The button's callback only records the press; :meth:`RecordSection.step`, on the studio's
-loop, feeds it with the time to the state machine (:mod:`app.panels.teach.recording`) and acts
-on what it says: a refusal is a red line and a notification, the countdown shows its digit, the
-:class:`app.recorder.Recorder` samples the hand and the head until Stop, and the demonstration
-is then saved by :meth:`app.session.Session.add_demo` (which scores its typicality).
+The callbacks only record the press; :meth:`RecordSection.step`, on the studio's loop, feeds it
+with the time to the state machine (:mod:`app.panels.teach.recording`) and acts on what it
+says: a refusal is a red line and a notification, the countdown shows its digit, the
+:class:`app.recorder.Recorder` samples the hand and the head until Stop, the idle time at both
+ends is trimmed (:func:`app.takes.active_span`; the untrimmed take is kept in the workspace's
+``raw/`` folder) and the demonstration is saved by :meth:`app.session.Session.add_demo` (which
+scores its typicality). The scene shows the ghost of the primitive's start (where its
+demonstrations begin, :func:`app.takes.mean_start`); *Go to start* and, after Stop, the option
+*Back to start* put the hand there.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Callable
 
+import numpy as np
 import viser
 
 from app.context import PanelContext
@@ -28,6 +36,9 @@ from app.panels.teach.recording import (
     refusal,
 )
 from app.recorder import DEFAULT_RATE_HZ, Recorder, Recording, unrecordable
+from app.scene.workspace_layer import NO_COLOR
+from app.takes import HAND_IDLE_M_S, HEAD_IDLE_RAD_S, Trim, active_span, mean_start
+from robots.icub.layout import HAND, HEAD
 
 STATUS_PERIOD_S = 0.2  # the recording's status line
 LIVE_PLOT_PERIOD_S = 0.25  # the prior plots with the demonstration being recorded
@@ -69,6 +80,9 @@ class RecordSection:
         self.last_message = ""  # the latest outcome (also shown in the GUI)
         self._head_refusal = False  # last_message is a refusal because the head source failed
         self._pressed = False
+        self._go_to_start = False
+        self._discard: object | None = None  # the click's event, until the loop discards
+        self.last_take: tuple[str, str] | None = None  # (primitive, demo) saved last, this run
         self._press_lock = threading.Lock()
         self._next_status = 0.0
         self._next_live_plot = 0.0
@@ -79,11 +93,55 @@ class RecordSection:
                 "Record",
                 color="red",
                 icon=viser.Icon.PLAYER_RECORD_FILLED,
-                hint="Counts down 3-2-1, then records the hand and the partner's head until Stop.",
+                hint="Counts down 3-2-1, then records the hand and the partner's head until Stop "
+                "(Space does the same while the 3D view has the focus).",
             )
-            low, high = RATE_RANGE_HZ
-            self.rate = gui.add_number("Rate (Hz)", DEFAULT_RATE_HZ, min=low, max=high, step=1.0)
+            self.start_button = gui.add_button(
+                "Go to start",
+                icon=viser.Icon.HOME,
+                hint="Move the hand to where this primitive's demonstrations start (the ghost).",
+            )
+            self.discard_button = gui.add_button(
+                "Discard last take",
+                icon=viser.Icon.TRASH,
+                color="gray",
+                visible=False,
+                hint="Move the demonstration just recorded to the trash (Undo delete, under "
+                "Demonstrations, brings it back).",
+            )
+            with gui.add_folder("Take options", expand_by_default=False):
+                low, high = RATE_RANGE_HZ
+                self.rate = gui.add_number(
+                    "Rate (Hz)", DEFAULT_RATE_HZ, min=low, max=high, step=1.0
+                )
+                self.trim = gui.add_checkbox(
+                    "Trim idle ends", True,
+                    hint="Cut the still time before and after the movement (the untrimmed take "
+                    "is kept in the workspace's raw/ folder).",
+                )  # fmt: skip
+                self.hand_idle = gui.add_number(
+                    "Hand idle below (cm/s)", round(100 * HAND_IDLE_M_S, 2), min=0.1,
+                    max=50.0, step=0.1, hint="The hand moves when it is faster than this.",
+                )  # fmt: skip
+                self.head_idle = gui.add_number(
+                    "Head idle below (°/s)", round(math.degrees(HEAD_IDLE_RAD_S), 1),
+                    min=0.5, max=180.0, step=0.5,
+                    hint="The partner's head moves when it turns faster than this.",
+                )  # fmt: skip
+                self.back_to_start = gui.add_checkbox(
+                    "Back to start after Stop", True,
+                    hint="After a take, put the hand back at the primitive's start.",
+                )  # fmt: skip
+            self.hotkey = gui.add_command(
+                "Record / Stop", description="The Teach tab's Record button", hotkey="space"
+            )
         self.button.on_click(lambda _event: self.press())
+        self.hotkey.on_trigger(lambda _event: self.press())
+        self.start_button.on_click(lambda _event: self.go_to_start())
+        self.discard_button.on_click(lambda event: self.discard(event))
+        for handle in (self.trim, self.hand_idle, self.head_idle):
+            handle.on_update(lambda _event: self.show_idle_later())
+        self._idle_dirty = False
         self.show_idle()
 
     @property
@@ -104,6 +162,17 @@ class RecordSection:
         with self._press_lock:
             self._pressed = True
 
+    def go_to_start(self) -> None:
+        """Move the hand to the primitive's start at the next step."""
+        self._go_to_start = True
+
+    def discard(self, event=None) -> None:
+        """Move the last take to the trash at the next step."""
+        self._discard = event if event is not None else True
+
+    def show_idle_later(self) -> None:
+        self._idle_dirty = True
+
     # ------------------------------------------------------------------ the loop
 
     def step(self, now: float) -> None:
@@ -111,6 +180,7 @@ class RecordSection:
             pressed, self._pressed = self._pressed, False
         phase = self.machine.phase
         if phase is Phase.IDLE:
+            self._run_idle_commands()
             if pressed:
                 self._begin(now)
         elif phase is Phase.COUNTDOWN:
@@ -121,6 +191,51 @@ class RecordSection:
             self._stop(self.machine.fail()[1])
         else:
             self._show_progress(now)
+
+    def _run_idle_commands(self) -> None:
+        """Go to start, discard the last take, show new thresholds (between takes only)."""
+        if self._go_to_start:
+            self._go_to_start = False
+            self._move_to_start(self.selected())
+        event, self._discard = self._discard, None
+        if event is not None and self.last_take is not None:
+            primitive, demo = self.last_take
+            if self.ctx.attempt(event, "discard the take",
+                                lambda: self.ctx.session.delete_demo(primitive, demo)):  # fmt: skip
+                self.last_take = None
+                self.discard_button.visible = False
+                self.last_message = f"Discarded **{demo}**: in the trash (*Undo delete* below)."
+                self.show_idle()
+                self.ctx.tell(event, "Take discarded",
+                              f"{demo} moved to the workspace's trash (Undo delete brings it "
+                              "back).", "gray")  # fmt: skip
+        if self._idle_dirty:
+            self._idle_dirty = False
+            self.show_idle()
+
+    def start_pose(self, primitive: str | None) -> np.ndarray | None:
+        """Where ``primitive``'s demonstrations start, on average (None without any)."""
+        session = self.ctx.session
+        with session.lock:
+            demos = list(session.demos.get(primitive, [])) if primitive is not None else []
+            layout = session.layout
+        return mean_start(demos, layout)
+
+    def show_start(self) -> None:
+        """The ghost of the selected primitive's start pose, in its colour."""
+        name = self.selected()
+        try:
+            color = self.ctx.session.color(name) if name is not None else NO_COLOR
+        except ValueError:
+            color = NO_COLOR
+        self.ctx.scene.show_start(self.start_pose(name), color)
+
+    def _move_to_start(self, primitive: str | None) -> bool:
+        start = self.start_pose(primitive)
+        if start is None:
+            return False
+        self.ctx.arm.move_hand_to(start)
+        return True
 
     def _begin(self, now: float) -> None:
         name, rate = self.selected(), float(self.rate.value)
@@ -187,6 +302,13 @@ class RecordSection:
             text = "Create a primitive to record into."
         else:
             text = f"Ready to record into **{name}**: drag the hand's gizmo while recording."
+            if self.trim.value:
+                text += (
+                    f" Still ends are trimmed: hand below {float(self.hand_idle.value):g} cm/s"
+                )
+                if HEAD.name in self.ctx.session.layout.names:
+                    text += f", head below {float(self.head_idle.value):g}°/s"
+                text += "."
         if self.last_message:
             text += "  \n" + self.last_message
         return text
@@ -224,16 +346,50 @@ class RecordSection:
             + f" into **{take.primitive}**: {duration:.1f} s, {n} samples, {face_text}"
         )
 
+    def trimmed(self, recording: Recording, values: np.ndarray) -> Trim | None:
+        """What trimming keeps of ``values`` (the take's columns in the session's layout);
+        None when nothing moves. All of it when trimming is off.
+
+        Raises
+        ------
+        ValueError
+            A threshold that is not positive.
+        """
+        n = recording.n_samples
+        if not self.trim.value:
+            return Trim(0, n, n)
+        layout = self.ctx.session.layout
+        head = values[:, layout.dims([HEAD.name])] if HEAD.name in layout.names else None
+        return active_span(
+            recording.times, values[:, layout.dims([HAND.name])], head,
+            hand_threshold=float(self.hand_idle.value) / 100.0,
+            head_threshold=math.radians(float(self.head_idle.value)),
+        )  # fmt: skip
+
     def _save(self, primitive: str, recording: Recording) -> None:
         session = self.ctx.session
         try:
             values, fill = recording.values(session.layout)
-            demo = session.add_demo(primitive, recording.times, values)
+            trim = self.trimmed(recording, values)
+            if trim is None:
+                raise ValueError(
+                    "neither the hand nor the head moved faster than the idle thresholds "
+                    f"({float(self.hand_idle.value):g} cm/s, {float(self.head_idle.value):g}°/s): "
+                    "untick Trim idle ends (Take options) to keep a still take"
+                )
+            kept = slice(trim.start, trim.stop)
+            raw = (recording.times, values) if trim.trimmed else None
+            demo = session.add_demo(primitive, recording.times[kept], values[kept], raw=raw)
         except (ValueError, OSError) as exc:
             self._report(f"Nothing saved: {exc}", "Nothing saved", "red")  # escaped there
             return
+        self.last_take = (primitive, demo.name)
+        self.discard_button.visible = True
         typicality = session.typicality.get((primitive, demo.name))
-        text = f"Saved **{demo.name}**: {recording.duration:.1f} s, {recording.n_samples} samples"
+        text = f"Saved **{demo.name}**: {demo.duration:.1f} s, {demo.n_samples} samples"
+        if trim.trimmed:
+            before, after = trim.seconds(recording.times)
+            text += f" (still ends cut: {before:.1f} s before, {after:.1f} s after)"
         if typicality is not None:
             flag = "" if typicality.label == "typical" else "⚠ "
             text += ", " + colored(
@@ -251,6 +407,8 @@ class RecordSection:
         self.last_message = text
         self.show_idle()
         self.ctx.notify("Demonstration saved", body, color)
+        if self.back_to_start.value:
+            self._move_to_start(primitive)
 
     def _report(self, text: str, title: str, color: str) -> None:
         self.last_message = colored(escape(text), RED if color == "red" else ORANGE)

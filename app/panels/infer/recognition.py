@@ -1,0 +1,212 @@
+"""The Infer tab's "Recognition probability vs observed %" chart: each primitive's probability
+over the whole test demonstration (:mod:`app.recognition_curve`), a cursor at the slider and a
+marker at the earliest point from which the recognition stays right.
+
+The curve takes a hundred recognitions (half a second, more on a loaded machine), so a worker
+thread computes it; the loop asks for the curve of what it inspects (:meth:`request`) and
+draws it once there, cached per demonstration and settings. Moving the slider only moves the
+cursor. A click on the chart moves the slider there: the page's script (``static/studio.js``)
+turns it into a click on the slider's track at the same percentage.
+
+uPlot shares one x array between all series, so the cursor and the marker are vertical
+segments drawn by a series that holds values at two equal x entries inserted in the grid (and
+NaN elsewhere, where nothing is drawn); every other series is interpolated there.
+"""
+
+from __future__ import annotations
+
+import threading
+import traceback
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.context import PanelContext
+from app.gui_text import escape
+from app.plots import chart_axes, css
+from app.recognition_curve import CurveCache, RecognitionCurve, recognition_curve
+from promp.data import Demonstration
+from promp.model import ProMPModel
+
+TITLE = "Recognition probability vs observed %"
+X_RANGE = (0.0, 100.0)
+CURSOR_COLOR = (30, 30, 30)
+RIGHT_COLOR = (30, 140, 60)
+WAITING = "Computing the recognition over the whole movement..."
+LIVE_NOTE = "Recognition over the whole movement: for a test demonstration."
+
+
+@dataclass(frozen=True)
+class CurveRequest:
+    """What a curve is computed from; ``key`` says what it depends on (demonstration, model,
+    observed modalities, alpha method)."""
+
+    key: Hashable
+    model: ProMPModel
+    demo: Demonstration
+    modalities: tuple[str, ...]
+    alpha_method: str
+    truth: str
+
+
+def chart_data(curve: RecognitionCurve, cursor: float) -> tuple[np.ndarray, ...]:
+    """uPlot's arrays: the x grid (percent) with the cursor's and the marker's x inserted
+    twice each, then each primitive's probability (%), the cursor and the marker segments."""
+    marks = [cursor] + ([curve.right_from] if curve.right_from is not None else [])
+    grid = curve.percents
+    x = np.sort(np.concatenate([grid, np.repeat(marks, 2)]), kind="stable")
+    series = []
+    for k in range(len(curve.names)):
+        p = 100.0 * curve.probabilities[:, k]
+        ok = np.isfinite(p)
+        column = np.full(x.shape, np.nan)
+        if ok.any():
+            inside = (x >= grid[ok][0]) & (x <= grid[ok][-1])
+            column[inside] = np.interp(x[inside], grid[ok], p[ok])
+        series.append(column)
+    for mark in (cursor, curve.right_from):
+        column = np.full(x.shape, np.nan)
+        if mark is not None:
+            first = int(np.searchsorted(x, mark, side="left"))
+            column[first], column[first + 1] = 0.0, 100.0
+        series.append(column)
+    return (x, *series)
+
+
+def right_text(curve: RecognitionCurve) -> str:
+    """The line under the chart: from when the recognition stays right."""
+    if curve.truth is None:
+        return ""
+    right_from = curve.right_from
+    if right_from is None:
+        last = curve.recognised[-1]
+        said = curve.names[last] if last >= 0 else "nothing"
+        return f"Not right at the end: 100 % observed is recognised as **{escape(said)}**."
+    return (
+        f"Right from **{right_from:g} %** observed on (the green line): **{escape(curve.truth)}** "
+        "is the most probable from there to the end."
+    )
+
+
+class RecognitionChart:
+    """The chart, its note and the worker computing the curves (see the module docstring)."""
+
+    def __init__(self, ctx: PanelContext, color_of: Callable[[str], tuple[int, int, int]]):
+        self.ctx = ctx
+        self.color_of = color_of
+        self.cache = CurveCache()
+        self._names: tuple[str, ...] = ()
+        self._shown: tuple | None = None
+        self._wanted: CurveRequest | None = None
+        self._key: Hashable | None = None  # what the chart should show
+        self._absent = ""
+        self._lock = threading.Lock()
+        self._wake = threading.Event()
+        self._stop = threading.Event()
+        self.computed = 0  # curves computed (not served from the cache)
+        gui = ctx.gui
+        self.chart = gui.add_uplot(
+            data=(np.array(X_RANGE), np.zeros(2)),
+            series=({"label": "observed (%)"}, {"label": "", "stroke": "rgba(0,0,0,0)"}),
+            title=TITLE,
+            scales={"x": {"time": False, "range": X_RANGE}, "y": {"range": (0.0, 100.0)}},
+            axes=chart_axes("probability (%)", "observed (% of the movement)"),
+            legend={"show": False},
+            cursor={"drag": {"x": False, "y": False}},
+            aspect=2.2,
+            padding=(12, 18, 0, 0),  # room for the top tick's label under the title
+            visible=False,
+        )
+        self.note = gui.add_markdown("")
+        self._thread = threading.Thread(target=self._work, name="recognition-curve", daemon=True)
+        self._thread.start()
+
+    # ------------------------------------------------------------------ the loop
+
+    def request(self, wanted: CurveRequest | None, absent: str = "") -> None:
+        """Show the curve of ``wanted``, computed in the background unless cached; or none
+        (``absent`` says why)."""
+        self._key = None if wanted is None else wanted.key
+        self._absent = absent
+        if wanted is None or self.cache.get(wanted.key) is not None:
+            return
+        with self._lock:
+            if self._wanted is None or self._wanted.key != wanted.key:
+                self._wanted = wanted
+                self._wake.set()
+
+    def show(self, percent: float) -> None:
+        """Draw the wanted curve (when computed) with the cursor at ``percent``."""
+        key = self._key
+        curve = self.cache.get(key) if key is not None else None
+        state = (key, float(percent), curve is not None, self._absent)
+        if state == self._shown:
+            return
+        self._shown = state
+        if key is None:
+            self.chart.visible = False
+            self.note.content = self._absent
+            return
+        if curve is None:
+            self.note.content = WAITING
+            return
+        with self.ctx.atomic():
+            if curve.names != self._names:
+                self._names = curve.names
+                self.chart.series = self._series(curve.names)
+            self.chart.data = chart_data(curve, float(percent))
+            self.chart.visible = True
+        self.note.content = right_text(curve)
+
+    def _series(self, names: tuple[str, ...]) -> tuple[dict, ...]:
+        lines = [
+            {"label": name, "stroke": css(self.color_of(name)), "width": 2,
+             "points": {"show": False}}
+            for name in names
+        ]  # fmt: skip
+        return (
+            {"label": "observed (%)"},
+            *lines,
+            {"label": "slider", "stroke": css(CURSOR_COLOR, 0.8), "width": 1.5,
+             "points": {"show": False}},
+            {"label": "right from", "stroke": css(RIGHT_COLOR), "width": 2, "dash": (5.0, 3.0),
+             "points": {"show": False}},
+        )  # fmt: skip
+
+    def recolor(self) -> None:
+        """Redraw the series in the primitives' current colours."""
+        if self._names:
+            self.chart.series = self._series(self._names)
+
+    # ------------------------------------------------------------------ the worker
+
+    def _work(self) -> None:
+        while not self._stop.is_set():
+            self._wake.wait()
+            if self._stop.is_set():
+                return
+            with self._lock:
+                wanted, self._wanted = self._wanted, None
+                self._wake.clear()
+            if wanted is None or self.cache.get(wanted.key) is not None:
+                continue
+            try:
+                curve = recognition_curve(
+                    wanted.model, wanted.demo, wanted.modalities, wanted.alpha_method,
+                    truth=wanted.truth,
+                )  # fmt: skip
+            except Exception:  # a bug here must not end the worker; the chart just waits
+                traceback.print_exc()
+                continue
+            self.cache.put(wanted.key, curve)
+            self.computed += 1
+
+    def curve(self) -> RecognitionCurve | None:
+        """The curve of what is inspected now, once computed."""
+        return self.cache.get(self._key) if self._key is not None else None
+
+    def close(self) -> None:
+        self._stop.set()
+        self._wake.set()
+        self._thread.join(timeout=5.0)

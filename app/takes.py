@@ -1,0 +1,114 @@
+"""A recorded take before it becomes a demonstration: the idle time at both ends trimmed, and
+where the primitive's demonstrations start. Pure computation, no viser.
+
+A take runs from the end of the 3-2-1 countdown to Stop, so it holds the wait before the user
+moves and the time it takes to reach the Stop button: a 3 s movement recorded as a 60 s take is
+an outlier to the engine. :func:`active_span` finds the samples where the hand or the head
+moves faster than a threshold (speeds smoothed over :data:`SMOOTH_S`, so that a tremor or a
+tracking jitter is not motion) and keeps them, with :data:`MARGIN_S` of stillness on each side
+(the movement's onset and settling). The head's speed is that of its angles (roll, pitch, yaw),
+the hand's that of its position.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from promp.data import Demonstration, Layout
+from robots.icub.layout import hand_dims
+
+HAND_IDLE_M_S = 0.02  # below 2 cm/s the hand is still
+HEAD_IDLE_RAD_S = math.radians(10.0)  # below 10 deg/s the head is still
+SMOOTH_S = 0.2
+MARGIN_S = 0.1
+
+
+@dataclass(frozen=True)
+class Trim:
+    """What trimming keeps of a take of ``n`` samples: samples ``start`` to ``stop - 1``."""
+
+    start: int
+    stop: int
+    n: int
+
+    @property
+    def trimmed(self) -> bool:
+        return self.start > 0 or self.stop < self.n
+
+    def seconds(self, times: np.ndarray) -> tuple[float, float]:
+        """The idle time cut at the start and at the end, seconds."""
+        return float(times[self.start] - times[0]), float(times[-1] - times[self.stop - 1])
+
+
+def speed(times: np.ndarray, values: np.ndarray, smooth_s: float = SMOOTH_S) -> np.ndarray:
+    """The norm of the time derivative of ``values`` (n, d) at ``times`` (n,), smoothed by a
+    centred moving average over ``smooth_s`` seconds; shape (n,)."""
+    times = np.asarray(times, dtype=float)
+    values = np.asarray(values, dtype=float).reshape(times.shape[0], -1)
+    if times.shape[0] < 2:
+        return np.zeros(times.shape[0])
+    raw = np.linalg.norm(np.gradient(values, times, axis=0), axis=1)
+    dt = float(np.median(np.diff(times)))
+    width = max(1, int(round(smooth_s / dt)) | 1)  # odd
+    if width == 1:
+        return raw
+    padded = np.pad(raw, width // 2, mode="edge")
+    return np.convolve(padded, np.ones(width) / width, mode="valid")
+
+
+def active_span(
+    times: np.ndarray,
+    hand: np.ndarray,
+    head: np.ndarray | None = None,
+    hand_threshold: float = HAND_IDLE_M_S,
+    head_threshold: float = HEAD_IDLE_RAD_S,
+    margin_s: float = MARGIN_S,
+    smooth_s: float = SMOOTH_S,
+) -> Trim | None:
+    """The samples of a take from the first to the last moment the hand (n, 3; m/s) or the
+    head (n, 3 angles; rad/s) moves faster than its threshold, ``margin_s`` added on each side;
+    None when nothing moves.
+
+    Raises
+    ------
+    ValueError
+        Fewer than two samples, arrays of different lengths, or a threshold that is not
+        positive.
+    """
+    times = np.asarray(times, dtype=float)
+    n = times.shape[0]
+    if n < 2:
+        raise ValueError(f"a take of {n} sample(s) has no speed to measure")
+    for name, threshold in (("hand", hand_threshold), ("head", head_threshold)):
+        if not math.isfinite(threshold) or threshold <= 0:
+            raise ValueError(f"the {name}'s idle threshold must be positive, got {threshold}")
+    blocks = [(np.asarray(hand, dtype=float), hand_threshold)]
+    if head is not None:
+        blocks.append((np.unwrap(np.asarray(head, dtype=float), axis=0), head_threshold))
+    moving = np.zeros(n, dtype=bool)
+    for values, threshold in blocks:
+        if values.shape[0] != n:
+            raise ValueError(f"{values.shape[0]} samples for {n} times")
+        moving |= speed(times, values, smooth_s) > threshold
+    if not moving.any():
+        return None
+    first, last = np.flatnonzero(moving)[[0, -1]]
+    start = int(np.searchsorted(times, times[first] - margin_s, side="left"))
+    stop = int(np.searchsorted(times, times[last] + margin_s, side="right"))
+    if stop - start < 2:  # a demonstration has at least two samples
+        stop = min(n, start + 2)
+        start = stop - 2
+    return Trim(start, stop, n)
+
+
+def mean_start(demos: Sequence[Demonstration], layout: Layout) -> np.ndarray | None:
+    """Where the demonstrations' hand starts, on average, shape (3,); None without a hand or
+    a demonstration."""
+    dims = hand_dims(layout)
+    if dims is None or not demos:
+        return None
+    return np.mean([layout.extract(d)[0, dims] for d in demos], axis=0)

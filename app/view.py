@@ -1,0 +1,106 @@
+"""The 3D view's camera buttons, above the tabs: *Partner view* (also the view a new browser tab
+starts with, and viser's "Reset view"), *Top view*, *Side view* and *Frame paths*.
+
+A click only records which view which browser tab asked for; :meth:`ViewControls.step`, on the
+studio's loop, computes the camera (:mod:`app.scene.camera`) from what the scene shows and sets
+it for that browser tab alone (each tab has its own camera). The presets frame the workspace's
+demonstrations; *Frame paths* keeps the current direction and frames what is on show: the
+inference in Infer, the demonstrations elsewhere. Without any hand path, the scene's hand
+targets (the object and the bins) are framed.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import viser
+
+from app.scene import Scene
+from app.scene.camera import CANVAS, FRAME, PARTNER, VIEWS, CameraPose, frame, scene_points
+from app.scene.camera import view_pose as preset_pose
+
+
+class ViewControls:
+    """The camera buttons (see the module docstring), built in the current GUI container."""
+
+    def __init__(self, server: viser.ViserServer, scene: Scene):
+        self.server = server
+        self.scene = scene
+        self._requests: list[tuple[viser.ClientHandle, str]] = []
+        self._lock = threading.Lock()
+        self._initial_for = -1
+        self.buttons = server.gui.add_button_group(
+            "3D view",
+            VIEWS,
+            hint="Partner view: the paths as the partner sees them (the start view). Top and "
+            "side views. Frame paths: zoom on what is shown, from the current direction.",
+        )
+
+        @self.buttons.on_click
+        def _(event) -> None:
+            if event.client is not None:
+                self.request(event.client, str(event.target.value))
+
+    def request(self, client: viser.ClientHandle, view: str) -> None:
+        """Ask for ``view`` in ``client``'s browser tab (from any thread)."""
+        if view not in VIEWS:
+            raise ValueError(f"unknown view {view!r}; expected one of {', '.join(VIEWS)}")
+        with self._lock:
+            self._requests.append((client, view))
+
+    def step(self) -> None:
+        """Set the cameras asked for; keep the start view on the workspace's paths."""
+        with self._lock:
+            requests, self._requests = self._requests, []
+        for client, view in requests:
+            try:
+                size = client.camera.image_width, client.camera.image_height
+            except AssertionError:  # the browser has not reported its camera yet
+                size = CANVAS
+            apply(client, self.pose(view, current=_current(client), size=size))
+        version = self.scene.drawn_version
+        if version != self._initial_for:
+            self._initial_for = version
+            initial = self.pose(PARTNER)
+            camera = self.server.initial_camera
+            camera.fov = initial.fov
+            camera.position = initial.position
+            camera.look_at = initial.look_at
+
+    def pose(
+        self, view: str, current: CameraPose | None = None, size: tuple[int, int] = CANVAS
+    ) -> CameraPose:
+        """The camera for ``view`` on a ``size`` canvas (``current``: the camera now, whose
+        direction *Frame paths* keeps)."""
+        width, height = (int(s) for s in size)
+        if width < 50 or height < 50:
+            width, height = CANVAS
+        if view == FRAME:
+            points = self.scene.paths()
+            if points.shape[0] == 0:
+                points = scene_points()
+            if current is None:
+                return preset_pose(PARTNER, points, width, height)
+            return frame(points, current.look_at - current.position, width, height, current.fov)
+        points = self.scene.paths(inference=False)
+        if points.shape[0] == 0:
+            points = scene_points()
+        return preset_pose(view, points, width, height)
+
+
+def _current(client: viser.ClientHandle) -> CameraPose | None:
+    try:
+        camera = client.camera
+        return CameraPose(np.array(camera.position), np.array(camera.look_at), fov=camera.fov)
+    except AssertionError:  # no camera reported yet
+        return None
+
+
+def apply(client: viser.ClientHandle, pose: CameraPose) -> None:
+    """Move ``client``'s camera to ``pose`` (one message group)."""
+    with client.atomic():
+        client.camera.fov = pose.fov
+        client.camera.up_direction = pose.up
+        client.camera.position = pose.position
+        client.camera.look_at = pose.look_at

@@ -1,0 +1,88 @@
+// The iCub intention studio's additions to viser's page. Loaded once per page by
+// app/client_script.py (an <img> in a GUI HTML element whose onerror handler appends this
+// file as a <script>: viser sets HTML elements with innerHTML, where a <script> tag never
+// runs). Idempotent: a second load does nothing.
+//
+// 1. Keys for the 3D view only. viser's keyboard camera (WASD QE and the arrows) listens on
+//    `document` and ignores only text fields, so the arrows on the "Observed %" slider (a
+//    Mantine `div role="slider"`) moved the slider and orbited the camera too. React handles
+//    key events at its root container, inside <body>; this listener on <body> (bubble phase)
+//    runs after it and stops the event before it reaches `document`, for the camera keys and
+//    Space, whenever the key goes to a GUI control (anything focused but the page itself or
+//    the 3D canvas). The slider still moves; the camera stays; Space (the Record hotkey, a
+//    listener on `document` too) starts or stops a recording only when the 3D view, not a
+//    button or another control, has the focus. Key-up events pass: a key held over the 3D
+//    view and released elsewhere must still release the camera.
+//
+// 2. A click on the plot area of a chart listed in the configuration (by its title) moves the
+//    slider it names to the same x: it is turned into a mouse press and release on the
+//    slider's track at the matching place (the track's range maps linearly), which Mantine
+//    handles like a user's click, so the server hears of it the usual way.
+(function () {
+  "use strict";
+  const studio = (window.__icubStudio = window.__icubStudio || {});
+  if (studio.loaded) return;
+  studio.loaded = true;
+  studio.config = studio.config || { charts: {} };
+
+  const CAMERA_KEYS = new Set([
+    "KeyW", "KeyA", "KeyS", "KeyD", "KeyQ", "KeyE",
+    "ArrowUp", "ArrowDown", "ArrowLeft", "ArrowRight", "Space",
+  ]);
+
+  function inControl(target) {
+    if (!(target instanceof Element)) return false;
+    if (target === document.body || target === document.documentElement) return false;
+    return target.tagName !== "CANVAS";
+  }
+
+  studio.stoppedKeys = 0;
+  document.body.addEventListener("keydown", function (event) {
+    if (CAMERA_KEYS.has(event.code) && inControl(event.target)) {
+      event.stopPropagation();
+      studio.stoppedKeys += 1;
+    }
+  });
+
+  function chartConfig(over) {
+    const plot = over.closest(".uplot");
+    const title = plot && plot.querySelector(".u-title");
+    return title ? studio.config.charts[title.textContent.trim()] : undefined;
+  }
+
+  function moveSlider(config, value) {
+    const root = document.getElementById(config.slider);
+    if (!root) return false;
+    const track =
+      root.querySelector(".mantine-Slider-trackContainer") ||
+      root.querySelector(".mantine-Slider-track") ||
+      root;
+    const box = track.getBoundingClientRect();
+    const fraction = Math.min(1, Math.max(0, (value - config.min) / (config.max - config.min)));
+    const init = {
+      bubbles: true,
+      cancelable: true,
+      button: 0,
+      buttons: 1,
+      clientX: box.left + fraction * box.width,
+      clientY: box.top + box.height / 2,
+      view: window,
+    };
+    track.dispatchEvent(new MouseEvent("mousedown", init));
+    track.dispatchEvent(new MouseEvent("mouseup", Object.assign({}, init, { buttons: 0 })));
+    document.dispatchEvent(new MouseEvent("mouseup", Object.assign({}, init, { buttons: 0 })));
+    return true;
+  }
+
+  studio.chartClicks = 0;
+  document.addEventListener("click", function (event) {
+    const over = event.target instanceof Element ? event.target.closest(".u-over") : null;
+    if (!over) return;
+    const config = chartConfig(over);
+    if (!config) return;
+    const box = over.getBoundingClientRect();
+    const [x0, x1] = config.x;
+    const value = x0 + ((event.clientX - box.left) / box.width) * (x1 - x0);
+    if (moveSlider(config, value)) studio.chartClicks += 1;
+  });
+})();

@@ -1,0 +1,170 @@
+"""The 3D view's camera: the framing maths (no browser), and in a real browser the start view
+(the Partner view) that separates the primitives' paths on screen, and the camera buttons."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from app.scene.camera import (
+    FOV,
+    FRAME,
+    MARGIN,
+    PANEL_PX,
+    PARTNER,
+    SIDE,
+    TOP,
+    CameraPose,
+    frame,
+    partner_eye,
+    project,
+    view_pose,
+)
+from tests.browser import camera_pixels, press
+from tests.conftest import open_page, start_studio, wait_until
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    from app.studio import default_workspace
+
+    return default_workspace().demos
+
+
+def hand_points(scenario) -> np.ndarray:
+    return np.concatenate([d.values[:, :3] for demos in scenario.values() for d in demos])
+
+
+def mid_points(scenario) -> np.ndarray:
+    """The middle sample of each primitive's first demonstration, (2, 3)."""
+    return np.array([demos[0].values[demos[0].n_samples // 2, :3] for demos in scenario.values()])
+
+
+def inside(pixels: np.ndarray, width: int, height: int, margin: float) -> bool:
+    """Every pixel in the canvas' free part (left of the panel), ``margin`` of it spare."""
+    free = width - PANEL_PX
+    x, y = pixels[:, 0], pixels[:, 1]
+    slack = 0.5 * margin - 1e-6
+    return bool(
+        np.all(x >= slack * free) and np.all(x <= (1 - slack) * free)
+        and np.all(y >= slack * height) and np.all(y <= (1 - slack) * height)
+    )  # fmt: skip
+
+
+# ---------------------------------------------------------------------- framing maths
+
+
+def test_project_puts_the_look_at_point_in_the_middle_and_hides_what_is_behind() -> None:
+    pose = CameraPose(np.array([0.0, -2.0, 0.0]), np.array([0.0, 0.0, 0.0]), fov=math.radians(60))
+    points = [[0.0, 0.0, 0.0], [0.0, -3.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]
+    pixels = project(pose, points, 800, 600)
+    np.testing.assert_allclose(pixels[0], [400, 300])
+    assert np.all(np.isnan(pixels[1]))  # behind the camera
+    assert pixels[2, 1] < 300  # up is up on screen
+    assert pixels[3, 0] > 400  # +x is to the right, looking along +y with z up
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_frame_fits_the_points_beside_the_panel_at_the_shortest_distance(seed) -> None:
+    rng = np.random.default_rng(seed)
+    points = rng.normal(size=(40, 3)) * rng.uniform(0.05, 0.5, size=3) + rng.normal(size=3)
+    direction = rng.normal(size=3)
+    width, height = (1600, 1000) if seed % 2 else (1280, 800)
+    pose = frame(points, direction, width, height)
+    assert pose.fov == pytest.approx(FOV)
+    np.testing.assert_allclose(
+        (pose.look_at - pose.position) / np.linalg.norm(pose.look_at - pose.position),
+        direction / np.linalg.norm(direction), atol=1e-9,
+    )  # fmt: skip
+    assert inside(project(pose, points, width, height), width, height, MARGIN)
+    # Any closer and some point leaves the free picture (the distance is the shortest).
+    forward = (pose.look_at - pose.position) / np.linalg.norm(pose.look_at - pose.position)
+    closer = CameraPose(pose.position + 0.03 * forward, pose.look_at, fov=pose.fov)
+    assert not inside(project(closer, points, width, height), width, height, MARGIN)
+
+
+def test_frame_from_a_given_distance_zooms_with_the_field_of_view(scenario) -> None:
+    points = hand_points(scenario)
+    pose = frame(points, [1.0, 0.2, -0.5], 1600, 1000, distance=1.5, margin=0.3)
+    assert pose.fov < FOV  # the paths are small at 1.5 m: zoomed in
+    assert inside(project(pose, points, 1600, 1000), 1600, 1000, 0.3)
+    wider = CameraPose(pose.position, pose.look_at, fov=0.9 * pose.fov)
+    assert not inside(project(wider, points, 1600, 1000), 1600, 1000, 0.3)
+    with pytest.raises(ValueError, match="behind the camera"):
+        frame(points, [1.0, 0.0, 0.0], distance=0.01)
+    with pytest.raises(ValueError, match="no finite point"):
+        frame(np.full((3, 3), np.nan), [1.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="no room"):
+        frame(points, [1.0, 0.0, 0.0], 450, 400)
+
+
+@pytest.mark.parametrize("size", [(1280, 800), (1600, 1000), (1920, 1080)])
+def test_the_partner_view_separates_the_primitives_on_screen(scenario, size) -> None:
+    """From behind the partner's head, the middles of a curved and a direct demonstration are
+    far apart on screen (edge-on, as the old start view saw them, they were not)."""
+    width, height = size
+    pose = view_pose(PARTNER, hand_points(scenario), width, height)
+    assert np.linalg.norm(pose.position - partner_eye()) < 0.2  # shifted beside the panel
+    curved, direct = project(pose, mid_points(scenario), width, height)
+    assert np.linalg.norm(curved - direct) >= 40.0 * width / 1600
+    assert inside(project(pose, hand_points(scenario), width, height), width, height, 0.3)
+
+
+def test_top_and_side_views_look_down_and_across(scenario) -> None:
+    points = hand_points(scenario)
+    top, side = view_pose(TOP, points), view_pose(SIDE, points)
+    assert top.position[2] - top.look_at[2] > 1.0  # from above
+    assert side.position[1] < side.look_at[1] - 1.0  # from the robot's left (-y)
+    for pose in (top, side):
+        assert inside(project(pose, points, 1400, 900), 1400, 900, 0.3)
+
+
+# ---------------------------------------------------------------------- in a real browser
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory):
+    studio = start_studio(tmp_path_factory.mktemp("view") / "ws")
+    yield studio
+    studio.stop()
+
+
+@pytest.mark.browser
+def test_the_start_view_separates_the_paths_and_the_buttons_move_the_camera(
+    browser, studio, scenario
+) -> None:
+    wait_until(lambda: studio.scene.drawn_version >= 0, what="the workspace drawn")
+    page, client = open_page(browser, studio, width=1600, height=1000)
+    try:
+        wait_until(lambda: client.camera.image_width == 1600, what="the browser's camera")
+        wait_until(
+            lambda: np.linalg.norm(client.camera.position - partner_eye()) < 0.2,
+            what="the start view (behind the partner's head)",
+        )
+        curved, direct = camera_pixels(client, mid_points(scenario))
+        assert np.linalg.norm(curved - direct) >= 40.0, (curved, direct)
+        assert 0 < curved[0] < 1600 - PANEL_PX and 0 < curved[1] < 1000
+        for view, check in (
+            (TOP, lambda: client.camera.position[2] > 1.0),
+            (SIDE, lambda: client.camera.position[1] < -1.0),
+            (PARTNER, lambda: np.linalg.norm(client.camera.position - partner_eye()) < 0.2),
+        ):
+            press(page, page.get_by_role("button", name=view, exact=True))
+            wait_until(check, timeout=60, what=f"the camera of {view}")
+        # Frame paths: the same direction, closer, every demonstration in the picture.
+        before = client.camera.look_at - client.camera.position
+        press(page, page.get_by_role("button", name=FRAME, exact=True))
+        wait_until(
+            lambda: np.linalg.norm(client.camera.look_at - client.camera.position)
+            < 0.9 * np.linalg.norm(before), timeout=60, what="the camera framing the paths",
+        )  # fmt: skip
+        after = client.camera.look_at - client.camera.position
+        np.testing.assert_allclose(after / np.linalg.norm(after), before / np.linalg.norm(before),
+                                   atol=1e-3)  # fmt: skip
+        pixels = camera_pixels(client, hand_points(scenario))
+        assert np.all(pixels[:, 0] > 0) and np.all(pixels[:, 0] < 1600 - PANEL_PX)
+        assert np.all(pixels[:, 1] > 0) and np.all(pixels[:, 1] < 1000)
+    finally:
+        page.close()
