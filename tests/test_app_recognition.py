@@ -16,7 +16,8 @@ from app.panels.infer.recognition import TITLE, chart_data
 from app.recognition_curve import CurveCache, RecognitionCurve, earliest_right, recognition_curve
 from app.scrub import demo_observation, held_out_training, scrub_step
 from app.workspace_index import LAYOUT
-from promp.model import Settings, fit
+from promp.learn import fit
+from promp.model import Settings
 from tests.browser import choose, press
 from tests.conftest import open_page, start_studio, wait_until
 
