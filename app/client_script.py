@@ -6,7 +6,8 @@ where a ``<script>`` tag does not run. An ``<img>`` whose source fails to load d
 handler stores the configuration in ``window.__icubStudio.config`` and appends the script (as
 a base64 ``data:`` URL) to the page's head. The script guards itself against a second load.
 What it does, and why, is written at its top: keys meant for the 3D view stay with GUI controls
-that have the focus, and a click on a chart moves the slider it belongs to.
+that have the focus, a click on a chart moves the slider it belongs to, and the studio can
+switch one browser to another tab (:func:`tab_switch_html`, added to that client's GUI alone).
 """
 
 from __future__ import annotations
@@ -50,6 +51,14 @@ def loader_html(charts: Mapping[str, ChartSlider], script: str | None = None) ->
     return (
         f'<img alt="" src="data:," style="display:none" onerror="{escape_html(handler)}">'
     )
+
+
+def tab_switch_html(title: str) -> str:
+    """A hidden ``<img>`` whose handler shows the tab titled ``title`` (the script's
+    ``showTab``). viser cannot choose a browser's tab: added to one client's GUI, this element
+    does it in that browser as it appears."""
+    handler = f"var s=window.__icubStudio;if(s&&s.showTab){{s.showTab({json.dumps(title)});}}"
+    return f'<img alt="" src="data:," style="display:none" onerror="{escape_html(handler)}">'
 
 
 def add_client_script(

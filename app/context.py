@@ -3,7 +3,8 @@
 
 The studio builds each panel inside its tab with a context of its own: the session (state and
 mutations), the scene (told what the panel shows, never edited), the arm, the partner's head,
-notifications, and the GUI to build its controls with. Panels import nothing of the studio.
+notifications, the GUI to build its controls with, and the few requests one panel may make of
+another through the studio (:class:`InferRequest`). Panels import nothing of the studio.
 """
 
 from __future__ import annotations
@@ -21,6 +22,32 @@ from app.head_input import HeadInput
 from app.scene import Scene
 from app.session import Session
 from app.upload_guard import Refused, UploadGuard
+
+
+@dataclass(frozen=True)
+class InferRequest:
+    """A held-out demonstration to inspect in the Infer tab, as one trial of the evaluation saw
+    it (the Data tab's "Open in Infer").
+
+    Attributes
+    ----------
+    primitive : str
+        The demonstration's primitive (the truth).
+    demo : str
+        The demonstration's name.
+    percent : float
+        Percentage of the movement observed, in (0, 100].
+    observed : tuple of str
+        The observed modalities, e.g. ``("hand", "head")``.
+    alpha_method : str
+        ``"ml"`` or ``"model"`` (:data:`app.display.ALPHA_LABELS`).
+    """
+
+    primitive: str
+    demo: str
+    percent: float
+    observed: tuple[str, ...]
+    alpha_method: str
 
 
 class Panel(Protocol):
@@ -85,6 +112,11 @@ class PanelContext:
     guard_upload : callable
         ``guard_upload(button, max_bytes, refused)``: an :class:`app.upload_guard.UploadGuard`
         on one of the panel's upload buttons.
+    open_in_infer : callable
+        ``open_in_infer(request, client)``: the Infer tab shows ``request``
+        (:class:`InferRequest`), and ``client``'s browser tab switches to it; a request the
+        Infer tab cannot show (the demonstration was deleted since) is a notification to
+        ``client``. Returns at once (the studio's loop does it).
     """
 
     gui: PanelGui
@@ -95,6 +127,7 @@ class PanelContext:
     notify: Callable[..., None]
     atomic: Callable[[], AbstractContextManager]
     guard_upload: Callable[[viser.GuiUploadButtonHandle, int, Refused], UploadGuard]
+    open_in_infer: Callable[[InferRequest, viser.ClientHandle | None], None]
 
     def hand_and_head(self) -> tuple[np.ndarray, np.ndarray | None]:
         """The hand position (3,) now, and the latest head angles (3,) or None (thread-safe)."""

@@ -19,8 +19,8 @@ from pathlib import Path
 import viser
 
 from app.arm import ArmController
-from app.client_script import add_client_script
-from app.context import Panel, PanelContext, PanelGui
+from app.client_script import add_client_script, tab_switch_html
+from app.context import InferRequest, Panel, PanelContext, PanelGui
 from app.head_input import HeadInput
 from app.head_sources import HeadSource, SimulatedPartner, StreamHeadSource
 from app.help import add_help
@@ -78,6 +78,7 @@ class Studio:
         self._stop = threading.Event()
         self._tasks: list[Callable[[], None]] = []
         self._tasks_lock = threading.Lock()
+        self._tab_switches: dict[int, viser.GuiHtmlHandle] = {}  # the latest, per client
         self._thread = threading.Thread(target=self._loop, name="studio-loop", daemon=True)
 
     @property
@@ -138,6 +139,7 @@ class Studio:
             source = SimulatedPartner()
         studio = cls(server, session, view, arm, source)
         studio.panels = studio._build_panels()
+        server.on_client_disconnect(lambda client: studio._tab_switches.pop(client.client_id, None))
         studio._thread.start()
         return studio
 
@@ -157,6 +159,7 @@ class Studio:
             notify=self.notify,
             atomic=server.atomic,
             guard_upload=guard_upload,
+            open_in_infer=self.open_in_infer,
         )
 
     def _build_panels(self) -> list[Panel]:
@@ -174,6 +177,40 @@ class Studio:
             charts.update(getattr(panel, "chart_sliders", dict)())
         add_client_script(self.server.gui, charts)
         return panels
+
+    # ------------------------------------------------------------------ between panels
+
+    def open_in_infer(self, request: InferRequest, client: viser.ClientHandle | None) -> None:
+        """The Infer tab shows ``request`` and ``client``'s browser switches to it (see
+        :attr:`app.context.PanelContext.open_in_infer`); done by the loop's next iteration."""
+        self.call_in_loop(lambda: self._open_in_infer(request, client))
+
+    def _open_in_infer(self, request: InferRequest, client: viser.ClientHandle | None) -> None:
+        infer = next(panel for panel in self.panels if isinstance(panel, InferPanel))
+        try:
+            percent = infer.open(request)
+        except ValueError as exc:
+            self.notify("Cannot open in Infer", f"{exc}.", "red", client=client)
+            return
+        self.scene.use_panel(INFER)
+        if client is not None:
+            self._show_tab(client, next(title for title, name, _ in TABS if name == INFER))
+        if percent != request.percent:
+            self.notify(
+                "Opened in Infer",
+                f"{request.demo} at {percent} % observed: the slider moves by whole percents "
+                f"(the evaluation observed {request.percent:g} %).",
+                "yellow",
+                client=client,
+            )
+
+    def _show_tab(self, client: viser.ClientHandle, title: str) -> None:
+        """Switch ``client``'s browser to the tab titled ``title``
+        (:func:`app.client_script.tab_switch_html`, in that client's GUI alone)."""
+        previous = self._tab_switches.pop(client.client_id, None)
+        if previous is not None:
+            previous.remove()
+        self._tab_switches[client.client_id] = client.gui.add_html(tab_switch_html(title))
 
     # ------------------------------------------------------------------ loop
 

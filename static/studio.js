@@ -18,6 +18,13 @@
 //    slider it names to the same x: it is turned into a mouse press and release on the
 //    slider's track at the matching place (the track's range maps linearly), which Mantine
 //    handles like a user's click, so the server hears of it the usual way.
+//
+// 3. showTab(title) clicks the tab so titled, as a user does. viser lets the server choose no
+//    browser's tab; for the Data tab's "Open in Infer", the studio adds to the browser that
+//    asked a hidden <img> whose onerror handler calls it (app/client_script.py,
+//    tab_switch_html). viser's tabs (which can also be dragged) change on the pointer's
+//    release, not on a bare `click()`: the whole press and release is dispatched, at the
+//    middle of the tab.
 (function () {
   "use strict";
   const studio = (window.__icubStudio = window.__icubStudio || {});
@@ -85,4 +92,32 @@
     const value = x0 + ((event.clientX - box.left) / box.width) * (x1 - x0);
     if (moveSlider(config, value)) studio.chartClicks += 1;
   });
+
+  studio.tabSwitches = 0;
+  studio.showTab = function (title) {
+    const tab = Array.from(document.querySelectorAll('[role="tab"]')).find(function (t) {
+      return t.textContent.trim() === title;
+    });
+    if (!tab) return false;
+    const box = tab.getBoundingClientRect();
+    const init = {
+      bubbles: true,
+      cancelable: true,
+      button: 0,
+      isPrimary: true,
+      pointerId: 1,
+      pointerType: "mouse",
+      clientX: box.left + box.width / 2,
+      clientY: box.top + box.height / 2,
+      view: window,
+    };
+    const down = Object.assign({}, init, { buttons: 1 });
+    tab.dispatchEvent(new PointerEvent("pointerdown", down));
+    tab.dispatchEvent(new MouseEvent("mousedown", down));
+    tab.dispatchEvent(new PointerEvent("pointerup", init));
+    tab.dispatchEvent(new MouseEvent("mouseup", init));
+    tab.dispatchEvent(new MouseEvent("click", init));
+    studio.tabSwitches += 1;
+    return true;
+  };
 })();

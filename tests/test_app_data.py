@@ -1,9 +1,11 @@
 """The Data tab in a real browser: export and re-import a model and a workspace, refused files
-leave the workspace byte for byte unchanged, the early size cap, and the leave-one-out
-evaluation with its progress bar and curves. Plus the tab's pure helpers."""
+leave the workspace byte for byte unchanged, the early size cap, the leave-one-out evaluation
+with its progress bar and curves, the export of its results and its failed trials opened in
+Infer. Plus the tab's pure helpers."""
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import io
 import json
@@ -12,19 +14,30 @@ import threading
 import time
 import zipfile
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from app import exchange
 from app.gui_text import display_name
-from app.panels.data.evaluation import evaluation_dataset, parse_percents
+from app.panels.data.evaluation import EvaluationJob, evaluation_dataset, parse_percents
+from app.panels.data.failed_trials import failed_trials, trial_choices
 from app.panels.data.results import curves, results_table
+from app.panels.data.results_zip import results_filename, results_zip
 from app.workspace import Workspace, WorkspaceData
 from app.workspace_index import FORMAT, PALETTE, PrimitiveEntry
+from promp.evaluate.methods import Inferred
+from promp.evaluate.plots import write_figures
+from promp.evaluate.report import CSV_COLUMNS, report_json, results_csv
 from promp.evaluate.sweep import run_sweep
 from promp.io import model_from_json, model_to_dict
+from promp.model import Settings
+from tests.browser import choose
 from tests.conftest import open_page, start_studio, wait_until
+from tests.synthetic import LAYOUT, make_dataset
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 # ---------------------------------------------------------------------------- pure helpers
 
@@ -74,6 +87,130 @@ def test_display_name_is_markdown_safe() -> None:
     assert display_name("<img src=x>`**.json") == "_img src_x____.json"
     assert display_name("../../a.zip") == "a.zip"
     assert len(display_name("x" * 200 + ".zip")) == 60
+
+
+class FirstOrFails:
+    """A fake method: recognises the first primitive whatever it sees (p = 0.9) and predicts
+    the truth; it cannot run on ``right1`` beyond 50 % observed."""
+
+    def fit(self, train, sample_period) -> None:
+        pass
+
+    def infer(self, demo, n_observed, observe, alpha_method) -> Inferred:
+        if demo.name == "right1" and n_observed > demo.n_samples // 2:
+            raise ValueError("no candidate duration explains it")
+        values = LAYOUT.extract(demo)
+        spread = np.full_like(values, 0.01)
+        return Inferred(
+            0, np.array([0.9, 0.1]), 1.0, demo.duration, values + 0.1, spread, values, spread
+        )
+
+
+def fake_job() -> EvaluationJob:
+    """A finished job of the fake method on two synthetic primitives x 3 demonstrations,
+    hand and hand + head at 30 and 60 % (ML): every "right" trial is recognised as "left"."""
+    dataset = make_dataset(seed=0, n_demos=3)
+    job = EvaluationJob(
+        dataset=dataset, skipped={}, percents=[30.0, 60.0],
+        observe_sets=[["hand"], ["hand", "head"]], alpha_methods=["ml"], settings=Settings(),
+        layout=LAYOUT, source="/somewhere/my lab", total=6,
+    )  # fmt: skip
+    job.result = run_sweep(
+        FirstOrFails, dataset, LAYOUT, job.percents, job.alpha_methods, job.observe_sets,
+        "ours", keep_trials=True,
+    )  # fmt: skip
+    job.done, job.finished = 6, True
+    return job
+
+
+def test_results_zip_holds_what_the_command_line_writes(tmp_path) -> None:
+    job = fake_job()
+    report = job.report()
+    assert report["primitives"] == ["left", "right"]
+    assert report["settings"]["format"] == "workspace"
+    assert report["settings"]["basis"]["n_basis"] == "auto"
+    with zipfile.ZipFile(io.BytesIO(results_zip(report, job.result, job.dataset, LAYOUT))) as z:
+        names = z.namelist()
+        assert z.read("results.json").decode() == report_json(report)
+        assert z.read("results.csv").decode() == results_csv(job.result.rows)
+        pngs = {n: z.read(n) for n in names if n.startswith("figures/")}
+    written = write_figures(tmp_path, job.result, job.dataset, LAYOUT, "ours")  # as --plots
+    assert names[:2] == ["results.json", "results.csv"]
+    assert sorted(pngs) == sorted(f"figures/{p.name}" for p in written)
+    assert len(pngs) == 4 and all(data.startswith(PNG_MAGIC) for data in pngs.values())
+    table = list(csv.DictReader(io.StringIO(results_csv(job.result.rows))))
+    assert list(table[0]) == list(CSV_COLUMNS) and len(table) == len(job.result.rows) == 4
+    late = next(r for r in table if r["observed"] == "hand+head" and r["percent"] == "60.0")
+    assert late["failed"] == "right/right1" and late["recognition_errors"] == "3"
+    assert float(late["log_loss"]) == pytest.approx(job.result.rows[3]["log_loss"])
+    assert re.fullmatch(r"evaluation-my_lab-\d{8}-\d{6}\.zip", results_filename("my lab"))
+    assert results_filename("../").startswith("evaluation-workspace-")
+
+
+def test_failed_trials_list_every_misrecognised_trial() -> None:
+    job = fake_job()
+    trials = failed_trials(job.result, job.dataset)
+    # Every "right" trial (3 demonstrations x 2 percents x 2 modality sets), in order.
+    assert len(trials) == 12
+    assert [(t.request.demo, t.request.percent) for t in trials[:4]] == [
+        ("right0", 30.0), ("right0", 30.0), ("right0", 60.0), ("right0", 60.0)
+    ]  # fmt: skip
+    first = trials[0]
+    assert first.request.primitive == "right" and first.request.observed == ("hand",)
+    assert first.request.alpha_method == "ml"
+    assert first.recognised == "left" and first.probability == pytest.approx(0.9)
+    failed = [t for t in trials if t.recognised is None]
+    assert [(t.request.demo, t.request.percent) for t in failed] == [("right1", 60.0)] * 2
+    assert "no candidate duration" in failed[0].error
+    labels = list(trial_choices(trials))
+    assert len(set(labels)) == 12
+    assert labels[0] == "right0 · right · 30 % of hand, ML → left"
+    assert "right1 · right · 60 % of hand + head, ML → failed" in labels
+    one_setting = [t for t in trials if t.request.observed == ("hand",)]
+    assert list(trial_choices(one_setting))[0] == "right0 · right · 30 % → left"
+
+
+def test_evaluation_section_without_a_browser() -> None:
+    """Before an evaluation, Export and Open refuse with a yellow notification; after one,
+    Export sends the zip and Open asks the studio for the chosen trial."""
+    import viser
+
+    from app.net import free_port
+    from app.panels.data.evaluation_section import EvaluationSection
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    told, opened = [], []
+    ctx = SimpleNamespace(
+        gui=server.gui,
+        session=SimpleNamespace(layout=LAYOUT),
+        open_in_infer=lambda request, client: opened.append((request, client)),
+    )
+    try:
+        section = EvaluationSection(ctx, lambda client, *message: told.append(message))
+        assert section.export_button.disabled and not section.failed_dropdown.visible
+        assert section.export(None) is None and section.open_in_infer(None) is None
+        assert [(title, color) for title, _, color in told] == [
+            ("No results to export", "yellow"), ("No failed trial", "yellow")
+        ]  # fmt: skip
+        assert opened == []
+
+        section._job = job = fake_job()
+        section.step()  # the loop shows the finished job
+        assert not section.export_button.disabled
+        assert section.failed_dropdown.label == "Failed trials (12)"
+        assert len(section.failed_dropdown.options) == 12
+        assert section.open_button.visible and not section.open_button.disabled
+        section.failed_dropdown.value = section.failed_dropdown.options[5]
+        trial = section.open_in_infer(None)
+        assert opened == [(trial.request, None)] and trial.request.demo == "right1"
+        content = section.export(None)
+        with zipfile.ZipFile(io.BytesIO(content)) as archive:
+            assert json.loads(archive.read("results.json")) == json.loads(
+                report_json(job.report())
+            )
+        assert told[-1][0] == "Results exported" and "evaluation-my_lab-" in told[-1][1]
+    finally:
+        server.stop()
 
 
 # ---------------------------------------------------------------------------- browser
@@ -307,13 +444,18 @@ def gate_sweep(monkeypatch) -> threading.Event:
     return gate
 
 
+def percents_input(page, panel):
+    """The evaluation's "Percents" text input (viser labels its inputs with <label for=uuid>
+    but gives the input no id)."""
+    return page.locator(
+        f"label[for='{panel.percents_text._impl.uuid}'] >> xpath=ancestor::*[.//input][1]//input"
+    )
+
+
 @pytest.mark.browser
 def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypatch) -> None:
     panel = panel_of(studio).evaluation
-    # viser labels its inputs with <label for=uuid> but gives the input no id.
-    percents = page.locator(
-        f"label[for='{panel.percents_text._impl.uuid}'] >> xpath=ancestor::*[.//input][1]//input"
-    )
+    percents = percents_input(page, panel)
     percents.fill("abc")
     until(lambda: panel.percents_text.value == "abc", what="the typed percents")
     page.get_by_role("button", name="Run leave-one-out evaluation").click()
@@ -378,6 +520,105 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     page.get_by_text("Evaluation cancelled.").wait_for()
     until(run.is_enabled, what="the button after the cancel")
     assert len(panel._result_handles) == 3 and panel.results_folder.visible
+
+
+@pytest.fixture(scope="module")
+def evaluated(page, studio):
+    """A small evaluation run from the GUI (hand + head, ML, 10 and 40 % observed: at 10 %
+    some held-out demonstrations are recognised as another primitive); its job."""
+    panel = panel_of(studio).evaluation
+    previous = panel._job
+    percents = percents_input(page, panel)
+    percents.fill("10 40")
+    until(lambda: panel.percents_text.value == "10 40", what="the percents")
+    panel.observe_dropdown.value = "hand + head"
+    panel.alpha_dropdown.value = "ML"
+    page.get_by_role("button", name="Run leave-one-out evaluation").click()
+    job = until(lambda: panel._job is not previous and panel._job, what="the evaluation")
+    until(lambda: job.finished, what="the evaluation to finish")
+    assert job.error is None and not job.cancelled
+    until(page.get_by_role("button", name="Export results").is_enabled, what="Export enabled")
+    return job
+
+
+@pytest.mark.browser
+def test_export_results_from_the_gui(page, studio, evaluated) -> None:
+    with page.expect_download() as info:
+        page.get_by_role("button", name="Export results").click()
+    download = info.value
+    assert re.fullmatch(r"evaluation-ws-\d{8}-\d{6}\.zip", download.suggested_filename)
+    with zipfile.ZipFile(Path(download.path())) as archive:
+        names = archive.namelist()
+        report = json.loads(archive.read("results.json"))
+        table = list(csv.reader(io.StringIO(archive.read("results.csv").decode())))
+        pngs = {n: archive.read(n) for n in names if n.startswith("figures/")}
+    assert report["primitives"] == ["curved", "direct", "second_bin"]
+    assert report["settings"]["percents"] == [10.0, 40.0]
+    rows = report["results"]
+    assert len(rows) == 2 and all(r["trials"] == 12 for r in rows)
+    assert report == json.loads(report_json(evaluated.report()))
+    assert table[0] == list(CSV_COLUMNS) and len(table) == 1 + len(rows)
+    assert [float(line[3]) for line in table[1:]] == [r["percent"] for r in rows]
+    assert "figures/curves_ours.png" in pngs
+    assert all(name.endswith(".png") and data.startswith(PNG_MAGIC) for name, data in pngs.items())
+    assert download.suggested_filename in notification(page, "Results exported")
+
+
+@pytest.mark.browser
+def test_a_failed_trial_opens_in_infer(page, studio, evaluated, artifacts) -> None:
+    from app.panels.infer import InferPanel
+    from app.scene.look import INFER
+
+    panel = panel_of(studio).evaluation
+    infer = next(p for p in studio.panels if isinstance(p, InferPanel))
+    expected = failed_trials(evaluated.result, evaluated.dataset)
+    assert expected, "the 10 % trials of this workspace include misrecognised ones"
+    labels = list(trial_choices(expected))
+    until(lambda: list(panel.failed_dropdown.options) == labels, what="the failed trials")
+    # One that is not what the Infer tab shows already.
+    label, trial = next(
+        (label, t) for label, t in trial_choices(expected).items()
+        if (t.request.primitive, t.request.demo) != (infer.primitive.value, infer.demo.value)
+    )  # fmt: skip
+    request = trial.request
+    assert re.fullmatch(rf"{request.demo} · {request.primitive} · 10 % → \w+", label)
+
+    # The picture of the tab (docs/data.png), and nothing past the panel's right edge: the
+    # full-width Export button marks it.
+    page.set_viewport_size({"width": 1600, "height": 1000})
+    folder = page.get_by_text("Leave-one-out evaluation", exact=True).first
+    folder.evaluate("e => e.scrollIntoView({block: 'start'})")
+    page.get_by_text("Recognition errors (of 12)").first.wait_for()
+    edge = page.get_by_role("button", name="Export results").bounding_box()
+    shown = page.locator(f"[id='{panel.failed_dropdown._impl.uuid}']")
+    for element in (shown, page.get_by_role("button", name="Open in Infer")):
+        box = element.bounding_box()
+        assert box["x"] + box["width"] <= edge["x"] + edge["width"] + 1
+    assert shown.evaluate("e => e.scrollWidth <= e.clientWidth"), "the trial's label is cut"
+    close = page.locator(".mantine-Notification-closeButton")
+    for _ in range(close.count()):
+        close.first.dispatch_event("click")
+    until(lambda: page.locator(".mantine-Notification-root").count() == 0, what="no toasts")
+    page.screenshot(path=str(artifacts / "data.png"))
+
+    choose(page, panel.failed_dropdown, label)
+    page.get_by_role("button", name="Open in Infer").click()
+    until(
+        lambda: (infer.primitive.value, infer.demo.value, infer.percent.value)
+        == (request.primitive, request.demo, 10),
+        what="the trial chosen in the Infer tab",
+    )
+    assert (infer.source.value, infer.observed.value, infer.alpha.value) == (
+        "Test demonstration", "hand + head", "ML"
+    )  # fmt: skip
+    tab = page.get_by_role("tab", name="Infer")
+    until(lambda: tab.get_attribute("aria-selected") == "true", what="the Infer tab shown")
+    page.get_by_text(f"learned without {request.demo} (held out)").wait_for()
+    assert studio.scene.panel == INFER
+    assert infer.result is not None and infer.result.observation.n_observed > 0
+    page.screenshot(path=str(artifacts / "data_open_in_infer.png"))
+    page.get_by_role("tab", name="Data").click()
+    page.set_viewport_size({"width": 1200, "height": 800})
 
 
 @pytest.mark.browser

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import json
 import math
@@ -17,6 +18,7 @@ from promp.datasets import write_csv_dataset
 from promp.evaluate import metrics
 from promp.evaluate.cli import main
 from promp.evaluate.methods import Inferred, ProMPEngine
+from promp.evaluate.report import CSV_COLUMNS
 from promp.evaluate.sweep import n_observed_for, run_sweep, spread_subset
 from promp.model import Settings
 from tests.conftest import REPO
@@ -167,6 +169,7 @@ def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
             "--percent", "30", "70",
             "--basis", "8", "--shrinkage", "auto", "--jobs", "1",
             "--json", str(out),
+            "--csv", str(tmp_path / "table" / "out.csv"),
             "--plots", str(tmp_path / "plots"),
         ]
     )  # fmt: skip
@@ -191,6 +194,15 @@ def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
     # Far-apart synthetic primitives: no recognition error from 70 % of the head.
     late_head = [r for r in rows if r["observed"] == ["head"] and r["percent"] == 70]
     assert all(r["recognition_errors"] == 0 for r in late_head)
+    # The CSV: one line per result row, the JSON's values.
+    table = list(csv.DictReader((tmp_path / "table" / "out.csv").open(newline="")))
+    assert len(table) == len(rows) and list(table[0]) == list(CSV_COLUMNS)
+    for line, row in zip(table, rows, strict=True):
+        assert line["observed"] == "+".join(row["observed"]) and line["method"] == "ours"
+        assert float(line["percent"]) == row["percent"]
+        assert int(line["recognition_errors"]) == row["recognition_errors"]
+        assert float(line["log_loss"]) == pytest.approx(row["log_loss"])
+        assert float(line["position_error_m"]) == pytest.approx(row["position_error_m"])
     pngs = sorted(p.name for p in (tmp_path / "plots").iterdir())
     assert pngs == [
         "curves_ours.png", "example_ours_hand+head.png", "example_ours_head.png",

@@ -4,8 +4,9 @@
 
     python -m promp.evaluate DATASET --format records|csv [--modality NAME=COL,COL,...]...
         [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
-        [--json OUT.json] [--plots DIR] [--basis M] [--width W] [--shrinkage S|auto]
-        [--noise-scale X] [--subset N] [--jobs N] [--backend local|dask --scheduler ADDRESS]
+        [--json OUT.json] [--csv OUT.csv] [--plots DIR] [--basis M] [--width W]
+        [--shrinkage S|auto] [--noise-scale X] [--subset N] [--jobs N]
+        [--backend local|dask --scheduler ADDRESS]
 
 ``--format records`` reads the lab-record format, ``--format csv`` reads ``DATASET/<primitive>/
 <demo>.csv`` (:func:`promp.datasets.read_dataset`, the reader the studio's import uses too).
@@ -16,12 +17,15 @@ modality sets in one run. The folds run on every core (``--jobs``), or on a Dask
 (``--backend dask --scheduler ADDRESS``); the results are the same. ``--subset N`` holds out
 only N demonstrations per primitive, evenly spread (each still tested by a model fitted on
 every other demonstration): a quick run, the same for every method.
+
+``--json`` writes the report (settings, the result rows, the failed trials), ``--csv`` the
+result table (:mod:`promp.evaluate.report`, which the studio's "Export results" writes too),
+``--plots`` the figures (:mod:`promp.evaluate.plots`).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -29,6 +33,7 @@ from pathlib import Path
 from promp.data import Layout
 from promp.datasets import Dataset, parse_modality, read_dataset
 from promp.evaluate.methods import ProMPEngine
+from promp.evaluate.report import basis_settings, report_json, results_csv, results_report
 from promp.evaluate.seed import ToolboxBaseline
 from promp.evaluate.sweep import position_modality, run_sweep, spread_subset, tqdm_progress
 from promp.model import Settings
@@ -116,6 +121,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
     )
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
+    parser.add_argument(
+        "--csv", type=Path, default=None, help="write the result table here (one line per row)"
+    )
     parser.add_argument("--plots", type=Path, default=None, help="write PNG figures here")
     return parser
 
@@ -139,24 +147,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         dataset, layout, observe = load(args)
         if any(not 0 < p <= 100 for p in args.percent):
             raise ValueError("--percent values must be in (0, 100]")
+        try:
+            shrinkage = None if args.shrinkage == "auto" else float(args.shrinkage)
+        except ValueError:
+            raise ValueError(
+                f"--shrinkage expects a number in (0, 1] or 'auto', got {args.shrinkage!r}"
+            ) from None
+        settings = Settings(
+            n_basis=args.basis,
+            width=args.width,
+            shrinkage=shrinkage,
+            noise_scale=args.noise_scale,
+        )
         if args.method == "seed":
 
             def factory():
                 return ToolboxBaseline(layout)
 
         else:
-            try:
-                shrinkage = None if args.shrinkage == "auto" else float(args.shrinkage)
-            except ValueError:
-                raise ValueError(
-                    f"--shrinkage expects a number in (0, 1] or 'auto', got {args.shrinkage!r}"
-                ) from None
-            settings = Settings(
-                n_basis=args.basis,
-                width=args.width,
-                shrinkage=shrinkage,
-                noise_scale=args.noise_scale,
-            )
 
             def factory():
                 return ProMPEngine(layout, settings)
@@ -184,28 +192,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    report = {
-        "dataset": str(args.dataset),
-        "settings": {
-            "format": args.format,
-            "method": args.method,
-            "modalities": {m.name: list(m.columns) for m in layout.modalities},
-            "observe": observe,
-            "percents": list(args.percent),
-            "alpha": list(args.alpha),
-            "basis": {
-                "n_basis": "auto" if args.basis is None else args.basis,
-                "width": "auto" if args.width is None else args.width,
-                "shrinkage": args.shrinkage,
-                "noise_scale": "auto" if args.noise_scale is None else args.noise_scale,
-            },
-            "demonstrations": {name: len(demos) for name, demos in dataset.items()},
-            "subset": args.subset,
-        },
-        "primitives": list(dataset),
-        "results": result.rows,
-        "failures": result.failures,
-    }
+    report = results_report(
+        result,
+        dataset,
+        layout,
+        source=str(args.dataset),
+        data_format=args.format,
+        method=args.method,
+        observe=observe,
+        percents=args.percent,
+        alpha_methods=args.alpha,
+        basis=basis_settings(settings),
+        subset=args.subset,
+    )
     print_table(result.rows)
     for failure in result.failures:
         print(
@@ -215,7 +214,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(report, indent=1))
+        args.json.write_text(report_json(report))
+    if args.csv is not None:
+        args.csv.parent.mkdir(parents=True, exist_ok=True)
+        args.csv.write_text(results_csv(result.rows))
     if args.plots is not None:
         from promp.evaluate.plots import write_figures
 

@@ -3,7 +3,9 @@
 The sweep is the one of ``python -m promp.evaluate`` (:func:`promp.evaluate.sweep.run_sweep`)
 on the session's demonstrations (primitives with at least :data:`MIN_DEMOS`), with the
 workspace's learning settings. :class:`EvaluationJob` runs it in a background thread; the tab
-reads its progress and result from the studio's loop.
+reads its progress and result from the studio's loop. The job keeps every trial (the figures
+and the list of failed trials need them) and writes the report ``--json`` would
+(:meth:`EvaluationJob.report`).
 """
 
 from __future__ import annotations
@@ -20,10 +22,12 @@ import numpy as np
 from app.display import ALPHA_LABELS, observed_choices
 from promp.data import Demonstration, Layout
 from promp.evaluate.methods import ProMPEngine
+from promp.evaluate.report import basis_settings, results_report
 from promp.evaluate.sweep import SweepResult, run_sweep
 from promp.model import Settings
 
 MIN_DEMOS = 3  # leave-one-out needs two demonstrations left to learn from
+METHOD = "ours"  # the sweep's method name, as the command line's --method writes it
 MAX_PERCENTS = 20
 COMPARE = "compare each"
 ALPHA_CHOICES: dict[str, list[str]] = {
@@ -88,6 +92,7 @@ class EvaluationJob:
     alpha_methods: list[str]
     settings: Settings
     layout: Layout
+    source: str = ""  # where the demonstrations come from (the workspace folder)
     total: int = 0
     done: int = 0
     result: SweepResult | None = None
@@ -116,8 +121,9 @@ class EvaluationJob:
                 percents=self.percents,
                 alpha_methods=self.alpha_methods,
                 observe_sets=self.observe_sets,
-                method_name="ours",
+                method_name=METHOD,
                 progress=progress,
+                keep_trials=True,
             )
         except _Cancelled:
             self.cancelled = True
@@ -129,3 +135,27 @@ class EvaluationJob:
         finally:
             self.elapsed_s = time.perf_counter() - start
             self.finished = True
+
+    def report(self) -> dict:
+        """The finished sweep's report, as ``python -m promp.evaluate --json`` writes it
+        (:func:`promp.evaluate.report.results_report`; ``format`` is ``workspace``).
+
+        Raises
+        ------
+        ValueError
+            If the sweep has not finished with a result.
+        """
+        if self.result is None:
+            raise ValueError("the evaluation has no results (it has not finished, or failed)")
+        return results_report(
+            self.result,
+            self.dataset,
+            self.layout,
+            source=self.source,
+            data_format="workspace",
+            method=METHOD,
+            observe=self.observe_sets,
+            percents=self.percents,
+            alpha_methods=self.alpha_methods,
+            basis=basis_settings(self.settings),
+        )

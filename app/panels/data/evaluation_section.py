@@ -2,6 +2,12 @@
 and the percentages, run the sweep in the background (:class:`EvaluationJob`) with a progress
 bar and a Cancel button, then show its results (:mod:`app.panels.data.results`).
 
+Once an evaluation has finished, "Export results" downloads what ``python -m promp.evaluate
+--json --csv --plots`` writes for the same run, as one zip (:mod:`app.panels.data.results_zip`),
+and "Failed trials" lists the held-out demonstrations it did not recognise
+(:mod:`app.panels.data.failed_trials`): "Open in Infer" shows the chosen one in the Infer tab,
+held out, at the percentage it failed at (:meth:`app.context.PanelContext.open_in_infer`).
+
 The Run button's callback checks the choices and starts the job; :meth:`EvaluationSection.step`,
 on the studio's loop, moves the progress bar and shows the outcome once the job has finished.
 """
@@ -10,11 +16,13 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
+from pathlib import Path
 
 import viser
 
 from app.context import PanelContext
 from app.display import ALPHA_HINT
+from app.exchange import format_size
 from app.gui_text import escape
 from app.panels.data.evaluation import (
     ALPHA_CHOICES,
@@ -24,11 +32,15 @@ from app.panels.data.evaluation import (
     observe_choices,
     parse_percents,
 )
+from app.panels.data.failed_trials import FailedTrial, failed_trials, trial_choices
 from app.panels.data.results import add_results
+from app.panels.data.results_zip import results_filename, results_zip
 from promp.evaluate.cli import DEFAULT_PERCENTS
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
 FAILURES_LISTED = 10
+TRIALS_LISTED = 200  # the Failed trials dropdown's options at most
+NO_TRIAL = "(none)"
 
 
 class EvaluationSection:
@@ -42,6 +54,8 @@ class EvaluationSection:
         self._shown_done = -1
         self._thread: threading.Thread | None = None
         self._result_handles: list = []
+        self._results_job: EvaluationJob | None = None  # the latest evaluation with results
+        self._failed: dict[str, FailedTrial] = {}
         self._layout = ctx.session.layout
         self._observe_choices = observe_choices(self._layout)
         gui = ctx.gui
@@ -64,9 +78,26 @@ class EvaluationSection:
             self.eval_status = gui.add_markdown(
                 f"Held out one demonstration at a time (primitives with at least {MIN_DEMOS})."
             )
+            self.export_button = gui.add_button(
+                "Export results", icon=viser.Icon.FILE_ZIP, disabled=True,
+                hint="Download the finished evaluation as a zip: results.json, results.csv and "
+                "the figures, as python -m promp.evaluate --json --csv --plots writes them",
+            )  # fmt: skip
+            self.failed_dropdown = gui.add_dropdown(
+                "Failed trials", (NO_TRIAL,), visible=False,
+                hint="Held-out demonstrations the evaluation did not recognise: demonstration "
+                "· primitive · % observed → what it was recognised as",
+            )  # fmt: skip
+            self.open_button = gui.add_button(
+                "Open in Infer", icon=viser.Icon.EYE, visible=False,
+                hint="Show the chosen trial in the Infer tab: that demonstration held out, at "
+                "that observed percentage, modalities and alpha method",
+            )  # fmt: skip
             self.results_folder = gui.add_folder("Results", visible=False)
         self.run_button.on_click(lambda event: self.start(event.client))
         self.cancel_button.on_click(lambda _: self.cancel())
+        self.export_button.on_click(lambda event: self.export(event.client))
+        self.open_button.on_click(lambda event: self.open_in_infer(event.client))
 
     def start(self, client: viser.ClientHandle | None) -> EvaluationJob | None:
         """Start the sweep in a background thread with the GUI's options (None if refused)."""
@@ -105,6 +136,7 @@ class EvaluationSection:
             alpha_methods=list(ALPHA_CHOICES[self.alpha_dropdown.value]),
             settings=settings,
             layout=layout,
+            source=str(session.workspace.root),
             total=sum(len(v) for v in dataset.values()),
         )
         self._job = job
@@ -160,9 +192,62 @@ class EvaluationSection:
         with self.results_folder:
             self._result_handles = add_results(self.ctx.gui, job.result.rows)
         self.results_folder.visible = bool(self._result_handles)
+        self._results_job = job
+        self.export_button.disabled = False
+        self._list_failed(job)
         self.notify(
             None, "Evaluation done", f"{job.total} held-out demonstrations, {job.elapsed_s:.1f} s."
         )
+
+    def _list_failed(self, job: EvaluationJob) -> None:
+        trials = failed_trials(job.result, job.dataset)
+        self._failed = trial_choices(trials[:TRIALS_LISTED])
+        shown = f"first {TRIALS_LISTED} of " if len(trials) > TRIALS_LISTED else ""
+        self.failed_dropdown.label = f"Failed trials ({shown}{len(trials)})"
+        self.failed_dropdown.options = tuple(self._failed) or (NO_TRIAL,)
+        self.failed_dropdown.visible = True
+        self.open_button.visible = True
+        self.open_button.disabled = not self._failed
+
+    # ------------------------------------------------------------------ the results
+
+    def export(self, client: viser.ClientHandle | None) -> bytes | None:
+        """Send the latest finished evaluation to ``client`` as
+        ``evaluation-<workspace>-<time>.zip`` (:mod:`app.panels.data.results_zip`); returns
+        the bytes, or None when no evaluation has finished."""
+        job = self._results_job
+        if job is None:
+            self.notify(
+                client,
+                "No results to export",
+                "Run a leave-one-out evaluation first; once it has finished, its results can "
+                "be exported.",
+                "yellow",
+            )
+            return None
+        content = results_zip(job.report(), job.result, job.dataset, job.layout)
+        filename = results_filename(Path(job.source).name)
+        if client is not None:
+            client.send_file_download(filename, content, save_immediately=True)
+        self.notify(
+            client,
+            "Results exported",
+            f"{filename} ({format_size(len(content))}): results.json, results.csv and the "
+            "figures.",
+            "blue",
+        )
+        return content
+
+    def open_in_infer(self, client: viser.ClientHandle | None) -> FailedTrial | None:
+        """Ask the studio to show the chosen failed trial in the Infer tab."""
+        trial = self._failed.get(self.failed_dropdown.value)
+        if trial is None:
+            self.notify(
+                client, "No failed trial", "The evaluation recognised every trial.", "yellow"
+            )
+            return None
+        self.ctx.open_in_infer(trial.request, client)
+        return trial
 
     @staticmethod
     def _summary(job: EvaluationJob) -> str:

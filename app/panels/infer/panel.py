@@ -8,6 +8,9 @@ primitive, the predicted and true durations, the errors (:mod:`app.panels.infer.
 the per-dimension charts (:mod:`app.panels.infer.charts`). "Play" then lets the robot finish the
 movement (:mod:`app.replay`).
 
+The Data tab's "Open in Infer" comes through the studio as :meth:`InferPanel.open`: a test
+demonstration at one percentage, modalities and alpha method (an evaluation's failed trial).
+
 GUI callbacks only record that something changed; :meth:`InferPanel.step`, run by the studio's
 loop, recomputes one scrub step (:func:`app.scrub.scrub_step`) and redraws, and measures that
 server-side time (shown in the tab).
@@ -26,7 +29,7 @@ import time
 import numpy as np
 
 from app.client_script import ChartSlider
-from app.context import PanelContext
+from app.context import InferRequest, PanelContext
 from app.display import ALPHA_HINT, observed_choices
 from app.live_buffer import LiveBuffer
 from app.panels.infer.charts import InferCharts
@@ -193,6 +196,50 @@ class InferPanel:
             self._demos_for = self.primitive.value
             self.demo.options = tuple(demos.get(self.primitive.value, ())) or (NONE,)
             self._dirty = True
+
+    def open(self, request: InferRequest) -> int:
+        """Show ``request``: its demonstration as the test one (held out), its modalities and
+        alpha method, the slider at its percentage rounded to the slider's whole percents
+        (returned). Loop thread.
+
+        Raises
+        ------
+        ValueError
+            If the session has no such demonstration (any more), or the modalities or the
+            alpha method are not among the tab's choices.
+        """
+        self._sync_choices()
+        session = self.ctx.session
+        with session.lock:
+            names = [d.name for d in session.demos.get(request.primitive, [])]
+        if request.demo not in names:
+            raise ValueError(
+                f"the workspace has no demonstration {request.demo!r} of {request.primitive!r} "
+                "(deleted since the evaluation?)"
+            )
+        observed = next(
+            (label for label, modalities in self._choices.items()
+             if tuple(modalities) == tuple(request.observed)), None,
+        )  # fmt: skip
+        alpha = next((k for k, v in ALPHA_CHOICES.items() if v == request.alpha_method), None)
+        if observed is None or alpha is None:
+            raise ValueError(
+                f"the Infer tab cannot observe {'+'.join(request.observed)} with alpha "
+                f"{request.alpha_method!r}"
+            )
+        percent = int(min(self.percent.max, max(self.percent.min, round(request.percent))))
+        if self.observing:
+            self.set_observing(False)
+        self.source.value = TEST
+        self.primitive.value = request.primitive
+        self._demos_for = request.primitive
+        self.demo.options = tuple(names)
+        self.demo.value = request.demo
+        self.observed.value = observed
+        self.alpha.value = alpha
+        self.percent.value = percent
+        self._dirty = True
+        return percent
 
     # ------------------------------------------------------------------ live stream
 

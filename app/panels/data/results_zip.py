@@ -1,0 +1,68 @@
+"""The evaluation's results as one zip (the Data tab's "Export results"): what
+``python -m promp.evaluate --json results.json --csv results.csv --plots figures`` writes for
+the same run, built in memory by the command line's own writers
+(:mod:`promp.evaluate.report`, :func:`promp.evaluate.plots.write_figures`). Pure: no viser.
+
+::
+
+    results.json        the report: settings, primitives, result rows, failures
+    results.csv         the result table, one line per row
+    figures/*.png       curves, reliability diagram, one example per observed modality set
+"""
+
+from __future__ import annotations
+
+import io
+import re
+import tempfile
+import threading
+import zipfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from app.exchange import export_filename
+from promp.data import Demonstration, Layout
+from promp.evaluate.plots import write_figures
+from promp.evaluate.report import report_json, results_csv
+from promp.evaluate.sweep import SweepResult
+
+JSON_NAME, CSV_NAME, FIGURES = "results.json", "results.csv", "figures"
+# pyplot keeps its figures in global state: two exports at once draw one after the other.
+_PYPLOT = threading.Lock()
+
+
+def results_zip(
+    report: Mapping,
+    result: SweepResult,
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+) -> bytes:
+    """The zip of one finished sweep (see the module docstring).
+
+    Parameters
+    ----------
+    report : mapping
+        The sweep's report (:func:`promp.evaluate.report.results_report`); its rows make the
+        CSV and its ``settings.method`` names the figures.
+    result : SweepResult
+        The sweep, with its trials kept (the figures need them).
+    dataset : mapping of str to list of Demonstration
+        What was swept (the example figures draw the true demonstration).
+    layout : Layout
+    """
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr(JSON_NAME, report_json(report))
+        archive.writestr(CSV_NAME, results_csv(report["results"]))
+        with tempfile.TemporaryDirectory(prefix="evaluation-figures-") as folder, _PYPLOT:
+            method = report["settings"]["method"]
+            for path in write_figures(Path(folder), result, dataset, layout, method):
+                archive.write(path, f"{FIGURES}/{path.name}", compress_type=zipfile.ZIP_STORED)
+    return buffer.getvalue()
+
+
+def results_filename(workspace: str, when: float | None = None) -> str:
+    """``evaluation-<workspace>-YYYYmmdd-HHMMSS.zip``, the workspace's folder name reduced to
+    letters, digits, ``_``, ``-`` and ``.`` (at most 40)."""
+    slug = re.sub(r"[^A-Za-z0-9_.-]+", "_", workspace).strip("._-")[:40] or "workspace"
+    return export_filename(f"evaluation-{slug}", "zip", when)
