@@ -71,14 +71,14 @@ def test_curves_and_table_from_sweep_rows() -> None:
         for p, e in ((50.0, e0 - 1), (10.0, e0))
     ]  # fmt: skip
     series = curves(rows)
-    assert list(series) == ["hand, alpha ml", "hand, alpha model", "hand+head, alpha ml"]
-    np.testing.assert_array_equal(series["hand, alpha ml"]["percent"], [10, 50])
-    np.testing.assert_array_equal(series["hand, alpha ml"]["recognition_errors"], [5, 4])
-    np.testing.assert_allclose(series["hand, alpha model"]["position_cm"], [6, 5])
+    assert list(series) == ["hand, ML", "hand, model", "hand + head, ML"]
+    np.testing.assert_array_equal(series["hand, ML"]["percent"], [10, 50])
+    np.testing.assert_array_equal(series["hand, ML"]["recognition_errors"], [5, 4])
+    np.testing.assert_allclose(series["hand, model"]["position_cm"], [6, 5])
     table = results_table(rows).splitlines()
-    assert table[0] == "| errors (of 12) | hand ml | hand model | hand+head ml |"
+    assert table[0] == "| errors (of 12) | hand, ML | hand, model | hand + head, ML |"
     assert table[2:4] == ["| 10 % | 5 | 6 | 2 |", "| 50 % | 4 | 5 | 1 |"]
-    assert table[5] == "| position (cm) | hand ml | hand model | hand+head ml |"
+    assert table[5] == "| position (cm) | hand, ML | hand, model | hand + head, ML |"
     assert table[7:] == ["| 10 % | 5.0 | 6.0 | 2.0 |", "| 50 % | 4.0 | 5.0 | 1.0 |"]
 
 
@@ -488,12 +488,13 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
         "Object.values(window.__viserTestpoints.uplots).map(t => "
         "({series: t.chart.series.map(s => s.label), x: Array.from(t.chart.data[0])}))"
     )
-    charts = [c for c in charts if c["series"][0] == "% observed"]  # other tabs have charts
+    charts = [c for c in charts if c["series"][0] == "observed (%)"]  # other tabs have charts
     assert len(charts) == 2
     labels = {label for chart in charts for label in chart["series"]}
-    assert {"hand, alpha ml", "head, alpha model", "hand+head, alpha ml"} <= labels
+    assert {"hand, ML", "head, model", "hand + head, ML"} <= labels
     assert all(chart["x"] == [10, 30, 50, 70, 90] for chart in charts)
-    assert "| errors (of 12) | hand ml | hand model | head ml |" in panel._result_handles[2].content
+    header = "| errors (of 12) | hand, ML | hand, model | head, ML |"
+    assert header in panel._result_handles[2].content
     status = panel.eval_status.content
     assert "Held out each of 12 demonstrations of curved, direct, second_bin" in status
     page.set_viewport_size({"width": 1200, "height": 1700})  # the whole tab in the picture

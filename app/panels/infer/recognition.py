@@ -202,6 +202,11 @@ class RecognitionChart:
             self.cache.put(wanted.key, curve)
             self.computed += 1
 
+    @property
+    def key(self) -> Hashable | None:
+        """What the chart should show now (the key of its curve request)."""
+        return self._key
+
     def curve(self) -> RecognitionCurve | None:
         """The curve of what is inspected now, once computed."""
         return self.cache.get(self._key) if self._key is not None else None
