@@ -7,7 +7,7 @@ WORKSPACE ?= workspace
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check -q
 
-.PHONY: run test lint bench clean
+.PHONY: run test test-fast lint bench clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -33,6 +33,11 @@ lint: $(VENV)/.test-installed
 
 test: lint
 	$(PY) -m pytest
+
+# The same without the tests marked `slow` (property tests over many inputs, the accuracy
+# check on the heights recordings): a quick check while working; `make test` runs them all.
+test-fast: lint
+	$(PY) -m pytest -m "not slow"
 
 clean:
 	rm -rf $(VENV) artifacts .pytest_cache .ruff_cache
