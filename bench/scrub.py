@@ -214,15 +214,20 @@ def under_load(seconds: float = 20.0) -> None:
                 threads = [threading.Thread(target=f, daemon=True) for f in (drag, collect)]
                 for thread in threads:
                     thread.start()
-                sliders = [page.get_by_role("slider").first for page in pages]
-                for slider in sliders:
-                    slider.focus()
+                # The Infer tab's own slider (by its id: other tabs have sliders too), focused
+                # once; then key presses go to the focused element with no actionability wait
+                # (Playwright's ``locator.press`` waits for stable frames, seconds each with
+                # software WebGL on a busy machine: it measured its own waits, not the studio).
+                slider_id = f"[id='{panel.percent._impl.uuid}']"
+                for page in pages:
+                    page.locator(slider_id).get_by_role("slider").focus(timeout=60_000)
                 end, k = time.monotonic() + seconds, 0
                 while time.monotonic() < end:
-                    keys = ("ArrowRight", "ArrowLeft") if (k // 10) % 2 else ("ArrowLeft",) * 2
-                    for slider, key in zip(sliders, keys, strict=True):
-                        slider.press(key)
+                    key = "ArrowRight" if (k // 10) % 2 else "ArrowLeft"  # 10 down, 10 up
+                    for page in pages:
+                        page.keyboard.press(key)
                     k += 1
+                    time.sleep(0.03)  # a held key repeats about 30 times a second
                 recording = teach.record.sampling
                 stop.set()
                 for thread in threads:

@@ -195,8 +195,11 @@ def test_arrow_keys_move_the_slider_and_not_the_camera(studio, page) -> None:
     script keeps them for the slider that has the focus (and for the camera otherwise)."""
     panel, client = infer_panel(studio), page.client
     panel.percent.value = 50
-    wait_until(lambda: panel.percent.value == 50, what="the slider at 50 %")
     thumb = page.locator(f"[id='{panel.percent._impl.uuid}']").get_by_role("slider")
+    # The keys step from the value the page shows: wait for the page (not the server, whose
+    # value is set at once) to show 50, or the first presses step from the previous value.
+    wait_until(lambda: thumb.get_attribute("aria-valuenow") == "50", timeout=60,
+               what="the page's slider at 50 %")  # fmt: skip
     thumb.focus()
     time.sleep(0.5)  # the camera settles
     wxyz, position = np.array(client.camera.wxyz), np.array(client.camera.position)
