@@ -7,8 +7,9 @@ clients are connected: two **headless Chromium pages** (Playwright, ``/usr/bin/c
 the way a user's browser tabs are. Every cycle:
 
 1. page A records a demonstration through the GUI, as a user does: *Record*, then a real mouse
-   drag of the hand's gizmo along a scripted path (the gizmo is found on screen from the
-   camera the page reports, ``?logCamera``, and the arm's start pose), then *Stop*;
+   drag of the hand's gizmo upwards (the gizmo is found on screen from the camera the page
+   reports, ``?logCamera``, and the arm's start pose; grabbed by an arrow's cone), then,
+   once the take's live curve in the Teach tab shows the hand moved 2 cm, *Stop*;
 2. page B scrubs the Infer tab's *Observed %* slider meanwhile (arrow keys);
 3. the server is killed with SIGKILL at a random moment of one of five phases, taken in turn
    in a shuffled order: during the recording, during the save (right after *Stop*), during
@@ -68,15 +69,25 @@ CHROMIUM_FLAGS = [
     "--disable-component-update", "--disable-sync", "--no-first-run",
 ]  # fmt: skip
 PHASES = ("recording", "save", "refit", "import", "scrub")
-VIEWPORT = {"width": 1400, "height": 900}
-# The pages look from the robot's left, behind it (the view the browser tests drag in): the
-# studio's start view looks from the partner's side, where the gizmo's arrows, rings and the
-# start ghost overlap and a scripted grab misses. URL parameters outrank the server's start
-# view in viser; ``logCamera`` makes the page print the camera it uses.
-CAMERA_URL = (
-    "?logCamera&initialCameraPosition=0.3,-1.5,0.85&initialCameraLookAt=-0.3,-0.12,0.12"
-    "&initialCameraUp=0,0,1&initialCameraFov=0.8727"
-)
+VIEWPORT = {"width": 900, "height": 580}  # software WebGL costs about 1 core per 1.2 Mpixel page
+# Where along a gizmo arrow the drag grabs it: on its cone. (At 0.85 of the arrow, in the start
+# view from the partner's side, a rotation ring lies on the arrow: the grab turns the hand.)
+GRAB = 0.95
+# The largest range (cm) of the take's live curve ("the recording") over the Teach tab's hand
+# charts (uPlot's test hook in viser's page).
+LIVE_HAND_RANGE_JS = """() => {
+    let best = 0;
+    for (const t of Object.values(window.__viserTestpoints?.uplots ?? {})) {
+        const title = t.chart.root.querySelector('.u-title')?.textContent ?? '';
+        if (!title.startsWith('hand ')) continue;
+        t.chart.series.forEach((s, i) => {
+            if (i === 0 || s.label !== 'the recording') return;
+            const v = Array.from(t.chart.data[i]).filter((x) => x !== null && Number.isFinite(x));
+            if (v.length) best = Math.max(best, Math.max(...v) - Math.min(...v));
+        });
+    }
+    return best;
+}"""
 SAVED = re.compile(r"\b([A-Za-z0-9][A-Za-z0-9_-]*_\d{3})\b")
 DEADLINE_S = 120.0
 
@@ -146,8 +157,9 @@ class Client:
         self.context = browser.new_context(viewport=VIEWPORT)
         self.page = self.context.new_page()
         self.camera: dict | None = None
+        self.acknowledged: set[str] = set()
         self.page.on("console", self._console)
-        self.page.goto(url + CAMERA_URL)
+        self.page.goto(url + "?logCamera")
 
     def _console(self, message) -> None:
         text = message.text
@@ -212,11 +224,15 @@ class Client:
             counts[name] = int(found.group(1))
         return tuple(names), counts
 
+    def remember_saved(self) -> None:
+        """Note the demonstrations the notifications shown now say were saved."""
+        self.acknowledged.update(self.saved_names())
+
     def saved_names(self) -> set[str]:
         """The demonstrations this tab was told were saved (notifications, still shown after
-        the server died)."""
+        the server died), with those noted by :meth:`remember_saved`."""
         boxes = self.page.locator(".mantine-Notification-root", has_text="Demonstration saved")
-        found = set()
+        found = set(self.acknowledged)
         for i in range(boxes.count()):
             try:
                 found.update(SAVED.findall(boxes.nth(i).inner_text(timeout=2_000)))
@@ -250,9 +266,10 @@ def project(camera: dict, size: tuple[float, float], points: np.ndarray) -> np.n
 
 
 def drag_path(client: Client, hand_pose: np.ndarray, pixels: float, rng: random.Random,
-              steps: int = 6, stop_after: float | None = None) -> None:  # fmt: skip
-    """Drag the gizmo's most side-on arrow by ``pixels`` (up and back), in ``steps`` moves;
-    with ``stop_after`` seconds, return mid-drag (the mouse still held)."""
+              steps: int = 4, stop_after: float | None = None) -> None:  # fmt: skip
+    """Drag the hand up by the gizmo's arrow closest to vertical among those seen side-on, by
+    ``pixels`` in ``steps`` moves (as the browser tests drag); with ``stop_after`` seconds,
+    return mid-drag (the mouse still held)."""
     page = client.page
     wait_for(lambda: client.camera, what="the page's camera")
     box = page.locator("canvas").first.bounding_box()
@@ -261,10 +278,11 @@ def drag_path(client: Client, hand_pose: np.ndarray, pixels: float, rng: random.
     best = None
     for k in np.argsort(-np.abs(axes[2])):  # the axis closest to vertical first
         axis = GIZMO_SCALE * axes[:, k]
-        origin, grab, tip = project(client.camera, size, np.stack([centre, centre + 0.85 * axis,
+        origin, grab, tip = project(client.camera, size, np.stack([centre, centre + GRAB * axis,
                                                                    centre + axis]))  # fmt: skip
         if np.linalg.norm(tip - origin) > 40.0:
-            best = (grab, (tip - grab) / np.linalg.norm(tip - grab))
+            upward = np.sign(axes[2, k]) or 1.0  # along the arrow, or against it: up
+            best = (grab, upward * (tip - grab) / np.linalg.norm(tip - grab))
             break
     if best is None:
         raise RuntimeError("every arrow of the gizmo points at the camera")
@@ -274,9 +292,9 @@ def drag_path(client: Client, hand_pose: np.ndarray, pixels: float, rng: random.
     page.mouse.down()
     started = time.monotonic()
     for i in range(1, steps + 1):
-        wobble = rng.uniform(-0.15, 0.15) * pixels / steps
+        wobble = rng.uniform(-0.1, 0.1) * pixels / steps
         page.mouse.move(*(grab + direction * pixels * i / steps + wobble))
-        time.sleep(0.25)
+        time.sleep(0.05)
         if stop_after is not None and time.monotonic() - started > stop_after:
             return
     page.mouse.up()
@@ -371,11 +389,16 @@ def record(a: Client, b: Client, hand_pose: np.ndarray, rng: random.Random, kill
     b.tab("Infer")
     scrub(b, rng, presses=3)
     if phase == "recording":
-        drag_path(a, hand_pose, pixels=110, rng=rng, stop_after=rng.uniform(0.0, 1.2))
+        drag_path(a, hand_pose, pixels=80, rng=rng, stop_after=rng.uniform(0.0, 1.2))
         kill()
         return
-    drag_path(a, hand_pose, pixels=110, rng=rng)
+    drag_path(a, hand_pose, pixels=80, rng=rng)
     scrub(b, rng, presses=3)
+    # Stop once the take's live curve shows the hand moved, as a user watching it would: on a
+    # busy machine the page sends the gizmo's moves a frame late, and the Stop click (sent at
+    # once) can overtake them.
+    wait_for(lambda: a.page.evaluate(LIVE_HAND_RANGE_JS) >= 2.0,
+             what="the live curve to show the hand moved 2 cm")  # fmt: skip
     a.click("Stop")
     if phase == "save":
         time.sleep(rng.uniform(0.0, 0.3))
@@ -386,6 +409,7 @@ def record(a: Client, b: Client, hand_pose: np.ndarray, rng: random.Random, kill
     wait_for(lambda: saved.count() or refused.count(), what="the take saved or refused")
     if not saved.count():  # the scripted drag missed the gizmo: a harness defect, say so
         raise RuntimeError(f"the take was refused: {refused.first.inner_text()!r}")
+    a.remember_saved()  # now: the notification closes by itself after a while
     if phase == "refit":
         time.sleep(rng.uniform(0.0, 1.5))
         kill()
@@ -465,6 +489,7 @@ def main(argv: list[str] | None = None) -> int:
                 kills[phase] += 1
                 for name in a.saved_names():
                     acknowledged.setdefault(name, primitive)
+                a.acknowledged.clear()  # counted
                 wait_for(lambda: not a.connected() and not b.connected(),
                          what="both pages to see the server gone")  # fmt: skip
                 check = check_disk(workspace, acknowledged)
