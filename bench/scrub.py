@@ -47,6 +47,18 @@ from promp.learn import fit  # noqa: E402
 TARGET_MS = 16.0
 LOAD_TARGET_MS = 33.0  # p90 under load: two frames at 60 Hz
 REFIT_TARGET_MS = 100.0
+PRESS_KEYS_JS = """(seconds) => {
+    const thumb = document.activeElement;
+    let k = 0;
+    window.__scrubPresses = 0;
+    const timer = setInterval(() => {
+        const key = Math.floor(k / 10) % 2 ? 'ArrowRight' : 'ArrowLeft';
+        thumb.dispatchEvent(new KeyboardEvent('keydown', {key, code: key, bubbles: true}));
+        k += 1;
+        window.__scrubPresses = k;
+    }, 33);
+    setTimeout(() => clearInterval(timer), 1000 * seconds);
+}"""
 SWEEP = list(range(5, 101, 5)) + list(range(95, 4, -5))
 
 
@@ -214,20 +226,17 @@ def under_load(seconds: float = 20.0) -> None:
                 threads = [threading.Thread(target=f, daemon=True) for f in (drag, collect)]
                 for thread in threads:
                     thread.start()
-                # The Infer tab's own slider (by its id: other tabs have sliders too), focused
-                # once; then key presses go to the focused element with no actionability wait
-                # (Playwright's ``locator.press`` waits for stable frames, seconds each with
-                # software WebGL on a busy machine: it measured its own waits, not the studio).
+                # The Infer tab's own slider (by its id: other tabs have sliders too). The keys
+                # are pressed by a timer in each page (keydown events on the focused thumb,
+                # about 30 a second, 10 down then 10 up), not one by one from here: this
+                # process also runs the studio, whose loop and drag hold the GIL, and each
+                # Playwright call waited seconds for it (3 presses in 8 s were measured).
                 slider_id = f"[id='{panel.percent._impl.uuid}']"
                 for page in pages:
                     page.locator(slider_id).get_by_role("slider").focus(timeout=60_000)
-                end, k = time.monotonic() + seconds, 0
-                while time.monotonic() < end:
-                    key = "ArrowRight" if (k // 10) % 2 else "ArrowLeft"  # 10 down, 10 up
-                    for page in pages:
-                        page.keyboard.press(key)
-                    k += 1
-                    time.sleep(0.03)  # a held key repeats about 30 times a second
+                    page.evaluate(PRESS_KEYS_JS, seconds)
+                time.sleep(seconds)
+                pressed = [page.evaluate("window.__scrubPresses") for page in pages]
                 recording = teach.record.sampling
                 stop.set()
                 for thread in threads:
@@ -245,6 +254,7 @@ def under_load(seconds: float = 20.0) -> None:
         "load_scrub_ms_max": round(ordered[-1], 3),
         "load_target_p90_ms": LOAD_TARGET_MS,
         "recording_throughout": recording,
+        "key_presses": pressed,
         "clients": 2,
         "load_average_1min": round(os.getloadavg()[0], 2),
         "cpus": os.cpu_count(),
