@@ -62,6 +62,7 @@ from app.workspace import Workspace  # noqa: E402
 from promp.datasets import demo_to_csv, read_csv_demo  # noqa: E402
 from robots.icub.kinematics import ArmChain  # noqa: E402
 from robots.icub.model import load_urdf, natural_pose  # noqa: E402
+from tests.browser import press  # noqa: E402
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_FLAGS = [
@@ -168,12 +169,8 @@ class Client:
             self.camera = {k: [float(v) for v in fields[k].split(",")] for k in fields}
 
     def press(self, locator) -> None:
-        """A real mouse click at the middle of ``locator``. (Playwright's own ``click`` first
-        waits for the element to be stable over animation frames, seconds each with software
-        WebGL on a busy machine.)"""
-        locator.wait_for(state="visible", timeout=int(DEADLINE_S * 1000))
-        box = locator.bounding_box(timeout=int(DEADLINE_S * 1000))
-        self.page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        """A real mouse click at the middle of ``locator``, as the browser tests click."""
+        press(self.page, locator)
 
     def tab(self, name: str) -> None:
         self.press(self.page.get_by_role("tab", name=name, exact=True).first)
