@@ -24,6 +24,7 @@ second while observing. The model is the session's (or the imported one).
 from __future__ import annotations
 
 import collections
+import math
 import time
 
 import numpy as np
@@ -71,6 +72,7 @@ class InferPanel:
         self.ctx = ctx
         self.models = HeldOutModels()
         self.live = LiveBuffer()
+        self.clock = time.monotonic  # the live stream's time stamps [s] (tests drive a manual one)
         self.observing = False
         self.replay = Replay(ctx.arm.move_hand_to)
         self.result: ScrubResult | None = None
@@ -258,13 +260,14 @@ class InferPanel:
             self.replay.pause()
             self.live.clear()
             self._live_epoch += 1
+            self._last_live_scrub = -math.inf  # a new stream is scrubbed from its first sample
         self.observing = on
         self.live_button.label = "Stop observing" if on else "Start observing"
         self._dirty = True
 
     def _sample_live(self) -> None:
         hand, head = self.ctx.hand_and_head()
-        now = time.monotonic()
+        now = self.clock()
         if not self.live.append(now, hand, head):
             self.set_observing(False)
             self.ctx.notify(
