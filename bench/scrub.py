@@ -194,6 +194,14 @@ def scrubbing_client(port: int, slider_uuid: str, seconds: float, rate_hz: float
                     received[1] += len(raw)
 
             reader = asyncio.create_task(read())
+            # A page reports its camera first: viser registers a client (and runs GUI
+            # callbacks for it) only from then on.
+            camera = _messages.ViewerCameraMessage(
+                wxyz=(1.0, 0.0, 0.0, 0.0), position=(-1.5, 0.0, 1.2), fov=1.0, near=0.01,
+                far=100.0, image_height=900, image_width=1400, look_at=(0.0, 0.0, 0.6),
+                up_direction=(0.0, 0.0, 1.0),
+            )  # fmt: skip
+            await ws.send(msgspec.msgpack.encode(camera.as_serializable_dict()))
             await asyncio.sleep(2.0)  # the scene and the GUI arrive first, as in a page
             sent = 0
             percents = list(range(5, 101)) + list(range(99, 5, -1))
