@@ -30,6 +30,7 @@ class ViewControls:
         self._requests: list[tuple[viser.ClientHandle, str]] = []
         self._lock = threading.Lock()
         self._initial_for = -1
+        self._started: set[int] = set()  # browser tabs already given the start view
         self.buttons = server.gui.add_button_group(
             "3D view",
             VIEWS,
@@ -67,6 +68,19 @@ class ViewControls:
             camera.fov = initial.fov
             camera.position = initial.position
             camera.look_at = initial.look_at
+        if version >= 0:
+            self._start_new_tabs()
+
+    def _start_new_tabs(self) -> None:
+        """The start view, once, for each browser tab that reported its camera: a tab that
+        connected before the workspace was first drawn got viser's default camera, and one
+        that connected later gets the start view fitted to its own canvas."""
+        clients = self.server.get_clients()
+        self._started &= set(clients)  # forget closed tabs
+        for client_id, client in clients.items():
+            if client_id not in self._started:
+                self._started.add(client_id)
+                self.request(client, PARTNER)
 
     def pose(
         self, view: str, current: CameraPose | None = None, size: tuple[int, int] = CANVAS
