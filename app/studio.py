@@ -10,6 +10,7 @@ GUI-visible lives on the server (not per client), so every browser tab shows the
 
 from __future__ import annotations
 
+import functools
 import threading
 import time
 import traceback
@@ -35,6 +36,7 @@ from app.upload_guard import Refused, UploadGuard
 from app.view import ViewControls
 from app.workspace import FolderKind, WorkspaceData, inspect_folder
 from app.workspace_index import PALETTE, PrimitiveEntry
+from promp.data import Demonstration
 from robots.icub.kinematics import ArmChain
 from robots.icub.model import load_urdf
 from robots.icub.scene import DEFAULT_SCENE
@@ -43,11 +45,18 @@ LOOP_HZ = 60.0
 TABS = (("Teach", TEACH, TeachPanel), ("Infer", INFER, InferPanel), ("Data", DATA, DataPanel))
 
 
-def default_workspace() -> WorkspaceData:
-    """The embedded default: the paper's experiment simulated on the iCub (curved, direct)."""
+@functools.cache
+def _default_dataset() -> dict[str, tuple[Demonstration, ...]]:
+    # Deterministic (seed 0) and 4 s of IK: generated once per process. Demonstrations are
+    # immutable (read-only arrays), so every workspace made from it can share them.
     from robots.icub.scenario import generate_scenario
 
-    dataset = generate_scenario(seed=0, n_demos=20)
+    return {name: tuple(demos) for name, demos in generate_scenario(seed=0, n_demos=20).items()}
+
+
+def default_workspace() -> WorkspaceData:
+    """The embedded default: the paper's experiment simulated on the iCub (curved, direct)."""
+    dataset = {name: list(demos) for name, demos in _default_dataset().items()}
     return WorkspaceData(
         primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
         demos=dataset,
