@@ -30,7 +30,7 @@ class ViewControls:
         self._requests: list[tuple[viser.ClientHandle, str]] = []
         self._lock = threading.Lock()
         self._initial_for = -1
-        self._started: set[int] = set()  # browser tabs already given the start view
+        self._started: set[int] = set()  # browser tabs checked for the start view
         self.buttons = server.gui.add_button_group(
             "3D view",
             VIEWS,
@@ -72,14 +72,19 @@ class ViewControls:
             self._start_new_tabs()
 
     def _start_new_tabs(self) -> None:
-        """The start view, once, for each browser tab that reported its camera: a tab that
-        connected before the workspace was first drawn got viser's default camera, and one
-        that connected later gets the start view fitted to its own canvas."""
+        """The start view for a browser tab that connected before the workspace was first
+        drawn: it got viser's default camera, not the start view (a tab that connects later
+        starts at ``initial_camera`` and is left alone). Checked once per tab, at its first
+        camera report."""
         clients = self.server.get_clients()
         self._started &= set(clients)  # forget closed tabs
+        start = np.asarray(self.server.initial_camera.position, dtype=float)
         for client_id, client in clients.items():
-            if client_id not in self._started:
-                self._started.add(client_id)
+            if client_id in self._started:
+                continue
+            self._started.add(client_id)
+            current = _current(client)
+            if current is not None and np.linalg.norm(current.position - start) > 0.01:
                 self.request(client, PARTNER)
 
     def pose(
