@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 
 from app.scene.camera import (
     FOV,
@@ -122,6 +123,72 @@ def test_top_and_side_views_look_down_and_across(scenario) -> None:
 
 
 # ---------------------------------------------------------------------- in a real browser
+
+
+class FakeScene:
+    """What the camera buttons read of the scene: the paths on show and the drawn version."""
+
+    def __init__(self, points: np.ndarray):
+        self.points = points
+        self.drawn_version = -1
+
+    def paths(self, inference: bool | None = None) -> np.ndarray:
+        return self.points
+
+
+class FakeTab:
+    """A browser tab as viser's server sees it: a client id and the camera it reported."""
+
+    def __init__(self, client_id: int, position):
+        import types
+
+        self.client_id = client_id
+        self.camera = types.SimpleNamespace(
+            position=np.asarray(position, dtype=float), look_at=np.zeros(3), fov=1.0,
+            up_direction=(0.0, 0.0, 1.0), image_width=1400, image_height=900,
+        )  # fmt: skip
+
+    def atomic(self):
+        import contextlib
+
+        return contextlib.nullcontext()
+
+
+def test_a_tab_that_connected_before_the_first_drawing_gets_the_start_view(scenario) -> None:
+    """A tab that got viser's default camera (it connected before the workspace was drawn, so
+    before the start view was known) is moved to the start view once; a tab that started at
+    the start view, or that the user then moved, is left alone."""
+    import viser
+
+    from app.view import ViewControls
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        scene = FakeScene(hand_points(scenario))
+        view = ViewControls(server, scene)
+        early = FakeTab(0, (3.0, 3.0, 3.0))  # viser's default camera
+        tabs = {0: early}
+        server.get_clients = lambda: dict(tabs)
+        view.step()  # nothing drawn yet: no start view to give
+        assert_allclose(early.camera.position, (3.0, 3.0, 3.0))
+        scene.drawn_version = 0
+        view.step()  # the start view is known; the early tab is queued for it
+        view.step()
+        start = np.asarray(server.initial_camera.position)
+        assert np.linalg.norm(start - partner_eye()) < 0.2
+        assert np.linalg.norm(early.camera.position - partner_eye()) < 0.2
+        # A later tab starts at the start view: left where it is, even once moved.
+        late = FakeTab(1, start)
+        tabs[1] = late
+        view.step()
+        late.camera.position = np.array([0.0, -2.0, 1.0])
+        early.camera.position = np.array([0.0, -2.0, 1.0])
+        view.step()
+        view.step()
+        assert_allclose(late.camera.position, (0.0, -2.0, 1.0))
+        assert_allclose(early.camera.position, (0.0, -2.0, 1.0))
+    finally:
+        server.stop()
 
 
 @pytest.fixture(scope="module")
