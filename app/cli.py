@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 import signal
+import socket
 import sys
-import time
 from pathlib import Path
 
 from app.net import is_loopback, port_is_free
@@ -128,8 +128,28 @@ def prepare_workspace(args: argparse.Namespace) -> None:
     print(f"Created the workspace {args.workspace} from {source}: {summary.describe()}", flush=True)
 
 
-def _interrupt(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt
+class StopSignals:
+    """Waits for SIGINT (Ctrl+C) or SIGTERM (a service manager's stop); build it in the main
+    thread.
+
+    The kernel hands a signal sent to the process to any thread that does not block it: one of
+    viser's, the studio's or the BLAS library's. Python then runs the handler only when the main
+    thread next runs Python code, and a main thread asleep in ``time.sleep`` slept on through
+    a SIGTERM (seen under load: the studio did not stop in 30 s). The C-level handler, though,
+    writes the signal's number to the wakeup file descriptor at once, on whichever thread took
+    the signal, and :meth:`wait` reads it.
+    """
+
+    def __init__(self) -> None:
+        self._receiver, self._sender = socket.socketpair()
+        self._sender.setblocking(False)
+        signal.set_wakeup_fd(self._sender.fileno(), warn_on_full_buffer=False)
+        for number in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(number, lambda signum, frame: None)  # the wakeup byte does the work
+
+    def wait(self) -> int:
+        """Block until a stop signal arrives; its number."""
+        return self._receiver.recv(1)[0]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -167,14 +187,10 @@ def main(argv: list[str] | None = None) -> None:
         )
     except ValueError as exc:
         sys.exit(f"error: {exc}")
-    shown_host = "127.0.0.1" if args.host in ("0.0.0.0", "::") else args.host
-    print(f"iCub intention studio running at http://{shown_host}:{studio.port}", flush=True)
-    # SIGTERM (service managers, tests) stops as cleanly as Ctrl+C.
-    signal.signal(signal.SIGTERM, _interrupt)
     try:
-        while True:
-            time.sleep(3600)
-    except KeyboardInterrupt:
-        pass
+        stop = StopSignals()
+        shown_host = "127.0.0.1" if args.host in ("0.0.0.0", "::") else args.host
+        print(f"iCub intention studio running at http://{shown_host}:{studio.port}", flush=True)
+        stop.wait()
     finally:
         studio.stop()
