@@ -67,6 +67,7 @@ class UploadGuard:
             self._interface, "register_handler"
         )
         self.refusals = 0
+        self.dismissals = 0  # upload notifications closed by dismiss
         self._latest: dict[int, str] = {}  # client id -> its latest transfer on this button
         if self.active:
             self._interface.register_handler(_messages.FileTransferStartUpload, self._on_start)
@@ -87,6 +88,7 @@ class UploadGuard:
         connection = getattr(client, "_websock_connection", None)
         if transfer is not None and connection is not None:
             connection.queue_message(_messages.RemoveNotificationMessage(f"upload-{transfer}"))
+            self.dismissals += 1
 
     def _on_start(self, client_id: int, message: _messages.FileTransferStartUpload) -> None:
         if message.source_component_uuid != self._uuid:

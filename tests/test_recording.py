@@ -33,6 +33,23 @@ def test_a_take_counts_down_then_records_until_stopped() -> None:
     assert machine.phase is Phase.IDLE and machine.take is None
 
 
+def test_each_take_may_have_its_own_countdown() -> None:
+    machine = RecordingMachine(countdown_s=3.0)
+    _, take = machine.press(10.0, "curved", 50.0, countdown_s=0.5)
+    assert take.starts_at == 10.5 and machine.remaining(10.0) == 1
+    assert machine.tick(10.5) == (Event.STARTED, take)
+    machine.press(11.0)
+    _, take = machine.press(20.0, "curved", 50.0, countdown_s=0.0)  # at once
+    assert machine.tick(20.0) == (Event.STARTED, take)
+    machine.press(21.0)
+    assert machine.press(30.0, "curved", 50.0)[1].starts_at == 33.0  # the machine's own
+    machine.press(31.0)
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="countdown"):
+            machine.press(40.0, "curved", 50.0, countdown_s=bad)
+        assert machine.phase is Phase.IDLE and machine.take is None
+
+
 def test_a_press_during_the_countdown_cancels() -> None:
     machine = RecordingMachine(countdown_s=3.0)
     _, take = machine.press(0.0, "direct", 40.0)

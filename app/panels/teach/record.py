@@ -28,6 +28,7 @@ from app.panels.teach.demos import NOTIFY_COLORS, TYPICALITY_COLORS, typicality_
 from app.panels.teach.recording import (
     COUNTDOWN_S,
     HEAD_FAILED,
+    MAX_COUNTDOWN_S,
     RATE_RANGE_HZ,
     Event,
     Phase,
@@ -93,8 +94,9 @@ class RecordSection:
                 "Record",
                 color="red",
                 icon=viser.Icon.PLAYER_RECORD_FILLED,
-                hint="Counts down 3-2-1, then records the hand and the partner's head until Stop "
-                "(Space does the same while the 3D view has the focus).",
+                hint="Counts down (3-2-1; the time is under Take options), then records the "
+                "hand and the partner's head until Stop (Space does the same while the 3D view "
+                "has the focus).",
             )
             self.start_button = gui.add_button(
                 "Go to start",
@@ -110,6 +112,11 @@ class RecordSection:
                 "Demonstrations, brings it back).",
             )
             with gui.add_folder("Take options", expand_by_default=False):
+                self.countdown = gui.add_number(
+                    "Countdown (s)", countdown_s, min=0.0, max=MAX_COUNTDOWN_S, step=0.5,
+                    hint="The time between Record and the first sample: to reach the robot's "
+                    "hand, or 0 to record at once.",
+                )  # fmt: skip
                 low, high = RATE_RANGE_HZ
                 self.rate = gui.add_number(
                     "Rate (Hz)", DEFAULT_RATE_HZ, min=low, max=high, step=1.0
@@ -240,7 +247,11 @@ class RecordSection:
     def _begin(self, now: float) -> None:
         name, rate = self.selected(), float(self.rate.value)
         reason = refusal(name, self.ctx.session.layout, self.ctx.head.source.error, rate)
-        event, _ = self.machine.press(now, name, rate, refused=reason)
+        countdown = float(self.countdown.value)
+        if not math.isfinite(countdown):
+            countdown = COUNTDOWN_S
+        countdown = min(max(countdown, 0.0), MAX_COUNTDOWN_S)
+        event, _ = self.machine.press(now, name, rate, refused=reason, countdown_s=countdown)
         if event is Event.REFUSED:
             self._report(reason, "Cannot record", "red")
             self._head_refusal = reason.startswith(HEAD_FAILED)

@@ -19,6 +19,7 @@ from promp.data import Layout
 from robots.icub.layout import HEAD
 
 COUNTDOWN_S = 3.0
+MAX_COUNTDOWN_S = 10.0
 RATE_RANGE_HZ = (10.0, 100.0)
 HEAD_FAILED = "The head source failed"
 
@@ -96,15 +97,20 @@ class RecordingMachine:
         primitive: str | None = None,
         rate_hz: float = 0.0,
         refused: str | None = None,
+        countdown_s: float | None = None,
     ) -> tuple[Event, Take | None]:
         """The button was pressed at ``now``. When idle, a recording into ``primitive`` at
-        ``rate_hz`` counts down, unless ``refused`` says why not (see :func:`refusal`)."""
+        ``rate_hz`` counts down for ``countdown_s`` seconds (default: the machine's), unless
+        ``refused`` says why not (see :func:`refusal`)."""
         if self.phase is Phase.IDLE:
             if refused is not None:
                 return Event.REFUSED, None
             if primitive is None:
                 raise ValueError("a recording needs a primitive")
-            self.take = Take(primitive, now + self.countdown_s, float(rate_hz))
+            countdown = self.countdown_s if countdown_s is None else float(countdown_s)
+            if not math.isfinite(countdown) or countdown < 0:
+                raise ValueError(f"the countdown must be >= 0 s, got {countdown_s}")
+            self.take = Take(primitive, now + countdown, float(rate_hz))
             self.phase = Phase.COUNTDOWN
             return Event.COUNTDOWN, self.take
         event = Event.CANCELLED if self.phase is Phase.COUNTDOWN else Event.STOPPED
