@@ -11,6 +11,21 @@ import viser.transforms as vtf
 
 from tests.conftest import wait_until
 
+# An init script for the studio's pages: closes viser's "Software WebGL rendering detected"
+# notice (shown once, at start, when the browser renders without a GPU, as headless Chromium
+# does) as soon as it appears, by its own close button.
+CLOSE_WEBGL_NOTICE = """(() => {
+    const close = () => {
+        for (const root of document.querySelectorAll(".mantine-Notification-root")) {
+            if (root.textContent.includes("Software WebGL rendering detected")) {
+                const button = root.querySelector(".mantine-Notification-closeButton");
+                if (button) button.click();
+            }
+        }
+    };
+    new MutationObserver(close).observe(document, {subtree: true, childList: true});
+})();"""
+
 
 def press(page, locator) -> None:
     """A real mouse click at the middle of ``locator``. (Playwright's own ``click`` first waits
@@ -53,22 +68,25 @@ def notification(page, title: str, body: str | None = None) -> str:
     return box.first.inner_text()
 
 
+CLOSE_ALL_NOTIFICATIONS = """() => {
+    document.querySelectorAll(".mantine-Notification-closeButton").forEach((b) => b.click());
+    return document.querySelectorAll(".mantine-Notification-root").length;
+}"""
+
+
 def close_notifications(page) -> None:
-    buttons = page.locator(".mantine-Notification-closeButton")
-    for _ in range(buttons.count()):
-        try:
-            buttons.first.dispatch_event("click", timeout=5_000)
-        except Exception:  # a notification that closed by itself meanwhile
-            pass
+    """Close every notification by its close button, as a user does, and wait until none is
+    left (each closes with an animation; one that arrives meanwhile is closed too) rather than
+    for the studio's 8 s auto-close."""
+    wait_until(
+        lambda: page.evaluate(CLOSE_ALL_NOTIFICATIONS) == 0, timeout=60, interval=0.1,
+        what="the notifications to close",
+    )  # fmt: skip
 
 
 def screenshot(page, path: Path) -> None:
     """A screenshot without the notifications over the scene."""
     close_notifications(page)
-    wait_until(
-        lambda: page.locator(".mantine-Notification-root").count() == 0,
-        timeout=30, what="the notifications to close",
-    )  # fmt: skip
     page.screenshot(path=str(path))
 
 

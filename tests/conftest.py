@@ -119,12 +119,18 @@ def start_studio(workspace: Path, **kwargs):
 
 
 def open_page(browser, studio, width: int = 1400, height: int = 900):
-    """A Chromium tab connected to ``studio``; returns (page, viser client handle).
+    """A Chromium tab connected to ``studio``; returns (page, viser client handle) once the
+    page has connected and reported its camera.
 
-    Waits for the client to connect and for the first frames, and closes viser's "software
-    WebGL" notice (headless Chromium renders without a GPU) so screenshots show the studio.
+    viser's "Software WebGL rendering detected" notice (headless Chromium renders without a
+    GPU) is closed by the page itself as soon as it shows
+    (:data:`tests.browser.CLOSE_WEBGL_NOTICE`), so it never covers the panel or a screenshot,
+    and nothing waits for it.
     """
+    from tests.browser import CLOSE_WEBGL_NOTICE
+
     page = browser.new_page(viewport={"width": width, "height": height})
+    page.add_init_script(CLOSE_WEBGL_NOTICE)
     known = set(studio.server.get_clients())
     page.goto(f"http://127.0.0.1:{studio.port}")
     # Wrapped in a tuple: the first client's id is 0, which is falsy.
@@ -133,11 +139,15 @@ def open_page(browser, studio, width: int = 1400, height: int = 900):
         what="the browser to connect",
     )
     client = studio.server.get_clients()[client_id]
-    notice = page.get_by_text("Software WebGL rendering detected")
-    try:
-        notice.wait_for(timeout=5000)
-        page.locator(".mantine-Notification-closeButton").first.click()
-    except Exception:  # the notice is optional: a GPU-backed browser shows none
-        pass
-    time.sleep(1.0)
+    wait_until(lambda: camera_reported(client), timeout=60, what="the browser's camera")
     return page, client
+
+
+def camera_reported(client) -> bool:
+    """Whether the browser tab of ``client`` has reported its camera (viser asserts it has
+    before ``client.camera`` answers)."""
+    try:
+        client.camera.position  # noqa: B018
+    except AssertionError:
+        return False
+    return True

@@ -73,6 +73,9 @@ def test_switching_tabs_in_the_browser_never_leaves_the_other_tabs_objects(
     page, _client = open_page(browser, studio)
     try:
         infer, teach = infer_panel(studio), teach_panel(studio)
+        # Faded is the default: start from shown, so that the browser's choice is a change
+        # (viser tells the server of changes only) and the test stands alone.
+        infer.session_mode.value = SHOWN
         press(page, page.get_by_role("tab", name="Infer"))
         folder = page.get_by_text("Display", exact=True).last  # below the charts
         folder.scroll_into_view_if_needed(timeout=60_000)
@@ -81,7 +84,8 @@ def test_switching_tabs_in_the_browser_never_leaves_the_other_tabs_objects(
         dropdown.wait_for(state="visible", timeout=60_000)
         dropdown.scroll_into_view_if_needed(timeout=60_000)
         choose(page, infer.session_mode, FADED)
-        wait_until(lambda: drawn(studio) == INFER_FADED, timeout=60, what="Infer's look")
+        wait_until(lambda: drawn(studio) == INFER_FADED, timeout=60, what=lambda: (
+            f"Infer's look; drawn: {drawn(studio)}, panel in use: {studio.scene.panel}"))
         tab = page.get_by_role("tab", name="Teach")
         tab.scroll_into_view_if_needed(timeout=60_000)  # the panel was scrolled down
         press(page, tab)

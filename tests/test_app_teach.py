@@ -17,6 +17,7 @@ import pytest
 import viser.transforms as vtf
 
 from app.panels.teach.head import MAX_VIDEO_BYTES
+from app.panels.teach.recording import COUNTDOWN_S
 from app.plots import Band, Trace, band_chart, y_range
 from app.recorder import MAX_GAP_S, Recorder, Recording
 from app.session import Session
@@ -25,7 +26,7 @@ from app.takes import mean_start
 from app.workspace import Workspace
 from app.workspace_index import LAYOUT
 from promp.datasets import read_csv_demo
-from tests.browser import camera_pixels
+from tests.browser import camera_pixels, close_notifications
 from tests.conftest import REPO, open_page, start_studio, wait_until
 
 # ====================================================================== without a browser
@@ -215,13 +216,6 @@ def click(page, name: str) -> None:
     """Click a GUI button. A DOM click event: Playwright's actionability checks wait for
     animation frames, which software WebGL on a loaded machine makes take seconds each."""
     page.get_by_role("button", name=name, exact=True).first.dispatch_event("click")
-
-
-def close_notifications(page) -> None:
-    buttons = page.locator(".mantine-Notification-closeButton")
-    for _ in range(buttons.count()):
-        buttons.first.dispatch_event("click")
-        time.sleep(0.2)
 
 
 # Records every digit the countdown shows (a MutationObserver sees each DOM change, however
@@ -416,6 +410,7 @@ def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
     session, teach = studio.session, panel(studio)
     record = teach.record
     assert record.trim.value and record.back_to_start.value
+    record.countdown.value = 0.5  # the countdown itself is the previous test's
     wait_text(page, "Still ends are trimmed: hand below 2 cm/s, head below 10°/s.")
     start = mean_start(session.demos["curved"], session.layout)
     ghost = studio.scene.start.sphere
@@ -469,6 +464,7 @@ def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
     page.keyboard.press("Space")
     time.sleep(0.5)  # the hotkey would have reached the server by now
     assert record.take is None and "● Recording" not in text(page)
+    record.countdown.value = COUNTDOWN_S
 
 
 @pytest.mark.browser
@@ -547,6 +543,7 @@ def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, 
     assert studio.arm.move_hand_to(studio.arm.hand_position() + [0, 0, 0.01]).reached
     choose(page, "Source", "Simulated partner")
     wait_text(page, "simulated partner: tracking")
+    close_notifications(page)  # the refusal's notification; the red line must go by itself
     wait_text(page, "The head source failed", present=False)  # the refusal no longer holds
     choose(page, "Shrinkage", "automatic (pooled prior)")  # back to the workspace's default
     wait_until(lambda: studio.session.settings["shrinkage"] is None, what="the default back")
@@ -606,6 +603,7 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     assert not preview.first.is_visible()
     choose(page, "Source", "Simulated partner")
     wait_text(page, "simulated partner: tracking")
+    close_notifications(page)  # the refusal's notification; the red line must go by itself
     wait_text(page, "The head source failed", present=False)  # the refusal no longer holds
 
 
@@ -720,6 +718,7 @@ def test_sigkill_loses_nothing_recorded_and_restart_restores_the_workspace(
         page.get_by_text("Take options", exact=True).first.dispatch_event("click")
         row(page, "Trim idle ends").locator("input").first.dispatch_event("click")
         wait_text(page, "Still ends are trimmed", present=False)
+        row(page, "Countdown (s)").locator("input").first.fill("0.5")  # no need to wait 3 s
         click(page, "Record")
         wait_text(page, "● Recording into curved")
         time.sleep(0.5)
