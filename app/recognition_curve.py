@@ -11,13 +11,12 @@ the curves already computed, by what they depend on.
 
 from __future__ import annotations
 
-import threading
-from collections import OrderedDict
-from collections.abc import Hashable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from app.lru import LruCache
 from app.scrub import demo_observation
 from promp.data import Demonstration
 from promp.model import ProMPModel
@@ -111,28 +110,9 @@ def recognition_curve(
     return RecognitionCurve(tuple(model.names), percents, probabilities, truth)
 
 
-class CurveCache:
+class CurveCache(LruCache[RecognitionCurve]):
     """The latest curves, by the key of what they depend on (least recently used dropped);
     thread-safe."""
 
     def __init__(self, max_entries: int = 16):
-        self.max_entries = max_entries
-        self._curves: OrderedDict[Hashable, RecognitionCurve] = OrderedDict()
-        self._lock = threading.Lock()
-
-    def get(self, key: Hashable) -> RecognitionCurve | None:
-        with self._lock:
-            curve = self._curves.get(key)
-            if curve is not None:
-                self._curves.move_to_end(key)
-            return curve
-
-    def put(self, key: Hashable, curve: RecognitionCurve) -> None:
-        with self._lock:
-            self._curves[key] = curve
-            self._curves.move_to_end(key)
-            while len(self._curves) > self.max_entries:
-                self._curves.popitem(last=False)
-
-    def __len__(self) -> int:
-        return len(self._curves)
+        super().__init__(max_entries)

@@ -17,13 +17,13 @@ at its typical speed.
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from app.display import ALPHA_LABELS
+from app.lru import LruCache
 from promp.data import Demonstration, Layout, Modality
 from promp.evaluate import metrics
 from promp.evaluate.sweep import position_modality
@@ -90,8 +90,7 @@ class HeldOutModels:
     demonstrations or the settings does (:attr:`app.session.Session.learn_version`)."""
 
     def __init__(self, max_entries: int = 8):
-        self.max_entries = max_entries
-        self._cache: OrderedDict[tuple[int, str, str, str], ProMPModel] = OrderedDict()
+        self._cache: LruCache[ProMPModel] = LruCache(max_entries)
 
     def has(self, version: int, primitive: str, demo_name: str, settings: Settings) -> bool:
         return (version, primitive, demo_name, repr(settings)) in self._cache
@@ -110,16 +109,11 @@ class HeldOutModels:
         model = self._cache.get(key)
         if model is None:
             model = fit(held_out_training(demos, primitive, demo_name), layout, settings)
-            self._cache[key] = model
-            while len(self._cache) > self.max_entries:
-                self._cache.popitem(last=False)
-        else:
-            self._cache.move_to_end(key)
+            self._cache.put(key, model)
         return model
 
     def __len__(self) -> int:
         return len(self._cache)
-
 
 
 @dataclass(frozen=True, eq=False)

@@ -9,8 +9,10 @@ Learning runs in one background worker: a mutation that changes what is learned 
 demonstrations, the settings, the workspace) asks for a refit and returns at once. Meanwhile the
 previous model stays in use (and drawn); a newer request supersedes one in flight, whose result
 is then dropped, so only the model of the latest request is adopted (and bumps the version).
-:meth:`Session.wait_for_model` waits for it. A model of other modalities than the workspace's
-(after an import) is dropped at once rather than kept meanwhile.
+:meth:`Session.wait_for_model` waits for it. A refit of what was learned a moment ago (Undo
+delete, a setting put back) reuses that model (:mod:`app.fit_cache`). A model of other
+modalities than the workspace's (after an import) is dropped at once rather than kept
+meanwhile.
 
 Deleting a demonstration or a primitive, and replacing the workspace, move the files to the
 workspace's trash (:mod:`app.trash`); :meth:`Session.restore` puts them back. The session's
@@ -30,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from app.fit_cache import MAX_ENTRIES, training_key
+from app.lru import LruCache
 from app.trash import TrashEntry
 from app.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
 from app.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
@@ -53,26 +57,38 @@ class Training:
 
 @dataclass(frozen=True)
 class Learned:
-    """The outcome of one refit: the model, or None and the reason; its time in ms."""
+    """The outcome of one refit: the model, or None and the reason; the time its fit took
+    in ms, and whether it was reused from an earlier refit of the same training."""
 
     model: ProMPModel | None
     error: str | None
     ms: float
+    reused: bool = False
 
 
-def learn(training: Training) -> Learned:
-    """Fit every primitive of ``training`` (runs outside the session's lock)."""
-    start = time.perf_counter()
+# Shared by the sessions of the process (a studio has one; tests open many).
+RECENT_FITS: LruCache[Learned] = LruCache(MAX_ENTRIES)
+
+
+def learn(training: Training, reuse: bool = True) -> Learned:
+    """Fit every primitive of ``training`` (runs outside the session's lock), or, when
+    ``reuse``, take the outcome of a recent fit of the same training."""
     if not training.demos:
         return Learned(None, "record at least two demonstrations", 0.0)
+    key = training_key(training.demos, training.layout, training.settings)
+    if reuse and (known := RECENT_FITS.get(key)) is not None:
+        return replace(known, reused=True)
+    start = time.perf_counter()
     try:
         model, error = fit(training.demos, training.layout, training.settings), None
     except ValueError as exc:
         model, error = None, str(exc)
     except Exception as exc:  # a bug must end the refit visibly, not leave it pending
         traceback.print_exc()
-        model, error = None, f"{type(exc).__name__}: {exc}"
-    return Learned(model, error, 1e3 * (time.perf_counter() - start))
+        return Learned(None, f"{type(exc).__name__}: {exc}", 1e3 * (time.perf_counter() - start))
+    learned = Learned(model, error, 1e3 * (time.perf_counter() - start))
+    RECENT_FITS.put(key, learned)
+    return learned
 
 
 class Session:
@@ -85,6 +101,7 @@ class Session:
         self.model: ProMPModel | None = None
         self.fit_ms = 0.0
         self.fit_error: str | None = None
+        self.fit_reused = False  # the model came from a recent refit of the same training
         # A model imported from a file (Data tab) that inference uses instead of the learned
         # one until the demonstrations or settings next change (see use_imported_model).
         self.imported_model: ProMPModel | None = None
@@ -190,21 +207,22 @@ class Session:
     def _use(self, learned: Learned) -> None:
         """Adopt a refit's outcome (lock held)."""
         self.model, self.fit_error, self.fit_ms = learned.model, learned.error, learned.ms
+        self.fit_reused = learned.reused
 
-    def _ask_refit(self) -> None:
+    def _ask_refit(self, reuse: bool = True) -> None:
         """Refit in the background from the current state (lock held)."""
         self.learn_version += 1
         if self.model is not None and self.model.layout != self.layout:
             self.model = None  # another workspace's model: nothing to show meanwhile
         if not self._closed:
-            self._worker.submit(self._refit, self.learn_version, self._training())
+            self._worker.submit(self._refit, self.learn_version, self._training(), reuse)
 
-    def _refit(self, request: int, training: Training) -> None:
+    def _refit(self, request: int, training: Training, reuse: bool = True) -> None:
         """The worker's job: learn, then adopt the result if no newer request came."""
         with self.lock:
             if request != self.learn_version:
                 return  # superseded before it started
-        learned = learn(training)
+        learned = learn(training, reuse)
         with self.lock:
             if request != self.learn_version:
                 return  # superseded while it ran: the newer request's result will do
@@ -232,10 +250,10 @@ class Session:
             return self.model
 
     def refit(self) -> ProMPModel | None:
-        """Learn the model again from every primitive with at least two demonstrations, and
-        wait for it (e.g. to time it: :attr:`fit_ms`)."""
+        """Learn the model again from every primitive with at least two demonstrations (never
+        a reused one), and wait for it (e.g. to time it: :attr:`fit_ms`)."""
         with self.lock:
-            self._ask_refit()
+            self._ask_refit(reuse=False)
         return self.wait_for_model()
 
     def close(self) -> None:

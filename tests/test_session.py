@@ -309,8 +309,8 @@ def test_refits_run_in_the_background_and_only_the_latest_is_adopted(session, mo
     real, learned = module.learn, []
     started, release = threading.Event(), threading.Event()
 
-    def gated(training):
-        result = real(training)
+    def gated(training, reuse=True):
+        result = real(training, reuse)
         learned.append(training.settings.n_basis)
         if training.settings.n_basis == 8:
             started.set()
