@@ -182,7 +182,8 @@ def partner_eye() -> np.ndarray:
 def view_pose(view: str, points, width: int = CANVAS[0], height: int = CANVAS[1]) -> CameraPose:
     """The camera of preset ``view`` (Partner, Top or Side) framing ``points`` (n, 3) by its
     field of view: the Partner view from :func:`partner_eye`, the others from
-    :data:`PRESET_DISTANCE` away."""
+    :data:`PRESET_DISTANCE` away; from further back along the same direction when some points
+    would be behind the camera."""
     points = np.atleast_2d(np.asarray(points, dtype=float))
     finite = points[np.all(np.isfinite(points), axis=1)]
     if finite.shape[0] == 0:
@@ -193,6 +194,10 @@ def view_pose(view: str, points, width: int = CANVAS[0], height: int = CANVAS[1]
         distance = float(np.linalg.norm(direction))
     else:
         direction, distance = preset_direction(view), PRESET_DISTANCE
+    # Paths that reach behind the eye (a large or distant dataset) are framed from further
+    # back along the same direction, never from among them.
+    _, _, forward = _axes(direction, UP)
+    distance = max(distance, float(np.max((centre - finite) @ forward)) + 2.0 * NEAR)
     return frame(finite, direction, width, height, FOV, margin=PRESET_MARGIN, distance=distance)
 
 
