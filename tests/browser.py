@@ -84,24 +84,79 @@ def close_notifications(page) -> None:
     )  # fmt: skip
 
 
+def look(client, position, look_at, fov_deg: float) -> None:
+    """Point ``client``'s camera (its browser moves it on the next messages)."""
+    client.camera.fov = np.deg2rad(fov_deg)
+    client.camera.position = np.asarray(position, dtype=float)
+    client.camera.look_at = np.asarray(look_at, dtype=float)
+
+
+def settled_screenshot(page, path: Path, unlike: bytes | None = None, timeout=60.0) -> None:
+    """Save a screenshot of ``page`` once two in a row are the same (the last changes drawn)
+    and differ from ``unlike`` (a picture from before the changes, when given), without the
+    notifications."""
+    close_notifications(page)
+    previous = None
+
+    def settled() -> bool:
+        nonlocal previous
+        image = page.screenshot()
+        same = image == previous and image != unlike
+        previous = image
+        return same
+
+    wait_until(settled, timeout=timeout, interval=0.2, what="the picture changed, then still")
+    path.write_bytes(previous)
+
+
+def settled_render(client, unlike: np.ndarray | None = None) -> np.ndarray:
+    """A 400 x 300 render of the browser's view once two in a row are the same (the meshes
+    have arrived and the scene is still), and differ from ``unlike`` when given."""
+    previous = None
+
+    def settled():
+        nonlocal previous
+        image = client.get_render(300, 400, timeout=60).astype(float)
+        same = previous is not None and np.abs(image - previous).max() == 0
+        previous = image
+        if same and (unlike is None or np.abs(image - unlike).max() > 0):
+            return (image,)
+        return None
+
+    (image,) = wait_until(settled, timeout=120, interval=0.5, what="a settled render")
+    return image
+
+
 def screenshot(page, path: Path) -> None:
     """A screenshot without the notifications over the scene."""
     close_notifications(page)
     page.screenshot(path=str(path))
 
 
-def camera_pixels(client, points) -> np.ndarray:
-    """Pixel coordinates (n, 2) of world points (n, 3) in the camera the browser reports
-    (OpenCV convention: x right, y down, z forward; ``wxyz`` and ``position`` give the
-    camera-to-world pose)."""
+CANVAS_SCALE_JS = """() => {
+    const area = (c) => c.clientWidth * c.clientHeight;
+    let best = null;
+    for (const canvas of document.querySelectorAll("canvas")) {
+        if (canvas.width > 0 && (!best || area(canvas) > area(best))) best = canvas;
+    }
+    return best.clientWidth / best.width;
+}"""
+
+
+def camera_pixels(page, client, points) -> np.ndarray:
+    """Page coordinates (CSS pixels, n x 2) of world points (n, 3) in the camera the browser
+    reports (OpenCV convention: x right, y down, z forward; ``wxyz`` and ``position`` give the
+    camera-to-world pose). The camera's image size is the 3D canvas's in its own pixels,
+    which are CSS pixels times the page's resolution (the largest sized canvas is the 3D view's)."""
     camera = client.camera
     rotation = vtf.SO3(np.asarray(camera.wxyz)).as_matrix()
     local = (np.atleast_2d(points) - camera.position) @ rotation
     height, width = camera.image_height, camera.image_width
     focal = (height / 2.0) / math.tan(camera.fov / 2.0)
-    return np.column_stack(
+    pixels = np.column_stack(
         [
             width / 2 + focal * local[:, 0] / local[:, 2],
             height / 2 + focal * local[:, 1] / local[:, 2],
         ]
     )
+    return pixels * page.evaluate(CANVAS_SCALE_JS)

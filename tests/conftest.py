@@ -118,9 +118,18 @@ def start_studio(workspace: Path, **kwargs):
     return Studio.start("127.0.0.1", free_port(), workspace, **kwargs)
 
 
-def open_page(browser, studio, width: int = 1400, height: int = 900):
-    """A Chromium tab connected to ``studio``; returns (page, viser client handle) once the
-    page has connected and reported its camera.
+# The 3D view's pixels per CSS pixel in the browser tests (viser's ``fixedDpr``). Headless
+# Chromium draws with software WebGL, where a frame of the studio at 1400 x 900 costs about half
+# a core-second, and the page answers nothing while it draws: with half the resolution each way
+# (a quarter of the pixels) a page call during a drag or a scrub returns in ~100 ms, not ~220.
+# A fixed ratio also keeps viser's adaptive resolution from changing the canvas mid-test. Tests
+# that look at the picture (README screenshots, the start view's framing) ask for 1.0.
+TEST_DPR = 0.5
+
+
+def open_page(browser, studio, width: int = 1400, height: int = 900, dpr: float = TEST_DPR):
+    """A Chromium tab connected to ``studio`` with its 3D view at ``dpr`` pixels per CSS pixel;
+    returns (page, viser client handle) once the page has connected and reported its camera.
 
     viser's "Software WebGL rendering detected" notice (headless Chromium renders without a
     GPU) is closed by the page itself as soon as it shows
@@ -132,7 +141,7 @@ def open_page(browser, studio, width: int = 1400, height: int = 900):
     page = browser.new_page(viewport={"width": width, "height": height})
     page.add_init_script(CLOSE_WEBGL_NOTICE)
     known = set(studio.server.get_clients())
-    page.goto(f"http://127.0.0.1:{studio.port}")
+    page.goto(f"http://127.0.0.1:{studio.port}/?fixedDpr={dpr:g}")
     # Wrapped in a tuple: the first client's id is 0, which is falsy.
     (client_id,) = wait_until(
         lambda: next(((c,) for c in studio.server.get_clients() if c not in known), None),

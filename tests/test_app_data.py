@@ -33,7 +33,7 @@ from promp.evaluate.report import CSV_COLUMNS, report_json, results_csv
 from promp.evaluate.sweep import run_sweep
 from promp.io import model_from_json, model_to_dict
 from promp.model import Settings
-from tests.browser import choose, close_notifications, notification
+from tests.browser import choose, notification, press, settled_screenshot
 from tests.conftest import open_page, start_studio, wait_until
 from tests.synthetic import LAYOUT, make_dataset
 
@@ -263,6 +263,23 @@ def page(browser, studio):
     page.get_by_role("button", name="Export model").wait_for()
     yield page
     page.close()
+
+
+def readme_picture(browser, studio, path: Path) -> None:
+    """docs/data.png: the Data tab after the evaluation, in a page of its own at full
+    resolution (the GUI is the server's: the new page shows the same results)."""
+    page, _ = open_page(browser, studio, width=1600, height=1000, dpr=1.0)
+    try:
+        tab = page.get_by_role("tab", name="Data")
+        press(page, tab)
+        until(lambda: tab.get_attribute("aria-selected") == "true", what="the Data tab shown")
+        folder = page.get_by_text("Leave-one-out evaluation", exact=True).first
+        folder.evaluate("e => e.scrollIntoView({block: 'start'})")
+        page.get_by_text("Recognition errors (of 12)").first.wait_for()
+        page.mouse.move(5, 450)
+        settled_screenshot(page, path)
+    finally:
+        page.close()
 
 
 def panel_of(studio):
@@ -552,7 +569,7 @@ def test_export_results_from_the_gui(page, studio, evaluated) -> None:
 
 
 @pytest.mark.browser
-def test_a_failed_trial_opens_in_infer(page, studio, evaluated, artifacts) -> None:
+def test_a_failed_trial_opens_in_infer(browser, page, studio, evaluated, artifacts) -> None:
     from app.panels.infer import InferPanel
     from app.scene.look import INFER
 
@@ -582,8 +599,7 @@ def test_a_failed_trial_opens_in_infer(page, studio, evaluated, artifacts) -> No
         box = element.bounding_box()
         assert box["x"] + box["width"] <= edge["x"] + edge["width"] + 1
     assert shown.evaluate("e => e.scrollWidth <= e.clientWidth"), "the trial's label is cut"
-    close_notifications(page)
-    page.screenshot(path=str(artifacts / "data.png"))
+    readme_picture(browser, studio, artifacts / "data.png")
 
     choose(page, panel.failed_dropdown, label)
     page.get_by_role("button", name="Open in Infer").click()

@@ -29,6 +29,7 @@ from promp.inference import condition, predict
 from promp.learn import fit
 from promp.model import Settings
 from robots.icub.layout import hand_dims
+from tests.browser import close_notifications, look, settled_render, settled_screenshot
 from tests.conftest import open_page, start_studio, wait_until
 
 SETTINGS = Settings()
@@ -636,8 +637,9 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
 
 
 @pytest.mark.browser
-def test_infer_view_screenshot(studio, page, artifacts) -> None:
-    """The README's screenshot: a scrubbed state with the tube, the path, bars and charts."""
+def test_infer_view_screenshot(browser, studio, page, artifacts) -> None:
+    """The README's screenshot: a scrubbed state with the tube, the path, bars and charts (in
+    a page of its own, at full resolution)."""
     panel = infer_panel(studio)
     client = page.client
     panel.session_mode.value = "faded"
@@ -648,34 +650,32 @@ def test_infer_view_screenshot(studio, page, artifacts) -> None:
     result = wait_scrubbed(panel)
     assert result.truth.name == "curved_002"
     studio.call_in_loop(lambda: panel.replay.reset())  # the robot's hand at the observation point
-    client.camera.position = np.array([-0.9, -0.45, 0.9])
-    client.camera.look_at = np.array([-0.22, -0.15, 0.05])
-    client.camera.fov = np.deg2rad(42.0)
-    time.sleep(1.5)
-    with_tube = client.get_render(300, 400, timeout=60).astype(float)
+    camera = dict(position=[-0.9, -0.45, 0.9], look_at=[-0.22, -0.15, 0.05], fov_deg=42.0)
+    look(client, **camera)
+    with_tube = settled_render(client)
     panel.show_3d.value = False
     wait_until(lambda: not studio.scene.inference.tube.visible, timeout=30)
-    time.sleep(1.0)
-    without = client.get_render(300, 400, timeout=60).astype(float)
+    without = settled_render(client, unlike=with_tube)
     panel.show_3d.value = True
     wait_until(lambda: studio.scene.inference.tube.visible, timeout=30)
     changed = np.abs(with_tube - without).sum(axis=2) > 30
     assert changed.mean() > 0.005, "the inference does not show in the rendered frame"
-    notices = page.locator(".mantine-Notification-closeButton")
-    for i in reversed(range(notices.count())):
-        try:
-            press(page, notices.nth(i))
-        except Exception:  # closed meanwhile (notifications close themselves)
-            pass
-    # The hand charts (the open chart tab) show the data the server holds, on finite scales.
-    for handle in panel.charts.handles[:3]:
-        wait_until(
-            lambda h=handle: chart_ok(chart_in_page(page, h), h), timeout=60,
-            what="the chart drawn in the page",
-        )  # fmt: skip
-    page.mouse.move(5, 450)  # away from the slider: no hover hint in the picture
-    time.sleep(1.5)
-    path = artifacts / "infer.png"
-    page.screenshot(path=str(path))
-    assert path.stat().st_size > 50_000
+    shot, shot_client = open_page(browser, studio, dpr=1.0)
+    try:
+        press(shot, shot.get_by_role("tab", name="Infer"))
+        # The hand charts (the open chart tab) show the data the server holds, on finite scales.
+        for handle in panel.charts.handles[:3]:
+            wait_until(
+                lambda h=handle: chart_ok(chart_in_page(shot, h), h), timeout=60,
+                what="the chart drawn in the page",
+            )  # fmt: skip
+        shot.mouse.move(5, 450)  # away from the slider: no hover hint in the picture
+        close_notifications(shot)
+        start_view = shot.screenshot()
+        look(shot_client, **camera)
+        path = artifacts / "infer.png"
+        settled_screenshot(shot, path, unlike=start_view)
+        assert path.stat().st_size > 50_000
+    finally:
+        shot.close()
     panel.session_mode.value = "shown"

@@ -26,7 +26,7 @@ from app.takes import mean_start
 from app.workspace import Workspace
 from app.workspace_index import LAYOUT
 from promp.datasets import read_csv_demo
-from tests.browser import camera_pixels, close_notifications
+from tests.browser import camera_pixels, close_notifications, look, settled_screenshot
 from tests.conftest import REPO, open_page, start_studio, wait_until
 
 # ====================================================================== without a browser
@@ -188,6 +188,13 @@ def wait_text(page, wanted: str, timeout: float = 60.0, present: bool = True) ->
     wait_until(lambda: (wanted in text(page)) == present, timeout=timeout, what=what)
 
 
+def fit_shown(session) -> str:
+    """What the Learn folder says of the session's latest fit."""
+    if session.fit_reused:
+        return f"the same as a recent fit ({session.fit_ms:.0f} ms)"
+    return f"Fit in {session.fit_ms:.0f} ms"
+
+
 def row(page, label: str):
     """The GUI row (label + control) whose label contains ``label``."""
     return page.locator("label", has_text=label).first.locator(
@@ -242,7 +249,7 @@ def drag_hand(page, client, studio, direction, pixels: float, steps: int = 4) ->
     for k in np.argsort(-np.abs(alignment)):
         axis = gizmo.scale * axes[:, k]
         ends = np.stack([centre, centre + 0.85 * axis, centre + axis])
-        origin, grab, tip = camera_pixels(client, ends)
+        origin, grab, tip = camera_pixels(page, client, ends)
         if np.linalg.norm(tip - origin) > 40.0:  # an arrow seen side-on, easy to grab
             best = (k, grab, tip)
             break
@@ -303,7 +310,7 @@ def test_panel_lists_primitives_demonstrations_and_prior_plots(studio, tab) -> N
     assert "simulated partner: tracking" in body
     charts = page.evaluate("Object.keys(window.__viserTestpoints?.uplots ?? {}).length")
     assert charts >= 6
-    wait_text(page, f"Fit in {studio.session.fit_ms:.0f} ms")
+    wait_text(page, fit_shown(studio.session))
 
 
 @pytest.mark.browser
@@ -630,7 +637,7 @@ def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None
     wait_until(lambda: session.settings["n_basis"] == n_basis + 1
                and session.model.basis.n_basis == n_basis + 1, what="n_basis + 1")  # fmt: skip
     assert f'"n_basis": {n_basis + 1}' in session.workspace.index_path.read_text()
-    wait_text(page, f"Fit in {session.fit_ms:.0f} ms")
+    wait_text(page, fit_shown(session))
     assert session.settings.get("shrinkage") is None  # the default: the pooled prior
     choose(page, "Shrinkage", "1e-6 (span of the demos)")
     wait_until(lambda: session.settings["shrinkage"] == 1e-6, what="shrinkage 1e-6")
@@ -654,28 +661,28 @@ def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None
 
 
 @pytest.mark.browser
-def test_readme_screenshot(studio, tab, artifacts) -> None:
+def test_readme_screenshot(browser, studio, artifacts) -> None:
     """The Teach view seen from the partner's side: the demonstrations of both primitives and
-    their prior tubes over the table, the Learn settings and the prior plot of curved."""
-    page, client = tab
+    their prior tubes over the table, the Learn settings and the prior plot of curved (a page of
+    its own, at full resolution)."""
     teach = panel(studio)
     teach.primitives.dropdown.value = "curved"
-    for folder in ("Primitive", "Demonstrations"):
-        page.get_by_text(folder, exact=True).first.dispatch_event("click")  # collapse
-    page.get_by_role("tab", name="Teach").evaluate("e => e.scrollIntoView({block: 'start'})")
     start = LAYOUT.extract(studio.session.demos["curved"][0])[0, :3]
     studio.call_in_loop(lambda: studio.arm.move_hand_to(start))  # the hand at the object
-    page.evaluate("document.activeElement && document.activeElement.blur()")
-    client.camera.position = np.array([-0.95, -0.35, 0.95])
-    client.camera.look_at = np.array([-0.22, -0.12, 0.08])
-    client.camera.fov = np.deg2rad(42.0)
-    close_notifications(page)
-    page.mouse.move(5, 450)
-    time.sleep(2.0)
-    page.screenshot(path=str(artifacts / "teach.png"))
-    assert (artifacts / "teach.png").stat().st_size > 50_000
-    for folder in ("Primitive", "Demonstrations"):
-        page.get_by_text(folder, exact=True).first.dispatch_event("click")  # as it was
+    page, client = open_page(browser, studio, dpr=1.0)
+    try:
+        for folder in ("Primitive", "Demonstrations"):
+            page.get_by_text(folder, exact=True).first.dispatch_event("click")  # collapse
+        wait_until(lambda: np.linalg.norm(studio.arm.hand_position() - start) < 0.005,
+                   what="the hand at the object")  # fmt: skip
+        page.mouse.move(5, 450)
+        close_notifications(page)
+        start_view = page.screenshot()
+        look(client, position=[-0.95, -0.35, 0.95], look_at=[-0.22, -0.12, 0.08], fov_deg=42.0)
+        settled_screenshot(page, artifacts / "teach.png", unlike=start_view)
+        assert (artifacts / "teach.png").stat().st_size > 50_000
+    finally:
+        page.close()
 
 
 # ====================================================================== SIGKILL and restart

@@ -19,6 +19,7 @@ from app.cli import build_parser
 from app.net import free_port, is_loopback, port_is_free
 from app.scene.camera import partner_eye
 from robots.icub.model import DEFAULT_ROBOT, available_robots, load_urdf, natural_pose, urdf_path
+from tests.browser import settled_render
 from tests.conftest import REPO, wait_until
 
 
@@ -150,24 +151,6 @@ def _signal_a_thread_other_than_main(pid: int, number: int) -> None:
     other = next(tid for tid in threads if tid != pid)
     libc = ctypes.CDLL(None, use_errno=True)
     assert libc.tgkill(pid, other, number) == 0, os.strerror(ctypes.get_errno())
-
-
-def settled_render(client, unlike: np.ndarray | None = None) -> np.ndarray:
-    """A 400 x 300 render of the browser's view once two in a row are the same (the meshes
-    have arrived and the scene is still), and differ from ``unlike`` when given."""
-    previous = None
-
-    def settled():
-        nonlocal previous
-        image = client.get_render(300, 400, timeout=60).astype(float)
-        same = previous is not None and np.abs(image - previous).max() == 0
-        previous = image
-        if same and (unlike is None or np.abs(image - unlike).max() > 0):
-            return (image,)
-        return None
-
-    (image,) = wait_until(settled, timeout=120, interval=0.5, what="a settled render")
-    return image
 
 
 @pytest.mark.browser
