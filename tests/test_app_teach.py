@@ -607,7 +607,8 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     page.set_input_files(f"#file_upload_{teach.head.upload._impl.uuid}", str(path))
     wait_text(page, "Video ready", timeout=60)
     assert isinstance(studio.head.source, TrackHeadSource)
-    assert not preview.first.is_visible()
+    # The loop hides the preview at its next step, after the upload's worker said it is ready.
+    wait_until(lambda: not preview.first.is_visible(), what="the preview hidden")
     choose(page, "Source", "Simulated partner")
     wait_text(page, "simulated partner: tracking")
     close_notifications(page)  # the refusal's notification; the red line must go by itself
