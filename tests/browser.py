@@ -4,6 +4,7 @@ tests. Every wait is for a state, with a generous deadline, never a fixed sleep.
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -84,11 +85,54 @@ def close_notifications(page) -> None:
     )  # fmt: skip
 
 
-def look(client, position, look_at, fov_deg: float) -> None:
-    """Point ``client``'s camera (its browser moves it on the next messages)."""
-    client.camera.fov = np.deg2rad(fov_deg)
+class CameraReports:
+    """The camera poses a browser tab reported, in order, with their times (viser calls
+    ``on_update`` for each report from the browser, never for the server's own settings,
+    which change ``client.camera`` at once, before the browser has moved)."""
+
+    def __init__(self, client):
+        self.poses: list[tuple[float, np.ndarray, np.ndarray]] = []  # (time, position, look_at)
+        client.camera.on_update(self._add)
+
+    def _add(self, camera) -> None:
+        self.poses.append((time.monotonic(), np.array(camera.position), np.array(camera.look_at)))
+
+
+_REPORTS: dict[int, CameraReports] = {}
+
+
+def camera_reports(client) -> CameraReports:
+    """The reports of ``client``'s tab (recorded from the first call on: open_page calls it
+    as the tab connects)."""
+    if id(client) not in _REPORTS:
+        _REPORTS[id(client)] = CameraReports(client)
+    return _REPORTS[id(client)]
+
+
+def set_camera(client, position, look_at, fov_deg: float | None = None) -> None:
+    """Point ``client``'s camera and wait until its browser reports it there (the page has
+    moved its camera: what it draws and where a click lands follow from then on)."""
+    reports = camera_reports(client)
+    start = len(reports.poses)
+    if fov_deg is not None:
+        client.camera.fov = np.deg2rad(fov_deg)
     client.camera.position = np.asarray(position, dtype=float)
     client.camera.look_at = np.asarray(look_at, dtype=float)
+
+    def there(pose) -> bool:
+        _, at, looking = pose
+        return np.allclose(at, position, atol=1e-3) and np.allclose(looking, look_at, atol=1e-3)
+
+    already = start > 0 and there(reports.poses[start - 1])
+    wait_until(lambda: already or any(there(p) for p in reports.poses[start:]), timeout=60,
+               what="the browser's camera where it was set")  # fmt: skip
+
+
+def wait_camera_still(client, quiet_s: float = 0.5) -> None:
+    """Wait until ``client``'s browser has reported no camera move for ``quiet_s`` seconds."""
+    reports = camera_reports(client)
+    wait_until(lambda: not reports.poses or time.monotonic() - reports.poses[-1][0] > quiet_s,
+               timeout=60, what="the camera still")  # fmt: skip
 
 
 def settled_screenshot(page, path: Path, unlike: bytes | None = None, timeout=60.0) -> None:

@@ -136,7 +136,7 @@ def open_page(browser, studio, width: int = 1400, height: int = 900, dpr: float 
     (:data:`tests.browser.CLOSE_WEBGL_NOTICE`), so it never covers the panel or a screenshot,
     and nothing waits for it.
     """
-    from tests.browser import CLOSE_WEBGL_NOTICE
+    from tests.browser import CLOSE_WEBGL_NOTICE, camera_reports
 
     page = browser.new_page(viewport={"width": width, "height": height})
     page.add_init_script(CLOSE_WEBGL_NOTICE)
@@ -148,6 +148,7 @@ def open_page(browser, studio, width: int = 1400, height: int = 900, dpr: float 
         what="the browser to connect",
     )
     client = studio.server.get_clients()[client_id]
+    camera_reports(client)
     wait_until(lambda: camera_reported(client), timeout=60, what="the browser's camera")
     return page, client
 

@@ -29,7 +29,7 @@ from promp.inference import condition, predict
 from promp.learn import fit
 from promp.model import Settings
 from robots.icub.layout import hand_dims
-from tests.browser import close_notifications, look, settled_render, settled_screenshot
+from tests.browser import close_notifications, set_camera, settled_render, settled_screenshot
 from tests.conftest import open_page, start_studio, wait_until
 
 SETTINGS = Settings()
@@ -651,7 +651,7 @@ def test_infer_view_screenshot(browser, studio, page, artifacts) -> None:
     assert result.truth.name == "curved_002"
     studio.call_in_loop(lambda: panel.replay.reset())  # the robot's hand at the observation point
     camera = dict(position=[-0.9, -0.45, 0.9], look_at=[-0.22, -0.15, 0.05], fov_deg=42.0)
-    look(client, **camera)
+    set_camera(client, **camera)
     with_tube = settled_render(client)
     panel.show_3d.value = False
     wait_until(lambda: not studio.scene.inference.tube.visible, timeout=30)
@@ -672,7 +672,7 @@ def test_infer_view_screenshot(browser, studio, page, artifacts) -> None:
         shot.mouse.move(5, 450)  # away from the slider: no hover hint in the picture
         close_notifications(shot)
         start_view = shot.screenshot()
-        look(shot_client, **camera)
+        set_camera(shot_client, **camera)
         path = artifacts / "infer.png"
         settled_screenshot(shot, path, unlike=start_view)
         assert path.stat().st_size > 50_000

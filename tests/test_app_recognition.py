@@ -18,7 +18,7 @@ from app.scrub import demo_observation, held_out_training, scrub_step
 from app.workspace_index import LAYOUT
 from promp.learn import fit
 from promp.model import Settings
-from tests.browser import choose, press
+from tests.browser import choose, press, wait_camera_still
 from tests.conftest import open_page, start_studio, wait_until
 
 # ---------------------------------------------------------------------- pure logic
@@ -201,7 +201,7 @@ def test_arrow_keys_move_the_slider_and_not_the_camera(studio, page) -> None:
     wait_until(lambda: thumb.get_attribute("aria-valuenow") == "50", timeout=60,
                what="the page's slider at 50 %")  # fmt: skip
     thumb.focus()
-    time.sleep(0.5)  # the camera settles
+    wait_camera_still(client)
     wxyz, position = np.array(client.camera.wxyz), np.array(client.camera.position)
     for _ in range(5):
         page.keyboard.press("ArrowLeft")
