@@ -29,7 +29,14 @@ from promp.inference import condition, predict
 from promp.learn import fit
 from promp.model import Settings
 from robots.icub.layout import hand_dims
-from tests.browser import close_notifications, set_camera, settled_render, settled_screenshot
+from tests.browser import (
+    choose,
+    close_notifications,
+    press,
+    set_camera,
+    settled_render,
+    settled_screenshot,
+)
 from tests.conftest import open_page, start_studio, wait_until
 
 SETTINGS = Settings()
@@ -441,24 +448,6 @@ def bars_in_page(page) -> dict[str, float]:
     }
 
 
-def press(page, locator) -> None:
-    """A real mouse click at the middle of ``locator``. (Playwright's own ``click`` first waits
-    for the element to be stable over animation frames, which software WebGL makes very slow
-    on a busy machine.)"""
-    locator.wait_for(state="visible", timeout=120_000)
-    box = locator.bounding_box(timeout=120_000)
-    page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
-
-
-def choose(page, handle, option: str) -> None:
-    """Pick ``option`` in a dropdown by mouse, as a user does (nothing when already chosen)."""
-    if handle.value == option:
-        return
-    press(page, page.locator(f"[id='{handle._impl.uuid}']"))
-    press(page, page.get_by_role("option", name=option, exact=True))
-    wait_until(lambda: handle.value == option, timeout=60, what=f"{option!r} chosen")
-
-
 CHART_STATE_JS = """(uuid) => {
     const entry = window.__viserTestpoints?.uplots?.[uuid];
     if (!entry) return null;
@@ -572,26 +561,21 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
     wait_until(lambda: 15 <= panel.percent.value <= 25, timeout=30, what="the slider at 20 %")
     result = wait_scrubbed(panel)
     assert result.remaining > 2.0
-    # Mouse clicks at the buttons' places, found beforehand: the replay runs in real time.
-    buttons = {
-        name: page.get_by_role("button", name=name).bounding_box(timeout=60_000)
-        for name in ("Play", "Pause", "Reset")
-    }
-
-    def press(name: str) -> None:
-        box = buttons[name]
-        page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+    def button(name: str) -> None:
+        """A mouse click on the button where it is now (the lines above it change as the
+        replay runs: a place found beforehand was once a click beside the button, under load)."""
+        press(page, page.get_by_role("button", name=name, exact=True))
 
     # Pause and resume, on a clock the test moves: how far the replay gets between two clicks
     # must not depend on how busy the machine is.
     clock = ManualClock()
     panel.replay.clock = clock
     try:
-        press("Play")
+        button("Play")
         wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to start")
         clock.now += 0.3 * result.remaining
         wait_until(lambda: panel.replay.progress > 0.0, timeout=30, what="the replay to advance")
-        press("Pause")
+        button("Pause")
         wait_until(lambda: not panel.replay.playing, timeout=30, what="the pause")
         assert 0.25 <= panel.replay.progress <= 0.35, "paused where the clock was"
         q_paused = studio.arm.q.copy()
@@ -599,18 +583,18 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
         time.sleep(0.3)
         assert_allclose(studio.arm.q, q_paused)
         assert panel.replay.progress <= 0.35
-        press("Play")
+        button("Play")
         wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to resume")
         clock.now += result.remaining
         wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
     finally:
         panel.replay.clock = time.monotonic
     # Then in real time, from the start.
-    press("Reset")
+    button("Reset")
     wait_until(lambda: panel.replay.progress == 0.0, timeout=30, what="the rewind")
     sampler = ArmSampler(studio, panel)
     try:
-        press("Play")
+        button("Play")
         wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to start")
         wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
     finally:
@@ -628,7 +612,7 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
     hand = studio.arm.hand_position()
     assert np.linalg.norm(hand - result.future_hand[-1]) < 0.01  # the predicted end, reached
     assert_allclose(studio.arm.gizmo.position, hand, atol=1e-5)  # the gizmo follows the hand
-    press("Reset")
+    button("Reset")
     wait_until(
         lambda: np.linalg.norm(studio.arm.hand_position() - result.future_hand[0]) < 0.01,
         timeout=30, what="the hand back at the observation point",
