@@ -12,6 +12,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import warnings
 import zipfile
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -52,13 +53,13 @@ def zip_of(members: dict[str, bytes], *, symlink: str | None = None) -> bytes:
 
 
 def zip_with_duplicate(name: str, first: bytes, second: bytes, others: dict[str, bytes]) -> bytes:
+    """A zip of ``others`` with ``name`` in it exactly twice (``first``, then ``second``)."""
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as archive:
         for member, data in others.items():
-            archive.writestr(member, data)
+            if member != name:
+                archive.writestr(member, data)
         archive.writestr(name, first)
-        import warnings
-
         with warnings.catch_warnings():  # zipfile warns about the duplicate: that is the point
             warnings.simplefilter("ignore")
             archive.writestr(name, second)
