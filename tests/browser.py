@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -98,15 +99,16 @@ class CameraReports:
         self.poses.append((time.monotonic(), np.array(camera.position), np.array(camera.look_at)))
 
 
-_REPORTS: dict[int, CameraReports] = {}
+# By the client handle itself: an id() of a closed tab's handle can come back for a new one.
+_REPORTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def camera_reports(client) -> CameraReports:
     """The reports of ``client``'s tab (recorded from the first call on: open_page calls it
     as the tab connects)."""
-    if id(client) not in _REPORTS:
-        _REPORTS[id(client)] = CameraReports(client)
-    return _REPORTS[id(client)]
+    if client not in _REPORTS:
+        _REPORTS[client] = CameraReports(client)
+    return _REPORTS[client]
 
 
 def set_camera(client, position, look_at, fov_deg: float | None = None) -> None:
@@ -135,40 +137,43 @@ def wait_camera_still(client, quiet_s: float = 0.5) -> None:
                timeout=60, what="the camera still")  # fmt: skip
 
 
-def settled_screenshot(page, path: Path, unlike: bytes | None = None, timeout=60.0) -> None:
-    """Save a screenshot of ``page`` once two in a row are the same (the last changes drawn)
-    and differ from ``unlike`` (a picture from before the changes, when given), without the
-    notifications."""
-    close_notifications(page)
+def _same(a, b) -> bool:
+    """Equal pictures: PNG bytes, or pixel arrays."""
+    return a == b if isinstance(a, bytes) else np.array_equal(a, b)
+
+
+def settled(capture, unlike=None, *, timeout: float, interval: float, what: str):
+    """What ``capture()`` returns once two captures in a row are equal (the last changes drawn)
+    and differ from ``unlike`` (a picture from before the changes, when given)."""
     previous = None
 
-    def settled() -> bool:
+    def steady():
         nonlocal previous
-        image = page.screenshot()
-        same = image == previous and image != unlike
+        image = capture()
+        same = previous is not None and _same(image, previous)
         previous = image
-        return same
+        if same and (unlike is None or not _same(image, unlike)):
+            return (image,)
+        return None
 
-    wait_until(settled, timeout=timeout, interval=0.2, what="the picture changed, then still")
-    path.write_bytes(previous)
+    (image,) = wait_until(steady, timeout=timeout, interval=interval, what=what)
+    return image
+
+
+def settled_screenshot(page, path: Path, unlike: bytes | None = None, timeout=60.0) -> None:
+    """Save a screenshot of ``page`` once two in a row are the same and differ from
+    ``unlike`` when given (:func:`settled`), without the notifications."""
+    close_notifications(page)
+    image = settled(page.screenshot, unlike, timeout=timeout, interval=0.2,
+                    what="the picture changed, then still")  # fmt: skip
+    path.write_bytes(image)
 
 
 def settled_render(client, unlike: np.ndarray | None = None) -> np.ndarray:
     """A 400 x 300 render of the browser's view once two in a row are the same (the meshes
     have arrived and the scene is still), and differ from ``unlike`` when given."""
-    previous = None
-
-    def settled():
-        nonlocal previous
-        image = client.get_render(300, 400, timeout=60).astype(float)
-        same = previous is not None and np.abs(image - previous).max() == 0
-        previous = image
-        if same and (unlike is None or np.abs(image - unlike).max() > 0):
-            return (image,)
-        return None
-
-    (image,) = wait_until(settled, timeout=120, interval=0.5, what="a settled render")
-    return image
+    return settled(lambda: client.get_render(300, 400, timeout=60).astype(float), unlike,
+                   timeout=120, interval=0.5, what="a settled render")  # fmt: skip
 
 
 def screenshot(page, path: Path) -> None:

@@ -159,18 +159,14 @@ class LearnSection:
             self.fit_status.content = colored(f"Not learned: {escape(error)}", ORANGE)
             return
         n_learned = len(model.names) if model is not None else 0
+        learned = f"{n_learned} primitive(s) learned from {n_demos} demonstrations"
         if reused:  # the fit took fit_ms a moment ago; this refit none
             text = colored("Model reused", GREEN, bold=True)
-            self.fit_status.content = (
-                f"{text}: {n_learned} primitive(s) learned from {n_demos} demonstrations, "
-                f"the same as a recent fit ({fit_ms:.0f} ms)."
-            )
+            learned += f", the same as a recent fit ({fit_ms:.0f} ms)"
         else:
             color = GREEN if fit_ms < FAST_FIT_MS else ORANGE
             text = colored(f"Fit in {fit_ms:.0f} ms", color, bold=True)
-            self.fit_status.content = (
-                f"{text}: {n_learned} primitive(s) learned from {n_demos} demonstrations."
-            )
+        self.fit_status.content = f"{text}: {learned}."
         choice = model.report.get("settings", {}) if model is not None else {}
         if choice.get("chosen"):
             used, rule = model.settings, str(choice.get("rule", ""))

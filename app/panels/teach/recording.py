@@ -75,6 +75,14 @@ def refusal(
     return None
 
 
+def checked_countdown(seconds: float) -> float:
+    """``seconds`` as a countdown, or a ValueError when it is not a finite time >= 0."""
+    seconds = float(seconds)
+    if not math.isfinite(seconds) or seconds < 0:
+        raise ValueError(f"the countdown must be >= 0 s, got {seconds}")
+    return seconds
+
+
 class RecordingMachine:
     """The states of the Record button (see the module docstring).
 
@@ -85,9 +93,7 @@ class RecordingMachine:
     """
 
     def __init__(self, countdown_s: float = COUNTDOWN_S):
-        if not math.isfinite(countdown_s) or countdown_s < 0:
-            raise ValueError(f"the countdown must be >= 0 s, got {countdown_s}")
-        self.countdown_s = float(countdown_s)
+        self.countdown_s = checked_countdown(countdown_s)
         self.phase = Phase.IDLE
         self.take: Take | None = None
 
@@ -107,9 +113,7 @@ class RecordingMachine:
                 return Event.REFUSED, None
             if primitive is None:
                 raise ValueError("a recording needs a primitive")
-            countdown = self.countdown_s if countdown_s is None else float(countdown_s)
-            if not math.isfinite(countdown) or countdown < 0:
-                raise ValueError(f"the countdown must be >= 0 s, got {countdown_s}")
+            countdown = self.countdown_s if countdown_s is None else checked_countdown(countdown_s)
             self.take = Take(primitive, now + countdown, float(rate_hz))
             self.phase = Phase.COUNTDOWN
             return Event.COUNTDOWN, self.take
