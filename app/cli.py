@@ -126,6 +126,8 @@ def prepare_workspace(args: argparse.Namespace) -> None:
     data, summary = read_folder(source, args.format or detect_format(source), modalities)
     Workspace.create(args.workspace, data)
     print(f"Created the workspace {args.workspace} from {source}: {summary.describe()}", flush=True)
+    headline, *details = summary.findings_lines(limit=50)
+    print("\n  ".join([headline, *details]), flush=True)
 
 
 class StopSignals:

@@ -18,6 +18,7 @@ modality naming a column the files lack, a ``hand`` modality that is not 3 colum
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import re
 import shutil
@@ -28,11 +29,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
+from app.demo_checks import DemoChecks
 from app.exchange import Limits, check_member, format_size
 from app.workspace import WorkspaceData
 from app.workspace_index import PALETTE, PrimitiveEntry, check_layout
 from promp.data import Demonstration, Layout, Modality
 from promp.datasets import FORMATS, RECORD_COLUMNS, Dataset, dataset_columns, read_dataset
+from promp.quality import Finding
 
 MIN_DEMOS = 2
 MAX_DATASET_UPLOAD_BYTES = 200 * 2**20
@@ -62,10 +65,27 @@ class DatasetSummary:
     layout: Layout
     counts: dict[str, int]
     columns: tuple[str, ...]
+    findings: tuple[Finding, ...] = ()  # what the checks found, named by the dataset's files
 
     @property
     def n_demos(self) -> int:
         return sum(self.counts.values())
+
+    def findings_lines(self, limit: int = 12) -> list[str]:
+        """The checks' findings in words: a headline, then one line per finding (at most
+        ``limit``, then how many more)."""
+        if not self.findings:
+            return ["Checks: nothing found (no gap, jump, still take, odd rate or duration)."]
+        flagged = {f.key for f in self.findings}
+        lines = [
+            f"Checks: {len(self.findings)} finding(s) in {len(flagged)} demonstration(s); "
+            "these are left out of learning until kept in Teach > Demonstrations (their "
+            "files are imported as they are):"
+        ]
+        lines += [f"{f.where}: {f.message}" for f in self.findings[:limit]]
+        if len(self.findings) > limit:
+            lines.append(f"... and {len(self.findings) - limit} more")
+        return lines
 
     def describe(self) -> str:
         classes = ", ".join(f"{name} ({n})" for name, n in self.counts.items())
@@ -79,8 +99,13 @@ class DatasetSummary:
         )
 
 
-def dataset_to_workspace(dataset: Dataset, layout: Layout) -> WorkspaceData:
-    """The workspace holding ``dataset`` with ``layout`` (names made safe, colours assigned).
+def dataset_to_workspace(
+    dataset: Dataset, layout: Layout, findings: Sequence[Finding] = ()
+) -> WorkspaceData:
+    """The workspace holding ``dataset`` with ``layout`` (names made safe, colours assigned),
+    and the readers' ``findings`` (:func:`promp.datasets.read_dataset`) that cannot be found
+    again from the stored files (samples set aside for their timestamps), under the new names
+    (``data.checks.imported``).
 
     Raises
     ------
@@ -101,32 +126,46 @@ def dataset_to_workspace(dataset: Dataset, layout: Layout) -> WorkspaceData:
     taken: set[str] = set()
     primitives: list[PrimitiveEntry] = []
     demos: dict[str, list[Demonstration]] = {}
+    renamed: dict[tuple[str, str], tuple[str, str]] = {}
     for k, (raw, items) in enumerate(dataset.items()):
         name = safe_name(raw, taken)
         primitives.append(PrimitiveEntry(name, PALETTE[k % len(PALETTE)]))
         names: set[str] = set()
-        demos[name] = [
-            Demonstration(
-                d.times - d.times[0],
-                d.select(layout.columns),
-                layout.columns,
-                name=safe_name(d.name, names),
+        demos[name] = []
+        for d in items:
+            demo_name = safe_name(d.name, names)
+            renamed[(raw, d.name)] = (name, demo_name)
+            demos[name].append(
+                Demonstration(
+                    d.times - d.times[0], d.select(layout.columns), layout.columns, demo_name
+                )
             )
-            for d in items
-        ]
-    return WorkspaceData(primitives=primitives, demos=demos, settings={}, layout=layout)
+    imported = tuple(
+        dataclasses.replace(f, primitive=renamed[f.key][0], demo=renamed[f.key][1])
+        for f in findings
+        if f.kind == "timestamps" and f.key in renamed
+    )
+    return WorkspaceData(
+        primitives=primitives,
+        demos=demos,
+        settings={},
+        layout=layout,
+        checks=DemoChecks(imported=imported),
+    )
 
 
 def read_folder(
     source: Path, format: str, modalities: Sequence[Modality] | None = None
 ) -> tuple[WorkspaceData, DatasetSummary]:
-    """Read the dataset folder ``source`` as a workspace's content, and its summary."""
-    dataset, layout = read_dataset(Path(source), format, modalities)
-    data = dataset_to_workspace(dataset, layout)
+    """Read the dataset folder ``source`` as a workspace's content, and its summary (with what
+    the checks found, named by the dataset's files)."""
+    read = read_dataset(Path(source), format, modalities)
+    dataset, layout = read.dataset, read.layout
+    data = dataset_to_workspace(dataset, layout, read.findings)
     columns = RECORD_COLUMNS[1:] if format == "records" else dataset_columns(dataset)
     summary = DatasetSummary(
         str(source), format, layout, {p.name: len(data.demos[p.name]) for p in data.primitives},
-        tuple(columns),
+        tuple(columns), read.findings,
     )  # fmt: skip
     return data, summary
 
@@ -170,9 +209,7 @@ class DatasetUpload:
         except ValueError as exc:
             # Paths inside the temporary folder mean nothing to the user: name the member.
             raise ValueError(str(exc).replace(str(self.root), self.filename)) from None
-        return data, DatasetSummary(
-            self.filename, summary.format, summary.layout, summary.counts, summary.columns
-        )
+        return data, dataclasses.replace(summary, source=self.filename)
 
     def close(self) -> None:
         if self.tempdir.exists():

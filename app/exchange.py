@@ -118,7 +118,7 @@ def workspace_zip(
             info.external_attr = (stat.S_IFREG | 0o644) << 16
             archive.writestr(info, text.encode("utf-8"))
 
-        add(INDEX_NAME, index_json(data.primitives, data.settings, data.layout))
+        add(INDEX_NAME, index_json(data.primitives, data.settings, data.layout, data.checks))
         columns = data.layout.columns
         for entry in data.primitives:
             check_name(entry.name)
@@ -282,7 +282,9 @@ def read_workspace_zip(
             if primitive not in demos:
                 raise ValueError(f"{label}: primitive {primitive!r} is not listed in {INDEX_NAME}")
             demos[primitive].append(_parse_demo(read(inner), stem, label, index.layout))
-    data = WorkspaceData(index.primitives, demos, index.settings, layout=index.layout)
+    data = WorkspaceData(
+        index.primitives, demos, index.settings, layout=index.layout, checks=index.checks
+    )
     return WorkspaceUpload(filename, data, model, ignored)
 
 

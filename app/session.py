@@ -24,71 +24,25 @@ from __future__ import annotations
 
 import threading
 import time
-import traceback
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from app.fit_cache import MAX_ENTRIES, training_key
-from app.lru import LruCache
+from app.demo_checks import DemoChecks, left_out, without
+from app.learning import Learned, Training, learn
 from app.trash import TrashEntry
 from app.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
 from app.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
 from promp.data import Demonstration, Layout
-from promp.learn import fit
 from promp.model import FALLBACK, ProMPModel, Settings
-from promp.pipeline import Typicality, typicality
+from promp.quality import Finding
+from promp.typicality import Typicality, typicality
 
 KEEP = object()  # set_learning: leave a setting as it is
 REFIT_TIMEOUT_S = 120.0
-
-
-@dataclass(frozen=True)
-class Training:
-    """What one refit learns from: a snapshot taken when it was asked for."""
-
-    demos: dict[str, list[Demonstration]]  # the primitives with at least two demonstrations
-    layout: Layout
-    settings: Settings
-
-
-@dataclass(frozen=True)
-class Learned:
-    """The outcome of one refit: the model, or None and the reason; the time its fit took
-    in ms, and whether it was reused from an earlier refit of the same training."""
-
-    model: ProMPModel | None
-    error: str | None
-    ms: float
-    reused: bool = False
-
-
-# Shared by the sessions of the process (a studio has one; tests open many).
-RECENT_FITS: LruCache[Learned] = LruCache(MAX_ENTRIES)
-
-
-def learn(training: Training, reuse: bool = True) -> Learned:
-    """Fit every primitive of ``training`` (runs outside the session's lock), or, when
-    ``reuse``, take the outcome of a recent fit of the same training."""
-    if not training.demos:
-        return Learned(None, "record at least two demonstrations", 0.0)
-    key = training_key(training.demos, training.layout, training.settings)
-    if reuse and (known := RECENT_FITS.get(key)) is not None:
-        return replace(known, reused=True)
-    start = time.perf_counter()
-    try:
-        model, error = fit(training.demos, training.layout, training.settings), None
-    except ValueError as exc:
-        model, error = None, str(exc)
-    except Exception as exc:  # a bug must end the refit visibly, not leave it pending
-        traceback.print_exc()
-        return Learned(None, f"{type(exc).__name__}: {exc}", 1e3 * (time.perf_counter() - start))
-    learned = Learned(model, error, 1e3 * (time.perf_counter() - start))
-    RECENT_FITS.put(key, learned)
-    return learned
 
 
 class Session:
@@ -130,6 +84,8 @@ class Session:
         # What the workspace sets; the engine's defaults fill the rest (learning_settings).
         self.settings: dict = dict(data.settings)
         self.problems: list[str] = list(data.problems)
+        self.checks: DemoChecks = data.checks
+        self._recheck()
         keys = {(p, d.name) for p, items in self.demos.items() for d in items}
         self.hidden &= keys
         self.typicality = {k: v for k, v in self.typicality.items() if k in keys}
@@ -164,8 +120,23 @@ class Session:
         """Call ``callback()`` after every mutation (from the thread that made it)."""
         self._listeners.append(callback)
 
+    def _recheck(self) -> None:
+        """Find the demonstrations' faults again (:mod:`app.demo_checks`; lock held)."""
+        self.findings: list[Finding] = self.checks.findings(self.demos, self.layout)
+
+    def _save_index(self, primitives=None, settings=None, checks=None) -> None:
+        """Write ``studio.json`` with these (default: the session's own) primitives, settings
+        and checks."""
+        self.workspace.save_index(
+            self.primitives if primitives is None else primitives,
+            self.settings if settings is None else settings,
+            self.layout,
+            self.checks if checks is None else checks,
+        )
+
     def _changed(self, refit: bool = True) -> None:
         if refit:
+            self._recheck()
             self._ask_refit()
             self.imported_model, self.imported_from = None, ""
         self.version += 1
@@ -201,8 +172,37 @@ class Session:
 
     def _training(self) -> Training:
         with self.lock:
-            trainable = {n: list(d) for n, d in self.demos.items() if len(d) >= 2}
+            learned = self.learned_demos()
+            trainable = {n: list(d) for n, d in learned.items() if len(d) >= 2}
             return Training(trainable, self.layout, self.learning_settings())
+
+    def left_out(self) -> dict[tuple[str, str], list[Finding]]:
+        """The flagged demonstrations the user did not keep (left out of learning)."""
+        with self.lock:
+            return left_out(self.findings, self.checks.kept)
+
+    def findings_of(self, primitive: str, demo: str) -> list[Finding]:
+        with self.lock:
+            return [f for f in self.findings if f.key == (primitive, demo)]
+
+    def learned_demos(self) -> dict[str, list[Demonstration]]:
+        """Every primitive's demonstrations that learning uses: all but :meth:`left_out`."""
+        with self.lock:
+            return without(self.demos, self.left_out())
+
+    def set_kept(self, primitive: str, demo: str, kept: bool) -> None:
+        """Learn from a flagged demonstration after all (``kept``), or leave it out again (the
+        default); stored in the workspace's index, the file never touched."""
+        with self.lock:
+            self.entry(primitive)
+            if demo not in {d.name for d in self.demos[primitive]}:
+                raise ValueError(f"primitive {primitive!r} has no demonstration {demo!r}")
+            checks = self.checks.keep(primitive, demo, kept)
+            if checks == self.checks:
+                return
+            self._save_index(checks=checks)
+            self.checks = checks
+            self._changed()
 
     def _use(self, learned: Learned) -> None:
         """Adopt a refit's outcome (lock held)."""
@@ -264,9 +264,10 @@ class Session:
 
     def score(self, primitive: str, demo: Demonstration) -> Typicality | None:
         """Typicality of ``demo`` against the model learned from ``primitive``'s other
-        demonstrations (None when fewer than three exist)."""
+        demonstrations that learning uses (None when fewer than three exist)."""
         with self.lock:
-            others = [d for d in self.demos.get(primitive, []) if d.name != demo.name]
+            learned = self.learned_demos().get(primitive, [])
+            others = [d for d in learned if d.name != demo.name]
             return typicality(demo, others, self.layout, self.resolved_settings())
 
     # ------------------------------------------------------------------ mutations
@@ -280,7 +281,7 @@ class Session:
                 color = PALETTE[len(self.primitives) % len(PALETTE)]
             entry = PrimitiveEntry(name, check_color(color))
             self.workspace.demo_dir(name).mkdir(parents=True, exist_ok=True)
-            self.workspace.save_index([*self.primitives, entry], self.settings, self.layout)
+            self._save_index(primitives=[*self.primitives, entry])
             self.primitives.append(entry)
             self.demos[name] = []
             self._changed(refit=False)
@@ -295,8 +296,9 @@ class Session:
                 raise ValueError(f"a primitive named {new!r} already exists")
             self.workspace.rename_primitive(old, new)
             primitives = [replace(p, name=new) if p.name == old else p for p in self.primitives]
-            self.workspace.save_index(primitives, self.settings, self.layout)
-            self.primitives = primitives
+            checks = self.checks.renamed(old, new)
+            self._save_index(primitives=primitives, checks=checks)
+            self.primitives, self.checks = primitives, checks
             self.demos[new] = self.demos.pop(old)
             self.hidden = {(new if p == old else p, d) for p, d in self.hidden}
             self.typicality = {
@@ -309,7 +311,7 @@ class Session:
             self.entry(name)
             rgb = check_color(color)
             primitives = [replace(p, color=rgb) if p.name == name else p for p in self.primitives]
-            self.workspace.save_index(primitives, self.settings, self.layout)
+            self._save_index(primitives=primitives)
             self.primitives = primitives
             self._changed(refit=False)
 
@@ -319,7 +321,7 @@ class Session:
             entry = self.entry(name)
             position = self.primitives.index(entry)
             primitives = [p for p in self.primitives if p.name != name]
-            self.workspace.save_index(primitives, self.settings, self.layout)
+            self._save_index(primitives=primitives)
             trashed = self.workspace.trash_primitive(entry, position)
             self.primitives = primitives
             self.demos.pop(name, None)
@@ -440,7 +442,7 @@ class Session:
             if shrinkage is not KEEP:
                 settings["shrinkage"] = None if shrinkage is None else float(shrinkage)
             Settings(**settings)  # validates
-            self.workspace.save_index(self.primitives, settings, self.layout)
+            self._save_index(settings=settings)
             self.settings = settings
             self._changed()
 

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
 
+from app.demo_checks import DemoChecks
 from app.trash import Trash, TrashEntry
 from app.workspace_index import (
     INDEX_NAME,
@@ -64,6 +65,7 @@ class WorkspaceData:
     settings: dict = field(default_factory=dict)
     problems: list[str] = field(default_factory=list)  # files that could not be read
     layout: Layout = LAYOUT
+    checks: DemoChecks = DemoChecks()  # what the user kept despite findings (app.demo_checks)
 
     @property
     def n_demos(self) -> int:
@@ -185,6 +187,7 @@ class Workspace:
             return data
         index = self.read_index()
         data.primitives, data.settings, data.layout = index.primitives, index.settings, index.layout
+        data.checks = index.checks
         data.demos = {entry.name: [] for entry in data.primitives}
         for entry in data.primitives:
             folder = self.demo_dir(entry.name)
@@ -203,9 +206,13 @@ class Workspace:
     # ------------------------------------------------------------------ writing
 
     def save_index(
-        self, primitives: Sequence[PrimitiveEntry], settings: Mapping, layout: Layout
+        self,
+        primitives: Sequence[PrimitiveEntry],
+        settings: Mapping,
+        layout: Layout,
+        checks: DemoChecks,
     ) -> None:
-        atomic_write_text(self.index_path, index_json(primitives, settings, layout))
+        atomic_write_text(self.index_path, index_json(primitives, settings, layout, checks))
 
     def write_demo(self, primitive: str, demo: Demonstration, layout: Layout) -> Path:
         """Write one demonstration (its ``name`` is the file stem), atomically."""
@@ -319,7 +326,7 @@ class Workspace:
             primitives.append(PrimitiveEntry(check_name(name_), check_color(color)))
         self.trash.take_back(entry)
         if [p.name for p in primitives] != [p.name for p in index.primitives]:
-            self.save_index(primitives, index.settings, index.layout)
+            self.save_index(primitives, index.settings, index.layout, index.checks)
         return entry
 
 
@@ -349,4 +356,7 @@ def _write_all(root: Path, data: WorkspaceData) -> None:
         for demo in data.demos.get(entry.name, []):
             _write_demo(folder / f"{demo.name}.csv", demo, data.layout)
     (root / DEMOS_DIR).mkdir(parents=True, exist_ok=True)
-    atomic_write_text(root / INDEX_NAME, index_json(data.primitives, data.settings, data.layout))
+    atomic_write_text(
+        root / INDEX_NAME,
+        index_json(data.primitives, data.settings, data.layout, data.checks),
+    )

@@ -21,6 +21,7 @@ import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 
+from app.demo_checks import DemoChecks
 from promp.data import Layout, Modality
 from promp.datasets import MODALITY_NAME
 from promp.model import Settings
@@ -138,9 +139,13 @@ class PrimitiveEntry:
 
 
 def index_json(
-    primitives: Sequence[PrimitiveEntry], settings: Mapping, layout: Layout = LAYOUT
+    primitives: Sequence[PrimitiveEntry],
+    settings: Mapping,
+    layout: Layout = LAYOUT,
+    checks: DemoChecks | None = None,
 ) -> str:
-    """The text of ``studio.json``."""
+    """The text of ``studio.json`` (``checks``: :mod:`app.demo_checks`, written when it holds
+    something)."""
     index = {
         "format": FORMAT,
         "version": VERSION,
@@ -148,6 +153,8 @@ def index_json(
         "primitives": [{"name": p.name, "color": list(p.color)} for p in primitives],
         "settings": dict(settings),
     }
+    if checks:
+        index["checks"] = checks.to_json()
     return json.dumps(index, indent=1)
 
 
@@ -161,6 +168,7 @@ class Index:
     primitives: list[PrimitiveEntry]
     settings: dict
     layout: Layout
+    checks: DemoChecks = DemoChecks()
 
 
 def check_index(index: object, label: str) -> Index:
@@ -213,4 +221,5 @@ def check_index(index: object, label: str) -> Index:
         Settings(**settings)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{label}: invalid learning settings ({exc})") from None
-    return Index(primitives, dict(settings), layout)
+    checks = DemoChecks.from_json(index["checks"], label) if "checks" in index else DemoChecks()
+    return Index(primitives, dict(settings), layout, checks)

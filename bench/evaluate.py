@@ -82,7 +82,8 @@ def main() -> None:
     cores = os.cpu_count() or 1
     out: dict = {"cores": cores}
     if not args.refit_only:
-        dataset, layout = read_dataset(args.data, "records")
+        read = read_dataset(args.data, "records")
+        dataset, layout = read.dataset, read.layout
         one, rows_one = sweep_seconds(dataset, layout, 1)
         print(f"heights sweep, 1 process: {one:6.1f} s", flush=True)
         every, rows_all = sweep_seconds(dataset, layout, -1)

@@ -29,11 +29,13 @@ import re
 import tempfile
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from promp.data import Demonstration, Kind, Layout, Modality
+from promp.data import Demonstration, Kind, Layout, Modality, check_values
+from promp.quality import Finding, dataset_findings, increasing_samples, timestamp_finding
 
 Dataset = dict[str, list[Demonstration]]
 
@@ -98,16 +100,8 @@ def read_csv_demo(path: Path, name: str = "") -> Demonstration:
     return demo_from_csv(text, name=name or path.stem, label=str(path))
 
 
-def demo_from_csv(text: str, name: str = "", label: str = "CSV") -> Demonstration:
-    """Parse the CSV text of one demonstration (the inverse of :func:`demo_to_csv`).
-
-    ``label`` names the source in error messages (a path, an archive member).
-
-    Raises
-    ------
-    ValueError
-        As :func:`read_csv_demo`.
-    """
+def _csv_table(text: str, label: str) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """The times, values and column names of one CSV demonstration's text (unchecked times)."""
     rows = [row for row in csv.reader(io.StringIO(text)) if any(cell.strip() for cell in row)]
     if not rows:
         raise ValueError(f"{label}: empty file, expected a header row 't,<columns>' and samples")
@@ -123,12 +117,50 @@ def demo_from_csv(text: str, name: str = "", label: str = "CSV") -> Demonstratio
     except ValueError as exc:
         raise ValueError(f"{label}: non-numeric value ({exc})") from exc
     t_index = header.index("t")
-    columns = [column for i, column in enumerate(header) if i != t_index]
-    values = np.delete(table, t_index, axis=1)
+    columns = tuple(column for i, column in enumerate(header) if i != t_index)
+    return table[:, t_index], np.delete(table, t_index, axis=1), columns
+
+
+def demo_from_csv(text: str, name: str = "", label: str = "CSV") -> Demonstration:
+    """Parse the CSV text of one demonstration (the inverse of :func:`demo_to_csv`).
+
+    ``label`` names the source in error messages (a path, an archive member).
+
+    Raises
+    ------
+    ValueError
+        As :func:`read_csv_demo`.
+    """
+    times, values, columns = _csv_table(text, label)
     try:
-        return Demonstration(table[:, t_index], values, tuple(columns), name=name)
+        return Demonstration(times, values, columns, name=name)
     except ValueError as exc:
         raise ValueError(f"{label}: {exc}") from exc
+
+
+def _placed_in_time(
+    times: np.ndarray,
+    values: np.ndarray,
+    columns: Sequence[str],
+    name: str,
+    label: str,
+    primitive: str,
+    findings: list[Finding],
+) -> Demonstration:
+    """The demonstration of the samples that can be placed in time
+    (:func:`promp.quality.increasing_samples`), with a ``timestamps`` finding appended to
+    ``findings`` when some could not; ValueError (naming ``label``) when it is not a
+    demonstration (values not finite, fewer than two samples left...)."""
+    check_values(times, values, label)  # NaN times cannot be ordered: say so, as for values
+    keep = increasing_samples(times)
+    finding = timestamp_finding(times, keep, primitive, name, label)
+    try:
+        demo = Demonstration(times[keep], values[keep], tuple(columns), name=name)
+    except ValueError as exc:
+        raise ValueError(f"{label}: {exc}" + (f" ({finding.message})" if finding else "")) from exc
+    if finding is not None:
+        findings.append(finding)
+    return demo
 
 
 def _sorted_files(folder: Path, pattern: str) -> list[Path]:
@@ -147,14 +179,33 @@ def _demo_name(path: Path, class_folder: Path) -> str:
     return path.relative_to(class_folder).with_suffix("").as_posix()
 
 
-def load_csv_dataset(root: Path, layout: Layout | None = None) -> Dataset:
+def load_csv_dataset(
+    root: Path, layout: Layout | None = None, findings: list[Finding] | None = None
+) -> Dataset:
     """Read ``root/<primitive>/<demo>.csv`` into {primitive: [demonstrations]}.
 
-    When ``layout`` is given, every demonstration must have its columns.
+    When ``layout`` is given, every demonstration must have its columns. With a ``findings``
+    list, samples whose timestamps do not increase are set aside and reported there
+    (:func:`promp.quality.timestamp_finding`) instead of refusing the file.
     """
     dataset: Dataset = {}
+    root = Path(root)
     for folder in _class_folders(root):
-        demos = [read_csv_demo(p, _demo_name(p, folder)) for p in _sorted_files(folder, "*.csv")]
+        demos = []
+        for path in _sorted_files(folder, "*.csv"):
+            name = _demo_name(path, folder)
+            if findings is None:
+                demos.append(read_csv_demo(path, name))
+                continue
+            try:
+                text = path.read_text(encoding="utf-8")
+            except (OSError, UnicodeDecodeError) as exc:
+                raise ValueError(f"{path}: cannot read as text ({exc})") from exc
+            times, values, columns = _csv_table(text, str(path))
+            label = path.relative_to(root).as_posix()
+            demos.append(
+                _placed_in_time(times, values, columns, name, label, folder.name, findings)
+            )
         if demos:
             dataset[folder.name] = demos
     if not dataset:
@@ -171,9 +222,8 @@ def write_csv_dataset(root: Path, dataset: Dataset) -> None:
             write_csv_demo(Path(root) / primitive / f"{demo.name or f'demo{i:03d}'}.csv", demo)
 
 
-def read_record(path: Path, drop_missing_wrench: bool = False, name: str = "") -> Demonstration:
-    """Read one lab record (13 whitespace-separated columns, see the module docstring)."""
-    path = Path(path)
+def _record_table(path: Path, drop_missing_wrench: bool) -> np.ndarray:
+    """The rows of one lab record (13 columns; unchecked times)."""
     try:
         if not path.read_bytes().strip():
             raise ValueError(f"{path}: empty file: a lab record needs at least 2 samples")
@@ -194,6 +244,13 @@ def read_record(path: Path, drop_missing_wrench: bool = False, name: str = "") -
     if drop_missing_wrench:
         wrench = table[:, 4:10]
         table = table[~np.all(wrench == -1.0, axis=1)]
+    return table
+
+
+def read_record(path: Path, drop_missing_wrench: bool = False, name: str = "") -> Demonstration:
+    """Read one lab record (13 whitespace-separated columns, see the module docstring)."""
+    path = Path(path)
+    table = _record_table(path, drop_missing_wrench)
     name = name or path.with_suffix("").name
     try:
         return Demonstration(table[:, 0], table[:, 1:], RECORD_COLUMNS[1:], name=name)
@@ -201,17 +258,31 @@ def read_record(path: Path, drop_missing_wrench: bool = False, name: str = "") -
         raise ValueError(f"{path}: {exc}") from exc
 
 
-def load_records_dataset(root: Path, drop_missing_wrench: bool = False) -> Dataset:
+def load_records_dataset(
+    root: Path, drop_missing_wrench: bool = False, findings: list[Finding] | None = None
+) -> Dataset:
     """Read the lab-record format into {class: [demonstrations]} (see the module docstring).
 
     A demonstration is named by its path below the class folder (``person1/record0``).
+    ``findings``: as :func:`load_csv_dataset`.
     """
     dataset: Dataset = {}
+    root = Path(root)
     for folder in _class_folders(root):
-        demos = [
-            read_record(p, drop_missing_wrench, name=_demo_name(p, folder))
-            for p in _sorted_files(folder, "*.txt")
-        ]
+        demos = []
+        for path in _sorted_files(folder, "*.txt"):
+            name = _demo_name(path, folder)
+            if findings is None:
+                demos.append(read_record(path, drop_missing_wrench, name=name))
+                continue
+            table = _record_table(path, drop_missing_wrench)
+            label = path.relative_to(root).as_posix()
+            demos.append(
+                _placed_in_time(
+                    table[:, 0], table[:, 1:], RECORD_COLUMNS[1:], name, label, folder.name,
+                    findings,
+                )
+            )  # fmt: skip
         if demos:
             dataset[folder.name] = demos
     if not dataset:
@@ -322,12 +393,27 @@ def dataset_columns(dataset: Dataset) -> tuple[str, ...]:
     return tuple(c for c in demos[0].columns if c in common)
 
 
+@dataclass(frozen=True, eq=False)
+class DatasetRead:
+    """A dataset folder as read: the demonstrations, the layout they are used with, and every
+    finding of the checks (:mod:`promp.quality`: the readers' and the comparisons'), with the
+    file of every demonstration (relative to the folder)."""
+
+    dataset: Dataset
+    layout: Layout
+    findings: tuple[Finding, ...]
+    files: dict[tuple[str, str], str]
+
+
 def read_dataset(
     root: Path, format: str, modalities: Sequence[Modality] | None = None
-) -> tuple[Dataset, Layout]:
-    """Read a dataset folder and the layout of modalities it is used with.
+) -> DatasetRead:
+    """Read a dataset folder, the layout of modalities it is used with, and its findings.
 
-    The one reader behind ``python -m promp.evaluate`` and the studio's dataset import.
+    The one reader behind ``python -m promp.evaluate`` and the studio's dataset import. A
+    file whose timestamps do not always increase is read without the samples that cannot be
+    placed in time, and says so in a finding; nothing is left out of the dataset here
+    (:func:`promp.quality.split_flagged` decides what is learned from).
 
     Parameters
     ----------
@@ -348,6 +434,8 @@ def read_dataset(
     """
     if format not in FORMATS:
         raise ValueError(f"unknown dataset format {format!r}; expected one of {FORMATS}")
+    root = Path(root)
+    read_findings: list[Finding] = []
     if format == "records":
         names = RECORD_COLUMNS[1:]
         layout = Layout(tuple(modalities)) if modalities else guess_layout(names)
@@ -357,12 +445,22 @@ def read_dataset(
                 f"lab records have no column(s) {unknown}; their columns are {list(names)}"
             )
         uses_wrench = bool(set(layout.columns) & set(WRENCH_COLUMNS))
-        dataset = load_records_dataset(root, drop_missing_wrench=uses_wrench)
+        dataset = load_records_dataset(root, uses_wrench, read_findings)
+        suffix = ".txt"
     else:
-        dataset = load_csv_dataset(root)
+        dataset = load_csv_dataset(root, findings=read_findings)
         if modalities:
             layout = Layout(tuple(modalities))
         else:
             layout = guess_layout(dataset_columns(dataset))
         check_columns(dataset, layout.columns)
-    return dataset, layout
+        suffix = ".csv"
+    files = {
+        (primitive, demo.name): f"{primitive}/{demo.name}{suffix}"
+        for primitive, demos in dataset.items()
+        for demo in demos
+    }
+    findings = read_findings + dataset_findings(dataset, layout, files)
+    order = {key: i for i, key in enumerate(files)}
+    findings.sort(key=lambda f: order[f.key])  # stable: by demonstration, in reading order
+    return DatasetRead(dataset, layout, tuple(findings), files)

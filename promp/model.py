@@ -314,7 +314,10 @@ def estimate_noise(
     sse = sum((r**2).sum(axis=0) for r in residuals)
     lagged = sum((r[1:] * r[:-1]).sum(axis=0) for r in residuals)  # sum of r_i r_(i-1)
     dof = np.maximum(sum(fits.dof), 1.0)
-    dt = float(np.concatenate([np.diff(t) for t in times]).mean())
+    # the residuals' step: a demonstration's duration over its steps (they are evenly spaced
+    # in phase, :mod:`promp.weights`); the median over demonstrations, so one with a long
+    # logging pause does not stretch the correlation time of them all
+    dt = float(np.median([(t[-1] - t[0]) / (t.shape[0] - 1) for t in times]))
     noise_var = sse / dof
     noise_tau = np.zeros(layout.n_dims)
     for modality in layout.modalities:

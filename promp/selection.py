@@ -12,7 +12,9 @@ demonstrations from their first 10, 30, 50, 70 and 90 % (:data:`PERCENTS`), ever
 alone and all of them together; the loss is ``-ln p(true primitive)`` with the speed
 integrated over its prior (:func:`promp.recognition.recognise`'s quadrature, without the
 refinement of the mode). The lowest mean loss wins (a tie goes to the candidate closest to the
-reference settings :data:`promp.model.FALLBACK`).
+reference settings :data:`promp.model.FALLBACK`). A candidate whose inner models' mean
+trajectories leave the box the demonstrations span, widened on every side by its extent
+(:func:`within_region`), is never chosen: its predictions would be metres off.
 
 The cost is bounded: at most :data:`MAX_TRIALS` (demonstration, percentage, modalities)
 trials per candidate, spread evenly over the primitives, the folds, the percentages and the
@@ -43,7 +45,13 @@ from promp._likelihood import log_likelihoods_scaled
 from promp.data import Demonstration, Layout
 from promp.model import FALLBACK, ProMPModel, Settings, fit_with
 from promp.observation import Observation
-from promp.recognition import AlphaPrior, quadrature, quadrature_weights
+from promp.recognition import (
+    AlphaPrior,
+    label_noise,
+    quadrature,
+    quadrature_weights,
+    with_label_noise,
+)
 from promp.timing import n_observed_for
 
 BASIS_GRID = (5, 7, 10, 14)
@@ -57,7 +65,8 @@ RULE = (
     f"demonstrations ({', '.join(map(str, PERCENTS))} % observed, every modality alone and all "
     f"together, at most {MAX_TRIALS} trials per candidate); M over {list(BASIS_GRID)} at width "
     f"1, then the width over {list(WIDTH_GRID)}, each with every noise scale of "
-    f"{list(NOISE_GRID)}; the lowest mean loss"
+    f"{list(NOISE_GRID)}; the lowest mean loss among the candidates whose mean trajectories "
+    "stay within the box the demonstrations span, widened by its extent"
 )
 
 
@@ -159,9 +168,12 @@ def _losses(
         table = log_likelihoods_scaled(model, primitive, obs, alphas, factors)
         evidence[:, k] = _rows_logsumexp(table + log_w)
     total = _rows_logsumexp(evidence)
+    # what recognise reports: the model's probability with the "none of these" hypothesis;
     # nothing explains the observation: a uniform guess, as in the evaluation
+    with np.errstate(invalid="ignore"):
+        p_true = with_label_noise(np.exp(evidence - total[:, None]), label_noise(model))
     return np.where(
-        np.isfinite(total), total - evidence[:, trial.primitive], math.log(evidence.shape[1])
+        np.isfinite(total), -np.log(p_true[:, trial.primitive]), math.log(evidence.shape[1])
     )
 
 
@@ -173,9 +185,11 @@ def score(
     trials: Sequence[Trial],
     noise_scales: Sequence[float],
     cache: dict | None = None,
+    region: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Inner log-loss of ``settings`` (n_basis and width given) at every noise scale, per
-    trial: shape (n_scales, n_trials), in the order of ``trials``.
+    trial: shape (n_scales, n_trials), in the order of ``trials``; infinite everywhere when
+    an inner model's mean trajectory leaves ``region`` (:func:`within_region`).
 
     ``settings.noise_scale`` (1 when it is chosen here) is the scale the inner models are
     fitted with; ``noise_scales`` multiply it (modalities of ``settings.noise_std`` keep
@@ -196,12 +210,46 @@ def score(
             for k, (name, demos) in enumerate(dataset.items())
         }
         model = fit_with(train, layout, settings, dt, alpha_models=False)
+        if region is not None and not within_region(model, *region):
+            return np.full((len(noise_scales), len(trials)), np.inf)
         priors = [AlphaPrior.from_alphas(p.alphas, settings.s_bar) for p in model.primitives]
         for i, trial in enumerate(trials):
             if trial.fold == fold:
                 demo = dataset[names[trial.primitive]][trial.demo]
                 out[:, i] = _losses(model, demo, trial, priors, factors, cache)
     return out
+
+
+def data_region(
+    dataset: Mapping[str, Sequence[Demonstration]], layout: Layout
+) -> tuple[np.ndarray, np.ndarray]:
+    """The box the demonstrations span, widened on every side by its own extent: (low, high),
+    shape (n_dims,) each. A modality's extent is its largest range over its dimensions (a
+    dimension that hardly moves is not held to its own few millimetres)."""
+    values = np.concatenate([layout.extract(d) for demos in dataset.values() for d in demos])
+    low, high = values.min(axis=0), values.max(axis=0)
+    extent = np.empty(layout.n_dims)
+    for modality in layout.modalities:
+        dims = layout.dims([modality.name])
+        extent[dims] = float((high - low)[dims].max())
+    return low - extent, high + extent
+
+
+REGION_PHASES = np.linspace(0.0, 1.0, 51)
+
+
+def within_region(model: ProMPModel, low: np.ndarray, high: np.ndarray) -> bool:
+    """Whether every primitive's mean trajectory, at the slowest and the fastest of its
+    training speeds, stays inside [``low``, ``high``] (:func:`data_region`): a candidate whose
+    predictions leave the region the demonstrations span is never chosen."""
+    phi = model.basis(REGION_PHASES)
+    for primitive in model.primitives:
+        alphas = np.array([primitive.alphas.min(), primitive.alphas.max()])
+        means = primitive.mean_at(alphas).reshape(2, model.n_dims, -1)
+        paths = means @ phi.T  # (2, n_dims, n_phases)
+        if np.any(paths < low[None, :, None]) or np.any(paths > high[None, :, None]):
+            return False
+    return True
 
 
 def _preference(n_basis: int, width: float, noise_scale: float) -> float:
@@ -252,11 +300,14 @@ def choose_settings(
     start_width = 1.0 if settings.width is None else settings.width
     scores: dict[tuple[int, float], np.ndarray] = {}
     cache: dict = {}  # every candidate's observations and quadratures (see _losses)
+    region = data_region(dataset, layout)
 
     def evaluate(n_basis: int, width: float) -> float:
         if (n_basis, width) not in scores:
             candidate = dataclasses.replace(inner, n_basis=n_basis, width=width)
-            scores[(n_basis, width)] = score(dataset, layout, candidate, dt, trials, scales, cache)
+            scores[(n_basis, width)] = score(
+                dataset, layout, candidate, dt, trials, scales, cache, region
+            )
         return float(scores[(n_basis, width)].mean(axis=1).min())
 
     best_basis = min(basis_grid, key=lambda m: (evaluate(m, start_width), abs(m - 7)))
@@ -267,6 +318,14 @@ def choose_settings(
         for (m, w), rows in scores.items()
         for s, losses in zip(scales, rows, strict=True)
     ]
+    if not any(np.isfinite(c[3]).all() for c in table):
+        chosen = settings.with_fallback()
+        return chosen, {
+            "rule": "fallback values (every candidate's mean trajectory left the region the "
+            "demonstrations span)",
+            "chosen": {name: getattr(chosen, name) for name in automatic},
+            "given": given,
+        }
     # the lowest mean loss; a tie (e.g. every candidate perfect) goes to the reference
     n_basis, width, noise_scale, losses = min(
         table, key=lambda c: (round(float(c[3].mean()), 9), _preference(*c[:3]))
@@ -280,7 +339,8 @@ def choose_settings(
         "trials": len(trials),
         "candidates": [
             {"n_basis": m, "width": w, "noise_scale": [s * inner.noise_scale for s in scales],
-             "log_loss": [round(float(x), 6) for x in rows.mean(axis=1)]}
+             "log_loss": [round(float(x), 6) if np.isfinite(x) else None
+                          for x in rows.mean(axis=1)]}
             for (m, w), rows in scores.items()
         ],
     }  # fmt: skip

@@ -1,7 +1,18 @@
-"""Per-demonstration weights by ridge regression on the phase basis (paper Eq. 2)."""
+"""Per-demonstration weights by ridge regression on the phase basis (paper Eq. 2).
+
+A demonstration is a continuous movement known at its samples; between two samples it is taken
+to move in a straight line. Its weights minimise the squared error **integrated over the phase**
+(plus the ridge), computed on ``n`` evenly spaced phases (``n`` its number of samples) where the
+straight lines are read: for an evenly sampled demonstration those are its own samples, so
+nothing changes; for one whose logger paused (a gap) or skipped samples, every part of the
+phase is weighted by how long it lasts, not by how many samples it happened to get. Fitted at the
+samples themselves, a 20 s logging pause leaves the basis functions of the gap unconstrained and
+their weights reach metres for a hand that spans 20 cm (``tests/test_promp_quality.py``).
+"""
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -64,13 +75,34 @@ class WeightFits:
     scale: np.ndarray
 
 
+def uniform_phase_values(demo: Demonstration, layout: Layout) -> tuple[np.ndarray, np.ndarray]:
+    """The layout's values of ``demo`` read on ``n`` evenly spaced phases, straight lines
+    between samples: (phases (n,), values (n, n_dims)); its own samples when they are evenly
+    spaced. Kept per demonstration and layout (both immutable): every fit of the automatic
+    settings' search reads the same demonstrations."""
+    cache = _UNIFORM.setdefault(demo, {})
+    if layout not in cache:
+        values = layout.extract(demo)
+        phases = np.linspace(0.0, 1.0, demo.n_samples)
+        own = demo_phases(demo.times)
+        if float(np.abs(own - phases).max()) > 1e-9:
+            values = np.column_stack([np.interp(phases, own, v) for v in values.T])
+        values.setflags(write=False)
+        cache[layout] = (phases, values)
+    return cache[layout]
+
+
+_UNIFORM: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def fit_all_weights(
     basis: RBFBasis,
     demos: Sequence[Demonstration],
     layout: Layout,
     ridge: float | None,
 ) -> WeightFits:
-    """Ridge weights of every demonstration; the ridge per modality by pooled GCV if None.
+    """Ridge weights of every demonstration (on evenly spaced phases, see the module docstring;
+    the residuals are there too); the ridge per modality by pooled GCV if None.
 
     Generalised cross-validation (Golub, Heath & Wahba 1979), pooled over demonstrations:
     ``sum_j n_j RSS_j(lambda) / (n_j - df_j(lambda))^2`` summed over a modality's dimensions,
@@ -78,8 +110,9 @@ def fit_all_weights(
     each ``Phi_j^T Phi_j``, so every candidate costs O(M D) per demonstration.
     """
     n_dims = layout.n_dims
-    values = [layout.extract(demo) for demo in demos]
-    phis = [basis(demo_phases(demo.times)) for demo in demos]
+    uniform = [uniform_phase_values(demo, layout) for demo in demos]
+    values = [v for _, v in uniform]
+    phis = [basis(z) for z, _ in uniform]
     eig, vec = np.linalg.eigh(np.stack([phi.T @ phi for phi in phis]))  # (N, M), (N, M, M)
     eig = np.maximum(eig, 0.0)
     scale = eig.sum(axis=1) / eig.shape[1]  # mean diagonal of Phi^T Phi, (N,)

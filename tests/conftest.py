@@ -110,6 +110,23 @@ def wait_until(predicate, timeout: float = 30.0, interval: float = 0.05, what="c
     pytest.fail(f"timed out after {timeout:.0f} s waiting for {what() if callable(what) else what}")
 
 
+def scenario_workspace(root: Path, seed: int, n_demos: int) -> Path:
+    """A workspace at ``root`` holding the simulated scenario (``n_demos`` per primitive)."""
+    from app.workspace import Workspace, WorkspaceData
+    from app.workspace_index import PALETTE, PrimitiveEntry
+    from robots.icub.scenario import generate_scenario
+
+    dataset = generate_scenario(seed=seed, n_demos=n_demos)
+    Workspace.create(
+        root,
+        WorkspaceData(
+            primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
+            demos=dataset,
+        ),
+    )
+    return root
+
+
 def start_studio(workspace: Path, **kwargs):
     """A studio on a free loopback port, in this process (stop it with ``studio.stop()``)."""
     from app.net import free_port

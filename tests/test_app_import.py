@@ -14,8 +14,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from app.workspace import Workspace, WorkspaceData
-from app.workspace_index import PALETTE, PrimitiveEntry
+from app.workspace import Workspace
 from tests.browser import (
     choose,
     click,
@@ -25,7 +24,7 @@ from tests.browser import (
     settled_screenshot,
     upload_file,
 )
-from tests.conftest import open_page, start_studio, wait_until
+from tests.conftest import open_page, scenario_workspace, start_studio, wait_until
 from tests.test_dataset_import import BAD_ZIPS, csv_demo, zip_folder, zip_of
 
 
@@ -41,17 +40,7 @@ def tree_hash(root: Path, trash: bool = True) -> str:
 @pytest.fixture(scope="module")
 def studio(tmp_path_factory):
     """A studio on 2 primitives x 4 demonstrations of the simulated scenario."""
-    from robots.icub.scenario import generate_scenario
-
-    root = tmp_path_factory.mktemp("import") / "ws"
-    dataset = generate_scenario(seed=2, n_demos=4)
-    Workspace.create(
-        root,
-        WorkspaceData(
-            primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
-            demos=dataset,
-        ),
-    )
+    root = scenario_workspace(tmp_path_factory.mktemp("import") / "ws", seed=2, n_demos=4)
     studio = start_studio(root)
     yield studio
     studio.stop()

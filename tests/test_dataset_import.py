@@ -93,7 +93,8 @@ def test_the_lab_recordings_are_in_the_icub_root_frame(heights_dir: Path) -> Non
 
     arm = load_arm()
     q0 = arm.from_full(natural_pose(load_urdf(load_meshes=False)))
-    dataset, layout = read_dataset(heights_dir, "records")
+    read = read_dataset(heights_dir, "records")
+    dataset, layout = read.dataset, read.layout
     points = np.concatenate(
         [layout.extract(d)[::25] for demos in dataset.values() for d in demos[::8]]
     )

@@ -434,3 +434,50 @@ def test_log_loss_of_known_probabilities() -> None:
     result = run_sweep(lambda: Fixed(dataset), dataset, LAYOUT, [50], ["ml"], [["hand"]], "x")
     expected = np.mean([-np.log(0.8), -np.log(0.5), -np.log(0.5)] * 2)
     assert result.rows[0]["log_loss"] == pytest.approx(expected)
+
+
+def test_the_command_line_leaves_flagged_demonstrations_out_and_says_so(
+    tmp_path: Path, capsys
+) -> None:
+    """Faulty demonstrations (still, gap + jump, 3x slow) are found, left out of the sweep and
+    listed with the reason; --include-flagged keeps them; --repair-gaps splits the gap; every
+    trial is in the JSON and --trials-csv."""
+    from tests.faults import inject
+
+    hand = Layout((FULL.modality("hand"),))
+    faulty, injected = inject(make_dataset(seed=8, n_demos=4), hand)
+    write_csv_dataset(tmp_path / "data", faulty)
+    common = [str(tmp_path / "data"), "--format", "csv", "--modality", "hand=x,y,z",
+              "--basis", "7", "--width", "1", "--noise-scale", "1.5", "--alpha", "ml",
+              "--percent", "50", "--jobs", "1"]  # fmt: skip
+    out, trials = tmp_path / "r.json", tmp_path / "trials.csv"
+    assert main([*common, "--json", str(out), "--trials-csv", str(trials)]) == 0
+    err = capsys.readouterr().err
+    assert "left out of the sweep: 6 demonstration(s)" in err
+    assert "left/faulty/gap.csv: a 20 s gap in the timestamps" in err
+    report = json.loads(out.read_text())
+    excluded = {(e["primitive"], e["demo"]): e for e in report["excluded"]}
+    assert set(excluded) == {(i.primitive, i.demo) for i in injected}
+    assert excluded[("right", "faulty/still")]["file"] == "right/faulty/still.csv"
+    assert any("does not move" in r for r in excluded[("right", "faulty/still")]["reasons"])
+    assert {f["kind"] for f in report["findings"]} >= {"still", "gap", "duration"}
+    # Every trial: the 8 clean demonstrations at 50 %, one line each.
+    assert len(report["trials"]) == 8 and report["results"][0]["trials"] == 8
+    rows = list(csv.DictReader(trials.open()))
+    assert len(rows) == 8 and {r["demo"] for r in rows} == {f"left{i}" for i in range(4)} | {
+        f"right{i}" for i in range(4)
+    }
+    first = rows[0]
+    assert first["recognised"] in ("left", "right") and 0 <= float(first["p_true"]) <= 1
+    assert float(first["position_error_m"]) >= 0 and float(first["alpha"]) > 0
+
+    assert main([*common, "--include-flagged", "--json", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert report["excluded"] == [] and len(report["trials"]) == 14
+    assert "kept anyway (--include-flagged)" in capsys.readouterr().err
+
+    assert main([*common, "--repair-gaps", "split", "--json", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert not any(f["kind"] == "gap" for f in report["findings"])
+    assert not any(e["demo"].startswith("faulty/gap") and
+                   any("gap" in r for r in e["reasons"]) for e in report["excluded"])  # fmt: skip

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-import app.session
+import app.learning
 from app.fit_cache import training_key
+from app.learning import RECENT_FITS, Training, learn
 from app.lru import LruCache
-from app.session import RECENT_FITS, Session, Training, learn
+from app.session import Session
 from app.studio import default_workspace
 from app.workspace import Workspace
 from promp.data import Demonstration, Layout
@@ -94,7 +95,7 @@ def test_a_refit_of_the_same_training_reuses_its_outcome_and_a_crash_is_not_kept
     def crash(*args, **kwargs):
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(app.session, "fit", crash)
+    monkeypatch.setattr(app.learning, "fit", crash)
     crashed = learn(other)
     assert crashed.model is None and crashed.error == "RuntimeError: a bug"
     monkeypatch.undo()

@@ -86,15 +86,17 @@ def test_records_group_sub_folders_by_class_and_drop_missing_wrench(tmp_path: Pa
     _write_record(tmp_path / "up" / "person1" / "record0.txt", rows)
     _write_record(tmp_path / "up" / "person2" / "record0.txt", rows)
     _write_record(tmp_path / "down" / "person1" / "record0.txt", rows)
-    position, layout = read_dataset(tmp_path, "records")
+    read = read_dataset(tmp_path, "records")
+    position, layout = read.dataset, read.layout
     assert layout.names == ("hand",) and layout.modality("hand").unit == "m"
     assert {k: len(v) for k, v in position.items()} == {"down": 1, "up": 2}
     assert [d.name for d in position["up"]] == ["person1/record0", "person2/record0"]
     assert position["up"][0].n_samples == 5  # positions are valid in that row: kept
     assert_array_equal(layout.extract(position["up"][0]), rows[:, 10:13])
-    wrench, layout = read_dataset(
+    read = read_dataset(
         tmp_path, "records", parse_modalities("hand=x,y,z; wrench=fx,fy,fz,mx,my,mz")
     )
+    wrench, layout = read.dataset, read.layout
     assert layout.modality("wrench").unit == "N|N m"
     assert wrench["up"][0].n_samples == 4  # dropped when the wrench is used
     assert 0.02 not in wrench["up"][0].times
@@ -145,7 +147,8 @@ def test_csv_demonstrations_in_sub_folders_are_named_by_their_path(tmp_path: Pat
         folder = tmp_path / "reach" / person
         folder.mkdir(parents=True)
         (folder / "take1.csv").write_text("t,x,y,z\n0,0,0,0\n1,1,1,1\n")
-    dataset, layout = read_dataset(tmp_path, "csv")
+    read = read_dataset(tmp_path, "csv")
+    dataset, layout = read.dataset, read.layout
     assert [d.name for d in dataset["reach"]] == ["ann/take1", "bob/take1"]
     assert layout.names == ("hand",)
     with pytest.raises(ValueError, match=r"missing column\(s\) \['w'\]"):
@@ -153,7 +156,7 @@ def test_csv_demonstrations_in_sub_folders_are_named_by_their_path(tmp_path: Pat
 
 
 def test_real_heights_records(heights_dir: Path) -> None:
-    dataset, _ = read_dataset(heights_dir, "records")
+    dataset = read_dataset(heights_dir, "records").dataset
     assert {k: len(v) for k, v in dataset.items()} == {"bottom": 40, "middle": 40, "top": 42}
     lengths = [d.n_samples for demos in dataset.values() for d in demos]
     assert min(lengths) == 63 and max(lengths) == 405

@@ -120,12 +120,14 @@ def test_recognition_and_prediction_do_not_depend_on_the_units(
 
 def test_a_tiny_unit_still_recognises_the_primitive(reference_automatic) -> None:
     """The defect this guards against: at 1e-8 the held-out demonstrations were recognised
-    with p = [0.39, 0.61] (absolute floors of 1e-12 and 1e-20 on variances)."""
+    with p = [0.39, 0.61] (absolute floors of 1e-12 and 1e-20 on variances). Now as certain
+    as the model may be (the "none of these" hypothesis keeps 1 / (N + 2) aside)."""
     _, runs = _run(_factors(1e-8, 1e-8), Settings(), alpha_methods=("ml",))
     per_demo = len(runs) // len(TEST)
+    n_train = sum(len(v) for v in TRAIN.values())
     for k in range(len(TEST)):
         final = runs[(k + 1) * per_demo - 1][0]  # hand + head, the longest observation
-        assert final[k] > 0.99
+        assert final[k] > 1 - 1 / (n_train + 2) - 1e-9
 
 
 @pytest.mark.slow

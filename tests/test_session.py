@@ -136,7 +136,7 @@ def test_typicality_flags_an_outlier_and_not_a_typical_demonstration(session) ->
     )
     assert good.label == "typical" and good.percentile > 0.2
     assert bad.label == "outlier" and bad.percentile < 0.05
-    assert bad.log_likelihood < good.log_likelihood
+    assert bad.score < good.score
 
 
 def test_typicality_needs_three_other_demonstrations(session) -> None:
@@ -329,3 +329,57 @@ def test_refits_run_in_the_background_and_only_the_latest_is_adopted(session, mo
     assert learned == [8, 9]  # the first ran to its end, and was dropped
     assert session.version == version + 3  # two changes, one model adopted
     session.close()
+
+
+def _with_a_gap(demo, name: str):
+    """``demo`` with a 20 s pause of the timestamps after its middle sample."""
+    from promp.data import Demonstration
+
+    times = demo.times.copy()
+    times[demo.n_samples // 2 :] += 20.0
+    return Demonstration(times, demo.select(COLUMNS), COLUMNS, name=name)
+
+
+def test_a_flagged_demonstration_is_left_out_until_kept_and_the_choice_persists(session) -> None:
+    gap = _with_a_gap(session.demos["curved"][3], "gap")
+    added = session.add_demo("curved", gap.times, gap.select(COLUMNS))
+    key = ("curved", added.name)
+    (finding,) = session.findings_of(*key)
+    assert finding.kind == "gap" and finding.file == f"demos/curved/{added.name}.csv"
+    assert list(session.left_out()) == [key]
+    model = session.wait_for_model()
+    assert model.primitive("curved").n_demos == 20  # learned without it
+    assert key in session.typicality  # scored against the others that are learned from
+    path = session.workspace.demo_path(*key)
+    before = path.read_bytes()
+    session.set_kept(*key, True)
+    assert session.left_out() == {} and session.wait_for_model().primitive("curved").n_demos == 21
+    reopened = Session.open(session.workspace.root)
+    assert reopened.checks.kept == {key} and reopened.left_out() == {}
+    session.rename_primitive("curved", "arc")
+    assert session.checks.kept == {("arc", added.name)} and session.left_out() == {}
+    session.set_kept("arc", added.name, False)
+    assert list(session.left_out()) == [("arc", added.name)]
+    assert session.workspace.demo_path("arc", added.name).read_bytes() == before  # untouched
+    with pytest.raises(ValueError, match="has no demonstration"):
+        session.set_kept("arc", "nowhere", True)
+
+
+def test_an_imports_timestamp_findings_travel_with_the_workspace(tmp_path) -> None:
+    from app.dataset_import import read_folder
+    from promp.datasets import write_csv_dataset
+    from robots.icub.scenario import generate_scenario
+
+    dataset = generate_scenario(seed=1, n_demos=4)
+    write_csv_dataset(tmp_path / "data", dataset)
+    path = tmp_path / "data" / "direct" / f"{dataset['direct'][1].name}.csv"
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(lines[:5] + [lines[4]] + lines[5:]) + "\n")  # a repeated sample
+    data, summary = read_folder(tmp_path / "data", "csv")
+    assert "timestamps not increasing" in " ".join(summary.findings_lines())
+    Workspace.create(tmp_path / "ws", data)
+    session = Session.open(tmp_path / "ws")
+    key = ("direct", data.demos["direct"][1].name)
+    assert [f.kind for f in session.findings_of(*key)] == ["timestamps"]
+    assert list(session.left_out()) == [key]
+    assert session.wait_for_model().primitive("direct").n_demos == 3

@@ -224,12 +224,12 @@ def test_a_deleted_primitive_comes_back_in_its_place_with_its_colour(tmp_path) -
     before = snapshot(workspace.root)
     index = workspace.read_index()
     reach = index.primitives[0]
-    workspace.save_index(index.primitives[1:], index.settings, index.layout)
+    workspace.save_index(index.primitives[1:], index.settings, index.layout, index.checks)
     entry = workspace.trash_primitive(reach, 0)
     assert not workspace.demo_dir("reach").exists()
     # A demonstration of a deleted primitive brings its primitive back too.
     other = workspace.trash_demo(index.primitives[1], "to_bin-2_000")
-    workspace.save_index([], index.settings, index.layout)
+    workspace.save_index([], index.settings, index.layout, index.checks)
     workspace.trash_primitive(index.primitives[1], 0)
     workspace.restore(entry.name)
     workspace.restore(other.name)

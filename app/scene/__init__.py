@@ -94,9 +94,10 @@ class Scene:
             demos = {name: list(items) for name, items in session.demos.items()}
             colors = {p.name: p.color for p in session.primitives}
             self._hidden = set(session.hidden)
+            left_out = set(session.left_out())
             model, layout = session.model, session.layout
         self.partner.show(HEAD.name in layout.names)
-        self.workspace.draw(demos, colors, layout, model, self.look, self._hidden)
+        self.workspace.draw(demos, colors, layout, model, self.look, self._hidden, left_out)
         return True
 
     def _apply(self, force: bool = False) -> None:

@@ -58,15 +58,23 @@ class WorkspaceLayer:
         model: ProMPModel | None,
         look: Look,
         hidden: set[Key],
+        left_out: set[Key] | frozenset = frozenset(),
     ) -> None:
         """Lines for ``demos`` and tubes for the primitives both ``model`` and ``colors``
-        know; nothing of a layout without a hand."""
+        know; nothing of a layout without a hand. The lines of ``left_out`` (flagged
+        demonstrations not learned from) are grey."""
         if hand_dims(layout) is None:
             demos, model = {}, None
-        self._draw_lines(demos, colors, layout, look, hidden)
+        colors_of = {
+            (name, d.name): NO_COLOR if (name, d.name) in left_out else colors.get(name, NO_COLOR)
+            for name, items in demos.items()
+            for d in items
+        }
+        self._draw_lines(demos, colors_of, layout, look, hidden)
         self._draw_tubes(model, colors, look)
 
     def _draw_lines(self, demos, colors, layout: Layout, look: Look, hidden: set[Key]) -> None:
+        """``colors``: per (primitive, demo)."""
         wanted = set()
         cols = hand_dims(layout)
         for name, items in demos.items():
@@ -82,7 +90,7 @@ class WorkspaceLayer:
                 self.lines[key] = self.server.scene.add_spline_catmull_rom(
                     f"/demos/{name}/{demo.name}",
                     points=resample(points, min(len(points), LINE_POINTS)),
-                    color=colors[name],
+                    color=colors[key],
                     thickness=1.5,
                     thickness_units="screen",
                     visible=look.demos and key not in hidden,
@@ -91,8 +99,8 @@ class WorkspaceLayer:
             if key not in wanted:
                 self.lines.pop(key).remove()
                 self._line_demo.pop(key, None)
-            elif key[0] in colors:
-                _set(self.lines[key], "color", tuple(colors[key[0]]))
+            else:
+                _set(self.lines[key], "color", tuple(colors[key]))
 
     def prior_tube(self, model: ProMPModel, name: str) -> tuple[np.ndarray, np.ndarray]:
         """Mean and std (TUBE_POINTS, 3) of the prior hand path of primitive ``name``."""

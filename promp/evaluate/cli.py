@@ -6,7 +6,8 @@
         [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
         [--json OUT.json] [--csv OUT.csv] [--plots DIR] [--basis M] [--width W]
         [--shrinkage S|auto] [--noise-scale X] [--subset N] [--jobs N]
-        [--backend local|dask --scheduler ADDRESS]
+        [--backend local|dask --scheduler ADDRESS] [--include-flagged] [--repair-gaps cut|split]
+        [--trials-csv OUT.csv]
 
 ``--format records`` reads the lab-record format, ``--format csv`` reads ``DATASET/<primitive>/
 <demo>.csv`` (:func:`promp.datasets.read_dataset`, the reader the studio's import uses too).
@@ -18,8 +19,15 @@ modality sets in one run. The folds run on every core (``--jobs``), or on a Dask
 only N demonstrations per primitive, evenly spread (each still tested by a model fitted on
 every other demonstration): a quick run, the same for every method.
 
-``--json`` writes the report (settings, the result rows, the failed trials), ``--csv`` the
-result table (:mod:`promp.evaluate.report`, which the studio's "Export results" writes too),
+Before the sweep, every demonstration is checked (:mod:`promp.quality`: timestamps that do
+not increase, gaps, jumps, a demonstration that does not move, a rate or a duration far from the
+others'); what is found is printed with the file, the time and the size, and the flagged
+demonstrations are left out of the sweep (neither learned from nor tested) unless
+``--include-flagged``. ``--repair-gaps cut|split`` repairs the gaps first (never by default).
+
+``--json`` writes the report (settings, the result rows, the failed trials, every trial, the
+findings and what was left out), ``--csv`` the result table, ``--trials-csv`` one line per
+trial (:mod:`promp.evaluate.report`, which the studio's "Export results" writes too),
 ``--plots`` the figures (:mod:`promp.evaluate.plots`).
 """
 
@@ -28,17 +36,44 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 from promp.data import Layout
 from promp.datasets import Dataset, parse_modality, read_dataset
 from promp.evaluate.methods import ProMPEngine
-from promp.evaluate.report import basis_settings, report_json, results_csv, results_report
+from promp.evaluate.report import (
+    basis_settings,
+    report_json,
+    results_csv,
+    results_report,
+    trials_csv,
+)
 from promp.evaluate.seed import ToolboxBaseline
 from promp.evaluate.sweep import position_modality, run_sweep, spread_subset, tqdm_progress
 from promp.model import Settings
+from promp.quality import REPAIRS, Finding, dataset_findings, repair_gaps, split_flagged
 
 DEFAULT_PERCENTS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
+
+
+def add_check_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--include-flagged`` and ``--repair-gaps`` (what :func:`load` reads)."""
+    parser.add_argument(
+        "--include-flagged",
+        action="store_true",
+        help="learn from and test the demonstrations the checks flag (a gap, a jump, one that "
+        "does not move, a rate or duration far from the others'); default: they are left out "
+        "of the sweep and listed with the reason",
+    )
+    parser.add_argument(
+        "--repair-gaps",
+        choices=REPAIRS,
+        default=None,
+        help="repair the demonstrations with a gap in their timestamps before the checks: "
+        "'cut' keeps the part before the first gap, 'split' makes every part a demonstration "
+        "of its own; default: no repair (they are flagged)",
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -120,7 +155,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
     )
+    add_check_arguments(parser)
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
+    parser.add_argument(
+        "--trials-csv",
+        type=Path,
+        default=None,
+        metavar="OUT.csv",
+        help="write every trial here (demonstration, percent, recognised primitive, p(true), "
+        "alpha, position, goal and duration errors)",
+    )
     parser.add_argument(
         "--csv", type=Path, default=None, help="write the result table here (one line per row)"
     )
@@ -128,23 +172,70 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def load(args: argparse.Namespace) -> tuple[Dataset, Layout, list[list[str]]]:
-    """The dataset, its layout and the observed modality sets the arguments name."""
+@dataclass(frozen=True, eq=False)
+class Loaded:
+    """What the arguments name: the demonstrations to sweep (flagged ones left out unless
+    ``--include-flagged``), their layout, the observed modality sets, what the checks found
+    and what was left out."""
+
+    dataset: Dataset
+    layout: Layout
+    observe: list[list[str]]
+    findings: tuple[Finding, ...]
+    excluded: dict[tuple[str, str], list[Finding]]
+
+
+def load(args: argparse.Namespace) -> Loaded:
+    """The dataset, its layout, the observed modality sets and the checks' findings."""
     observe = [
         [name.strip() for name in spec.split(",") if name.strip()] for spec in (args.observe or [])
     ]
     modalities = [parse_modality(spec) for spec in args.modality]
-    dataset, layout = read_dataset(args.dataset, args.format, modalities or None)
+    read = read_dataset(args.dataset, args.format, modalities or None)
+    dataset, layout, findings = read.dataset, read.layout, read.findings
+    if args.repair_gaps is not None:
+        dataset = {
+            name: [part for d in demos for part in repair_gaps(d, args.repair_gaps)]
+            for name, demos in dataset.items()
+        }
+        kept = [f for f in findings if f.kind == "timestamps"]  # the readers' own findings
+        findings = tuple(kept + dataset_findings(dataset, layout, read.files))
     observe = observe or [[position_modality(layout)]]
     for names in observe:
         layout.dims(names)  # unknown names are an error before any work
-    return dataset, layout, observe
+    everyone = {(p, d.name) for p, demos in dataset.items() for d in demos}
+    dataset, excluded = split_flagged(dataset, findings, everyone if args.include_flagged else ())
+    return Loaded(dataset, layout, observe, tuple(findings), excluded)
+
+
+def print_findings(loaded: Loaded, include_flagged: bool) -> None:
+    """What the checks found, and what is left out (on stderr, before the sweep)."""
+    if not loaded.findings:
+        print("checks: nothing found in any demonstration", file=sys.stderr)
+        return
+    flagged = {f.key for f in loaded.findings}
+    print(
+        f"checks: {len(loaded.findings)} finding(s) in {len(flagged)} demonstration(s)",
+        file=sys.stderr,
+    )
+    for finding in loaded.findings:
+        print(f"  {finding.describe()}", file=sys.stderr)
+    if include_flagged:
+        print("kept anyway (--include-flagged)", file=sys.stderr)
+    else:
+        print(
+            f"left out of the sweep: {len(loaded.excluded)} demonstration(s) "
+            "(--include-flagged keeps them)",
+            file=sys.stderr,
+        )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        dataset, layout, observe = load(args)
+        loaded = load(args)
+        dataset, layout, observe = loaded.dataset, loaded.layout, loaded.observe
+        print_findings(loaded, args.include_flagged)
         if any(not 0 < p <= 100 for p in args.percent):
             raise ValueError("--percent values must be in (0, 100]")
         try:
@@ -184,7 +275,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             observe_sets=observe,
             method_name=args.method,
             progress=tqdm_progress(f"{args.method}: leave-one-out over {n_demos} demos"),
-            keep_trials=args.plots is not None,
+            keep_trials=True,
             jobs=args.jobs,
             scheduler=args.scheduler if args.backend == "dask" else None,
             held_out=held_out,
@@ -204,6 +295,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         alpha_methods=args.alpha,
         basis=basis_settings(settings),
         subset=args.subset,
+        findings=loaded.findings,
+        excluded=loaded.excluded,
     )
     print_table(result.rows)
     for failure in result.failures:
@@ -218,6 +311,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.csv is not None:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
         args.csv.write_text(results_csv(result.rows))
+    if args.trials_csv is not None:
+        args.trials_csv.parent.mkdir(parents=True, exist_ok=True)
+        args.trials_csv.write_text(trials_csv(report["trials"]))
     if args.plots is not None:
         from promp.evaluate.plots import write_figures
 

@@ -11,12 +11,21 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 from collections.abc import Mapping, Sequence
 
 from promp.data import Demonstration, Layout
 from promp.evaluate.sweep import SweepResult
 from promp.model import Settings
+from promp.quality import Finding
 
+# One CSV row per trial (``--trials-csv``, the JSON's ``trials``): which demonstration, at which
+# setting, what the method said and how far off it was.
+TRIAL_COLUMNS = (
+    "primitive", "demo", "percent", "alpha_method", "observed", "recognised", "p_true",
+    "alpha", "duration_s", "position_error_m", "goal_error_m", "duration_error_s",
+    "nrmse_prior", "nrmse_posterior", "error",
+)  # fmt: skip
 # One CSV row per result row: what it is, then every metric of the JSON's ``results``.
 CSV_COLUMNS = (
     "method", "alpha_method", "observed", "percent", "recognition_errors", "trials",
@@ -53,6 +62,8 @@ def results_report(
     alpha_methods: Sequence[str],
     basis: Mapping,
     subset: int | None = None,
+    findings: Sequence[Finding] = (),
+    excluded: Mapping[tuple[str, str], Sequence[Finding]] | None = None,
 ) -> dict:
     """The report of one sweep (what ``--json`` writes).
 
@@ -72,12 +83,19 @@ def results_report(
         The learning settings, as :func:`basis_settings` writes them.
     subset : int or None
         Demonstrations held out per primitive (None: every one).
+    findings : sequence of Finding
+        What the checks found in the demonstrations (:mod:`promp.quality`).
+    excluded : mapping of (primitive, demo) to findings
+        The demonstrations left out of the sweep (neither learned from nor tested), and why.
 
     Returns
     -------
     dict
-        ``dataset``, ``settings``, ``primitives``, ``results`` (the rows) and ``failures``.
+        ``dataset``, ``settings``, ``primitives``, ``results`` (the rows), ``failures``,
+        ``trials`` (one row per trial, :func:`trial_rows`; empty unless the sweep kept its
+        trials), ``findings`` and ``excluded``.
     """
+    excluded = excluded or {}
     return {
         "dataset": str(source),
         "settings": {
@@ -94,7 +112,62 @@ def results_report(
         "primitives": list(dataset),
         "results": result.rows,
         "failures": result.failures,
+        "trials": trial_rows(result, list(dataset)),
+        "findings": [f.to_json() for f in findings],
+        "excluded": [
+            {
+                "primitive": primitive,
+                "demo": demo,
+                "file": reasons[0].file if reasons else "",
+                "reasons": [f.message for f in reasons],
+            }
+            for (primitive, demo), reasons in excluded.items()
+        ],
     }
+
+
+def trial_rows(result: SweepResult, primitives: Sequence[str]) -> list[dict]:
+    """One row per kept trial of ``result`` (the columns of :data:`TRIAL_COLUMNS`), in the
+    sweep's order: the demonstration, the setting, the recognised primitive, the probability
+    of the true one, alpha, the predicted duration and every error (NaN where the method
+    failed, with ``error`` saying why)."""
+    rows = []
+    for t in result.trials:
+        inferred = t.inferred
+        rows.append(
+            {
+                "primitive": primitives[t.primitive],
+                "demo": t.demo,
+                "percent": t.percent,
+                "alpha_method": t.alpha_method,
+                "observed": list(t.observed),
+                "recognised": "" if inferred is None else primitives[inferred.index],
+                "p_true": math.nan
+                if inferred is None
+                else float(inferred.probabilities[t.primitive]),
+                "alpha": math.nan if inferred is None else float(inferred.alpha),
+                "duration_s": math.nan if inferred is None else float(inferred.duration),
+                "position_error_m": t.position_error_m,
+                "goal_error_m": t.goal_error_m,
+                "duration_error_s": t.duration_error_s,
+                "nrmse_prior": t.nrmse_prior,
+                "nrmse_posterior": t.nrmse_posterior,
+                "error": t.error,
+            }
+        )
+    return rows
+
+
+def trials_csv(rows: Sequence[Mapping]) -> str:
+    """The per-trial table as CSV: a header of :data:`TRIAL_COLUMNS`, one line per trial
+    (observed modalities joined by ``+``)."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(TRIAL_COLUMNS)
+    for row in rows:
+        cells = dict(row, observed="+".join(row["observed"]))
+        writer.writerow([cells[column] for column in TRIAL_COLUMNS])
+    return out.getvalue()
 
 
 def report_json(report: Mapping) -> str:

@@ -19,7 +19,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from promp.evaluate.cli import load
+from promp.evaluate.cli import add_check_arguments, load, print_findings
 from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.sweep import run_sweep, tqdm_progress
 from promp.model import Settings
@@ -54,9 +54,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--observe", action="append", default=None)
     parser.add_argument("--json", default=None)
     parser.add_argument("--jobs", type=int, default=-1, help="processes (-1: every core)")
+    add_check_arguments(parser)
     args = parser.parse_args(argv)
     try:
-        dataset, layout, observe = load(args)
+        loaded = load(args)
+        dataset, layout, observe = loaded.dataset, loaded.layout, loaded.observe
+        print_findings(loaded, args.include_flagged)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -1,8 +1,9 @@
 """The Data tab's leave-one-out evaluation: what it runs on, and the job that runs it.
 
 The sweep is the one of ``python -m promp.evaluate`` (:func:`promp.evaluate.sweep.run_sweep`)
-on the session's demonstrations (primitives with at least :data:`MIN_DEMOS`), with the
-workspace's learning settings. :class:`EvaluationJob` runs it in a background thread; the tab
+on the demonstrations the session learns from (primitives with at least :data:`MIN_DEMOS`;
+flagged demonstrations that the user did not keep are left out and listed in the report), with
+the workspace's learning settings. :class:`EvaluationJob` runs it in a background thread; the tab
 reads its progress and result from the studio's loop. The job keeps every trial (the figures
 and the list of failed trials need them) and writes the report ``--json`` would
 (:meth:`EvaluationJob.report`).
@@ -25,6 +26,7 @@ from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.report import basis_settings, results_report
 from promp.evaluate.sweep import SweepResult, run_sweep
 from promp.model import Settings
+from promp.quality import Finding
 
 MIN_DEMOS = 3  # leave-one-out needs two demonstrations left to learn from
 METHOD = "ours"  # the sweep's method name, as the command line's --method writes it
@@ -93,6 +95,8 @@ class EvaluationJob:
     settings: Settings
     layout: Layout
     source: str = ""  # where the demonstrations come from (the workspace folder)
+    findings: tuple[Finding, ...] = ()  # what the checks found in the workspace
+    left_out: dict[tuple[str, str], list[Finding]] = field(default_factory=dict)  # not swept
     total: int = 0
     done: int = 0
     result: SweepResult | None = None
@@ -158,4 +162,6 @@ class EvaluationJob:
             percents=self.percents,
             alpha_methods=self.alpha_methods,
             basis=basis_settings(self.settings),
+            findings=self.findings,
+            excluded=self.left_out,
         )

@@ -111,7 +111,8 @@ class EvaluationSection:
         session = self.ctx.session
         with session.lock:
             order = [p.name for p in session.primitives]
-            dataset, skipped = evaluation_dataset(order, session.demos)
+            dataset, skipped = evaluation_dataset(order, session.learned_demos())
+            findings, left_out = tuple(session.findings), session.left_out()
             settings = session.learning_settings()
             layout = session.layout
         observe = self._observe_choices.get(self.observe_dropdown.value)
@@ -138,6 +139,8 @@ class EvaluationSection:
             layout=layout,
             source=str(session.workspace.root),
             total=sum(len(v) for v in dataset.values()),
+            findings=findings,
+            left_out=left_out,
         )
         self._job = job
         self.run_button.disabled = True
@@ -258,6 +261,13 @@ class EvaluationSection:
             if job.skipped
             else ""
         )
+        left_out = (
+            f" Left out (flagged, not kept in Teach): {len(job.left_out)} demonstration(s): "
+            + escape(", ".join(f"{p}/{d}" for p, d in job.left_out))
+            + "."
+            if job.left_out
+            else ""
+        )
         failed = ""
         failures = job.result.failures
         if failures:
@@ -278,7 +288,7 @@ class EvaluationSection:
         )
         return (
             f"Held out each of {job.total} demonstrations of {', '.join(job.dataset)} in "
-            f"{job.elapsed_s:.1f} s ({how}).{skipped}{failed}"
+            f"{job.elapsed_s:.1f} s ({how}).{skipped}{left_out}{failed}"
         )
 
     def close(self) -> None:

@@ -168,6 +168,7 @@ class DatasetImport:
             ]
             if upload.ignored:
                 lines.append(f"Ignored: {escape(', '.join(upload.ignored))}")
+            lines += [escape(line) for line in summary.findings_lines()]
             self.preview.content = "  \n".join(lines)
             self.actions.visible = True
             return summary

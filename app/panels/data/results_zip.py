@@ -5,8 +5,10 @@ the same run, built in memory by the command line's own writers
 
 ::
 
-    results.json        the report: settings, primitives, result rows, failures
+    results.json        the report: settings, primitives, result rows, failures, every trial,
+                        the checks' findings and what was left out
     results.csv         the result table, one line per row
+    trials.csv          one line per trial (as --trials-csv writes it)
     figures/*.png       curves, reliability diagram, one example per observed modality set
 """
 
@@ -23,10 +25,10 @@ from pathlib import Path
 from app.exchange import export_filename
 from promp.data import Demonstration, Layout
 from promp.evaluate.plots import write_figures
-from promp.evaluate.report import report_json, results_csv
+from promp.evaluate.report import report_json, results_csv, trials_csv
 from promp.evaluate.sweep import SweepResult
 
-JSON_NAME, CSV_NAME, FIGURES = "results.json", "results.csv", "figures"
+JSON_NAME, CSV_NAME, TRIALS_NAME, FIGURES = "results.json", "results.csv", "trials.csv", "figures"
 # pyplot keeps its figures in global state: two exports at once draw one after the other.
 _PYPLOT = threading.Lock()
 
@@ -54,6 +56,7 @@ def results_zip(
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
         archive.writestr(JSON_NAME, report_json(report))
         archive.writestr(CSV_NAME, results_csv(report["results"]))
+        archive.writestr(TRIALS_NAME, trials_csv(report["trials"]))
         with tempfile.TemporaryDirectory(prefix="evaluation-figures-") as folder, _PYPLOT:
             method = report["settings"]["method"]
             for path in write_figures(Path(folder), result, dataset, layout, method):

@@ -5,6 +5,11 @@ Each row shows a demonstration's typicality (how it compares with the primitive'
 its line in the 3D view) and Delete, after a confirmation (:meth:`app.session.Session.delete_demo`:
 to the workspace's trash). *Undo delete* brings back the latest deletion
 (:meth:`app.session.Session.undo_delete`).
+
+A demonstration the checks flag (:mod:`promp.quality`: a gap, a jump, one that does not move, a
+rate or a duration far from the others') is marked "left out" and listed above the rows with
+what was found, where and how big; its row offers *Keep* (learn from it anyway) and, once kept,
+*Leave out* (:meth:`app.session.Session.set_kept`). Its file is never touched.
 """
 
 from __future__ import annotations
@@ -12,12 +17,13 @@ from __future__ import annotations
 import viser
 
 from app.context import PanelContext
-from app.gui_text import GREEN, ORANGE, RED, colored
-from promp.pipeline import Typicality
+from app.gui_text import GREEN, ORANGE, RED, colored, escape
+from promp.typicality import Typicality
 
 TYPICALITY_COLORS = {"typical": GREEN, "unusual": ORANGE, "outlier": RED}
 NOTIFY_COLORS = {"typical": "green", "unusual": "yellow", "outlier": "red"}
 DELETE, KEEP = "Delete demonstration", "Keep it"
+KEEP_FLAGGED, LEAVE_OUT = "Keep", "Leave out"
 
 
 def typicality_text(typicality: Typicality | None) -> str:
@@ -25,6 +31,21 @@ def typicality_text(typicality: Typicality | None) -> str:
     if typicality is None:
         return ""
     return f"{typicality.label} ({100 * typicality.percentile:.0f}th pct)"
+
+
+def findings_text(rows) -> str:
+    """The flagged demonstrations of ``rows`` (as :meth:`DemoList.show` builds them) and what
+    was found in each, as markdown ('' when none is flagged)."""
+    flagged = [(r[0], r[4], r[5]) for r in rows if r[4]]
+    if not flagged:
+        return ""
+    lines = []
+    for demo_name, findings, kept in flagged:
+        status = "kept" if kept else "left out of learning"
+        lines.append(f"**{escape(demo_name)}** ({status}): " + escape("; ".join(findings)))
+    return "  \n" + colored(
+        f"⚠ {len(flagged)} flagged (Keep learns from one anyway):", ORANGE, True
+    ) + "  \n" + "  \n".join(lines)
 
 
 class DemoList:
@@ -81,6 +102,16 @@ class DemoList:
                     "*Undo delete* brings it back."
                 )
                 self.confirm_text.visible = self.confirm.visible = True
+            elif choice in (KEEP_FLAGGED, LEAVE_OUT):
+                keep = choice == KEEP_FLAGGED
+
+                def apply() -> None:
+                    self.ctx.session.set_kept(primitive, demo, keep)
+                    what = "learned from despite its findings" if keep else "left out of learning"
+                    self.ctx.tell(event, "Kept" if keep else "Left out", f"{demo} is {what}.",
+                                  "green" if keep else "gray")  # fmt: skip
+
+                self.ctx.attempt(event, "keep" if keep else "leave out", apply)
             else:
                 hide = choice == "Hide"
                 self.ctx.attempt(
@@ -109,6 +140,8 @@ class DemoList:
                     d.duration,
                     (name, d.name) in session.hidden,
                     session.typicality.get((name, d.name)),
+                    tuple(f.message for f in session.findings_of(name, d.name)),
+                    (name, d.name) in session.checks.kept,
                 )
                 for d in reversed(demos)  # newest first
             )
@@ -125,6 +158,7 @@ class DemoList:
             summary = f"{len(rows)} demonstration(s) of **{name}**, newest first."
             if flagged:
                 summary += "  \n" + colored("⚠ To check: " + ", ".join(flagged), ORANGE, True)
+            summary += findings_text(rows)
         self.summary.content = summary
         # Same demonstrations in the same order: update the rows in place (a click on a row
         # being rebuilt would be lost); otherwise rebuild the list.
@@ -139,16 +173,23 @@ class DemoList:
                         demo_name,
                         ("Hide", "Delete"),
                         hint=f"{demo_name}: {duration:.1f} s. Show or hide its line in the 3D "
-                        "view, or delete it from the workspace.",
+                        "view, or delete it from the workspace. A flagged demonstration (left "
+                        "out of learning) can be kept.",
                     )
                     handle.on_click(self._row_action(name, demo_name))
                     self._rows.append(((name, demo_name), handle))
-        for (demo_name, _, hidden, typicality), (_, handle) in zip(rows, self._rows, strict=True):
+        for row, (_, handle) in zip(rows, self._rows, strict=True):
+            demo_name, _, hidden, typicality, findings, kept = row
             label = demo_name
+            if findings:
+                label += " · ⚠ kept despite findings" if kept else " · ⚠ left out"
             if typicality is not None:
                 flag = "" if typicality.label == "typical" else "⚠ "
                 label += f" · {flag}{typicality_text(typicality)}"
             if hidden:
                 label += " · hidden"
             handle.label = label
-            handle.options = ("Show" if hidden else "Hide", "Delete")
+            options = ("Show" if hidden else "Hide", "Delete")
+            if findings:
+                options = (LEAVE_OUT if kept else KEEP_FLAGGED, *options)
+            handle.options = options

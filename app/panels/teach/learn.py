@@ -154,9 +154,18 @@ class LearnSection:
         with session.lock:
             model, error, fit_ms = session.model, session.fit_error, session.fit_ms
             reused = session.fit_reused
-            n_demos = sum(len(d) for d in session.demos.values())
+            n_demos = sum(len(d) for d in session.learned_demos().values())
+            n_left_out = len(session.left_out())
+        left_out = (
+            "  \n" + colored(
+                f"⚠ {n_left_out} flagged demonstration(s) left out (see Demonstrations)",
+                ORANGE,
+            )
+            if n_left_out
+            else ""
+        )
         if error is not None and model is None:
-            self.fit_status.content = colored(f"Not learned: {escape(error)}", ORANGE)
+            self.fit_status.content = colored(f"Not learned: {escape(error)}", ORANGE) + left_out
             return
         n_learned = len(model.names) if model is not None else 0
         learned = f"{n_learned} primitive(s) learned from {n_demos} demonstrations"
@@ -181,3 +190,4 @@ class LearnSection:
             )
         if error is not None:
             self.fit_status.content += "  \n" + colored(escape(error), ORANGE)
+        self.fit_status.content += left_out

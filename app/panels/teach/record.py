@@ -410,11 +410,23 @@ class RecordSection:
             text += ", typicality: needs 3 earlier demonstrations"
         if fill.n_filled:
             text += f" ({fill.message})"
+        findings = session.findings_of(primitive, demo.name)
+        if findings:
+            reasons = "; ".join(f.message for f in findings)
+            text += "  \n" + colored(
+                f"⚠ Left out of learning: {escape(reasons)}. *Keep* it in Demonstrations to "
+                "learn from it anyway.",
+                ORANGE,
+                True,
+            )
         self.select(primitive)
         color = NOTIFY_COLORS[typicality.label] if typicality is not None else "green"
         body = text.replace("**", "")
         if typicality is not None:
             body = f"{demo.name}: {typicality_text(typicality)} compared with the others"
+        if findings:
+            color = "yellow"
+            body = f"{demo.name} is left out of learning: {reasons}"
         self.last_message = text
         self.show_idle()
         self.ctx.notify("Demonstration saved", body, color)

@@ -1,0 +1,472 @@
+"""Faults of real recordings: found, named, and kept out of learning unless asked for.
+
+A real rig's logs hold demonstrations that never move, logging gaps with a jump across them,
+timestamps that repeat or go back, rates that differ between streams and durations far outside
+the others'. Each check below returns :class:`Finding` s (the demonstration, its file, the
+time in it and the size, in words); nothing here edits or drops a demonstration.
+
+Checks of one demonstration on its own (:func:`demo_findings`):
+
+* ``timestamps``: found by the readers (:func:`increasing_samples`): samples whose time does not
+  exceed every earlier one (a repeated stamp, a clock that went back) cannot be placed in time;
+  the reader keeps the others and reports how many it set aside, and where;
+* ``gap``: a step between samples longer than :data:`GAP_FACTOR` times the demonstration's
+  median step (the logger paused), with the jump of every modality across it;
+* ``jump``: a step of a modality larger than :data:`JUMP_SHARE` of the demonstration's extent
+  in that modality **and** :data:`JUMP_RATIO` times the median step of the samples around it:
+  a glitch, not a fast movement (a fast movement's neighbours are fast too).
+
+Checks against the other demonstrations (:func:`dataset_findings`):
+
+* ``still``: a modality whose extent is below :data:`STILL_SHARE` of the median extent of the
+  same modality over its primitive's other demonstrations (a recording started and stopped
+  without a movement);
+* ``rate``: a median sampling period more than :data:`RATE_FACTOR` times longer or shorter than
+  the median over the dataset;
+* ``duration``: a duration (without its gaps) more than :data:`DURATION_FACTOR` times beyond
+  the longest (or shortest) of its primitive's other demonstrations that are not far out
+  themselves: people move at different speeds (3-6x within a class of the lab recordings),
+  a 98 s take among 4 s ones is something else.
+
+Every threshold is a ratio of the data's own quantities (no unit, no absolute time), so the
+same rule holds for a hand in metres, a head in radians or an EMG in volts. On the three shared
+lab sets and the simulated experiment none of them fires (``tests/test_promp_quality.py``);
+the nearest clean values are given beside each constant.
+
+Excluding is the caller's choice (:func:`split_flagged`): the evaluation and the studio leave
+flagged demonstrations out of learning by default and say so; the files are never touched.
+A demonstration with a gap may be repaired on request (:func:`repair_gaps`), never by default.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from promp.data import Demonstration, Layout
+
+# A step over 10x the median step is a pause of the logger (clean sets: at most 1.3x).
+GAP_FACTOR = 10.0
+# A jump: over 20 % of the extent in one step and 10x the steps around it (clean sets: at most
+# 7 % of the extent on the hand; the simulated head turns 40 % of its extent in one step, but
+# its neighbours move too: at most 3x the local median).
+JUMP_SHARE = 0.2
+JUMP_RATIO = 10.0
+JUMP_WINDOW = 10  # samples on each side that define "the steps around it"
+# Still: under 10 % of the class's median extent (clean sets: at least 56 %).
+STILL_SHARE = 0.1
+# Rate: 3x off the dataset's median period (a 30 Hz camera beside 100 Hz logs; the studio
+# records at 50 Hz, which may join an imported 100 Hz set).
+RATE_FACTOR = 3.0
+# Duration: over 2x the longest (or under half the shortest) of the others that are not far
+# out themselves (clean sets: the longest is at most 1.3x the next one).
+DURATION_FACTOR = 2.0
+OUTLIER_Z = 3.5  # robust deviations: Iglewicz and Hoaglin's cut-off for outliers
+MIN_OTHERS = 3  # comparisons with the class need this many other demonstrations
+
+KINDS = ("timestamps", "gap", "jump", "still", "rate", "duration")
+REPAIRS = ("cut", "split")
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One fault of one demonstration.
+
+    Attributes
+    ----------
+    primitive, demo : str
+        The demonstration (its primitive, and its name there).
+    kind : str
+        One of :data:`KINDS`.
+    time : float or None
+        Seconds after the demonstration's first sample where the fault is; None for the
+        whole demonstration (``still``, ``rate``, ``duration``).
+    size : float
+        How big it is, in ``unit`` (the gap's length, the jump, the extent, the period...).
+    unit : str
+    message : str
+        The finding in words, with its numbers.
+    file : str
+        The file it was read from (relative to the dataset), when known.
+    """
+
+    primitive: str
+    demo: str
+    kind: str
+    time: float | None
+    size: float
+    unit: str
+    message: str
+    file: str = ""
+
+    @property
+    def key(self) -> tuple[str, str]:
+        return (self.primitive, self.demo)
+
+    @property
+    def where(self) -> str:
+        return self.file or f"{self.primitive}/{self.demo}"
+
+    def describe(self) -> str:
+        """One line: the file (or primitive/demo) and the message."""
+        return f"{self.where}: {self.message}"
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_json(cls, data: Mapping) -> Finding:
+        """The inverse of :meth:`to_json`; ValueError on a malformed entry."""
+        try:
+            time = data["time"]
+            finding = cls(
+                primitive=str(data["primitive"]),
+                demo=str(data["demo"]),
+                kind=str(data["kind"]),
+                time=None if time is None else float(time),
+                size=float(data["size"]),
+                unit=str(data["unit"]),
+                message=str(data["message"]),
+                file=str(data.get("file", "")),
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"not a finding: {data!r} ({exc})") from None
+        if finding.kind not in KINDS:
+            raise ValueError(f"unknown kind of finding {finding.kind!r}; expected one of {KINDS}")
+        return finding
+
+
+def _s(seconds: float) -> str:
+    return f"{seconds:.3g} s"
+
+
+def _amount(value: float, unit: str) -> str:
+    """``value`` in words: metres as cm or mm, radians as degrees, others as they are."""
+    if unit == "m":
+        return f"{100 * value:.3g} cm" if abs(value) >= 0.01 else f"{1000 * value:.3g} mm"
+    if unit == "rad":
+        return f"{math.degrees(value):.3g} deg"
+    return f"{value:.3g} {unit}".rstrip()
+
+
+# ------------------------------------------------------------------------------ readers
+
+
+def increasing_samples(times: np.ndarray) -> np.ndarray:
+    """The samples that can be placed in time, boolean mask of shape (n,): those whose time
+    exceeds every earlier sample's (a repeated stamp or a clock that went back is set aside;
+    the first sample is always kept)."""
+    times = np.asarray(times, dtype=float)
+    if times.size == 0:
+        return np.zeros(0, dtype=bool)
+    before = np.maximum.accumulate(np.concatenate([[-np.inf], times[:-1]]))
+    return times > before
+
+
+def timestamp_finding(
+    times: np.ndarray, keep: np.ndarray, primitive: str, demo: str, file: str = ""
+) -> Finding | None:
+    """The ``timestamps`` finding of a reader that kept ``keep`` of ``times`` (None if it kept
+    every sample)."""
+    dropped = np.flatnonzero(~keep)
+    if dropped.size == 0:
+        return None
+    first = int(dropped[0])
+    t0 = float(times[0])
+    previous = float(np.max(times[:first]))
+    what = "repeats" if times[first] == previous else "goes back from"
+    return Finding(
+        primitive,
+        demo,
+        "timestamps",
+        float(times[first] - t0),
+        float(dropped.size),
+        "samples",
+        f"timestamps not increasing: {dropped.size} of {times.size} samples set aside (the "
+        f"first, sample {first}, {what} {_s(previous - t0)} at {_s(times[first] - t0)})",
+        file,
+    )
+
+
+# ------------------------------------------------------------------------------ one demo
+
+
+def _gaps(demo: Demonstration) -> np.ndarray:
+    """Indices ``i`` of the steps ``times[i] -> times[i + 1]`` that are gaps."""
+    steps = np.diff(demo.times)
+    return np.flatnonzero(steps > GAP_FACTOR * float(np.median(steps)))
+
+
+def _modality_steps(values: np.ndarray) -> np.ndarray:
+    """Euclidean length of each step of a modality's values, shape (n - 1,)."""
+    return np.linalg.norm(np.diff(values, axis=0), axis=1)
+
+
+def _local_median(steps: np.ndarray, window: int) -> np.ndarray:
+    """Median of the steps within ``window`` on each side of every step, itself excluded."""
+    n = steps.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        around = np.concatenate([steps[max(0, i - window) : i], steps[i + 1 : i + 1 + window]])
+        out[i] = float(np.median(around)) if around.size else 0.0
+    return out
+
+
+def _extent(values: np.ndarray) -> float:
+    """The size of the box a modality's values span (norm of the per-column ranges)."""
+    return float(np.linalg.norm(np.ptp(values, axis=0)))
+
+
+def demo_findings(
+    demo: Demonstration, layout: Layout, primitive: str, file: str = ""
+) -> list[Finding]:
+    """``gap`` and ``jump`` findings of one demonstration (see the module docstring)."""
+    out: list[Finding] = []
+    values = layout.extract(demo)
+    t0 = float(demo.times[0])
+    gaps = _gaps(demo)
+    median_step = float(np.median(np.diff(demo.times)))
+    for i in gaps:
+        length = float(demo.times[i + 1] - demo.times[i])
+        jumps = []
+        for modality in layout.modalities:
+            x = values[:, layout.dims([modality.name])]
+            jump = float(np.linalg.norm(x[i + 1] - x[i]))
+            jumps.append(f"{modality.name} jumps {_amount(jump, modality.unit)}")
+        out.append(
+            Finding(
+                primitive,
+                demo.name,
+                "gap",
+                float(demo.times[i] - t0),
+                length,
+                "s",
+                f"a {_s(length)} gap in the timestamps at {_s(demo.times[i] - t0)} "
+                f"({length / median_step:.0f}x the median step; {', '.join(jumps)} across it)",
+                file,
+            )
+        )
+    gap_steps = set(int(i) for i in gaps)
+    for modality in layout.modalities:
+        x = values[:, layout.dims([modality.name])]
+        steps = _modality_steps(x)
+        extent = _extent(x)
+        if steps.size < 3 or extent <= 0:
+            continue
+        candidates = np.flatnonzero(steps > JUMP_SHARE * extent)
+        if candidates.size == 0:
+            continue
+        local = _local_median(steps, JUMP_WINDOW)
+        for i in candidates:
+            if int(i) in gap_steps or steps[i] <= JUMP_RATIO * local[i]:
+                continue
+            out.append(
+                Finding(
+                    primitive,
+                    demo.name,
+                    "jump",
+                    float(demo.times[i + 1] - t0),
+                    float(steps[i]),
+                    modality.unit,
+                    f"{modality.name} jumps {_amount(float(steps[i]), modality.unit)} in one "
+                    f"step at {_s(demo.times[i + 1] - t0)} ({steps[i] / extent:.0%} of its "
+                    f"extent; the steps around it are "
+                    f"{_amount(float(local[i]), modality.unit)})",
+                    file,
+                )
+            )
+    return out
+
+
+# ------------------------------------------------------------------------------ the dataset
+
+
+def dataset_findings(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+    files: Mapping[tuple[str, str], str] | None = None,
+) -> list[Finding]:
+    """Every finding of every demonstration of ``dataset`` ({primitive: demonstrations}):
+    its own faults (:func:`demo_findings`) and how it compares with the others (``still``,
+    ``rate``, ``duration``), ordered by primitive, demonstration and time.
+
+    ``files`` names the file of a (primitive, demo) in the findings. The timestamps findings
+    come from the readers, not from here (a :class:`Demonstration`'s times always increase).
+    """
+    files = files or {}
+    out: list[Finding] = []
+    all_demos = [d for demos in dataset.values() for d in demos]
+    if not all_demos:
+        return out
+    periods = np.array([d.sample_period for d in all_demos])
+    dataset_period = float(np.median(periods))
+    for primitive, demos in dataset.items():
+        extents = np.array(
+            [
+                [_extent(layout.extract(d)[:, layout.dims([m.name])]) for m in layout.modalities]
+                for d in demos
+            ]
+        ).reshape(len(demos), len(layout.modalities))
+        durations = np.array([_active_duration(d) for d in demos])
+        for j, demo in enumerate(demos):
+            file = files.get((primitive, demo.name), "")
+            out.extend(demo_findings(demo, layout, primitive, file))
+            others = np.delete(np.arange(len(demos)), j)
+            ratio = demo.sample_period / dataset_period
+            if len(all_demos) > MIN_OTHERS and max(ratio, 1 / ratio) > RATE_FACTOR:
+                out.append(
+                    Finding(
+                        primitive,
+                        demo.name,
+                        "rate",
+                        None,
+                        demo.sample_period,
+                        "s",
+                        f"sampled at {1 / demo.sample_period:.3g} Hz, the dataset at "
+                        f"{1 / dataset_period:.3g} Hz ({max(ratio, 1 / ratio):.1f}x off)",
+                        file,
+                    )
+                )
+            if others.size < MIN_OTHERS:
+                continue
+            for m, modality in enumerate(layout.modalities):
+                typical = float(np.median(extents[others, m]))
+                if typical > 0 and extents[j, m] < STILL_SHARE * typical:
+                    out.append(
+                        Finding(
+                            primitive,
+                            demo.name,
+                            "still",
+                            None,
+                            float(extents[j, m]),
+                            modality.unit,
+                            f"{modality.name} does not move: "
+                            f"{_amount(float(extents[j, m]), modality.unit)} in all, where "
+                            f"{primitive}'s other demonstrations move "
+                            f"{_amount(typical, modality.unit)} (median)",
+                            file,
+                        )
+                    )
+            finding = _duration_finding(
+                primitive, demo, durations[j], durations[others], file
+            )
+            if finding is not None:
+                out.append(finding)
+    return out
+
+
+def _active_duration(demo: Demonstration) -> float:
+    """The demonstration's duration without its gaps (a gap is reported on its own; a movement
+    with a logging pause is not also a slow one)."""
+    steps = np.diff(demo.times)
+    return float(steps.sum() - steps[_gaps(demo)].sum())
+
+
+def _ordinary(durations: np.ndarray) -> np.ndarray:
+    """The durations not themselves far out: within :data:`OUTLIER_Z` robust deviations
+    (median absolute deviation of the logs, as a normal's standard deviation) of the median, or
+    within :data:`DURATION_FACTOR` of it (a class of nearly equal durations has almost no
+    deviation). Two far-out takes then cannot hide each other."""
+    logs = np.log(durations)
+    centre = float(np.median(logs))
+    spread = float(np.median(np.abs(logs - centre))) / 0.6745
+    bound = max(OUTLIER_Z * spread, math.log(DURATION_FACTOR))
+    return durations[np.abs(logs - centre) <= bound]
+
+
+def _duration_finding(
+    primitive: str, demo: Demonstration, duration: float, others: np.ndarray, file: str
+) -> Finding | None:
+    ordinary = _ordinary(others)
+    longest, shortest = float(ordinary.max()), float(ordinary.min())
+    if duration > DURATION_FACTOR * longest:
+        what = f"{duration / longest:.1f}x the longest"
+    elif duration < shortest / DURATION_FACTOR:
+        what = f"{shortest / duration:.1f}x shorter than the shortest"
+    else:
+        return None
+    return Finding(
+        primitive,
+        demo.name,
+        "duration",
+        None,
+        duration,
+        "s",
+        f"lasts {_s(duration)}, {what} of {primitive}'s other demonstrations "
+        f"({_s(shortest)} to {_s(longest)}, median {_s(float(np.median(ordinary)))}"
+        + (f"; {others.size - ordinary.size} far out left aside" if ordinary.size < others.size
+           else "")
+        + ")",
+        file,
+    )
+
+
+# ------------------------------------------------------------------------------ exclusion
+
+
+def by_demo(findings: Iterable[Finding]) -> dict[tuple[str, str], list[Finding]]:
+    """The findings grouped by (primitive, demo), in their order."""
+    out: dict[tuple[str, str], list[Finding]] = {}
+    for finding in findings:
+        out.setdefault(finding.key, []).append(finding)
+    return out
+
+
+def split_flagged(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    findings: Iterable[Finding],
+    include: Collection[tuple[str, str]] = (),
+) -> tuple[dict[str, list[Demonstration]], dict[tuple[str, str], list[Finding]]]:
+    """The demonstrations to learn from, and those left out with their findings.
+
+    A demonstration with a finding is left out unless its (primitive, demo) is in
+    ``include`` (the user chose to keep it). Nothing is copied or edited; a primitive keeps its
+    place (and may end up with fewer demonstrations than it needs: the fit says so).
+    """
+    flagged = by_demo(findings)
+    kept: dict[str, list[Demonstration]] = {}
+    excluded: dict[tuple[str, str], list[Finding]] = {}
+    for primitive, demos in dataset.items():
+        kept[primitive] = []
+        for demo in demos:
+            key = (primitive, demo.name)
+            if key in flagged and key not in include:
+                excluded[key] = flagged[key]
+            else:
+                kept[primitive].append(demo)
+    return kept, excluded
+
+
+def repair_gaps(demo: Demonstration, mode: str) -> list[Demonstration]:
+    """``demo`` repaired at its gaps: ``"cut"`` keeps the part before the first gap, ``"split"``
+    makes every part its own demonstration (named ``<name>-part1``, ``-part2``...).
+    Parts of a single sample cannot be demonstrations and are dropped; a demonstration without
+    a gap comes back as it is.
+
+    Raises
+    ------
+    ValueError
+        Unknown mode, or nothing of two samples or more is left.
+    """
+    if mode not in REPAIRS:
+        raise ValueError(f"repair must be one of {REPAIRS}, got {mode!r}")
+    gaps = _gaps(demo)
+    if gaps.size == 0:
+        return [demo]
+    bounds = np.concatenate([[0], gaps + 1, [demo.n_samples]])
+    parts = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if b - a >= 2]
+    if mode == "cut":
+        parts = [p for p in parts if p[0] == 0]
+    if not parts:
+        raise ValueError(
+            f"demonstration {demo.name!r}: no part of two samples or more around its gaps"
+        )
+    out = []
+    for k, (a, b) in enumerate(parts, start=1):
+        name = demo.name if mode == "cut" else f"{demo.name}-part{k}"
+        times = demo.times[a:b] - demo.times[a] + demo.times[0]
+        out.append(Demonstration(times, demo.values[a:b], demo.columns, name=name))
+    return out

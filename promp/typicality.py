@@ -1,0 +1,143 @@
+"""How typical a demonstration is of its primitive: "unlike the others" in shape and place,
+whatever its speed or sampling rate.
+
+A take is compared with its primitive's other demonstrations **per unit of phase**: it is read
+on :data:`GRID` evenly spaced phases per unit (straight lines between its samples), so a take
+sampled ten times as densely, or moving ten times as slowly along the same path, is read on the
+same points. Its score is the mean squared Mahalanobis distance per point and dimension,
+
+    d2 = (y - Phi mu)^T (Phi Sigma Phi^T + R)^-1 (y - Phi mu) / (n D),
+
+under the primitive's trajectory distribution with the speed integrated out (the weights'
+mean and covariance marginalised over the training alphas' spread, so a slower take is not
+judged by an extrapolated coupling), ``R`` the observation noise. A take that covers only the
+start of the movement (stopped early) is judged on the part it covers: it is read as covering
+the first ``f`` of the phase for every ``f`` of :data:`COVERAGES` and the best reading counts.
+
+The score ``-d2`` is ranked among the other demonstrations' scores, each computed by a model
+learned without it; ``percentile`` is the share of them that score lower: near 0 means unlike
+all the others.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from promp.data import Demonstration, Layout
+from promp.model import ProMPModel, Settings, fit_with, sample_period_of
+from promp.timing import demo_phases
+
+GRID = 50  # points per unit of phase
+COVERAGES = tuple(np.round(np.linspace(0.2, 1.0, 9), 3))  # the share of the movement a take covers
+MIN_OTHERS = 3
+
+
+@dataclass(frozen=True)
+class Typicality:
+    """How a demonstration compares with its primitive's other demonstrations.
+
+    Attributes
+    ----------
+    score : float
+        Minus the mean squared Mahalanobis distance per point and dimension (0 is a perfect
+        match; about -1 is as far as the model expects a new demonstration to be).
+    percentile : float
+        Share of the primitive's other demonstrations (each scored by a model learned without
+        it) that score lower: near 0 means an outlier.
+    coverage : float
+        The share of the movement the take is read as covering (1 for a whole movement).
+    """
+
+    score: float
+    percentile: float
+    coverage: float = 1.0
+
+    @property
+    def label(self) -> str:
+        if self.percentile < 0.05:
+            return "outlier"
+        if self.percentile < 0.2:
+            return "unusual"
+        return "typical"
+
+
+def phase_grid(
+    times: np.ndarray, values: np.ndarray, coverage: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """A take (``times`` (n,), ``values`` (n, n_dims)) read as covering phases [0,
+    ``coverage``]: the phases and the values on :data:`GRID` points per unit of phase (at
+    least 2)."""
+    n = max(2, int(round(GRID * coverage)) + 1)
+    phases = np.linspace(0.0, coverage, n)
+    own = demo_phases(times)
+    read = np.column_stack([np.interp(phases / coverage, own, v) for v in values.T])
+    return phases, read
+
+
+def _marginal(model: ProMPModel) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and covariance of the first primitive's weights with log alpha integrated out."""
+    primitive = model.primitives[0]
+    logs = np.log(primitive.alphas)
+    spread = float(logs.var(ddof=1)) if logs.size > 1 else 0.0
+    slope = primitive.alpha_slope
+    return primitive.mean, primitive.cov + spread * np.outer(slope, slope)
+
+
+def distance(model: ProMPModel, demo: Demonstration) -> tuple[float, float]:
+    """The smallest mean squared Mahalanobis distance over :data:`COVERAGES` (module
+    docstring) of ``demo`` under ``model``'s first primitive, and the coverage that gives it."""
+    mean, cov = _marginal(model)
+    n_dims, m = model.n_dims, model.basis.n_basis
+    noise = model.primitives[0].noise_var
+    cov_inv = np.linalg.inv(cov)
+    mean_rows = mean.reshape(n_dims, m)
+    values = model.layout.extract(demo)
+    best = (np.inf, 1.0)
+    for coverage in COVERAGES:
+        phases, y = phase_grid(demo.times, values, coverage)
+        phi = model.basis(phases)  # (n, M)
+        residual = y - phi @ mean_rows.T  # (n, D)
+        # Woodbury in weight space: r^T S^-1 r = r^T R^-1 r - b^T (Sigma^-1 + Phi^T R^-1 Phi)^-1 b
+        gram = phi.T @ phi
+        precision = cov_inv.copy()
+        b = np.empty(n_dims * m)
+        for d in range(n_dims):
+            block = slice(d * m, (d + 1) * m)
+            precision[block, block] += gram / noise[d]
+            b[block] = phi.T @ residual[:, d] / noise[d]
+        quad = float((residual**2 / noise).sum() - b @ np.linalg.solve(precision, b))
+        per_point = quad / residual.size
+        if per_point < best[0]:
+            best = (per_point, float(coverage))
+    return best
+
+
+def typicality(
+    demo: Demonstration,
+    others: Sequence[Demonstration],
+    layout: Layout,
+    settings: Settings,
+) -> Typicality | None:
+    """Typicality of ``demo`` against the model learned from ``others`` (its primitive's other
+    demonstrations; ``settings`` fully given, nothing is chosen), ranked among the others each
+    scored by a model learned without it; None with fewer than :data:`MIN_OTHERS` others."""
+    others = list(others)
+    if len(others) < MIN_OTHERS:
+        return None
+    settings = settings.with_fallback()
+    dt = sample_period_of(others)
+    try:
+        model = fit_with({"primitive": others}, layout, settings, dt, alpha_models=False)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    d2, coverage = distance(model, demo)
+    references = []
+    for i, other in enumerate(others):
+        rest = others[:i] + others[i + 1 :]
+        held_out = fit_with({"primitive": rest}, layout, settings, dt, alpha_models=False)
+        references.append(-distance(held_out, other)[0])
+    percentile = float(np.mean(np.array(references) < -d2))
+    return Typicality(-d2, percentile, coverage)
