@@ -31,21 +31,21 @@ from pathlib import Path
 
 import numpy as np
 
-from app.demo_checks import DemoChecks, left_out, without
+from app.demo_checks import DemoChecks
 from app.learning import Learned, Training, learn
+from app.session_checks import FlaggedDemos
 from app.trash import TrashEntry
 from app.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
 from app.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
 from promp.data import Demonstration, Layout
 from promp.model import FALLBACK, ProMPModel, Settings
-from promp.quality import Finding
 from promp.typicality import Typicality, typicality
 
 KEEP = object()  # set_learning: leave a setting as it is
 REFIT_TIMEOUT_S = 120.0
 
 
-class Session:
+class Session(FlaggedDemos):
     """Shared state of the studio (see the module docstring)."""
 
     def __init__(self, workspace: Workspace, data: WorkspaceData):
@@ -120,10 +120,6 @@ class Session:
         """Call ``callback()`` after every mutation (from the thread that made it)."""
         self._listeners.append(callback)
 
-    def _recheck(self) -> None:
-        """Find the demonstrations' faults again (:mod:`app.demo_checks`; lock held)."""
-        self.findings: list[Finding] = self.checks.findings(self.demos, self.layout)
-
     def _save_index(self, primitives=None, settings=None, checks=None) -> None:
         """Write ``studio.json`` with these (default: the session's own) primitives, settings
         and checks."""
@@ -175,34 +171,6 @@ class Session:
             learned = self.learned_demos()
             trainable = {n: list(d) for n, d in learned.items() if len(d) >= 2}
             return Training(trainable, self.layout, self.learning_settings())
-
-    def left_out(self) -> dict[tuple[str, str], list[Finding]]:
-        """The flagged demonstrations the user did not keep (left out of learning)."""
-        with self.lock:
-            return left_out(self.findings, self.checks.kept)
-
-    def findings_of(self, primitive: str, demo: str) -> list[Finding]:
-        with self.lock:
-            return [f for f in self.findings if f.key == (primitive, demo)]
-
-    def learned_demos(self) -> dict[str, list[Demonstration]]:
-        """Every primitive's demonstrations that learning uses: all but :meth:`left_out`."""
-        with self.lock:
-            return without(self.demos, self.left_out())
-
-    def set_kept(self, primitive: str, demo: str, kept: bool) -> None:
-        """Learn from a flagged demonstration after all (``kept``), or leave it out again (the
-        default); stored in the workspace's index, the file never touched."""
-        with self.lock:
-            self.entry(primitive)
-            if demo not in {d.name for d in self.demos[primitive]}:
-                raise ValueError(f"primitive {primitive!r} has no demonstration {demo!r}")
-            checks = self.checks.keep(primitive, demo, kept)
-            if checks == self.checks:
-                return
-            self._save_index(checks=checks)
-            self.checks = checks
-            self._changed()
 
     def _use(self, learned: Learned) -> None:
         """Adopt a refit's outcome (lock held)."""

@@ -8,7 +8,8 @@ observed) runs on
 * the clean set: ours with the defaults (automatic settings), ours with the settings given
   (``--basis 7 --width 1 --noise-scale 1.5``) and the toolbox's method (``--method seed``);
 * the faulty copy with the checks on (the default: flagged demonstrations left out);
-* the faulty copy with ``--include-flagged`` (everything learned from and tested).
+* the faulty copy with ``--include-flagged`` (everything learned from and tested), and the same
+  run's trials of the clean demonstrations alone (what the kept faults do to the others).
 
 It prints, per set and percentage: recognition errors, position error of the remainder (cm),
 log-loss, the smallest p(true) and the sweep's time; then the issue's targets, each with PASS or
@@ -32,6 +33,8 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
+
+import numpy as np  # noqa: E402
 
 from promp.evaluate import cli  # noqa: E402
 from tests.faults import write_faulty_records  # noqa: E402
@@ -59,24 +62,27 @@ def evaluate(folder: Path, extra: list[str], common: list[str], out: Path) -> tu
     return json.loads(out.read_text()), seconds
 
 
-def cells(report: dict) -> dict[tuple[str, float], dict]:
+def cells(report: dict, clean_only: bool = False) -> dict[tuple[str, float], dict]:
     """Per (alpha method, percent): errors, trials, position error (cm), log-loss and the
-    smallest p(true) of the run's trials."""
+    smallest p(true) of the run's trials (``clean_only``: of the trials of demonstrations the
+    faults were not injected into)."""
     out = {}
     for row in report["results"]:
         key = (row["alpha_method"], row["percent"])
-        ps = [
-            t["p_true"]
-            for t in report["trials"]
-            if (t["alpha_method"], t["percent"]) == key and t["p_true"] == t["p_true"]
-        ]
+        trials = [
+            t for t in report["trials"]
+            if (t["alpha_method"], t["percent"]) == key
+            and not (clean_only and t["demo"].startswith("faulty/"))
+        ]  # fmt: skip
+        ran = [t for t in trials if t["p_true"] == t["p_true"]]
+        n = max(len(trials), 1)
         out[key] = {
-            "errors": row["recognition_errors"],
-            "trials": row["trials"],
-            "cm": 100 * row["position_error_m"],
-            "log_loss": row["log_loss"],
-            "min_p": min(ps) if ps else math.nan,
-            "failed": len(row["failed"]),
+            "errors": sum(t["recognised"] != t["primitive"] for t in trials),
+            "trials": len(trials),
+            "cm": 100 * float(np.nanmean([t["position_error_m"] for t in ran])),
+            "log_loss": sum(-math.log(max(t["p_true"], 1e-300)) for t in ran) / n
+            + (len(trials) - len(ran)) * math.log(len(report["primitives"])) / n,
+            "min_p": min(t["p_true"] for t in ran) if ran else math.nan,
         }
     return out
 
@@ -123,6 +129,8 @@ def main() -> int:
                 results[run] = report
                 print(f"{name} {run}: {seconds[run]:.1f} s", flush=True)
             table = {run: cells(r) for run, r in results.items()}
+            if "faulty-included" in results:
+                table["included, clean trials"] = cells(results["faulty-included"], True)
             summary[name] = {"seconds": seconds, "cells": {
                 run: {f"{a} {p:g}": v for (a, p), v in c.items()} for run, c in table.items()
             }}  # fmt: skip

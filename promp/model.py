@@ -38,6 +38,7 @@ from promp.covariance import (
     pooled_covariances,
 )
 from promp.data import Demonstration, Layout
+from promp.quality import winsorized
 from promp.scale import RELATIVE_FLOOR
 from promp.timing import alpha_from_duration
 from promp.weights import WeightFits, fit_all_weights, fit_weights  # noqa: F401
@@ -358,7 +359,7 @@ def _moments(
     )
     mean = weights.mean(axis=0)
     centred = weights - mean
-    log_alphas = np.log(alphas)
+    log_alphas = winsorized(np.log(alphas))  # a far-out speed has no undue leverage
     log_alpha_mean = float(log_alphas.mean())
     a_c = log_alphas - log_alpha_mean
     dof = len(demos) - 1

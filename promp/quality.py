@@ -365,23 +365,33 @@ def _active_duration(demo: Demonstration) -> float:
     return float(steps.sum() - steps[_gaps(demo)].sum())
 
 
-def _ordinary(durations: np.ndarray) -> np.ndarray:
-    """The durations not themselves far out: within :data:`OUTLIER_Z` robust deviations
-    (median absolute deviation of the logs, as a normal's standard deviation) of the median, or
-    within :data:`DURATION_FACTOR` of it (a class of nearly equal durations has almost no
-    deviation). Two far-out takes then cannot hide each other."""
-    logs = np.log(durations)
+def ordinary(logs: np.ndarray) -> np.ndarray:
+    """Which of ``logs`` (log durations or log speeds) are not far out, boolean mask: within
+    :data:`OUTLIER_Z` robust deviations (median absolute deviation, as a normal's standard
+    deviation) of the median, or within :data:`DURATION_FACTOR` of it (a class of nearly equal
+    durations has almost no deviation). Two far-out takes then cannot hide each other."""
+    logs = np.asarray(logs, dtype=float)
     centre = float(np.median(logs))
     spread = float(np.median(np.abs(logs - centre))) / 0.6745
     bound = max(OUTLIER_Z * spread, math.log(DURATION_FACTOR))
-    return durations[np.abs(logs - centre) <= bound]
+    return np.abs(logs - centre) <= bound
+
+
+def winsorized(logs: np.ndarray) -> np.ndarray:
+    """``logs`` with the far-out values (:func:`ordinary`) brought to the nearest ordinary
+    one: the same values when none is far out. What the speed prior and the coupling of shape
+    and speed are fitted to, so that one demonstration 30x slower than the others (kept by the
+    user despite its finding) cannot stretch them."""
+    logs = np.asarray(logs, dtype=float)
+    keep = ordinary(logs)
+    return np.clip(logs, logs[keep].min(), logs[keep].max())
 
 
 def _duration_finding(
     primitive: str, demo: Demonstration, duration: float, others: np.ndarray, file: str
 ) -> Finding | None:
-    ordinary = _ordinary(others)
-    longest, shortest = float(ordinary.max()), float(ordinary.min())
+    ordinary_ones = others[ordinary(np.log(others))]
+    longest, shortest = float(ordinary_ones.max()), float(ordinary_ones.min())
     if duration > DURATION_FACTOR * longest:
         what = f"{duration / longest:.1f}x the longest"
     elif duration < shortest / DURATION_FACTOR:
@@ -396,9 +406,9 @@ def _duration_finding(
         duration,
         "s",
         f"lasts {_s(duration)}, {what} of {primitive}'s other demonstrations "
-        f"({_s(shortest)} to {_s(longest)}, median {_s(float(np.median(ordinary)))}"
-        + (f"; {others.size - ordinary.size} far out left aside" if ordinary.size < others.size
-           else "")
+        f"({_s(shortest)} to {_s(longest)}, median {_s(float(np.median(ordinary_ones)))}"
+        + (f"; {others.size - ordinary_ones.size} far out left aside"
+           if ordinary_ones.size < others.size else "")
         + ")",
         file,
     )

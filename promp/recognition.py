@@ -47,6 +47,7 @@ from scipy import special
 
 from promp.inference import Observation, check_observation, log_likelihoods, logsumexp
 from promp.model import Primitive, ProMPModel
+from promp.quality import winsorized
 
 AlphaMethod = Literal["ml", "model"]
 ALPHA_METHODS: tuple[str, ...] = ("ml", "model")
@@ -76,9 +77,11 @@ class AlphaPrior:
 
     @classmethod
     def from_alphas(cls, alphas: np.ndarray, s_bar: float) -> AlphaPrior:
-        """The predictive of a normal sample of the training log alphas (module docstring);
-        the scale never drops below one sample's worth of duration (``alpha / s_bar``)."""
-        logs = np.log(np.asarray(alphas, dtype=float))
+        """The predictive of a normal sample of the training log alphas (module docstring),
+        far-out ones brought to the nearest ordinary one (:func:`promp.quality.winsorized`: a
+        demonstration kept despite lasting 30x the others does not stretch the prior); the
+        scale never drops below one sample's worth of duration (``alpha / s_bar``)."""
+        logs = winsorized(np.log(np.asarray(alphas, dtype=float)))
         n = logs.size
         loc = float(logs.mean())
         spread = float(logs.std(ddof=1)) if n > 1 else 0.0

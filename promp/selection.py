@@ -45,6 +45,7 @@ from promp._likelihood import log_likelihoods_scaled
 from promp.data import Demonstration, Layout
 from promp.model import FALLBACK, ProMPModel, Settings, fit_with
 from promp.observation import Observation
+from promp.quality import winsorized
 from promp.recognition import (
     AlphaPrior,
     label_noise,
@@ -240,11 +241,13 @@ REGION_PHASES = np.linspace(0.0, 1.0, 51)
 
 def within_region(model: ProMPModel, low: np.ndarray, high: np.ndarray) -> bool:
     """Whether every primitive's mean trajectory, at the slowest and the fastest of its
-    training speeds, stays inside [``low``, ``high``] (:func:`data_region`): a candidate whose
-    predictions leave the region the demonstrations span is never chosen."""
+    training speeds (winsorized, as the coupling of shape and speed saw them), stays inside
+    [``low``, ``high``] (:func:`data_region`): a candidate whose predictions leave the region
+    the demonstrations span is never chosen."""
     phi = model.basis(REGION_PHASES)
     for primitive in model.primitives:
-        alphas = np.array([primitive.alphas.min(), primitive.alphas.max()])
+        logs = winsorized(np.log(primitive.alphas))
+        alphas = np.exp([logs.min(), logs.max()])
         means = primitive.mean_at(alphas).reshape(2, model.n_dims, -1)
         paths = means @ phi.T  # (2, n_dims, n_phases)
         if np.any(paths < low[None, :, None]) or np.any(paths > high[None, :, None]):

@@ -1,7 +1,7 @@
 """Faulty recordings in the studio, in a real browser: the import preview lists what the checks
 found (file, time, size), the flagged demonstration is marked "left out" in Teach with the
-finding beside it and is not learned from, and one click keeps it (stored in the workspace,
-its file untouched)."""
+finding beside it, drawn grey and not learned from; one click keeps it (stored in the
+workspace, its file untouched), and its gap is repaired on request into new demonstrations."""
 
 from __future__ import annotations
 
@@ -92,5 +92,15 @@ def test_a_flagged_demonstration_is_shown_left_out_and_kept_with_one_click(
         )
         assert session.workspace.demo_path(*key).read_bytes() == before
         assert np.isfinite(model.primitive("curved").mean).all()
+
+        # Repair on request: split at the gap, two new demonstrations beside the original.
+        press(page, page.get_by_role("button", name="Repair gap", exact=True))
+        page.get_by_text("Repair the gap of").wait_for()
+        click(page, "Split at the gap")  # below the fold: a click event, as a scrolled page
+        notification(page, "Gap repaired", "paused-part1, paused-part2 made from paused")
+        names = [d.name for d in session.demos["curved"]]
+        assert names[-2:] == ["paused-part1", "paused-part2"] and "paused" in names
+        assert session.workspace.demo_path(*key).read_bytes() == before
+        assert not any(f.kind == "gap" for f in session.findings_of("curved", "paused-part1"))
     finally:
         page.close()

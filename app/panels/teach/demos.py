@@ -9,7 +9,9 @@ to the workspace's trash). *Undo delete* brings back the latest deletion
 A demonstration the checks flag (:mod:`promp.quality`: a gap, a jump, one that does not move, a
 rate or a duration far from the others') is marked "left out" and listed above the rows with
 what was found, where and how big; its row offers *Keep* (learn from it anyway) and, once kept,
-*Leave out* (:meth:`app.session.Session.set_kept`). Its file is never touched.
+*Leave out* (:meth:`app.session.Session.set_kept`); one with a gap in its timestamps offers
+*Repair gap* (cut at the gap, or split: new demonstrations beside it). Its file is never
+touched.
 """
 
 from __future__ import annotations
@@ -23,7 +25,8 @@ from promp.typicality import Typicality
 TYPICALITY_COLORS = {"typical": GREEN, "unusual": ORANGE, "outlier": RED}
 NOTIFY_COLORS = {"typical": "green", "unusual": "yellow", "outlier": "red"}
 DELETE, KEEP = "Delete demonstration", "Keep it"
-KEEP_FLAGGED, LEAVE_OUT = "Keep", "Leave out"
+KEEP_FLAGGED, LEAVE_OUT, REPAIR = "Keep", "Leave out", "Repair gap"
+CUT, SPLIT, CANCEL = "Cut at the gap", "Split at the gap", "Cancel"
 
 
 def typicality_text(typicality: Typicality | None) -> str:
@@ -42,7 +45,8 @@ def findings_text(rows) -> str:
     lines = []
     for demo_name, findings, kept in flagged:
         status = "kept" if kept else "left out of learning"
-        lines.append(f"**{escape(demo_name)}** ({status}): " + escape("; ".join(findings)))
+        messages = "; ".join(message for _, message in findings)
+        lines.append(f"**{escape(demo_name)}** ({status}): " + escape(messages))
     return "  \n" + colored(
         f"⚠ {len(flagged)} flagged (Keep learns from one anyway):", ORANGE, True
     ) + "  \n" + "  \n".join(lines)
@@ -68,8 +72,12 @@ class DemoList:
             )
             self.confirm_text = gui.add_markdown("", visible=False)
             self.confirm = gui.add_button_group("", (DELETE, KEEP), visible=False)
+            self.repair_text = gui.add_markdown("", visible=False)
+            self.repair = gui.add_button_group("", (CUT, SPLIT, CANCEL), visible=False)
+        self._pending_repair: tuple[str, str] | None = None
         self.undo_delete.on_click(self._undo)
         self.confirm.on_click(self._confirmed)
+        self.repair.on_click(self._repair_chosen)
 
     # ------------------------------------------------------------------ callbacks
 
@@ -92,6 +100,25 @@ class DemoList:
                 f"{demo} moved to the workspace's trash (Undo delete brings it back).", "gray",
             )  # fmt: skip
 
+    def _repair_chosen(self, event) -> None:
+        pending, self._pending_repair = self._pending_repair, None
+        self.repair_text.visible = self.repair.visible = False
+        choice = event.target.value
+        if pending is None or choice == CANCEL:
+            return
+        primitive, demo = pending
+        mode = "cut" if choice == CUT else "split"
+
+        def apply() -> None:
+            made = self.ctx.session.repair_gap(primitive, demo, mode)
+            self.ctx.tell(
+                event, "Gap repaired",
+                f"{', '.join(d.name for d in made)} made from {demo}, which stays as it was "
+                "(left out; delete it if you no longer need it).", "green",
+            )  # fmt: skip
+
+        self.ctx.attempt(event, "repair", apply)
+
     def _row_action(self, primitive: str, demo: str):
         def action(event) -> None:
             choice = event.target.value
@@ -102,6 +129,13 @@ class DemoList:
                     "*Undo delete* brings it back."
                 )
                 self.confirm_text.visible = self.confirm.visible = True
+            elif choice == REPAIR:
+                self._pending_repair = (primitive, demo)
+                self.repair_text.content = (
+                    f"Repair the gap of **{demo}**? *Cut* makes a new demonstration of the part "
+                    "before the gap; *Split* one of every part. The original stays as it is."
+                )
+                self.repair_text.visible = self.repair.visible = True
             elif choice in (KEEP_FLAGGED, LEAVE_OUT):
                 keep = choice == KEEP_FLAGGED
 
@@ -140,7 +174,9 @@ class DemoList:
                     d.duration,
                     (name, d.name) in session.hidden,
                     session.typicality.get((name, d.name)),
-                    tuple(f.message for f in session.findings_of(name, d.name)),
+                    tuple(
+                        (f.kind, f.message) for f in session.findings_of(name, d.name)
+                    ),
                     (name, d.name) in session.checks.kept,
                 )
                 for d in reversed(demos)  # newest first
@@ -190,6 +226,8 @@ class DemoList:
                 label += " · hidden"
             handle.label = label
             options = ("Show" if hidden else "Hide", "Delete")
+            if any(kind == "gap" for kind, _ in findings):
+                options = (REPAIR, *options)
             if findings:
                 options = (LEAVE_OUT if kept else KEEP_FLAGGED, *options)
             handle.options = options
