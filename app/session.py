@@ -130,9 +130,12 @@ class Session(FlaggedDemos):
             self.checks if checks is None else checks,
         )
 
-    def _changed(self, refit: bool = True) -> None:
+    def _changed(self, refit: bool = True, recheck: bool = True) -> None:
+        """After a mutation: find the faults again (``recheck``: the demonstrations may have
+        changed), refit, and tell the listeners."""
         if refit:
-            self._recheck()
+            if recheck:
+                self._recheck()
             self._ask_refit()
             self.imported_model, self.imported_from = None, ""
         self.version += 1
@@ -412,7 +415,7 @@ class Session(FlaggedDemos):
             Settings(**settings)  # validates
             self._save_index(settings=settings)
             self.settings = settings
-            self._changed()
+            self._changed(recheck=False)
 
     def resolved_settings(self) -> Settings:
         """The settings with every automatic one at the value the current model chose (its

@@ -46,7 +46,7 @@ class FlaggedDemos:
                 return
             self._save_index(checks=checks)
             self.checks = checks
-            self._changed()
+            self._changed(recheck=False)
 
     def repair_gap(self, primitive: str, demo: str, mode: str) -> list[Demonstration]:
         """New demonstrations from ``demo``'s gap repaired (:func:`promp.quality.repair_gaps`:

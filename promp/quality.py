@@ -13,8 +13,11 @@ Checks of one demonstration on its own (:func:`demo_findings`):
 * ``gap``: a step between samples longer than :data:`GAP_FACTOR` times the demonstration's
   median step (the logger paused), with the jump of every modality across it;
 * ``jump``: a step of a modality larger than :data:`JUMP_SHARE` of the demonstration's extent
-  in that modality **and** :data:`JUMP_RATIO` times the median step of the samples around it:
-  a glitch, not a fast movement (a fast movement's neighbours are fast too).
+  in that modality **and** :data:`JUMP_RATIO` times its own pace (the step that
+  :data:`JUMP_QUANTILE` of its moving steps stay under): a glitch, not a fast movement (a fast
+  or jerky movement has many large steps; a large step of two streams at once, within a
+  sample, such as the dragged hand and the head the simulated partner turns with it, is the
+  movement: a glitch is one stream's alone).
 
 Checks against the other demonstrations (:func:`dataset_findings`):
 
@@ -50,12 +53,14 @@ from promp.data import Demonstration, Layout
 
 # A step over 10x the median step is a pause of the logger (clean sets: at most 1.3x).
 GAP_FACTOR = 10.0
-# A jump: over 20 % of the extent in one step and 10x the steps around it (clean sets: at most
-# 7 % of the extent on the hand; the simulated head turns 40 % of its extent in one step, but
-# its neighbours move too: at most 3x the local median).
+# A jump: over 20 % of the extent in one step and 5x the demonstration's own pace, the step
+# that 90 % of its moving steps stay under (clean sets: at most 7 % of the extent on the hand;
+# the simulated head turns 40 % of its extent in one step, at most 2.1x its pace; a take
+# dragged in the browser by a slow page moves in a few 5 cm steps and stands still between
+# them: its pace is those steps).
 JUMP_SHARE = 0.2
-JUMP_RATIO = 10.0
-JUMP_WINDOW = 10  # samples on each side that define "the steps around it"
+JUMP_RATIO = 5.0
+JUMP_QUANTILE = 0.9
 # Still: under 10 % of the class's median extent (clean sets: at least 56 %).
 STILL_SHARE = 0.1
 # Rate: 3x off the dataset's median period (a 30 Hz camera beside 100 Hz logs; the studio
@@ -205,16 +210,6 @@ def _modality_steps(values: np.ndarray) -> np.ndarray:
     return np.linalg.norm(np.diff(values, axis=0), axis=1)
 
 
-def _local_median(steps: np.ndarray, window: int) -> np.ndarray:
-    """Median of the steps within ``window`` on each side of every step, itself excluded."""
-    n = steps.shape[0]
-    out = np.empty(n)
-    for i in range(n):
-        around = np.concatenate([steps[max(0, i - window) : i], steps[i + 1 : i + 1 + window]])
-        out[i] = float(np.median(around)) if around.size else 0.0
-    return out
-
-
 def _extent(values: np.ndarray) -> float:
     """The size of the box a modality's values span (norm of the per-column ranges)."""
     return float(np.linalg.norm(np.ptp(values, axis=0)))
@@ -250,18 +245,28 @@ def demo_findings(
             )
         )
     gap_steps = set(int(i) for i in gaps)
+    paced = {}
     for modality in layout.modalities:
         x = values[:, layout.dims([modality.name])]
-        steps = _modality_steps(x)
-        extent = _extent(x)
-        if steps.size < 3 or extent <= 0:
-            continue
-        candidates = np.flatnonzero(steps > JUMP_SHARE * extent)
-        if candidates.size == 0:
-            continue
-        local = _local_median(steps, JUMP_WINDOW)
-        for i in candidates:
-            if int(i) in gap_steps or steps[i] <= JUMP_RATIO * local[i]:
+        steps, extent = _modality_steps(x), _extent(x)
+        moving = steps[steps > 1e-6 * extent]
+        if steps.size >= 3 and extent > 0 and moving.size:
+            # its own pace when it moves: a take that only moves in a few large steps (a hand
+            # dragged in the browser by a slow page, sampled and held) has a large pace
+            paced[modality.name] = (steps, extent, float(np.quantile(moving, JUMP_QUANTILE)))
+    for name, (steps, extent, own) in paced.items():
+        unit = layout.modality(name).unit
+        for i in np.flatnonzero((steps > JUMP_SHARE * extent) & (steps > JUMP_RATIO * own)):
+            # a step of the whole scene (another modality also moving a large share of its
+            # extent within a sample: streams are not sampled at the same instant) is the
+            # movement; a glitch is one stream's alone
+            near = slice(max(i - 1, 0), i + 2)
+            others = [
+                bool(np.any(s[near] > JUMP_SHARE * e))
+                for other, (s, e, _) in paced.items()
+                if other != name
+            ]
+            if int(i) in gap_steps or any(others):
                 continue
             out.append(
                 Finding(
@@ -270,11 +275,10 @@ def demo_findings(
                     "jump",
                     float(demo.times[i + 1] - t0),
                     float(steps[i]),
-                    modality.unit,
-                    f"{modality.name} jumps {_amount(float(steps[i]), modality.unit)} in one "
-                    f"step at {_s(demo.times[i + 1] - t0)} ({steps[i] / extent:.0%} of its "
-                    f"extent; the steps around it are "
-                    f"{_amount(float(local[i]), modality.unit)})",
+                    unit,
+                    f"{name} jumps {_amount(float(steps[i]), unit)} in one step at "
+                    f"{_s(demo.times[i + 1] - t0)} ({steps[i] / extent:.0%} of its extent; "
+                    f"{JUMP_QUANTILE:.0%} of its moving steps are under {_amount(own, unit)})",
                     file,
                 )
             )

@@ -678,8 +678,12 @@ def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None
                f"{panel(studio).learn.n_basis.value})")  # fmt: skip
     # Automatic again: the settings leave studio.json, the fit chooses.
     row(page, "Automatic").get_by_role("checkbox").click()
-    wait_until(lambda: "n_basis" not in session.settings and not session.refitting
-               and session.model.report["settings"]["chosen"], what="automatic again")  # fmt: skip
+    def automatic_again() -> bool:
+        with session.lock:  # the three read at one moment, not across a mutation
+            return ("n_basis" not in session.settings and not session.refitting
+                    and bool(session.model.report["settings"]["chosen"]))  # fmt: skip
+
+    wait_until(automatic_again, what="automatic again")
     assert '"n_basis"' not in session.workspace.index_path.read_text()
 
 

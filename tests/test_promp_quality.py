@@ -117,6 +117,31 @@ def test_a_jump_and_an_odd_rate_are_found() -> None:
     assert jump.size == pytest.approx(0.1, rel=0.1) and "10" in jump.message
 
 
+def test_a_take_dragged_in_a_few_large_steps_is_not_a_glitch() -> None:
+    """What the studio records when a slow page sends the gizmo a few large moves (seen in the
+    browser test of recording): the hand holds, then moves 5 cm in one 20 ms tick, four times;
+    the simulated partner's head turns with it a sample earlier, noisy in between. A movement,
+    not four glitches."""
+    rng = np.random.default_rng(7)
+    n = 143
+    hand = np.zeros((n, 3))
+    head = rng.normal(scale=0.004, size=(n, 3)) + [0.0, 0.3, -0.2]
+    for k, i in enumerate((10, 43, 78, 121)):
+        hand[i:] += [0.0, 0.01 * k, 0.048]
+        head[i - 1 :] += [0.0, 0.02, 0.085]
+    take = Demonstration(np.arange(n) * 0.02, np.hstack([hand, head]), LAYOUT.columns, "take")
+    assert demo_findings(take, LAYOUT, "curved") == []
+    # The same hand with a still head: the hand's steps are its pace, still not a glitch.
+    still = Demonstration(take.times, np.hstack([hand, head * 0]), LAYOUT.columns, "still")
+    assert demo_findings(still, LAYOUT, "curved") == []
+    # One stream's lone step beyond its pace is: the head glitches 25 deg in a smooth take.
+    smooth = make_dataset(seed=9, n_demos=1)["left"][0]
+    values = smooth.values.copy()
+    values[60:, 3] += np.radians(25)
+    glitch = Demonstration(smooth.times, values, smooth.columns, "glitch")
+    assert [f.kind for f in demo_findings(glitch, LAYOUT, "left")] == ["jump"]
+
+
 def test_flagged_demonstrations_are_left_out_unless_kept() -> None:
     dataset, injected = inject(make_dataset(seed=3, n_demos=6), LAYOUT)
     findings = dataset_findings(dataset, LAYOUT)
