@@ -17,7 +17,7 @@ the demonstrations whenever they change (a few milliseconds for a hundred of the
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from promp.data import Demonstration, Layout
@@ -83,21 +83,3 @@ class DemoChecks:
         files = {key: f"demos/{key[0]}/{key[1]}.csv" for key in present}
         found = [f for f in self.imported if f.key in present]
         return found + dataset_findings(demos, layout, files)
-
-
-def left_out(
-    findings: Sequence[Finding], kept: Collection[tuple[str, str]]
-) -> dict[tuple[str, str], list[Finding]]:
-    """The (primitive, demo) with a finding that the user did not keep, with their findings."""
-    out: dict[tuple[str, str], list[Finding]] = {}
-    for finding in findings:
-        if finding.key not in kept:
-            out.setdefault(finding.key, []).append(finding)
-    return out
-
-
-def without(
-    demos: Mapping[str, Sequence[Demonstration]], left: Collection[tuple[str, str]]
-) -> dict[str, list[Demonstration]]:
-    """Every primitive's demonstrations (in order) but those of ``left``."""
-    return {n: [d for d in items if (n, d.name) not in left] for n, items in demos.items()}

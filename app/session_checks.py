@@ -8,9 +8,8 @@ workspace); kept apart so that the session's file stays one idea long.
 from __future__ import annotations
 
 from app.dataset_import import safe_name
-from app.demo_checks import left_out, without
 from promp.data import Demonstration
-from promp.quality import Finding, repair_gaps
+from promp.quality import Finding, repair_gaps, split_flagged
 
 
 class FlaggedDemos:
@@ -23,7 +22,7 @@ class FlaggedDemos:
     def left_out(self) -> dict[tuple[str, str], list[Finding]]:
         """The flagged demonstrations the user did not keep (left out of learning)."""
         with self.lock:
-            return left_out(self.findings, self.checks.kept)
+            return split_flagged(self.demos, self.findings, self.checks.kept)[1]
 
     def findings_of(self, primitive: str, demo: str) -> list[Finding]:
         with self.lock:
@@ -32,7 +31,7 @@ class FlaggedDemos:
     def learned_demos(self) -> dict[str, list[Demonstration]]:
         """Every primitive's demonstrations that learning uses: all but :meth:`left_out`."""
         with self.lock:
-            return without(self.demos, self.left_out())
+            return split_flagged(self.demos, self.findings, self.checks.kept)[0]
 
     def set_kept(self, primitive: str, demo: str, kept: bool) -> None:
         """Learn from a flagged demonstration after all (``kept``), or leave it out again (the
