@@ -15,9 +15,9 @@ Checks of one demonstration on its own (:func:`demo_findings`):
 * ``jump``: a step of a modality larger than :data:`JUMP_SHARE` of the demonstration's extent
   in that modality **and** :data:`JUMP_RATIO` times its own pace (the step that
   :data:`JUMP_QUANTILE` of its moving steps stay under): a glitch, not a fast movement (a fast
-  or jerky movement has many large steps; a large step of two streams at once, within a
-  sample, such as the dragged hand and the head the simulated partner turns with it, is the
-  movement: a glitch is one stream's alone).
+  or jerky movement has many large steps; a large step of two streams at once, within
+  :data:`JUMP_NEAR` samples, such as the dragged hand and the head the simulated partner turns
+  after it, is the movement: a glitch is one stream's alone).
 
 Checks against the other demonstrations (:func:`dataset_findings`):
 
@@ -61,6 +61,9 @@ GAP_FACTOR = 10.0
 JUMP_SHARE = 0.2
 JUMP_RATIO = 5.0
 JUMP_QUANTILE = 0.9
+# Two streams' large steps this many samples apart are one movement (the studio's simulated
+# partner turns its head 2-3 samples after the dragged hand moves, at 50 Hz).
+JUMP_NEAR = 5
 # Still: under 10 % of the class's median extent (clean sets: at least 56 %).
 STILL_SHARE = 0.1
 # Rate: 3x off the dataset's median period (a 30 Hz camera beside 100 Hz logs; the studio
@@ -258,9 +261,9 @@ def demo_findings(
         unit = layout.modality(name).unit
         for i in np.flatnonzero((steps > JUMP_SHARE * extent) & (steps > JUMP_RATIO * own)):
             # a step of the whole scene (another modality also moving a large share of its
-            # extent within a sample: streams are not sampled at the same instant) is the
-            # movement; a glitch is one stream's alone
-            near = slice(max(i - 1, 0), i + 2)
+            # extent within a few samples: streams are not sampled at the same instant, and a
+            # head source lags the hand) is the movement; a glitch is one stream's alone
+            near = slice(max(i - JUMP_NEAR, 0), i + JUMP_NEAR + 1)
             others = [
                 bool(np.any(s[near] > JUMP_SHARE * e))
                 for other, (s, e, _) in paced.items()
