@@ -65,7 +65,9 @@ class FlaggedDemos:
             parts = repair_gaps(original, mode)
             if parts == [original]:
                 raise ValueError(f"{demo} has no gap in its timestamps")
-            taken = {d.name for d in self.demos[primitive]}
+            # never over a file already there (one the session could not read, say)
+            folder = self.workspace.demo_dir(primitive)
+            taken = {d.name for d in self.demos[primitive]} | {p.stem for p in folder.glob("*")}
             made = []
             for k, part in enumerate(parts, start=1):
                 suffix = "cut" if mode == "cut" else f"part{k}"

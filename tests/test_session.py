@@ -383,3 +383,19 @@ def test_an_imports_timestamp_findings_travel_with_the_workspace(tmp_path) -> No
     assert [f.kind for f in session.findings_of(*key)] == ["timestamps"]
     assert list(session.left_out()) == [key]
     assert session.wait_for_model().primitive("direct").n_demos == 3
+
+
+def test_a_repaired_gap_makes_new_demonstrations_and_overwrites_nothing(session) -> None:
+    gap = _with_a_gap(session.demos["direct"][1], "gap")
+    added = session.add_demo("direct", gap.times, gap.select(COLUMNS))
+    folder = session.workspace.demo_dir("direct")
+    squatter = folder / f"{added.name}-cut.csv"
+    squatter.write_text("not a demonstration\n")  # a file the session could not read
+    before = session.workspace.demo_path("direct", added.name).read_bytes()
+    (cut,) = session.repair_gap("direct", added.name, "cut")
+    assert cut.name == f"{added.name}-cut-2" and squatter.read_text() == "not a demonstration\n"
+    assert cut.n_samples == gap.n_samples // 2
+    assert session.workspace.demo_path("direct", added.name).read_bytes() == before
+    assert [f.kind for f in session.findings_of("direct", cut.name)] == []
+    with pytest.raises(ValueError, match="has no gap"):
+        session.repair_gap("direct", cut.name, "split")
