@@ -2,13 +2,18 @@
 
 A refit of a training learned a moment ago (Undo delete, a setting put back) reuses that model
 (:mod:`app.fit_cache`): the outcomes of the last fits are kept by a digest of everything the fit
-reads. A crash is never kept.
+reads. A crash is never kept. Any other refit starts from the last model's choice of the
+automatic settings, which it keeps unless the demonstrations now say otherwise
+(:func:`promp.selection.choose_settings`): adding or deleting one demonstration costs about a
+fit with the settings given, and every demonstration's statistics are computed once
+(:func:`promp.weights.demo_statistics`).
 """
 
 from __future__ import annotations
 
 import time
 import traceback
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 from app.fit_cache import MAX_ENTRIES, training_key
@@ -25,6 +30,8 @@ class Training:
     demos: dict[str, list[Demonstration]]  # the primitives with at least two demonstrations
     layout: Layout
     settings: Settings
+    # the last model's choice of settings, which this refit may keep (promp.learn.fit)
+    previous: Mapping | None = None
 
 
 @dataclass(frozen=True)
@@ -52,7 +59,9 @@ def learn(training: Training, reuse: bool = True) -> Learned:
         return replace(known, reused=True)
     start = time.perf_counter()
     try:
-        model, error = fit(training.demos, training.layout, training.settings), None
+        model = fit(training.demos, training.layout, training.settings,
+                    previous=training.previous)  # fmt: skip
+        error = None
     except ValueError as exc:
         model, error = None, str(exc)
     except Exception as exc:  # a bug must end the refit visibly, not leave it pending

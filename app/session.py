@@ -169,11 +169,16 @@ class Session(FlaggedDemos):
 
     # ------------------------------------------------------------------ learning
 
-    def _training(self) -> Training:
+    def _training(self, keep_choice: bool = True) -> Training:
+        """What a refit learns from; with ``keep_choice``, the last model's choice of the
+        automatic settings, which the fit keeps unless the demonstrations say otherwise."""
         with self.lock:
             learned = self.learned_demos()
             trainable = {n: list(d) for n, d in learned.items() if len(d) >= 2}
-            return Training(trainable, self.layout, self.learning_settings())
+            previous = None
+            if keep_choice and self.model is not None and self.model.layout == self.layout:
+                previous = self.model.report.get("settings")
+            return Training(trainable, self.layout, self.learning_settings(), previous)
 
     def _use(self, learned: Learned) -> None:
         """Adopt a refit's outcome (lock held)."""
@@ -186,7 +191,9 @@ class Session(FlaggedDemos):
         if self.model is not None and self.model.layout != self.layout:
             self.model = None  # another workspace's model: nothing to show meanwhile
         if not self._closed:
-            self._worker.submit(self._refit, self.learn_version, self._training(), reuse)
+            self._worker.submit(
+                self._refit, self.learn_version, self._training(keep_choice=reuse), reuse
+            )
 
     def _refit(self, request: int, training: Training, reuse: bool = True) -> None:
         """The worker's job: learn, then adopt the result if no newer request came."""

@@ -9,7 +9,11 @@ s_bar = 100, 20 demonstrations per primitive (so 20 training alphas each), obser
 a dense observation-space covariance ``Phi_o Sigma Phi_o^T + R`` per candidate, explicitly
 inverted. Both run in this process; their log-likelihoods are compared to check they agree.
 
-Run: ``.venv/bin/python bench/inference.py``. The last line is one JSON object.
+Run: ``.venv/bin/python bench/inference.py``. The last line is one JSON object, with the
+targets of issue 24 judged on this run: the K = 10 step at most :data:`MAX_K_RATIO` times the
+K = 2 step, the K = 2 step at least :data:`MIN_NAIVE_RATIO` times faster than the naive one
+(both with the whole test movement observed), and the log-likelihoods within
+:data:`MAX_LOGLIK_DIFFERENCE` of the dense ones.
 """
 
 from __future__ import annotations
@@ -41,6 +45,9 @@ LAYOUT = Layout(
     )
 )
 OBSERVED = ("hand", "head", "wrist")
+MAX_K_RATIO = 5.0  # K = 10 step / K = 2 step
+MIN_NAIVE_RATIO = 300.0  # naive step / K = 2 step
+MAX_LOGLIK_DIFFERENCE = 1e-8
 
 
 def make_primitive(rng: np.random.Generator, k: int) -> list[Demonstration]:
@@ -149,14 +156,34 @@ def main() -> None:
     fit_data = {"p0": make_primitive(np.random.default_rng(5), 0)}
     fit_ms = median_ms(lambda: fit(fit_data, LAYOUT, GIVEN), 20)
     print(f"fit of one primitive from {N_DEMOS} demonstrations (D={D}, M={M}): {fit_ms:.2f} ms")
+    k_ratio = results["scrub_step_ms_k10_100"] / results["scrub_step_ms_k2_100"]
+    verdicts = {
+        "k_ratio": k_ratio <= MAX_K_RATIO,
+        "naive_ratio": results["naive_ratio_k2_full"] >= MIN_NAIVE_RATIO,
+        "loglik_difference": results["max_abs_loglik_difference"] <= MAX_LOGLIK_DIFFERENCE,
+    }
+
+    def verdict(name: str) -> str:
+        return "PASS" if verdicts[name] else "FAIL"
+
+    print(
+        f"K=10 / K=2 step (100 %): {k_ratio:.2f}x (target <= {MAX_K_RATIO:g}x) "
+        f"{verdict('k_ratio')}; naive / K=2: {results['naive_ratio_k2_full']:.0f}x "
+        f"(target >= {MIN_NAIVE_RATIO:g}x) {verdict('naive_ratio')}; max |log-lik "
+        f"difference| {results['max_abs_loglik_difference']:.1e} (target <= "
+        f"{MAX_LOGLIK_DIFFERENCE:g}) {verdict('loglik_difference')}"
+    )
     summary = {
         "scrub_step_ms_k2_full": round(results["scrub_step_ms_k2_100"], 3),
         "scrub_step_ms_k10_full": round(results["scrub_step_ms_k10_100"], 3),
+        "k_ratio_full": round(k_ratio, 2),
         "naive_ratio_k2_full": round(results["naive_ratio_k2_full"], 1),
         "fit_ms_20_demos": round(fit_ms, 3),
         "scrub_step_ms_k2_10": round(results["scrub_step_ms_k2_10"], 3),
         "scrub_step_ms_k10_10": round(results["scrub_step_ms_k10_10"], 3),
+        "k_ratio_10": round(results["scrub_step_ms_k10_10"] / results["scrub_step_ms_k2_10"], 2),
         "max_abs_loglik_difference": results["max_abs_loglik_difference"],
+        "pass": {name: "PASS" if ok else "FAIL" for name, ok in verdicts.items()},
     }
     print(json.dumps(summary))
 

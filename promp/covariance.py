@@ -113,7 +113,9 @@ def target_weight(
     held_out = np.zeros((len(parts), rows.shape[1], width))  # zero columns add nothing
     counts = np.empty(len(parts))
     for i, part in enumerate(parts):
-        train = np.setdiff1d(order, part)
+        outside = np.ones(n, dtype=bool)
+        outside[part] = False
+        train = np.nonzero(outside)[0]  # the sorted complement of the fold
         samples[i] = rows[train].T @ rows[train] / max(dof * train.size / n, 1.0)
         held_out[i, :, : part.size] = rows[part].T
         counts[i] = part.size
@@ -175,9 +177,7 @@ def niw_log_evidence(
     for eig, dof in zip(eigenvalues, dofs, strict=True):
         nun = nu0 + dof
         logdet_psi = p * np.log(c) + logdet_prior
-        logdet_post = (
-            logdet_prior + np.log(c[..., None] + eig).sum(-1) + (p - eig.size) * np.log(c)
-        )
+        logdet_post = logdet_prior + np.log(c[..., None] + eig).sum(-1) + (p - eig.size) * np.log(c)
         total += (
             -dof * p / 2.0 * math.log(math.pi)
             + _log_multigamma(nun / 2.0, p)
@@ -219,6 +219,12 @@ class PooledPrior:
     target_weight: np.ndarray
     strength: float
     log_evidence: float
+    # Sigma_0 = diag(target_part) + keep (rows^T rows) keep / dof, for the leave-one-out
+    # downdates of promp.selection (never stored in the model file)
+    target_part: np.ndarray | None = None  # beta F, (P,)
+    keep: np.ndarray | None = None  # sqrt(1 - beta), (P,)
+    scatter: np.ndarray | None = None  # rows^T rows of every primitive's residuals, (P, P)
+    dof: float = 0.0
 
     def describe(self) -> dict:
         return {
@@ -288,4 +294,12 @@ def pooled_covariances(
         if factor.shape[1] > p:  # compress to rank <= P
             factor = compress_factor(factor)
         out.append((a * beta_w * target, factor))
-    return out, PooledPrior(target_weight=beta, strength=c, log_evidence=float(scores[best]))
+    return out, PooledPrior(
+        target_weight=beta,
+        strength=c,
+        log_evidence=float(scores[best]),
+        target_part=beta_w * target,
+        keep=keep,
+        scatter=rows.T @ rows,
+        dof=dof_pool,
+    )

@@ -10,7 +10,7 @@ Model JSON, schema version 2 (version 1 files, without ``report``, still load)::
                  ...],
       "settings": {"n_basis": 7, "width": 1.0, "ridge": 1e-06, "s_bar": 100.0,
                    "shrinkage": null, "noise_std": {}, "noise_scale": 1.0,
-                   "alpha_coupling": true, "noise_correlation": true},
+                   "alpha_coupling": true, "noise_correlation": true, "select": "loo"},
       "sample_period": 0.02,                       # seconds
       "report": {"settings": {"rule": "...", "chosen": {"n_basis": 7, ...}, ...},
                  "covariance": {"rule": "...", "strength": 42.2, ...}},
@@ -117,6 +117,7 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
             "noise_scale": s.noise_scale,
             "alpha_coupling": s.alpha_coupling,
             "noise_correlation": s.noise_correlation,
+            "select": s.select,
         },
         "sample_period": model.sample_period,
         "report": dict(model.report),
@@ -192,6 +193,7 @@ def model_from_dict(data: Any) -> ProMPModel:
             noise_scale=float(raw.get("noise_scale", 1.0)),
             alpha_coupling=bool(raw.get("alpha_coupling", True)),
             noise_correlation=bool(raw.get("noise_correlation", True)),
+            select=str(raw.get("select", "loo")),
         )
     except (TypeError, AttributeError) as exc:
         raise ValueError(f"malformed layout or settings ({exc})") from exc

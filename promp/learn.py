@@ -22,12 +22,16 @@ def fit(
     layout: Layout,
     settings: Settings | None = None,
     sample_period: float | None = None,
+    previous: Mapping | None = None,
 ) -> ProMPModel:
     """Learn one primitive per entry of ``dataset`` ({primitive name: demonstrations}).
 
     Settings left to the data (None: by default the basis count, its width and the noise
     scale) are chosen from ``dataset`` by :func:`promp.selection.choose_settings`; the model's
     ``settings`` hold the values used and ``report["settings"]`` what was chosen, and why.
+    ``previous``: the ``report["settings"]`` of a fit of nearly the same demonstrations (the
+    studio's refit after a demonstration was added or deleted), which the choice may keep
+    (:func:`promp.selection.choose_settings`).
 
     Raises
     ------
@@ -49,7 +53,7 @@ def fit(
                 "to learn a distribution"
             )
     if settings.automatic:
-        settings, choice = choose_settings(dataset, layout, settings, dt)
+        settings, choice = choose_settings(dataset, layout, settings, dt, previous)
     else:
         choice = {"rule": "given (n_basis, width and noise_scale set explicitly)"}
     model = fit_with(dataset, layout, settings, dt)

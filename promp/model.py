@@ -33,6 +33,7 @@ from promp.alpha_model import AlphaModel, resample_uniform
 from promp.basis import PhaseBasisCache, RBFBasis
 from promp.covariance import (
     MIN_SHRINKAGE,
+    PooledPrior,
     compress_factor,
     fixed_shrinkage,
     pooled_covariances,
@@ -45,6 +46,8 @@ from promp.weights import WeightFits, fit_all_weights, fit_weights  # noqa: F401
 
 # The reference settings: what a fit uses when it cannot choose (see promp.selection).
 FALLBACK = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
+# How the others are chosen (promp.selection): closed-form leave-one-out, or inner folds.
+SELECT_RULES = ("loo", "cv")
 
 
 @dataclass(frozen=True)
@@ -84,6 +87,11 @@ class Settings:
     alpha_coupling : bool
         Learn how the shape depends on the speed: the weights are regressed on log(alpha) and
         the prior at a candidate alpha is the conditional Gaussian (see :class:`Primitive`).
+    select : str
+        How the automatic settings are chosen (:mod:`promp.selection`): ``"loo"`` (the
+        default), the recognition log-loss of every training demonstration left out in closed
+        form from one fit per candidate basis; ``"cv"``, the inner cross-validation that
+        refits every fold (slower, for comparison).
     """
 
     n_basis: int | None = None
@@ -95,8 +103,11 @@ class Settings:
     noise_scale: float | None = None
     alpha_coupling: bool = True
     noise_correlation: bool = True
+    select: str = "loo"
 
     def __post_init__(self) -> None:
+        if self.select not in SELECT_RULES:
+            raise ValueError(f"select must be one of {list(SELECT_RULES)}, got {self.select!r}")
         RBFBasis(  # validates both
             FALLBACK["n_basis"] if self.n_basis is None else self.n_basis,
             FALLBACK["width"] if self.width is None else self.width,
@@ -311,9 +322,7 @@ def estimate_noise(
         autocorrelation ``rho`` at the mean sample step ``dt``: ``-dt / log(rho)``; 0 (white)
         when ``rho <= 0`` or ``settings.noise_correlation`` is off.
     """
-    residuals = fits.residuals
-    sse = sum((r**2).sum(axis=0) for r in residuals)
-    lagged = sum((r[1:] * r[:-1]).sum(axis=0) for r in residuals)  # sum of r_i r_(i-1)
+    sse, lagged = fits.sse, fits.lagged  # sums of r_i^2 and of r_i r_(i-1)
     dof = np.maximum(sum(fits.dof), 1.0)
     # the residuals' step: a demonstration's duration over its steps (they are evenly spaced
     # in phase, :mod:`promp.weights`); the median over demonstrations, so one with a long
@@ -340,6 +349,9 @@ class _Moments:
     mean: np.ndarray
     slope: np.ndarray
     residuals: np.ndarray  # weights - mean - slope * (log alpha - its mean), (n, P)
+    leverage: np.ndarray  # of each demonstration in that regression, (n,)
+    centred_log_alphas: np.ndarray  # its regressor, (n,)
+    slope_weight: float  # 1 / (its regressor's sum of squares); 0 without the regression
     dof: int
     alphas: np.ndarray
     log_alpha_mean: float
@@ -364,9 +376,13 @@ def _moments(
     a_c = log_alphas - log_alpha_mean
     dof = len(demos) - 1
     slope = np.zeros_like(mean)
+    leverage = np.full(len(demos), 1.0 / len(demos))
+    slope_weight = 0.0
     if settings.alpha_coupling and len(demos) >= 3 and float(a_c @ a_c) > 1e-12:
+        slope_weight = 1.0 / float(a_c @ a_c)
         slope = centred.T @ a_c / float(a_c @ a_c)
         centred = centred - np.outer(a_c, slope)
+        leverage = leverage + a_c**2 * slope_weight
         dof = len(demos) - 2
     alpha_models = {}
     if with_alpha_models:
@@ -375,12 +391,69 @@ def _moments(
             m.name: AlphaModel.fit([t[:, layout.dims([m.name])] for t in trajectories], alphas)
             for m in layout.modalities
         }
-    return _Moments(mean, slope, centred, dof, alphas, log_alpha_mean, alpha_models)
+    return _Moments(
+        mean, slope, centred, leverage, a_c, slope_weight, dof, alphas, log_alpha_mean,
+        alpha_models,
+    )  # fmt: skip
 
 
 def sample_period_of(demos: Sequence[Demonstration]) -> float:
     """The recording period of a set of demonstrations: the median of their median steps."""
     return float(np.median([d.sample_period for d in demos]))
+
+
+@dataclass(frozen=True, eq=False)
+class FitParts:
+    """What a fit learned on the way to one primitive, for the closed-form leave-one-out
+    score of :mod:`promp.selection` (never stored).
+
+    With the pooled prior (``prior``: its parts, :class:`promp.covariance.PooledPrior`)
+    ``Sigma_w = a(n, dof) Sigma_0 + b(n, dof) E^T E`` (:meth:`weights_of`), ``Sigma_0`` built
+    from every primitive's residual rows; with a fixed shrinkage ``Sigma_w = lambda F +
+    (1 - lambda) / dof E^T E``. ``E`` (n x P) are the primitive's residuals
+    (:attr:`residuals`). Without demonstration ``j`` its residual scatter loses
+    ``e_j e_j^T / (1 - h_j)`` (``h``: the leverage of each demonstration in the regression on
+    log alpha), and so does the pooled one, and the held-out prediction of its weights is
+    ``weights_j - e_j / (1 - h_j)`` (the regression's leave-one-out identity).
+    """
+
+    weights: np.ndarray  # (n, P)
+    residuals: np.ndarray  # (n, P)
+    leverage: np.ndarray  # (n,)
+    centred_log_alphas: np.ndarray  # (n,) the regressor (winsorized, centred)
+    slope_weight: float  # 1 / sum of its squares; 0 without the regression
+    dof: int
+    prior: PooledPrior | None  # None: a fixed shrinkage
+    shrinkage: float | None
+
+    def without(
+        self, j: int, mean: np.ndarray, slope: np.ndarray, cols: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """The primitive refitted without demonstration ``j`` (``mean``, ``slope``: the
+        primitive's): its mean and regression slope (P,), the loss of its residual scatter
+        ``E^T E - E_(-j)^T E_(-j)`` in ``cols`` (len(cols) squared) and its degrees of
+        freedom. Rank-one downdates; with three demonstrations, the two left have no
+        regression (:func:`_moments`) and are summed directly."""
+        n = self.residuals.shape[0]
+        e, h = self.residuals[j], float(self.leverage[j])
+        if self.slope_weight > 0.0 and n - 1 < 3:
+            others = np.delete(self.weights, j, axis=0)
+            centred = others - others.mean(axis=0)
+            kept = self.residuals[:, cols].T @ self.residuals[:, cols]
+            drop = kept - centred[:, cols].T @ centred[:, cols]
+            return others.mean(axis=0), np.zeros_like(slope), drop, n - 2
+        mean_j = mean - e / (n * (1.0 - h))
+        slope_j = slope - self.slope_weight * self.centred_log_alphas[j] / (1.0 - h) * e
+        return mean_j, slope_j, np.outer(e[cols], e[cols]) / (1.0 - h), self.dof - 1
+
+    def weights_of(self, n: int, dof: int) -> tuple[float, float]:
+        """``(a, b)``: the factors of ``Sigma_0`` and of ``E^T E`` in Sigma_w for a primitive
+        of ``n`` demonstrations and ``dof`` residual degrees of freedom (``a`` is 0 with a
+        fixed shrinkage, whose target part does not move)."""
+        if self.prior is None:
+            return 0.0, (1.0 - max(float(self.shrinkage), MIN_SHRINKAGE)) / dof
+        inflate, c = 1.0 + 1.0 / n, self.prior.strength
+        return inflate * c / (c + dof), inflate / (c + dof)
 
 
 def fit_with(
@@ -393,6 +466,17 @@ def fit_with(
     """:func:`promp.learn.fit` with every setting given (no choice) and the sample period
     ``dt`` (s); without ``alpha_models`` the primitives have no Eq. 7 models (they are not
     needed to recognise with the "ml" alpha)."""
+    return fit_parts(dataset, layout, settings, dt, alpha_models)[0]
+
+
+def fit_parts(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+    settings: Settings,
+    dt: float,
+    alpha_models: bool = True,
+) -> tuple[ProMPModel, list[FitParts]]:
+    """:func:`fit_with`, and each primitive's :class:`FitParts`."""
     all_demos = [d for demos in dataset.values() for d in demos]
     fits = fit_all_weights(settings.basis, all_demos, layout, settings.ridge)
     noise_var, noise_tau = estimate_noise(fits, [d.times for d in all_demos], layout, settings)
@@ -420,9 +504,7 @@ def fit_with(
             floor,
         )
         report["covariance"] = prior.describe()
-        shares = [
-            prior.target_weight * prior.strength / (prior.strength + m.dof) for m in moments
-        ]
+        shares = [prior.target_weight * prior.strength / (prior.strength + m.dof) for m in moments]
     else:
         covariances = [
             fixed_shrinkage(m.residuals, m.dof, settings.basis, settings.shrinkage, floor)
@@ -451,6 +533,20 @@ def fit_with(
             dataset, moments, covariances, shares, strict=True
         )
     )
-    return ProMPModel(
+    model = ProMPModel(
         layout=layout, settings=settings, sample_period=dt, primitives=primitives, report=report
     )
+    parts = [
+        FitParts(
+            weights=np.array(fits.weights[offsets[k] : offsets[k + 1]]),
+            residuals=m.residuals,
+            leverage=m.leverage,
+            centred_log_alphas=m.centred_log_alphas,
+            slope_weight=m.slope_weight,
+            dof=m.dof,
+            prior=prior if settings.shrinkage is None else None,
+            shrinkage=settings.shrinkage,
+        )
+        for k, m in enumerate(moments)
+    ]
+    return model, parts

@@ -66,6 +66,9 @@ class WeightFits:
     scale : array, shape (n_dims,)
         The squared scale of each dimension's modality (:func:`promp.scale.modality_scale`),
         what every floor of the fit is relative to.
+    sse, lagged : array, shape (n_dims,)
+        The residuals' squares and their products with the previous sample of the same
+        demonstration, summed over every demonstration.
     """
 
     weights: list[np.ndarray]
@@ -73,6 +76,8 @@ class WeightFits:
     dof: list[np.ndarray]
     ridge: np.ndarray
     scale: np.ndarray
+    sse: np.ndarray
+    lagged: np.ndarray
 
 
 def uniform_phase_values(demo: Demonstration, layout: Layout) -> tuple[np.ndarray, np.ndarray]:
@@ -95,6 +100,37 @@ def uniform_phase_values(demo: Demonstration, layout: Layout) -> tuple[np.ndarra
 _UNIFORM: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
+@dataclass(frozen=True, eq=False)
+class DemoStatistics:
+    """What the ridge fit of one demonstration needs under one basis, whatever the other
+    demonstrations: the basis at its evenly spaced phases ``phi`` (n, M), the eigenvalues
+    ``eig`` (M,) and eigenvectors ``vec`` (M, M) of ``Phi^T Phi``, and ``proj = vec^T Phi^T y``
+    (M, D)."""
+
+    phi: np.ndarray
+    eig: np.ndarray
+    vec: np.ndarray
+    proj: np.ndarray
+
+
+def demo_statistics(basis: RBFBasis, demo: Demonstration, layout: Layout) -> DemoStatistics:
+    """:class:`DemoStatistics` of ``demo``, kept per demonstration, basis and layout (all
+    immutable): the folds of a leave-one-out sweep share all but one demonstration, and the
+    automatic settings fit the same demonstrations under the same candidate bases in every
+    fold, so each is computed once. (Bounded by the bases tried: a few per demonstration.)"""
+    cache = _STATISTICS.setdefault(demo, {})
+    key = (basis, layout)
+    if key not in cache:
+        phases, values = uniform_phase_values(demo, layout)
+        phi = basis(phases)
+        eig, vec = np.linalg.eigh(phi.T @ phi)
+        cache[key] = DemoStatistics(phi, np.maximum(eig, 0.0), vec, vec.T @ (phi.T @ values))
+    return cache[key]
+
+
+_STATISTICS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def fit_all_weights(
     basis: RBFBasis,
     demos: Sequence[Demonstration],
@@ -102,45 +138,115 @@ def fit_all_weights(
     ridge: float | None,
 ) -> WeightFits:
     """Ridge weights of every demonstration (on evenly spaced phases, see the module docstring;
-    the residuals are there too); the ridge per modality by pooled GCV if None.
+    the residuals are there too); the ridge per modality by pooled GCV if None. The last few
+    fits are kept (the same demonstrations, basis and ridge give the same fit: the settings
+    chosen from candidate fits are fitted again at once); treat the result as read-only.
 
     Generalised cross-validation (Golub, Heath & Wahba 1979), pooled over demonstrations:
     ``sum_j n_j RSS_j(lambda) / (n_j - df_j(lambda))^2`` summed over a modality's dimensions,
     minimised over a log grid of relative strengths. Computed through the eigendecomposition of
     each ``Phi_j^T Phi_j``, so every candidate costs O(M D) per demonstration.
     """
+    key = (basis, layout, ridge, tuple(id(d) for d in demos))
+    for i, (k, kept, fits) in enumerate(_FITS):
+        if k == key and all(a is b for a, b in zip(kept, demos, strict=True)):
+            _FITS.append(_FITS.pop(i))
+            return fits
+    fits = _fit_all_weights(basis, demos, layout, ridge)
+    _FITS.append((key, tuple(demos), fits))
+    del _FITS[:-_MAX_STACKS]
+    return fits
+
+
+def _fit_all_weights(
+    basis: RBFBasis, demos: Sequence[Demonstration], layout: Layout, ridge: float | None
+) -> WeightFits:
     n_dims = layout.n_dims
-    uniform = [uniform_phase_values(demo, layout) for demo in demos]
-    values = [v for _, v in uniform]
-    phis = [basis(z) for z, _ in uniform]
-    eig, vec = np.linalg.eigh(np.stack([phi.T @ phi for phi in phis]))  # (N, M), (N, M, M)
-    eig = np.maximum(eig, 0.0)
+    stack = _stack(demos, layout)
+    stats = [demo_statistics(basis, demo, layout) for demo in demos]
+    eig = np.stack([st.eig for st in stats])  # (N, M)
+    vec = np.stack([st.vec for st in stats])  # (N, M, M)
     scale = eig.sum(axis=1) / eig.shape[1]  # mean diagonal of Phi^T Phi, (N,)
-    proj = np.stack(
-        [v.T @ (phi.T @ y) for v, phi, y in zip(vec, phis, values, strict=True)]
-    )  # (N, M, D)
-    yy = np.stack([(y**2).sum(axis=0) for y in values])  # (N, D)
-    n = np.array([y.shape[0] for y in values], dtype=float)
+    proj = np.stack([st.proj for st in stats])  # (N, M, D)
+    yy, n = stack.yy, stack.n
 
     rel = np.full(n_dims, ridge if ridge is not None else 0.0)
     if ridge is None:
         grid = RIDGE_GRID[:, None, None]
         shrink = 1.0 / (eig + (grid + 1e-12) * scale[:, None])  # (G, N, M)
-        coef = proj * shrink[..., None]  # (G, N, M, D)
-        rss = yy - 2 * (coef * proj).sum(axis=2) + (coef**2 * eig[..., None]).sum(axis=2)
+        # RSS = |y|^2 - 2 sum proj^2 shrink + sum proj^2 shrink^2 eig, per (G, N, D)
+        gain = shrink * (2.0 - shrink * eig)  # (G, N, M)
+        rss = yy - np.einsum("gnm,nmd->gnd", gain, proj**2)
         df = (eig * shrink).sum(axis=2)  # (G, N)
-        scores = (n[:, None] * np.maximum(rss, 0.0) / np.maximum(n - df, 1e-3)[..., None] ** 2)
+        scores = n[:, None] * np.maximum(rss, 0.0) / np.maximum(n - df, 1e-3)[..., None] ** 2
         scores = scores.sum(axis=1)  # (G, D)
         for modality in layout.modalities:
             dims = layout.dims([modality.name])
             rel[dims] = RIDGE_GRID[int(np.argmin(scores[:, dims].sum(axis=1)))]
-    fits = WeightFits(
-        weights=[], residuals=[], dof=[], ridge=rel, scale=modality_scale(values, layout)
-    )
     shrink = 1.0 / (eig[:, :, None] + (rel[None, None, :] + 1e-12) * scale[:, None, None])
     w_all = vec @ (proj * shrink)  # (N, M, D)
-    for y, phi, w, e, sh in zip(values, phis, w_all, eig, shrink, strict=True):
-        fits.weights.append(w.T.reshape(-1))
-        fits.residuals.append(y - phi @ w)
-        fits.dof.append(y.shape[0] - (e[:, None] * sh).sum(axis=0))
-    return fits
+    # every demonstration's residuals in one array (one dimension at a time: bounded memory)
+    phi = np.concatenate([st.phi for st in stats])  # (rows, M)
+    residuals = np.empty_like(stack.values)
+    for d in range(n_dims):
+        residuals[:, d] = stack.values[:, d] - (phi * w_all[stack.segment, :, d]).sum(axis=1)
+    lagged = residuals[1:] * residuals[:-1]
+    return WeightFits(
+        weights=list(w_all.transpose(0, 2, 1).reshape(len(demos), -1)),
+        residuals=np.split(residuals, stack.offsets[1:-1]),
+        dof=list(n[:, None] - (eig[:, :, None] * shrink).sum(axis=1)),
+        ridge=rel,
+        scale=stack.scale,
+        sse=(residuals**2).sum(axis=0),
+        lagged=lagged[stack.within].sum(axis=0),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class _Stack:
+    """The layout's values of a list of demonstrations on their evenly spaced phases, end to
+    end: ``values`` (rows, D), each row's demonstration ``segment`` (rows,), where each
+    demonstration starts (``offsets``, N + 1), which consecutive rows belong to the same one
+    (``within``, rows - 1), each one's samples ``n`` and squared sums ``yy`` (N, D), and the
+    modalities' scales (:func:`promp.scale.modality_scale`)."""
+
+    values: np.ndarray
+    segment: np.ndarray
+    offsets: np.ndarray
+    within: np.ndarray
+    n: np.ndarray
+    yy: np.ndarray
+    scale: np.ndarray
+
+
+def _stack(demos: Sequence[Demonstration], layout: Layout) -> _Stack:
+    """:class:`_Stack` of ``demos``, kept for the last few lists seen (the candidate bases of
+    one choice of settings fit the same list)."""
+    key = (layout, tuple(id(d) for d in demos))
+    for i, (k, kept, stack) in enumerate(_STACKS):
+        if k == key and all(a is b for a, b in zip(kept, demos, strict=True)):
+            _STACKS.append(_STACKS.pop(i))
+            return stack
+    values = [uniform_phase_values(demo, layout)[1] for demo in demos]
+    n = np.array([v.shape[0] for v in values])
+    offsets = np.concatenate([[0], np.cumsum(n)])
+    stacked = np.concatenate(values)
+    within = np.ones(max(stacked.shape[0] - 1, 0), dtype=bool)
+    within[offsets[1:-1] - 1] = False
+    stack = _Stack(
+        values=stacked,
+        segment=np.repeat(np.arange(len(demos)), n),
+        offsets=offsets,
+        within=within,
+        n=n.astype(float),
+        yy=np.stack([(v**2).sum(axis=0) for v in values]),
+        scale=modality_scale(values, layout),
+    )
+    _STACKS.append((key, tuple(demos), stack))
+    del _STACKS[:-_MAX_STACKS]
+    return stack
+
+
+_STACKS: list = []
+_FITS: list = []  # the last few fits (the settings chosen are fitted again at once)
+_MAX_STACKS = 4

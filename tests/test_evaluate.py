@@ -338,16 +338,29 @@ class Spy(ProMPEngine):
         Spy.seen.append((names, report["covariance"]["log_evidence"], Spy.inner, report))
 
 
-def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch) -> None:
+@pytest.mark.parametrize("rule", ["loo", "cv"])
+def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch, rule) -> None:
     """Every fold fits (and so chooses its basis, noise scale and covariance prior) on the
     others only: the fit of the fold that holds ``d`` out was given every demonstration but
     ``d``, and every model its choice of settings fitted and every demonstration it scored
     were among them."""
     from promp import selection
 
-    fit_with, losses = selection.fit_with, selection._losses
+    fit_parts, batches = selection.fit_parts, selection._batches
 
     def spy_fit(train, *args, **kwargs):
+        Spy.inner |= {f"{k}/{d.name}" for k, demos in train.items() for d in demos}
+        return fit_parts(train, *args, **kwargs)
+
+    def spy_batches(train, layout, trials, *args):
+        names = list(train)
+        Spy.inner |= {f"{names[t.primitive]}/{train[names[t.primitive]][t.demo].name}"
+                      for t in trials}  # fmt: skip
+        return batches(train, layout, trials, *args)
+
+    fit_with, losses = selection.fit_with, selection._losses
+
+    def spy_fit_with(train, *args, **kwargs):
         Spy.inner |= {f"{k}/{d.name}" for k, demos in train.items() for d in demos}
         return fit_with(train, *args, **kwargs)
 
@@ -355,12 +368,15 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch
         Spy.inner |= {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos if d is demo}
         return losses(model, demo, *args)
 
-    monkeypatch.setattr(selection, "fit_with", spy_fit)
+    monkeypatch.setattr(selection, "fit_parts", spy_fit)
+    monkeypatch.setattr(selection, "_batches", spy_batches)
+    monkeypatch.setattr(selection, "fit_with", spy_fit_with)
     monkeypatch.setattr(selection, "_losses", spy_losses)
     dataset = make_dataset(seed=4, n_demos=4)
     everyone = {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos}
     Spy.seen = []
-    run_sweep(lambda: Spy(LAYOUT), dataset, LAYOUT, [50], ["ml"], [["hand"]], "spy")
+    settings = Settings(select=rule)
+    run_sweep(lambda: Spy(LAYOUT, settings), dataset, LAYOUT, [50], ["ml"], [["hand"]], "spy")
     assert len(Spy.seen) == len(everyone)
     held_out = [everyone - names for names, *_ in Spy.seen]
     assert all(len(h) == 1 for h in held_out)
@@ -368,6 +384,7 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch
     for names, _, inner, report in Spy.seen:
         assert inner and inner <= names  # the choice saw this fold's training set only
         assert set(report["settings"]["chosen"]) == {"n_basis", "width", "noise_scale"}
+        assert report["settings"]["rule"] == {"loo": selection.LOO_RULE, "cv": selection.RULE}[rule]
     # The choice is made per fold, from that fold's data (its evidence differs per fold).
     assert len({evidence for _, evidence, *_ in Spy.seen}) == len(everyone)
 

@@ -42,8 +42,8 @@ def test_a_detail_only_many_basis_functions_represent_chooses_many() -> None:
     assert scores[5] > 0.5 and min(scores.values()) < 0.1  # chance with 5, near-certain with more
 
 
-def test_the_choice_is_the_lowest_inner_log_loss_and_is_recorded() -> None:
-    model = fit(make_dataset(seed=1, n_demos=5), LAYOUT)
+def test_the_inner_folds_choice_is_the_lowest_inner_log_loss_and_is_recorded() -> None:
+    model = fit(make_dataset(seed=1, n_demos=5), LAYOUT, Settings(select="cv"))
     report = model.report["settings"]
     assert report["rule"] == selection.RULE
     assert set(report["chosen"]) == {"n_basis", "width", "noise_scale"} and report["given"] == {}
@@ -64,6 +64,73 @@ def test_the_choice_is_the_lowest_inner_log_loss_and_is_recorded() -> None:
     assert again.report["settings"] == report and again.settings == model.settings
 
 
+def test_the_leave_one_out_choice_is_the_lowest_loss_it_scored_and_is_recorded() -> None:
+    model = fit(make_dataset(seed=1, n_demos=5), LAYOUT)
+    report = model.report["settings"]
+    assert model.settings.select == "loo" and report["rule"] == selection.LOO_RULE
+    assert set(report["chosen"]) == {"n_basis", "width", "noise_scale"}
+    scored = [
+        (loss, c["n_basis"], c["width"], scale)
+        for c in report["candidates"]
+        for scale, loss in zip(c["noise_scale"], c["log_loss"], strict=True)
+    ]
+    assert report["log_loss"] == pytest.approx(min(scored)[0], abs=1e-6)
+    s = model.settings
+    assert (s.n_basis, s.width, s.noise_scale) == tuple(report["chosen"].values())
+    # a coarse-to-fine walk from the reference: never the whole grid of 4 x 3 x 5
+    assert (7, 1.0) in {(c["n_basis"], c["width"]) for c in report["candidates"]}
+    assert len(scored) < len(selection.BASIS_GRID) * len(selection.WIDTH_GRID) * 5
+    again = model_from_json(model_to_json(model))
+    assert again.report["settings"] == report and again.settings == model.settings
+
+
+def test_the_walk_scores_both_neighbours_then_goes_downhill_to_a_local_minimum() -> None:
+    seen: list[int] = []
+
+    def bowl(i: int) -> float:
+        seen.append(i)
+        return (i - 4) ** 2
+
+    selection._neighbours_walk(list(range(8)), 1, bowl)
+    assert seen == [1, 0, 2, 3, 4, 5]  # right is downhill: on to 4, stopped by 5
+    seen.clear()
+    selection._neighbours_walk(list(range(8)), 4, bowl)
+    assert seen == [4, 3, 5]  # already at the bottom
+    seen.clear()
+    selection._neighbours_walk(list(range(8)), 6, bowl, both_sides=False)
+    assert seen == [6, 5, 4, 3]  # one side: downhill at once, the other never tried
+    seen.clear()
+    two_dips = {0: 0.3, 1: 0.5, 2: 0.2, 3: 0.4}.__getitem__  # 5, 7, 10, 14 functions
+    selection._neighbours_walk([5, 7, 10, 14], 1, lambda i: seen.append(i) or two_dips(i))
+    assert seen == [1, 0, 2, 3]  # the walk does not stop at 5 when 10 beats both
+
+
+def test_the_leave_one_out_downdates_equal_a_refit_without_the_demonstration() -> None:
+    """The closed form of :class:`promp.model.FitParts`: the held-out prediction of the
+    weights (the regression on log alpha refitted without it) and the residual scatter of
+    the others, against :func:`promp.model._moments` run on the others."""
+    from promp.model import _moments, fit_parts, sample_period_of
+    from promp.timing import alpha_from_duration
+
+    dataset = make_dataset(seed=5, n_demos=6)
+    settings = Settings(n_basis=6, width=1.0, noise_scale=1.0)
+    dt = sample_period_of([d for demos in dataset.values() for d in demos])
+    _, parts = fit_parts(dataset, LAYOUT, settings, dt, alpha_models=False)
+    part, demos = parts[0], dataset["left"]
+    assert part.slope_weight > 0  # the regression on log alpha is on
+    logs = np.log([alpha_from_duration(d.duration, dt, settings.s_bar) for d in demos])
+    for j in (0, 3):
+        others = [d for i, d in enumerate(demos) if i != j]
+        kept = np.delete(part.weights, j, axis=0)
+        refit = _moments(others, kept, LAYOUT, settings, dt, with_alpha_models=False)
+        e, h = part.residuals[j], part.leverage[j]
+        predicted = refit.mean + refit.slope * (logs[j] - refit.log_alpha_mean)
+        assert np.allclose(part.weights[j] - e / (1.0 - h), predicted, rtol=1e-9, atol=1e-12)
+        held = part.residuals.T @ part.residuals - np.outer(e, e) / (1.0 - h)
+        assert np.allclose(held, refit.residuals.T @ refit.residuals, rtol=1e-8, atol=1e-14)
+        assert refit.dof == part.dof - 1
+
+
 def test_explicit_settings_override_the_choice() -> None:
     dataset = make_dataset(seed=1, n_demos=5)
     given = fit(dataset, LAYOUT, Settings(n_basis=5, width=1.5, noise_scale=2.0))
@@ -74,8 +141,10 @@ def test_explicit_settings_override_the_choice() -> None:
     partly = fit(dataset, LAYOUT, Settings(n_basis=5, noise_scale=2.0))
     report = partly.report["settings"]
     assert partly.settings.n_basis == 5 and partly.settings.noise_scale == 2.0
-    assert set(report["chosen"]) == {"width"} and report["given"] == {"n_basis": 5,
-                                                                      "noise_scale": 2.0}
+    assert set(report["chosen"]) == {"width"} and report["given"] == {
+        "n_basis": 5,
+        "noise_scale": 2.0,
+    }
     assert {c["n_basis"] for c in report["candidates"]} == {5}
     assert all(c["noise_scale"] == [2.0] for c in report["candidates"])
 
@@ -109,3 +178,181 @@ def test_the_inner_folds_keep_two_demonstrations_and_ignore_the_primitives_order
     back = list(reordered)
     key = [(names[t.primitive], t.demo, t.fold, t.percent, t.modalities) for t in trials]
     assert key == [(back[t.primitive], t.demo, t.fold, t.percent, t.modalities) for t in again]
+
+
+def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(monkeypatch) -> None:
+    """:func:`promp.selection.loo_score` (every trial of a modality set at once, padded,
+    whitened, every primitive at every node) against the engine's own Eq. 6
+    (:func:`promp._likelihood.log_likelihoods_scaled`) on a model whose true primitive is
+    the downdated one, with the same nodes and quadrature weights, and those weights against
+    :func:`promp.recognition.quadrature_weights` over :meth:`AlphaPrior.span`."""
+    import dataclasses as dc
+    import math
+
+    from promp._likelihood import log_likelihoods_scaled
+    from promp.model import fit_parts, sample_period_of
+    from promp.observation import Observation
+    from promp.recognition import AlphaPrior, label_noise, quadrature_weights
+    from promp.timing import n_observed_for
+
+    monkeypatch.setattr(selection, "LOO_ROWS", 10_000)  # every sample: the engine's input
+    dataset = make_dataset(seed=7, n_demos=5)
+    dt = sample_period_of([d for demos in dataset.values() for d in demos])
+    settings = Settings(n_basis=6, width=1.0, noise_scale=1.0)
+    fitted = fit_parts(dataset, LAYOUT, settings, dt, alpha_models=False)
+    model, parts = fitted
+    trials = selection.plan_trials(dataset, LAYOUT, max_trials=12)
+    batches = selection._batches(dataset, LAYOUT, trials, dt, settings.s_bar)
+    scales = (1.0, 2.0)
+    losses = selection.loo_score(fitted, batches, len(trials), scales, None)
+    names = list(dataset)
+    checked = 0
+    for batch in batches:
+        for row, i in enumerate(batch.index):
+            trial = trials[i]
+            demo = dataset[names[trial.primitive]][trial.demo]
+            n_o = n_observed_for(trial.percent, demo.n_samples)
+            obs = Observation.from_demo(model, demo, n_o, trial.modalities)
+            # every primitive without the demonstration, as Primitives of the engine
+            k, j = trial.primitive, trial.demo
+            prims = list(model.primitives)
+            for kk, sigma in enumerate(_covariances_without(parts, k, j)):
+                prim, part = model.primitives[kk], parts[kk]
+                floor = 1e-9 * float(np.linalg.eigvalsh(sigma).min())
+                vals, vecs = np.linalg.eigh(sigma - floor * np.eye(sigma.shape[0]))
+                changes = {
+                    "cov_diag": np.full_like(prim.cov_diag, floor),
+                    "cov_factor": vecs * np.sqrt(np.maximum(vals, 0.0)),
+                }
+                if kk == k:
+                    e, h, n = part.residuals[j], part.leverage[j], part.residuals.shape[0]
+                    changes["mean"] = prim.mean - e / (n * (1.0 - h))
+                    changes["alpha_slope"] = (
+                        prim.alpha_slope
+                        - part.slope_weight * part.centred_log_alphas[j] / (1.0 - h) * e
+                    )
+                prims[kk] = dc.replace(prim, **changes)
+            reference = dc.replace(model, primitives=tuple(prims))
+            nodes = batch.log_alphas[row]
+            for level, scale in enumerate(scales):
+                factors = np.full((1, model.n_dims), scale**2)
+                evidence = np.array([
+                    np.logaddexp.reduce(
+                        log_likelihoods_scaled(reference, p, obs, np.exp(nodes), factors)[0]
+                        + batch.log_weights[row, kk]
+                    )
+                    for kk, p in enumerate(reference.primitives)
+                ])  # fmt: skip
+                p_all = np.exp(evidence - np.logaddexp.reduce(evidence))
+                eps = label_noise(model)
+                expected = -math.log((1 - eps) * p_all[k] + eps / len(p_all))
+                assert losses[level, i] == pytest.approx(expected, rel=1e-6, abs=1e-8)
+            # the quadrature weights of the held-out primitive's prior (without j)
+            own = np.delete(model.primitives[k].alphas, j)
+            prior = AlphaPrior.from_alphas(own, settings.s_bar)
+            bound = math.log(settings.s_bar / (obs.elapsed[-1] / dt + 1.0))
+            assert nodes[0] <= prior.span(bound)[0] + 1e-12 and nodes[-1] <= bound + 1e-12
+            weights = quadrature_weights(nodes, prior.logpdf(nodes), prior.logcdf(bound))
+            assert np.allclose(batch.log_weights[row, k], weights, rtol=1e-9, atol=1e-9)
+            checked += 1
+    assert checked == len(trials) == 12
+
+
+def _covariances_without(parts, k: int, j: int) -> list[np.ndarray]:
+    """Every primitive's Sigma_w once demonstration ``j`` of primitive ``k`` is left out:
+    its scatter, and the pooled one, lose ``e e^T / (1 - h)``."""
+    e, h = parts[k].residuals[j], parts[k].leverage[j]
+    drop = np.outer(e, e) / (1.0 - h)
+    prior = parts[0].prior
+    sigma0 = (
+        np.diag(prior.target_part)
+        + prior.keep[:, None] * ((prior.scatter - drop) / (prior.dof - 1.0)) * prior.keep[None, :]
+    )
+    out = []
+    for kk, part in enumerate(parts):
+        n, dof, scatter = part.residuals.shape[0], part.dof, part.residuals.T @ part.residuals
+        if kk == k:
+            n, dof, scatter = n - 1, dof - 1, scatter - drop
+        a, b = part.weights_of(n, dof)
+        out.append(a * sigma0 + b * scatter)
+    return out
+
+
+def test_the_parts_of_a_fit_give_its_covariances_and_downdate_like_a_refit() -> None:
+    """``a Sigma_0 + b E^T E`` is each primitive's Sigma_w, and the pooled scatter without a
+    demonstration is that of the residual rows refitted without it."""
+    from promp.model import _moments, fit_parts, sample_period_of
+
+    dataset = make_dataset(seed=8, n_demos=5)
+    settings = Settings(n_basis=5, width=1.0, noise_scale=1.0)
+    dt = sample_period_of([d for demos in dataset.values() for d in demos])
+    model, parts = fit_parts(dataset, LAYOUT, settings, dt, alpha_models=False)
+    for part, prim in zip(parts, model.primitives, strict=True):
+        a, b = part.weights_of(part.residuals.shape[0], part.dof)
+        prior = part.prior
+        sigma0 = (
+            np.diag(prior.target_part)
+            + prior.keep[:, None] * (prior.scatter / prior.dof) * prior.keep[None, :]
+        )
+        expected = a * sigma0 + b * part.residuals.T @ part.residuals
+        assert np.allclose(prim.cov, expected, rtol=1e-9, atol=1e-12 * np.abs(expected).max())
+    k, j = 1, 2
+    demos = dataset["right"]
+    others = [d for i, d in enumerate(demos) if i != j]
+    refit = _moments(others, np.delete(parts[k].weights, j, axis=0), LAYOUT, settings, dt,
+                     with_alpha_models=False)  # fmt: skip
+    rows = np.concatenate([parts[0].residuals, refit.residuals])
+    e, h = parts[k].residuals[j], parts[k].leverage[j]
+    assert np.allclose(parts[0].prior.scatter - np.outer(e, e) / (1.0 - h), rows.T @ rows,
+                       rtol=1e-8, atol=1e-14)  # fmt: skip
+
+
+def test_a_refit_keeps_the_previous_choice_unless_the_evidence_moves(monkeypatch) -> None:
+    """One demonstration added: the previous choice is scored once and kept while its loss
+    stays within half its margin over the runner-up; a loss that moved, ten refits kept in a
+    row, or a choice off the grid run the search again."""
+    dataset = make_dataset(seed=9, n_demos=6)
+    fewer = {name: demos[:-1] if name == "left" else demos for name, demos in dataset.items()}
+    before = fit(fewer, LAYOUT).report["settings"]
+    assert before["rule"] == selection.LOO_RULE and "margin" in before
+    calls: list = []
+    real = selection.fit_parts
+
+    def counting(*args, **kwargs):
+        calls.append(args[2])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(selection, "fit_parts", counting)
+    kept = fit(dataset, LAYOUT, previous=before)
+    report = kept.report["settings"]
+    assert report["rule"] == selection.KEPT_RULE and report["kept"] == 1
+    assert report["chosen"] == before["chosen"] and len(calls) == 1
+    moved = abs(report["log_loss"] - before["reference_loss"])
+    assert moved <= max(before["margin"], selection.KEEP_TOLERANCE) / 2
+    s = kept.settings
+    assert (s.n_basis, s.width, s.noise_scale) == tuple(before["chosen"].values())
+    far = before["reference_loss"] + 1.0  # the loss moved by a nat: the ranking may change
+    for stale in (
+        {**before, "reference_loss": far},
+        {**before, "kept": selection.KEEP_LIMIT},
+        {**before, "chosen": {"n_basis": 9, "width": 1.0, "noise_scale": 1.0}},
+    ):
+        calls.clear()
+        again = fit(dataset, LAYOUT, previous=stale).report["settings"]
+        assert again["rule"] == selection.LOO_RULE and len(calls) >= 3  # searched
+
+
+def test_the_priors_without_each_demonstration_match_the_speed_prior() -> None:
+    """:func:`promp.selection._loo_priors` (every demonstration left out at once) against
+    :meth:`AlphaPrior.from_alphas` of the others, a far-out speed among them."""
+    from promp.recognition import AlphaPrior
+
+    rng = np.random.default_rng(0)
+    for n in (3, 4, 10, 40):
+        alphas = np.exp(rng.normal(0.0, 0.3, n))
+        alphas[0] *= 30.0  # winsorized away, except where it is left out
+        table = selection._loo_priors(alphas, 100.0)
+        for j in range(n):
+            prior = AlphaPrior.from_alphas(np.delete(alphas, j), 100.0)
+            expected = [prior.locs[0], prior.scales[0], prior.dofs[0]]
+            assert np.allclose(table[:, j], expected, rtol=1e-12, atol=1e-14)

@@ -5,7 +5,7 @@
     python -m promp.evaluate DATASET --format records|csv [--modality NAME=COL,COL,...]...
         [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
         [--json OUT.json] [--csv OUT.csv] [--plots DIR] [--basis M] [--width W]
-        [--shrinkage S|auto] [--noise-scale X] [--subset N] [--jobs N]
+        [--shrinkage S|auto] [--noise-scale X] [--select loo|cv] [--subset N] [--jobs N]
         [--backend local|dask --scheduler ADDRESS] [--include-flagged] [--repair-gaps cut|split]
         [--trials-csv OUT.csv]
 
@@ -51,7 +51,7 @@ from promp.evaluate.report import (
 )
 from promp.evaluate.seed import ToolboxBaseline
 from promp.evaluate.sweep import position_modality, run_sweep, spread_subset, tqdm_progress
-from promp.model import Settings
+from promp.model import SELECT_RULES, Settings
 from promp.quality import REPAIRS, Finding, dataset_findings, repair_gaps, split_flagged
 
 DEFAULT_PERCENTS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
@@ -134,6 +134,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="multiplies the estimated observation noise (ours); default: chosen by every fit",
     )
     parser.add_argument(
+        "--select",
+        choices=SELECT_RULES,
+        default="loo",
+        help="how every fit chooses the settings not given (ours): 'loo', the recognition "
+        "log-loss of each training demonstration left out in closed form (one fit per "
+        "candidate basis); 'cv', inner folds refitted for every candidate (slower)",
+    )
+    parser.add_argument(
         "--subset",
         type=int,
         default=None,
@@ -149,8 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--backend",
         choices=("local", "dask"),
         default="local",
-        help="run the folds here, or on a Dask cluster (needs --scheduler and the "
-        "'cluster' extra)",
+        help="run the folds here, or on a Dask cluster (needs --scheduler and the 'cluster' extra)",
     )
     parser.add_argument(
         "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
@@ -249,6 +256,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             width=args.width,
             shrinkage=shrinkage,
             noise_scale=args.noise_scale,
+            select=args.select,
         )
         if args.method == "seed":
 
