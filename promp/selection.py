@@ -90,24 +90,20 @@ RULE = (
 )
 
 LOO_RULE = (
-    "recognition log-loss of the training demonstrations, each left out of its primitive in "
-    f"closed form ({', '.join(map(str, PERCENTS))} % observed at its own speed, every modality "
-    f"alone and all together, at most {LOO_MAX_TRIALS} trials per candidate; one fit per "
-    f"basis); M over {list(BASIS_GRID)} at width 1, then the width over {list(WIDTH_GRID)}, "
-    f"each with every noise scale of {list(NOISE_GRID)}; the lowest mean loss among the "
-    "candidates whose mean trajectories stay within the box the demonstrations span, widened "
-    "by its extent"
+    "recognition log-loss of the training demonstrations, each left out of its model in "
+    f"closed form ({', '.join(map(str, PERCENTS))} % observed, every modality alone and all "
+    f"together, the speed integrated over its prior; at most {LOO_MAX_TRIALS} trials, one fit "
+    f"per basis); a walk from the reference: M over {list(BASIS_GRID)} from 7 and both its "
+    f"neighbours on while the loss drops, then the width over {list(WIDTH_GRID)}, then the "
+    f"noise scale over {list(NOISE_GRID)}; the lowest mean loss among the candidates whose "
+    "mean trajectories stay within the box the demonstrations span, widened by its extent"
 )
 
 KEEP_LIMIT = 10
-# A change of the mean log-loss (nats) too small to rank candidates by: candidates closer than
-# this are tied, and a choice whose loss moves less than half of it may stand.
-KEEP_TOLERANCE = 0.01
 KEPT_RULE = (
-    "kept from the previous fit: the choice's leave-one-out loss on these demonstrations stays "
-    "within half the margin by which it beat the runner-up at the last search (at least "
-    f"{KEEP_TOLERANCE} nats; the search runs again when it moves more, and after {KEEP_LIMIT} "
-    "refits kept in a row)"
+    "kept from the previous fit: on these demonstrations' trials the choice still has a lower "
+    "leave-one-out loss than the runner-up of the last search (the search runs again when it "
+    f"does not, and after {KEEP_LIMIT} refits kept in a row)"
 )
 
 
@@ -795,42 +791,54 @@ def _keep_previous(
     region: tuple[np.ndarray, np.ndarray],
     previous: Mapping,
 ) -> tuple[Settings, dict] | None:
-    """The previous choice kept, if its loss on ``dataset`` says it may stand (see
-    :func:`choose_settings`); None when the search must run again."""
+    """The previous choice kept, if it still beats the previous runner-up on ``dataset``'s
+    trials (see :func:`choose_settings`); None when the search must run again."""
     automatic = settings.automatic
-    chosen_before = previous.get("chosen")
-    reference, margin = previous.get("reference_loss"), previous.get("margin")
-    if (
-        not isinstance(chosen_before, Mapping)
-        or set(chosen_before) != set(automatic)
-        or not isinstance(reference, (int, float))
-        or not isinstance(margin, (int, float))
-        or int(previous.get("kept", 0)) >= KEEP_LIMIT
-    ):
+
+    def values_of(entry: object) -> dict | None:
+        if not isinstance(entry, Mapping) or set(entry) != set(automatic):
+            return None
+        values = {name: getattr(settings, name) for name in FALLBACK} | dict(entry)
+        if (
+            values["n_basis"] not in BASIS_GRID
+            or values["width"] not in WIDTH_GRID
+            or (settings.noise_scale is None and values["noise_scale"] not in NOISE_GRID)
+        ):
+            return None
+        return values
+
+    chosen_values = values_of(previous.get("chosen"))
+    runner_values = values_of(previous.get("runner_up"))
+    if chosen_values is None or runner_values is None or chosen_values == runner_values:
         return None
-    values = {name: getattr(settings, name) for name in FALLBACK} | dict(chosen_before)
-    if (
-        values["n_basis"] not in BASIS_GRID
-        or values["width"] not in WIDTH_GRID
-        or (settings.noise_scale is None and values["noise_scale"] not in NOISE_GRID)
-    ):
+    if int(previous.get("kept", 0)) >= KEEP_LIMIT:
         return None
-    candidate = dataclasses.replace(inner, n_basis=values["n_basis"], width=values["width"])
-    fitted = fit_parts(dataset, layout, candidate, dt, alpha_models=False)
-    scale = values["noise_scale"] / inner.noise_scale
-    loss = float(LooScorer(fitted, _batches(dataset, layout, trials, dt, inner.s_bar),
-                           len(trials), region)((scale,))[0].mean())  # fmt: skip
-    if not abs(loss - reference) <= max(margin, KEEP_TOLERANCE) / 2.0:
+    batches = _batches(dataset, layout, trials, dt, inner.s_bar)
+    scorers: dict[tuple[int, float], LooScorer] = {}
+    losses = []
+    for values in (chosen_values, runner_values):  # the same trials: a paired comparison
+        key = (values["n_basis"], values["width"])
+        if key not in scorers:
+            candidate = dataclasses.replace(inner, n_basis=key[0], width=key[1])
+            fitted = fit_parts(dataset, layout, candidate, dt, alpha_models=False)
+            scorers[key] = LooScorer(fitted, batches, len(trials), region)
+        scale = values["noise_scale"] / inner.noise_scale
+        losses.append(float(scorers[key]((scale,))[0].mean()))
+    ranks = [  # the choice's own order: the lower loss, a tie to the closer to the reference
+        (round(loss, 9), _preference(v["n_basis"], v["width"], v["noise_scale"]))
+        for loss, v in zip(losses, (chosen_values, runner_values), strict=True)
+    ]
+    if not ranks[0] <= ranks[1]:
         return None
-    chosen = dataclasses.replace(settings, **values)
+    chosen = dataclasses.replace(settings, **chosen_values)
     return chosen, {
         "rule": KEPT_RULE,
         "chosen": {name: getattr(chosen, name) for name in automatic},
         "given": {name: getattr(settings, name) for name in FALLBACK if name not in automatic},
-        "log_loss": loss,
+        "log_loss": losses[0],
         "trials": len(trials),
-        "reference_loss": float(reference),
-        "margin": float(margin),
+        "runner_up": {name: runner_values[name] for name in automatic},
+        "runner_up_log_loss": losses[1],
         "kept": int(previous.get("kept", 0)) + 1,
     }
 
@@ -855,10 +863,9 @@ def choose_settings(
         The report of the choice made for nearly the same demonstrations (the studio's last
         fit, before a demonstration was added or deleted). With the leave-one-out rule the
         search runs again only when the evidence says the choice may have changed: the
-        previous choice is scored on ``dataset`` and kept while its loss stays within half
-        the margin by which it beat the runner-up at the last search (at least
-        :data:`KEEP_TOLERANCE`; :data:`KEPT_RULE`), at most :data:`KEEP_LIMIT` times in a
-        row.
+        previous choice and the previous runner-up are scored on ``dataset``'s trials (a
+        paired comparison) and the choice is kept while it still wins (:data:`KEPT_RULE`), at
+        most :data:`KEEP_LIMIT` times in a row.
     """
     automatic = settings.automatic
     given = {name: getattr(settings, name) for name in FALLBACK if name not in automatic}
@@ -924,12 +931,17 @@ def choose_settings(
     )
     chosen = dataclasses.replace(settings, n_basis=n_basis, width=width, noise_scale=noise_scale)
     others = [
-        float(c[3].mean()) for c in table
+        c for c in table
         if c[:3] != (n_basis, width, noise_scale) and np.isfinite(c[3]).all()
     ]  # fmt: skip
-    margin = {"reference_loss": float(losses.mean()), "kept": 0}
-    if others:  # by how much the choice beat the runner-up (what a later refit may keep)
-        margin["margin"] = min(others) - float(losses.mean())
+    margin: dict = {"kept": 0}
+    if others:  # the best of the others: what a later refit checks the choice against
+        m, w, scale, runner_losses = min(
+            others, key=lambda c: (round(float(c[3].mean()), 9), _preference(*c[:3]))
+        )
+        runner = dataclasses.replace(settings, n_basis=m, width=w, noise_scale=scale)
+        margin["runner_up"] = {name: getattr(runner, name) for name in automatic}
+        margin["runner_up_log_loss"] = float(runner_losses.mean())
     return chosen, {
         "rule": LOO_RULE if loo else RULE,
         "chosen": {name: getattr(chosen, name) for name in automatic},

@@ -179,11 +179,12 @@ class LearnSection:
         choice = model.report.get("settings", {}) if model is not None else {}
         if choice.get("chosen"):
             used, rule = model.settings, str(choice.get("rule", ""))
-            how = (
-                escape(rule[0].upper() + rule[1:])
-                if rule.startswith("fallback")
-                else "Chosen from the demonstrations"
-            )
+            if rule.startswith("fallback"):
+                how = escape(rule[0].upper() + rule[1:])
+            elif rule.startswith("kept"):
+                how = "Kept from the last fit (it still beats the runner-up)"
+            else:
+                how = "Chosen from the demonstrations"
             self.fit_status.content += (
                 f"  \n{how}: M = {used.n_basis}, width {used.width:g}, "
                 f"noise x{used.noise_scale:g}."
