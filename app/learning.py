@@ -4,9 +4,9 @@ A refit of a training learned a moment ago (Undo delete, a setting put back) reu
 (:mod:`app.fit_cache`): the outcomes of the last fits are kept by a digest of everything the fit
 reads. A crash is never kept. Any other refit starts from the last model's choice of the
 automatic settings, which it keeps unless the demonstrations now say otherwise
-(:func:`promp.selection.choose_settings`): adding or deleting one demonstration costs about a
-fit with the settings given, and every demonstration's statistics are computed once
-(:func:`promp.weights.demo_statistics`).
+(:func:`promp.selection.choose_settings`: the previous choice and its runner-up scored on the
+new demonstrations, one or two candidate fits instead of five or six), and every demonstration's
+statistics are computed once (:func:`promp.weights.demo_statistics`).
 """
 
 from __future__ import annotations

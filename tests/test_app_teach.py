@@ -363,13 +363,13 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
     assert np.ptp(hand[:, 2]) > 0.05, "the recorded hand does not move"
     assert 0.015 < demo.sample_period < 0.025  # 50 Hz
     assert np.all(np.isfinite(demo.values))
-    # Listed with its typicality, drawn, on disk, and the prior changed.
-    assert row(page, "curved_020").count() == 1
+    # Listed with its typicality (the list shows it at the loop's next step), drawn, on disk,
+    # and the prior changed.
+    wait_until(lambda: row(page, "curved_020").count() == 1, what="the take listed")
     typicality = session.typicality[("curved", "curved_020")]
-    assert f"curved_020 · {'⚠ ' if typicality.label != 'typical' else ''}{typicality.label}" in (
-        text(page)
-    )
-    assert "21 demonstration(s) of curved" in text(page)
+    listed = f"curved_020 · {'⚠ ' if typicality.label != 'typical' else ''}{typicality.label}"
+    wait_text(page, listed)
+    wait_text(page, "21 demonstration(s) of curved")
     lines = studio.scene.workspace.lines  # drawn by the loop once the session has it
     key = ("curved", "curved_020")
     wait_until(lambda: key in lines and lines[key].visible, what="the new demonstration's line")
@@ -410,7 +410,7 @@ def test_hide_and_delete_a_demonstration(studio, tab) -> None:
     assert not path.exists()
     assert [d.name for d in session.demos["curved"]][-1] == "curved_019"
     assert ("curved", "curved_020") not in studio.scene.workspace.lines
-    assert row(page, "curved_020").count() == 0
+    wait_until(lambda: row(page, "curved_020").count() == 0, what="the take no longer listed")
     # Undo brings it back, byte for byte, line and all.
     click(page, "Undo delete (curved_020 of curved)")
     wait_text(page, "21 demonstration(s) of curved")
@@ -779,7 +779,7 @@ def test_sigkill_loses_nothing_recorded_and_restart_restores_the_workspace(
     try:
         page.goto(f"http://127.0.0.1:{port}")
         wait_text(page, "21 demonstration(s) of curved", timeout=60)
-        assert row(page, "curved_020").count() == 1
+        wait_until(lambda: row(page, "curved_020").count() == 1, what="the take listed")
         assert _snapshot(workspace) == saved, "restarting must not rewrite the workspace"
     finally:
         page.close()

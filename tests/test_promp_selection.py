@@ -180,7 +180,10 @@ def test_the_inner_folds_keep_two_demonstrations_and_ignore_the_primitives_order
     assert key == [(back[t.primitive], t.demo, t.fold, t.percent, t.modalities) for t in again]
 
 
-def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(monkeypatch) -> None:
+@pytest.mark.parametrize("shrinkage", [None, 0.3])
+def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(
+    monkeypatch, shrinkage
+) -> None:
     """:func:`promp.selection.loo_score` (every trial of a modality set at once, padded,
     whitened, every primitive at every node) against the engine's own Eq. 6
     (:func:`promp._likelihood.log_likelihoods_scaled`) on a model whose true primitive is
@@ -198,7 +201,7 @@ def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(monkeypatc
     monkeypatch.setattr(selection, "LOO_ROWS", 10_000)  # every sample: the engine's input
     dataset = make_dataset(seed=7, n_demos=5)
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
-    settings = Settings(n_basis=6, width=1.0, noise_scale=1.0)
+    settings = Settings(n_basis=6, width=1.0, noise_scale=1.0, shrinkage=shrinkage)
     fitted = fit_parts(dataset, LAYOUT, settings, dt, alpha_models=False)
     model, parts = fitted
     trials = selection.plan_trials(dataset, LAYOUT, max_trials=12)
@@ -216,7 +219,7 @@ def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(monkeypatc
             # every primitive without the demonstration, as Primitives of the engine
             k, j = trial.primitive, trial.demo
             prims = list(model.primitives)
-            for kk, sigma in enumerate(_covariances_without(parts, k, j)):
+            for kk, sigma in enumerate(_covariances_without(model, parts, k, j)):
                 prim, part = model.primitives[kk], parts[kk]
                 floor = 1e-9 * float(np.linalg.eigvalsh(sigma).min())
                 vals, vecs = np.linalg.eigh(sigma - floor * np.eye(sigma.shape[0]))
@@ -258,17 +261,28 @@ def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(monkeypatc
     assert checked == len(trials) == 12
 
 
-def _covariances_without(parts, k: int, j: int) -> list[np.ndarray]:
+def _covariances_without(model, parts, k: int, j: int) -> list[np.ndarray]:
     """Every primitive's Sigma_w once demonstration ``j`` of primitive ``k`` is left out:
-    its scatter, and the pooled one, lose ``e e^T / (1 - h)``."""
+    its scatter, and the pooled one, lose ``e e^T / (1 - h)``; with a fixed shrinkage only its
+    own primitive's sample part changes (``(1 - lambda) / dof``, one degree of freedom less)."""
     e, h = parts[k].residuals[j], parts[k].leverage[j]
     drop = np.outer(e, e) / (1.0 - h)
     prior = parts[0].prior
+    out = []
+    if prior is None:
+        for kk, (part, prim) in enumerate(zip(parts, model.primitives, strict=True)):
+            if kk != k:
+                out.append(prim.cov)
+                continue
+            scatter = part.residuals.T @ part.residuals
+            _, b = part.weights_of(part.residuals.shape[0], part.dof)
+            _, b_loo = part.weights_of(part.residuals.shape[0] - 1, part.dof - 1)
+            out.append(prim.cov - b * scatter + b_loo * (scatter - drop))
+        return out
     sigma0 = (
         np.diag(prior.target_part)
         + prior.keep[:, None] * ((prior.scatter - drop) / (prior.dof - 1.0)) * prior.keep[None, :]
     )
-    out = []
     for kk, part in enumerate(parts):
         n, dof, scatter = part.residuals.shape[0], part.dof, part.residuals.T @ part.residuals
         if kk == k:
