@@ -31,6 +31,21 @@ from promp.observation import Observation
 LOG_2PI = math.log(2.0 * math.pi)
 
 
+def equilibrated_precision(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(Sigma^-1, log det Sigma)`` of a covariance or a stack of them (..., P, P) whose units
+    may be many orders of magnitude apart: each equilibrated first (unit diagonal), since the
+    inverse's pivoting is not blind to scale like Cholesky is; the precision symmetric."""
+    scale = np.sqrt(np.diagonal(sigma, axis1=-2, axis2=-1))
+    chol = np.linalg.cholesky(sigma / (scale[..., :, None] * scale[..., None, :]))
+    # (numpy's inverse rather than a triangular solve: OpenBLAS threads its triangular
+    # solves even for small matrices, which stalls on a busy machine)
+    inv_chol = np.linalg.inv(chol) / scale[..., None, :]
+    precision = inv_chol.swapaxes(-1, -2) @ inv_chol
+    diag = np.diagonal(chol, axis1=-2, axis2=-1)
+    logdet = 2.0 * (np.log(diag).sum(-1) + np.log(scale).sum(-1))
+    return 0.5 * (precision + precision.swapaxes(-1, -2)), logdet
+
+
 def observed_precision(primitive: Primitive, dims: np.ndarray) -> tuple[np.ndarray, float]:
     """``(Sigma_o^-1, log det Sigma_o)`` of the weights of ``dims``: the precision padded with
     a zero row and column, shape (P_o + 1, P_o + 1), and a float.
@@ -48,18 +63,10 @@ def observed_precision(primitive: Primitive, dims: np.ndarray) -> tuple[np.ndarr
         u = u.reshape(n_do * m, -1)
         sigma = u @ u.T
         sigma[np.diag_indices_from(sigma)] += np.repeat(t, m)
-        # Equilibrated first (unit diagonal): the modalities' units may be many orders of
-        # magnitude apart, and the inverse's pivoting is not blind to scale like Cholesky is.
-        scale = np.sqrt(np.diag(sigma))
-        chol = np.linalg.cholesky(sigma / np.outer(scale, scale))
-        # (numpy's inverse rather than a triangular solve: OpenBLAS threads its triangular
-        # solves even for small matrices, which stalls on a busy machine)
-        inv_chol = np.linalg.inv(chol) / scale[None, :]
-        precision = inv_chol.T @ inv_chol
-        padded = np.zeros((chol.shape[0] + 1,) * 2)  # bordered below and right (see below)
-        padded[:-1, :-1] = 0.5 * (precision + precision.T)
-        logdet = 2.0 * float(np.log(np.diag(chol)).sum() + np.log(scale).sum())
-        cache[key] = (padded, logdet)
+        precision, logdet = equilibrated_precision(sigma)
+        padded = np.zeros((sigma.shape[0] + 1,) * 2)  # bordered below and right (see below)
+        padded[:-1, :-1] = precision
+        cache[key] = (padded, float(logdet))
     return cache[key]
 
 

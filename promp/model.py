@@ -349,7 +349,6 @@ class _Moments:
     mean: np.ndarray
     slope: np.ndarray
     residuals: np.ndarray  # weights - mean - slope * (log alpha - its mean), (n, P)
-    leverage: np.ndarray  # of each demonstration in that regression, (n,)
     centred_log_alphas: np.ndarray  # its regressor, (n,)
     slope_weight: float  # 1 / (its regressor's sum of squares); 0 without the regression
     dof: int
@@ -376,13 +375,11 @@ def _moments(
     a_c = log_alphas - log_alpha_mean
     dof = len(demos) - 1
     slope = np.zeros_like(mean)
-    leverage = np.full(len(demos), 1.0 / len(demos))
     slope_weight = 0.0
     if settings.alpha_coupling and len(demos) >= 3 and float(a_c @ a_c) > 1e-12:
         slope_weight = 1.0 / float(a_c @ a_c)
         slope = centred.T @ a_c / float(a_c @ a_c)
         centred = centred - np.outer(a_c, slope)
-        leverage = leverage + a_c**2 * slope_weight
         dof = len(demos) - 2
     alpha_models = {}
     if with_alpha_models:
@@ -392,7 +389,7 @@ def _moments(
             for m in layout.modalities
         }
     return _Moments(
-        mean, slope, centred, leverage, a_c, slope_weight, dof, alphas, log_alpha_mean,
+        mean, slope, centred, a_c, slope_weight, dof, alphas, log_alpha_mean,
         alpha_models,
     )  # fmt: skip
 
@@ -419,12 +416,18 @@ class FitParts:
 
     weights: np.ndarray  # (n, P)
     residuals: np.ndarray  # (n, P)
-    leverage: np.ndarray  # (n,)
     centred_log_alphas: np.ndarray  # (n,) the regressor (winsorized, centred)
     slope_weight: float  # 1 / sum of its squares; 0 without the regression
     dof: int
     prior: PooledPrior | None  # None: a fixed shrinkage
     shrinkage: float | None
+
+    @functools.cached_property
+    def leverage(self) -> np.ndarray:
+        """Each demonstration's leverage in the regression on log alpha, (n,):
+        ``1 / n + a_j^2 / sum(a^2)`` (``1 / n`` without the regression)."""
+        n = self.residuals.shape[0]
+        return 1.0 / n + self.centred_log_alphas**2 * self.slope_weight
 
     def without(
         self, j: int, mean: np.ndarray, slope: np.ndarray, cols: np.ndarray
@@ -540,7 +543,6 @@ def fit_parts(
         FitParts(
             weights=np.array(fits.weights[offsets[k] : offsets[k + 1]]),
             residuals=m.residuals,
-            leverage=m.leverage,
             centred_log_alphas=m.centred_log_alphas,
             slope_weight=m.slope_weight,
             dof=m.dof,

@@ -56,6 +56,7 @@ import numpy as np
 from scipy import special
 
 from promp._likelihood import log_likelihoods_scaled
+from promp._weight_space import equilibrated_precision
 from promp.data import Demonstration, Layout
 from promp.model import FALLBACK, FitParts, ProMPModel, Settings, fit_parts, fit_with
 from promp.observation import Observation
@@ -257,31 +258,6 @@ def score(
             if trial.fold == fold:
                 demo = dataset[names[trial.primitive]][trial.demo]
                 out[:, i] = _losses(model, demo, trial, priors, factors, cache)
-    return out
-
-
-def _precisions(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(Sigma^-1, log det Sigma)`` of a batch of covariances (..., P, P) whose units may be
-    far apart: each equilibrated to a unit diagonal before its Cholesky factorisation."""
-    scale = np.sqrt(np.diagonal(sigma, axis1=-2, axis2=-1))
-    chol = np.linalg.cholesky(sigma / (scale[..., :, None] * scale[..., None, :]))
-    inv_chol = np.linalg.inv(chol) / scale[..., None, :]
-    precision = inv_chol.swapaxes(-1, -2) @ inv_chol
-    logdet = 2.0 * (np.log(np.diagonal(chol, axis1=-2, axis2=-1)) + np.log(scale)).sum(-1)
-    return 0.5 * (precision + precision.swapaxes(-1, -2)), logdet
-
-
-def _segment_whiten(
-    elapsed: np.ndarray, starts: np.ndarray, tau: float, x: np.ndarray
-) -> np.ndarray:
-    """:func:`promp.noise.whiten` of several observations laid end to end (rows, axis 0;
-    each begins at one of ``starts``)."""
-    if tau <= 0:
-        return x
-    rho = np.exp(-np.diff(elapsed, prepend=elapsed[0]) / tau)
-    rho[starts] = 0.0  # a segment's first row is not whitened
-    out = x.copy()
-    out[1:] = (x[1:] - rho[1:, None] * x[:-1]) / np.sqrt(1.0 - rho[1:, None] ** 2)
     return out
 
 
@@ -590,7 +566,7 @@ class LooScorer:
                 means[mine, k] = (
                     held.mean[mine][:, None] + shift[..., None] * held.slope[mine][:, None]
                 )[..., cols]
-        precision, logdet_sigma = _precisions(sigma)  # (T, K, p, p), (T, K)
+        precision, logdet_sigma = equilibrated_precision(sigma)  # (T, K, p, p), (T, K)
         means = means.reshape(n_t, n_prims, n_a, n_do, m)
         proj = cross[:, None] - np.einsum("tadmn,tkadn->tkadm", gram, means)  # Psi^T K^-1 r
         rr = (
@@ -689,6 +665,38 @@ def _preference(n_basis: int, width: float, noise_scale: float) -> float:
     )
 
 
+class _Candidates:
+    """The leave-one-out scorer of each candidate basis of one choice (:class:`LooScorer`):
+    each basis fitted once, every score on the same trials' observations and quadrature nodes
+    (:func:`_batches`, built at the first score)."""
+
+    def __init__(
+        self,
+        dataset: Mapping[str, Sequence[Demonstration]],
+        layout: Layout,
+        inner: Settings,
+        dt: float,
+        trials: Sequence[Trial],
+        region: tuple[np.ndarray, np.ndarray],
+    ):
+        self.dataset, self.layout, self.inner, self.dt = dataset, layout, inner, dt
+        self.trials, self.region, self.n_trials = trials, region, len(trials)
+        self._batches: list[_Batch] | None = None
+        self._scorers: dict[tuple[int, float], LooScorer] = {}
+
+    def __call__(self, n_basis: int, width: float) -> LooScorer:
+        key = (n_basis, width)
+        if key not in self._scorers:
+            if self._batches is None:
+                self._batches = _batches(
+                    self.dataset, self.layout, self.trials, self.dt, self.inner.s_bar
+                )
+            candidate = dataclasses.replace(self.inner, n_basis=n_basis, width=width)
+            fitted = fit_parts(self.dataset, self.layout, candidate, self.dt, alpha_models=False)
+            self._scorers[key] = LooScorer(fitted, self._batches, self.n_trials, self.region)
+        return self._scorers[key]
+
+
 def _neighbours_walk(grid: Sequence, start: int, loss, both_sides: bool = True) -> None:
     """Score ``grid[start]`` and its neighbours, then walk on from the best in its direction
     while ``loss`` (a function of the grid's index) drops: a coarse-to-fine line search that
@@ -715,13 +723,8 @@ def _neighbours_walk(grid: Sequence, start: int, loss, both_sides: bool = True) 
 
 
 def _walk(
-    dataset: Mapping[str, Sequence[Demonstration]],
-    layout: Layout,
-    inner: Settings,
-    dt: float,
-    trials: Sequence[Trial],
+    candidates: _Candidates,
     scales: Sequence[float],
-    region: tuple[np.ndarray, np.ndarray],
     basis_grid: Sequence[int],
     width_grid: Sequence[float],
     scores: dict,
@@ -731,10 +734,7 @@ def _walk(
     the loss drops (width 1, at the better of the two noise scales either side of the grid's
     middle for the reference basis); then the width the same way at that M and the noise
     scale at that basis, one side first (:func:`_neighbours_walk`). Each candidate basis is
-    fitted once; every score reuses the trials' observations and quadrature nodes
-    (:func:`_batches`) and, for one basis, its factorisations (:class:`LooScorer`)."""
-    batches = _batches(dataset, layout, trials, dt, inner.s_bar)
-    scorers: dict[tuple[int, float], LooScorer] = {}
+    fitted once (:class:`_Candidates`)."""
     # the reference basis is scored at two noise scales either side of the grid's middle, the
     # other bases at the better of the two (the scale's own walk comes last)
     middle = len(scales) // 2
@@ -742,15 +742,10 @@ def _walk(
 
     def loss(n_basis: int, width: float, levels: Sequence[int] | None = None) -> float:
         levels = search if levels is None else levels
-        key = (n_basis, width)
-        if key not in scorers:
-            candidate = dataclasses.replace(inner, n_basis=n_basis, width=width)
-            fitted = fit_parts(dataset, layout, candidate, dt, alpha_models=False)
-            scorers[key] = LooScorer(fitted, batches, len(trials), region)
-        by_scale = scores.setdefault(key, {})
+        by_scale = scores.setdefault((n_basis, width), {})
         missing = [scales[i] for i in levels if scales[i] not in by_scale]
         if missing:
-            by_scale.update(zip(missing, scorers[key](missing), strict=True))
+            by_scale.update(zip(missing, candidates(n_basis, width)(missing), strict=True))
         values = [float(by_scale[scales[i]].mean()) for i in levels]
         value = min(values)
         return value if np.isfinite(value) else math.inf
@@ -782,14 +777,7 @@ def _walk(
 
 
 def _keep_previous(
-    dataset: Mapping[str, Sequence[Demonstration]],
-    layout: Layout,
-    settings: Settings,
-    inner: Settings,
-    dt: float,
-    trials: Sequence[Trial],
-    region: tuple[np.ndarray, np.ndarray],
-    previous: Mapping,
+    candidates: _Candidates, settings: Settings, previous: Mapping
 ) -> tuple[Settings, dict] | None:
     """The previous choice kept, if it still beats the previous runner-up on ``dataset``'s
     trials (see :func:`choose_settings`); None when the search must run again."""
@@ -813,17 +801,11 @@ def _keep_previous(
         return None
     if int(previous.get("kept", 0)) >= KEEP_LIMIT:
         return None
-    batches = _batches(dataset, layout, trials, dt, inner.s_bar)
-    scorers: dict[tuple[int, float], LooScorer] = {}
     losses = []
     for values in (chosen_values, runner_values):  # the same trials: a paired comparison
-        key = (values["n_basis"], values["width"])
-        if key not in scorers:
-            candidate = dataclasses.replace(inner, n_basis=key[0], width=key[1])
-            fitted = fit_parts(dataset, layout, candidate, dt, alpha_models=False)
-            scorers[key] = LooScorer(fitted, batches, len(trials), region)
-        scale = values["noise_scale"] / inner.noise_scale
-        losses.append(float(scorers[key]((scale,))[0].mean()))
+        scorer = candidates(values["n_basis"], values["width"])
+        scale = values["noise_scale"] / candidates.inner.noise_scale
+        losses.append(float(scorer((scale,))[0].mean()))
     ranks = [  # the choice's own order: the lower loss, a tie to the closer to the reference
         (round(loss, 9), _preference(v["n_basis"], v["width"], v["noise_scale"]))
         for loss, v in zip(losses, (chosen_values, runner_values), strict=True)
@@ -836,7 +818,7 @@ def _keep_previous(
         "chosen": {name: getattr(chosen, name) for name in automatic},
         "given": {name: getattr(settings, name) for name in FALLBACK if name not in automatic},
         "log_loss": losses[0],
-        "trials": len(trials),
+        "trials": candidates.n_trials,
         "runner_up": {name: runner_values[name] for name in automatic},
         "runner_up_log_loss": losses[1],
         "kept": int(previous.get("kept", 0)) + 1,
@@ -890,14 +872,15 @@ def choose_settings(
     width_grid = WIDTH_GRID if settings.width is None else (settings.width,)
     start_width = 1.0 if settings.width is None else settings.width
     region = data_region(dataset, layout)
-    if loo and previous is not None:
-        kept = _keep_previous(dataset, layout, settings, inner, dt, trials, region, previous)
+    candidates = _Candidates(dataset, layout, inner, dt, trials, region) if loo else None
+    if candidates is not None and previous is not None:
+        kept = _keep_previous(candidates, settings, previous)
         if kept is not None:
             return kept
     # every candidate scored: {(n_basis, width): {noise scale: losses per trial}}
     scores: dict[tuple[int, float], dict[float, np.ndarray]] = {}
     if loo:
-        _walk(dataset, layout, inner, dt, trials, scales, region, basis_grid, width_grid, scores)
+        _walk(candidates, scales, basis_grid, width_grid, scores)
     else:
         cache: dict = {}  # every candidate's observations and quadratures (see _losses)
 

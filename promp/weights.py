@@ -147,15 +147,24 @@ def fit_all_weights(
     minimised over a log grid of relative strengths. Computed through the eigendecomposition of
     each ``Phi_j^T Phi_j``, so every candidate costs O(M D) per demonstration.
     """
-    key = (basis, layout, ridge, tuple(id(d) for d in demos))
-    for i, (k, kept, fits) in enumerate(_FITS):
-        if k == key and all(a is b for a, b in zip(kept, demos, strict=True)):
-            _FITS.append(_FITS.pop(i))
-            return fits
-    fits = _fit_all_weights(basis, demos, layout, ridge)
-    _FITS.append((key, tuple(demos), fits))
-    del _FITS[:-_MAX_STACKS]
-    return fits
+    return _recent(
+        _FITS, (basis, layout, ridge), demos, lambda: _fit_all_weights(basis, demos, layout, ridge)
+    )
+
+
+def _recent(store: list, key: tuple, demos: Sequence[Demonstration], make):
+    """What ``make()`` computes for ``demos`` (these very objects) and ``key``, kept in
+    ``store`` for the last :data:`_MAX_RECENT` lists seen (the entry holds the demonstrations,
+    so their ids cannot be taken by others while it is kept)."""
+    full = (key, tuple(id(d) for d in demos))
+    for i, (k, _, value) in enumerate(store):
+        if k == full:
+            store.append(store.pop(i))
+            return value
+    value = make()
+    store.append((full, tuple(demos), value))
+    del store[:-_MAX_RECENT]
+    return value
 
 
 def _fit_all_weights(
@@ -222,18 +231,17 @@ class _Stack:
 def _stack(demos: Sequence[Demonstration], layout: Layout) -> _Stack:
     """:class:`_Stack` of ``demos``, kept for the last few lists seen (the candidate bases of
     one choice of settings fit the same list)."""
-    key = (layout, tuple(id(d) for d in demos))
-    for i, (k, kept, stack) in enumerate(_STACKS):
-        if k == key and all(a is b for a, b in zip(kept, demos, strict=True)):
-            _STACKS.append(_STACKS.pop(i))
-            return stack
+    return _recent(_STACKS, (layout,), demos, lambda: _make_stack(demos, layout))
+
+
+def _make_stack(demos: Sequence[Demonstration], layout: Layout) -> _Stack:
     values = [uniform_phase_values(demo, layout)[1] for demo in demos]
     n = np.array([v.shape[0] for v in values])
     offsets = np.concatenate([[0], np.cumsum(n)])
     stacked = np.concatenate(values)
     within = np.ones(max(stacked.shape[0] - 1, 0), dtype=bool)
     within[offsets[1:-1] - 1] = False
-    stack = _Stack(
+    return _Stack(
         values=stacked,
         segment=np.repeat(np.arange(len(demos)), n),
         offsets=offsets,
@@ -242,11 +250,8 @@ def _stack(demos: Sequence[Demonstration], layout: Layout) -> _Stack:
         yy=np.stack([(v**2).sum(axis=0) for v in values]),
         scale=modality_scale(values, layout),
     )
-    _STACKS.append((key, tuple(demos), stack))
-    del _STACKS[:-_MAX_STACKS]
-    return stack
 
 
 _STACKS: list = []
 _FITS: list = []  # the last few fits (the settings chosen are fitted again at once)
-_MAX_STACKS = 4
+_MAX_RECENT = 4
