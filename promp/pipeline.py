@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from promp._threads import one_blas_thread
 from promp.inference import Observation, Posterior, Prediction, condition, predict
 from promp.model import ProMPModel
 from promp.recognition import AlphaMethod, Recognition, recognise
@@ -57,6 +58,7 @@ class Inference:
         return self.prediction.duration
 
 
+@one_blas_thread
 def infer(
     model: ProMPModel,
     obs: Observation,

@@ -45,6 +45,7 @@ from typing import Literal
 import numpy as np
 from scipy import special
 
+from promp._threads import one_blas_thread
 from promp.inference import Observation, check_observation, log_likelihoods, logsumexp
 from promp.model import Primitive, ProMPModel
 from promp.quality import winsorized
@@ -269,6 +270,7 @@ def _integrate(
     return nodes, ll, lp, evidence
 
 
+@one_blas_thread
 def recognise(model: ProMPModel, obs: Observation, alpha_method: AlphaMethod = "ml") -> Recognition:
     """Recognise the primitive and its time modulation from an early observation.
 

@@ -289,3 +289,27 @@ def test_gaussian_prior_override(model, test_demo) -> None:
     implicit = condition(model, prim, obs, alpha)
     assert_allclose(explicit.mean, implicit.mean, atol=1e-12)
     assert_allclose(explicit.cov, implicit.cov, atol=1e-15)
+
+
+def test_the_inference_runs_its_linear_algebra_on_one_blas_thread(model, test_demo, monkeypatch):
+    """OpenBLAS splits each small factorisation across its threads, which costs more than the
+    work (bench/inference.py: twice the step with two threads). During a step every BLAS is
+    limited to one thread; before and after, the process's own setting holds."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    import promp.pipeline
+
+    seen = []
+    original = promp.pipeline.condition
+
+    def spy(*args, **kwargs):
+        seen.append({lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"})
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(promp.pipeline, "condition", spy)
+    obs = Observation.from_demo(model, test_demo, 20, ["hand", "head"])
+    with threadpool_limits(limits=2, user_api="blas"):
+        infer(model, obs)
+        after = {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
+    assert seen == [{1}]
+    assert after == {2}
