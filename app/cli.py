@@ -10,6 +10,7 @@ from pathlib import Path
 
 from app.net import is_loopback, port_is_free
 from promp.datasets import FORMATS
+from promp.rigs import MAPPING_HELP, add_rig_arguments
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -45,15 +46,17 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         default=None,
         metavar="DATASET",
-        help="create the (absent or empty) --workspace from this dataset folder, then serve it; "
-        "the dataset is only read",
+        help="create the (absent or empty) --workspace from this dataset folder (or session "
+        "file: a ROS bag, .xdf or .c3d), then serve it; the dataset is only read",
     )
     parser.add_argument(
         "--format",
         choices=FORMATS,
         default=None,
-        help="format of --import-dataset: csv (<primitive>/<demo>.csv) or records (the "
-        "13-column lab records); default: csv if it holds .csv files, else records",
+        help="format of --import-dataset: csv (<primitive>/<demo>.csv), records (the "
+        "13-column lab records), or a rig's recordings: yarp (dataDumper folders), rosbag "
+        "(ROS 1/2 bags, MCAP), xdf (LabRecorder), c3d (motion capture); default: told by "
+        "the files",
     )
     parser.add_argument(
         "--modality",
@@ -62,8 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=COL,COL,...",
         help="with --import-dataset, a modality and its columns (repeatable), e.g. "
         "hand=x,y,z head=roll,pitch,yaw; default: guessed from the columns (hand = x,y,z, "
-        "head = roll,pitch,yaw)",
+        f"head = roll,pitch,yaw) or the streams; {MAPPING_HELP}",
     )
+    add_rig_arguments(parser)
     parser.add_argument(
         "--robot", default="iCubNancy01", help="robot model from the icub-models package"
     )
@@ -97,18 +101,23 @@ def prepare_workspace(args: argparse.Namespace) -> None:
     """
     from app.dataset_import import detect_format, read_folder
     from app.workspace import FolderKind, Workspace, inspect_folder
-    from promp.datasets import parse_modality
+    from promp.datasets import command_line_modalities
+    from promp.rigs import rig_options
 
     kind, message = inspect_folder(args.workspace)
     if args.import_dataset is None:
-        if args.format is not None or args.modality:
-            raise ValueError("--format and --modality go with --import-dataset")
+        given = args.format is not None or args.modality or args.mapping
+        if given or args.cut != "auto" or args.rate is not None or args.markers:
+            raise ValueError(
+                "--format, --modality, --mapping, --cut, --rate and --markers go with "
+                "--import-dataset"
+            )
         if kind is FolderKind.FOREIGN:
             raise ValueError(message)
         return
     source = args.import_dataset
-    if not source.is_dir():
-        raise ValueError(f"--import-dataset {source}: no such folder")
+    if not source.exists():
+        raise ValueError(f"--import-dataset {source}: no such folder or file")
     if kind is FolderKind.WORKSPACE:
         raise ValueError(
             f"--import-dataset creates a new workspace, but {args.workspace} already is one; "
@@ -122,10 +131,16 @@ def prepare_workspace(args: argparse.Namespace) -> None:
             "the new workspace and the dataset must be separate folders (the dataset is only "
             "read): choose a --workspace outside it"
         )
-    modalities = [parse_modality(spec) for spec in args.modality] or None
-    data, summary = read_folder(source, args.format or detect_format(source), modalities)
+    modalities = command_line_modalities(args.modality, args.mapping)
+    data, summary = read_folder(
+        source, args.format or detect_format(source), modalities, rig_options(args)
+    )
     Workspace.create(args.workspace, data)
     print(f"Created the workspace {args.workspace} from {source}: {summary.describe()}", flush=True)
+    if summary.mapping:  # a rig's recordings: how they were read, and what they became
+        lines = (f"Mapping: {summary.mapping}", *summary.notes,
+                 *summary.demonstrations_lines(limit=50))  # fmt: skip
+        print("\n".join(f"  {line}" for line in lines), flush=True)
     headline, *details = summary.findings_lines(limit=50)
     print("\n  ".join([headline, *details]), flush=True)
 

@@ -1,13 +1,15 @@
 """Bringing a researcher's own recordings into the studio: a dataset becomes a new workspace.
 
 A dataset is a folder in one of the formats of :mod:`promp.datasets` (``csv``:
-``<primitive>/<demo>.csv``; ``records``: the 13-column lab records, ``<class>/.../<record>.txt``),
-read by the same :func:`promp.datasets.read_dataset` as ``python -m promp.evaluate``, with a
-layout of modalities given or guessed from the columns. It arrives either as a folder on the
-server (``python -m app --import-dataset DIR``) or as an uploaded zip of that folder (the Data
-tab), which is checked member by member like a workspace archive (no absolute paths, ``..``,
-links or encrypted members; bounded count and size) and extracted into a temporary folder the
-studio makes and removes.
+``<primitive>/<demo>.csv``; ``records``: the 13-column lab records, ``<class>/.../<record>.txt``;
+the recordings of a rig, :mod:`promp.rigs`: YARP dumps, ROS bags, XDF, C3D), read by the same
+:func:`promp.datasets.read_dataset` as ``python -m promp.evaluate``, with a layout of
+modalities given or guessed from the columns (from the streams). It arrives either as a folder
+on the server (``python -m app --import-dataset DIR``) or as an uploaded zip of that folder (the
+Data tab), which is checked member by member like a workspace archive (no absolute paths,
+``..``, links or encrypted members; bounded count and size) and extracted into a temporary
+folder the studio makes and removes; a single session file (``.bag``, ``.mcap``, ``.db3``,
+``.xdf``, ``.xdfz``, ``.c3d``, cut into demonstrations by its markers) may be uploaded as it is.
 
 The source is only read. Primitive and demonstration names become safe file names (other
 characters become ``_``; ``person1/record0`` becomes ``person1_record0``). Refused, with the file
@@ -36,24 +38,19 @@ from app.workspace_index import PALETTE, PrimitiveEntry, check_layout
 from promp.data import Demonstration, Layout, Modality
 from promp.datasets import FORMATS, RECORD_COLUMNS, Dataset, dataset_columns, read_dataset
 from promp.quality import Finding
+from promp.rigs import RigOptions
+from promp.rigs.mapping import unique_name
 
 MIN_DEMOS = 2
 MAX_DATASET_UPLOAD_BYTES = 200 * 2**20
+# A session file uploaded on its own, by suffix; and how a zip's files tell its format.
+SESSION_FILES = {".bag": "rosbag", ".mcap": "rosbag", ".db3": "rosbag", ".xdf": "xdf",
+                 ".xdfz": "xdf", ".c3d": "c3d"}  # fmt: skip
 
 
 def safe_name(raw: str, taken: set[str]) -> str:
     """``raw`` as a studio name (1-40 of letters, digits, '_', '-'), unique among ``taken``."""
-    name = re.sub(r"[^A-Za-z0-9_-]+", "_", raw).strip("_-") or "demo"
-    if not name[0].isalnum():
-        name = "d" + name
-    name = name[:40]
-    candidate, i = name, 2
-    while candidate in taken:
-        tail = f"-{i}"
-        candidate = name[: 40 - len(tail)] + tail
-        i += 1
-    taken.add(candidate)
-    return candidate
+    return unique_name(raw, taken, "demo", "d", "-", letter_first=False)
 
 
 @dataclass(frozen=True)
@@ -66,6 +63,9 @@ class DatasetSummary:
     counts: dict[str, int]
     columns: tuple[str, ...]
     findings: tuple[Finding, ...] = ()  # what the checks found, named by the dataset's files
+    mapping: str = ""  # recordings: the mapping of streams to modalities used
+    notes: tuple[str, ...] = ()  # recordings: streams found, what was left out, the clock
+    files: dict[tuple[str, str], str] = field(default_factory=dict)  # demo -> its source
 
     @property
     def n_demos(self) -> int:
@@ -85,6 +85,15 @@ class DatasetSummary:
         lines += [f"{f.where}: {f.message}" for f in self.findings[:limit]]
         if len(self.findings) > limit:
             lines.append(f"... and {len(self.findings) - limit} more")
+        return lines
+
+    def demonstrations_lines(self, limit: int = 12) -> list[str]:
+        """The demonstrations found, one line each with where they come from (at most
+        ``limit``, then how many more)."""
+        items = list(self.files.items())
+        lines = [f"{primitive}/{demo} ← {source}" for (primitive, demo), source in items[:limit]]
+        if len(items) > limit:
+            lines.append(f"... and {len(items) - limit} more")
         return lines
 
     def describe(self) -> str:
@@ -155,31 +164,47 @@ def dataset_to_workspace(
 
 
 def read_folder(
-    source: Path, format: str, modalities: Sequence[Modality] | None = None
+    source: Path,
+    format: str,
+    modalities: Sequence[Modality] | None = None,
+    rig: RigOptions | None = None,
 ) -> tuple[WorkspaceData, DatasetSummary]:
-    """Read the dataset folder ``source`` as a workspace's content, and its summary (with what
-    the checks found, named by the dataset's files)."""
-    read = read_dataset(Path(source), format, modalities)
+    """Read the dataset folder (or session file) ``source`` as a workspace's content, and its
+    summary (with what the checks found, named by the dataset's files)."""
+    read = read_dataset(Path(source), format, modalities, rig)
     dataset, layout = read.dataset, read.layout
     data = dataset_to_workspace(dataset, layout, read.findings)
     columns = RECORD_COLUMNS[1:] if format == "records" else dataset_columns(dataset)
     summary = DatasetSummary(
         str(source), format, layout, {p.name: len(data.demos[p.name]) for p in data.primitives},
-        tuple(columns), read.findings,
+        tuple(columns), read.findings, read.mapping, read.notes, dict(read.files),
     )  # fmt: skip
     return data, summary
 
 
 def detect_format(folder: Path) -> str:
-    """``csv`` when the folder holds .csv files, ``records`` when it holds .txt files."""
-    suffixes = {p.suffix.lower() for p in Path(folder).rglob("*") if p.is_file()}
+    """The format of the files under ``folder`` (or of the session file ``folder``): a rig's
+    recordings by their files (``data.log``, ``.bag``/``.mcap``/``.db3``/``metadata.yaml``,
+    ``.xdf``, ``.c3d``), else ``csv`` when it holds .csv files, ``records`` for .txt files."""
+    folder = Path(folder)
+    paths = [folder] if folder.is_file() else [p for p in folder.rglob("*") if p.is_file()]
+    suffixes = {p.suffix.lower() for p in paths}
+    names = {p.name for p in paths}
+    if "data.log" in names:
+        return "yarp"
+    if "metadata.yaml" in names:
+        return "rosbag"
+    for suffix, format in SESSION_FILES.items():
+        if suffix in suffixes:
+            return format
     if ".csv" in suffixes:
         return "csv"
     if ".txt" in suffixes:
         return "records"
     raise ValueError(
-        "no .csv or .txt files: a dataset is <primitive>/<demo>.csv files or lab records "
-        "<class>/.../<record>.txt"
+        "no .csv or .txt files nor recordings: a dataset is <primitive>/<demo>.csv files, lab "
+        "records <class>/.../<record>.txt, or a rig's recordings (YARP data.log folders, ROS "
+        "bags, .xdf, .c3d)"
     )
 
 
@@ -199,13 +224,16 @@ class DatasetUpload:
     ignored: list[str] = field(default_factory=list)
 
     def read(
-        self, format: str | None = None, modalities: Sequence[Modality] | None = None
+        self,
+        format: str | None = None,
+        modalities: Sequence[Modality] | None = None,
+        rig: RigOptions | None = None,
     ) -> tuple[WorkspaceData, DatasetSummary]:
         format = format or self.format
         if format not in FORMATS:
             raise ValueError(f"unknown dataset format {format!r}; expected one of {FORMATS}")
         try:
-            data, summary = read_folder(self.root, format, modalities)
+            data, summary = read_folder(self.root, format, modalities, rig)
         except ValueError as exc:
             # Paths inside the temporary folder mean nothing to the user: name the member.
             raise ValueError(str(exc).replace(str(self.root), self.filename)) from None
@@ -223,7 +251,8 @@ _ZIP_ERRORS = (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, NotImplemen
 def extract_dataset_zip(
     content: bytes, filename: str, limits: Limits | None = None
 ) -> DatasetUpload:
-    """Check and extract an uploaded dataset zip (see the module docstring).
+    """Check and extract an uploaded dataset zip, or store an uploaded session file (a ROS
+    bag, an XDF or C3D file) in a temporary folder (see the module docstring).
 
     Raises
     ------
@@ -239,8 +268,14 @@ def extract_dataset_zip(
         )
     if not content:
         raise ValueError("the file is empty")
-    if PurePosixPath(filename).suffix.lower() != ".zip":
-        raise ValueError("a dataset is uploaded as a .zip of its folder")
+    suffix = PurePosixPath(filename).suffix.lower()
+    if suffix in SESSION_FILES:
+        return _session_file(content, filename, SESSION_FILES[suffix])
+    if suffix != ".zip":
+        raise ValueError(
+            "a dataset is uploaded as a .zip of its folder, or a session file "
+            f"({', '.join(SESSION_FILES)}) as it is"
+        )
     try:
         archive = zipfile.ZipFile(io.BytesIO(content))
     except (*_ZIP_ERRORS, ValueError) as exc:
@@ -264,6 +299,20 @@ def extract_dataset_zip(
         upload.close()
         raise ValueError(f"cannot be read as a zip archive ({exc})") from None
     return upload
+
+
+def _session_file(content: bytes, filename: str, format: str) -> DatasetUpload:
+    """A session file in a temporary folder of its own (its name made safe)."""
+    path = PurePosixPath(filename.replace("\\", "/"))
+    stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", path.stem).strip("._") or "session"
+    tempdir = Path(tempfile.mkdtemp(prefix="icub-studio-dataset-"))
+    target = tempdir / f"{stem[:60]}{path.suffix.lower()}"
+    try:
+        target.write_bytes(content)
+    except OSError as exc:
+        shutil.rmtree(tempdir)
+        raise ValueError(f"cannot be stored ({exc})") from None
+    return DatasetUpload(filename, tempdir, tempdir, format)
 
 
 def _extract(

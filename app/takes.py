@@ -4,10 +4,10 @@ where the primitive's demonstrations start. Pure computation, no viser.
 A take runs from the end of the 3-2-1 countdown to Stop, so it holds the wait before the user
 moves and the time it takes to reach the Stop button: a 3 s movement recorded as a 60 s take is
 an outlier to the engine. :func:`active_span` finds the samples where the hand or the head
-moves faster than a threshold (speeds smoothed over :data:`SMOOTH_S`, so that a tremor or a
-tracking jitter is not motion) and keeps them, with :data:`MARGIN_S` of stillness on each side
-(the movement's onset and settling). The head's speed is that of its angles (roll, pitch, yaw),
-the hand's that of its position.
+moves faster than a threshold (:mod:`promp.stillness`: speeds smoothed over :data:`SMOOTH_S`,
+so that a tremor or a tracking jitter is not motion) and keeps them, with :data:`MARGIN_S` of
+stillness on each side (the movement's onset and settling). The head's speed is that of its
+angles (roll, pitch, yaw), the hand's that of its position.
 """
 
 from __future__ import annotations
@@ -19,12 +19,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp.data import Demonstration, Layout
+from promp.stillness import HAND_IDLE_M_S, HEAD_IDLE_RAD_S, MARGIN_S, SMOOTH_S, speed
 from robots.icub.layout import hand_dims
 
-HAND_IDLE_M_S = 0.02  # below 2 cm/s the hand is still
-HEAD_IDLE_RAD_S = math.radians(10.0)  # below 10 deg/s the head is still
-SMOOTH_S = 0.2
-MARGIN_S = 0.1
+__all__ = [
+    "HAND_IDLE_M_S", "HEAD_IDLE_RAD_S", "MARGIN_S", "SMOOTH_S", "Trim", "active_span",
+    "mean_start", "speed",
+]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -42,22 +43,6 @@ class Trim:
     def seconds(self, times: np.ndarray) -> tuple[float, float]:
         """The idle time cut at the start and at the end, seconds."""
         return float(times[self.start] - times[0]), float(times[-1] - times[self.stop - 1])
-
-
-def speed(times: np.ndarray, values: np.ndarray, smooth_s: float = SMOOTH_S) -> np.ndarray:
-    """The norm of the time derivative of ``values`` (n, d) at ``times`` (n,), smoothed by a
-    centred moving average over ``smooth_s`` seconds; shape (n,)."""
-    times = np.asarray(times, dtype=float)
-    values = np.asarray(values, dtype=float).reshape(times.shape[0], -1)
-    if times.shape[0] < 2:
-        return np.zeros(times.shape[0])
-    raw = np.linalg.norm(np.gradient(values, times, axis=0), axis=1)
-    dt = float(np.median(np.diff(times)))
-    width = max(1, int(round(smooth_s / dt)) | 1)  # odd
-    if width == 1:
-        return raw
-    padded = np.pad(raw, width // 2, mode="edge")
-    return np.convolve(padded, np.ones(width) / width, mode="valid")
 
 
 def active_span(

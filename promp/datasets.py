@@ -1,4 +1,5 @@
-"""Dataset readers and writers: the CSV folder format and the lab-record format.
+"""Dataset readers and writers: the CSV folder format and the lab-record format, and the
+recordings of rigs (YARP logs, ROS bags, XDF, C3D: :mod:`promp.rigs`).
 
 CSV folder format (the engine's own)::
 
@@ -15,7 +16,7 @@ reading: when a layout uses a wrench column those rows are **dropped** (the phas
 sample comes from its time stamp, so the remaining samples keep their true phase); otherwise
 they are kept, since their positions are valid.
 
-:func:`read_dataset` is the one entry point of both formats (the evaluation and the studio's
+:func:`read_dataset` is the one entry point of every format (the evaluation and the studio's
 import use it): it reads a folder and pairs it with a layout of modalities, given or guessed
 from the columns.
 """
@@ -36,6 +37,8 @@ import numpy as np
 
 from promp.data import Demonstration, Kind, Layout, Modality, check_values
 from promp.quality import Finding, dataset_findings, increasing_samples, timestamp_finding
+from promp.rigs import RIG_FORMATS, RigOptions, read_rig_dataset
+from promp.rigs.mapping import SourcedModality, parse_sourced
 
 Dataset = dict[str, list[Demonstration]]
 
@@ -304,7 +307,7 @@ def check_columns(dataset: Dataset, columns: Sequence[str]) -> None:
 
 # ------------------------------------------------------------------------------ modalities
 
-FORMATS = ("records", "csv")
+FORMATS = ("records", "csv", *RIG_FORMATS)
 # Unit and kind of the column names the readers know; any other column is a dimensionless
 # linear signal unless a modality says otherwise.
 KNOWN_COLUMNS: dict[str, tuple[str, Kind]] = {
@@ -341,8 +344,12 @@ def modality_from_columns(name: str, columns: Sequence[str]) -> Modality:
 
 
 def parse_modality(spec: str) -> Modality:
-    """``"NAME=COL,COL,..."`` (as on the command line) as a :class:`Modality`."""
+    """``"NAME=COL,COL,..."`` (as on the command line) as a :class:`Modality`; for
+    recordings, ``"NAME=STREAM:FIELD,...[@UNIT]"`` (:mod:`promp.rigs.mapping`) as a
+    :class:`promp.rigs.mapping.SourcedModality`."""
     name, sep, cols = str(spec).partition("=")
+    if any(mark in cols for mark in ":@{"):
+        return parse_sourced(spec)
     columns = tuple(c.strip() for c in cols.split(",") if c.strip())
     if not sep or not name.strip() or not columns:
         raise ValueError(f"a modality is NAME=COL,COL,..., got {spec!r}")
@@ -351,10 +358,33 @@ def parse_modality(spec: str) -> Modality:
 
 def parse_modalities(text: str) -> tuple[Modality, ...]:
     """Several modalities separated by ``;`` or new lines: ``"hand=x,y,z; head=roll,pitch,yaw"``."""
-    specs = [s.strip() for s in re.split(r"[;\n]+", str(text)) if s.strip()]
+    lines = (line.partition("#")[0] for line in str(text).splitlines())
+    specs = [s.strip() for line in lines for s in line.split(";") if s.strip()]
     if not specs:
         raise ValueError("name at least one modality, e.g. hand=x,y,z")
     return tuple(parse_modality(s) for s in specs)
+
+
+def read_mapping_file(path: Path) -> tuple[Modality, ...]:
+    """The modalities of a mapping file: one per line (or ``;``-separated), ``#`` comments."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"mapping file {path}: cannot be read ({exc})") from None
+    try:
+        return parse_modalities(text)
+    except ValueError as exc:
+        raise ValueError(f"mapping file {path}: {exc}") from None
+
+
+def command_line_modalities(
+    specs: Sequence[str], mapping_file: Path | str | None = None
+) -> list[Modality] | None:
+    """The modalities of ``--modality`` options and a ``--mapping`` file (None: guess)."""
+    modalities = [parse_modality(spec) for spec in specs]
+    if mapping_file:
+        modalities += read_mapping_file(Path(mapping_file))
+    return modalities or None
 
 
 def format_modalities(layout: Layout) -> str:
@@ -403,10 +433,15 @@ class DatasetRead:
     layout: Layout
     findings: tuple[Finding, ...]
     files: dict[tuple[str, str], str]
+    mapping: str = ""  # recordings: the mapping used, in its syntax (guessed when not given)
+    notes: tuple[str, ...] = ()  # recordings: streams found, what was left out, the clock
 
 
 def read_dataset(
-    root: Path, format: str, modalities: Sequence[Modality] | None = None
+    root: Path,
+    format: str,
+    modalities: Sequence[Modality] | None = None,
+    rig: RigOptions | None = None,
 ) -> DatasetRead:
     """Read a dataset folder, the layout of modalities it is used with, and its findings.
 
@@ -419,23 +454,58 @@ def read_dataset(
     ----------
     root : path
         ``records``: ``root/<class>/.../<record>.txt`` (13 columns, see the module docstring);
-        ``csv``: ``root/<primitive>/.../<demo>.csv`` with a header row.
-    format : {"records", "csv"}
+        ``csv``: ``root/<primitive>/.../<demo>.csv`` with a header row; ``yarp``, ``rosbag``,
+        ``xdf``, ``c3d``: recordings of a rig, in ``<class>/`` folders or sessions cut by
+        their markers (:mod:`promp.rigs`; ``root`` may be a session file).
+    format : {"records", "csv", "yarp", "rosbag", "xdf", "c3d"}
     modalities : sequence of Modality, optional
-        Which columns form which modality. Default: guessed from the columns
-        (:func:`guess_layout`; for records, ``hand`` = x, y, z, the hand in the robot's root
-        frame).
+        Which columns form which modality (for recordings, which stream's fields:
+        ``NAME=STREAM:FIELD,...``, :mod:`promp.rigs.mapping`). Default: guessed from the
+        columns (:func:`guess_layout`; for records, ``hand`` = x, y, z, the hand in the
+        robot's root frame) or from the first recording's streams.
+    rig : RigOptions, optional
+        For recordings: how sessions are cut and the time base (default: cut by markers when
+        a recording has some, the slowest stream's times).
 
     Raises
     ------
     ValueError
         Unknown format, no demonstrations, an unreadable file (named), or a modality naming a
-        column that a demonstration lacks (named).
+        column (a stream, a field) that a demonstration (a recording) lacks (named).
     """
     if format not in FORMATS:
         raise ValueError(f"unknown dataset format {format!r}; expected one of {FORMATS}")
     root = Path(root)
     read_findings: list[Finding] = []
+    mapping, notes = "", ()
+    if format in RIG_FORMATS:
+        rigs = read_rig_dataset(root, format, modalities, rig)
+        dataset, layout, files = rigs.dataset, Layout(rigs.modalities), rigs.files
+        mapping, notes = rigs.mapping, rigs.notes
+    else:
+        sourced = [m.name for m in modalities or () if isinstance(m, SourcedModality)]
+        if sourced:
+            raise ValueError(
+                f"modality {sourced[0]!r}: NAME=STREAM:FIELD (or @UNIT) is for recordings "
+                f"({', '.join(RIG_FORMATS)}); {format} takes NAME=COL,COL,..."
+            )
+        dataset, layout = _read_table_dataset(root, format, modalities, read_findings)
+        suffix = ".txt" if format == "records" else ".csv"
+        files = {
+            (primitive, demo.name): f"{primitive}/{demo.name}{suffix}"
+            for primitive, demos in dataset.items()
+            for demo in demos
+        }
+    findings = read_findings + dataset_findings(dataset, layout, files)
+    order = {key: i for i, key in enumerate(files)}
+    findings.sort(key=lambda f: order[f.key])  # stable: by demonstration, in reading order
+    return DatasetRead(dataset, layout, tuple(findings), files, mapping, notes)
+
+
+def _read_table_dataset(
+    root: Path, format: str, modalities: Sequence[Modality] | None, findings: list[Finding]
+) -> tuple[Dataset, Layout]:
+    """The lab records or CSV folder under ``root`` and their layout (see :func:`read_dataset`)."""
     if format == "records":
         names = RECORD_COLUMNS[1:]
         layout = Layout(tuple(modalities)) if modalities else guess_layout(names)
@@ -445,22 +515,11 @@ def read_dataset(
                 f"lab records have no column(s) {unknown}; their columns are {list(names)}"
             )
         uses_wrench = bool(set(layout.columns) & set(WRENCH_COLUMNS))
-        dataset = load_records_dataset(root, uses_wrench, read_findings)
-        suffix = ".txt"
+        return load_records_dataset(root, uses_wrench, findings), layout
+    dataset = load_csv_dataset(root, findings=findings)
+    if modalities:
+        layout = Layout(tuple(modalities))
     else:
-        dataset = load_csv_dataset(root, findings=read_findings)
-        if modalities:
-            layout = Layout(tuple(modalities))
-        else:
-            layout = guess_layout(dataset_columns(dataset))
-        check_columns(dataset, layout.columns)
-        suffix = ".csv"
-    files = {
-        (primitive, demo.name): f"{primitive}/{demo.name}{suffix}"
-        for primitive, demos in dataset.items()
-        for demo in demos
-    }
-    findings = read_findings + dataset_findings(dataset, layout, files)
-    order = {key: i for i, key in enumerate(files)}
-    findings.sort(key=lambda f: order[f.key])  # stable: by demonstration, in reading order
-    return DatasetRead(dataset, layout, tuple(findings), files)
+        layout = guess_layout(dataset_columns(dataset))
+    check_columns(dataset, layout.columns)
+    return dataset, layout

@@ -343,6 +343,21 @@ def _record_drop_column(content: bytes) -> bytes:
     return ("\n".join(line.rsplit(None, 1)[0] for line in lines) + "\n").encode()
 
 
+# ------------------------------------------------------------------------------ rig recordings
+
+
+def rig_cases(recordings: dict[str, tuple[dict[str, bytes], str, str]]) -> Iterator[Case]:
+    """Malformed rig recordings: each format's session (``{format: ({path: bytes}, the file
+    to spoil, the mapping)}``, a dataset folder's files) with that file truncated at six places
+    or replaced by random bytes. The refusal must name the file."""
+    for format, (files, target, mapping) in recordings.items():
+        name = target.rpartition("/")[2].lower()
+        for i, part in enumerate(truncations(files[target])):
+            yield f"{format}: truncated #{i}", (format, {**files, target: part}, mapping), name
+        for i, part in enumerate(random_bytes(seed=5, n=3)):
+            yield f"{format}: random bytes #{i}", (format, {**files, target: part}, mapping), name
+
+
 # ------------------------------------------------------------------------------ videos
 
 

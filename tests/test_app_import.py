@@ -51,7 +51,7 @@ def page(browser, studio):
     page, _client = open_page(browser, studio, width=1400, height=900)
     page.set_default_timeout(120_000)
     page.get_by_role("tab", name="Data").click()
-    page.get_by_role("button", name="Upload dataset (.zip)").wait_for()
+    page.get_by_role("button", name="Upload dataset").wait_for()
     yield page
     page.close()
 

@@ -224,6 +224,72 @@ def test_lab_records(tmp_path, heights_record) -> None:
     run_corpus("lab record", bad_inputs.record_cases(heights_record.decode()), read)
 
 
+def test_rig_recordings(tmp_path) -> None:
+    """Each rig format's session spoilt (truncated, random bytes), and recordings that read
+    but cannot be used (a wrong topic, a clock that goes back, an unknown marker, a stream that
+    stops): refused with the file named, and nothing written next to them."""
+    for library in ("rosbags", "pyxdf", "ezc3d"):
+        pytest.importorskip(library)
+    from promp.datasets import parse_modalities, read_dataset
+    from tests import rig_files as rf
+
+    made = tmp_path / "made"
+    rf.write_ros2_bag(made / "ros2")
+    rf.write_ros1_bag(made / "session.bag")
+    rf.write_xdf(made / "session.xdf")
+    rf.write_c3d(made / "session.c3d")
+    rf.write_yarp_session(made / "yarp" / "session")
+
+    def files(folder) -> dict[str, bytes]:
+        return {p.relative_to(folder).as_posix(): p.read_bytes()
+                for p in sorted(folder.rglob("*")) if p.is_file()}  # fmt: skip
+
+    mcap = next((made / "ros2").glob("*.mcap"))
+    hand = "hand=/hand:pose.position.{x,y,z}"
+    yarp = "hand=left_arm:0,1,2@m; head=head:0,1,2@deg"
+    recordings = {
+        "rosbag": ({"session.mcap": mcap.read_bytes()}, "session.mcap", hand),
+        "rosbag ROS 1": ({"session.bag": (made / "session.bag").read_bytes()}, "session.bag",
+                         "hand=/tf:left_hand.translation.{x,y,z}"),
+        "xdf": ({"session.xdf": (made / "session.xdf").read_bytes()}, "session.xdf", ""),
+        "c3d": ({"session.c3d": (made / "session.c3d").read_bytes()}, "session.c3d", ""),
+        "yarp": (files(made / "yarp"), "session/left_arm/data.log", yarp),
+    }  # fmt: skip
+    counter = iter(range(10**6))
+
+    def read(payload) -> None:
+        format, members, mapping = payload
+        root = tmp_path / f"case{next(counter)}"
+        for name, content in members.items():
+            (root / name).parent.mkdir(parents=True, exist_ok=True)
+            (root / name).write_bytes(content)
+        before = tree_hash(root)
+        try:
+            read_dataset(root, format.split()[0], parse_modalities(mapping) if mapping else None)
+        finally:
+            assert tree_hash(root) == before, "reading a recording wrote next to it"
+
+    back = [line.split(" ") for line in recordings["yarp"][0]["session/head/data.log"]
+            .decode().splitlines()]  # fmt: skip
+    back[40][1], back[41][1] = back[41][1], back[40][1]  # two time stamps swapped
+    swapped = {**recordings["yarp"][0], "session/head/data.log": "\n".join(
+        " ".join(line) for line in back).encode()}  # fmt: skip
+    rf.write_xdf(made / "marker.xdf", markers=[*rf.MARKERS, (10.4, "applause")])
+    rf.write_ros2_bag(made / "stops", head_duration=5.0)
+    stops = {"session.mcap": next((made / "stops").glob("*.mcap")).read_bytes()}
+    cases = [
+        *bad_inputs.rig_cases(recordings),
+        ("rosbag: a wrong topic", ("rosbag", recordings["rosbag"][0],
+                                   "hand=/nope:pose.position.x"), "no numeric stream '/nope'"),
+        ("yarp: a clock that goes back", ("yarp", swapped, yarp), "not monotonic"),
+        ("xdf: an unknown marker", ("xdf", {"session.xdf": (made / "marker.xdf").read_bytes()},
+                                    ""), "unknown marker 'applause'"),
+        ("rosbag: a stream that stops", ("rosbag", stops, f"{hand}; head=/head:pose.position.x"),
+         "stream '/head' stops"),
+    ]  # fmt: skip
+    run_corpus("rig recording", cases, read)
+
+
 def test_video_uploads(installed, tmp_path) -> None:
     path = tmp_path / "clip.avi"
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 48))

@@ -2,7 +2,9 @@
 
 ::
 
-    python -m promp.evaluate DATASET --format records|csv [--modality NAME=COL,COL,...]...
+    python -m promp.evaluate DATASET --format records|csv|yarp|rosbag|xdf|c3d
+        [--modality NAME=COL,COL,...]... [--mapping FILE] [--cut auto|markers|still|files]
+        [--rate HZ] [--markers STREAM]
         [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
         [--json OUT.json] [--csv OUT.csv] [--plots DIR] [--basis M] [--width W]
         [--shrinkage S|auto] [--noise-scale X] [--select loo|cv] [--subset N] [--jobs N]
@@ -10,7 +12,9 @@
         [--trials-csv OUT.csv]
 
 ``--format records`` reads the lab-record format, ``--format csv`` reads ``DATASET/<primitive>/
-<demo>.csv`` (:func:`promp.datasets.read_dataset`, the reader the studio's import uses too).
+<demo>.csv``, ``yarp``, ``rosbag``, ``xdf`` and ``c3d`` a rig's recordings (:mod:`promp.rigs`:
+``--modality NAME=STREAM:FIELD,...``, sessions cut by ``--cut``, streams put on one clock)
+(:func:`promp.datasets.read_dataset`, the reader the studio's import uses too).
 ``--modality`` maps columns to modalities; without it they are guessed from the columns
 (``hand`` = x, y, z, ``head`` = roll, pitch, yaw; for lab records, ``hand`` is the hand in the
 robot's root frame). ``--observe`` (default: the hand) may be repeated to sweep several
@@ -40,7 +44,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from promp.data import Layout
-from promp.datasets import Dataset, parse_modality, read_dataset
+from promp.datasets import FORMATS, Dataset, command_line_modalities, read_dataset
 from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.report import (
     basis_settings,
@@ -53,8 +57,25 @@ from promp.evaluate.seed import ToolboxBaseline
 from promp.evaluate.sweep import position_modality, run_sweep, spread_subset, tqdm_progress
 from promp.model import SELECT_RULES, Settings
 from promp.quality import REPAIRS, Finding, dataset_findings, repair_gaps, split_flagged
+from promp.rigs import MAPPING_HELP, add_rig_arguments, rig_options
 
 DEFAULT_PERCENTS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
+
+
+def add_dataset_arguments(parser: argparse.ArgumentParser) -> None:
+    """``DATASET``, ``--format``, ``--modality`` and the recordings' options (what
+    :func:`load` reads)."""
+    parser.add_argument("dataset", type=Path, help="dataset folder (or a session file)")
+    parser.add_argument("--format", choices=FORMATS, required=True)
+    parser.add_argument(
+        "--modality",
+        action="append",
+        default=[],
+        metavar="NAME=COL,COL,...",
+        help="a modality: a name and its columns (repeatable); e.g. hand=x,y,z "
+        f"head=roll,pitch,yaw, or for lab records wrench=fx,fy,fz,mx,my,mz; {MAPPING_HELP}",
+    )
+    add_rig_arguments(parser)
 
 
 def add_check_arguments(parser: argparse.ArgumentParser) -> None:
@@ -86,16 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    parser.add_argument("dataset", type=Path, help="dataset folder")
-    parser.add_argument("--format", choices=("records", "csv"), required=True)
-    parser.add_argument(
-        "--modality",
-        action="append",
-        default=[],
-        metavar="NAME=COL,COL,...",
-        help="a modality: a name and its columns (repeatable); e.g. hand=x,y,z "
-        "head=roll,pitch,yaw, or for lab records wrench=fx,fy,fz,mx,my,mz",
-    )
+    add_dataset_arguments(parser)
     parser.add_argument(
         "--observe",
         action="append",
@@ -190,6 +202,8 @@ class Loaded:
     observe: list[list[str]]
     findings: tuple[Finding, ...]
     excluded: dict[tuple[str, str], list[Finding]]
+    mapping: str = ""  # recordings: the mapping of streams to modalities used
+    notes: tuple[str, ...] = ()  # recordings: streams, what was left out, the clock
 
 
 def load(args: argparse.Namespace) -> Loaded:
@@ -197,8 +211,8 @@ def load(args: argparse.Namespace) -> Loaded:
     observe = [
         [name.strip() for name in spec.split(",") if name.strip()] for spec in (args.observe or [])
     ]
-    modalities = [parse_modality(spec) for spec in args.modality]
-    read = read_dataset(args.dataset, args.format, modalities or None)
+    modalities = command_line_modalities(args.modality, args.mapping)
+    read = read_dataset(args.dataset, args.format, modalities, rig_options(args))
     dataset, layout, findings = read.dataset, read.layout, read.findings
     if args.repair_gaps is not None:
         dataset = {
@@ -212,11 +226,16 @@ def load(args: argparse.Namespace) -> Loaded:
         layout.dims(names)  # unknown names are an error before any work
     everyone = {(p, d.name) for p, demos in dataset.items() for d in demos}
     dataset, excluded = split_flagged(dataset, findings, everyone if args.include_flagged else ())
-    return Loaded(dataset, layout, observe, tuple(findings), excluded)
+    return Loaded(dataset, layout, observe, tuple(findings), excluded, read.mapping, read.notes)
 
 
 def print_findings(loaded: Loaded, include_flagged: bool) -> None:
-    """What the checks found, and what is left out (on stderr, before the sweep)."""
+    """How recordings were read, what the checks found, and what is left out (on stderr,
+    before the sweep)."""
+    if loaded.mapping:
+        print(f"mapping: {loaded.mapping}", file=sys.stderr)
+        for note in loaded.notes:
+            print(f"  {note}", file=sys.stderr)
     if not loaded.findings:
         print("checks: nothing found in any demonstration", file=sys.stderr)
         return

@@ -17,9 +17,8 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 
-from promp.evaluate.cli import add_check_arguments, load, print_findings
+from promp.evaluate.cli import add_check_arguments, add_dataset_arguments, load, print_findings
 from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.sweep import run_sweep, tqdm_progress
 from promp.model import Settings
@@ -48,9 +47,7 @@ def score(rows: list[dict]) -> dict:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m promp.evaluate.select", description=__doc__)
-    parser.add_argument("dataset", type=Path)
-    parser.add_argument("--format", choices=("records", "csv"), required=True)
-    parser.add_argument("--modality", action="append", default=[])
+    add_dataset_arguments(parser)
     parser.add_argument("--observe", action="append", default=None)
     parser.add_argument("--json", default=None)
     parser.add_argument("--jobs", type=int, default=-1, help="processes (-1: every core)")

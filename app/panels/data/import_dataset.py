@@ -1,10 +1,13 @@
 """The Data tab's "Import dataset": a zip of one's own recordings becomes a studio workspace.
 
-Upload a zip of a dataset folder (:mod:`app.dataset_import`: CSV or lab records); the studio
-extracts it into a temporary folder of its own, guesses the format and the modalities from the
-files, and previews what it would create. The user may change the format and the mapping of
-columns to modalities (``hand=x,y,z; head=roll,pitch,yaw``); each change re-reads and
-re-previews. Then either
+Upload a zip of a dataset folder (:mod:`app.dataset_import`: CSV, lab records, or a rig's
+recordings: YARP dumps, ROS bags, XDF, C3D), or a single session file (a bag, ``.xdf``,
+``.c3d``); the studio extracts it into a temporary folder of its own, guesses the format and the
+modalities from the files (the streams), and previews what it would create, with every
+demonstration found and where it comes from. The user may change the format, the mapping of
+columns (``hand=x,y,z; head=roll,pitch,yaw``) or of streams (``hand=/pose:pose.position.{x,y,z}``)
+to modalities, and for recordings how sessions are cut and the rate of the time base; each
+change re-reads and re-previews. Then either
 
 * **Create workspace** makes a new workspace folder beside the current one (named after the
   zip) and the studio serves it; the current workspace stays as it is on disk; or
@@ -27,6 +30,7 @@ import viser
 from app.context import PanelContext
 from app.dataset_import import (
     MAX_DATASET_UPLOAD_BYTES,
+    SESSION_FILES,
     DatasetSummary,
     DatasetUpload,
     extract_dataset_zip,
@@ -37,6 +41,7 @@ from app.exchange import Limits, format_size
 from app.gui_text import display_name, escape
 from app.workspace import WorkspaceData
 from promp.datasets import FORMATS, format_modalities, parse_modalities
+from promp.rigs import CUTS, RIG_FORMATS, RigOptions
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
 CREATE, REPLACE = "Create workspace", "Replace this workspace"
@@ -68,23 +73,43 @@ class DatasetImport:
         with gui.add_folder("Import dataset"):
             gui.add_markdown(
                 "Your own recordings, as a **zip of their folder**: `<primitive>/<demo>.csv` "
-                "(a header row: `t` in seconds, then named columns) or lab records "
-                "`<class>/.../<record>.txt`. The zip is only read."
+                "(a header row: `t` in seconds, then named columns), lab records "
+                "`<class>/.../<record>.txt`, or a rig's recordings in `<class>/` folders "
+                "(YARP `data.log` dumps, ROS bags, `.xdf`, `.c3d`); or **one session file** "
+                "cut by its markers (`start CLASS` ... `end CLASS`). Only read."
             )
             self.upload_button = gui.add_upload_button(
-                "Upload dataset (.zip)",
+                "Upload dataset",
                 icon=viser.Icon.UPLOAD,
-                mime_type=".zip",
-                hint=f"Up to {format_size(max_upload_bytes)}",
+                mime_type=",".join((".zip", *SESSION_FILES)),
+                hint=f"A .zip or a session file ({', '.join(SESSION_FILES)}), up to "
+                f"{format_size(max_upload_bytes)}",
             )
             self.format = gui.add_dropdown("Format", FORMATS, visible=False)
             self.modalities = gui.add_text(
                 "Modalities",
                 "",
                 visible=False,
-                hint="NAME=COL,COL,... separated by ';'. 'hand' (x, y, z in metres, the robot's "
-                "root frame) is drawn in 3D; other modalities get their own charts",
+                hint="NAME=COL,COL,... separated by ';'; for recordings "
+                "NAME=STREAM:FIELD,...[@UNIT] (a topic, stream, port or marker, then fields: "
+                "pose.position.{x,y,z}; @mm and "
+                "@deg are converted). 'hand' (x, y, z in metres, the robot's root frame) is "
+                "drawn in 3D; other modalities get their own charts",
             )
+            self.cut = gui.add_dropdown(
+                "Cut", CUTS, visible=False,
+                hint="How a recording becomes demonstrations: by its markers, at its still "
+                "periods, one per file (in <class>/ folders), or auto (markers when it has some)",
+            )  # fmt: skip
+            self.rate = gui.add_number(
+                "Rate (Hz)", 0.0, min=0.0, max=10000.0, step=1.0, visible=False,
+                hint="The time base the streams are interpolated on; 0: the slowest stream's "
+                "own time stamps",
+            )  # fmt: skip
+            self.markers = gui.add_text(
+                "Marker stream", "", visible=False,
+                hint="The stream to cut by when a recording has several; empty: its only one",
+            )  # fmt: skip
             self.preview = gui.add_markdown("")
             self.actions = gui.add_button_group("", (CREATE, REPLACE), visible=False)
         self.guard = ctx.guard_upload(self.upload_button, max_upload_bytes, self._too_large)
@@ -93,7 +118,7 @@ class DatasetImport:
                 event.client, event.target.value.name, event.target.value.content
             )
         )
-        for handle in (self.format, self.modalities):
+        for handle in (self.format, self.modalities, self.cut, self.rate, self.markers):
             handle.on_update(lambda event: None if self._quiet else self.reread(event.client))
         self.actions.on_click(lambda event: self.act(event.client, event.target.value))
 
@@ -109,7 +134,7 @@ class DatasetImport:
         )
 
     def receive(self, client, filename: str, content: bytes) -> DatasetSummary | None:
-        """Extract and preview an uploaded dataset zip (None when refused)."""
+        """Extract and preview an uploaded dataset zip or session file (None when refused)."""
         name = display_name(filename)
         try:
             upload = extract_dataset_zip(
@@ -122,17 +147,21 @@ class DatasetImport:
         with self._lock:
             self._discard()
             self.upload = upload
-            self._set_inputs(upload.format, "")
+            self._set_inputs(upload.format, "", reset=True)
         summary = self.reread(client)
         if summary is None:
             self.guard.dismiss(client)
         return summary
 
-    def _set_inputs(self, format: str, modalities: str) -> None:
+    def _set_inputs(self, format: str, modalities: str, reset: bool = False) -> None:
+        """Set the inputs without re-reading; ``reset`` also puts the recordings' options back
+        to their defaults (a new upload)."""
         self._quiet = True
         try:
             self.format.value = format
             self.modalities.value = modalities
+            if reset:
+                self.cut.value, self.rate.value, self.markers.value = CUTS[0], 0.0, ""
         finally:
             self._quiet = False
 
@@ -143,10 +172,15 @@ class DatasetImport:
             if upload is None:
                 return None
             self.format.visible = self.modalities.visible = True
+            rig = self.format.value in RIG_FORMATS
+            self.cut.visible = self.rate.visible = self.markers.visible = rig
             text = self.modalities.value.strip()
             try:
                 modalities = parse_modalities(text) if text else None
-                data, summary = upload.read(self.format.value, modalities)
+                options = RigOptions(
+                    self.cut.value, float(self.rate.value) or None, self.markers.value.strip()
+                )
+                data, summary = upload.read(self.format.value, modalities, options)
             except ValueError as exc:
                 self.data = self.summary = None
                 self.actions.visible = False
@@ -161,13 +195,18 @@ class DatasetImport:
                 return None
             self.data, self.summary = data, summary
             if not text:  # show the guess
-                self._set_inputs(self.format.value, format_modalities(summary.layout))
+                guess = summary.mapping or format_modalities(summary.layout)
+                self._set_inputs(self.format.value, guess)
             lines = [
                 f"**{escape(upload.filename)}** ({summary.format}): {escape(summary.describe())}",
                 f"Columns: {escape(', '.join(summary.columns))}",
             ]
             if upload.ignored:
                 lines.append(f"Ignored: {escape(', '.join(upload.ignored))}")
+            if summary.mapping:  # a rig's recordings: how they were read, what they became
+                lines += [escape(line) for line in summary.notes]
+                lines += ["Demonstrations found:"]
+                lines += [escape(line) for line in summary.demonstrations_lines()]
             lines += [escape(line) for line in summary.findings_lines()]
             self.preview.content = "  \n".join(lines)
             self.actions.visible = True
@@ -253,6 +292,7 @@ class DatasetImport:
         self.upload, self.data, self.summary = None, None, None
         self.actions.visible = False
         self.format.visible = self.modalities.visible = False
+        self.cut.visible = self.rate.visible = self.markers.visible = False
         self.preview.content = ""
 
     def close(self) -> None:

@@ -1,0 +1,282 @@
+"""A dataset of rig recordings: the recordings found, their demonstrations, their modalities.
+
+Where the demonstrations come from:
+
+* ``DATASET/<class>/<recording>`` (any depth below the class folder): one demonstration per
+  recording (``cut="files"``), or several cut at its still periods (``cut="still"``) or by its
+  markers (``cut="markers"``; the class folder is the class of markers that name none);
+* ``DATASET/<session>``, or the session file itself: a session, cut by its markers
+  (``start CLASS`` ... ``end CLASS``, :mod:`promp.rigs.cutting`), whose labels give the classes.
+
+``cut="auto"`` (the default) cuts a recording by its markers when it has a marker stream, and
+takes it whole otherwise. A demonstration cut from a recording is named ``<recording>-<k>``
+(its rank in the recording) and its file is given with its time span
+(``session.xdf [12.350-15.800 s]``, seconds from the recording's start).
+
+Without a mapping, one is guessed from the first recording (:func:`guess`): each numeric stream
+(each field group of a ROS message) a modality named after it, at most :data:`MAX_GUESSED`;
+the preview says what it left out.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+import numpy as np
+
+from promp.data import Demonstration, Modality
+from promp.rigs import c3d, rosbag, xdf, yarp
+from promp.rigs.cutting import marker_spans, still_spans
+from promp.rigs.mapping import (
+    SourcedModality,
+    column_names,
+    mapping_text,
+    modality_name,
+    sourced,
+)
+from promp.rigs.streams import Recording, Stream, on_one_clock, read_stream
+
+READERS = {"yarp": yarp, "rosbag": rosbag, "xdf": xdf, "c3d": c3d}
+RIG_FORMATS = tuple(READERS)
+CUTS = ("auto", "markers", "still", "files")
+MAX_GUESSED = 8
+WHAT = {
+    "yarp": "YARP dump folders (<recording>/<port>/data.log)",
+    "rosbag": "ROS bags (.bag, .mcap, .db3 or a ROS 2 bag folder)",
+    "xdf": "XDF files (.xdf, .xdfz)",
+    "c3d": "C3D files (.c3d)",
+}
+
+
+@dataclass(frozen=True)
+class RigOptions:
+    """How a session becomes demonstrations, and on which clock.
+
+    Attributes
+    ----------
+    cut : {"auto", "markers", "still", "files"}
+        See the module docstring.
+    rate : float or None
+        The time base's rate in Hz; None: the slowest stream's own times.
+    markers : str
+        The marker stream to cut by ('' : the recording's only one).
+    """
+
+    cut: str = "auto"
+    rate: float | None = None
+    markers: str = ""
+
+    def __post_init__(self) -> None:
+        if self.cut not in CUTS:
+            raise ValueError(f"unknown cut {self.cut!r}; expected one of {CUTS}")
+        if self.rate is not None and not (math.isfinite(self.rate) and self.rate > 0):
+            raise ValueError(f"the rate must be a positive number of Hz, got {self.rate}")
+
+
+@dataclass(frozen=True, eq=False)
+class RigRead:
+    """What :func:`read_rig_dataset` read: the demonstrations by class, their modalities (the
+    columns, units and kinds), the source of each demonstration, the mapping used (in the
+    mapping syntax) and notes for the preview (streams, what was left out, the cut, the clock)."""
+
+    dataset: dict[str, list[Demonstration]]
+    modalities: tuple[Modality, ...]
+    files: dict[tuple[str, str], str]
+    mapping: str
+    notes: tuple[str, ...]
+
+
+def find_recordings(root: Path, format: str) -> list[Path]:
+    """The recordings of ``format`` under ``root`` (or ``root`` itself), sorted."""
+    reader = READERS[format]
+    root = Path(root)
+    if hasattr(reader, "find_recordings"):
+        return reader.find_recordings(root)
+    if root.is_file():
+        return [root] if root.suffix.lower() in reader.SUFFIXES else []
+    return sorted(
+        p for p in root.rglob("*")
+        if p.is_file() and p.suffix.lower() in reader.SUFFIXES
+        and not any(part.startswith(".") for part in p.relative_to(root).parts)
+    )  # fmt: skip
+
+
+def _place(root: Path, unit: Path) -> tuple[str, str | None, str]:
+    """The label, the class (None for a session) and the name of a recording."""
+    parts = () if unit == root else unit.relative_to(root).parts
+    label = PurePosixPath(*parts).as_posix() if parts else root.name
+    below = parts[1:] if len(parts) >= 2 else (parts or (root.name,))
+    name = PurePosixPath(*below)
+    if unit.is_file():
+        name = name.with_suffix("")
+    return label, (parts[0] if len(parts) >= 2 else None), name.as_posix()
+
+
+def guess(recording: Recording) -> tuple[list[SourcedModality], list[str]]:
+    """A mapping from ``recording``'s streams, and the streams it leaves out."""
+    groups = recording.suggestions()
+    if not groups:
+        raise ValueError(
+            f"{recording.label}: no numeric stream to guess a mapping from"
+            + (f" (left out: {', '.join(recording.left_out)})" if recording.left_out else "")
+        )
+    taken: set[str] = set()
+    chosen = [
+        SourcedModality(modality_name(name, taken), tuple(fields), unit="", stream=stream)
+        for stream, fields, name in groups[:MAX_GUESSED]
+    ]
+    left = [f"{stream}:{','.join(fields)}" for stream, fields, _ in groups[MAX_GUESSED:]]
+    return chosen, left
+
+
+def _marker_stream(recording: Recording, wanted: str) -> str:
+    streams = recording.marker_streams
+    if wanted:
+        if wanted not in streams:
+            raise ValueError(
+                f"{recording.label}: no marker stream {wanted!r}; its marker streams: "
+                f"{list(streams) or 'none'}"
+            )
+        return wanted
+    if len(streams) != 1:
+        raise ValueError(
+            f"{recording.label}: "
+            + ("no marker stream to cut it by" if not streams else
+               f"several marker streams {list(streams)}: choose one (--markers STREAM)")
+        )  # fmt: skip
+    return streams[0]
+
+
+def _whole(streams: Sequence[Stream]) -> tuple[float, float]:
+    return min(s.times[0] for s in streams), max(s.times[-1] for s in streams)
+
+
+def _modality(m: SourcedModality, columns: tuple[str, ...], units: Sequence[str]) -> Modality:
+    distinct = list(dict.fromkeys(units))
+    unit = "|".join(u for u in distinct if u) if any(distinct) else ""
+    kind = "angle" if distinct == ["rad"] else "linear"
+    return Modality(m.name, columns, unit=unit, kind=kind)
+
+
+def read_rig_dataset(
+    root: Path,
+    format: str,
+    modalities: Sequence[Modality] | None = None,
+    options: RigOptions | None = None,
+) -> RigRead:
+    """Read the recordings of ``format`` under ``root`` into demonstrations (see the module
+    docstring and :mod:`promp.rigs`).
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the reason: no recording, an unreadable or truncated file, a
+        stream or field the mapping names that a recording lacks, a clock that goes back, a
+        stream that stops mid-demonstration, a bad or unknown marker, or a recording without
+        a class (neither in a class folder nor cut by markers naming classes).
+    """
+    if format not in READERS:
+        raise ValueError(f"unknown recording format {format!r}; expected one of {RIG_FORMATS}")
+    options = options or RigOptions()
+    root = Path(root)
+    if not root.exists():
+        raise ValueError(f"{root} does not exist")
+    units = find_recordings(root, format)
+    if not units:
+        raise ValueError(f"{root}: no {WHAT[format]} found")
+    mapping = [sourced(m) for m in modalities] if modalities else None
+    notes: list[str] = []
+    dataset: dict[str, list[Demonstration]] = {}
+    files: dict[tuple[str, str], str] = {}
+    units_seen: list[tuple[str, ...]] = []
+    for unit in units:
+        label, klass, name = _place(root, unit)
+        recording = READERS[format].open_recording(unit, label)
+        if mapping is None:
+            mapping, left = guess(recording)
+            notes.append(f"Streams of {label}: {recording.describe_streams()}")
+            if left:
+                notes.append(f"Left out of the guessed mapping: {'; '.join(left)}")
+        if recording.left_out and len(notes) < 40:
+            notes.append(f"{label}: left out {', '.join(recording.left_out)}")
+        set_aside: list = []
+        streams = [read_stream(recording, m, set_aside, ("", name)) for m in mapping]
+        for finding in set_aside:
+            notes.append(f"{label}: {finding.message}")
+        units_here = [s.units for s in streams]
+        if not units_seen:
+            units_seen = units_here
+        elif units_here != units_seen:
+            raise ValueError(
+                f"{label}: the mapping's units here ({units_here}) are not those of the first "
+                f"recording ({units_seen})"
+            )
+        cut = options.cut
+        if cut == "auto":
+            cut = "markers" if recording.marker_streams else "files"
+        for klass_, demo_name, times, values, source in _demonstrations(
+            recording, streams, cut, options, klass, name, label
+        ):
+            demo = Demonstration(times, np.hstack(values), _flat_columns(mapping), demo_name)
+            dataset.setdefault(klass_, []).append(demo)
+            files[(klass_, demo_name)] = source
+    columns = column_names(mapping)
+    found = (
+        f"{len(units)} recording(s), {sum(len(d) for d in dataset.values())} demonstration(s); "
+        + ("time base: the slowest stream's samples" if options.rate is None
+           else f"time base: {options.rate:g} Hz")
+    )  # fmt: skip
+    return RigRead(
+        dataset,
+        tuple(_modality(m, c, u) for m, c, u in zip(mapping, columns, units_seen, strict=True)),
+        files,
+        mapping_text(mapping),
+        (found, *notes),
+    )
+
+
+def _flat_columns(mapping: Sequence[SourcedModality]) -> tuple[str, ...]:
+    return tuple(c for columns in column_names(mapping) for c in columns)
+
+
+def _demonstrations(
+    recording: Recording,
+    streams: Sequence[Stream],
+    cut: str,
+    options: RigOptions,
+    klass: str | None,
+    name: str,
+    label: str,
+):
+    """``(class, name, times, values per stream, source)`` of each demonstration of a
+    recording."""
+    if cut == "markers":
+        stream = _marker_stream(recording, options.markers)
+        spans = marker_spans(recording.markers(stream), klass, f"{label}: marker stream {stream!r}")
+        for k, (class_, start, end) in enumerate(spans, start=1):
+            source = f"{label} [{start:.3f}-{end:.3f} s]"
+            times, values = on_one_clock(streams, start, end, options.rate, source)
+            yield class_, f"{name}-{k}", times, values, source
+        return
+    if klass is None:
+        raise ValueError(
+            f"{label}: a recording directly in the dataset folder is a session, cut into "
+            "demonstrations by its markers ('start CLASS' ... 'end CLASS'), "
+            + ("and it has none" if not recording.marker_streams else f"not by {cut!r}")
+            + "; or put one recording per demonstration in <class>/ folders"
+        )
+    start, end = _whole(streams)
+    times, values = on_one_clock(streams, start, end, options.rate, label)
+    if cut == "files":
+        yield klass, name, times, values, label
+        return
+    # Each stream moves on its own (a position in m, angles in rad, a signal of its own scale).
+    blocks = [(v, s.units[0] if len(set(s.units)) == 1 else "")
+              for v, s in zip(values, streams, strict=True)]  # fmt: skip
+    for k, (a, b) in enumerate(still_spans(times, blocks, label), start=1):
+        inside = (times >= a) & (times <= b)
+        source = f"{label} [{a:.3f}-{b:.3f} s]"
+        yield klass, f"{name}-{k}", times[inside], [v[inside] for v in values], source
