@@ -236,3 +236,33 @@ def test_a_workspace_of_other_modalities_has_their_charts_and_no_recording(
         assert teach.record.take is None
     finally:
         studio.stop()
+
+
+@pytest.mark.browser
+def test_an_xdf_session_through_the_page(page, studio, tmp_path) -> None:
+    """A rig's session file (LabRecorder's XDF: a hand in mm at 100 Hz, a head in degrees at
+    30 Hz, a marker stream) uploaded in the page as it is: the format told by the file, the
+    guessed mapping shown, every demonstration listed with its span before anything is written,
+    a chosen rate re-read at once; then a new workspace of its hand and head."""
+    pytest.importorskip("pyxdf")
+    from tests import rig_files as rf
+
+    session, section = studio.session, importer(studio)
+    old_root, old = studio.workspace, tree_hash(studio.workspace)
+    upload_file(page, section.upload_button, "session.xdf",
+                rf.write_xdf(tmp_path / "session.xdf").read_bytes())  # fmt: skip
+    page.get_by_text("2 primitives, 6 demonstrations: reach (3), wave (3)").wait_for()
+    assert section.format.value == "xdf" and section.cut.visible and section.rate.visible
+    assert section.modalities.value == "hand=hand:x,y,z; head=head:roll,pitch,yaw"
+    page.get_by_text("reach/session-1 ← session.xdf [0.500-1.800 s]").wait_for()
+    page.get_by_text("wave/session-6 ← session.xdf [9.200-10.300 s]").wait_for()
+    section.rate.value = 50.0  # what typing in the number field does
+    page.get_by_text("time base: 50 Hz").wait_for()
+    assert tree_hash(old_root) == old  # nothing written by the preview
+    click(page, "Create workspace")
+    assert "6 demonstrations of 2 primitives" in notification(page, "Workspace created")
+    wait_until(lambda: session.workspace.root == old_root.parent / "session",
+               what="the new workspace")  # fmt: skip
+    assert session.layout.names == ("hand", "head")
+    assert [m.unit for m in session.layout.modalities] == ["m", "rad"]
+    assert tree_hash(old_root) == old
