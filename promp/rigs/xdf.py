@@ -17,6 +17,7 @@ from __future__ import annotations
 import gzip
 import logging
 import struct
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -89,7 +90,7 @@ def open_recording(path: Path, label: str) -> Recording:
         content = Path(path).read_bytes()
         if Path(path).suffix.lower() == ".xdfz":
             content = gzip.decompress(content)
-    except (OSError, EOFError, gzip.BadGzipFile) as exc:
+    except (OSError, EOFError, zlib.error) as exc:  # gzip.BadGzipFile is an OSError
         raise ValueError(f"{label}: cannot be read ({exc})") from None
     check_chunks(content, label)
     quiet = logging.getLogger("pyxdf.pyxdf")
