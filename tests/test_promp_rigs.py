@@ -67,6 +67,10 @@ def test_the_mapping_syntax() -> None:
                                                                "mm")  # fmt: skip
     assert parse_sourced("arm=left_arm:0,1,2@deg").spec() == "arm=left_arm:0,1,2@deg"
     assert parse_sourced("hand=x,y,z@m").stream == ""
+    assert parse_sourced("hand=/tf:left_hand.x,y,z").fields == (  # the issue's own example
+        "left_hand.x", "left_hand.y", "left_hand.z")  # fmt: skip
+    assert parse_sourced("hand=/p:pose.position.x,y,z").spec() == "hand=/p:pose.position.{x,y,z}"
+    assert parse_sourced("eeg=EEG:Fp1.ref,Fp2").fields == ("Fp1.ref", "Fp2")  # not axis names
     assert isinstance(parse_modality("hand=/pose:pose.position.x"), SourcedModality)
     assert not isinstance(parse_modality("hand=x,y,z"), SourcedModality)  # CSV stays as it was
     assert [m.name for m in parse_modalities("# a mapping file\nhand=/a:x # the hand\n\nhead=/b:y")
@@ -130,6 +134,8 @@ def test_a_ros2_mcap_bag(tmp_path: Path) -> None:
 def test_a_ros1_bag_with_tf(tmp_path: Path) -> None:
     rf.write_ros1_bag(tmp_path / "session.bag")
     check_session(read_dataset(tmp_path, "rosbag", parse_modalities(ROS1)), atol=1e-9)
+    short = "hand=/tf:left_hand.x,y,z; head=/tf:head.roll,pitch,yaw"  # translation, rotation
+    check_session(read_dataset(tmp_path, "rosbag", parse_modalities(short)), atol=1e-9)
     guessed = read_dataset(tmp_path, "rosbag").mapping
     assert "left_hand_translation=/tf:left_hand.translation.{x,y,z}" in guessed
     assert "head_rotation=/tf:head.rotation.{roll,pitch,yaw}" in guessed

@@ -38,7 +38,7 @@ MAPPING_HELP = (
     "for recordings (yarp, rosbag, xdf, c3d): NAME=STREAM:FIELD,FIELD,...[@UNIT], the stream "
     "(a ROS topic, an XDF stream, a YARP port folder, a C3D marker label; everything before "
     "the last ':') and its fields (ROS: dotted paths, pose.position.{x,y,z}, "
-    "orientation.{roll,pitch,yaw} of a quaternion, /tf:FRAME.translation.x; XDF: channel "
+    "orientation.{roll,pitch,yaw} of a quaternion, /tf:FRAME.x,y,z; XDF: channel "
     "labels or indices; YARP: value indices 0,1,...; C3D: x,y,z, or ANALOG:LABEL); @mm, @cm "
     "and @deg are converted to metres and radians"
 )

@@ -14,7 +14,9 @@ before the **last** ``:`` is the stream, so a Vicon label ``Subject1:LHAND`` wor
 index (``0`` is the first value after the time stamp) or ``x``/``y``/``z`` of a C3D marker
 (a C3D's analog channels are the stream ``ANALOG``, each named by its label:
 ``emg=ANALOG:EMG1,EMG2@V``). Braces repeat a path:
-``pose.position.{x,y,z}`` is ``pose.position.x,pose.position.y,pose.position.z``. ``@UNIT`` says
+``pose.position.{x,y,z}`` is ``pose.position.x,pose.position.y,pose.position.z``, and so is
+``pose.position.x,y,z`` (bare axis names, x y z w roll pitch yaw, after a dotted path share
+it). ``@UNIT`` says
 what the values are in when the file does not: ``@mm`` and ``@cm`` are converted to metres,
 ``@deg`` to radians; any other unit (``@N``, ``@V``) is kept as it is. A recording's own units
 (a C3D's ``POINT:UNITS``, an XDF channel's ``unit``) are converted the same way.
@@ -47,6 +49,8 @@ UNITS: dict[str, tuple[str, float]] = {
     **dict.fromkeys(("deg", "degree", "degrees", "°"), ("rad", math.pi / 180.0)),
 }
 MODALITY_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,39}$")
+# Axis names that, bare after a dotted field, share its path (``pose.position.x,y,z``).
+SHARED_LEAVES = ("x", "y", "z", "w", "roll", "pitch", "yaw")
 
 
 def si_unit(unit: str) -> tuple[str, float]:
@@ -107,6 +111,10 @@ def split_fields(text: str) -> list[str]:
             raise ValueError(f"one pair of braces per field, got {part!r}")
         elif part:
             fields.append(part)
+    # "pose.position.x,y,z": bare axis names after a dotted path share its path.
+    head = fields[0].rpartition(".")[0] if fields else ""
+    if head and len(fields) > 1 and all(f in SHARED_LEAVES for f in fields[1:]):
+        fields = [fields[0], *(f"{head}.{f}" for f in fields[1:])]
     return fields
 
 

@@ -4,7 +4,8 @@
 A topic is a stream; its fields are dotted paths into the message (``pose.position.x``,
 ``position[3]``, and ``orientation.roll``/``pitch``/``yaw``: the Euler angles, x-y-z extrinsic
 like ``tf.transformations``' ``sxyz``, of a quaternion field). On a ``tf2_msgs/TFMessage`` topic
-(``/tf``) a field starts with the child frame: ``/tf:left_hand.translation.{x,y,z}``. A sample's
+(``/tf``) a field starts with the child frame: ``/tf:left_hand.translation.{x,y,z}``, or for
+short ``/tf:left_hand.x,y,z`` (translation) and ``/tf:head.roll,pitch,yaw`` (rotation). A sample's
 time is its header stamp when it has one on the bag's clock (within :data:`CLOCK_S` of the time
 it was logged), else the time it was logged; every time counts from the bag's start. Units are
 ROS's (REP 103): positions in metres, angles in radians. A ``std_msgs/String`` topic is a marker
@@ -146,6 +147,7 @@ class RosbagRecording(Recording):
         super().__init__(label, {}, {})
         self.path = Path(path)
         self.first: dict[str, object] = {}
+        self.frames: dict[str, object] = {}  # a transform of each /tf child frame seen
         self.types: dict[str, str] = {}
         left_out, markers = [], []
         with self._reader() as reader:
@@ -170,8 +172,9 @@ class RosbagRecording(Recording):
                         break
                     for t in message.transforms:
                         frame = t.child_frame_id.lstrip("/")
-                        fields += [f"{frame}.{p}" for p in leaves(t.transform)
-                                   if f"{frame}.{p}" not in fields]  # fmt: skip
+                        if frame not in self.frames:
+                            self.frames[frame] = t.transform
+                            fields += [f"{frame}.{p}" for p in leaves(t.transform)]
                     if k >= FRAMES_SCAN:
                         break
                 if not fields:
@@ -202,19 +205,29 @@ class RosbagRecording(Recording):
                 f"{self.label}: a {msgtype} message cannot be decoded ({exc})"
             ) from None
 
+    def full_path(self, stream: str, name: str) -> str:
+        """The full path of a field: on ``/tf``, ``FRAME.x`` is ``FRAME.translation.x`` and
+        ``FRAME.roll`` is ``FRAME.rotation.roll`` (a shorthand)."""
+        if self.types.get(stream) in TF_TYPES:
+            frame, _, rest = name.partition(".")
+            if rest in ("x", "y", "z"):
+                return f"{frame}.translation.{rest}"
+            if rest in ("roll", "pitch", "yaw", "w"):
+                return f"{frame}.rotation.{rest}"
+        return name
+
     def field_index(self, stream: str, name: str) -> int | None:
         fields = self.catalogue[stream]
+        name = self.full_path(stream, name)
         if name in fields:
             return fields.index(name)
         try:  # a field the guess leaves out (a long array's element) is still readable
-            first = self.first[stream]
+            sample = self.first[stream]
             if self.types[stream] in TF_TYPES:
-                frame, _, rest = name.partition(".")
-                first = next(t.transform for t in first.transforms
-                             if t.child_frame_id.lstrip("/") == frame)  # fmt: skip
-                name = rest
-            getter(name)(first)
-        except (ValueError, TypeError, AttributeError, IndexError, StopIteration):
+                frame, _, name = name.partition(".")
+                sample = self.frames[frame]
+            getter(name)(sample)
+        except (ValueError, TypeError, AttributeError, IndexError, KeyError):
             return None
         return len(fields)  # readable, past the listed ones
 
@@ -236,13 +249,14 @@ class RosbagRecording(Recording):
         return out
 
     def field_units(self, stream: str, fields: Sequence[str]) -> tuple[str, ...]:
-        return tuple(_unit(f) for f in fields)
+        return tuple(_unit(self.full_path(stream, f)) for f in fields)
 
     def stream_title(self, stream: str) -> str:
         return f"topic {stream!r} ({self.types[stream]})"
 
     def samples(self, stream: str, fields: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
         self.require_fields(stream, fields)
+        fields = [self.full_path(stream, f) for f in fields]
         tf = self.types[stream] in TF_TYPES
         frames = {f.partition(".")[0] for f in fields} if tf else set()
         if len(frames) > 1:
