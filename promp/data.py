@@ -7,11 +7,14 @@ A :class:`Demonstration` is a timed multi-dimensional recording with named colum
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+
+from promp._recent import per_object
 
 Kind = Literal["linear", "angle"]
 
@@ -198,9 +201,18 @@ class Layout:
         return np.array([m.kind == "angle" for m in self.modalities for _ in m.columns])
 
     def extract(self, demo: Demonstration) -> np.ndarray:
-        """The layout's columns of ``demo``, shape (n_samples, n_dims); angles unwrapped."""
+        """The layout's columns of ``demo``, shape (n_samples, n_dims); angles unwrapped.
+        Read-only, and computed once per demonstration and layout (both immutable): a fit
+        and the choice of its settings read the same demonstrations many times."""
+        return per_object(_EXTRACTED, demo, self, lambda: self._extract(demo))
+
+    def _extract(self, demo: Demonstration) -> np.ndarray:
         values = np.array(demo.select(self.columns), dtype=float)
         mask = self.angle_mask()
         if mask.any():
             values[:, mask] = np.unwrap(values[:, mask], axis=0)
+        values.setflags(write=False)
         return values
+
+
+_EXTRACTED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

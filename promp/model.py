@@ -22,6 +22,7 @@ normalising term ``n_o log sigma^2`` of the likelihood then outweighs the data.)
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import functools
 from collections.abc import Mapping, Sequence
@@ -29,6 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from promp._recent import recent
 from promp.alpha_model import AlphaModel, resample_uniform
 from promp.basis import PhaseBasisCache, RBFBasis
 from promp.covariance import (
@@ -354,20 +356,19 @@ class _Moments:
     dof: int
     alphas: np.ndarray
     log_alpha_mean: float
-    alpha_models: Mapping[str, AlphaModel]
+
+
+def _alphas(demos: Sequence[Demonstration], sample_period: float, s_bar: float) -> np.ndarray:
+    return np.array([alpha_from_duration(d.duration, sample_period, s_bar) for d in demos])
 
 
 def _moments(
     demos: Sequence[Demonstration],
     weights: np.ndarray,
-    layout: Layout,
     settings: Settings,
     sample_period: float,
-    with_alpha_models: bool = True,
 ) -> _Moments:
-    alphas = np.array(
-        [alpha_from_duration(d.duration, sample_period, settings.s_bar) for d in demos]
-    )
+    alphas = _alphas(demos, sample_period, settings.s_bar)
     mean = weights.mean(axis=0)
     centred = weights - mean
     log_alphas = winsorized(np.log(alphas))  # a far-out speed has no undue leverage
@@ -381,17 +382,27 @@ def _moments(
         slope = centred.T @ a_c / float(a_c @ a_c)
         centred = centred - np.outer(a_c, slope)
         dof = len(demos) - 2
-    alpha_models = {}
-    if with_alpha_models:
+    return _Moments(mean, slope, centred, a_c, slope_weight, dof, alphas, log_alpha_mean)
+
+
+def _alpha_models(
+    demos: Sequence[Demonstration], layout: Layout, settings: Settings, sample_period: float
+) -> dict[str, AlphaModel]:
+    """The Eq. 7 model of every modality of one primitive, kept for its last demonstration
+    lists seen (a refit after a take learns anew only the primitive that changed)."""
+
+    def make() -> dict[str, AlphaModel]:
+        alphas = _alphas(demos, sample_period, settings.s_bar)
         trajectories = [resample_uniform(d, layout.extract(d), sample_period) for d in demos]
-        alpha_models = {
+        return {
             m.name: AlphaModel.fit([t[:, layout.dims([m.name])] for t in trajectories], alphas)
             for m in layout.modalities
         }
-    return _Moments(
-        mean, slope, centred, a_c, slope_weight, dof, alphas, log_alpha_mean,
-        alpha_models,
-    )  # fmt: skip
+
+    return recent(_ALPHA_MODELS, (layout, settings.s_bar, sample_period), demos, make)
+
+
+_ALPHA_MODELS: list = []
 
 
 def sample_period_of(demos: Sequence[Demonstration]) -> float:
@@ -483,41 +494,16 @@ def fit_parts(
     all_demos = [d for demos in dataset.values() for d in demos]
     fits = fit_all_weights(settings.basis, all_demos, layout, settings.ridge)
     noise_var, noise_tau = estimate_noise(fits, [d.times for d in all_demos], layout, settings)
-    offsets = np.cumsum([0] + [len(demos) for demos in dataset.values()])
-    moments = [
-        _moments(
-            demos,
-            np.array(fits.weights[offsets[k] : offsets[k + 1]]),
-            layout,
-            settings,
-            dt,
-            alpha_models,
-        )
-        for k, demos in enumerate(dataset.values())
-    ]
-    report: dict = {}
-    floor = RELATIVE_FLOOR * fits.scale  # no variance below a fraction of the data's own scale
-    if settings.shrinkage is None:
-        covariances, prior = pooled_covariances(
-            [m.residuals for m in moments],
-            [m.dof for m in moments],
-            [layout.dims([mod.name]) for mod in layout.modalities],
-            layout.n_dims,
-            settings.basis,
-            floor,
-        )
-        report["covariance"] = prior.describe()
-        shares = [prior.target_weight * prior.strength / (prior.strength + m.dof) for m in moments]
-    else:
-        covariances = [
-            fixed_shrinkage(m.residuals, m.dof, settings.basis, settings.shrinkage, floor)
-            for m in moments
-        ]
-        shares = [np.full(layout.n_dims, settings.shrinkage) for _ in moments]
-        report["covariance"] = {
-            "rule": "fixed shrinkage of each primitive's sample covariance (--shrinkage)",
-            "shrinkage": float(settings.shrinkage),
-        }
+    # what the noise and the Eq. 7 models do not change: the candidates of a choice of
+    # settings, the fit of the one chosen and a refit of the same training share it
+    key = (
+        settings.basis, layout, settings.ridge, settings.shrinkage, settings.alpha_coupling,
+        settings.s_bar, dt, tuple((name, len(demos)) for name, demos in dataset.items()),
+    )  # fmt: skip
+    core = recent(_CORES, key, all_demos, lambda: _core(dataset, layout, settings, dt, fits))
+    moments, covariances, shares, prior = core.moments, core.covariances, core.shares, core.prior
+    report: dict = {"covariance": copy.deepcopy(core.report)}
+    offsets = core.offsets
     primitives = tuple(
         Primitive(
             name=name,
@@ -527,13 +513,13 @@ def fit_parts(
             noise_var=np.array(noise_var, dtype=float),
             noise_tau=np.array(noise_tau, dtype=float),
             alphas=m.alphas,
-            alpha_models=m.alpha_models,
+            alpha_models=_alpha_models(demos, layout, settings, dt) if alpha_models else {},
             shrinkage=np.clip(share, MIN_SHRINKAGE, 1.0),
             log_alpha_mean=m.log_alpha_mean,
             alpha_slope=m.slope,
         )
-        for name, m, (cov_diag, cov_factor), share in zip(
-            dataset, moments, covariances, shares, strict=True
+        for (name, demos), m, (cov_diag, cov_factor), share in zip(
+            dataset.items(), moments, covariances, shares, strict=True
         )
     )
     model = ProMPModel(
@@ -546,9 +532,73 @@ def fit_parts(
             centred_log_alphas=m.centred_log_alphas,
             slope_weight=m.slope_weight,
             dof=m.dof,
-            prior=prior if settings.shrinkage is None else None,
+            prior=prior,
             shrinkage=settings.shrinkage,
         )
         for k, m in enumerate(moments)
     ]
     return model, parts
+
+
+@dataclass(frozen=True, eq=False)
+class _Core:
+    """What :func:`fit_parts` learns before the noise and the Eq. 7 models: each primitive's
+    moments, covariance (diagonal, factor) and shrinkage share, the pooled prior (None with a
+    fixed shrinkage) and its report, and where each primitive's demonstrations start."""
+
+    moments: list[_Moments]
+    covariances: list[tuple[np.ndarray, np.ndarray]]
+    shares: list[np.ndarray]
+    prior: PooledPrior | None
+    report: dict
+    offsets: np.ndarray
+
+
+def _core(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+    settings: Settings,
+    dt: float,
+    fits: WeightFits,
+) -> _Core:
+    offsets = np.cumsum([0] + [len(demos) for demos in dataset.values()])
+    moments = [
+        _moments(demos, np.array(fits.weights[offsets[k] : offsets[k + 1]]), settings, dt)
+        for k, demos in enumerate(dataset.values())
+    ]
+    for m in moments:  # shared by every model made from this core: read-only
+        for array in (m.mean, m.slope, m.residuals, m.alphas):
+            array.setflags(write=False)
+    floor = RELATIVE_FLOOR * fits.scale  # no variance below a fraction of the data's own scale
+    if settings.shrinkage is None:
+        covariances, prior = pooled_covariances(
+            [m.residuals for m in moments],
+            [m.dof for m in moments],
+            [layout.dims([mod.name]) for mod in layout.modalities],
+            layout.n_dims,
+            settings.basis,
+            floor,
+        )
+        shares = [prior.target_weight * prior.strength / (prior.strength + m.dof) for m in moments]
+        _read_only(covariances)
+        return _Core(moments, covariances, shares, prior, prior.describe(), offsets)
+    covariances = [
+        fixed_shrinkage(m.residuals, m.dof, settings.basis, settings.shrinkage, floor)
+        for m in moments
+    ]
+    shares = [np.full(layout.n_dims, settings.shrinkage) for _ in moments]
+    _read_only(covariances)
+    report = {
+        "rule": "fixed shrinkage of each primitive's sample covariance (--shrinkage)",
+        "shrinkage": float(settings.shrinkage),
+    }
+    return _Core(moments, covariances, shares, None, report, offsets)
+
+
+def _read_only(covariances: list[tuple[np.ndarray, np.ndarray]]) -> None:
+    for diag, factor in covariances:
+        diag.setflags(write=False)
+        factor.setflags(write=False)
+
+
+_CORES: list = []

@@ -801,11 +801,21 @@ def _keep_previous(
         return None
     if int(previous.get("kept", 0)) >= KEEP_LIMIT:
         return None
-    losses = []
-    for values in (chosen_values, runner_values):  # the same trials: a paired comparison
-        scorer = candidates(values["n_basis"], values["width"])
+    # the same trials: a paired comparison; one scorer call per candidate basis (the two
+    # often differ in the noise scale alone)
+    wanted: dict[tuple[int, float], list[float]] = {}
+    for values in (chosen_values, runner_values):
         scale = values["noise_scale"] / candidates.inner.noise_scale
-        losses.append(float(scorer((scale,))[0].mean()))
+        wanted.setdefault((values["n_basis"], values["width"]), []).append(scale)
+    scored = {
+        (basis, scale): float(row.mean())
+        for basis, scales in wanted.items()
+        for scale, row in zip(scales, candidates(*basis)(scales), strict=True)
+    }
+    losses = [
+        scored[(v["n_basis"], v["width"]), v["noise_scale"] / candidates.inner.noise_scale]
+        for v in (chosen_values, runner_values)
+    ]
     ranks = [  # the choice's own order: the lower loss, a tie to the closer to the reference
         (round(loss, 9), _preference(v["n_basis"], v["width"], v["noise_scale"]))
         for loss, v in zip(losses, (chosen_values, runner_values), strict=True)

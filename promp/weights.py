@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from promp._recent import per_object, recent
 from promp.basis import RBFBasis
 from promp.data import Demonstration, Layout
 from promp.scale import modality_scale
@@ -85,16 +86,16 @@ def uniform_phase_values(demo: Demonstration, layout: Layout) -> tuple[np.ndarra
     between samples: (phases (n,), values (n, n_dims)); its own samples when they are evenly
     spaced. Kept per demonstration and layout (both immutable): every fit of the automatic
     settings' search reads the same demonstrations."""
-    cache = _UNIFORM.setdefault(demo, {})
-    if layout not in cache:
+    def make() -> tuple[np.ndarray, np.ndarray]:
         values = layout.extract(demo)
         phases = np.linspace(0.0, 1.0, demo.n_samples)
         own = demo_phases(demo.times)
         if float(np.abs(own - phases).max()) > 1e-9:
             values = np.column_stack([np.interp(phases, own, v) for v in values.T])
-        values.setflags(write=False)
-        cache[layout] = (phases, values)
-    return cache[layout]
+            values.setflags(write=False)
+        return phases, values
+
+    return per_object(_UNIFORM, demo, layout, make)
 
 
 _UNIFORM: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -118,14 +119,13 @@ def demo_statistics(basis: RBFBasis, demo: Demonstration, layout: Layout) -> Dem
     immutable): the folds of a leave-one-out sweep share all but one demonstration, and the
     automatic settings fit the same demonstrations under the same candidate bases in every
     fold, so each is computed once. (Bounded by the bases tried: a few per demonstration.)"""
-    cache = _STATISTICS.setdefault(demo, {})
-    key = (basis, layout)
-    if key not in cache:
+    def make() -> DemoStatistics:
         phases, values = uniform_phase_values(demo, layout)
         phi = basis(phases)
         eig, vec = np.linalg.eigh(phi.T @ phi)
-        cache[key] = DemoStatistics(phi, np.maximum(eig, 0.0), vec, vec.T @ (phi.T @ values))
-    return cache[key]
+        return DemoStatistics(phi, np.maximum(eig, 0.0), vec, vec.T @ (phi.T @ values))
+
+    return per_object(_STATISTICS, demo, (basis, layout), make)
 
 
 _STATISTICS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -147,24 +147,9 @@ def fit_all_weights(
     minimised over a log grid of relative strengths. Computed through the eigendecomposition of
     each ``Phi_j^T Phi_j``, so every candidate costs O(M D) per demonstration.
     """
-    return _recent(
+    return recent(
         _FITS, (basis, layout, ridge), demos, lambda: _fit_all_weights(basis, demos, layout, ridge)
     )
-
-
-def _recent(store: list, key: tuple, demos: Sequence[Demonstration], make):
-    """What ``make()`` computes for ``demos`` (these very objects) and ``key``, kept in
-    ``store`` for the last :data:`_MAX_RECENT` lists seen (the entry holds the demonstrations,
-    so their ids cannot be taken by others while it is kept)."""
-    full = (key, tuple(id(d) for d in demos))
-    for i, (k, _, value) in enumerate(store):
-        if k == full:
-            store.append(store.pop(i))
-            return value
-    value = make()
-    store.append((full, tuple(demos), value))
-    del store[:-_MAX_RECENT]
-    return value
 
 
 def _fit_all_weights(
@@ -231,7 +216,7 @@ class _Stack:
 def _stack(demos: Sequence[Demonstration], layout: Layout) -> _Stack:
     """:class:`_Stack` of ``demos``, kept for the last few lists seen (the candidate bases of
     one choice of settings fit the same list)."""
-    return _recent(_STACKS, (layout,), demos, lambda: _make_stack(demos, layout))
+    return recent(_STACKS, (layout,), demos, lambda: _make_stack(demos, layout))
 
 
 def _make_stack(demos: Sequence[Demonstration], layout: Layout) -> _Stack:
@@ -254,4 +239,3 @@ def _make_stack(demos: Sequence[Demonstration], layout: Layout) -> _Stack:
 
 _STACKS: list = []
 _FITS: list = []  # the last few fits (the settings chosen are fitted again at once)
-_MAX_RECENT = 4

@@ -122,7 +122,7 @@ def test_the_leave_one_out_downdates_equal_a_refit_without_the_demonstration() -
     for j in (0, 3):
         others = [d for i, d in enumerate(demos) if i != j]
         kept = np.delete(part.weights, j, axis=0)
-        refit = _moments(others, kept, LAYOUT, settings, dt, with_alpha_models=False)
+        refit = _moments(others, kept, settings, dt)
         e, h = part.residuals[j], part.leverage[j]
         predicted = refit.mean + refit.slope * (logs[j] - refit.log_alpha_mean)
         assert np.allclose(part.weights[j] - e / (1.0 - h), predicted, rtol=1e-9, atol=1e-12)
@@ -313,8 +313,7 @@ def test_the_parts_of_a_fit_give_its_covariances_and_downdate_like_a_refit() -> 
     k, j = 1, 2
     demos = dataset["right"]
     others = [d for i, d in enumerate(demos) if i != j]
-    refit = _moments(others, np.delete(parts[k].weights, j, axis=0), LAYOUT, settings, dt,
-                     with_alpha_models=False)  # fmt: skip
+    refit = _moments(others, np.delete(parts[k].weights, j, axis=0), settings, dt)
     rows = np.concatenate([parts[0].residuals, refit.residuals])
     e, h = parts[k].residuals[j], parts[k].leverage[j]
     assert np.allclose(parts[0].prior.scatter - np.outer(e, e) / (1.0 - h), rows.T @ rows,
