@@ -5,7 +5,7 @@ of the live stream), a scrub step recognises the primitive and its time modulati
 (Eq. 6, ML over the training alphas or the Eq. 7 model), conditions the recognised primitive on
 the observation (Eq. 8) and predicts the prior and posterior trajectory distributions (mean and
 standard deviation of every dimension over the predicted duration). With the true
-demonstration, it also measures the errors the evaluation reports (:mod:`promp.evaluate.metrics`):
+demonstration, it also measures the errors the evaluation reports (:mod:`promp.metrics`):
 position error of the remainder, goal error and duration error.
 
 A test demonstration is held out from the model while it is inspected: :class:`HeldOutModels`
@@ -25,10 +25,10 @@ import numpy as np
 from app.display import ALPHA_LABELS
 from app.lru import LruCache
 from promp.data import Demonstration, Layout, Modality
-from promp.evaluate import metrics
-from promp.evaluate.sweep import position_modality
+from promp.duration import Timing
 from promp.inference import Observation, Prediction, predict
 from promp.learn import fit
+from promp.metrics import position_modality
 from promp.model import ProMPModel, Settings
 from promp.pipeline import infer
 from promp.recognition import Recognition
@@ -128,8 +128,11 @@ class ScrubResult:
         The model's modalities (what ``prior`` and ``posterior`` have columns for).
     observation : Observation
     recognition : Recognition
+    timing : Timing
+        The duration and the observed share of the movement, with their intervals
+        (:mod:`promp.duration`).
     prior, posterior : Prediction
-        The recognised primitive's prior and posterior at the recognised alpha, on
+        The recognised primitive's prior and posterior at the speed of the predicted duration, on
         ``TUBE_POINTS`` evenly spaced phases of the predicted duration.
     observed_until : float
         Seconds from the start of the movement to the last observed sample.
@@ -151,6 +154,7 @@ class ScrubResult:
     layout: Layout
     observation: Observation
     recognition: Recognition
+    timing: Timing
     prior: Prediction
     posterior: Prediction
     observed_until: float
@@ -168,7 +172,8 @@ class ScrubResult:
 
     @property
     def alpha(self) -> float:
-        return self.recognition.alpha
+        """The speed the predictions are drawn at (the predicted duration's)."""
+        return self.timing.alpha
 
     @property
     def probabilities(self) -> np.ndarray:
@@ -197,7 +202,7 @@ class ScrubResult:
 
 def error_modality(layout: Layout) -> Modality:
     """The modality the errors are measured on, the evaluation's
-    (:func:`promp.evaluate.sweep.position_modality`): the hand when there is one."""
+    (:func:`promp.metrics.position_modality`): the hand when there is one."""
     return layout.modality(position_modality(layout))
 
 
@@ -224,11 +229,10 @@ def scrub_step(
         From the engine: an unknown modality, an unknown alpha method, or an observation longer
         than every candidate duration.
     """
-    result = infer(model, observation, alpha_method=alpha_method, n_points=TUBE_POINTS)
-    reco, posterior = result.recognition, result.posterior
-    prior_pred, post_pred = result.prior, result.prediction
+    result = infer(model, observation, alpha_method, n_points=TUBE_POINTS, truth=truth)
+    posterior, post_pred = result.posterior, result.prediction
     duration = post_pred.duration
-    observed_until = float(observation.elapsed[-1])
+    observed_until = result.observed_until
     z_start = min(observed_until / duration, 1.0) if duration > 0 else 1.0
     phases = np.linspace(z_start, 1.0, PATH_POINTS)
     hand = hand_dims(model.layout)
@@ -236,30 +240,23 @@ def scrub_step(
     if hand is not None:
         weights = posterior.mean.reshape(model.n_dims, -1)[hand]  # (3, M)
         future_hand = model.basis(phases) @ weights.T
-    position_error = goal_error = duration_error = math.nan
-    if truth is not None:
-        measured = model.layout.dims([error_modality(model.layout).name])
-        true_hand = model.layout.extract(truth)[:, measured]
-        # The evaluation's metrics are defined on the prediction's own samples (n_f of them).
-        natural = predict(model, posterior, reco.alpha).mean[:, measured]
-        position_error = metrics.remainder_error(true_hand, natural, observation.n_observed)
-        goal_error = metrics.goal_error(true_hand, natural)
-        duration_error = abs(duration - truth.duration)
+    errors = result.errors
     return ScrubResult(
         names=model.names,
         layout=model.layout,
         observation=observation,
-        recognition=reco,
-        prior=prior_pred,
+        recognition=result.recognition,
+        timing=result.timing,
+        prior=result.prior,
         posterior=post_pred,
         observed_until=observed_until,
         future_times=phases * duration,
         future_hand=future_hand,
         truth=truth,
-        position_error_m=position_error,
-        goal_error_m=goal_error,
-        duration_error_s=duration_error,
-        typical_alpha=float(np.exp(model.primitives[reco.index].log_alpha_mean)),
+        position_error_m=math.nan if errors is None else errors.position,
+        goal_error_m=math.nan if errors is None else errors.goal,
+        duration_error_s=math.nan if errors is None else errors.duration,
+        typical_alpha=float(np.exp(model.primitives[result.index].log_alpha_mean)),
     )
 
 

@@ -117,6 +117,7 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
             "noise_scale": s.noise_scale,
             "alpha_coupling": s.alpha_coupling,
             "noise_correlation": s.noise_correlation,
+            "duration_temperature": s.duration_temperature,
             "select": s.select,
         },
         "sample_period": model.sample_period,
@@ -193,6 +194,8 @@ def model_from_dict(data: Any) -> ProMPModel:
             noise_scale=float(raw.get("noise_scale", 1.0)),
             alpha_coupling=bool(raw.get("alpha_coupling", True)),
             noise_correlation=bool(raw.get("noise_correlation", True)),
+            # files before the calibration had none: the plain posterior
+            duration_temperature=float(raw.get("duration_temperature", 1.0) or 1.0),
             select=str(raw.get("select", "loo")),
         )
     except (TypeError, AttributeError) as exc:

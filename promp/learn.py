@@ -52,9 +52,10 @@ def fit(
                 f"primitive {name!r} has {len(demos)} demonstration(s); at least 2 are needed "
                 "to learn a distribution"
             )
-    if settings.automatic:
+    if settings.automatic or settings.duration_temperature is None:
         settings, choice = choose_settings(dataset, layout, settings, dt, previous)
     else:
-        choice = {"rule": "given (n_basis, width and noise_scale set explicitly)"}
+        choice = {"rule": "given (n_basis, width, noise_scale and duration_temperature set "
+                  "explicitly)"}  # fmt: skip
     model = fit_with(dataset, layout, settings, dt)
     return dataclasses.replace(model, report={"settings": choice, **model.report})

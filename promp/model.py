@@ -89,6 +89,11 @@ class Settings:
     alpha_coupling : bool
         Learn how the shape depends on the speed: the weights are regressed on log(alpha) and
         the prior at a candidate alpha is the conditional Gaussian (see :class:`Primitive`).
+    duration_temperature : float or None
+        The power of the likelihood in the posterior over the speed, hence the predicted
+        duration and its interval (:mod:`promp.duration`), in (0, 1]; None (the default)
+        chooses it from held-out training demonstrations with the other automatic settings.
+        1 is the plain Bayesian posterior. The class probabilities never use it.
     select : str
         How the automatic settings are chosen (:mod:`promp.selection`): ``"loo"`` (the
         default), the recognition log-loss of every training demonstration left out in closed
@@ -105,6 +110,7 @@ class Settings:
     noise_scale: float | None = None
     alpha_coupling: bool = True
     noise_correlation: bool = True
+    duration_temperature: float | None = None
     select: str = "loo"
 
     def __post_init__(self) -> None:
@@ -127,6 +133,13 @@ class Settings:
             not np.isfinite(self.noise_scale) or self.noise_scale <= 0
         ):
             raise ValueError(f"noise_scale must be positive or None, got {self.noise_scale}")
+        if self.duration_temperature is not None and not (
+            np.isfinite(self.duration_temperature) and 0.0 < self.duration_temperature <= 1.0
+        ):
+            raise ValueError(
+                "duration_temperature must be in (0, 1] or None, got "
+                f"{self.duration_temperature}"
+            )
         object.__setattr__(self, "noise_std", dict(self.noise_std))
 
     @property

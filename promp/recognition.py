@@ -49,6 +49,7 @@ from promp._threads import one_blas_thread
 from promp.inference import Observation, check_observation, log_likelihoods, logsumexp
 from promp.model import Primitive, ProMPModel
 from promp.quality import winsorized
+from promp.timing import alpha_from_duration
 
 AlphaMethod = Literal["ml", "model"]
 ALPHA_METHODS: tuple[str, ...] = ("ml", "model")
@@ -171,6 +172,23 @@ class Recognition:
     log_evidence: np.ndarray
     alpha_method: str
 
+    def speed_posterior(
+        self, index: int | None = None, temperature: float = 1.0
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The posterior over the speed of primitive ``index`` (default: the recognised one)
+        on its quadrature nodes: ``(alphas (A,), masses (A,))``, masses summing to 1 (the
+        trapezoid weights of the quadrature times the likelihood raised to ``temperature``,
+        normalised; see :mod:`promp.duration`)."""
+        k = self.index if index is None else index
+        alphas = self.candidates[k]
+        log_nodes = np.log(alphas)
+        widths = np.gradient(log_nodes) if log_nodes.size > 1 else np.ones(1)
+        log_mass = temperature * self.log_likelihoods[k] + self.log_prior[k] + np.log(widths)
+        if not np.isfinite(log_mass).any():
+            raise ValueError(f"primitive {k} does not explain the observation")
+        mass = np.exp(log_mass - np.max(log_mass))
+        return alphas, mass / mass.sum()
+
 
 def label_noise(model: ProMPModel) -> float:
     """``epsilon = 1 / (N + 2)``, N the model's training demonstrations (module docstring)."""
@@ -271,17 +289,29 @@ def _integrate(
 
 
 @one_blas_thread
-def recognise(model: ProMPModel, obs: Observation, alpha_method: AlphaMethod = "ml") -> Recognition:
+def recognise(
+    model: ProMPModel,
+    obs: Observation,
+    alpha_method: AlphaMethod = "ml",
+    duration: float | None = None,
+) -> Recognition:
     """Recognise the primitive and its time modulation from an early observation.
+
+    ``duration`` (seconds), when the whole movement's duration is known (the evaluation's
+    oracle row: how far a perfect estimate of the speed would take the method): every
+    primitive is scored at the speed of that duration alone, and ``alpha_method`` is not used.
 
     Raises
     ------
     ValueError
-        Unknown modality or alpha method, an empty or non-finite observation.
+        Unknown modality or alpha method, an empty or non-finite observation, a duration
+        shorter than the observation.
     """
     check_observation(model, obs)
     if alpha_method not in ALPHA_METHODS:
         raise ValueError(f"alpha_method must be one of {ALPHA_METHODS}, got {alpha_method!r}")
+    if duration is not None:
+        return _recognise_at(model, obs, float(duration))
     nodes, tables, priors = [], [], []
     evidence = np.empty(len(model.primitives))
     for k, prim in enumerate(model.primitives):
@@ -291,6 +321,17 @@ def recognise(model: ProMPModel, obs: Observation, alpha_method: AlphaMethod = "
         nodes.append(x)
         tables.append(ll)
         priors.append(lp)
+    return _recognition(model, nodes, tables, priors, evidence, alpha_method)
+
+
+def _recognition(
+    model: ProMPModel,
+    nodes: list[np.ndarray],
+    tables: list[np.ndarray],
+    priors: list[np.ndarray],
+    evidence: np.ndarray,
+    alpha_method: str,
+) -> Recognition:
     if not np.isfinite(evidence).any():
         raise ValueError("no primitive explains the observation (every likelihood is zero)")
     probabilities = with_label_noise(np.exp(evidence - logsumexp(evidence)), label_noise(model))
@@ -307,3 +348,19 @@ def recognise(model: ProMPModel, obs: Observation, alpha_method: AlphaMethod = "
         log_evidence=evidence,
         alpha_method=alpha_method,
     )
+
+
+def _recognise_at(model: ProMPModel, obs: Observation, duration: float) -> Recognition:
+    """Every primitive scored at the speed of a known ``duration`` (seconds)."""
+    if not math.isfinite(duration) or duration < obs.elapsed[-1] * (1.0 - 1e-9):
+        raise ValueError(
+            f"the duration ({duration} s) must be at least the observation's "
+            f"({obs.elapsed[-1]:.3f} s)"
+        )
+    alpha = alpha_from_duration(max(duration, float(obs.elapsed[-1])), model.sample_period,
+                                model.settings.s_bar)  # fmt: skip
+    node = np.array([math.log(alpha)])
+    tables = [log_likelihoods(model, prim, obs, np.exp(node)) for prim in model.primitives]
+    evidence = np.array([float(t[0]) for t in tables])
+    zeros = [np.zeros(1) for _ in model.primitives]
+    return _recognition(model, [node] * len(tables), tables, zeros, evidence, "duration given")

@@ -58,6 +58,7 @@ from scipy import special
 from promp._likelihood import log_likelihoods_scaled
 from promp._weight_space import equilibrated_precision
 from promp.data import Demonstration, Layout
+from promp.duration import choose_temperature
 from promp.model import FALLBACK, FitParts, ProMPModel, Settings, fit_parts, fit_with
 from promp.observation import Observation
 from promp.quality import DURATION_FACTOR, OUTLIER_Z, winsorized
@@ -98,6 +99,12 @@ LOO_RULE = (
     f"neighbours on while the loss drops, then the width over {list(WIDTH_GRID)}, then the "
     f"noise scale over {list(NOISE_GRID)}; the lowest mean loss among the candidates whose "
     "mean trajectories stay within the box the demonstrations span, widened by its extent"
+)
+
+TEMPERATURE_RULE = (
+    "the power of the likelihood in the speed's posterior whose 90 % interval has the lowest "
+    "interval score for the true speed of the held-out training demonstrations (the same "
+    "trials, closed-form leave-one-out, at the chosen settings), over 1, 1/sqrt 2, 1/2, ..., 1/256"
 )
 
 KEEP_LIMIT = 10
@@ -275,6 +282,7 @@ class _Batch:
     values: np.ndarray  # (T, n, Do) zero-padded
     log_alphas: np.ndarray  # (T, A) quadrature nodes shared by the primitives
     log_weights: np.ndarray  # (T, K, A) each primitive's log quadrature weights
+    true_log_alphas: np.ndarray  # (T,) each trial's demonstration's own speed
 
 
 def _batches(
@@ -324,10 +332,11 @@ def _batches(
             params[:, i, trial.primitive] = loo[trial.primitive][:, trial.demo]
         bounds = np.log(s_bar / (elapsed[:, -1] / dt + 1.0))  # (T,) the longest alpha
         log_alphas, log_weights = _quadrature_grid(*params, bounds)
+        truth_alphas = np.array([alphas[t.primitive][t.demo] for t in batch])
         out.append(
             _Batch(
                 index, np.array([t.primitive for t in batch]), [t.demo for t in batch], dims,
-                elapsed, mask, values, log_alphas, log_weights,
+                elapsed, mask, values, log_alphas, log_weights, np.log(truth_alphas),
             )
         )  # fmt: skip
     return out
@@ -449,6 +458,8 @@ class LooScorer:
         self.batches, self.n_trials = batches, n_trials
         self.inside = region is None or within_region(self.model, *region)
         self._setups: dict[int, tuple] = {}
+        # per noise scale: each batch's true primitive's log-likelihood at every node, (T, A)
+        self._speed_tables: dict[float, dict[int, np.ndarray]] = {}
 
     def __call__(self, noise_scales: Sequence[float]) -> np.ndarray:
         """``-ln p(true primitive)`` of every trial at every scale, (n_scales, n_trials)."""
@@ -493,6 +504,9 @@ class LooScorer:
                     + 2.0 * np.log(diag[..., :p]).sum(-1)
                     + logdet_sigma[..., None]
                 )  # (T, K, A), without the terms every primitive shares
+                self._speed_tables.setdefault(float(noise_scales[level]), {})[i] = log_lik[
+                    np.arange(n_t), batch.truth
+                ]
                 evidence = _rows_logsumexp((log_lik + batch.log_weights).reshape(-1, n_a))
                 evidence = evidence.reshape(n_t, n_prims)
                 total = _rows_logsumexp(evidence)
@@ -504,6 +518,22 @@ class LooScorer:
                     math.log(n_prims),
                 )
         return out
+
+    def speed_trials(self, noise_scale: float) -> list[tuple[np.ndarray, ...]]:
+        """What the speed's posterior of every trial's own primitive is made of at
+        ``noise_scale`` (scored first if it was not): per batch, the nodes (T, A) in log
+        alpha, the log-likelihood (T, A) and the log quadrature weights (T, A) of the true
+        primitive, and the true log alphas (T,)."""
+        if not self.inside:
+            return []
+        if float(noise_scale) not in self._speed_tables:
+            self((noise_scale,))
+        tables = self._speed_tables[float(noise_scale)]
+        return [
+            (b.log_alphas, tables[i], b.log_weights[np.arange(b.truth.shape[0]), b.truth],
+             b.true_log_alphas)
+            for i, b in enumerate(self.batches)
+        ]  # fmt: skip
 
     def _setup(self, batch: _Batch) -> tuple:
         """(precision (T, K, p, p), log det Sigma (T, K), gram (T, A, Do, M, M), proj
@@ -859,9 +889,37 @@ def choose_settings(
         paired comparison) and the choice is kept while it still wins (:data:`KEPT_RULE`), at
         most :data:`KEEP_LIMIT` times in a row.
     """
+    chosen, report, candidates = _choose(dataset, layout, settings, dt, previous)
+    if settings.duration_temperature is not None:
+        return chosen, report
+    tau, scores = 1.0, {}
+    if candidates is not None:
+        scale = chosen.noise_scale / candidates.inner.noise_scale
+        scorer = candidates(chosen.n_basis, chosen.width)
+        tau, scores = choose_temperature(scorer.speed_trials(scale))
+    chosen = dataclasses.replace(chosen, duration_temperature=tau)
+    report = dict(report)
+    report["duration_temperature"] = {
+        "value": tau,
+        "rule": TEMPERATURE_RULE if scores else "1 (no demonstration could be held out)",
+        "interval_score": {str(t): round(v, 6) for t, v in scores.items()},
+    }
+    return chosen, report
+
+
+def _choose(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+    settings: Settings,
+    dt: float,
+    previous: Mapping | None,
+) -> tuple[Settings, dict, _Candidates | None]:
+    """:func:`choose_settings` without the temperature, and the candidates' scorers (None
+    when nothing can be held out)."""
     automatic = settings.automatic
     given = {name: getattr(settings, name) for name in FALLBACK if name not in automatic}
-    loo = settings.select == "loo"
+    loo = settings.select == "loo" or not automatic  # (only the temperature: the leave-one-out
+    # scorer gives it)
     trials = plan_trials(dataset, layout, max_trials=LOO_MAX_TRIALS if loo else MAX_TRIALS)
     if not trials:
         reason = (
@@ -874,7 +932,7 @@ def choose_settings(
             "rule": f"fallback values ({reason})",
             "chosen": {name: getattr(chosen, name) for name in automatic},
             "given": given,
-        }
+        }, None
     fixed_scale = settings.noise_scale
     inner = dataclasses.replace(settings, noise_scale=fixed_scale or 1.0)
     scales = NOISE_GRID if fixed_scale is None else (1.0,)
@@ -882,11 +940,13 @@ def choose_settings(
     width_grid = WIDTH_GRID if settings.width is None else (settings.width,)
     start_width = 1.0 if settings.width is None else settings.width
     region = data_region(dataset, layout)
-    candidates = _Candidates(dataset, layout, inner, dt, trials, region) if loo else None
-    if candidates is not None and previous is not None:
+    candidates = _Candidates(dataset, layout, inner, dt, trials, region)
+    if not automatic:
+        return settings, {"rule": "given", "chosen": {}, "given": given}, candidates
+    if loo and previous is not None:
         kept = _keep_previous(candidates, settings, previous)
         if kept is not None:
-            return kept
+            return (*kept, candidates)
     # every candidate scored: {(n_basis, width): {noise scale: losses per trial}}
     scores: dict[tuple[int, float], dict[float, np.ndarray]] = {}
     if loo:
@@ -917,7 +977,7 @@ def choose_settings(
             "demonstrations span)",
             "chosen": {name: getattr(chosen, name) for name in automatic},
             "given": given,
-        }
+        }, candidates
     # the lowest mean loss; a tie (e.g. every candidate perfect) goes to the reference
     n_basis, width, noise_scale, losses = min(
         table, key=lambda c: (round(float(c[3].mean()), 9), _preference(*c[:3]))
@@ -950,4 +1010,4 @@ def choose_settings(
                           for s in sorted(by_scale)]}
             for (m, w), by_scale in scores.items()
         ],
-    }  # fmt: skip
+    }, candidates  # fmt: skip

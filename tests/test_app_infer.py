@@ -23,8 +23,8 @@ from app.scrub import (
     scrub_step,
 )
 from app.workspace_index import COLUMNS, LAYOUT
+from promp import metrics
 from promp.data import Demonstration
-from promp.evaluate import metrics
 from promp.inference import condition, predict
 from promp.learn import fit
 from promp.model import Settings

@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from promp import metrics
 from promp.data import Layout, Modality
 from promp.datasets import write_csv_dataset
-from promp.evaluate import metrics
 from promp.evaluate.cli import main
 from promp.evaluate.methods import Inferred, ProMPEngine
 from promp.evaluate.report import CSV_COLUMNS
@@ -185,7 +185,8 @@ def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
     assert len(rows) == 2 * 2 * 2  # observe sets x alpha methods x percents
     keys = {
         "percent", "alpha_method", "observed", "method", "recognition_errors", "trials",
-        "position_error_m", "goal_error_m", "duration_error_s", "nrmse_prior", "nrmse_posterior",
+        "position_error_m", "goal_error_m", "duration_error_s", "duration_coverage",
+        "nrmse_prior", "nrmse_posterior",
         "log_loss", "confident_mistakes", "worst_log_loss", "failed",
     }  # fmt: skip
     for row in rows:
@@ -498,3 +499,20 @@ def test_the_command_line_leaves_flagged_demonstrations_out_and_says_so(
     assert not any(f["kind"] == "gap" for f in report["findings"])
     assert not any(e["demo"].startswith("faulty/gap") and
                    any("gap" in r for r in e["reasons"]) for e in report["excluded"])  # fmt: skip
+
+
+def test_the_oracle_row_is_told_the_true_duration_and_every_row_reports_coverage() -> None:
+    dataset = {k: v[:4] for k, v in make_dataset(seed=5, n_demos=4).items()}
+    settings = Settings(n_basis=6, width=1.0, noise_scale=1.5, duration_temperature=0.5)
+    result = run_sweep(
+        lambda: ProMPEngine(FULL, settings), dataset, FULL, [40], ["ml", "true"],
+        [["hand"]], "ours",
+    )  # fmt: skip
+    rows = {row["alpha_method"]: row for row in result.rows}
+    assert rows["true"]["duration_error_s"] == pytest.approx(0.0, abs=1e-9)
+    assert rows["true"]["duration_coverage"] == 1.0
+    assert 0.0 <= rows["ml"]["duration_coverage"] <= 1.0
+    assert rows["ml"]["duration_error_s"] > 0.0
+    for trial in result.trials:
+        inferred = trial.inferred
+        assert inferred.duration_low <= inferred.duration <= inferred.duration_high

@@ -80,10 +80,13 @@ def _assert_same(reference, other) -> None:
         runs_a, runs_b, strict=True
     ):
         assert_allclose(p_b, p_a, rtol=0, atol=1e-9)
-        assert alpha_b == pytest.approx(alpha_a, rel=1e-12)
-        # relative to each dimension's size in the original unit
+        # (the speed of the posterior median: a quantile of the quadrature's masses, which
+        # round-off in the log-likelihoods moves by up to ~3e-9 in extreme units)
+        assert alpha_b == pytest.approx(alpha_a, rel=1e-8)
+        # relative to each dimension's size in the original unit (the prediction is drawn at
+        # that speed, so its round-off follows: 1e-8)
         size = np.abs(mean_a).max(axis=0) + np.abs(std_a).max(axis=0)
-        assert_allclose(mean_b / size, mean_a / size, rtol=0, atol=1e-9)
+        assert_allclose(mean_b / size, mean_a / size, rtol=0, atol=1e-8)
         assert_allclose(std_b / size, std_a / size, rtol=0, atol=1e-7)
 
 

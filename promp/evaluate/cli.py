@@ -45,7 +45,7 @@ from pathlib import Path
 
 from promp.data import Layout
 from promp.datasets import FORMATS, Dataset, command_line_modalities, read_dataset
-from promp.evaluate.methods import ProMPEngine
+from promp.evaluate.methods import ALPHA_ROWS, ProMPEngine
 from promp.evaluate.report import (
     basis_settings,
     report_json,
@@ -116,7 +116,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="observed modalities (repeatable to sweep several sets); default: hand",
     )
     parser.add_argument("--percent", type=float, nargs="+", default=list(DEFAULT_PERCENTS))
-    parser.add_argument("--alpha", nargs="+", choices=("ml", "model"), default=["ml", "model"])
+    parser.add_argument(
+        "--alpha",
+        nargs="+",
+        choices=ALPHA_ROWS,
+        default=["ml", "model"],
+        help="how the speed is found: ml (integrated over the primitive's speed prior), model "
+        "(Eq. 7 from the early motion), true (the test movement's true duration told: the "
+        "oracle row, how far a perfect duration estimate would take the method)",
+    )
     parser.add_argument("--method", choices=("ours", "seed"), default="ours")
     parser.add_argument(
         "--basis",
@@ -351,7 +359,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def print_table(rows: list[dict]) -> None:
     header = (
         f"{'observed':14s} {'alpha':5s} {'%':>4s} {'errors':>9s} {'pos cm':>7s} "
-        f"{'goal cm':>7s} {'dur s':>6s} {'nrmse prior':>11s} {'post':>6s} {'log-loss':>8s} "
+        f"{'goal cm':>7s} {'dur s':>6s} {'cover':>5s} {'nrmse prior':>11s} {'post':>6s} "
+        f"{'log-loss':>8s} "
         f"{'p<0.01':>6s} {'worst':>6s}"
     )
     print(header)
@@ -360,6 +369,11 @@ def print_table(rows: list[dict]) -> None:
             f"{','.join(r['observed']):14s} {r['alpha_method']:5s} {r['percent']:4.0f} "
             f"{r['recognition_errors']:>4d}/{r['trials']:<4d} {100 * r['position_error_m']:7.2f} "
             f"{100 * r['goal_error_m']:7.2f} {r['duration_error_s']:6.2f} "
+            f"{_percent(r.get('duration_coverage', float('nan'))):>5s} "
             f"{r['nrmse_prior']:11.3f} {r['nrmse_posterior']:6.3f} {r['log_loss']:8.3f} "
             f"{r['confident_mistakes']:6d} {r['worst_log_loss']:6.1f}"
         )
+
+
+def _percent(share: float) -> str:
+    return "-" if share != share else f"{100 * share:.0f}%"

@@ -18,6 +18,11 @@ from promp.learn import fit
 from promp.model import ProMPModel, Settings
 from promp.pipeline import infer
 
+# The evaluation's oracle row: the speed told, from the test movement's true duration (how far
+# a perfect estimate of the duration would take the method).
+TRUE_DURATION = "true"
+ALPHA_ROWS = ("ml", "model", TRUE_DURATION)
+
 
 @dataclass(frozen=True, eq=False)
 class Inferred:
@@ -31,6 +36,8 @@ class Inferred:
     alpha : float
     duration : float
         Predicted duration, seconds.
+    duration_low, duration_high : float
+        Its central 90 % interval (NaN for a method that gives none).
     prior_mean, posterior_mean, posterior_std, prior_std : array, shape (n_points, n_dims)
         Over [0, duration], ``n_points`` evenly spaced phases from 0 to 1.
     """
@@ -43,6 +50,8 @@ class Inferred:
     prior_std: np.ndarray
     posterior_mean: np.ndarray
     posterior_std: np.ndarray
+    duration_low: float = float("nan")
+    duration_high: float = float("nan")
 
 
 class ProMPEngine:
@@ -64,7 +73,11 @@ class ProMPEngine:
         model = self.model
         assert model is not None, "fit() first"
         obs = Observation.from_demo(model, demo, n_observed, observe)
-        result = infer(model, obs, alpha_method=alpha_method)
+        if alpha_method == TRUE_DURATION:
+            result = infer(model, obs, duration=demo.duration)
+        else:
+            result = infer(model, obs, alpha_method=alpha_method)
+        interval = result.timing.duration
         return Inferred(
             index=result.index,
             probabilities=result.probabilities,
@@ -74,4 +87,6 @@ class ProMPEngine:
             prior_std=result.prior.std,
             posterior_mean=result.prediction.mean,
             posterior_std=result.prediction.std,
+            duration_low=interval.low,
+            duration_high=interval.high,
         )

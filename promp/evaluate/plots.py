@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
+from promp import metrics
 from promp.data import Layout
 from promp.datasets import Dataset
-from promp.evaluate import metrics
 from promp.evaluate.sweep import SweepResult, Trial
 
 

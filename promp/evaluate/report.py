@@ -23,14 +23,14 @@ from promp.quality import Finding
 # setting, what the method said and how far off it was.
 TRIAL_COLUMNS = (
     "primitive", "demo", "percent", "alpha_method", "observed", "recognised", "p_true",
-    "alpha", "duration_s", "position_error_m", "goal_error_m", "duration_error_s",
-    "nrmse_prior", "nrmse_posterior", "error",
+    "alpha", "duration_s", "duration_low_s", "duration_high_s", "position_error_m",
+    "goal_error_m", "duration_error_s", "nrmse_prior", "nrmse_posterior", "error",
 )  # fmt: skip
 # One CSV row per result row: what it is, then every metric of the JSON's ``results``.
 CSV_COLUMNS = (
     "method", "alpha_method", "observed", "percent", "recognition_errors", "trials",
     "log_loss", "confident_mistakes", "worst_log_loss", "position_error_m", "goal_error_m",
-    "duration_error_s", "nrmse_prior", "nrmse_posterior", "failed",
+    "duration_error_s", "duration_coverage", "nrmse_prior", "nrmse_posterior", "failed",
 )  # fmt: skip
 
 
@@ -147,6 +147,8 @@ def trial_rows(result: SweepResult, primitives: Sequence[str]) -> list[dict]:
                 else float(inferred.probabilities[t.primitive]),
                 "alpha": math.nan if inferred is None else float(inferred.alpha),
                 "duration_s": math.nan if inferred is None else float(inferred.duration),
+                "duration_low_s": math.nan if inferred is None else inferred.duration_low,
+                "duration_high_s": math.nan if inferred is None else inferred.duration_high,
                 "position_error_m": t.position_error_m,
                 "goal_error_m": t.goal_error_m,
                 "duration_error_s": t.duration_error_s,

@@ -28,7 +28,7 @@ import numpy as np
 
 from promp.basis import SeedBasis
 from promp.data import Demonstration, Layout
-from promp.evaluate.methods import Inferred
+from promp.evaluate.methods import TRUE_DURATION, Inferred
 
 N_BASIS = 5
 RIDGE = 1e-12
@@ -133,6 +133,8 @@ class ToolboxBaseline:
         for k, prim in enumerate(self.primitives):
             if alpha_method == "model":
                 alphas = [self._model_alpha(prim, y, dims)]
+            elif alpha_method == TRUE_DURATION:  # the toolbox's alpha of the true length
+                alphas = [S_BAR / demo.n_samples]
             else:
                 alphas = [a for a in prim.alphas if math.floor(S_BAR / a) >= n_observed]
             for alpha in alphas:

@@ -33,9 +33,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from promp import metrics
 from promp.data import Demonstration, Layout
-from promp.evaluate import metrics
 from promp.evaluate.methods import Inferred
+from promp.metrics import position_modality  # noqa: F401  (re-exported)
 from promp.model import sample_period_of
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
@@ -58,6 +59,7 @@ class Trial:
     position_error_m: float = math.nan
     goal_error_m: float = math.nan
     duration_error_s: float = math.nan
+    duration_covered: float = math.nan  # 1 if the duration's interval holds the truth, else 0
     nrmse_prior: float = math.nan
     nrmse_posterior: float = math.nan
     error: str = ""
@@ -79,15 +81,6 @@ class SweepResult:
     rows: list[dict] = field(default_factory=list)
     trials: list[Trial] = field(default_factory=list)
     failures: list[dict] = field(default_factory=list)  # trials the method failed on
-
-
-def position_modality(layout: Layout) -> str:
-    """The modality the trajectory errors are measured on: ``hand`` (or ``position``) when the
-    layout has it, else its first modality (the errors are then in that modality's unit)."""
-    for name in ("hand", "position"):
-        if name in layout.names:
-            return name
-    return layout.names[0]
 
 
 def tqdm_progress(label: str) -> Progress:
@@ -298,6 +291,7 @@ def run_sweep(
                 "position_error_m": _nanmean([t.position_error_m for t in trials]),
                 "goal_error_m": _nanmean([t.goal_error_m for t in trials]),
                 "duration_error_s": _nanmean([t.duration_error_s for t in trials]),
+                "duration_coverage": _nanmean([t.duration_covered for t in trials]),
                 "nrmse_prior": _nanmean([t.nrmse_prior for t in trials]),
                 "nrmse_posterior": _nanmean([t.nrmse_posterior for t in trials]),
                 "failed": [f"{names[t.primitive]}/{t.demo}" for t in trials if t.inferred is None],
@@ -336,6 +330,11 @@ def _measure(
     trial.position_error_m = metrics.remainder_error(truth, posterior, n_observed)
     trial.goal_error_m = metrics.goal_error(truth, posterior)
     trial.duration_error_s = abs(inferred.duration - true_duration)
+    if math.isfinite(inferred.duration_low) and math.isfinite(inferred.duration_high):
+        slack = 1e-9 * true_duration  # round-off of the duration's trip through alpha
+        trial.duration_covered = float(
+            inferred.duration_low - slack <= true_duration <= inferred.duration_high + slack
+        )
     trial.nrmse_prior = metrics.nrmse(truth, inferred.prior_mean[:, pos_dims])
     trial.nrmse_posterior = metrics.nrmse(truth, posterior)
 

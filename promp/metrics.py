@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from promp.data import Layout
+
 
 def resample(values: np.ndarray, positions: np.ndarray) -> np.ndarray:
     """Linear interpolation of ``values`` (n, d) at fractional row indices ``positions``."""
@@ -116,3 +118,12 @@ def calibration_error(
         return float("nan")
     gaps = np.abs(frequency[used] - mean_forecast[used])
     return float((gaps * count[used]).sum() / count[used].sum())
+
+
+def position_modality(layout: Layout) -> str:
+    """The modality the trajectory errors are measured on: ``hand`` (or ``position``) when the
+    layout has it, else its first modality (the errors are then in that modality's unit)."""
+    for name in ("hand", "position"):
+        if name in layout.names:
+            return name
+    return layout.names[0]

@@ -1,0 +1,230 @@
+"""How long the movement lasts, as the recognition believes it: a posterior, not a mode.
+
+The recognition integrates every primitive's likelihood over its speed (:mod:`promp.recognition`);
+the same quadrature gives the posterior over the recognised primitive's speed, hence over the
+duration ``T(alpha) = (s_bar / alpha - 1) dt`` (:mod:`promp.timing`). Its median is the
+predicted duration, and its quantiles, from the likelihood tempered to what held-out movements
+support (:func:`choose_temperature`), an interval. The mode is not used: the likelihood of a
+long observation can peak at the shortest duration that still contains it (a movement that
+ends right now), so the mode's remaining time is near 0 where the posterior, which keeps the
+longer durations that explain the observation as well, says how much is left and how sure it
+is.
+
+The same posterior says which fraction of the movement the observation covers (its phase):
+``elapsed / T``, with its mean and interval.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from promp.recognition import Recognition
+from promp.timing import alpha_from_duration, duration_from_alpha
+
+LEVEL = 0.9  # the central interval reported
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A posterior summary: the point estimate ``value`` and the central ``level`` interval
+    ``[low, high]``."""
+
+    value: float
+    low: float
+    high: float
+    level: float = LEVEL
+
+    def covers(self, value: float) -> bool:
+        """Whether ``value`` lies in the interval (to round-off)."""
+        slack = 1e-9 * max(abs(self.low), abs(self.high), abs(value), 1e-300)
+        return self.low - slack <= value <= self.high + slack
+
+
+def weighted_quantiles(values: np.ndarray, masses: np.ndarray, qs: np.ndarray) -> np.ndarray:
+    """Quantiles ``qs`` of the discrete distribution putting ``masses`` on ``values``: each
+    node's mass spread over the half-way points to its neighbours (the quadrature's trapezoid
+    cells), so the quantiles move smoothly between nodes."""
+    order = np.argsort(values)
+    v, w = values[order], masses[order] / masses.sum()
+    if v.size == 1:
+        return np.full(np.shape(qs), float(v[0]))
+    edges = np.concatenate([[v[0]], 0.5 * (v[1:] + v[:-1]), [v[-1]]])
+    cdf = np.concatenate([[0.0], np.cumsum(w)])
+    return np.interp(qs, cdf, edges)
+
+
+def summarise(
+    values: np.ndarray, point_masses: np.ndarray, masses: np.ndarray, level: float = LEVEL
+) -> Estimate:
+    """The median of ``point_masses`` and the central ``level`` interval of ``masses`` (two
+    posteriors on the same nodes); the interval stretched to hold the point if it must."""
+    tail = 0.5 * (1.0 - level)
+    low, high = weighted_quantiles(values, masses, np.array([tail, 1.0 - tail]))
+    point = float(weighted_quantiles(values, point_masses, np.array([0.5]))[0])
+    return Estimate(point, float(min(low, point)), float(max(high, point)), level)
+
+
+@dataclass(frozen=True)
+class Timing:
+    """The recognised primitive's timing given the observation.
+
+    Attributes
+    ----------
+    duration : Estimate
+        Of the whole movement, seconds from its start.
+    observed_fraction : Estimate
+        The share of the movement the observation covers, ``elapsed / T`` (in [0, 1]).
+    alpha : float
+        The speed of the point estimate of the duration (what the prediction is drawn at).
+    temperature : float
+        The power of the likelihood in the posterior the intervals come from.
+    """
+
+    duration: Estimate
+    observed_fraction: Estimate
+    alpha: float
+    temperature: float = 1.0
+
+    def remaining_after(self, elapsed: float) -> Estimate:
+        """Seconds left after an observation lasting ``elapsed`` seconds."""
+        d = self.duration
+        return Estimate(
+            max(d.value - elapsed, 0.0), max(d.low - elapsed, 0.0), max(d.high - elapsed, 0.0),
+            d.level,
+        )  # fmt: skip
+
+
+def timing(
+    recognition: Recognition,
+    elapsed: float,
+    dt: float,
+    s_bar: float,
+    temperature: float = 1.0,
+    level: float = LEVEL,
+) -> Timing:
+    """:class:`Timing` of the recognised primitive after an observation lasting ``elapsed``
+    seconds (``dt``: the model's sample period, ``s_bar``: its reference length).
+
+    The point estimate is the median of the posterior (the likelihood as it is: the speed the
+    observed shape says); the intervals come from the posterior with the likelihood raised to
+    ``temperature`` (the model's, :func:`choose_temperature`: what the duration of held-out
+    movements says about how sure one may be). On the lab sets, drawing the prediction at the
+    tempered posterior's mean instead moved the position error of the remainder by -20 % to
+    +24 % (flt, heights at 80 %), and at the plain posterior's mean or median it stayed
+    within 3 % of the mode's."""
+    alphas, plain = recognition.speed_posterior()
+    _, tempered = recognition.speed_posterior(temperature=temperature)
+    durations = np.asarray(duration_from_alpha(alphas, dt, s_bar), dtype=float)
+    duration = summarise(durations, plain, tempered, level)
+    if duration.value < elapsed:  # every node lasts as long as the observation: round-off
+        duration = Estimate(elapsed, max(duration.low, elapsed), max(duration.high, elapsed), level)
+    fractions = np.clip(elapsed / durations, 0.0, 1.0) if elapsed > 0 else np.zeros_like(durations)
+    fraction = summarise(fractions, plain, tempered, level)
+    alpha = alpha_from_duration(duration.value, dt, s_bar) if duration.value > 0 else math.nan
+    if not math.isfinite(alpha):
+        alpha = recognition.alpha
+    return Timing(duration, fraction, float(alpha), float(temperature))
+
+
+# The likelihood's temperatures tried (see choose_temperature).
+TEMPERATURES = tuple(0.5 ** (k / 2) for k in range(17))  # 1 down to 1/256, steps of sqrt 2
+
+
+def interval_score(
+    low: np.ndarray, high: np.ndarray, truth: np.ndarray, level: float
+) -> np.ndarray:
+    """The interval score of central ``level`` intervals ``[low, high]`` for the outcomes
+    ``truth`` (Gneiting & Raftery 2007, Sec. 6.2): the width, plus ``2 / (1 - level)`` times
+    the distance by which the outcome falls outside; lower is better, and it is proper for
+    the interval's two quantiles, so it rewards intervals that are as narrow as the data
+    allow and hold the outcome as often as they claim."""
+    penalty = 2.0 / (1.0 - level)
+    below = np.maximum(low - truth, 0.0)
+    above = np.maximum(truth - high, 0.0)
+    return (high - low) + penalty * (below + above)
+
+
+def choose_temperature(
+    trials: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+) -> tuple[float, dict[float, float]]:
+    """The temperature ``tau`` of the speed's posterior ``p(alpha | y) ~ p(y | alpha)^tau
+    p(alpha)`` whose interval predicts the speed of held-out demonstrations best: the lowest
+    mean interval score (:func:`interval_score`, at :data:`LEVEL`) of their true log alpha
+    over :data:`TEMPERATURES`, and every temperature's score.
+
+    Why a temperature: the Gaussian likelihood of Eq. 6 is exact for the model, but a real
+    movement's duration is not fully written in its shape (a take ends when the logger is
+    stopped, after a still tail of any length), so the likelihood's certainty about the speed
+    outruns what the data support: with ``tau = 1`` the 90 % interval of the duration held the
+    true one in 48-61 % of the heights set's trials. A power likelihood calibrated on held-out
+    data (Holmes & Walker 2017, "Assigning a value to a power likelihood in a general
+    Bayesian model"; Grünwald's SafeBayes) keeps the likelihood's ranking of speeds and widens
+    the posterior to what is seen. The class probabilities are not tempered: their
+    calibration is the noise scale's business (:mod:`promp.selection`).
+
+    ``trials``: per batch of held-out trials, the nodes (T, A) in log alpha, the true
+    primitive's log-likelihood (T, A) and log quadrature weights (T, A) there, and the true
+    log alpha (T,) (:meth:`promp.selection.LooScorer.speed_trials`).
+    """
+    usable = [t for t in trials if t[0].shape[0]]
+    if not usable:
+        return 1.0, {}
+    nodes = np.concatenate([t[0] for t in usable])
+    log_lik = np.concatenate([t[1] for t in usable])
+    log_w = np.concatenate([t[2] for t in usable])
+    truth = np.concatenate([t[3] for t in usable])
+    ok = np.isfinite(log_lik).any(axis=1)
+    nodes, log_lik, log_w, truth = nodes[ok], log_lik[ok], log_w[ok], truth[ok]
+    if not truth.shape[0]:
+        return 1.0, {}
+    nodes, log_lik, log_w = _refined(nodes, log_lik, log_w)
+    scores = {}
+    for tau in TEMPERATURES:
+        with np.errstate(invalid="ignore"):
+            log_mass = np.where(np.isfinite(log_lik), tau * log_lik, -np.inf) + log_w
+        log_mass -= log_mass.max(axis=1, keepdims=True)
+        masses = np.exp(log_mass)
+        tail = 0.5 * (1.0 - LEVEL)
+        qs = np.array([tail, 1.0 - tail])
+        bounds = np.array(
+            [weighted_quantiles(x, w, qs) for x, w in zip(nodes, masses, strict=True)]
+        )
+        scores[tau] = float(interval_score(bounds[:, 0], bounds[:, 1], truth, LEVEL).mean())
+    best = min(scores, key=lambda tau: (round(scores[tau], 12), -tau))
+    return best, scores
+
+
+REFINE = 8  # points per interval of the held-out trials' node grid
+
+
+def _refined(
+    nodes: np.ndarray, log_lik: np.ndarray, log_w: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The held-out trials' tables on :data:`REFINE` times finer grids: the log-likelihood and
+    the log prior density interpolated by monotone cubics in log alpha (both are smooth there),
+    so that a posterior narrower than the coarse spacing is not read as a whole cell wide.
+    Nodes outside the observation's bound stay impossible (-inf)."""
+    from scipy.interpolate import PchipInterpolator
+
+    n_t, n_a = nodes.shape
+    fine_n = (n_a - 1) * REFINE + 1
+    steps = np.linspace(0.0, 1.0, fine_n)
+    fine = nodes[:, :1] + (nodes[:, -1:] - nodes[:, :1]) * steps  # (T, F)
+    out_ll = np.full((n_t, fine_n), -np.inf)
+    out_w = np.empty((n_t, fine_n))
+    widths = np.gradient(nodes, axis=1)
+    for t in range(n_t):
+        # log prior density per unit of log alpha (the weights divided by their cells)
+        density = log_w[t] - np.log(widths[t])
+        out_w[t] = np.interp(fine[t], nodes[t], density) + np.log(np.gradient(fine[t]))
+        ok = np.isfinite(log_lik[t])
+        if ok.sum() >= 2:
+            inside = (fine[t] >= nodes[t][ok][0]) & (fine[t] <= nodes[t][ok][-1])
+            curve = PchipInterpolator(nodes[t][ok], log_lik[t][ok])
+            out_ll[t, inside] = curve(fine[t][inside])
+        elif ok.any():
+            out_ll[t, np.argmin(np.abs(fine[t] - nodes[t][ok][0]))] = log_lik[t][ok][0]
+    return fine, out_ll, out_w
