@@ -37,7 +37,7 @@ from promp.pipeline import infer  # noqa: E402
 from promp.timing import duration_from_alpha  # noqa: E402
 
 D, M, N_DEMOS, RATE = 9, 20, 20, 50.0
-GIVEN = Settings(n_basis=M, width=1.0, noise_scale=1.5)  # given: the engine's speed, no choice
+GIVEN = Settings(n_basis=M, width=1.0, noise_scale=1.5, duration_temperature=1.0)  # no choice
 LAYOUT = Layout(
     tuple(
         Modality(name, tuple(f"{name}{i}" for i in range(3)), unit="m")

@@ -7,7 +7,8 @@
         [--rate HZ] [--markers STREAM]
         [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
         [--json OUT.json] [--csv OUT.csv] [--plots DIR] [--basis M] [--width W]
-        [--shrinkage S|auto] [--noise-scale X] [--select loo|cv] [--subset N] [--jobs N]
+        [--shrinkage S|auto] [--noise-scale X] [--duration-temperature T]
+        [--select loo|cv] [--subset N] [--jobs N]
         [--backend local|dask --scheduler ADDRESS] [--include-flagged] [--repair-gaps cut|split]
         [--trials-csv OUT.csv]
 
@@ -154,6 +155,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="multiplies the estimated observation noise (ours); default: chosen by every fit",
     )
     parser.add_argument(
+        "--duration-temperature",
+        type=float,
+        default=None,
+        help="the power of the likelihood in the speed's posterior, which the duration's "
+        "interval comes from, in (0, 1] (ours); default: chosen by every fit",
+    )
+    parser.add_argument(
         "--select",
         choices=SELECT_RULES,
         default="loo",
@@ -283,6 +291,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             width=args.width,
             shrinkage=shrinkage,
             noise_scale=args.noise_scale,
+            duration_temperature=args.duration_temperature,
             select=args.select,
         )
         if args.method == "seed":

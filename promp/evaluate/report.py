@@ -46,6 +46,7 @@ def basis_settings(settings: Settings) -> dict:
         "width": value(settings.width),
         "shrinkage": value(settings.shrinkage),
         "noise_scale": value(settings.noise_scale),
+        "duration_temperature": value(settings.duration_temperature),
     }
 
 
