@@ -207,6 +207,8 @@ def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
         assert float(line["position_error_m"]) == pytest.approx(row["position_error_m"])
     pngs = sorted(p.name for p in (tmp_path / "plots").iterdir())
     assert pngs == [
+        "confusion_ours_hand+head_ml.png", "confusion_ours_hand+head_model.png",
+        "confusion_ours_head_ml.png", "confusion_ours_head_model.png",
         "curves_ours.png", "example_ours_hand+head.png", "example_ours_head.png",
         "reliability_ours.png",
     ]  # fmt: skip

@@ -10,7 +10,7 @@
         [--shrinkage S|auto] [--noise-scale X] [--duration-temperature T]
         [--select loo|cv] [--subset N] [--jobs N]
         [--backend local|dask --scheduler ADDRESS] [--include-flagged] [--repair-gaps cut|split]
-        [--trials-csv OUT.csv]
+        [--trials-csv OUT.csv] [--run DIR [--run-name NAME]]
 
 ``--format records`` reads the lab-record format, ``--format csv`` reads ``DATASET/<primitive>/
 <demo>.csv``, ``yarp``, ``rosbag``, ``xdf`` and ``c3d`` a rig's recordings (:mod:`promp.rigs`:
@@ -204,6 +204,17 @@ def build_parser() -> argparse.ArgumentParser:
         "--csv", type=Path, default=None, help="write the result table here (one line per row)"
     )
     parser.add_argument("--plots", type=Path, default=None, help="write PNG figures here")
+    parser.add_argument(
+        "--run",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="keep the run in a new folder DIR (it must not exist): run.json (settings, the "
+        "demonstrations used and left out, the code version, every row and trial, the "
+        "confusion matrices), results.csv, trials.csv, figures/ (promp.evaluate.runs); "
+        "compare two with python -m promp.evaluate.compare A B",
+    )
+    parser.add_argument("--run-name", default=None, help="the run's name (default: DIR's)")
     return parser
 
 
@@ -275,6 +286,9 @@ def print_findings(loaded: Loaded, include_flagged: bool) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if args.run is not None and (args.run.exists() or args.run.is_symlink()):
+            raise ValueError(f"--run {args.run} already exists: a run is kept in a new folder, "
+                             "nothing is overwritten")  # fmt: skip
         loaded = load(args)
         dataset, layout, observe = loaded.dataset, loaded.layout, loaded.observe
         print_findings(loaded, args.include_flagged)
@@ -358,10 +372,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.trials_csv is not None:
         args.trials_csv.parent.mkdir(parents=True, exist_ok=True)
         args.trials_csv.write_text(trials_csv(report["trials"]))
-    if args.plots is not None:
+    if args.plots is not None or args.run is not None:
         from promp.evaluate.plots import write_figures
 
-        write_figures(args.plots, result, dataset, layout, args.method)
+        if args.plots is not None:
+            write_figures(args.plots, result, dataset, layout, args.method)
+        if args.run is not None:
+            from promp.evaluate.runs import write_run
+
+            try:
+                run = write_run(
+                    args.run, report, args.run_name or args.run.name,
+                    figures=lambda folder: write_figures(folder, result, dataset, layout,
+                                                         args.method),
+                )  # fmt: skip
+            except ValueError as exc:
+                print(f"error: {exc}", file=sys.stderr)
+                return 2
+            print(f"run kept in {run.folder} ({run.code_version})")
     return 0
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -9,8 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from promp import metrics
-from promp.data import Layout
+from promp.data import Layout, Modality
 from promp.datasets import Dataset
+from promp.evaluate.report import confusion_matrices, trial_rows
 from promp.evaluate.sweep import SweepResult, Trial
 
 
@@ -21,6 +23,36 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+MAX_COLUMNS = 4  # panels per row of a figure: at 3.2 in and 100 dpi, at most 1,280 px wide
+
+
+def display_unit(modality: Modality) -> tuple[float, str]:
+    """What a modality's values are multiplied by to be shown as the studio shows them, and
+    the unit then: metres as cm, radians (angles) as degrees, anything else as it is."""
+    if modality.unit == "m":
+        return 100.0, "cm"
+    if modality.kind == "angle" or modality.unit == "rad":
+        return 180.0 / np.pi, "deg"
+    return 1.0, modality.unit
+
+
+def column_units(layout: Layout) -> list[tuple[float, str]]:
+    """:func:`display_unit` of every dimension of ``layout``."""
+    return [display_unit(m) for m in layout.modalities for _ in m.columns]
+
+
+def grid(plt, n_panels: int, size: float = 3.2):
+    """A figure of ``n_panels`` panels, at most :data:`MAX_COLUMNS` per row; the unused ones
+    hidden. Returns (figure, flat list of the used axes)."""
+    columns = min(n_panels, MAX_COLUMNS)
+    rows = -(-n_panels // columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(size * columns, size * rows), squeeze=False)
+    flat = list(axes.reshape(-1))
+    for ax in flat[n_panels:]:
+        ax.set_visible(False)
+    return fig, flat[:n_panels]
 
 
 def series_label(observed: Sequence[str], alpha_method: str) -> str:
@@ -50,8 +82,10 @@ def _series(
     }
 
 
-def curves(rows: list[dict], path: Path, method: str) -> None:
-    """Recognition errors, position error and NRMSE(posterior) - NRMSE(prior) against %."""
+def curves(rows: list[dict], path: Path, method: str, position: Modality | None = None) -> None:
+    """Recognition errors, position error (in ``position``'s display unit, cm by default) and
+    NRMSE(posterior) - NRMSE(prior) against %."""
+    scale, unit = display_unit(position) if position is not None else (100.0, "cm")
     plt = _pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
     trials = rows[0]["trials"] if rows else 0
@@ -59,8 +93,8 @@ def curves(rows: list[dict], path: Path, method: str) -> None:
         axes[0].plot(x, y, "o-", label=label)
     axes[0].set_ylabel(f"recognition errors (of {trials})")
     for label, (x, y) in _series(rows, lambda r: r["position_error_m"]).items():
-        axes[1].plot(x, 100 * y, "o-", label=label)
-    axes[1].set_ylabel("position error of the remainder (cm)")
+        axes[1].plot(x, scale * y, "o-", label=label)
+    axes[1].set_ylabel(f"position error of the remainder ({unit})")
     delta = _series(rows, lambda r: r["nrmse_posterior"] - r["nrmse_prior"])
     for label, (x, y) in delta.items():
         axes[2].plot(x, y, "o-", label=label)
@@ -127,34 +161,27 @@ def example(trial: Trial, dataset: Dataset, layout: Layout, path: Path) -> None:
     inf = trial.inferred
     t_pred = np.linspace(0.0, inf.duration, inf.posterior_mean.shape[0])
     observed = set(layout.dims(trial.observed).tolist())
-    n_dims = layout.n_dims
-    fig, axes = plt.subplots(1, n_dims, figsize=(3.2 * n_dims, 3.2), squeeze=False)
-    for d, ax in enumerate(axes[0]):
-        ax.fill_between(
-            t_pred,
-            inf.prior_mean[:, d] - 2 * inf.prior_std[:, d],
-            inf.prior_mean[:, d] + 2 * inf.prior_std[:, d],
-            color="tab:blue",
-            alpha=0.2,
-            label="prior +-2 sd",
-        )
-        ax.fill_between(
-            t_pred,
-            inf.posterior_mean[:, d] - 2 * inf.posterior_std[:, d],
-            inf.posterior_mean[:, d] + 2 * inf.posterior_std[:, d],
-            color="tab:red",
-            alpha=0.25,
-            label="posterior +-2 sd",
-        )
-        ax.plot(t_pred, inf.posterior_mean[:, d], color="tab:red", lw=1.5)
-        ax.plot(t_true, truth[:, d], "k--", lw=1, label="truth")
+    fig, axes = grid(plt, layout.n_dims)
+    for d, (ax, (scale, unit)) in enumerate(zip(axes, column_units(layout), strict=True)):
+        for mean, std, colour, alpha, label in (
+            (inf.prior_mean, inf.prior_std, "tab:blue", 0.2, "prior +-2 sd"),
+            (inf.posterior_mean, inf.posterior_std, "tab:red", 0.25, "posterior +-2 sd"),
+        ):
+            ax.fill_between(t_pred, scale * (mean[:, d] - 2 * std[:, d]),
+                            scale * (mean[:, d] + 2 * std[:, d]), color=colour, alpha=alpha,
+                            label=label)  # fmt: skip
+        ax.plot(t_pred, scale * inf.posterior_mean[:, d], color="tab:red", lw=1.5)
+        ax.plot(t_true, scale * truth[:, d], "k--", lw=1, label="truth")
         if d in observed:
-            ax.plot(t_true[:n_obs], truth[:n_obs, d], "k.", ms=3, label="observed")
-        ax.set_title(layout.columns[d])
+            ax.plot(t_true[:n_obs], scale * truth[:n_obs, d], "k.", ms=3, label="observed")
+        if math.isfinite(inf.duration_low) and math.isfinite(inf.duration_high):
+            ax.axvspan(inf.duration_low, inf.duration_high, color="tab:red", alpha=0.08,
+                       label="predicted end, 90 %")  # fmt: skip
+        ax.set_title(f"{layout.columns[d]} ({unit})" if unit else layout.columns[d], fontsize=9)
         ax.set_xlabel("s")
-    axes[0][0].legend(fontsize=7)
+    axes[0].legend(fontsize=7)
     fig.suptitle(
-        f"{names[trial.primitive]} {trial.demo}: {trial.percent:.0f} % of "
+        f"{names[trial.primitive]} {trial.demo}:\n{trial.percent:.0f} % of "
         f"{'+'.join(trial.observed)} observed, alpha {trial.alpha_method}, recognised "
         f"{names[inf.index]} (p = {inf.probabilities[inf.index]:.2f})"
     )
@@ -163,15 +190,59 @@ def example(trial: Trial, dataset: Dataset, layout: Layout, path: Path) -> None:
     plt.close(fig)
 
 
+def confusion_figure(matrices: Sequence[Mapping], path: Path, method: str) -> None:
+    """The confusion matrices of one (observed modalities, alpha method), one panel per
+    percentage: rows the true primitive, columns the recognised one (the last column: the
+    trials the method failed on), counts written in the cells."""
+    plt = _pyplot()
+    labels = list(matrices[0]["primitives"])
+    size = max(3.2, 0.45 * len(labels) + 1.6)
+    fig, axes = grid(plt, len(matrices), size)
+    for ax, matrix in zip(axes, matrices, strict=True):
+        counts = np.array(matrix["counts"])
+        ax.imshow(counts, cmap="Blues", vmin=0, vmax=max(int(counts.sum(1).max()), 1))
+        for (i, j), n in np.ndenumerate(counts):
+            if n:
+                colour = "white" if n > 0.6 * counts.sum(1).max() else "black"
+                ax.text(j, i, str(n), ha="center", va="center", fontsize=7, color=colour)
+        columns = [*labels, "failed"][: counts.shape[1]]
+        ax.set_xticks(range(len(columns)), [_short(c) for c in columns], rotation=60, fontsize=7,
+                      ha="right")  # fmt: skip
+        ax.set_yticks(range(len(labels)), [_short(c) for c in labels], fontsize=7)
+        ax.set_title(f"{matrix['percent']:g} % observed", fontsize=9)
+        ax.set_xlabel("recognised", fontsize=8)
+        ax.set_ylabel("true", fontsize=8)
+    first = matrices[0]
+    fig.suptitle(f"confusion, method {method}, {series_label(first['observed'], first['alpha'])}",
+                 fontsize=10)  # fmt: skip
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _short(name: str, limit: int = 18) -> str:
+    """A tick label: the name, shortened in the middle past ``limit`` characters."""
+    return name if len(name) <= limit else f"{name[: limit // 2 - 1]}…{name[-(limit // 2):]}"
+
+
 def write_figures(
     folder: Path, result: SweepResult, dataset: Dataset, layout: Layout, method: str
 ) -> list[Path]:
-    """Write the curves and one example per observed modality set; return the paths."""
+    """Write the curves, the reliability diagram, the confusion matrices (one figure per
+    observed modality set and alpha method) and one example per observed modality set; return
+    the paths."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = [folder / f"curves_{method}.png", folder / f"reliability_{method}.png"]
-    curves(result.rows, paths[0], method)
+    curves(result.rows, paths[0], method, layout.modality(metrics.position_modality(layout)))
     reliability_diagram(result.trials, len(dataset), paths[1], method)
+    by_series: dict[str, list[Mapping]] = defaultdict(list)
+    for matrix in confusion_matrices(trial_rows(result, list(dataset)), list(dataset)):
+        by_series[series_label(matrix["observed"], matrix["alpha"])].append(matrix)
+    for label, matrices in by_series.items():
+        path = folder / f"confusion_{method}_{label.replace(', alpha ', '_')}.png"
+        confusion_figure(matrices, path, method)
+        paths.append(path)
     ran = [t for t in result.trials if t.inferred is not None]
     for observed in sorted({t.observed for t in ran}):
         candidates = [t for t in ran if t.observed == observed and t.alpha_method == "ml"] or [

@@ -14,6 +14,8 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 
+import numpy as np
+
 from promp.data import Demonstration, Layout
 from promp.evaluate.sweep import SweepResult
 from promp.model import Settings
@@ -94,7 +96,8 @@ def results_report(
     dict
         ``dataset``, ``settings``, ``primitives``, ``results`` (the rows), ``failures``,
         ``trials`` (one row per trial, :func:`trial_rows`; empty unless the sweep kept its
-        trials), ``findings`` and ``excluded``.
+        trials), ``confusion`` (:func:`confusion_matrices`), ``used`` (the demonstrations
+        swept, by primitive), ``findings`` and ``excluded``.
     """
     excluded = excluded or {}
     return {
@@ -114,6 +117,8 @@ def results_report(
         "results": result.rows,
         "failures": result.failures,
         "trials": trial_rows(result, list(dataset)),
+        "confusion": confusion_matrices(trial_rows(result, list(dataset)), list(dataset)),
+        "used": {name: [d.name for d in demos] for name, demos in dataset.items()},
         "findings": [f.to_json() for f in findings],
         "excluded": [
             {
@@ -159,6 +164,29 @@ def trial_rows(result: SweepResult, primitives: Sequence[str]) -> list[dict]:
             }
         )
     return rows
+
+
+def confusion_matrices(trials: Sequence[Mapping], primitives: Sequence[str]) -> list[dict]:
+    """The confusion matrix of every (observed modalities, alpha method, percent) of a
+    report's ``trials`` (:func:`trial_rows`): ``counts[i][j]`` trials of primitive ``i``
+    recognised as ``j``, and in a last column those the method failed on. JSON-ready, in the
+    order of observed sets, alpha methods, then percents."""
+    index = {name: i for i, name in enumerate(primitives)}
+    groups: dict[tuple, np.ndarray] = {}
+    for t in trials:
+        key = (tuple(t["observed"]), t["alpha_method"], float(t["percent"]))
+        counts = groups.setdefault(key, np.zeros((len(primitives), len(primitives) + 1), int))
+        recognised = index.get(t["recognised"], len(primitives))  # "" when it failed
+        counts[index[t["primitive"]], recognised] += 1
+    return [
+        {
+            "observed": list(observed), "alpha": alpha, "percent": percent,
+            "primitives": list(primitives), "counts": counts.tolist(),
+        }
+        for (observed, alpha, percent), counts in sorted(
+            groups.items(), key=lambda item: (len(item[0][0]), item[0])
+        )
+    ]  # fmt: skip
 
 
 def trials_csv(rows: Sequence[Mapping]) -> str:
