@@ -49,12 +49,13 @@ def main() -> None:
             continue
         reco, prediction = result.recognition, result.prediction
         end = prediction.mean[-1, hand]
+        interval = result.timing.duration  # the predicted end, median and 90 % interval
         probabilities = " ".join(
             f"{p.name}={q:.2f}" for p, q in zip(model.primitives, reco.probabilities, strict=True)
         )
         print(
             f"t={t:5.2f} s  primitive={reco.primitive}  [{probabilities}]  "
-            f"duration={prediction.duration:.2f} s  "
+            f"duration={prediction.duration:.2f} s [{interval.low:.2f}, {interval.high:.2f}]  "
             f"end=({end[0]:+.3f}, {end[1]:+.3f}, {end[2]:+.3f}) m"
         )
 

@@ -451,7 +451,8 @@ def test_the_robot_side_example_recognises_and_predicts(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     pattern = re.compile(
         r"t=\s*([\d.]+) s  primitive=(\w+)  \[curved=([\d.]+) direct=([\d.]+)\]  "
-        r"duration=([\d.]+) s  end=\(([-+\d.]+), ([-+\d.]+), ([-+\d.]+)\) m"
+        r"duration=([\d.]+) s \[([\d.]+), ([\d.]+)\]  "
+        r"end=\(([-+\d.]+), ([-+\d.]+), ([-+\d.]+)\) m"
     )
     lines = [pattern.fullmatch(line) for line in proc.stdout.splitlines()]
     assert lines and all(lines), proc.stdout
@@ -465,9 +466,10 @@ def test_the_robot_side_example_recognises_and_predicts(tmp_path: Path) -> None:
         if 0.3 * held_out.duration <= t <= 0.8 * held_out.duration:
             middle += 1
             assert match[2] == "direct", match[0]
-            end = np.array([float(match[k]) for k in (6, 7, 8)])
+            end = np.array([float(match[k]) for k in (8, 9, 10)])
             assert np.linalg.norm(end - truth_end) < 0.03, match[0]
             assert abs(float(match[5]) - held_out.duration) < 0.5, match[0]
+            assert float(match[6]) <= float(match[5]) <= float(match[7]), match[0]
     assert middle >= 3
 
 
