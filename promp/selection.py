@@ -102,9 +102,10 @@ LOO_RULE = (
 )
 
 TEMPERATURE_RULE = (
-    "the power of the likelihood in the speed's posterior whose 90 % interval has the lowest "
-    "interval score for the true speed of the held-out training demonstrations (the same "
-    "trials, closed-form leave-one-out, at the chosen settings), over 1, 1/sqrt 2, 1/2, ..., 1/256"
+    "the largest power of the likelihood in the speed's posterior (of 1, 1/sqrt 2, ..., 1/256) "
+    "whose 90 % intervals hold the true speed of at least ceil(0.9 (n + 1)) / n of the n "
+    "held-out training demonstrations (nested conformal; the same trials, closed-form "
+    "leave-one-out, at the chosen settings)"
 )
 
 KEEP_LIMIT = 10
@@ -902,7 +903,7 @@ def choose_settings(
     report["duration_temperature"] = {
         "value": tau,
         "rule": TEMPERATURE_RULE if scores else "1 (no demonstration could be held out)",
-        "interval_score": {str(t): round(v, 6) for t, v in scores.items()},
+        "coverage": {str(t): round(v, 4) for t, v in scores.items()},
     }
     return chosen, report
 

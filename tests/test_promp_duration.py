@@ -11,13 +11,7 @@ from numpy.testing import assert_allclose
 from scipy import stats
 
 from promp import metrics
-from promp.duration import (
-    choose_temperature,
-    interval_score,
-    summarise,
-    timing,
-    weighted_quantiles,
-)
+from promp.duration import choose_temperature, summarise, timing, weighted_quantiles
 from promp.inference import Observation, log_likelihoods
 from promp.io import model_from_dict, model_to_dict
 from promp.learn import fit
@@ -62,18 +56,6 @@ def test_the_summary_takes_its_point_and_its_interval_from_two_posteriors() -> N
     assert s.covers(s.value) and not s.covers(9.5)
 
 
-def test_the_interval_score_prefers_an_honest_interval() -> None:
-    rng = np.random.default_rng(0)
-    truth = rng.normal(0.0, 1.0, 20000)
-    z = stats.norm.ppf(0.95)
-
-    def score(width: float) -> float:
-        return float(interval_score(np.full_like(truth, -width), np.full_like(truth, width),
-                                    truth, 0.9).mean())  # fmt: skip
-
-    assert score(z) < score(0.7 * z) and score(z) < score(1.4 * z)
-
-
 def _trials(rng: np.random.Generator, claimed: float, actual: float, n: int = 400):
     """Held-out trials whose likelihood claims a spread ``claimed`` around its peak while the
     truth lies ``actual`` away (one batch, 40 nodes each, a flat prior)."""
@@ -87,13 +69,30 @@ def _trials(rng: np.random.Generator, claimed: float, actual: float, n: int = 40
 
 def test_the_temperature_widens_an_overconfident_likelihood_and_not_an_honest_one() -> None:
     rng = np.random.default_rng(1)
-    tau, scores = choose_temperature(_trials(rng, claimed=0.05, actual=0.2))
-    # a likelihood 4x too sure: its square root of 1/16 is what fits (a step of sqrt 2 either way)
+    tau, coverage = choose_temperature(_trials(rng, claimed=0.05, actual=0.2))
+    # a likelihood 4x too sure: the power 1/16 is what fits (a step of sqrt 2 either way)
     assert 1 / 32 <= tau <= 1 / 8
-    assert scores[tau] < scores[1.0]
+    assert coverage[1.0] < 0.5 and coverage[tau] >= 361 / 400  # ceil(0.9 * 401) / 400
+    # the largest such power: the next one up covers too little
+    assert all(coverage[t] < 361 / 400 for t in coverage if t > tau)
     honest, _ = choose_temperature(_trials(rng, claimed=0.2, actual=0.2))
     assert honest >= 0.5
     assert choose_temperature([]) == (1.0, {})
+
+
+def test_the_chosen_temperature_covers_new_trials_as_often_as_it_claims() -> None:
+    """Nested conformal: chosen on 30 held-out trials, the intervals cover fresh ones of the
+    same kind at least 90 % of the time on average (over many choices)."""
+    rng = np.random.default_rng(2)
+    rates = []
+    for _ in range(40):
+        tau, _ = choose_temperature(_trials(rng, claimed=0.05, actual=0.2, n=30))
+        (nodes, log_lik, log_w, truth), = _trials(rng, claimed=0.05, actual=0.2, n=200)
+        masses = np.exp(tau * log_lik + log_w)
+        bounds = np.array([weighted_quantiles(x, w, np.array([0.05, 0.95]))
+                           for x, w in zip(nodes, masses, strict=True)])  # fmt: skip
+        rates.append(np.mean((bounds[:, 0] <= truth) & (truth <= bounds[:, 1])))
+    assert np.mean(rates) >= 0.88
 
 
 def test_a_known_duration_scores_every_primitive_at_its_speed(model, dataset) -> None:
@@ -153,7 +152,7 @@ def test_the_temperature_is_chosen_by_the_fit_kept_or_given_and_saved(dataset) -
     tau = chosen.settings.duration_temperature
     report = chosen.report["settings"]["duration_temperature"]
     assert report["value"] == tau and 0.0 < tau <= 1.0
-    assert min(report["interval_score"], key=report["interval_score"].get) == str(tau)
+    assert report["coverage"][str(tau)] >= 0.9 or tau == min(map(float, report["coverage"]))
     given = fit(dataset, LAYOUT, dataclasses.replace(SMALL, duration_temperature=0.25))
     assert given.settings.duration_temperature == 0.25
     assert "duration_temperature" not in given.report["settings"]
