@@ -8,9 +8,10 @@ import socket
 import sys
 from pathlib import Path
 
-from app.net import is_loopback, port_is_free
+from app.io.net import is_loopback, port_is_free
 from promp.datasets import FORMATS
 from promp.rigs import MAPPING_HELP, add_rig_arguments
+from robots.icub.model import DEFAULT_ROBOT
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -69,7 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_rig_arguments(parser)
     parser.add_argument(
-        "--robot", default="iCubNancy01", help="robot model from the icub-models package"
+        "--robot", default=DEFAULT_ROBOT, help="robot model from the icub-models package"
     )
     source = parser.add_mutually_exclusive_group()
     source.add_argument(
@@ -99,8 +100,8 @@ def prepare_workspace(args: argparse.Namespace) -> None:
         The folder holds something other than a studio workspace (nothing is touched), or the
         import is refused (nothing is written).
     """
-    from app.dataset_import import detect_format, read_folder
-    from app.workspace import FolderKind, Workspace, inspect_folder
+    from app.io.dataset_import import detect_format, read_folder
+    from app.io.workspace import FolderKind, Workspace, inspect_folder
     from promp.datasets import command_line_modalities
     from promp.rigs import rig_options
 

@@ -1,7 +1,7 @@
 """The studio: one viser server composing the robot, the session, the scene and the panels.
 
 :meth:`Studio.start` builds everything and each panel inside its tab, with a
-:class:`app.context.PanelContext` of its own. Threading follows the dirty-flag pattern: GUI and
+:class:`app.ui.context.PanelContext` of its own. Threading follows the dirty-flag pattern: GUI and
 gizmo callbacks (run by viser's thread pool) only record what changed; one loop thread
 (:meth:`Studio.step`, ~60 Hz) solves the IK, reads the head source, redraws the scene and lets
 each panel recompute. Learning runs in the session's background worker. Everything
@@ -19,26 +19,25 @@ from pathlib import Path
 
 import viser
 
-from app.arm import ArmController
-from app.client_script import add_client_script, tab_switch_html
-from app.context import InferRequest, Panel, PanelContext, PanelGui
-from app.head_input import HeadInput
-from app.head_sources import HeadSource, SimulatedPartner, StreamHeadSource
-from app.help import add_help
+from app.core.session import Session
+from app.io.workspace import FolderKind, WorkspaceData, inspect_folder
+from app.io.workspace_index import PALETTE, PrimitiveEntry
+from app.live.head import HeadInput, HeadSource, SimulatedPartner, StreamHeadSource
 from app.panels.data import DataPanel
 from app.panels.infer import InferPanel
 from app.panels.teach import TeachPanel
-from app.scene import Scene
+from app.scene.arm import ArmController
+from app.scene.camera_buttons import ViewControls
 from app.scene.look import DATA, INFER, TEACH
 from app.scene.robot import RobotView, add_robot
-from app.session import Session
-from app.upload_guard import Refused, UploadGuard
-from app.view import ViewControls
-from app.workspace import FolderKind, WorkspaceData, inspect_folder
-from app.workspace_index import PALETTE, PrimitiveEntry
+from app.scene.scene_view import SceneView
+from app.ui.context import InferRequest, Panel, PanelContext, PanelGui
+from app.ui.help import add_help
+from app.ui.page_script import add_client_script, tab_switch_html
+from app.ui.upload_guard import Refused, UploadGuard
 from promp.data import Demonstration
 from robots.icub.kinematics import ArmChain
-from robots.icub.model import load_urdf
+from robots.icub.model import DEFAULT_ROBOT, load_urdf
 from robots.icub.scene import DEFAULT_SCENE
 
 LOOP_HZ = 60.0
@@ -81,7 +80,7 @@ class Studio:
         self.arm = arm
         self.head = HeadInput(head_source)
         self.head.read(arm.hand_position())
-        self.scene = Scene(server, session)
+        self.scene = SceneView(server, session)
         self.panels: list[Panel] = []
         self.view: ViewControls | None = None
         self._stop = threading.Event()
@@ -104,7 +103,7 @@ class Studio:
         host: str,
         port: int,
         workspace: Path,
-        robot: str = "iCubNancy01",
+        robot: str = DEFAULT_ROBOT,
         camera: int | None = None,
         video: Path | None = None,
     ) -> Studio:
@@ -173,7 +172,7 @@ class Studio:
 
     def _build_panels(self) -> list[Panel]:
         """The camera buttons, then one tab per panel, each ending with its help ("?",
-        collapsed), then the page's script (:mod:`app.client_script`)."""
+        collapsed), then the page's script (:mod:`app.ui.page_script`)."""
         self.view = ViewControls(self.server, self.scene)
         tabs = self.server.gui.add_tab_group()
         panels: list[Panel] = []
@@ -191,7 +190,7 @@ class Studio:
 
     def open_in_infer(self, request: InferRequest, client: viser.ClientHandle | None) -> None:
         """The Infer tab shows ``request`` and ``client``'s browser switches to it (see
-        :attr:`app.context.PanelContext.open_in_infer`); done by the loop's next iteration."""
+        :attr:`app.ui.context.PanelContext.open_in_infer`); done by the loop's next iteration."""
         self.call_in_loop(lambda: self._open_in_infer(request, client))
 
     def _open_in_infer(self, request: InferRequest, client: viser.ClientHandle | None) -> None:
@@ -215,7 +214,7 @@ class Studio:
 
     def _show_tab(self, client: viser.ClientHandle, title: str) -> None:
         """Switch ``client``'s browser to the tab titled ``title``
-        (:func:`app.client_script.tab_switch_html`, in that client's GUI alone)."""
+        (:func:`app.ui.page_script.tab_switch_html`, in that client's GUI alone)."""
         previous = self._tab_switches.pop(client.client_id, None)
         if previous is not None:
             previous.remove()

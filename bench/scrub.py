@@ -41,12 +41,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from app.net import free_port  # noqa: E402
+from app.io.net import free_port  # noqa: E402
+from app.live.inference import held_out_training  # noqa: E402
 from app.panels.infer import LIVE, InferPanel  # noqa: E402
-from app.scrub import held_out_training  # noqa: E402
 from app.studio import Studio  # noqa: E402
-from app.workspace_index import LAYOUT  # noqa: E402
 from promp.learn import fit  # noqa: E402
+from robots.icub.layout import STUDIO_LAYOUT as LAYOUT  # noqa: E402
 
 TARGET_MS = 16.0
 LOAD_TARGET_MS = 33.0  # p90 under load: two frames at 60 Hz
@@ -83,7 +83,7 @@ def sweep(panel: InferPanel, label: str) -> list[float]:
 def fill_live_buffer(panel: InferPanel) -> None:
     """The live buffer as if the first demonstration had just been observed."""
     demo = panel.ctx.session.demos[panel.primitive.value][0]
-    values = demo.select(("x", "y", "z", "roll", "pitch", "yaw"))
+    values = demo.select(LAYOUT.columns)
     panel.live.clear()
     for t, row in zip(demo.times, values, strict=True):
         panel.live.append(1000.0 + float(t), row[:3], row[3:])

@@ -112,8 +112,8 @@ def wait_until(predicate, timeout: float = 30.0, interval: float = 0.05, what="c
 
 def scenario_workspace(root: Path, seed: int, n_demos: int) -> Path:
     """A workspace at ``root`` holding the simulated scenario (``n_demos`` per primitive)."""
-    from app.workspace import Workspace, WorkspaceData
-    from app.workspace_index import PALETTE, PrimitiveEntry
+    from app.io.workspace import Workspace, WorkspaceData
+    from app.io.workspace_index import PALETTE, PrimitiveEntry
     from robots.icub.scenario import generate_scenario
 
     dataset = generate_scenario(seed=seed, n_demos=n_demos)
@@ -129,7 +129,7 @@ def scenario_workspace(root: Path, seed: int, n_demos: int) -> Path:
 
 def start_studio(workspace: Path, **kwargs):
     """A studio on a free loopback port, in this process (stop it with ``studio.stop()``)."""
-    from app.net import free_port
+    from app.io.net import free_port
     from app.studio import Studio
 
     return Studio.start("127.0.0.1", free_port(), workspace, **kwargs)

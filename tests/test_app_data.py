@@ -19,14 +19,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from app import exchange
-from app.gui_text import display_name
+from app.io import exchange
+from app.io.workspace import Workspace, WorkspaceData
+from app.io.workspace_index import FORMAT, PALETTE, PrimitiveEntry
 from app.panels.data.evaluation import EvaluationJob, evaluation_dataset, parse_percents
 from app.panels.data.failed_trials import failed_trials, trial_choices
 from app.panels.data.results import curves, results_table
 from app.panels.data.results_zip import results_filename, results_zip
-from app.workspace import Workspace, WorkspaceData
-from app.workspace_index import FORMAT, PALETTE, PrimitiveEntry
+from app.ui.text import display_name
 from promp.evaluate.methods import Inferred
 from promp.evaluate.plots import write_figures
 from promp.evaluate.report import CSV_COLUMNS, report_json, results_csv
@@ -175,7 +175,7 @@ def test_evaluation_section_without_a_browser() -> None:
     Export sends the zip and Open asks the studio for the chosen trial."""
     import viser
 
-    from app.net import free_port
+    from app.io.net import free_port
     from app.panels.data.evaluation_section import EvaluationSection
 
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from app.workspace import Workspace
+from app.io.workspace import Workspace
 from tests.browser import (
     choose,
     click,
@@ -201,7 +201,7 @@ def test_a_workspace_of_other_modalities_has_their_charts_and_no_recording(
     """Forces beside the hand: charts per dimension in Teach and Infer, observable alone or
     together, and a Record that explains why it is off (no browser needed: the panels' state
     is the server's)."""
-    from app.dataset_import import read_folder
+    from app.io.dataset_import import read_folder
     from app.panels.infer import InferPanel
     from app.panels.teach import TeachPanel
     from promp.datasets import parse_modalities

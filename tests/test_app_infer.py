@@ -12,22 +12,22 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from app.display import observed_choices
-from app.live_buffer import LiveBuffer
-from app.replay import Replay
-from app.scrub import (
+from app.live.inference import (
     HeldOutModels,
     demo_observation,
     held_out_training,
     n_observed_for,
     scrub_step,
 )
-from app.workspace_index import COLUMNS, LAYOUT
+from app.live.replay import Replay
+from app.live.stream import LiveBuffer
+from app.ui.display import observed_choices
 from promp import metrics
 from promp.data import Demonstration
 from promp.inference import condition, predict
 from promp.learn import fit
 from promp.model import Settings
+from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from robots.icub.layout import hand_dims
 from tests.browser import (
     choose,
@@ -38,6 +38,8 @@ from tests.browser import (
     settled_screenshot,
 )
 from tests.conftest import open_page, start_studio, wait_until
+
+COLUMNS = LAYOUT.columns
 
 SETTINGS = Settings()
 

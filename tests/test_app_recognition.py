@@ -11,13 +11,18 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from app.display import observed_choices
+from app.live.inference import demo_observation, held_out_training, scrub_step
+from app.live.recognition_curve import (
+    CurveCache,
+    RecognitionCurve,
+    earliest_right,
+    recognition_curve,
+)
 from app.panels.infer.recognition import TITLE, chart_data
-from app.recognition_curve import CurveCache, RecognitionCurve, earliest_right, recognition_curve
-from app.scrub import demo_observation, held_out_training, scrub_step
-from app.workspace_index import LAYOUT
+from app.ui.display import observed_choices
 from promp.learn import fit
 from promp.model import Settings
+from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests.browser import choose, press, wait_camera_still
 from tests.conftest import open_page, start_studio, wait_until
 

@@ -9,9 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from app.takes import MARGIN_S, active_span, mean_start, speed
-from app.workspace_index import LAYOUT
+from app.live.takes import MARGIN_S, active_span, mean_start, speed
 from promp.data import Demonstration
+from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 
 RATE = 50.0
 

@@ -16,16 +16,16 @@ import numpy as np
 import pytest
 import viser.transforms as vtf
 
+from app.core.session import Session
+from app.io.workspace import Workspace
+from app.live.recorder import MAX_GAP_S, Recorder, Recording
+from app.live.take_machine import COUNTDOWN_S
+from app.live.takes import mean_start
 from app.panels.teach.head import MAX_VIDEO_BYTES
-from app.panels.teach.recording import COUNTDOWN_S
-from app.plots import Band, Trace, band_chart, y_range
-from app.recorder import MAX_GAP_S, Recorder, Recording
-from app.session import Session
 from app.studio import default_workspace
-from app.takes import mean_start
-from app.workspace import Workspace
-from app.workspace_index import LAYOUT
+from app.ui.charts import Band, Trace, band_chart, y_range
 from promp.datasets import read_csv_demo
+from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests.browser import camera_pixels, close_notifications, set_camera, settled_screenshot
 from tests.conftest import REPO, open_page, start_studio, wait_until
 
@@ -306,7 +306,7 @@ def side_camera(client) -> None:
 
 def test_the_head_source_stays_during_a_recording(studio) -> None:
     """GUI logic, driven from Python (setting a value runs its callbacks)."""
-    from app.head_sources import SimulatedPartner
+    from app.live.head import SimulatedPartner
 
     teach = panel(studio)
     source = studio.head.source
@@ -589,8 +589,8 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
 ) -> None:
     from skimage.data import astronaut
 
-    from app.head_sources import StreamHeadSource, TrackHeadSource
     from app.headpose.synthetic import ASTRONAUT_FACE_CENTRE, place_face
+    from app.live.head import StreamHeadSource, TrackHeadSource
 
 
     face = np.ascontiguousarray(astronaut()[:, :, ::-1])
@@ -727,7 +727,7 @@ def _snapshot(root: Path) -> dict[str, bytes]:
 
 
 def _serve(workspace: Path) -> tuple[subprocess.Popen, int]:
-    from app.net import free_port
+    from app.io.net import free_port
 
     port = free_port()
     proc = subprocess.Popen(

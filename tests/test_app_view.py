@@ -181,7 +181,7 @@ def test_a_tab_that_connected_before_the_first_drawing_gets_the_start_view(scena
     the start view, or that the user then moved, is left alone."""
     import viser
 
-    from app.view import ViewControls
+    from app.scene.camera_buttons import ViewControls
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:

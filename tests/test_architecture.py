@@ -1,6 +1,6 @@
-"""The shape of the code: no import cycle between our modules, ``promp`` imports nothing of
-``app`` or ``robots``, ``robots`` nothing of ``app``, panels nothing of the studio, and no file of
-``app`` or ``robots`` over 500 lines.
+"""The shape of the code: no import cycle between our modules nor between our packages,
+``promp`` imports nothing of ``app`` or ``robots``, ``robots`` nothing of ``app``, panels nothing
+of the studio, and no file of ``app`` or ``robots`` over 500 lines.
 
 The import graph is read from the source (every ``import`` statement, also inside functions and
 under ``TYPE_CHECKING``): an edge goes from a module to each module of ours it names.
@@ -107,14 +107,42 @@ def test_the_import_graph_finds_a_cycle() -> None:
 
 def test_the_graph_reads_every_kind_of_import() -> None:
     graph = import_graph()
-    assert "app.context" in graph["app.panels.teach.panel"]  # from app.context import ...
-    assert "app.exchange" in graph["app.panels.data.panel"]  # from app import exchange
+    assert "app.ui.context" in graph["app.panels.teach.panel"]  # from app.ui.context import ...
+    assert "app.io.exchange" in graph["app.panels.data.panel"]  # from app.io import exchange
     assert "app.panels.teach.panel" in graph["app.panels.teach"]  # a package's own module
     assert "robots.icub.scenario" in graph["app.studio"]  # imported inside a function
 
 
 def test_no_import_cycle_between_our_modules() -> None:
     assert cycles(import_graph()) == []
+
+
+def package_graph(graph: dict[str, set[str]]) -> dict[str, set[str]]:
+    """{package: the packages of ours its modules import}: a module belongs to the folder it
+    is in (``app.io.workspace`` to ``app.io``; a package's ``__init__`` to the package)."""
+    modules = module_files()
+
+    def package(name: str) -> str:
+        return name if modules[name].name == "__init__.py" else name.rpartition(".")[0]
+
+    out: dict[str, set[str]] = {}
+    for name, targets in graph.items():
+        edges = out.setdefault(package(name), set())
+        edges.update(package(t) for t in targets if package(t) != package(name))
+    return out
+
+
+def test_the_package_graph_groups_modules_by_folder() -> None:
+    packages = package_graph(import_graph())
+    assert "app.io" in packages["app.core"]  # the store writes the workspace folder
+    assert "app" not in {p for targets in packages.values() for p in targets}  # the top: cli
+
+
+def test_no_import_cycle_between_the_packages_of_app_and_robots() -> None:
+    packages = package_graph(import_graph())
+    ours = {p: {t for t in targets if t.startswith(("app", "robots"))}
+            for p, targets in packages.items() if p.startswith(("app", "robots"))}  # fmt: skip
+    assert cycles(ours) == []
 
 
 def test_dependencies_go_one_way() -> None:

@@ -19,17 +19,18 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app.dataset_import import extract_dataset_zip
-from app.exchange import Limits, read_upload, workspace_zip
-from app.headpose.sources import HeadPoseSourceError, track_video
-from app.workspace import Workspace, WorkspaceData
-from app.workspace_index import LAYOUT, PALETTE, PrimitiveEntry
+from app.headpose.frames import HeadPoseSourceError, track_video
+from app.io.dataset_import import extract_dataset_zip
+from app.io.exchange import Limits, read_upload, workspace_zip
+from app.io.workspace import Workspace, WorkspaceData
+from app.io.workspace_index import PALETTE, PrimitiveEntry
 from promp.datasets import demo_from_csv, demo_to_csv, read_record
 from promp.inference import Observation
 from promp.io import demo_from_npz_bytes, model_to_json
 from promp.learn import fit
 from promp.model import Settings
 from promp.pipeline import infer
+from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests import bad_inputs
 from tests.synthetic import make_dataset
 

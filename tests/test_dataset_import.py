@@ -17,15 +17,15 @@ import numpy as np
 import pytest
 
 from app.cli import build_parser, prepare_workspace
-from app.dataset_import import (
+from app.core.session import Session
+from app.io.dataset_import import (
     dataset_to_workspace,
     extract_dataset_zip,
     read_folder,
     safe_name,
 )
-from app.exchange import Limits
-from app.session import Session
-from app.workspace import FolderKind, inspect_folder
+from app.io.exchange import Limits
+from app.io.workspace import FolderKind, inspect_folder
 from promp.datasets import parse_modality, read_dataset
 from tests.conftest import REPO
 
@@ -233,7 +233,7 @@ def test_starting_on_a_folder_of_recordings_exits_and_leaves_it_byte_identical(
     mine = tmp_path / "my_recordings"
     shutil.copytree(heights_dir, mine)
     before = checksums(mine)
-    from app.net import free_port
+    from app.io.net import free_port
 
     result = subprocess.run(
         [sys.executable, "-m", "app", "--workspace", str(mine), "--port", str(free_port())],

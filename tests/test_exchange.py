@@ -1,4 +1,4 @@
-"""Export and import files (app.exchange), the imported-model session state, and the
+"""Export and import files (app.io.exchange), the imported-model session state, and the
 robot-side example: exact round trips, every refusal with its message, no browser."""
 
 from __future__ import annotations
@@ -19,18 +19,21 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
-from app import exchange, workspace_index
-from app.exchange import Limits, ModelUpload, WorkspaceUpload, read_upload, workspace_zip
-from app.session import Session
-from app.workspace import Workspace, WorkspaceData
-from app.workspace_index import COLUMNS, LAYOUT, PALETTE, PrimitiveEntry
+from app.core.session import Session
+from app.io import exchange, workspace_index
+from app.io.exchange import Limits, ModelUpload, WorkspaceUpload, read_upload, workspace_zip
+from app.io.workspace import Workspace, WorkspaceData
+from app.io.workspace_index import PALETTE, PrimitiveEntry
 from promp.data import Demonstration, Layout, Modality
 from promp.datasets import demo_to_csv
 from promp.io import model_to_dict
 from promp.learn import fit
 from promp.model import Settings
+from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests.conftest import REPO
 from tests.synthetic import make_dataset
+
+COLUMNS = LAYOUT.columns
 
 EXAMPLE = REPO / "docs" / "robot_side_example.py"
 

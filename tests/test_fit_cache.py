@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-import app.learning
-from app.fit_cache import training_key
-from app.learning import RECENT_FITS, Training, learn
-from app.lru import LruCache
-from app.session import Session
+import app.core.learning
+from app.core.fit_cache import training_key
+from app.core.learning import RECENT_FITS, Training, learn
+from app.core.lru import LruCache
+from app.core.session import Session
+from app.io.workspace import Workspace
 from app.studio import default_workspace
-from app.workspace import Workspace
 from promp.data import Demonstration, Layout
 from promp.model import Settings
 from tests.synthetic import LAYOUT, make_dataset
@@ -95,7 +95,7 @@ def test_a_refit_of_the_same_training_reuses_its_outcome_and_a_crash_is_not_kept
     def crash(*args, **kwargs):
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(app.learning, "fit", crash)
+    monkeypatch.setattr(app.core.learning, "fit", crash)
     crashed = learn(other)
     assert crashed.model is None and crashed.error == "RuntimeError: a bug"
     monkeypatch.undo()

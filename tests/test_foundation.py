@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from app.cli import build_parser
-from app.net import free_port, is_loopback, port_is_free
+from app.io.net import free_port, is_loopback, port_is_free
 from app.scene.camera import partner_eye
 from robots.icub.model import DEFAULT_ROBOT, available_robots, load_urdf, natural_pose, urdf_path
 from tests.browser import settled_render

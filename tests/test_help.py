@@ -9,7 +9,7 @@ import pytest
 
 
 def test_every_tab_has_its_help_and_a_missing_one_says_so(monkeypatch, tmp_path) -> None:
-    import app.help as help_module
+    import app.ui.help as help_module
 
     for tab in ("teach", "infer", "data"):
         text = help_module.help_text(tab)

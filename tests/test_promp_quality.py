@@ -48,7 +48,7 @@ def test_nothing_is_flagged_on_the_clean_real_sets(name) -> None:
 
 def test_nothing_is_flagged_in_the_simulated_experiment() -> None:
     from app.studio import default_workspace
-    from app.workspace_index import LAYOUT as STUDIO
+    from robots.icub.layout import STUDIO_LAYOUT as STUDIO
     from robots.icub.scenario import generate_scenario
 
     assert dataset_findings(default_workspace().demos, STUDIO) == []  # generated once
@@ -148,7 +148,7 @@ def test_the_take_the_browser_test_records_is_not_flagged() -> None:
     """A real take of the studio (tests/data/dragged_take.csv, recorded by the browser test of
     recording on a loaded machine: the hand moves 5 cm in one tick four times, the simulated
     head turns 2-3 ticks later); it was flagged as a head jump and left out."""
-    from app.workspace_index import LAYOUT as STUDIO
+    from robots.icub.layout import STUDIO_LAYOUT as STUDIO
 
     take = read_csv_demo(Path(__file__).parent / "data" / "dragged_take.csv")
     assert demo_findings(take, STUDIO, "curved") == []

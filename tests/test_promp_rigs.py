@@ -290,7 +290,7 @@ def test_a_missing_library_names_the_extra(tmp_path: Path, monkeypatch) -> None:
 def test_the_command_lines_read_recordings(tmp_path: Path, capsys) -> None:
     """The studio's --import-dataset and the evaluation read a session file by its mapping."""
     from app.cli import build_parser, prepare_workspace
-    from app.workspace import Workspace
+    from app.io.workspace import Workspace
     from promp.evaluate.cli import main
 
     session = rf.write_ros2_bag(tmp_path / "session")
@@ -317,7 +317,7 @@ def test_every_format_through_the_data_tab_upload(tmp_path: Path) -> None:
     """What the Data tab does with an upload: a session file as it is (a bag, an XDF, a C3D), or
     a zip of a dump folder; the format told by the files, the mapping guessed and shown, every
     demonstration listed with its source before anything is written."""
-    from app.dataset_import import extract_dataset_zip
+    from app.io.dataset_import import extract_dataset_zip
     from tests.test_dataset_import import zip_folder
 
     uploads = {

@@ -45,7 +45,7 @@ def shifted(demo: Demonstration, metres: float) -> Demonstration:
 
 
 def score(curved, demo: Demonstration):
-    from app.workspace_index import LAYOUT
+    from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 
     others = [d for d in curved if d.name != curved[5].name]
     return typicality(demo, others, LAYOUT, SETTINGS)
@@ -79,6 +79,6 @@ def test_a_take_stopped_early_is_typical_for_its_part(curved) -> None:
 
 
 def test_typicality_needs_three_others(curved) -> None:
-    from app.workspace_index import LAYOUT
+    from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 
     assert typicality(curved[0], curved[1:3], LAYOUT, SETTINGS) is None

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from app.panels.teach.recording import (
+from app.live.take_machine import (
     HEAD_FAILED,
     Event,
     Phase,
@@ -13,8 +13,8 @@ from app.panels.teach.recording import (
     Take,
     refusal,
 )
-from app.workspace_index import LAYOUT
 from promp.data import Layout, Modality
+from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 
 
 def test_a_take_counts_down_then_records_until_stopped() -> None:

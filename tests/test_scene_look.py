@@ -7,8 +7,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from app.context import PanelGui
 from app.scene.look import DATA, FADED, HIDDEN, INFER, SHOWN, TEACH, WORKSPACE_LOOK, Look, look
+from app.ui.context import PanelGui
 
 
 def test_teach_and_data_show_the_workspace_whatever_infer_shows() -> None:

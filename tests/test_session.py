@@ -13,10 +13,13 @@ import threading
 import numpy as np
 import pytest
 
-from app.session import Session
+from app.core.session import Session
+from app.io.workspace import Workspace, WorkspaceData
+from app.io.workspace_index import PrimitiveEntry
 from app.studio import default_workspace
-from app.workspace import Workspace, WorkspaceData
-from app.workspace_index import COLUMNS, LAYOUT, PrimitiveEntry
+from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
+
+COLUMNS = LAYOUT.columns
 
 
 @pytest.fixture(scope="module")
@@ -304,7 +307,7 @@ def test_replacing_and_switching_workspaces(session, tmp_path) -> None:
 def test_refits_run_in_the_background_and_only_the_latest_is_adopted(session, monkeypatch):
     """A change returns at once; the previous model stays in use until the refit of the latest
     change is done; a refit superseded while it ran is never adopted."""
-    import app.session as module
+    import app.core.session as module
 
     real, learned = module.learn, []
     started, release = threading.Event(), threading.Event()
@@ -366,7 +369,7 @@ def test_a_flagged_demonstration_is_left_out_until_kept_and_the_choice_persists(
 
 
 def test_an_imports_timestamp_findings_travel_with_the_workspace(tmp_path) -> None:
-    from app.dataset_import import read_folder
+    from app.io.dataset_import import read_folder
     from promp.datasets import write_csv_dataset
     from robots.icub.scenario import generate_scenario
 

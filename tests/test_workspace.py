@@ -13,18 +13,13 @@ import textwrap
 import numpy as np
 import pytest
 
-from app.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
-from app.workspace_index import (
-    COLUMNS,
-    FORMAT,
-    LAYOUT,
-    PALETTE,
-    PrimitiveEntry,
-    check_color,
-    check_name,
-)
+from app.io.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
+from app.io.workspace_index import FORMAT, PALETTE, PrimitiveEntry, check_color, check_name
 from promp.data import Demonstration, Layout, Modality
+from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests.conftest import REPO
+
+COLUMNS = LAYOUT.columns
 
 
 def make_demo(name: str, seed: int, n: int = 50) -> Demonstration:
@@ -130,7 +125,7 @@ def test_unreadable_demonstrations_are_reported_and_the_rest_loads(tmp_path) -> 
         ("{not json", "not a readable workspace index"),
         (json.dumps({"format": "other"}), "not a studio workspace index"),
         (json.dumps({"format": FORMAT, "version": 99}), "unsupported workspace version 99"),
-        # Checked as an imported archive's index is (app.workspace_index.check_index).
+        # Checked as an imported archive's index is (app.io.workspace_index.check_index).
         (
             json.dumps({"format": FORMAT, "version": 1, "primitives": [{"name": "a"}]}),
             "primitive 0 needs a 'name' and a 'color'",
@@ -297,8 +292,9 @@ WRITER = textwrap.dedent(
     """
     import sys
     import numpy as np
-    from app.workspace import Workspace
-    from app.workspace_index import COLUMNS, LAYOUT
+    from app.io.workspace import Workspace
+    from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
+    COLUMNS = LAYOUT.columns
     from promp.data import Demonstration
 
     workspace = Workspace(sys.argv[1])

@@ -19,7 +19,7 @@ import numpy as np
 from promp.data import Demonstration, Layout
 from promp.model import Settings
 
-MAX_ENTRIES = 8  # recent trainings kept (app.session.RECENT_FITS)
+MAX_ENTRIES = 8  # recent trainings kept (app.core.session.RECENT_FITS)
 
 
 def training_key(

@@ -1,7 +1,8 @@
 """Learning in the studio: what one refit learns from, its outcome, and the fit itself.
 
 A refit of a training learned a moment ago (Undo delete, a setting put back) reuses that model
-(:mod:`app.fit_cache`): the outcomes of the last fits are kept by a digest of everything the fit
+(:mod:`app.core.fit_cache`): the outcomes of the last fits are kept by a digest of everything
+the fit
 reads. A crash is never kept. Any other refit starts from the last model's choice of the
 automatic settings, which it keeps unless the demonstrations now say otherwise
 (:func:`promp.selection.choose_settings`: the previous choice and its runner-up scored on the
@@ -16,8 +17,8 @@ import traceback
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
-from app.fit_cache import MAX_ENTRIES, training_key
-from app.lru import LruCache
+from app.core.fit_cache import MAX_ENTRIES, training_key
+from app.core.lru import LruCache
 from promp.data import Demonstration, Layout
 from promp.learn import fit
 from promp.model import ProMPModel, Settings

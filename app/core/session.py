@@ -10,12 +10,12 @@ demonstrations, the settings, the workspace) asks for a refit and returns at onc
 previous model stays in use (and drawn); a newer request supersedes one in flight, whose result
 is then dropped, so only the model of the latest request is adopted (and bumps the version).
 :meth:`Session.wait_for_model` waits for it. A refit of what was learned a moment ago (Undo
-delete, a setting put back) reuses that model (:mod:`app.fit_cache`). A model of other
+delete, a setting put back) reuses that model (:mod:`app.core.fit_cache`). A model of other
 modalities than the workspace's (after an import) is dropped at once rather than kept
 meanwhile.
 
 Deleting a demonstration or a primitive, and replacing the workspace, move the files to the
-workspace's trash (:mod:`app.trash`); :meth:`Session.restore` puts them back. The session's
+workspace's trash (:mod:`app.io.trash`); :meth:`Session.restore` puts them back. The session's
 modalities are its workspace's layout: the studio's hand and head for the workspaces it
 creates, whatever an imported dataset holds otherwise.
 """
@@ -31,12 +31,12 @@ from pathlib import Path
 
 import numpy as np
 
-from app.demo_checks import DemoChecks
-from app.learning import Learned, Training, learn
-from app.session_checks import FlaggedDemos
-from app.trash import TrashEntry
-from app.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
-from app.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
+from app.core.learning import Learned, Training, learn
+from app.core.session_checks import FlaggedDemos
+from app.io.demo_checks import DemoChecks
+from app.io.trash import TrashEntry
+from app.io.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
+from app.io.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
 from promp.data import Demonstration, Layout
 from promp.model import FALLBACK, ProMPModel, Settings
 from promp.typicality import Typicality, typicality
@@ -371,7 +371,7 @@ class Session(FlaggedDemos):
             return self.workspace.trash.entries()
 
     def restore(self, name: str) -> TrashEntry:
-        """Put the trash entry ``name`` back (see :meth:`app.workspace.Workspace.restore`)."""
+        """Put the trash entry ``name`` back (see :meth:`app.io.workspace.Workspace.restore`)."""
         with self.lock:
             entry = self.workspace.restore(name)
             self.deleted = [e for e in self.deleted if e.name != name]

@@ -1,22 +1,22 @@
-"""The session's side of the checks (:mod:`app.demo_checks`): which demonstrations are flagged,
+"""The session's side of the checks (:mod:`app.io.demo_checks`): which demonstrations are flagged,
 which are left out of learning, the user's Keep, and the repair of a gap.
 
-A part of :class:`app.session.Session` (it works on the session's demonstrations, lock and
+A part of :class:`app.core.session.Session` (it works on the session's demonstrations, lock and
 workspace); kept apart so that the session's file stays one idea long.
 """
 
 from __future__ import annotations
 
-from app.dataset_import import safe_name
+from app.io.dataset_import import safe_name
 from promp.data import Demonstration
 from promp.quality import Finding, repair_gaps, split_flagged
 
 
 class FlaggedDemos:
-    """Methods of :class:`app.session.Session` about flagged demonstrations."""
+    """Methods of :class:`app.core.session.Session` about flagged demonstrations."""
 
     def _recheck(self) -> None:
-        """Find the demonstrations' faults again (:mod:`app.demo_checks`; lock held)."""
+        """Find the demonstrations' faults again (:mod:`app.io.demo_checks`; lock held)."""
         self.findings: list[Finding] = self.checks.findings(self.demos, self.layout)
 
     def left_out(self) -> dict[tuple[str, str], list[Finding]]:

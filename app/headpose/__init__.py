@@ -60,14 +60,7 @@ API
 
 from app.headpose.estimator import DEFAULT_SMOOTHING, HeadPoseEstimator, HeadPoseSample
 from app.headpose.filter import OneEuroConfig, OneEuroFilter
-from app.headpose.models import (
-    INSTALL_COMMAND,
-    HeadPoseModelError,
-    locate_models,
-    models_available,
-)
-from app.headpose.overlay import draw_overlay
-from app.headpose.sources import (
+from app.headpose.frames import (
     FrameSource,
     HeadPoseSourceError,
     HeadPoseTrack,
@@ -75,6 +68,13 @@ from app.headpose.sources import (
     open_video,
     track_video,
 )
+from app.headpose.models import (
+    INSTALL_COMMAND,
+    HeadPoseModelError,
+    locate_models,
+    models_available,
+)
+from app.headpose.overlay import draw_overlay
 from app.headpose.stream import CameraStream
 
 __all__ = [

@@ -11,8 +11,8 @@ import cv2
 import numpy as np
 
 from app.headpose.estimator import HeadPoseEstimator, HeadPoseSample
+from app.headpose.frames import FrameSource, open_camera, open_video
 from app.headpose.overlay import draw_overlay
-from app.headpose.sources import FrameSource, open_camera, open_video
 
 
 class CameraStream:

@@ -31,10 +31,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
-from app.demo_checks import DemoChecks
-from app.exchange import Limits, check_member, format_size
-from app.workspace import WorkspaceData
-from app.workspace_index import PALETTE, PrimitiveEntry, check_layout
+from app.io.demo_checks import DemoChecks
+from app.io.exchange import Limits, check_member, format_size
+from app.io.workspace import WorkspaceData
+from app.io.workspace_index import PALETTE, PrimitiveEntry, check_layout
 from promp.data import Demonstration, Layout, Modality
 from promp.datasets import FORMATS, RECORD_COLUMNS, Dataset, dataset_columns, read_dataset
 from promp.quality import Finding

@@ -10,7 +10,7 @@ Two kinds of file leave and enter the studio:
       demos/<primitive>/<demo>.csv    t and the layout's columns
       model.json                      the learned model, when there is one
 
-  the workspace folder's own format (:mod:`app.workspace`) plus the model.
+  the workspace folder's own format (:mod:`app.io.workspace`) plus the model.
 
 Reading an upload validates **everything** in memory before anything may change: a model must
 parse (:func:`promp.io.model_from_json`) with primitive names the studio can use (the session
@@ -34,8 +34,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import PurePosixPath
 
-from app.workspace import DEMOS_DIR, WorkspaceData
-from app.workspace_index import INDEX_NAME, Index, check_index, check_name, index_json
+from app.io.workspace import DEMOS_DIR, WorkspaceData
+from app.io.workspace_index import INDEX_NAME, Index, check_index, check_name, index_json
 from promp.data import Demonstration, Layout
 from promp.datasets import demo_from_csv, demo_to_csv
 from promp.io import model_from_json, model_to_json

@@ -9,7 +9,7 @@
       raw/<primitive>/<demo>_<time>.csv
                                       each recorded take as it was sampled, before its idle
                                       ends were trimmed (never read as a demonstration)
-      trash/                          what was deleted or replaced (app.trash), restorable
+      trash/                          what was deleted or replaced (app.io.trash), restorable
 
 The studio only ever writes inside a folder that is absent, empty, or already a studio
 workspace (it has ``studio.json``): :func:`inspect_folder` tells them apart, and any other
@@ -35,11 +35,10 @@ from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
 
-from app.demo_checks import DemoChecks
-from app.trash import Trash, TrashEntry
-from app.workspace_index import (
+from app.io.demo_checks import DemoChecks
+from app.io.trash import Trash, TrashEntry
+from app.io.workspace_index import (
     INDEX_NAME,
-    LAYOUT,
     Index,
     PrimitiveEntry,
     check_color,
@@ -51,6 +50,7 @@ from app.workspace_index import (
 from promp.data import Demonstration, Layout
 from promp.datasets import atomic_write_text, read_csv_demo, write_csv_demo
 from promp.model import Settings
+from robots.icub.layout import STUDIO_LAYOUT
 
 DEMOS_DIR = "demos"
 RAW_DIR = "raw"  # untrimmed takes: kept for the record, not loaded
@@ -64,8 +64,8 @@ class WorkspaceData:
     demos: dict[str, list[Demonstration]] = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     problems: list[str] = field(default_factory=list)  # files that could not be read
-    layout: Layout = LAYOUT
-    checks: DemoChecks = DemoChecks()  # what the user kept despite findings (app.demo_checks)
+    layout: Layout = STUDIO_LAYOUT
+    checks: DemoChecks = DemoChecks()  # what the user kept despite findings (app.io.demo_checks)
 
     @property
     def n_demos(self) -> int:
@@ -116,7 +116,7 @@ def inspect_folder(root: Path) -> tuple[FolderKind, str]:
 
 class Workspace:
     """A studio session on disk (see the module docstring). Not thread-safe by itself: the
-    :class:`app.session.Session` serialises access."""
+    :class:`app.core.session.Session` serialises access."""
 
     def __init__(self, root: Path):
         self.root = Path(root)

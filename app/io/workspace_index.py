@@ -8,7 +8,8 @@
      "settings": {"n_basis": 7, ...}}
 
 The layout lists the modalities (:func:`layout_listing`); a workspace the studio creates has
-the studio's (:data:`LAYOUT`, hand and head). Primitive names are safe file names
+the studio's (:data:`robots.icub.layout.STUDIO_LAYOUT`, hand and head). Primitive names are
+safe file names
 (:func:`check_name`). The settings are those of :class:`promp.model.Settings` the workspace sets;
 absent ones take the engine's defaults. The index on disk and one in an imported archive are
 checked alike (:func:`check_index`).
@@ -21,7 +22,7 @@ import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 
-from app.demo_checks import DemoChecks
+from app.io.demo_checks import DemoChecks
 from promp.data import Layout, Modality
 from promp.datasets import MODALITY_NAME
 from promp.model import Settings
@@ -30,8 +31,6 @@ from robots.icub.layout import HAND, STUDIO_LAYOUT
 FORMAT = "icub-intention-studio/workspace"
 VERSION = 1
 INDEX_NAME = "studio.json"
-LAYOUT = STUDIO_LAYOUT  # the layout of a workspace the studio creates and records into
-COLUMNS = LAYOUT.columns
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_\-]{0,39}$")
 # Primitive colours, in order: saturated and far apart in hue (after Okabe and Ito's
 # colour-blind-safe set), none close to the scene's neutral table, bins and object, nor to the
@@ -141,10 +140,10 @@ class PrimitiveEntry:
 def index_json(
     primitives: Sequence[PrimitiveEntry],
     settings: Mapping,
-    layout: Layout = LAYOUT,
+    layout: Layout = STUDIO_LAYOUT,
     checks: DemoChecks | None = None,
 ) -> str:
-    """The text of ``studio.json`` (``checks``: :mod:`app.demo_checks`, written when it holds
+    """The text of ``studio.json`` (``checks``: :mod:`app.io.demo_checks`, written when it holds
     something)."""
     index = {
         "format": FORMAT,
@@ -183,7 +182,7 @@ def check_index(index: object, label: str) -> Index:
             f"{label}: unsupported workspace version {index.get('version')!r}; "
             f"this studio reads version {VERSION}"
         )
-    layout = layout_from_listing(index["layout"], label) if "layout" in index else LAYOUT
+    layout = layout_from_listing(index["layout"], label) if "layout" in index else STUDIO_LAYOUT
     raw = index.get("primitives", [])
     if not isinstance(raw, list):
         raise ValueError(f"{label}: 'primitives' must be a list")

@@ -1,11 +1,16 @@
-"""Where the partner's head pose comes from while teaching: a simulated partner, a webcam, a
-video file, or a head-pose track computed from an uploaded video.
+"""The partner's head: where its pose comes from while teaching (a simulated partner, a webcam,
+a video file, or a head-pose track computed from an uploaded video), and the source in use with
+its latest reading (:class:`HeadInput`).
 
 Every source answers :meth:`HeadSource.read` with the latest head orientation (roll, pitch,
 yaw in the convention of :mod:`robots.icub.scene`) or ``None`` when there is no face, never a
 stale or invented angle; camera-backed sources also give a preview image with the landmarks
 drawn. A source that fails keeps its error message in :attr:`HeadSource.error` and reads
 ``None``; the rest of the studio keeps working.
+
+The Teach tab's *Head source* chooses the source (:meth:`HeadInput.use`, from any thread); the
+studio's loop reads it once per iteration (:meth:`HeadInput.read`); the recorder, the live
+stream and the partner's avatar take :attr:`HeadInput.angles`, that latest reading.
 """
 
 from __future__ import annotations
@@ -156,3 +161,38 @@ class TrackHeadSource(HeadSource):
         if not self.valid[i]:
             return HeadReading(now, None, 0.0)
         return HeadReading(now, self.angles[i].copy(), 1.0)
+
+
+class HeadInput:
+    """The current head source and its latest reading (see the module docstring)."""
+
+    def __init__(self, source: HeadSource):
+        self._lock = threading.Lock()
+        self._source = source
+        self.reading = HeadReading(time.monotonic(), None)
+
+    @property
+    def source(self) -> HeadSource:
+        return self._source
+
+    @property
+    def angles(self) -> np.ndarray | None:
+        """Roll, pitch, yaw (rad) of the latest reading, None when it saw no face."""
+        return self.reading.angles
+
+    def use(self, source: HeadSource) -> None:
+        """Read the head from ``source`` from now on; the previous one is closed."""
+        with self._lock:
+            old, self._source = self._source, source
+        if old is not source:
+            old.close()
+
+    def read(self, hand_position: np.ndarray) -> HeadReading:
+        """Read the source (the simulated partner looks where the hand goes)."""
+        with self._lock:
+            source = self._source
+        self.reading = source.read(hand_position)
+        return self.reading
+
+    def close(self) -> None:
+        self._source.close()

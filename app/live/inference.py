@@ -22,8 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.display import ALPHA_LABELS
-from app.lru import LruCache
+from app.core.lru import LruCache
 from promp.data import Demonstration, Layout, Modality
 from promp.duration import Timing
 from promp.inference import Observation, Prediction, predict
@@ -34,8 +33,6 @@ from promp.pipeline import infer
 from promp.recognition import Recognition
 from robots.icub.layout import hand_dims
 
-# What the GUI offers, and what the engine calls it.
-ALPHA_CHOICES: dict[str, str] = {label: method for method, label in ALPHA_LABELS.items()}
 TUBE_POINTS = 100  # rings of the posterior tube (fixed mesh topology)
 PATH_POINTS = 60  # samples of the predicted future hand path
 
@@ -87,7 +84,7 @@ def held_out_training(
 class HeldOutModels:
     """Models learned without one test demonstration, cached by (version of what is learned
     from, primitive, demonstration, settings): scrubbing never refits; a change of the
-    demonstrations or the settings does (:attr:`app.session.Session.learn_version`)."""
+    demonstrations or the settings does (:attr:`app.core.session.Session.learn_version`)."""
 
     def __init__(self, max_entries: int = 8):
         self._cache: LruCache[ProMPModel] = LruCache(max_entries)

@@ -3,7 +3,7 @@ a test demonstration observed, and the earliest point from which the recognition
 (the paper's question: how early is it right?). Pure computation, no viser.
 
 :func:`recognition_curve` recognises the first ``p`` % of the demonstration for every ``p`` of
-a grid (the Infer tab's rule, :func:`app.scrub.demo_observation`), with the model, observed
+a grid (the Infer tab's rule, :func:`app.live.inference.demo_observation`), with the model, observed
 modalities and alpha method of the Infer tab; a percentage the engine cannot explain (it raises
 ``ValueError``) has no probabilities (NaN) and counts as not right. :class:`CurveCache` keeps
 the curves already computed, by what they depend on.
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.lru import LruCache
-from app.scrub import demo_observation
+from app.core.lru import LruCache
+from app.live.inference import demo_observation
 from promp.data import Demonstration
 from promp.model import ProMPModel
 from promp.recognition import recognise

@@ -32,7 +32,7 @@ import numpy as np
 from promp.data import Layout
 from robots.icub.layout import HAND, HEAD, STUDIO_LAYOUT
 
-DEFAULT_RATE_HZ = 50.0
+RECORD_RATE_HZ = 50.0  # the studio records takes at this rate (the simulated scenario has its own)
 MAX_GAP_S = 0.5
 
 Sampler = Callable[[], tuple[np.ndarray, np.ndarray | None]]
@@ -178,7 +178,7 @@ class Recorder:
     def __init__(
         self,
         sample: Sampler,
-        rate_hz: float = DEFAULT_RATE_HZ,
+        rate_hz: float = RECORD_RATE_HZ,
         clock: Callable[[], float] = time.monotonic,
     ):
         if not np.isfinite(rate_hz) or not 1.0 <= rate_hz <= 1000.0:

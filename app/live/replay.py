@@ -4,7 +4,7 @@ After an inference, the path is the posterior mean hand position from the observ
 the predicted end, timed by the predicted speed (it lasts the predicted remaining duration).
 :class:`Replay` is advanced by the studio's loop (:meth:`Replay.step`, by the time elapsed since
 the previous step), never blocking it; each step moves the hand through the IK
-(``move_hand``, e.g. :meth:`app.arm.ArmController.move_hand_to`, which also brings the gizmo
+(``move_hand``, e.g. :meth:`app.scene.arm.ArmController.move_hand_to`, which also brings the gizmo
 along).
 """
 

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from app.scrub import n_observed_for
+from app.live.inference import n_observed_for
 from promp.data import Layout
 from promp.inference import Observation
 from robots.icub.layout import HAND, HEAD

@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass
 from enum import Enum
 
-from app.recorder import unrecordable
+from app.live.recorder import unrecordable
 from promp.data import Layout
 from robots.icub.layout import HEAD
 

@@ -16,15 +16,15 @@ import threading
 import numpy as np
 import viser
 
-from app.scene import Scene
 from app.scene.camera import CANVAS, FRAME, PARTNER, VIEWS, CameraPose, frame, scene_points
 from app.scene.camera import view_pose as preset_pose
+from app.scene.scene_view import SceneView
 
 
 class ViewControls:
     """The camera buttons (see the module docstring), built in the current GUI container."""
 
-    def __init__(self, server: viser.ViserServer, scene: Scene):
+    def __init__(self, server: viser.ViserServer, scene: SceneView):
         self.server = server
         self.scene = scene
         self._requests: list[tuple[viser.ClientHandle, str]] = []

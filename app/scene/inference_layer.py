@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import viser
 
+from app.live.inference import PATH_POINTS, TUBE_POINTS, ScrubResult
 from app.scene.tubes import resample, tube_faces, tube_vertices
-from app.scrub import PATH_POINTS, TUBE_POINTS, ScrubResult
 from robots.icub.layout import HAND, hand_dims
 
 POSTERIOR_OPACITY = 0.45

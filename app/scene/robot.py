@@ -16,7 +16,7 @@ from robots.icub.model import ground_height, natural_pose
 from robots.icub.scene import Scene
 
 ROBOT_ROOT = "/robot"
-# The scene in neutral tones, so that the primitives' colours (app.workspace_index.PALETTE)
+# The scene in neutral tones, so that the primitives' colours (app.io.workspace_index.PALETTE)
 # stand out: the paths cross the bins and the table, and start at the object.
 TABLE_COLOR = (212, 202, 186)
 LEG_COLOR = (170, 162, 150)
@@ -46,7 +46,7 @@ class RobotView:
 
 def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> RobotView:
     """Add the robot, the ground, the table, the object and the bins (the camera is
-    :mod:`app.view`'s)."""
+    :mod:`app.scene.camera_buttons`'s)."""
     server.scene.set_up_direction("+z")
     server.scene.configure_environment_map(hdri=None)
     server.scene.configure_default_lights(enabled=True, cast_shadow=False)

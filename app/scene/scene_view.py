@@ -3,10 +3,10 @@
 (:mod:`app.scene.workspace_layer`), the Infer tab's inference
 (:mod:`app.scene.inference_layer`) and Teach's start pose (:mod:`app.scene.start_marker`).
 
-:class:`Scene` owns every node of the last three and is the one place that decides what is
+:class:`SceneView` owns every node of the last three and is the one place that decides what is
 drawn: :func:`app.scene.look.look` of the panel in use and the Infer panel's display options.
 Panels never touch the nodes; they tell the scene what they show. Everything runs on the
-studio's loop thread except :meth:`Scene.use_panel`, which only records.
+studio's loop thread except :meth:`SceneView.use_panel`, which only records.
 """
 
 from __future__ import annotations
@@ -14,17 +14,17 @@ from __future__ import annotations
 import numpy as np
 import viser
 
+from app.core.session import Session
+from app.live.inference import ScrubResult
 from app.scene.inference_layer import InferenceLayer
 from app.scene.look import PANELS, SHOWN, TEACH, Look, look
 from app.scene.partner import PartnerView
 from app.scene.start_marker import StartMarker
 from app.scene.workspace_layer import WorkspaceLayer
-from app.scrub import ScrubResult
-from app.session import Session
 from robots.icub.layout import HEAD
 
 
-class Scene:
+class SceneView:
     """The studio's 3D objects and their look (see the module docstring)."""
 
     def __init__(self, server: viser.ViserServer, session: Session):

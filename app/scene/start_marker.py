@@ -1,5 +1,5 @@
 """The ghost of the start pose in Teach: a translucent sphere, in the selected primitive's
-colour, where its demonstrations start on average (:func:`app.takes.mean_start`), so that a new
+colour, where its demonstrations start on average (:func:`app.live.takes.mean_start`), so that a new
 take starts where the others did ("Go to start" puts the hand there)."""
 
 from __future__ import annotations

@@ -12,9 +12,9 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import viser
 
+from app.live.inference import typical_prior
 from app.scene.look import FADED, HIDDEN, Look
 from app.scene.tubes import resample, tube_faces, tube_vertices
-from app.scrub import typical_prior
 from promp.data import Demonstration, Layout
 from promp.model import ProMPModel
 from robots.icub.layout import hand_dims

@@ -43,7 +43,7 @@ import numpy as np
 import viser
 import viser.uplot as uplot
 
-from app.display import Quantity
+from app.ui.display import Quantity
 from promp.inference import Prediction
 
 RGB = tuple[int, int, int]

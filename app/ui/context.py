@@ -17,11 +17,11 @@ from typing import Protocol
 import numpy as np
 import viser
 
-from app.arm import ArmController
-from app.head_input import HeadInput
-from app.scene import Scene
-from app.session import Session
-from app.upload_guard import Refused, UploadGuard
+from app.core.session import Session
+from app.live.head import HeadInput
+from app.scene.arm import ArmController
+from app.scene.scene_view import SceneView
+from app.ui.upload_guard import Refused, UploadGuard
 
 
 @dataclass(frozen=True)
@@ -40,7 +40,7 @@ class InferRequest:
     observed : tuple of str
         The observed modalities, e.g. ``("hand", "head")``.
     alpha_method : str
-        ``"ml"`` or ``"model"`` (:data:`app.display.ALPHA_LABELS`).
+        ``"ml"`` or ``"model"`` (:data:`app.ui.display.ALPHA_LABELS`).
     """
 
     primitive: str
@@ -100,7 +100,7 @@ class PanelContext:
     gui : PanelGui
         Builds the panel's controls (inside its tab).
     session : Session
-    scene : Scene
+    scene : SceneView
     arm : ArmController
     head : HeadInput
     notify : callable
@@ -110,7 +110,7 @@ class PanelContext:
     atomic : callable
         ``with atomic():`` sends the GUI and scene updates made inside as one group.
     guard_upload : callable
-        ``guard_upload(button, max_bytes, refused)``: an :class:`app.upload_guard.UploadGuard`
+        ``guard_upload(button, max_bytes, refused)``: an :class:`app.ui.upload_guard.UploadGuard`
         on one of the panel's upload buttons.
     open_in_infer : callable
         ``open_in_infer(request, client)``: the Infer tab shows ``request``
@@ -121,7 +121,7 @@ class PanelContext:
 
     gui: PanelGui
     session: Session
-    scene: Scene
+    scene: SceneView
     arm: ArmController
     head: HeadInput
     notify: Callable[..., None]

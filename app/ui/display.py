@@ -80,6 +80,7 @@ def quantities(layout: Layout) -> tuple[Quantity, ...]:
 
 # The alpha methods as every tab writes them (the engine's names are the keys).
 ALPHA_LABELS = {"ml": "ML", "model": "model"}
+INFER_ALPHAS = {label: method for method, label in ALPHA_LABELS.items()}  # Infer's dropdown
 ALPHA_HINT = (
     "How the speed (alpha, the time modulation: 100 / samples of the whole movement) is "
     "estimated. ML: the most likely of the training speeds; model: regressed on the early motion."

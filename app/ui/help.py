@@ -11,9 +11,9 @@ from pathlib import Path
 
 import viser
 
-from app.gui_text import escape
+from app.ui.text import escape
 
-STATIC = Path(__file__).resolve().parent.parent / "static"
+STATIC = Path(__file__).resolve().parents[2] / "static"
 HELP = STATIC / "help"
 
 

@@ -19,8 +19,8 @@ from dataclasses import asdict, dataclass
 
 import viser
 
-from app.gui_text import escape_html
-from app.help import STATIC
+from app.ui.help import STATIC
+from app.ui.text import escape_html
 
 SCRIPT = STATIC / "studio.js"
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.display import ALPHA_LABELS, observed_choices
+from app.ui.display import ALPHA_LABELS, observed_choices
 from promp.data import Demonstration, Layout
 from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.report import basis_settings, results_report

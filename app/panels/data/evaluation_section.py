@@ -6,7 +6,7 @@ Once an evaluation has finished, "Export results" downloads what ``python -m pro
 --json --csv --plots`` writes for the same run, as one zip (:mod:`app.panels.data.results_zip`),
 and "Failed trials" lists the held-out demonstrations it did not recognise
 (:mod:`app.panels.data.failed_trials`): "Open in Infer" shows the chosen one in the Infer tab,
-held out, at the percentage it failed at (:meth:`app.context.PanelContext.open_in_infer`).
+held out, at the percentage it failed at (:meth:`app.ui.context.PanelContext.open_in_infer`).
 
 The Run button's callback checks the choices and starts the job; :meth:`EvaluationSection.step`,
 on the studio's loop, moves the progress bar and shows the outcome once the job has finished.
@@ -20,10 +20,7 @@ from pathlib import Path
 
 import viser
 
-from app.context import PanelContext
-from app.display import ALPHA_HINT
-from app.exchange import format_size
-from app.gui_text import escape
+from app.io.exchange import format_size
 from app.panels.data.evaluation import (
     ALPHA_CHOICES,
     MIN_DEMOS,
@@ -35,6 +32,9 @@ from app.panels.data.evaluation import (
 from app.panels.data.failed_trials import FailedTrial, failed_trials, trial_choices
 from app.panels.data.results import add_results
 from app.panels.data.results_zip import results_filename, results_zip
+from app.ui.context import PanelContext
+from app.ui.display import ALPHA_HINT
+from app.ui.text import escape
 from promp.evaluate.cli import DEFAULT_PERCENTS
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]

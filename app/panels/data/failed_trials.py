@@ -9,8 +9,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from app.context import InferRequest
-from app.display import series_title
+from app.ui.context import InferRequest
+from app.ui.display import series_title
 from promp.data import Demonstration
 from promp.evaluate.sweep import SweepResult
 

@@ -1,6 +1,6 @@
 """The Data tab's "Import dataset": a zip of one's own recordings becomes a studio workspace.
 
-Upload a zip of a dataset folder (:mod:`app.dataset_import`: CSV, lab records, or a rig's
+Upload a zip of a dataset folder (:mod:`app.io.dataset_import`: CSV, lab records, or a rig's
 recordings: YARP dumps, ROS bags, XDF, C3D), or a single session file (a bag, ``.xdf``,
 ``.c3d``); the studio extracts it into a temporary folder of its own, guesses the format and the
 modalities from the files (the streams), and previews what it would create, with every
@@ -27,8 +27,7 @@ from pathlib import Path
 
 import viser
 
-from app.context import PanelContext
-from app.dataset_import import (
+from app.io.dataset_import import (
     MAX_DATASET_UPLOAD_BYTES,
     SESSION_FILES,
     DatasetSummary,
@@ -36,10 +35,11 @@ from app.dataset_import import (
     extract_dataset_zip,
     safe_name,
 )
-from app.dialogs import confirm
-from app.exchange import Limits, format_size
-from app.gui_text import display_name, escape
-from app.workspace import WorkspaceData
+from app.io.exchange import Limits, format_size
+from app.io.workspace import WorkspaceData
+from app.ui.context import PanelContext
+from app.ui.dialogs import confirm
+from app.ui.text import display_name, escape
 from promp.datasets import FORMATS, format_modalities, parse_modalities
 from promp.rigs import CUTS, RIG_FORMATS, RigOptions
 

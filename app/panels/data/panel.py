@@ -5,13 +5,13 @@ the leave-one-out evaluation.
   :mod:`promp.io`'s format, what robot-side code loads); **Export workspace** downloads
   ``workspace-<time>.zip`` (studio.json, demos/<primitive>/<demo>.csv, model.json). Both wait
   for the model of the latest change (learning runs in the background).
-* **Import** takes either file. Everything is validated in memory first (:mod:`app.exchange`);
+* **Import** takes either file. Everything is validated in memory first (:mod:`app.io.exchange`);
   a bad file gives a notification naming the file and the problem and changes nothing. A
-  model becomes the model inference uses (:meth:`app.session.Session.use_imported_model`)
+  model becomes the model inference uses (:meth:`app.core.session.Session.use_imported_model`)
   until the demonstrations or settings change or "Use the learned model" is clicked; it is not
   written to the workspace. A workspace replaces the current one after a confirmation.
-  Uploads over :data:`app.exchange.MAX_UPLOAD_BYTES` are refused as soon as they start
-  (:mod:`app.upload_guard`).
+  Uploads over :data:`app.io.exchange.MAX_UPLOAD_BYTES` are refused as soon as they start
+  (:mod:`app.ui.upload_guard`).
 * **Import dataset** (:mod:`app.panels.data.import_dataset`), **Recently deleted**
   (:mod:`app.panels.data.trash_list`) and the **Leave-one-out evaluation**
   (:mod:`app.panels.data.evaluation_section`) are sections of their own.
@@ -27,14 +27,14 @@ import traceback
 
 import viser
 
-from app import exchange
-from app.context import PanelContext
-from app.dialogs import confirm
-from app.gui_text import display_name, escape
+from app.io import exchange
+from app.io.workspace import WorkspaceData
 from app.panels.data.evaluation_section import EvaluationSection
 from app.panels.data.import_dataset import DatasetImport
 from app.panels.data.trash_list import RecentlyDeleted
-from app.workspace import WorkspaceData
+from app.ui.context import PanelContext
+from app.ui.dialogs import confirm
+from app.ui.text import display_name, escape
 
 ERROR_SECONDS, NOTICE_SECONDS = 20.0, 10.0  # how long a notification to one client stays
 

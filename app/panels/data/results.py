@@ -3,7 +3,7 @@ errors, and the position error of the remainder, against the percentage observed
 
 The series are the evaluation's own (:func:`promp.evaluate.plots.group_series`: one per
 observed modalities and alpha method), so the tab and ``python -m promp.evaluate --plots``
-group and order them alike; positions are in the display unit of :mod:`app.display`.
+group and order them alike; positions are in the display unit of :mod:`app.ui.display`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import viser
 
-from app.display import LENGTH_SCALE, LENGTH_UNIT, series_title
+from app.ui.display import LENGTH_SCALE, LENGTH_UNIT, series_title
 from promp.evaluate.plots import group_series
 from robots.icub.layout import HAND, HEAD
 
@@ -25,7 +25,7 @@ OTHER_COLOR = "#555555"
 
 def curves(rows: Sequence[Mapping]) -> dict[str, dict]:
     """Per (observed, alpha) series, named as the studio writes it (``hand + head, ML``,
-    :func:`app.display.series_title`): ``observed`` and ``alpha_method`` (the engine's
+    :func:`app.ui.display.series_title`): ``observed`` and ``alpha_method`` (the engine's
     names), then ``percent``, ``recognition_errors``, ``trials``, ``position_cm``,
     ``duration_s``, arrays of shape (n_percents,), sorted by percent."""
     out = {}

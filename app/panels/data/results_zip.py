@@ -22,7 +22,7 @@ import zipfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from app.exchange import export_filename
+from app.io.exchange import export_filename
 from promp.data import Demonstration, Layout
 from promp.evaluate.plots import write_figures
 from promp.evaluate.report import report_json, results_csv, trials_csv

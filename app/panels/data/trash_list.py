@@ -1,7 +1,7 @@
 """The Data tab's "Recently deleted": the workspace's trash, restorable.
 
 Every deleted demonstration or primitive and every replaced workspace is an entry of the
-workspace's ``trash/`` folder (:mod:`app.trash`), kept on disk after the studio closes. The
+workspace's ``trash/`` folder (:mod:`app.io.trash`), kept on disk after the studio closes. The
 list shows them newest first; *Restore* puts the chosen one back (a replaced workspace swaps
 with the current one, which goes to the trash in turn).
 """
@@ -12,9 +12,9 @@ from collections.abc import Callable
 
 import viser
 
-from app.context import PanelContext
-from app.gui_text import escape
-from app.trash import TrashEntry
+from app.io.trash import TrashEntry
+from app.ui.context import PanelContext
+from app.ui.text import escape
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
 NOTHING = "(the trash is empty)"

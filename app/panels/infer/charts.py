@@ -1,6 +1,6 @@
 """The Infer tab's charts: one chart tab per modality, one chart per dimension, each with the
 prior and posterior bands of the recognised primitive, the observed samples and the truth (the
-paper's Figs. 4, 7 and 9), in the display units of :mod:`app.display`.
+paper's Figs. 4, 7 and 9), in the display units of :mod:`app.ui.display`.
 
 While the same movement is inspected, each chart's x and y ranges only grow: scrubbing neither
 rescales (and so rebuilds) a chart at every step nor leaves uPlot's automatic x range to the
@@ -14,11 +14,11 @@ import dataclasses
 
 import numpy as np
 
-from app.context import PanelContext
-from app.display import quantities
-from app.plots import Band, BandChart, Trace, add_band_chart, band_chart, update_band_chart
+from app.live.inference import ScrubResult
 from app.scene.inference_layer import OBSERVED_COLOR, TRUTH_COLOR
-from app.scrub import ScrubResult
+from app.ui.charts import Band, BandChart, Trace, add_band_chart, band_chart, update_band_chart
+from app.ui.context import PanelContext
+from app.ui.display import quantities
 from promp.data import Layout
 
 PRIOR_COLOR = (125, 125, 125)

@@ -6,16 +6,17 @@ alpha method, and scrubs the observed percentage. Everything follows the slider:
 tube, the predicted future path and its end point (drawn by the scene), the probability of each
 primitive, the predicted and true durations, the errors (:mod:`app.panels.infer.readout`), and
 the per-dimension charts (:mod:`app.panels.infer.charts`). "Play" then lets the robot finish the
-movement (:mod:`app.replay`).
+movement (:mod:`app.live.replay`).
 
 The Data tab's "Open in Infer" comes through the studio as :meth:`InferPanel.open`: a test
 demonstration at one percentage, modalities and alpha method (an evaluation's failed trial).
 
 GUI callbacks only record that something changed; :meth:`InferPanel.step`, run by the studio's
-loop, recomputes one scrub step (:func:`app.scrub.scrub_step`) and redraws, and measures that
+loop, recomputes one scrub step (:func:`app.live.inference.scrub_step`) and redraws, and
+measures that
 server-side time (shown in the tab).
 
-Live stream: "Start observing" starts a buffer (:class:`app.live_buffer.LiveBuffer`) of
+Live stream: "Start observing" starts a buffer (:class:`app.live.stream.LiveBuffer`) of
 (t, hand, head) samples taken at every loop iteration (~60 Hz); the observation is the first
 p % of the buffer (100 %: all of it, as it happens), recomputed at most ``LIVE_HZ`` times a
 second while observing. The model is the session's (or the imported one).
@@ -29,10 +30,14 @@ import time
 
 import numpy as np
 
-from app.client_script import ChartSlider
-from app.context import InferRequest, PanelContext
-from app.display import ALPHA_HINT, observed_choices
-from app.live_buffer import LiveBuffer
+from app.live.inference import (
+    HeldOutModels,
+    ScrubResult,
+    demo_observation,
+    scrub_step,
+)
+from app.live.replay import Replay
+from app.live.stream import LiveBuffer
 from app.panels.infer.charts import InferCharts
 from app.panels.infer.readout import (
     LEGEND_HTML,
@@ -48,16 +53,11 @@ from app.panels.infer.recognition import (
     CurveRequest,
     RecognitionChart,
 )
-from app.replay import Replay
 from app.scene.inference_layer import DEFAULT_COLOR
 from app.scene.look import FADED, PRIOR_MODES
-from app.scrub import (
-    ALPHA_CHOICES,
-    HeldOutModels,
-    ScrubResult,
-    demo_observation,
-    scrub_step,
-)
+from app.ui.context import InferRequest, PanelContext
+from app.ui.display import ALPHA_HINT, INFER_ALPHAS, observed_choices
+from app.ui.page_script import ChartSlider
 
 TEST, LIVE = "Test demonstration", "Live stream"
 SOURCES = (TEST, LIVE)
@@ -108,7 +108,7 @@ class InferPanel:
             self._choices = observed_choices(layout)
             self.observed = gui.add_dropdown("Observed", tuple(self._choices))
             self.alpha = gui.add_dropdown(
-                "Alpha", tuple(ALPHA_CHOICES), initial_value="ML",
+                "Alpha", tuple(INFER_ALPHAS), initial_value="ML",
                 hint=ALPHA_HINT,
             )  # fmt: skip
             self.live_button = gui.add_button("Start observing", visible=False)
@@ -223,7 +223,7 @@ class InferPanel:
             (label for label, modalities in self._choices.items()
              if tuple(modalities) == tuple(request.observed)), None,
         )  # fmt: skip
-        alpha = next((k for k, v in ALPHA_CHOICES.items() if v == request.alpha_method), None)
+        alpha = next((k for k, v in INFER_ALPHAS.items() if v == request.alpha_method), None)
         if observed is None or alpha is None:
             raise ValueError(
                 f"the Infer tab cannot observe {'+'.join(request.observed)} with alpha "
@@ -320,7 +320,7 @@ class InferPanel:
         modalities = self._choices.get(self.observed.value)
         if modalities is None:
             raise ValueError("choose the observed modalities")
-        alpha_method = ALPHA_CHOICES[self.alpha.value]
+        alpha_method = INFER_ALPHAS[self.alpha.value]
         percent = float(self.percent.value)
         session = self.ctx.session
         self._curve_request = None

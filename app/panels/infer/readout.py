@@ -1,7 +1,8 @@
 """The Infer tab's text: the probability bars and the status lines of a scrub step, as HTML.
 
-Pure functions of a :class:`app.scrub.ScrubResult`; lengths and angles in the display units of
-:mod:`app.display`, user text escaped by :mod:`app.gui_text`.
+Pure functions of a :class:`app.live.inference.ScrubResult`; lengths and angles in the display
+units of
+:mod:`app.ui.display`, user text escaped by :mod:`app.ui.text`.
 """
 
 from __future__ import annotations
@@ -10,9 +11,9 @@ import math
 import statistics
 from collections.abc import Callable, Sequence
 
-from app.display import shown
-from app.gui_text import escape_html
-from app.scrub import ScrubResult, error_modality
+from app.live.inference import ScrubResult, error_modality
+from app.ui.display import shown
+from app.ui.text import escape_html
 
 # Right padding: viser's panel scrollbar lies over the last pixels of a full-width element.
 PAD = "padding-right:14px;box-sizing:border-box"

@@ -1,5 +1,5 @@
 """The Infer tab's "Recognition probability vs observed %" chart: each primitive's probability
-over the whole test demonstration (:mod:`app.recognition_curve`), a cursor at the slider and a
+over the whole test demonstration (:mod:`app.live.recognition_curve`), a cursor at the slider and a
 marker at the earliest point from which the recognition stays right.
 
 The curve takes a hundred recognitions (half a second, more on a loaded machine), so a worker
@@ -22,10 +22,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.context import PanelContext
-from app.gui_text import escape
-from app.plots import chart_axes, css
-from app.recognition_curve import CurveCache, RecognitionCurve, recognition_curve
+from app.live.recognition_curve import CurveCache, RecognitionCurve, recognition_curve
+from app.ui.charts import chart_axes, css
+from app.ui.context import PanelContext
+from app.ui.text import escape
 from promp.data import Demonstration
 from promp.model import ProMPModel
 

@@ -1,15 +1,16 @@
 """The Teach tab's Demonstrations folder: the selected primitive's demonstrations, newest first.
 
 Each row shows a demonstration's typicality (how it compares with the primitive's others, from
-:meth:`app.session.Session.add_demo`) and offers Hide/Show (:meth:`app.session.Session.set_hidden`:
-its line in the 3D view) and Delete, after a confirmation (:meth:`app.session.Session.delete_demo`:
+:meth:`app.core.session.Session.add_demo`) and offers Hide/Show
+(:meth:`app.core.session.Session.set_hidden`: its line in the 3D view) and Delete, after a
+confirmation (:meth:`app.core.session.Session.delete_demo`:
 to the workspace's trash). *Undo delete* brings back the latest deletion
-(:meth:`app.session.Session.undo_delete`).
+(:meth:`app.core.session.Session.undo_delete`).
 
 A demonstration the checks flag (:mod:`promp.quality`: a gap, a jump, one that does not move, a
 rate or a duration far from the others') is marked "left out" and listed above the rows with
 what was found, where and how big; its row offers *Keep* (learn from it anyway) and, once kept,
-*Leave out* (:meth:`app.session.Session.set_kept`); one with a gap in its timestamps offers
+*Leave out* (:meth:`app.core.session.Session.set_kept`); one with a gap in its timestamps offers
 *Repair gap* (cut at the gap, or split: new demonstrations beside it). Its file is never
 touched.
 """
@@ -18,8 +19,8 @@ from __future__ import annotations
 
 import viser
 
-from app.context import PanelContext
-from app.gui_text import GREEN, ORANGE, RED, colored, escape
+from app.ui.context import PanelContext
+from app.ui.text import GREEN, ORANGE, RED, colored, escape
 from promp.typicality import Typicality
 
 TYPICALITY_COLORS = {"typical": GREEN, "unusual": ORANGE, "outlier": RED}

@@ -3,7 +3,7 @@
 A simulated partner, a camera (by index), a video file on the server, or a video uploaded from
 the browser (processed in the background into a head-pose track by
 :func:`app.headpose.track_video`). Choosing one makes it the studio's head source
-(:meth:`app.head_input.HeadInput.use`), except during a recording, whose source stays. A source
+(:meth:`app.live.head.HeadInput.use`), except during a recording, whose source stays. A source
 that fails is a red message and a notification; the rest of the studio keeps working. Cameras
 and videos get a live preview and *Calibrate neutral*. The folder is shown only when the
 workspace has a ``head`` modality.
@@ -19,11 +19,11 @@ import cv2
 import numpy as np
 import viser
 
-from app.context import PanelContext
-from app.display import shown
-from app.exchange import format_size
-from app.gui_text import GREEN, ORANGE, RED, colored, escape
-from app.head_sources import HeadSource, SimulatedPartner, StreamHeadSource, TrackHeadSource
+from app.io.exchange import format_size
+from app.live.head import HeadSource, SimulatedPartner, StreamHeadSource, TrackHeadSource
+from app.ui.context import PanelContext
+from app.ui.display import shown
+from app.ui.text import GREEN, ORANGE, RED, colored, escape
 from promp.data import Layout
 from robots.icub.layout import HEAD
 

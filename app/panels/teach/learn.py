@@ -4,7 +4,7 @@
 which chooses them from the demonstrations (:mod:`promp.selection`); the sliders then show what
 the latest fit chose and are read-only. Unticked, the sliders set them. Moving a control only
 notes the time; once the controls have been still for :data:`LEARN_DEBOUNCE_S`,
-:meth:`LearnSection.step` hands the settings to :meth:`app.session.Session.set_learning`, which
+:meth:`LearnSection.step` hands the settings to :meth:`app.core.session.Session.set_learning`, which
 stores them and refits in the background.
 """
 
@@ -13,8 +13,8 @@ from __future__ import annotations
 import math
 import time
 
-from app.context import PanelContext
-from app.gui_text import GREEN, ORANGE, colored, escape
+from app.ui.context import PanelContext
+from app.ui.text import GREEN, ORANGE, colored, escape
 from promp.model import FALLBACK, Settings
 
 LEARN_DEBOUNCE_S = 0.15  # a slider being dragged refits once it pauses

@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import time
 
-from app.context import PanelContext
+from app.live.take_machine import COUNTDOWN_S
 from app.panels.teach.demos import DemoList
 from app.panels.teach.head import HeadSection
 from app.panels.teach.learn import LearnSection
 from app.panels.teach.primitives import PrimitiveSection
 from app.panels.teach.prior import PriorCharts
 from app.panels.teach.record import RecordSection
-from app.panels.teach.recording import COUNTDOWN_S
+from app.ui.context import PanelContext
 from promp.data import Layout
 
 

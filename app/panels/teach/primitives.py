@@ -1,7 +1,7 @@
 """The Teach tab's Primitive folder: the primitive being taught, and creating, renaming,
 recolouring and deleting primitives.
 
-Each control makes one session mutation (:meth:`app.session.Session.create_primitive`,
+Each control makes one session mutation (:meth:`app.core.session.Session.create_primitive`,
 ``rename_primitive``, ``recolor_primitive``, ``delete_primitive`` after a confirmation); a
 refused one is a notification to the client who made it and changes nothing. The selection is
 the browser's dropdown; a primitive just created, renamed or recorded into is selected at the
@@ -14,7 +14,7 @@ import threading
 
 import viser
 
-from app.context import PanelContext
+from app.ui.context import PanelContext
 
 NO_PRIMITIVE = "(no primitive)"
 NO_COLOR = (128, 128, 128)

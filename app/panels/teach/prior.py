@@ -1,7 +1,8 @@
 """The Teach tab's Prior folder: the selected primitive's prior, one chart per dimension.
 
-Each chart shows the prior at the primitive's typical speed (:func:`app.scrub.typical_prior`,
-mean +- 2 sd, in the display units of :mod:`app.display`) with the newest demonstration over
+Each chart shows the prior at the primitive's typical speed
+(:func:`app.live.inference.typical_prior`,
+mean +- 2 sd, in the display units of :mod:`app.ui.display`) with the newest demonstration over
 it, or, while recording, the demonstration being recorded.
 """
 
@@ -9,11 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.context import PanelContext
-from app.display import quantities
-from app.plots import Band, Trace, add_band_chart, band_chart, update_band_chart
-from app.recorder import Recording
-from app.scrub import typical_prior
+from app.live.inference import typical_prior
+from app.live.recorder import Recording
+from app.ui.charts import Band, Trace, add_band_chart, band_chart, update_band_chart
+from app.ui.context import PanelContext
+from app.ui.display import quantities
 from promp.data import Layout
 from robots.icub.layout import HAND, HEAD
 

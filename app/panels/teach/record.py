@@ -3,13 +3,13 @@ focus), the recording's status, *Go to start*, *Discard last take*, and the take
 (rate, trimming of the idle ends and its thresholds, back to the start after Stop).
 
 The callbacks only record the press; :meth:`RecordSection.step`, on the studio's loop, feeds it
-with the time to the state machine (:mod:`app.panels.teach.recording`) and acts on what it
+with the time to the state machine (:mod:`app.live.take_machine`) and acts on what it
 says: a refusal is a red line and a notification, the countdown shows its digit, the
-:class:`app.recorder.Recorder` samples the hand and the head until Stop, the idle time at both
-ends is trimmed (:func:`app.takes.active_span`; the untrimmed take is kept in the workspace's
-``raw/`` folder) and the demonstration is saved by :meth:`app.session.Session.add_demo` (which
+:class:`app.live.recorder.Recorder` samples the hand and the head until Stop, the idle time at both
+ends is trimmed (:func:`app.live.takes.active_span`; the untrimmed take is kept in the workspace's
+``raw/`` folder) and the demonstration is saved by :meth:`app.core.session.Session.add_demo` (which
 scores its typicality). The scene shows the ghost of the primitive's start (where its
-demonstrations begin, :func:`app.takes.mean_start`); *Go to start* and, after Stop, the option
+demonstrations begin, :func:`app.live.takes.mean_start`); *Go to start* and, after Stop, the option
 *Back to start* put the hand there.
 """
 
@@ -22,10 +22,8 @@ from collections.abc import Callable
 import numpy as np
 import viser
 
-from app.context import PanelContext
-from app.gui_text import ORANGE, RED, colored, escape
-from app.panels.teach.demos import NOTIFY_COLORS, TYPICALITY_COLORS, typicality_text
-from app.panels.teach.recording import (
+from app.live.recorder import RECORD_RATE_HZ, Recorder, Recording, unrecordable
+from app.live.take_machine import (
     COUNTDOWN_S,
     HEAD_FAILED,
     MAX_COUNTDOWN_S,
@@ -36,9 +34,11 @@ from app.panels.teach.recording import (
     Take,
     refusal,
 )
-from app.recorder import DEFAULT_RATE_HZ, Recorder, Recording, unrecordable
+from app.live.takes import HAND_IDLE_M_S, HEAD_IDLE_RAD_S, Trim, active_span, mean_start
+from app.panels.teach.demos import NOTIFY_COLORS, TYPICALITY_COLORS, typicality_text
 from app.scene.workspace_layer import NO_COLOR
-from app.takes import HAND_IDLE_M_S, HEAD_IDLE_RAD_S, Trim, active_span, mean_start
+from app.ui.context import PanelContext
+from app.ui.text import ORANGE, RED, colored, escape
 from robots.icub.layout import HAND, HEAD
 
 STATUS_PERIOD_S = 0.2  # the recording's status line
@@ -119,7 +119,7 @@ class RecordSection:
                 )  # fmt: skip
                 low, high = RATE_RANGE_HZ
                 self.rate = gui.add_number(
-                    "Rate (Hz)", DEFAULT_RATE_HZ, min=low, max=high, step=1.0
+                    "Rate (Hz)", RECORD_RATE_HZ, min=low, max=high, step=1.0
                 )
                 self.trim = gui.add_checkbox(
                     "Trim idle ends", True,
