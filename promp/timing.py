@@ -54,5 +54,15 @@ def demo_phases(times: np.ndarray) -> np.ndarray:
 
 def n_observed_for(percent: float, n_samples: int) -> int:
     """The samples seen when ``percent`` % of an ``n_samples`` movement is observed:
-    ``ceil(p / 100 * n)``, at least 1."""
+    ``ceil(p / 100 * n)``, at least 1 (the evaluation's rule, and the studio's).
+
+    Raises
+    ------
+    ValueError
+        If ``percent`` is not in (0, 100] or ``n_samples`` < 1.
+    """
+    if not math.isfinite(percent) or not 0.0 < percent <= 100.0:
+        raise ValueError(f"the observed percentage must be in (0, 100], got {percent}")
+    if n_samples < 1:
+        raise ValueError(f"a movement has at least one sample, got {n_samples}")
     return max(1, math.ceil(percent / 100.0 * n_samples - 1e-9))

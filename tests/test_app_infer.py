@@ -16,7 +16,6 @@ from app.live.inference import (
     HeldOutModels,
     demo_observation,
     held_out_training,
-    n_observed_for,
     scrub_step,
 )
 from app.live.replay import Replay
@@ -27,6 +26,7 @@ from promp.data import Demonstration
 from promp.inference import condition, predict
 from promp.learn import fit
 from promp.model import Settings
+from promp.timing import n_observed_for
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from robots.icub.layout import hand_dims
 from tests.browser import (

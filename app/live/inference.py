@@ -31,26 +31,11 @@ from promp.metrics import position_modality
 from promp.model import ProMPModel, Settings
 from promp.pipeline import infer
 from promp.recognition import Recognition
+from promp.timing import n_observed_for
 from robots.icub.layout import hand_dims
 
 TUBE_POINTS = 100  # rings of the posterior tube (fixed mesh topology)
 PATH_POINTS = 60  # samples of the predicted future hand path
-
-
-def n_observed_for(percent: float, n_samples: int) -> int:
-    """Samples observed at ``percent`` of a movement of ``n_samples``: ``ceil(p / 100 * n)``,
-    at least 1 (the evaluation's rule).
-
-    Raises
-    ------
-    ValueError
-        If ``percent`` is not in (0, 100] or ``n_samples`` < 1.
-    """
-    if not math.isfinite(percent) or not 0.0 < percent <= 100.0:
-        raise ValueError(f"the observed percentage must be in (0, 100], got {percent}")
-    if n_samples < 1:
-        raise ValueError(f"a movement has at least one sample, got {n_samples}")
-    return max(1, min(n_samples, math.ceil(percent / 100.0 * n_samples - 1e-9)))
 
 
 def held_out_training(

@@ -7,9 +7,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from app.live.inference import n_observed_for
 from promp.data import Layout
 from promp.inference import Observation
+from promp.timing import n_observed_for
 from robots.icub.layout import HAND, HEAD
 
 
