@@ -25,7 +25,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from app.net import free_port  # noqa: E402
+from app.io.net import free_port  # noqa: E402
 from app.studio import Studio  # noqa: E402
 
 

@@ -17,7 +17,7 @@ the way a user's browser tabs are. Every cycle:
    page B scrubs;
    (before an import or a scrub, page A records one demonstration in full);
 4. with the server dead, the disk is checked: ``studio.json`` loads
-   (:meth:`app.workspace.Workspace.load`), every demonstration whose save page A was told of
+   (:meth:`app.io.workspace.Workspace.load`), every demonstration whose save page A was told of
    (the "Demonstration saved" notification) is on disk and loads, and every data file (CSV,
    JSON) of the workspace, of its trash and of any workspace an import created parses
    (a file that does not is counted in ``corrupt_files``; the hidden temporary files of
@@ -57,8 +57,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from app.arm import GIZMO_SCALE  # noqa: E402
-from app.workspace import Workspace  # noqa: E402
+from app.io.workspace import Workspace  # noqa: E402
+from app.scene.arm import GIZMO_SCALE  # noqa: E402
 from promp.datasets import demo_to_csv, read_csv_demo  # noqa: E402
 from robots.icub.kinematics import ArmChain  # noqa: E402
 from robots.icub.model import load_urdf, natural_pose  # noqa: E402
