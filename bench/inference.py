@@ -18,6 +18,7 @@ K = 2 step, the K = 2 step at least :data:`MIN_NAIVE_RATIO` times faster than th
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import statistics
@@ -154,7 +155,11 @@ def main() -> None:
                 f"ratio {results['naive_ratio_k2_full']:.0f}x; max |log-lik difference| {diff:.2e}"
             )
     fit_data = {"p0": make_primitive(np.random.default_rng(5), 0)}
-    fit_ms = median_ms(lambda: fit(fit_data, LAYOUT, GIVEN), 20)
+    # fresh copies each time: a fit of the very same demonstrations is served from the recent
+    # fits (promp.model), which is not what a first fit costs
+    fresh = iter([{k: [dataclasses.replace(d) for d in v] for k, v in fit_data.items()}
+                  for _ in range(25)])  # fmt: skip
+    fit_ms = median_ms(lambda: fit(next(fresh), LAYOUT, GIVEN), 20)
     print(f"fit of one primitive from {N_DEMOS} demonstrations (D={D}, M={M}): {fit_ms:.2f} ms")
     k_ratio = results["scrub_step_ms_k10_100"] / results["scrub_step_ms_k2_100"]
     verdicts = {
