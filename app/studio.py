@@ -1,15 +1,20 @@
 """The studio: one viser server composing the robot, the session, the scene and the panels.
 
 :meth:`Studio.start` builds everything and each panel inside its tab, with a
-:class:`app.ui.context.PanelContext` of its own. Threading follows the dirty-flag pattern: GUI and
-gizmo callbacks (run by viser's thread pool) only record what changed; one loop thread
-(:meth:`Studio.step`, ~60 Hz) solves the IK, reads the head source, redraws the scene and lets
-each panel recompute. Learning runs in the session's background worker. Everything
-GUI-visible lives on the server (not per client), so every browser tab shows the same studio.
+:class:`app.ui.context.PanelContext` of its own. One loop thread (:meth:`Studio.step`, ~60 Hz)
+does everything that is drawn: it solves the IK for the latest gizmo pose, reads the head
+source, takes **one snapshot** of the session (:meth:`app.core.session.Session.snapshot`), hands
+it to each panel (:class:`app.ui.context.Frame`), which reads its controls, computes what to
+show and writes it, and draws the 3D view once from the snapshot and what the panels asked
+for. GUI and gizmo callbacks (run by viser's thread pool) only record what was pressed, or make
+one mutation of the store; long work (fits, typicality, held-out models, a take's save) runs on
+workers and shows in a later frame's snapshot. Everything GUI-visible lives on the server (not
+per client), so every browser tab shows the same studio.
 """
 
 from __future__ import annotations
 
+import collections
 import functools
 import threading
 import time
@@ -19,6 +24,7 @@ from pathlib import Path
 
 import viser
 
+from app.core.fits import FitCache
 from app.core.session import Session
 from app.io.workspace import FolderKind, WorkspaceData, inspect_folder
 from app.io.workspace_index import PALETTE, PrimitiveEntry
@@ -28,12 +34,12 @@ from app.panels.infer import InferPanel
 from app.panels.teach import TeachPanel
 from app.scene.arm import ArmController
 from app.scene.camera_buttons import ViewControls
-from app.scene.look import DATA, INFER, TEACH
-from app.scene.robot import RobotView, add_robot
+from app.scene.look import DATA, INFER, TEACH, Shown
+from app.scene.robot import add_robot
 from app.scene.scene_view import SceneView
-from app.ui.context import InferRequest, Panel, PanelContext, PanelGui
+from app.ui.context import Frame, InferRequest, Panel, PanelContext, PanelGui
 from app.ui.help import add_help
-from app.ui.page_script import add_client_script, tab_switch_html
+from app.ui.page_script import BrowserTabs, add_client_script
 from app.ui.upload_guard import Refused, UploadGuard
 from promp.data import Demonstration
 from robots.icub.kinematics import ArmChain
@@ -41,6 +47,7 @@ from robots.icub.model import DEFAULT_ROBOT, load_urdf
 from robots.icub.scene import DEFAULT_SCENE
 
 LOOP_HZ = 60.0
+FRAMES_KEPT = 4096  # the latest frames' start times (about a minute at 60 Hz)
 TABS = (("Teach", TEACH, TeachPanel), ("Infer", INFER, InferPanel), ("Data", DATA, DataPanel))
 
 
@@ -70,23 +77,21 @@ class Studio:
         self,
         server: viser.ViserServer,
         session: Session,
-        robot: RobotView,
         arm: ArmController,
         head_source: HeadSource,
     ):
         self.server = server
         self.session = session
-        self.robot = robot
         self.arm = arm
         self.head = HeadInput(head_source)
         self.head.read(arm.hand_position())
-        self.scene = SceneView(server, session)
+        self.scene = SceneView(server)
         self.panels: list[Panel] = []
-        self.view: ViewControls | None = None
+        self.camera: ViewControls | None = None
+        self.tabs: BrowserTabs | None = None
+        self.frame_starts: collections.deque[float] = collections.deque(maxlen=FRAMES_KEPT)
         self._stop = threading.Event()
-        self._tasks: list[Callable[[], None]] = []
-        self._tasks_lock = threading.Lock()
-        self._tab_switches: dict[int, viser.GuiHtmlHandle] = {}  # the latest, per client
+        self._tasks: collections.deque[Callable[[], None]] = collections.deque()
         self._thread = threading.Thread(target=self._loop, name="studio-loop", daemon=True)
 
     @property
@@ -95,7 +100,7 @@ class Studio:
 
     @property
     def workspace(self) -> Path:
-        return self.session.workspace.root
+        return self.session.store.state.workspace.root
 
     @classmethod
     def start(
@@ -106,8 +111,10 @@ class Studio:
         robot: str = DEFAULT_ROBOT,
         camera: int | None = None,
         video: Path | None = None,
+        fits: FitCache | None = None,
     ) -> Studio:
-        """Serve the studio on (host, port) with its workspace in ``workspace``.
+        """Serve the studio on (host, port) with its workspace in ``workspace``; ``fits``:
+        where its fits are kept (a new cache by default; several studios may share one).
 
         An absent or empty workspace folder is first filled with the simulated scenario; a
         folder that holds anything else is refused untouched.
@@ -124,7 +131,7 @@ class Studio:
             raise ValueError(message)
         urdf = load_urdf(robot)  # before binding: an unknown robot fails fast
         arm_chain = ArmChain.from_urdf(load_urdf(robot, load_meshes=False))
-        session = Session.open(workspace, default=default_workspace)
+        session = Session.open(workspace, default=default_workspace, fits=fits)
         server = viser.ViserServer(
             host=host, port=port, label="iCub intention studio", verbose=False
         )
@@ -145,35 +152,38 @@ class Studio:
             source = StreamHeadSource(str(video))
         else:
             source = SimulatedPartner()
-        studio = cls(server, session, view, arm, source)
+        studio = cls(server, session, arm, source)
         studio.panels = studio._build_panels()
-        server.on_client_disconnect(lambda client: studio._tab_switches.pop(client.client_id, None))
         studio._thread.start()
         return studio
 
     def _context(self, panel: str) -> PanelContext:
         """What the panel ``panel`` may read and do."""
-        server = self.server
+        server, session = self.server, self.session
 
         def guard_upload(button, max_bytes: int, refused: Refused) -> UploadGuard:
             return UploadGuard(server, button, max_bytes, refused)
 
         return PanelContext(
             gui=PanelGui(server.gui, lambda: self.scene.use_panel(panel)),
-            session=self.session,
-            scene=self.scene,
+            store=session.store,
+            view=session.view,
+            learner=session.learner,
             arm=self.arm,
             head=self.head,
             notify=self.notify,
             atomic=server.atomic,
             guard_upload=guard_upload,
             open_in_infer=self.open_in_infer,
+            wait_for_model=session.wait_for_model,
         )
 
     def _build_panels(self) -> list[Panel]:
-        """The camera buttons, then one tab per panel, each ending with its help ("?",
-        collapsed), then the page's script (:mod:`app.ui.page_script`)."""
-        self.view = ViewControls(self.server, self.scene)
+        """The tab report, the camera buttons, then one tab per panel, each ending with its
+        help ("?", collapsed), then the page's script (:mod:`app.ui.page_script`)."""
+        names = {title: name for title, name, _ in TABS}
+        self.tabs = BrowserTabs(self.server, tuple(names), lambda t: self.scene.use_panel(names[t]))
+        self.camera = ViewControls(self.server, self.scene)
         tabs = self.server.gui.add_tab_group()
         panels: list[Panel] = []
         for title, name, build in TABS:
@@ -183,7 +193,7 @@ class Studio:
         charts = {}
         for panel in panels:
             charts.update(getattr(panel, "chart_sliders", dict)())
-        add_client_script(self.server.gui, charts)
+        add_client_script(self.server.gui, charts, self.tabs)
         return panels
 
     # ------------------------------------------------------------------ between panels
@@ -191,41 +201,33 @@ class Studio:
     def open_in_infer(self, request: InferRequest, client: viser.ClientHandle | None) -> None:
         """The Infer tab shows ``request`` and ``client``'s browser switches to it (see
         :attr:`app.ui.context.PanelContext.open_in_infer`); done by the loop's next iteration."""
-        self.call_in_loop(lambda: self._open_in_infer(request, client))
 
-    def _open_in_infer(self, request: InferRequest, client: viser.ClientHandle | None) -> None:
-        infer = next(panel for panel in self.panels if isinstance(panel, InferPanel))
-        try:
-            percent = infer.open(request)
-        except ValueError as exc:
-            self.notify("Cannot open in Infer", f"{exc}.", "red", client=client)
-            return
-        self.scene.use_panel(INFER)
-        if client is not None:
-            self._show_tab(client, next(title for title, name, _ in TABS if name == INFER))
-        if percent != request.percent:
-            self.notify(
-                "Opened in Infer",
-                f"{request.demo} at {percent} % observed: the slider moves by whole percents "
-                f"(the evaluation observed {request.percent:g} %).",
-                "yellow",
-                client=client,
-            )
+        def open_it() -> None:
+            infer = next(panel for panel in self.panels if isinstance(panel, InferPanel))
+            try:
+                percent = infer.open(request, self.session.snapshot())
+            except ValueError as exc:
+                self.notify("Cannot open in Infer", f"{exc}.", "red", client=client)
+                return
+            self.scene.use_panel(INFER)
+            if client is not None:
+                self.tabs.show(client, next(title for title, name, _ in TABS if name == INFER))
+            if percent != request.percent:
+                self.notify(
+                    "Opened in Infer",
+                    f"{request.demo} at {percent} % observed: the slider moves by whole "
+                    f"percents (the evaluation observed {request.percent:g} %).",
+                    "yellow",
+                    client=client,
+                )
 
-    def _show_tab(self, client: viser.ClientHandle, title: str) -> None:
-        """Switch ``client``'s browser to the tab titled ``title``
-        (:func:`app.ui.page_script.tab_switch_html`, in that client's GUI alone)."""
-        previous = self._tab_switches.pop(client.client_id, None)
-        if previous is not None:
-            previous.remove()
-        self._tab_switches[client.client_id] = client.gui.add_html(tab_switch_html(title))
+        self.call_in_loop(open_it)
 
     # ------------------------------------------------------------------ loop
 
     def call_in_loop(self, task: Callable[[], None]) -> None:
         """Run ``task()`` on the loop thread at its next iteration (from any thread)."""
-        with self._tasks_lock:
-            self._tasks.append(task)
+        self._tasks.append(task)
 
     def _loop(self) -> None:
         period = 1.0 / LOOP_HZ
@@ -240,18 +242,22 @@ class Studio:
             self._stop.wait(max(0.0, period - elapsed))
 
     def step(self) -> None:
-        """One iteration of the loop (also callable directly, e.g. from tests)."""
-        with self._tasks_lock:
-            tasks, self._tasks = self._tasks, []
-        for task in tasks:
-            task()
+        """One frame (also callable directly, e.g. from tests): the tasks asked for, the arm,
+        the head, then one snapshot shown by every panel and drawn by the scene."""
+        self.frame_starts.append(time.perf_counter())
+        while self._tasks:
+            self._tasks.popleft()()
         self.arm.step()
-        reading = self.head.read(self.arm.hand_position())
-        self.scene.refresh(reading.angles)
-        if self.view is not None:
-            self.view.step()
+        hand = self.arm.hand_position()
+        reading = self.head.read(hand)
+        frame = Frame(self.session.snapshot(), time.monotonic(), hand, reading.angles,
+                      self.head.source.error, self.scene.panel)  # fmt: skip
+        shown = Shown()
         for panel in self.panels:
-            panel.step()
+            shown = shown.merged(panel.step(frame))
+        self.scene.draw(frame.snapshot, frame.head, shown)
+        if self.camera is not None:
+            self.camera.step()
 
     def notify(
         self,
@@ -260,13 +266,16 @@ class Studio:
         color: str = "blue",
         client: viser.ClientHandle | None = None,
         auto_close_seconds: float = 8.0,
-    ) -> None:
-        """A notification in ``client``'s browser tab, or in every connected tab when None."""
+    ) -> list[viser.NotificationHandle]:
+        """A notification in ``client``'s browser tab, or in every connected tab when None;
+        their handles (to close them)."""
         clients = [client] if client is not None else self.server.get_clients().values()
-        for target in clients:
+        return [
             target.add_notification(
                 title=title, body=body, color=color, auto_close_seconds=auto_close_seconds
             )
+            for target in clients
+        ]
 
     def stop(self) -> None:
         self._stop.set()

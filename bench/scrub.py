@@ -41,8 +41,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from app.core.fits import held_out_training  # noqa: E402
 from app.io.net import free_port  # noqa: E402
-from app.live.inference import held_out_training  # noqa: E402
 from app.panels.infer import LIVE, InferPanel  # noqa: E402
 from app.studio import Studio  # noqa: E402
 from promp.learn import fit  # noqa: E402
@@ -57,16 +57,16 @@ SWEEP = list(range(5, 101, 5)) + list(range(95, 4, -5))
 
 def scrub_to(panel: InferPanel, percent: int, timeout: float = 30.0) -> float:
     """Set the slider (as a browser would), wait for the loop's scrub step, return its ms."""
-    count = panel.scrub_count
-    panel.percent.value = percent
+    count = panel.steps.count
+    panel.controls.percent.value = percent
     deadline = time.monotonic() + timeout
-    while panel.scrub_count == count:
+    while panel.steps.count == count or panel.view.state.percent != percent:
         if time.monotonic() > deadline:
             raise RuntimeError(f"no scrub step within {timeout} s at {percent} %")
         time.sleep(0.002)
-    if panel.result is None:
-        raise RuntimeError(f"the scrub step at {percent} % failed: {panel.message}")
-    return panel.scrub_ms
+    if panel.view.result is None:
+        raise RuntimeError(f"the scrub step at {percent} % failed: {panel.view.message}")
+    return panel.steps.last_ms
 
 
 def sweep(panel: InferPanel, label: str) -> list[float]:
@@ -76,13 +76,13 @@ def sweep(panel: InferPanel, label: str) -> list[float]:
     for percent in SWEEP:
         ms = scrub_to(panel, percent)
         times.append(ms)
-        print(f"  {percent:3d} %  {panel.result.primitive:>10s}  {ms:6.2f}")
+        print(f"  {percent:3d} %  {panel.view.result.inference.primitive:>10s}  {ms:6.2f}")
     return times
 
 
 def fill_live_buffer(panel: InferPanel) -> None:
     """The live buffer as if the first demonstration had just been observed."""
-    demo = panel.ctx.session.demos[panel.primitive.value][0]
+    demo = panel.ctx.store.state.demos[panel.controls.primitive.value][0]
     values = demo.select(LAYOUT.columns)
     panel.live.clear()
     for t, row in zip(demo.times, values, strict=True):
@@ -96,8 +96,8 @@ def main(browser: bool = False) -> None:
         try:
             panel = next(p for p in studio.panels if isinstance(p, InferPanel))
             deadline = time.monotonic() + 60.0
-            while panel.scrub_count == 0 and time.monotonic() < deadline:
-                time.sleep(0.01)  # the loop's first step syncs the choices and scrubs
+            while panel.steps.count == 0 and time.monotonic() < deadline:
+                time.sleep(0.01)  # the loop's first frames follow the workspace and infer
             if browser:
                 from playwright.sync_api import sync_playwright
 
@@ -109,10 +109,10 @@ def main(browser: bool = False) -> None:
                 page.goto(f"http://127.0.0.1:{studio.port}")
                 page.get_by_role("tab", name="Infer").click(timeout=60_000)
                 time.sleep(2.0)
-            test = sweep(panel, f"test demonstration {panel.demo.value} (held out)")
-            fit_ms = _fit_ms(panel)
+            test = sweep(panel, f"test demonstration {panel.controls.demo.value} (held out)")
+            fit_ms = _fit_ms(panel, studio.session)
             refit_ms = _refit_ms(studio.session)
-            panel.source.value = LIVE
+            panel.controls.source.value = LIVE
             fill_live_buffer(panel)
             live = sweep(panel, "live stream (buffer of one demonstration)")
         finally:
@@ -151,18 +151,18 @@ def _refit_ms(session, repeats: int = 7) -> float:
     timings = []
     for _ in range(repeats):
         session.refit()
-        timings.append(session.fit_ms)
+        timings.append(session.learner.state.fit_ms)
     return statistics.median(timings)
 
 
-def _fit_ms(panel: InferPanel) -> float:
-    """Time of one held-out fit, as the panel does it when a new test demo is picked."""
-    session = panel.ctx.session
-    with session.lock:
-        demos = {name: list(items) for name, items in session.demos.items()}
-        settings = session.resolved_settings()  # as the panel fits: no new choice
+def _fit_ms(panel: InferPanel, session) -> float:
+    """Time of one held-out fit, as the learner does it when a new test demo is picked."""
+    snapshot = session.snapshot()
+    demos = snapshot.store.demos
+    settings = snapshot.resolved_settings()  # as the learner fits: no new choice
+    controls = panel.controls
     start = time.perf_counter()
-    fit(held_out_training(demos, panel.primitive.value, panel.demo.value), LAYOUT, settings)
+    fit(held_out_training(demos, controls.primitive.value, controls.demo.value), LAYOUT, settings)
     return 1e3 * (time.perf_counter() - start)
 
 
@@ -227,6 +227,7 @@ def under_load(seconds: float = 20.0, clients: int = 2, rate_hz: float = 30.0) -
 
     import numpy as np
 
+    from app.live.take_controller import Phase
     from app.panels.teach import TeachPanel
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -238,7 +239,7 @@ def under_load(seconds: float = 20.0, clients: int = 2, rate_hz: float = 30.0) -
             teach = next(p for p in studio.panels if isinstance(p, TeachPanel))
             studio.session.wait_for_model()
             scrub_to(panel, 50)  # the held-out model fitted before measuring
-            demo = studio.session.demos[panel.primitive.value][1]
+            demo = studio.session.store.state.demos[panel.controls.primitive.value][1]
             hand = LAYOUT.extract(demo)[:, :3]
 
             def drag() -> None:  # the user's drag while recording, at 50 Hz
@@ -250,18 +251,18 @@ def under_load(seconds: float = 20.0, clients: int = 2, rate_hz: float = 30.0) -
                     time.sleep(0.02)
 
             def collect() -> None:  # every scrub step the loop computes meanwhile
-                seen = panel.scrub_count
+                seen = panel.steps.count
                 while not stop.is_set():
-                    if panel.scrub_count != seen:
-                        seen = panel.scrub_count
-                        steps.append(panel.scrub_ms)
+                    if panel.steps.count != seen:
+                        seen = panel.steps.count
+                        steps.append(panel.steps.last_ms)
                     time.sleep(0.001)
 
             teach.record.press()  # Record: the countdown, then sampling
             deadline = time.monotonic() + 30.0
-            while not teach.record.sampling and time.monotonic() < deadline:
+            while teach.record.takes.phase is not Phase.RECORDING and time.monotonic() < deadline:
                 time.sleep(0.01)
-            recorder = teach.record.recorder
+            recorder = teach.record.takes.recorder
             samples_before, started = recorder.n_samples, time.monotonic()
             threads = [threading.Thread(target=f, daemon=True) for f in (drag, collect)]
             for thread in threads:
@@ -271,7 +272,7 @@ def under_load(seconds: float = 20.0, clients: int = 2, rate_hz: float = 30.0) -
             processes = [
                 context.Process(
                     target=scrubbing_client,
-                    args=(studio.port, panel.percent._impl.uuid, seconds, rate_hz, report),
+                    args=(studio.port, panel.controls.percent._impl.uuid, seconds, rate_hz, report),
                 )
                 for _ in range(clients)
             ]
@@ -280,7 +281,7 @@ def under_load(seconds: float = 20.0, clients: int = 2, rate_hz: float = 30.0) -
             reports = [report.get(timeout=seconds + 120.0) for _ in processes]
             for process in processes:
                 process.join(timeout=30.0)
-            recording = teach.record.sampling
+            recording = teach.record.takes.phase is Phase.RECORDING
             recorded_hz = (recorder.n_samples - samples_before) / (time.monotonic() - started)
             skipped = recorder.skipped
             stop.set()

@@ -25,6 +25,14 @@
 //    tab_switch_html). viser's tabs (which can also be dragged) change on the pointer's
 //    release, not on a bare `click()`: the whole press and release is dispatched, at the
 //    middle of the tab.
+//
+// 4. The tab shown is reported: viser tells the server nothing of a tab chosen, so the 3D view
+//    kept the look of the tab whose controls were used last (clicking Infer changed nothing
+//    until a control was touched). The configuration names a row of buttons, one per tab
+//    title (app/ui/page_script.py, BrowserTabs); the script hides that row and, whenever the
+//    selected tab of those titles changes (a click, the keyboard, showTab), clicks its button,
+//    which the server hears as any click. The tab shown when the page loads is not reported
+//    (opening a page is not choosing a tab).
 (function () {
   "use strict";
   const studio = (window.__icubStudio = window.__icubStudio || {});
@@ -92,6 +100,59 @@
     const value = x0 + ((event.clientX - box.left) / box.width) * (x1 - x0);
     if (moveSlider(config, value)) studio.chartClicks += 1;
   });
+
+  studio.tabReports = 0;
+  function tabConfig() {
+    return studio.config.tabs || {};
+  }
+
+  function reporterRow() {
+    const report = tabConfig().report;
+    const label = report && document.querySelector('label[for="' + report + '"]');
+    if (!label) return null;
+    let row = label.closest(".mantine-Flex-root");
+    while (row && row.parentElement && !row.querySelector("button")) row = row.parentElement;
+    return row;
+  }
+
+  let reported = null;
+  function selectedTitle() {
+    const titles = tabConfig().titles || [];
+    const tab = Array.from(document.querySelectorAll('[role="tab"][aria-selected="true"]')).find(
+      function (t) {
+        return titles.indexOf(t.textContent.trim()) >= 0;
+      },
+    );
+    return tab ? tab.textContent.trim() : null;
+  }
+
+  function watchTabs() {
+    const row = reporterRow();
+    if (row && row.parentElement && row.parentElement.style.display !== "none") {
+      row.parentElement.style.display = "none";
+    }
+    const title = selectedTitle();
+    if (title === null) return;
+    if (reported === null) {
+      reported = title; // the tab the page opened on: not a choice
+      return;
+    }
+    if (title === reported || !row) return;
+    const button = Array.from(row.querySelectorAll("button")).find(function (b) {
+      return b.textContent.trim() === title;
+    });
+    if (!button) return;
+    reported = title;
+    button.click();
+    studio.tabReports += 1;
+  }
+  new MutationObserver(watchTabs).observe(document.body, {
+    subtree: true,
+    childList: true,
+    attributes: true,
+    attributeFilter: ["aria-selected"],
+  });
+  watchTabs();
 
   studio.tabSwitches = 0;
   studio.showTab = function (title) {

@@ -14,6 +14,12 @@ from pathlib import Path
 
 import pytest
 
+from app.core.fits import FitCache
+
+# The fits of the tests' sessions and studios, shared (the studio injects a cache: one per
+# studio by default). Many tests open the same workspaces: their fits are learned once.
+FITS = FitCache(max_entries=32)
+
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_FLAGS = [
     "--headless",
@@ -132,6 +138,7 @@ def start_studio(workspace: Path, **kwargs):
     from app.io.net import free_port
     from app.studio import Studio
 
+    kwargs.setdefault("fits", FITS)
     return Studio.start("127.0.0.1", free_port(), workspace, **kwargs)
 
 

@@ -55,11 +55,16 @@ def test_a_flagged_demonstration_is_shown_left_out_and_kept_with_one_click(
         click(page, "Create workspace")
         notification(page, "Workspace created")
         session = studio.session
-        wait_until(lambda: session.workspace.root.name == "takes", what="the new workspace")
+        store = session.store
+        wait_until(lambda: store.state.workspace.root.name == "takes", what="the new workspace")
         key = ("curved", "paused")
-        assert list(session.left_out()) == [key]
-        model = wait_until(lambda: None if session.refitting else session.model or None,
-                           timeout=120, what="the model")  # fmt: skip
+        assert list(store.state.left_out) == [key]
+
+        def model():
+            snapshot = session.snapshot()
+            return None if snapshot.refitting else snapshot.model
+
+        model = wait_until(model, timeout=120, what="the model")
         assert model.primitive("curved").n_demos == 5  # learned without it
 
         page.get_by_role("tab", name="Teach").click()
@@ -76,21 +81,22 @@ def test_a_flagged_demonstration_is_shown_left_out_and_kept_with_one_click(
         wait_until(lambda: key in lines, what="the line of the flagged demonstration")
         assert tuple(lines[key].color) == NO_COLOR  # drawn grey: not learned from
 
-        before = session.workspace.demo_path(*key).read_bytes()
+        before = store.state.workspace.demo_path(*key).read_bytes()
         press(page, page.get_by_role("button", name="Keep", exact=True))
         notification(page, "Kept", "paused is learned from despite its findings")
-        wait_until(lambda: session.checks.kept == {key}, what="the choice stored")
+        wait_until(lambda: store.state.checks.kept == {key}, what="the choice stored")
         page.get_by_text("paused · ⚠ kept despite findings").wait_for()
-        colour = session.color("curved")
+        colour = store.state.color("curved")
         wait_until(lambda: tuple(lines[key].color) == colour, what="its line in its colour")
         model = wait_until(
-            lambda: None if session.refitting else session.model, timeout=120, what="a refit"
-        )
+            lambda: None if session.snapshot().refitting else session.snapshot().model,
+            timeout=120, what="a refit",
+        )  # fmt: skip
         assert model.primitive("curved").n_demos == 6
         assert '"kept": [\n   [\n    "curved",\n    "paused"' in (
-            session.workspace.index_path.read_text()
+            store.state.workspace.index_path.read_text()
         )
-        assert session.workspace.demo_path(*key).read_bytes() == before
+        assert store.state.workspace.demo_path(*key).read_bytes() == before
         assert np.isfinite(model.primitive("curved").mean).all()
 
         # Repair on request: split at the gap, two new demonstrations beside the original.
@@ -98,9 +104,9 @@ def test_a_flagged_demonstration_is_shown_left_out_and_kept_with_one_click(
         page.get_by_text("Repair the gap of").wait_for()
         click(page, "Split at the gap")  # below the fold: a click event, as a scrolled page
         notification(page, "Gap repaired", "paused-part1, paused-part2 made from paused")
-        names = [d.name for d in session.demos["curved"]]
+        names = [d.name for d in store.state.demos["curved"]]
         assert names[-2:] == ["paused-part1", "paused-part2"] and "paused" in names
-        assert session.workspace.demo_path(*key).read_bytes() == before
-        assert not any(f.kind == "gap" for f in session.findings_of("curved", "paused-part1"))
+        assert store.state.workspace.demo_path(*key).read_bytes() == before
+        assert not any(f.kind == "gap" for f in store.state.findings_of("curved", "paused-part1"))
     finally:
         page.close()

@@ -75,8 +75,8 @@ def test_no_public_share_button(page) -> None:
 
 @pytest.mark.browser
 def test_bad_imports_are_refused_and_change_nothing(page, studio) -> None:
-    session, section = studio.session, importer(studio)
-    before, version = tree_hash(studio.workspace), session.version
+    store, section = studio.session.store, importer(studio)
+    before, version = tree_hash(studio.workspace), store.state.version
     for case in GUI_REFUSALS:
         content, reason = BAD_ZIPS[case]
         upload_file(page, section.upload_button, f"{case.replace(' ', '-')}.zip", content)
@@ -94,19 +94,19 @@ def test_bad_imports_are_refused_and_change_nothing(page, studio) -> None:
                    for i in range(3)})  # fmt: skip
     upload_file(page, section.upload_button, "mine.zip", good)
     page.get_by_text("2 primitives, 6 demonstrations").wait_for()
-    assert section.modalities.value == "hand=x,y,z"  # guessed from the header
-    section.modalities.value = "hand=x,y,w"
+    assert section.inputs.modalities.value == "hand=x,y,z"  # guessed from the header
+    section.inputs.modalities.value = "hand=x,y,w"
     assert "missing column(s) ['w']" in notification(page, "Cannot import mine.zip", "['w']")
     assert not section.actions.visible
     time.sleep(0.5)  # anything that would (wrongly) change the workspace has had time to
-    assert tree_hash(studio.workspace) == before and session.version == version
+    assert tree_hash(studio.workspace) == before and store.state.version == version
 
 
 @pytest.mark.browser
 def test_a_dataset_replaces_the_workspace_and_the_old_one_comes_back(page, studio) -> None:
-    session, section = studio.session, importer(studio)
+    store, section = studio.session.store, importer(studio)
     before = tree_hash(studio.workspace, trash=False)
-    names = session.names()
+    names = store.state.names
     data = zip_of({f"{p}/take{i}.csv": csv_demo(10 * k + i) for k, p in enumerate(("up", "down"))
                    for i in range(3)})  # fmt: skip
     upload_file(page, section.upload_button, "takes.zip", data)
@@ -115,8 +115,8 @@ def test_a_dataset_replaces_the_workspace_and_the_old_one_comes_back(page, studi
     page.get_by_text("Replace this workspace?").wait_for()
     press(page, page.get_by_role("button", name="Replace this workspace").last)
     notification(page, "Workspace replaced", "takes.zip: 6 demonstrations")
-    wait_until(lambda: session.names() == ["down", "up"], what="the imported primitives")
-    assert session.layout.names == ("hand",)
+    wait_until(lambda: store.state.names == ("down", "up"), what="the imported primitives")
+    assert store.state.layout.names == ("hand",)
     # The previous workspace waits in the trash: restore it from "Recently deleted".
     from app.panels.data import DataPanel
 
@@ -127,22 +127,22 @@ def test_a_dataset_replaces_the_workspace_and_the_old_one_comes_back(page, studi
     choose(page, trash.choice, trash.choice.options[0])
     click(page, "Restore")
     notification(page, "Restored")
-    wait_until(lambda: session.names() == names, what="the previous workspace back")
+    wait_until(lambda: store.state.names == names, what="the previous workspace back")
     assert tree_hash(studio.workspace, trash=False) == before
-    assert session.layout.names == ("hand", "head")
+    assert store.state.layout.names == ("hand", "head")
 
 
 @pytest.mark.browser
 def test_the_lab_recordings_on_the_icub(browser, page, studio, heights_dir, artifacts) -> None:
-    session, section = studio.session, importer(studio)
+    store, section = studio.session.store, importer(studio)
     old_root, old = studio.workspace, tree_hash(studio.workspace)
     upload_file(page, section.upload_button, "lab-records-heights.zip", zip_folder(heights_dir))
     page.get_by_text("122 demonstrations: bottom (40), middle (40), top (42)").wait_for()
-    assert section.format.value == "records"
+    assert section.inputs.format.value == "records"
     click(page, "Create workspace")
     text = notification(page, "Workspace created")
     assert "122 demonstrations of 3 primitives" in text
-    wait_until(lambda: session.workspace.root == old_root.parent / "lab-records-heights",
+    wait_until(lambda: store.state.workspace.root == old_root.parent / "lab-records-heights",
                what="the new workspace")  # fmt: skip
     assert tree_hash(old_root) == old  # the previous workspace is untouched
     view = studio.scene
@@ -153,7 +153,7 @@ def test_the_lab_recordings_on_the_icub(browser, page, studio, heights_dir, arti
     # The priors are around the iCub's hand: their means start within a few cm of it.
     hand = studio.arm.hand_position()
     for name in view.workspace.tubes:
-        start = view.workspace.prior_tube(session.model, name)[0][0]
+        start = view.workspace.prior_tube(studio.session.snapshot().model, name)[0][0]
         assert np.linalg.norm(start - hand) < 0.08, (name, start, hand)
 
     page.get_by_role("tab", name="Teach").click()
@@ -172,26 +172,29 @@ def test_the_lab_recordings_on_the_icub(browser, page, studio, heights_dir, arti
 
     panel = next(p for p in studio.panels if isinstance(p, InferPanel))
     page.get_by_role("tab", name="Infer").click()
-    choose(page, panel.primitive, "top")
-    choose(page, panel.demo, "person2_record3")
-    panel.percent.value = 50
-    result = wait_until(
-        lambda: panel.result if panel.result is not None and panel.result.truth is not None
-        and panel.result.truth.name == "person2_record3" and not panel._dirty
-        and not studio.session.refitting else None,
-        timeout=120, what="the scrub step",
-    )  # fmt: skip
-    assert "learned without person2_record3" in panel.model_note
-    page.get_by_text(f"Recognised: {result.primitive}").wait_for()  # right or wrong, shown
-    assert result.remaining > 0.0  # something left to replay
-    panel.session_mode.value = "faded"
+    controls = panel.controls
+    choose(page, controls.primitive, "top")
+    choose(page, controls.demo, "person2_record3")
+    controls.percent.value = 50
+
+    def scrubbed():
+        view = panel.view
+        shown = view is not None and view.result is not None and view.state.percent == 50
+        return view if shown and view.state.demo == "person2_record3" else None
+
+    view = wait_until(scrubbed, timeout=120, what="the scrub step")
+    result = view.result
+    assert "learned without person2_record3" in view.model.note
+    page.get_by_text(f"Recognised: {result.inference.primitive}").wait_for()  # right or wrong
+    assert result.inference.remaining > 0.0  # something left to replay
+    controls.session_mode.value = "faded"
     screenshot(page, artifacts / "infer_lab_records.png")
     click(page, "Play")
     wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
     # The path replayed is the scrubbed prediction (the latest scrub's, should the loop have
     # scrubbed again meanwhile), and the arm reached its end through IK.
     played = panel.replay.positions
-    assert_allclose(played, panel.result.future_hand)
+    assert_allclose(played, panel.view.result.future.hand)
     assert np.linalg.norm(studio.arm.hand_position() - played[-1]) < 0.005
 
 
@@ -220,19 +223,22 @@ def test_a_workspace_of_other_modalities_has_their_charts_and_no_recording(
             "force fz (N)",
         ]  # fmt: skip
         assert len(teach.prior.plots) == 6 and len(infer.charts.handles) == 6
-        assert tuple(infer.observed.options) == ("hand + force", "hand", "force")
-        assert not teach.head.folder.visible
-        assert "Recording is off in this workspace" in teach.record.status.content
-        infer.observed.value = "force"
-        infer.percent.value = 70
+        assert tuple(infer.controls.observed.options) == ("hand + force", "hand", "force")
+        wait_until(lambda: not teach.head.controls.folder.visible, what="no head source")
+        wait_until(lambda: "Recording is off in this workspace"
+                   in teach.record.controls.status.content, what="recording off")  # fmt: skip
+        infer.controls.observed.value = "force"
+        infer.controls.percent.value = 70
         result = wait_until(
-            lambda: infer.result if infer.result is not None
-            and infer.result.observation.modalities == ("force",) and not infer._dirty else None,
+            lambda: infer.view.result if infer.view is not None and infer.view.result is not None
+            and infer.view.result.observation.modalities == ("force",) else None,
             timeout=120, what="an inference from the forces alone",
         )  # fmt: skip
-        assert result.posterior.mean.shape[1] == 6
+        assert result.inference.prediction.mean.shape[1] == 6
         teach.record.press()  # what the Record button's callback does
-        wait_until(lambda: "cannot record" in teach.record.last_message, what="the refusal")
+        wait_until(lambda: teach.record.takes.outcome is not None
+                   and "cannot record" in teach.record.takes.outcome.text,
+                   what="the refusal")  # fmt: skip
         assert teach.record.take is None
     finally:
         studio.stop()
@@ -247,22 +253,24 @@ def test_an_xdf_session_through_the_page(page, studio, tmp_path) -> None:
     pytest.importorskip("pyxdf")
     from tests import rig_files as rf
 
-    session, section = studio.session, importer(studio)
+    store, section = studio.session.store, importer(studio)
     old_root, old = studio.workspace, tree_hash(studio.workspace)
+    page.get_by_role("tab", name="Data").click()  # the test before it ends in Infer
     upload_file(page, section.upload_button, "session.xdf",
                 rf.write_xdf(tmp_path / "session.xdf").read_bytes())  # fmt: skip
     page.get_by_text("2 primitives, 6 demonstrations: reach (3), wave (3)").wait_for()
-    assert section.format.value == "xdf" and section.cut.visible and section.rate.visible
-    assert section.modalities.value == "hand=hand:x,y,z; head=head:roll,pitch,yaw"
+    inputs = section.inputs
+    assert inputs.format.value == "xdf" and inputs.cut.visible and inputs.rate.visible
+    assert inputs.modalities.value == "hand=hand:x,y,z; head=head:roll,pitch,yaw"
     page.get_by_text("reach/session-1 ← session.xdf [0.500-1.800 s]").wait_for()
     page.get_by_text("wave/session-6 ← session.xdf [9.200-10.300 s]").wait_for()
-    section.rate.value = 50.0  # what typing in the number field does
+    inputs.rate.value = 50.0  # what typing in the number field does
     page.get_by_text("time base: 50 Hz").wait_for()
     assert tree_hash(old_root) == old  # nothing written by the preview
     click(page, "Create workspace")
     assert "6 demonstrations of 2 primitives" in notification(page, "Workspace created")
-    wait_until(lambda: session.workspace.root == old_root.parent / "session",
+    wait_until(lambda: store.state.workspace.root == old_root.parent / "session",
                what="the new workspace")  # fmt: skip
-    assert session.layout.names == ("hand", "head")
-    assert [m.unit for m in session.layout.modalities] == ["m", "rad"]
+    assert store.state.layout.names == ("hand", "head")
+    assert [m.unit for m in store.state.layout.modalities] == ["m", "rad"]
     assert tree_hash(old_root) == old

@@ -12,14 +12,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from app.live.inference import (
-    HeldOutModels,
-    demo_observation,
-    held_out_training,
-    scrub_step,
-)
+from app.core.fits import FitCache, Training, held_out_training
+from app.live.inference import demo_observation, inferred
 from app.live.replay import Replay
-from app.live.stream import LiveBuffer
+from app.live.stream import LiveStream
 from app.ui.display import observed_choices
 from promp import metrics
 from promp.data import Demonstration
@@ -84,12 +80,17 @@ def test_n_observed_follows_the_evaluation_rule() -> None:
         n_observed_for(50, 0)
 
 
+def held_out(fits: FitCache, demos, primitive: str, demo: str):
+    """The model learned from ``demos`` without ``demo`` (as the learner fits it)."""
+    return fits.fit(Training(held_out_training(demos, primitive, demo), LAYOUT, SETTINGS)).model
+
+
 def test_held_out_model_never_sees_the_test_demo(scenario) -> None:
-    models = HeldOutModels()
-    model = models.get(0, scenario, "curved", "curved_003", SETTINGS, LAYOUT)
+    fits = FitCache()
+    model = held_out(fits, scenario, "curved", "curved_003")
     assert model.primitive("curved").n_demos == len(scenario["curved"]) - 1
     assert model.primitive("direct").n_demos == len(scenario["direct"])
-    assert models.get(0, scenario, "curved", "curved_003", SETTINGS, LAYOUT) is model  # cached
+    assert held_out(fits, scenario, "curved", "curved_003") is model  # kept
     # Whatever the test demonstration holds, the held-out model is the same.
     test = next(d for d in scenario["curved"] if d.name == "curved_003")
     corrupted = Demonstration(test.times, test.values + 0.3, test.columns, name=test.name)
@@ -97,7 +98,8 @@ def test_held_out_model_never_sees_the_test_demo(scenario) -> None:
         "curved": [corrupted if d.name == test.name else d for d in scenario["curved"]],
         "direct": scenario["direct"],
     }
-    refit = models.get(1, changed, "curved", "curved_003", SETTINGS, LAYOUT)
+    assert held_out(fits, changed, "curved", "curved_003") is model  # the same training
+    refit = held_out(FitCache(), changed, "curved", "curved_003")  # learned anew
     assert refit is not model
     assert_allclose(refit.primitive("curved").mean, model.primitive("curved").mean)
     assert_allclose(refit.primitive("curved").cov_factor, model.primitive("curved").cov_factor)
@@ -129,80 +131,86 @@ def test_recognises_every_held_out_demo_at_90_percent(scenario, chosen) -> None:
             model = held_out_model(scenario, primitive, demo.name, chosen)
             for observed, alpha in settings:
                 obs = demo_observation(model, demo, 90, observed_choices(LAYOUT)[observed])
-                result = scrub_step(model, obs, alpha, truth=demo)
+                result = inferred(model, obs, alpha, truth=demo).inference
                 if result.primitive != primitive:
                     wrong.append((demo.name, observed, alpha, result.primitive))
-                errors = [result.position_error_m, result.goal_error_m, result.duration_error_s]
+                e = result.errors
+                errors = [e.position, e.goal, e.duration]
                 assert np.all(np.isfinite(errors)), (demo.name, observed, alpha, errors)
-                assert result.position_error_m < 0.05 and result.goal_error_m < 0.05
+                assert e.position < 0.05 and e.goal < 0.05
                 assert_allclose(result.probabilities.sum(), 1.0)
     assert not wrong, wrong
 
 
-def test_scrub_step_geometry_and_errors(scenario, chosen) -> None:
+def test_inference_geometry_and_errors(scenario, chosen) -> None:
     demo = scenario["direct"][7]
     model = held_out_model(scenario, "direct", demo.name, chosen)
     obs = demo_observation(model, demo, 40, ("hand", "head"))
     assert obs.n_observed == math.ceil(0.4 * demo.n_samples)
-    result = scrub_step(model, obs, "ml", truth=demo)
+    result = inferred(model, obs, "ml", truth=demo)
+    inference, future = result.inference, result.future
     hand = hand_dims(LAYOUT)
-    assert result.prior.mean.shape == result.posterior.mean.shape == (100, LAYOUT.n_dims)
-    assert_allclose(result.observed_until, demo.times[obs.n_observed - 1] - demo.times[0])
+    assert inference.prior.mean.shape == inference.prediction.mean.shape == (100, LAYOUT.n_dims)
+    assert_allclose(inference.observed_until, demo.times[obs.n_observed - 1] - demo.times[0])
     # The future path runs on the posterior mean from the observation point to the end.
-    assert_allclose(result.future_times[[0, -1]], [result.observed_until, result.duration])
-    assert_allclose(result.future_hand[-1], result.posterior.mean[-1, hand], atol=1e-9)
+    assert_allclose(future.times[[0, -1]], [inference.observed_until, inference.duration])
+    assert_allclose(future.hand[-1], inference.prediction.mean[-1, hand], atol=1e-9)
+    prediction = inference.prediction
     at_obs = [
-        np.interp(result.observed_until, result.posterior.times, result.posterior.mean[:, d])
-        for d in hand
+        np.interp(inference.observed_until, prediction.times, prediction.mean[:, d]) for d in hand
     ]
-    assert_allclose(result.future_hand[0], at_obs, atol=2e-3)
+    assert_allclose(future.hand[0], at_obs, atol=2e-3)
     # It passes near the last observed hand position, and conditioning narrowed the spread there.
-    assert np.linalg.norm(result.future_hand[0] - obs.values[-1, :3]) < 0.02
-    k = np.searchsorted(result.posterior.times, result.observed_until) - 1
-    assert np.all(result.posterior.std[k, hand] < result.prior.std[k, hand])
+    assert np.linalg.norm(future.hand[0] - obs.values[-1, :3]) < 0.02
+    k = np.searchsorted(prediction.times, inference.observed_until) - 1
+    assert np.all(prediction.std[k, hand] < inference.prior.std[k, hand])
     # Errors are the evaluation's metrics.
     truth = LAYOUT.extract(demo)[:, hand]
-    prim = model.primitive(result.primitive)
-    natural = predict(model, condition(model, prim, obs, result.alpha), result.alpha).mean[:, hand]
-    assert_allclose(
-        result.position_error_m, metrics.remainder_error(truth, natural, obs.n_observed)
-    )
-    assert_allclose(result.goal_error_m, metrics.goal_error(truth, natural))
-    assert_allclose(result.duration_error_s, abs(result.duration - demo.duration))
+    prim = model.primitive(inference.primitive)
+    alpha = inference.alpha
+    natural = predict(model, condition(model, prim, obs, alpha), alpha).mean[:, hand]
+    errors = inference.errors
+    assert_allclose(errors.position, metrics.remainder_error(truth, natural, obs.n_observed))
+    assert_allclose(errors.goal, metrics.goal_error(truth, natural))
+    assert_allclose(errors.duration, abs(inference.duration - demo.duration))
     # Nothing remains at 100 %: no remainder error; without the truth, no errors at all.
-    full = scrub_step(model, demo_observation(model, demo, 100, ("hand",)), "ml", truth=demo)
-    assert math.isnan(full.position_error_m) and math.isfinite(full.goal_error_m)
-    live = scrub_step(model, obs, "model")
-    assert math.isnan(live.goal_error_m) and math.isnan(live.true_duration)
+    full = inferred(model, demo_observation(model, demo, 100, ("hand",)), "ml", truth=demo)
+    assert math.isnan(full.inference.errors.position)
+    assert math.isfinite(full.inference.errors.goal)
+    live = inferred(model, obs, "model")
+    assert live.inference.errors is None and live.truth is None
 
 
-def test_live_buffer_observation(scenario) -> None:
+def test_live_stream_observation(scenario) -> None:
     demo = scenario["curved"][0]
     values = demo.select(COLUMNS)
-    buffer = LiveBuffer(max_seconds=10.0)
+    stream = LiveStream(max_seconds=10.0)
     with pytest.raises(ValueError, match="nothing observed"):
-        buffer.observation(100, ("hand",), LAYOUT)
+        stream.samples().observation(100, ("hand",), LAYOUT)
     for t, row in zip(demo.times, values, strict=True):
-        assert buffer.append(50.0 + t, row[:3], row[3:])
-    assert not buffer.append(50.0 + 10.5, values[0, :3], values[0, 3:])  # full
-    assert buffer.append(50.0, values[0, :3], None) and len(buffer) == demo.n_samples  # stale
+        assert stream.append(50.0 + t, row[:3], row[3:])
+    assert not stream.append(50.0 + 10.5, values[0, :3], values[0, 3:])  # full
+    assert stream.append(50.0, values[0, :3], None)  # not after the last: ignored
+    assert len(stream.samples()) == demo.n_samples
     model = fit(scenario, LAYOUT, SETTINGS)
     for percent in (30, 100):
-        live = buffer.observation(percent, ("hand", "head"), LAYOUT)
+        live = stream.samples().observation(percent, ("hand", "head"), LAYOUT)
         ref = demo_observation(model, demo, percent, ("hand", "head"))
         assert_allclose(live.values, ref.values)
         assert_allclose(live.elapsed, ref.elapsed)
     # Samples without a face are left out when the head is observed, kept for the hand alone.
-    buffer.clear()
+    stream.clear()
     for i, (t, row) in enumerate(zip(demo.times, values, strict=True)):
-        buffer.append(t, row[:3], None if i % 3 == 0 else row[3:])
-    assert buffer.observation(100, ("hand",), LAYOUT).n_observed == demo.n_samples
-    with_head = buffer.observation(100, ("head",), LAYOUT)
+        stream.append(t, row[:3], None if i % 3 == 0 else row[3:])
+    samples = stream.samples()
+    assert samples is stream.samples()  # the same value until a sample is added
+    assert samples.observation(100, ("hand",), LAYOUT).n_observed == demo.n_samples
+    with_head = samples.observation(100, ("head",), LAYOUT)
     assert with_head.n_observed == demo.n_samples - len(range(0, demo.n_samples, 3))
-    buffer.clear()
-    buffer.append(0.0, values[0, :3], None)
+    stream.clear()
+    stream.append(0.0, values[0, :3], None)
     with pytest.raises(ValueError, match="no face"):
-        buffer.observation(100, ("hand", "head"), LAYOUT)
+        stream.samples().observation(100, ("hand", "head"), LAYOUT)
 
 
 # ---------------------------------------------------------------------- replay
@@ -282,7 +290,7 @@ def test_a_new_prediction_during_a_replay_is_followed_from_where_it_was() -> Non
     clock.t = 0.5
     replay.step()
     assert_allclose(replay.progress, 0.25)
-    replay.load(np.array([0.0, 4.0]), np.array([[0.0, 0.0, 0.0], [0.0, 0.4, 0.0]]), resume=True)
+    replay.load(np.array([0.0, 4.0]), np.array([[0.0, 0.0, 0.0], [0.0, 0.4, 0.0]]))
     assert replay.playing and replay.elapsed == 1.0  # a quarter of the new 4 s
     clock.t = 1.5
     replay.step()
@@ -290,8 +298,37 @@ def test_a_new_prediction_during_a_replay_is_followed_from_where_it_was() -> Non
     clock.t = 10.0
     replay.step()
     assert replay.finished
-    replay.load(np.array([0.0, 1.0]), np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), resume=True)
+    replay.load(np.array([0.0, 1.0]), np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]))
     assert not replay.playing and replay.elapsed == 0.0  # not playing: rewound
+    assert_allclose(moves[-1], [0.0, 0.0, 0.0])  # and the hand at the new path's start
+
+
+def test_a_new_path_moves_the_hand_only_while_the_replay_holds_it() -> None:
+    """Who holds the arm is explicit: idle (the user's), a new path moves nothing; paused or
+    finished, the hand goes to the new path's start (the observation point, which the slider
+    moved); a drag hands the arm back to the user."""
+    from app.live.replay import Phase
+
+    clock, moves = FakeClock(), []
+    replay = Replay(lambda p: moves.append(np.array(p)), clock=clock)
+    first = np.array([[0.0, 0.0, 0.0], [0.2, 0.0, 0.0]])
+    second = np.array([[0.1, 0.0, 0.0], [0.1, 0.3, 0.0]])
+    replay.load(np.array([0.0, 1.0]), first)
+    assert replay.phase is Phase.IDLE and moves == []
+    replay.load(np.array([0.0, 1.0]), second)
+    assert moves == []  # the arm is the user's
+    replay.play()
+    clock.t = 5.0
+    replay.step()
+    assert replay.phase is Phase.FINISHED and moved_to(moves, second[-1])
+    replay.load(np.array([0.0, 2.0]), first)  # the slider moved
+    assert replay.phase is Phase.PAUSED and moved_to(moves, first[0])
+    replay.release()  # the user drags the hand
+    n = len(moves)
+    replay.load(np.array([0.0, 1.0]), second)
+    assert replay.phase is Phase.IDLE and len(moves) == n
+    replay.clear()
+    assert replay.phase is Phase.IDLE and not replay.has_path
 
 
 def moved_to(moves: list[np.ndarray], where: np.ndarray) -> bool:
@@ -305,7 +342,7 @@ def moved_to(moves: list[np.ndarray], where: np.ndarray) -> bool:
 def studio(tmp_path_factory):
     studio = start_studio(tmp_path_factory.mktemp("infer") / "workspace")
     panel = infer_panel(studio)
-    wait_until(lambda: panel.scrub_count > 0, timeout=60, what="the first scrub step")
+    wait_until(lambda: panel.steps.count > 0, timeout=60, what="the first view")
     yield studio
     studio.stop()
 
@@ -317,17 +354,18 @@ def infer_panel(studio):
 
 
 def wait_scrubbed(panel, percent: int | None = None, timeout: float = 60.0):
-    """Wait until the loop has scrubbed to the slider's value (or ``percent``)."""
+    """Wait until the panel shows an inference of the test demonstration chosen at the
+    slider's value (or ``percent``): the view says which state of the controls it was
+    computed from."""
 
     def done():
-        result = panel.result
-        if result is None or result.truth is None or result.truth.name != panel.demo.value:
+        view, controls = panel.view, panel.controls
+        if view is None or view.result is None or view.state.live:
             return None
-        wanted = panel.percent.value if percent is None else percent
-        if panel.percent.value != wanted:
+        wanted = controls.percent.value if percent is None else percent
+        if (view.state.demo, view.state.percent) != (controls.demo.value, wanted):
             return None
-        n_o = n_observed_for(wanted, result.truth.n_samples)
-        return result if result.observation.n_observed == n_o and not panel._dirty else None
+        return view.result
 
     return wait_until(done, timeout=timeout, what=f"a scrub step at {percent or 'the slider'} %")
 
@@ -338,23 +376,24 @@ def test_scrub_from_python_and_bad_replay(studio, monkeypatch) -> None:
     from app.panels.infer import LIVE, TEST
 
     panel = infer_panel(studio)
-    panel.percent.value = 37
+    panel.controls.percent.value = 37
     result = wait_scrubbed(panel, 37)
-    assert result.truth.name == panel.demo.value and panel.scrub_ms > 0
-    assert f"{panel.scrub_ms:.1f} ms" in panel.status.content
+    assert result.truth.name == panel.controls.demo.value and panel.steps.last_ms > 0
+    assert f"{panel.steps.last_ms:.1f} ms" in panel.controls.status.content
     notes = []
     quiet = dataclasses.replace(
         panel.ctx, notify=lambda title, body, color="blue": notes.append(title)
     )
     monkeypatch.setattr(panel, "ctx", quiet)
-    panel.source.value = LIVE
-    wait_until(lambda: panel.result is None and "nothing observed" in panel.message, timeout=30)
+    panel.controls.source.value = LIVE
+    wait_until(lambda: panel.view.result is None and "nothing observed" in panel.view.message,
+               timeout=30)  # fmt: skip
     q = studio.arm.q.copy()
-    panel.replay_buttons.value = "Play"
+    panel.controls.replay_buttons.value = "Play"
     wait_until(lambda: notes, timeout=30, what="a notification")
     assert notes == ["Nothing to replay"]
     assert_allclose(studio.arm.q, q)
-    panel.source.value = TEST
+    panel.controls.source.value = TEST
     wait_scrubbed(panel)
 
 
@@ -363,28 +402,31 @@ def test_live_stream_follows_the_dragged_hand(studio, scenario, primitive) -> No
     """Observing the live stream: the hand moved along a demonstration at its own speed
     (through the arm's IK, as a drag does) is recognised from the hand alone.
 
-    The panel's clock is a manual one that the test sets to the demonstration's time of each
+    The stream's clock is a manual one that the test sets to the demonstration's time of each
     sample once the hand is there, so the stream holds exactly the demonstration's samples up
     to 60 % of the movement however busy the machine is (with the wall clock, a starved loop
-    took fewer samples than the demonstration has)."""
+    took fewer samples than the demonstration has). The inference is checked against the
+    samples it was computed from (the view holds them): the stream may not grow between the
+    computation and the check."""
     from app.panels.infer import LIVE, TEST
 
     panel = infer_panel(studio)
+    controls = panel.controls
     demo = scenario[primitive][4]
     hand = LAYOUT.extract(demo)[:, :3]
-    panel.source.value = LIVE
-    panel.observed.value = "hand"
-    panel.percent.value = 100
+    controls.source.value = LIVE
+    controls.observed.value = "hand"
+    controls.percent.value = 100
     studio.call_in_loop(lambda: studio.arm.move_hand_to(hand[0]))
     wait_until(
         lambda: np.linalg.norm(studio.arm.hand_position() - hand[0]) < 5e-3,
         timeout=30, what="the hand at the start",
     )  # fmt: skip
     now = [1000.0 + demo.times[0]]
-    panel.clock = lambda: now[0]
+    panel.live.clock = lambda: now[0]
     try:
-        panel.live_button.value = True  # "Start observing"
-        wait_until(lambda: panel.observing and len(panel.live) == 1, timeout=30,
+        controls.live_button.value = True  # "Start observing"
+        wait_until(lambda: panel.live.observing and len(panel.live.samples()) == 1, timeout=30,
                    what="observing to start")  # fmt: skip
         # The user's drag: each of the demonstration's samples up to 60 % of the movement,
         # stamped with its own time once the IK has put the hand there.
@@ -396,26 +438,32 @@ def test_live_stream_follows_the_dragged_hand(studio, scenario, primitive) -> No
                 timeout=30, what=f"the hand at sample {k}",
             )  # fmt: skip
             now[0] = 1000.0 + demo.times[k]
-            wait_until(lambda k=k: len(panel.live) == k + 1, timeout=30,
-                       what=f"sample {k} in the live buffer")  # fmt: skip
+            wait_until(lambda k=k: len(panel.live.samples()) == k + 1, timeout=30,
+                       what=f"sample {k} in the live stream")  # fmt: skip
             if k == 6:
                 wait_until(
-                    lambda: panel.result is not None and panel.result.observation.n_observed > 5,
+                    lambda: panel.view.result is not None
+                    and panel.view.result.observation.n_observed > 5,
                     timeout=30, what="a live inference",
                 )  # fmt: skip
-        panel.live_button.value = True  # "Stop observing"
-        wait_until(lambda: not panel.observing and not panel._dirty, timeout=30)
-        wait_until(lambda: panel.result is not None, timeout=30, what="the final live inference")
+        controls.live_button.value = True  # "Stop observing"
+
+        def final():
+            view = panel.view
+            done = not panel.live.observing and view.samples is panel.live.samples()
+            return view if done and view.result is not None else None
+
+        view = wait_until(final, timeout=30, what="the inference of the whole stream")
     finally:
-        panel.clock = time.monotonic
-    result = panel.result
+        panel.live.clock = time.monotonic
+    result = view.result
     assert result.truth is None and result.observation.modalities == ("hand",)
-    assert result.observation.n_observed == len(panel.live) == n_drive > 20
+    assert result.observation.n_observed == len(view.samples) == n_drive > 20
     assert_allclose(result.observation.times, demo.times[:n_drive] - demo.times[0], atol=1e-9)
-    assert result.primitive == primitive, result.probabilities
-    assert f"Recognised: {primitive}" in panel.status.content
-    panel.observed.value = "hand + head"
-    panel.source.value = TEST
+    assert result.inference.primitive == primitive, result.inference.probabilities
+    assert f"Recognised: {primitive}" in controls.status.content
+    controls.observed.value = "hand + head"
+    controls.source.value = TEST
     wait_scrubbed(panel)
 
 
@@ -432,7 +480,7 @@ def page(browser, studio):
 
 
 def slider_box(page, panel):
-    root = page.locator(f"[id='{panel.percent._impl.uuid}']")
+    root = page.locator(f"[id='{panel.controls.percent._impl.uuid}']")
     root.wait_for(timeout=60_000)
     return root, root.bounding_box()
 
@@ -480,26 +528,27 @@ def chart_ok(state: dict | None, handle) -> bool:
 @pytest.mark.browser
 def test_slider_scrubbed_in_the_browser(studio, page) -> None:
     panel = infer_panel(studio)
-    choose(page, panel.primitive, "curved")
-    choose(page, panel.demo, "curved_000")
-    wait_until(lambda: panel.demo.value == "curved_000", timeout=30, what="the demo choice")
+    controls = panel.controls
+    choose(page, controls.primitive, "curved")
+    choose(page, controls.demo, "curved_000")
+    wait_until(lambda: controls.demo.value == "curved_000", timeout=30, what="the demo choice")
     click_slider(page, panel, 0.01)  # the track's left end: the first samples only
-    wait_until(lambda: panel.percent.value <= 3, timeout=30, what="the slider at its start")
+    wait_until(lambda: controls.percent.value <= 3, timeout=30, what="the slider at its start")
     early = wait_scrubbed(panel)
     early_vertices = np.array(studio.scene.inference.tube.vertices)
     wait_until(lambda: bars_in_page(page) and abs(
-        bars_in_page(page)["curved"] - early.probabilities[0]) < 1e-4, timeout=30,
+        bars_in_page(page)["curved"] - early.inference.probabilities[0]) < 1e-4, timeout=30,
         what="the probability bars in the page",
     )  # fmt: skip
     click_slider(page, panel, 0.3)
-    wait_until(lambda: 25 <= panel.percent.value <= 35, timeout=30, what="the slider near 30 %")
+    wait_until(lambda: 25 <= controls.percent.value <= 35, timeout=30, what="the slider near 30 %")
     later = wait_scrubbed(panel)
     assert later.observation.n_observed > early.observation.n_observed
     moved = np.linalg.norm(np.array(studio.scene.inference.tube.vertices) - early_vertices, axis=1)
     assert moved.max() > 0.01, "the posterior tube did not change"
-    assert np.abs(later.probabilities - early.probabilities).max() > 0.05
+    assert np.abs(later.inference.probabilities - early.inference.probabilities).max() > 0.05
     wait_until(
-        lambda: abs(bars_in_page(page)["curved"] - later.probabilities[0]) < 1e-4,
+        lambda: abs(bars_in_page(page)["curved"] - later.inference.probabilities[0]) < 1e-4,
         timeout=30, what="the new probabilities in the page",
     )  # fmt: skip
     # Keyboard: End (100 %) then ten steps left: 90 %.
@@ -508,15 +557,15 @@ def test_slider_scrubbed_in_the_browser(studio, page) -> None:
     page.keyboard.press("End")
     for _ in range(10):
         page.keyboard.press("ArrowLeft")
-    wait_until(lambda: panel.percent.value == 90, timeout=30, what="the slider at 90 %")
+    wait_until(lambda: controls.percent.value == 90, timeout=30, what="the slider at 90 %")
     for primitive, demo in (("curved", "curved_000"), ("direct", "direct_006")):
-        if panel.demo.value != demo:
-            choose(page, panel.primitive, primitive)
-            choose(page, panel.demo, demo)
-        wait_until(lambda d=demo: panel.demo.value == d, timeout=30, what=f"{demo} chosen")
+        if controls.demo.value != demo:
+            choose(page, controls.primitive, primitive)
+            choose(page, controls.demo, demo)
+        wait_until(lambda d=demo: controls.demo.value == d, timeout=30, what=f"{demo} chosen")
         result = wait_scrubbed(panel, 90)
         assert result.truth.name == demo
-        assert result.primitive == primitive, result.probabilities
+        assert result.inference.primitive == primitive, result.inference.probabilities
         status = page.get_by_text(f"Recognised: {primitive}")
         status.wait_for(timeout=30_000)
         bars = bars_in_page(page)
@@ -559,10 +608,11 @@ class ArmSampler:
 @pytest.mark.browser
 def test_replay_plays_in_the_browser(studio, page) -> None:
     panel = infer_panel(studio)
+    controls = panel.controls
     click_slider(page, panel, 0.2)
-    wait_until(lambda: 15 <= panel.percent.value <= 25, timeout=30, what="the slider at 20 %")
+    wait_until(lambda: 15 <= controls.percent.value <= 25, timeout=30, what="the slider at 20 %")
     result = wait_scrubbed(panel)
-    assert result.remaining > 2.0
+    assert result.inference.remaining > 2.0
     def button(name: str) -> None:
         """A mouse click on the button where it is now (the lines above it change as the
         replay runs: a place found beforehand was once a click beside the button, under load)."""
@@ -575,19 +625,19 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
     try:
         button("Play")
         wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to start")
-        clock.now += 0.3 * result.remaining
+        clock.now += 0.3 * result.inference.remaining
         wait_until(lambda: panel.replay.progress > 0.0, timeout=30, what="the replay to advance")
         button("Pause")
         wait_until(lambda: not panel.replay.playing, timeout=30, what="the pause")
         assert 0.25 <= panel.replay.progress <= 0.35, "paused where the clock was"
         q_paused = studio.arm.q.copy()
-        clock.now += result.remaining  # time passes while paused: the arm stays
+        clock.now += result.inference.remaining  # time passes while paused: the arm stays
         time.sleep(0.3)
         assert_allclose(studio.arm.q, q_paused)
         assert panel.replay.progress <= 0.35
         button("Play")
         wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to resume")
-        clock.now += result.remaining
+        clock.now += result.inference.remaining
         wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
     finally:
         panel.replay.clock = time.monotonic
@@ -610,13 +660,14 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
     played = sum(
         b[0] - a[0] for a, b in zip(sampler.samples, sampler.samples[1:], strict=False) if a[3]
     )
-    assert 0.7 * result.remaining <= played <= 1.5 * result.remaining + 1.0, played
+    remaining = result.inference.remaining
+    assert 0.7 * remaining <= played <= 1.5 * remaining + 1.0, played
     hand = studio.arm.hand_position()
-    assert np.linalg.norm(hand - result.future_hand[-1]) < 0.01  # the predicted end, reached
+    assert np.linalg.norm(hand - result.future.hand[-1]) < 0.01  # the predicted end, reached
     assert_allclose(studio.arm.gizmo.position, hand, atol=1e-5)  # the gizmo follows the hand
     button("Reset")
     wait_until(
-        lambda: np.linalg.norm(studio.arm.hand_position() - result.future_hand[0]) < 0.01,
+        lambda: np.linalg.norm(studio.arm.hand_position() - result.future.hand[0]) < 0.01,
         timeout=30, what="the hand back at the observation point",
     )  # fmt: skip
     assert panel.replay.progress == 0.0 and not panel.replay.playing
@@ -627,22 +678,23 @@ def test_infer_view_screenshot(browser, studio, page, artifacts) -> None:
     """The README's screenshot: a scrubbed state with the tube, the path, bars and charts (in
     a page of its own, at full resolution)."""
     panel = infer_panel(studio)
+    controls = panel.controls
     client = page.client
-    panel.session_mode.value = "faded"
-    choose(page, panel.primitive, "curved")
-    choose(page, panel.demo, "curved_002")
+    controls.session_mode.value = "faded"
+    choose(page, controls.primitive, "curved")
+    choose(page, controls.demo, "curved_002")
     click_slider(page, panel, 0.45)
-    wait_until(lambda: 42 <= panel.percent.value <= 48, timeout=30, what="the slider at 45 %")
+    wait_until(lambda: 42 <= controls.percent.value <= 48, timeout=30, what="the slider at 45 %")
     result = wait_scrubbed(panel)
     assert result.truth.name == "curved_002"
     studio.call_in_loop(lambda: panel.replay.reset())  # the robot's hand at the observation point
     camera = dict(position=[-0.9, -0.45, 0.9], look_at=[-0.22, -0.15, 0.05], fov_deg=42.0)
     set_camera(client, **camera)
     with_tube = settled_render(client)
-    panel.show_3d.value = False
+    controls.show_3d.value = False
     wait_until(lambda: not studio.scene.inference.tube.visible, timeout=30)
     without = settled_render(client, unlike=with_tube)
-    panel.show_3d.value = True
+    controls.show_3d.value = True
     wait_until(lambda: studio.scene.inference.tube.visible, timeout=30)
     changed = np.abs(with_tube - without).sum(axis=2) > 30
     assert changed.mean() > 0.005, "the inference does not show in the rendered frame"
@@ -664,4 +716,4 @@ def test_infer_view_screenshot(browser, studio, page, artifacts) -> None:
         assert path.stat().st_size > 50_000
     finally:
         shot.close()
-    panel.session_mode.value = "shown"
+    controls.session_mode.value = "shown"

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from app.live.inference import demo_observation, held_out_training, scrub_step
+from app.core.fits import held_out_training
+from app.live.inference import demo_observation, inferred
 from app.live.recognition_curve import (
     CurveCache,
     RecognitionCurve,
@@ -92,8 +93,9 @@ def test_the_curve_is_the_scrub_steps_probabilities_over_the_movement(scenario) 
     curve = recognition_curve(model, demo, observed, "ml", truth="curved")
     assert curve.probabilities.shape == (100, 2)
     for percent in (10, 45, 90):
-        step = scrub_step(model, demo_observation(model, demo, percent, observed), "ml", demo)
-        assert_allclose(curve.probabilities[percent - 1], step.probabilities, atol=1e-12)
+        step = inferred(model, demo_observation(model, demo, percent, observed), "ml", demo)
+        probabilities = step.inference.probabilities
+        assert_allclose(curve.probabilities[percent - 1], probabilities, atol=1e-12)
     assert curve.right_from is not None and curve.right_from <= 60
     assert curve.recognised[-1] == 0
 
@@ -149,9 +151,9 @@ def cursor_in_page(page) -> float | None:
 @pytest.mark.browser
 def test_the_chart_follows_the_slider_and_a_click_on_it_moves_the_slider(studio, page) -> None:
     panel = infer_panel(studio)
-    choose(page, panel.primitive, "curved")
-    choose(page, panel.demo, "curved_002")
-    panel.percent.value = 40
+    choose(page, panel.controls.primitive, "curved")
+    choose(page, panel.controls.demo, "curved_002")
+    panel.controls.percent.value = 40
     curve = wait_until(
         lambda: panel.recognition.curve() if "curved_002" in (panel.recognition.key or ())
         else None,
@@ -171,25 +173,27 @@ def test_the_chart_follows_the_slider_and_a_click_on_it_moves_the_slider(studio,
     )  # fmt: skip
     # The slider moves the cursor (the curve is not computed again).
     computed = panel.recognition.computed
-    root = page.locator(f"[id='{panel.percent._impl.uuid}']")
+    root = page.locator(f"[id='{panel.controls.percent._impl.uuid}']")
     box = root.bounding_box()
     page.mouse.click(box["x"] + 0.8 * box["width"], box["y"] + box["height"] / 2)
-    wait_until(lambda: 75 <= panel.percent.value <= 85, timeout=60, what="the slider near 80 %")
-    wait_until(lambda: cursor_in_page(page) == panel.percent.value, timeout=60,
+    wait_until(lambda: 75 <= panel.controls.percent.value <= 85, timeout=60,
+               what="the slider near 80 %")  # fmt: skip
+    wait_until(lambda: cursor_in_page(page) == panel.controls.percent.value, timeout=60,
                what="the cursor following the slider")  # fmt: skip
     assert panel.recognition.computed == computed
     # A click on the chart moves the slider to the percentage clicked.
     over = page.locator(".uplot", has_text=TITLE).locator(".u-over")
     box = over.bounding_box()
     page.mouse.click(box["x"] + 0.25 * box["width"], box["y"] + box["height"] / 2)
-    wait_until(lambda: 23 <= panel.percent.value <= 27, timeout=60, what="the slider near 25 %")
-    wait_until(lambda: cursor_in_page(page) == panel.percent.value, timeout=60,
+    wait_until(lambda: 23 <= panel.controls.percent.value <= 27, timeout=60,
+               what="the slider near 25 %")  # fmt: skip
+    wait_until(lambda: cursor_in_page(page) == panel.controls.percent.value, timeout=60,
                what="the cursor at the clicked percentage")  # fmt: skip
     # Another setting is another curve, cached: back to the first costs nothing.
-    choose(page, panel.observed, "head")
+    choose(page, panel.controls.observed, "head")
     wait_until(lambda: panel.recognition.computed == computed + 1, timeout=120,
                what="the head-only curve")  # fmt: skip
-    choose(page, panel.observed, "hand + head")
+    choose(page, panel.controls.observed, "hand + head")
     wait_until(lambda: panel.recognition.curve() is curve, timeout=60, what="the cached curve")
     assert panel.recognition.computed == computed + 1
 
@@ -199,8 +203,8 @@ def test_arrow_keys_move_the_slider_and_not_the_camera(studio, page) -> None:
     """viser turns the camera on the arrow keys anywhere but in a text field; the page's
     script keeps them for the slider that has the focus (and for the camera otherwise)."""
     panel, client = infer_panel(studio), page.client
-    panel.percent.value = 50
-    thumb = page.locator(f"[id='{panel.percent._impl.uuid}']").get_by_role("slider")
+    panel.controls.percent.value = 50
+    thumb = page.locator(f"[id='{panel.controls.percent._impl.uuid}']").get_by_role("slider")
     # The keys step from the value the page shows: wait for the page (not the server, whose
     # value is set at once) to show 50, or the first presses step from the previous value.
     wait_until(lambda: thumb.get_attribute("aria-valuenow") == "50", timeout=60,
@@ -213,7 +217,8 @@ def test_arrow_keys_move_the_slider_and_not_the_camera(studio, page) -> None:
     page.keyboard.down("ArrowLeft")  # held for a second: 50 degrees of orbit in viser
     time.sleep(1.0)
     page.keyboard.up("ArrowLeft")
-    wait_until(lambda: panel.percent.value <= 44, timeout=30, what="the slider moved by keys")
+    wait_until(lambda: panel.controls.percent.value <= 44, timeout=30,
+               what="the slider moved by keys")  # fmt: skip
     time.sleep(1.0)  # a camera update would have arrived by now
     assert_allclose(client.camera.wxyz, wxyz, atol=1e-9)
     assert_allclose(client.camera.position, position, atol=1e-9)
@@ -225,4 +230,4 @@ def test_arrow_keys_move_the_slider_and_not_the_camera(studio, page) -> None:
     page.keyboard.up("ArrowLeft")
     wait_until(lambda: np.abs(np.array(client.camera.wxyz) - wxyz).max() > 0.01, timeout=30,
                what="the camera turned by the key")  # fmt: skip
-    assert panel.percent.value <= 44
+    assert panel.controls.percent.value <= 44

@@ -17,7 +17,8 @@ from tests.conftest import open_page, start_studio, wait_until
 def studio(tmp_path_factory):
     studio = start_studio(tmp_path_factory.mktemp("scene") / "ws")
     infer = infer_panel(studio)
-    wait_until(lambda: infer.result is not None, timeout=60, what="the first inference")
+    wait_until(lambda: infer.view is not None and infer.view.result is not None, timeout=60,
+               what="the first inference")  # fmt: skip
     yield studio
     studio.stop()
 
@@ -52,7 +53,7 @@ INFER_FADED = {"lines": 0, "tubes": [(True, DIMMED_OPACITY)], "posterior": True}
 def test_teach_draws_its_demos_and_priors_after_infer_faded_them(studio) -> None:
     infer = infer_panel(studio)
     try:
-        infer.session_mode.value = FADED
+        infer.controls.session_mode.value = FADED
         studio.scene.use_panel(INFER)  # what using an Infer control from a browser does
         wait_until(lambda: drawn(studio) == INFER_FADED, timeout=30, what="Infer's look")
         studio.scene.use_panel(TEACH)
@@ -61,7 +62,7 @@ def test_teach_draws_its_demos_and_priors_after_infer_faded_them(studio) -> None
         studio.scene.use_panel(INFER)
         wait_until(lambda: drawn(studio) == INFER_FADED, timeout=30, what="Infer's look again")
     finally:
-        infer.session_mode.value = SHOWN
+        infer.controls.session_mode.value = SHOWN
         studio.scene.use_panel(TEACH)
         wait_until(lambda: drawn(studio) == TEACH_LOOK, timeout=30, what="the workspace back")
 
@@ -75,15 +76,15 @@ def test_switching_tabs_in_the_browser_never_leaves_the_other_tabs_objects(
         infer, teach = infer_panel(studio), teach_panel(studio)
         # Faded is the default: start from shown, so that the browser's choice is a change
         # (viser tells the server of changes only) and the test stands alone.
-        infer.session_mode.value = SHOWN
+        infer.controls.session_mode.value = SHOWN
         press(page, page.get_by_role("tab", name="Infer"))
         folder = page.get_by_text("Display", exact=True).last  # below the charts
         folder.scroll_into_view_if_needed(timeout=60_000)
         press(page, folder)  # it opens
-        dropdown = page.locator(f"[id='{infer.session_mode._impl.uuid}']")
+        dropdown = page.locator(f"[id='{infer.controls.session_mode._impl.uuid}']")
         dropdown.wait_for(state="visible", timeout=60_000)
         dropdown.scroll_into_view_if_needed(timeout=60_000)
-        choose(page, infer.session_mode, FADED)
+        choose(page, infer.controls.session_mode, FADED)
         wait_until(lambda: drawn(studio) == INFER_FADED, timeout=60, what=lambda: (
             f"Infer's look; drawn: {drawn(studio)}, panel in use: {studio.scene.panel}"))
         tab = page.get_by_role("tab", name="Teach")
@@ -94,5 +95,5 @@ def test_switching_tabs_in_the_browser_never_leaves_the_other_tabs_objects(
         page.get_by_text("20 demonstration(s) of direct").wait_for(timeout=60_000)
         page.screenshot(path=str(artifacts / "teach_after_infer_faded.png"))
     finally:
-        infer.session_mode.value = SHOWN
+        infer.controls.session_mode.value = SHOWN
         page.close()

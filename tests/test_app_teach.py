@@ -19,7 +19,7 @@ import viser.transforms as vtf
 from app.core.session import Session
 from app.io.workspace import Workspace
 from app.live.recorder import MAX_GAP_S, Recorder, Recording
-from app.live.take_machine import COUNTDOWN_S
+from app.live.take_controller import COUNTDOWN_S
 from app.live.takes import mean_start
 from app.panels.teach.head import MAX_VIDEO_BYTES
 from app.studio import default_workspace
@@ -27,7 +27,7 @@ from app.ui.charts import Band, Trace, band_chart, y_range
 from promp.datasets import read_csv_demo
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests.browser import camera_pixels, close_notifications, set_camera, settled_screenshot
-from tests.conftest import REPO, open_page, start_studio, wait_until
+from tests.conftest import FITS, REPO, open_page, start_studio, wait_until
 
 # ====================================================================== without a browser
 
@@ -175,13 +175,14 @@ def test_band_chart_rejects_bad_input() -> None:
 
 def test_default_workspace_refits_every_primitive_and_reports_the_time(tmp_path) -> None:
     """The refit's speed is measured by ``bench/scrub.py`` (``refit_ms_median``), not here."""
-    session = Session.open(tmp_path / "ws", default=default_workspace)
-    assert sum(len(d) for d in session.demos.values()) == 40
-    session.model = None
-    session.refit()
-    assert session.model is not None and tuple(session.model.names) == ("curved", "direct")
-    assert session.model.report["settings"]["chosen"]  # the automatic settings, chosen
-    assert session.model.basis.n_basis == session.model.settings.n_basis and session.fit_ms > 0.0
+    session = Session.open(tmp_path / "ws", default=default_workspace, fits=FITS)
+    assert sum(len(d) for d in session.store.state.demos.values()) == 40
+    model = session.refit()
+    assert model is not None and tuple(model.names) == ("curved", "direct")
+    assert model.report["settings"]["chosen"]  # the automatic settings, chosen
+    assert model.basis.n_basis == model.settings.n_basis and session.learner.state.fit_ms > 0.0
+    assert not session.learner.state.reused
+    session.close()
 
 
 # ====================================================================== in a real browser
@@ -216,11 +217,17 @@ def wait_text(page, wanted: str, timeout: float = 60.0, present: bool = True) ->
     wait_until(lambda: (wanted in text(page)) == present, timeout=timeout, what=what)
 
 
+def store(studio):
+    """The studio's workspace now (the store's state)."""
+    return studio.session.store.state
+
+
 def fit_shown(session) -> str:
-    """What the Learn folder says of the session's latest fit."""
-    if session.fit_reused:
-        return f"the same as a recent fit ({session.fit_ms:.0f} ms)"
-    return f"Fit in {session.fit_ms:.0f} ms"
+    """What the Learn folder says of the learner's latest fit."""
+    learned = session.learner.state
+    if learned.reused:
+        return f"the same as a recent fit ({learned.fit_ms:.0f} ms)"
+    return f"Fit in {learned.fit_ms:.0f} ms"
 
 
 def row(page, label: str):
@@ -313,13 +320,13 @@ def test_the_head_source_stays_during_a_recording(studio) -> None:
     assert isinstance(source, SimulatedPartner)
     teach.record.press()
     wait_until(lambda: teach.record.take is not None, what="the countdown")
-    teach.head.source.value = "Camera"
-    assert teach.head.source.value == "Simulated partner" and studio.head.source is source
+    teach.head.controls.source.value = "Camera"
+    assert teach.head.controls.source.value == "Simulated partner" and studio.head.source is source
     teach.record.press()  # cancel
     wait_until(lambda: teach.record.take is None, what="the cancellation")
-    wait_until(lambda: teach.record.button.label == "Record", what="the Record button back")
-    assert "Recording cancelled." in teach.record.status.content
-    teach.record.last_message = ""
+    wait_until(lambda: teach.record.controls.button.label == "Record",
+               what="the Record button back")  # fmt: skip
+    assert "Recording cancelled." in teach.record.controls.status.content
 
 
 @pytest.mark.browser
@@ -338,7 +345,7 @@ def test_panel_lists_primitives_demonstrations_and_prior_plots(studio, tab) -> N
 @pytest.mark.browser
 def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> None:
     page, client = tab
-    session, teach = studio.session, panel(studio)
+    teach = panel(studio)
     assert teach.primitives.selected() == "curved"
     tube_before = np.array(studio.scene.workspace.tubes["curved"].vertices)
     q_before, hand_before = studio.arm.q.copy(), studio.arm.hand_position()
@@ -350,14 +357,14 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
     digits = [d for i, d in enumerate(seen) if i == 0 or d != seen[i - 1]]
     assert digits == ["3", "2", "1"], f"countdown shown: {seen}"
     drag_hand(page, client, studio, UP, pixels=110)
-    wait_until(lambda: teach.record.recorder.snapshot().duration > 2.2, what="a 2.2 s recording")
+    wait_until(lambda: teach.record.takes.recording().duration > 2.2, what="a 2.2 s recording")
     assert np.abs(studio.arm.q - q_before).max() > 0.05, "the arm did not follow the gizmo"
     assert studio.arm.hand_position()[2] - hand_before[2] > 0.05, "the hand did not go up 5 cm"
     close_notifications(page)
     page.screenshot(path=str(artifacts / "teach_recording.png"))
     click(page, "Stop")
     wait_text(page, "Saved curved_020")
-    demo = session.demos["curved"][-1]
+    demo = store(studio).demos["curved"][-1]
     assert demo.name == "curved_020"
     hand = demo.select(("x", "y", "z"))
     assert np.ptp(hand[:, 2]) > 0.05, "the recorded hand does not move"
@@ -367,18 +374,20 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
     # and the prior changed.
     wait_until(lambda: row(page, "curved_020").count() == 1, what="the take listed")
 
-    def listed() -> str:  # the session's current label (it is scored again after a refit)
-        label = session.typicality[("curved", "curved_020")].label
-        return f" · {'⚠ ' if label != 'typical' else ''}{label}"
+    def listed() -> str | None:  # the label, once the learner has scored the take
+        score = store(studio).typicality.get(("curved", "curved_020"))
+        if score is None:
+            return None
+        return f" · {'⚠ ' if score.label != 'typical' else ''}{score.label}"
 
     # (after any finding's mark: a drag made on a busy machine may be flagged)
-    wait_until(lambda: listed() in row(page, "curved_020").inner_text(), timeout=60,
-               what=lambda: f"{listed()!r} in the take's row")  # fmt: skip
+    wait_until(lambda: listed() is not None and listed() in row(page, "curved_020").inner_text(),
+               timeout=60, what=lambda: f"{listed()!r} in the take's row")  # fmt: skip
     wait_text(page, "21 demonstration(s) of curved")
     lines = studio.scene.workspace.lines  # drawn by the loop once the session has it
     key = ("curved", "curved_020")
     wait_until(lambda: key in lines and lines[key].visible, what="the new demonstration's line")
-    path = session.workspace.demo_path("curved", "curved_020")
+    path = store(studio).workspace.demo_path("curved", "curved_020")
     on_disk = read_csv_demo(path)
     np.testing.assert_allclose(on_disk.select(demo.columns), demo.values, atol=1e-9)
     tubes = studio.scene.workspace.tubes
@@ -391,29 +400,29 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
 @pytest.mark.browser
 def test_hide_and_delete_a_demonstration(studio, tab) -> None:
     page, _ = tab
-    session = studio.session
     lines = studio.scene.workspace.lines
     line = wait_until(lambda: lines.get(("curved", "curved_020")), what="the line of curved_020")
     row(page, "curved_020").get_by_role("button", name="Hide").dispatch_event("click")
-    wait_until(lambda: ("curved", "curved_020") in session.hidden, what="the demo to be hidden")
+    wait_until(lambda: ("curved", "curved_020") in studio.session.snapshot().hidden,
+               what="the demo to be hidden")  # fmt: skip
     wait_until(lambda: not line.visible, what="its line to be hidden")
     wait_until(lambda: "hidden" in row(page, "curved_020").inner_text(), what="'hidden' shown")
     row(page, "curved_020").get_by_role("button", name="Show").dispatch_event("click")
     wait_until(lambda: line.visible, what="its line to be shown again")
     wait_until(lambda: "hidden" not in row(page, "curved_020").inner_text(), what="'Hide' back")
-    path = session.workspace.demo_path("curved", "curved_020")
+    path = store(studio).workspace.demo_path("curved", "curved_020")
     content = path.read_bytes()
     # Deleting asks first; keeping it changes nothing.
     row(page, "curved_020").get_by_role("button", name="Delete").dispatch_event("click")
     wait_text(page, "Delete curved_020 of curved? It moves to the workspace's trash")
     click(page, "Keep it")
     wait_text(page, "Delete curved_020 of curved?", present=False)
-    assert path.exists() and len(session.demos["curved"]) == 21
+    assert path.exists() and len(store(studio).demos["curved"]) == 21
     row(page, "curved_020").get_by_role("button", name="Delete").dispatch_event("click")
     click(page, "Delete demonstration")
     wait_text(page, "20 demonstration(s) of curved")
     assert not path.exists()
-    assert [d.name for d in session.demos["curved"]][-1] == "curved_019"
+    assert [d.name for d in store(studio).demos["curved"]][-1] == "curved_019"
     assert ("curved", "curved_020") not in studio.scene.workspace.lines
     wait_until(lambda: row(page, "curved_020").count() == 0, what="the take no longer listed")
     # Undo brings it back, byte for byte, line and all.
@@ -422,13 +431,14 @@ def test_hide_and_delete_a_demonstration(studio, tab) -> None:
     assert path.read_bytes() == content
     lines = studio.scene.workspace.lines
     wait_until(lambda: ("curved", "curved_020") in lines, what="its line back")
-    assert session.trash_entries() == []
+    assert list(store(studio).trash) == []
     # Deleted for good from the GUI's point of view: in the trash, kept on disk.
     row(page, "curved_020").get_by_role("button", name="Delete").dispatch_event("click")
     click(page, "Delete demonstration")
     wait_text(page, "20 demonstration(s) of curved")
-    (entry,) = session.trash_entries()
-    assert (session.workspace.trash.root / entry.name / "files" / "demos/curved/curved_020.csv"
+    (entry,) = list(store(studio).trash)
+    trash = store(studio).workspace.trash.root
+    assert (trash / entry.name / "files" / "demos/curved/curved_020.csv"
             ).read_bytes() == content  # fmt: skip
 
 
@@ -441,12 +451,12 @@ def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
     demonstration and kept, untrimmed, in raw/ (which the workspace does not load); the hand
     goes back to the start after Stop; Discard last take sends it to the trash, undoably."""
     page, client = tab
-    session, teach = studio.session, panel(studio)
+    teach = panel(studio)
     record = teach.record
-    assert record.trim.value and record.back_to_start.value
-    record.countdown.value = 0.5  # the countdown itself is the previous test's
+    assert record.controls.trim.value and record.controls.back_to_start.value
+    record.controls.countdown.value = 0.5  # the countdown itself is the previous test's
     wait_text(page, "Still ends are trimmed: hand below 2 cm/s, head below 10°/s.")
-    start = mean_start(session.demos["curved"], session.layout)
+    start = mean_start(store(studio).demos["curved"], store(studio).layout)
     ghost = studio.scene.start.sphere
     wait_until(lambda: ghost.visible and np.allclose(ghost.position, start, atol=1e-6),
                what="the ghost at the mean start of curved")  # fmt: skip
@@ -459,78 +469,78 @@ def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
                what="the hand at the start")  # fmt: skip
     side_camera(client)
     # Space, with the 3D view focused (not a control), presses Record, then Stop.
-    n_before = len(session.demos["curved"])
+    n_before = len(store(studio).demos["curved"])
     page.evaluate("document.activeElement && document.activeElement.blur()")
     page.keyboard.press("Space")
     wait_text(page, "● Recording into curved")
-    wait_until(lambda: record.recorder.snapshot().duration > 1.5, what="1.5 s of stillness")
+    wait_until(lambda: record.takes.recording().duration > 1.5, what="1.5 s of stillness")
     drag_hand(page, client, studio, UP, pixels=110)
-    moved_until = record.recorder.snapshot().duration
-    wait_until(lambda: record.recorder.snapshot().duration > moved_until + 1.5,
+    moved_until = record.takes.recording().duration
+    wait_until(lambda: record.takes.recording().duration > moved_until + 1.5,
                what="1.5 s of stillness after the drag")  # fmt: skip
     page.evaluate("document.activeElement && document.activeElement.blur()")
     page.keyboard.press("Space")
-    wait_until(lambda: len(session.demos["curved"]) == n_before + 1, what="the take saved")
-    demo = session.demos["curved"][-1]
+    wait_until(lambda: len(store(studio).demos["curved"]) == n_before + 1, what="the take saved")
+    demo = store(studio).demos["curved"][-1]
     wait_text(page, f"Saved {demo.name}")
-    assert "still ends cut" in record.last_message
+    assert "still ends cut" in record.takes.outcome.text
     # The newest take of that name (an earlier take of a deleted curved_020 may be there too).
-    raw_path = max((session.workspace.root / "raw" / "curved").glob(f"{demo.name}_*.csv"))
+    raw_path = max((store(studio).workspace.root / "raw" / "curved").glob(f"{demo.name}_*.csv"))
     raw = read_csv_demo(raw_path)
     assert raw.duration > demo.duration + 2.5, (raw.duration, demo.duration)
     z = demo.select(("z",))[:, 0]
     assert np.ptp(z) > 0.05 and np.ptp(z[:5]) < 0.003 and np.ptp(z[-5:]) < 0.003
-    assert Workspace(session.workspace.root).load().demos["curved"][-1].name == demo.name
-    assert len(Workspace(session.workspace.root).load().demos["curved"]) == n_before + 1
+    assert Workspace(store(studio).workspace.root).load().demos["curved"][-1].name == demo.name
+    assert len(Workspace(store(studio).workspace.root).load().demos["curved"]) == n_before + 1
     # Back at the start, ready for the next take.
-    new_start = mean_start(session.demos["curved"], session.layout)
+    new_start = mean_start(store(studio).demos["curved"], store(studio).layout)
     wait_until(lambda: np.linalg.norm(studio.arm.hand_position() - new_start) < 0.005,
                what="the hand back at the start")  # fmt: skip
     # Discard last take: to the trash, and Undo delete brings it back.
     click(page, "Discard last take")
-    wait_until(lambda: len(session.demos["curved"]) == n_before, what="the take discarded")
-    assert not session.workspace.demo_path("curved", demo.name).exists()
+    wait_until(lambda: len(store(studio).demos["curved"]) == n_before, what="the take discarded")
+    assert not store(studio).workspace.demo_path("curved", demo.name).exists()
     assert raw_path.exists()  # the record of what was sampled stays
     click(page, f"Undo delete ({demo.name} of curved)")
-    wait_until(lambda: len(session.demos["curved"]) == n_before + 1, what="the take back")
+    wait_until(lambda: len(store(studio).demos["curved"]) == n_before + 1, what="the take back")
     # A focused control keeps Space: no recording starts.
     page.get_by_role("tab", name="Teach").focus()
     page.keyboard.press("Space")
     time.sleep(0.5)  # the hotkey would have reached the server by now
     assert record.take is None and "● Recording" not in text(page)
-    record.countdown.value = COUNTDOWN_S
+    record.controls.countdown.value = COUNTDOWN_S
 
 
 @pytest.mark.browser
 def test_primitives_are_managed_from_the_gui_and_two_tabs_agree(browser, studio, tab) -> None:
     page, _ = tab
-    session = studio.session
     other, _ = open_page(browser, studio)
     try:
         # A bad name changes nothing and says why.
         type_name(page, studio, "bad name!")
         click(page, "Create")
         wait_text(page, "invalid primitive name")
-        assert session.names() == ["curved", "direct"]
+        assert list(store(studio).names) == ["curved", "direct"]
         # Create in one tab, see it in the other.
         type_name(page, studio, "wave")
         click(page, "Create")
-        wait_until(lambda: "wave" in session.names(), what="the primitive to be created")
+        wait_until(lambda: "wave" in list(store(studio).names), what="the primitive to be created")
         wait_text(other, "No demonstration of wave yet")
         assert row(other, "Primitive").locator("input").first.input_value() == "wave"
-        assert session.workspace.demo_dir("wave").is_dir()
+        assert store(studio).workspace.demo_dir("wave").is_dir()
         # Rename from the other tab.
         type_name(other, studio, "wave2")
         click(other, "Rename")
-        wait_until(lambda: session.names() == ["curved", "direct", "wave2"], what="the rename")
+        wait_until(lambda: list(store(studio).names) == ["curved", "direct", "wave2"],
+                   what="the rename")  # fmt: skip
         wait_text(page, "No demonstration of wave2 yet")
-        assert not session.workspace.demo_dir("wave").exists()
+        assert not store(studio).workspace.demo_dir("wave").exists()
         # Recolour.
         colour = row(page, "Colour").locator("input").first
         colour.fill("rgb(10, 200, 30)")
         colour.press("Enter")
-        wait_until(lambda: session.color("wave2") == (10, 200, 30), what="the new colour")
-        index = json.loads(session.workspace.index_path.read_text())
+        wait_until(lambda: store(studio).color("wave2") == (10, 200, 30), what="the new colour")
+        index = json.loads(store(studio).workspace.index_path.read_text())
         assert {"name": "wave2", "color": [10, 200, 30]} in index["primitives"]
         wait_until(
             lambda: "10, 200, 30" in row(other, "Colour").locator("input").first.input_value(),
@@ -541,11 +551,11 @@ def test_primitives_are_managed_from_the_gui_and_two_tabs_agree(browser, studio,
         wait_text(other, "Delete wave2 and its 0 demonstration(s)")
         click(page, "Cancel")
         wait_text(page, "Delete wave2 and its", present=False)
-        assert "wave2" in session.names()
+        assert "wave2" in list(store(studio).names)
         click(other, "Delete primitive")
         click(other, "Yes, delete")
-        wait_until(lambda: session.names() == ["curved", "direct"], what="the deletion")
-        assert not session.workspace.demo_dir("wave2").exists()
+        wait_until(lambda: list(store(studio).names) == ["curved", "direct"], what="the deletion")
+        assert not store(studio).workspace.demo_dir("wave2").exists()
         wait_until(
             lambda: row(page, "Primitive").locator("input").first.input_value() == "curved",
             what="the selection to fall back to curved",
@@ -561,7 +571,7 @@ def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, 
     index = row(page, "Camera index").locator("input").first
     index.fill("99")
     index.press("Enter")
-    wait_until(lambda: panel(studio).head.camera_index.value == 99, what="camera index 99")
+    wait_until(lambda: panel(studio).head.controls.camera_index.value == 99, what="camera index 99")
     click(page, "Connect")
     wait_text(page, "camera 99: cannot be opened")
     wait_text(page, "Head source failed")
@@ -570,17 +580,17 @@ def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, 
     click(page, "Record")
     wait_text(page, "The head source failed")
     assert panel(studio).record.take is None
-    version = studio.session.version
+    version = store(studio).version
     choose(page, "Shrinkage", "0.01")
-    wait_until(lambda: studio.session.version > version, what="a refit")
-    assert studio.session.settings["shrinkage"] == 0.01
+    wait_until(lambda: store(studio).version > version, what="a refit")
+    assert store(studio).settings["shrinkage"] == 0.01
     assert studio.arm.move_hand_to(studio.arm.hand_position() + [0, 0, 0.01]).reached
     choose(page, "Source", "Simulated partner")
     wait_text(page, "simulated partner: tracking")
     close_notifications(page)  # the refusal's notification; the red line must go by itself
     wait_text(page, "The head source failed", present=False)  # the refusal no longer holds
     choose(page, "Shrinkage", "automatic (pooled prior)")  # back to the workspace's default
-    wait_until(lambda: studio.session.settings["shrinkage"] is None, what="the default back")
+    wait_until(lambda: store(studio).settings["shrinkage"] is None, what="the default back")
 
 
 @pytest.mark.browser
@@ -602,7 +612,8 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     page, _ = tab
     choose(page, "Source", "Video file")
     row(page, "Video file").locator("input").first.fill(str(path))
-    wait_until(lambda: panel(studio).head.video_path.value == str(path), what="the path typed")
+    wait_until(lambda: panel(studio).head.controls.video_path.value == str(path),
+               what="the path typed")  # fmt: skip
     click(page, "Connect")
     wait_until(lambda: isinstance(studio.head.source, StreamHeadSource), what="the video source")
     wait_text(page, f"video {path}: tracking")
@@ -618,20 +629,20 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     teach.head.video_guard.max_bytes = 1024
     try:
         page.set_input_files(
-            f"#file_upload_{teach.head.upload._impl.uuid}",
+            f"#file_upload_{teach.head.controls.upload._impl.uuid}",
             files=[{"name": "big.avi", "mimeType": "video/x-msvideo", "buffer": path.read_bytes()}],
         )
         wait_text(page, "Cannot use the video big.avi")
         assert "over the 1.0 KB limit for an uploaded video" in text(page)
         wait_until(lambda: teach.head.video_guard.refusals == 1, what="the guard's refusal")
-        assert studio.head.source is source and teach.head._upload is None
+        assert studio.head.source is source and teach.head.tracks.job is None
     finally:
         teach.head.video_guard.max_bytes = MAX_VIDEO_BYTES
     close_notifications(page)
     button = page.get_by_role("button", name="Upload a video")
     wait_until(button.is_enabled, what="the upload button to be usable again")
     # Under the limit, the same video uploaded from the browser becomes a head-pose track.
-    page.set_input_files(f"#file_upload_{teach.head.upload._impl.uuid}", str(path))
+    page.set_input_files(f"#file_upload_{teach.head.controls.upload._impl.uuid}", str(path))
     wait_text(page, "Video ready", timeout=60)
     assert isinstance(studio.head.source, TrackHeadSource)
     # The loop hides the preview at its next step, after the upload's worker said it is ready.
@@ -648,7 +659,7 @@ def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None
     session = studio.session
     model = session.wait_for_model()
     # Automatic: the sliders show what the fit chose, read-only.
-    assert session.learning_settings().automatic and "n_basis" not in session.settings
+    assert store(studio).learning_settings().automatic and "n_basis" not in store(studio).settings
     n_basis = model.settings.n_basis
     learn = panel(studio).learn
     wait_until(lambda: learn.automatic.value and learn.n_basis.disabled
@@ -658,40 +669,41 @@ def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None
     wait_until(lambda: any(line in text(page) for line in shown), what="the choice shown")
     # Unticked, the sliders set the values, starting from the chosen ones.
     row(page, "Automatic").get_by_role("checkbox").click()
-    wait_until(lambda: session.settings.get("n_basis") == n_basis, what="M given explicitly")
+    wait_until(lambda: store(studio).settings.get("n_basis") == n_basis, what="M given explicitly")
     thumb = row(page, "Basis functions").get_by_role("slider")
     wait_until(lambda: not learn.n_basis.disabled, what="the slider enabled")
     thumb.focus()
     thumb.press("ArrowRight")
     # The setting is stored, then the model refitted (on the thread of the slider's callback).
-    wait_until(lambda: session.settings["n_basis"] == n_basis + 1
-               and session.model.basis.n_basis == n_basis + 1, what="n_basis + 1")  # fmt: skip
-    assert f'"n_basis": {n_basis + 1}' in session.workspace.index_path.read_text()
+    wait_until(lambda: store(studio).settings["n_basis"] == n_basis + 1
+               and studio.session.snapshot().model.basis.n_basis == n_basis + 1,
+               what="n_basis + 1")  # fmt: skip
+    assert f'"n_basis": {n_basis + 1}' in store(studio).workspace.index_path.read_text()
     wait_text(page, fit_shown(session))
-    assert session.settings.get("shrinkage") is None  # the default: the pooled prior
+    assert store(studio).settings.get("shrinkage") is None  # the default: the pooled prior
     choose(page, "Shrinkage", "1e-6 (span of the demos)")
-    wait_until(lambda: session.settings["shrinkage"] == 1e-6, what="shrinkage 1e-6")
-    assert '"shrinkage": 1e-06' in session.workspace.index_path.read_text()
+    wait_until(lambda: store(studio).settings["shrinkage"] == 1e-6, what="shrinkage 1e-6")
+    assert '"shrinkage": 1e-06' in store(studio).workspace.index_path.read_text()
     wait_until(
-        lambda: np.allclose(session.model.primitive("curved").shrinkage, 1e-6),
+        lambda: np.allclose(studio.session.snapshot().model.primitive("curved").shrinkage, 1e-6),
         what="the model refitted with shrinkage 1e-6",
     )
     thumb.press("ArrowLeft")
     choose(page, "Shrinkage", "automatic (pooled prior)")
-    wait_until(lambda: session.settings["shrinkage"] is None, what="leave-one-out shrinkage")
-    assert '"shrinkage": null' in session.workspace.index_path.read_text()
-    wait_until(lambda: session.settings["n_basis"] == n_basis, timeout=30,
-               what=lambda: f"n_basis back (settings {session.settings}, slider "
+    wait_until(lambda: store(studio).settings["shrinkage"] is None, what="leave-one-out shrinkage")
+    assert '"shrinkage": null' in store(studio).workspace.index_path.read_text()
+    wait_until(lambda: store(studio).settings["n_basis"] == n_basis, timeout=30,
+               what=lambda: f"n_basis back (settings {store(studio).settings}, slider "
                f"{panel(studio).learn.n_basis.value})")  # fmt: skip
     # Automatic again: the settings leave studio.json, the fit chooses.
     row(page, "Automatic").get_by_role("checkbox").click()
     def automatic_again() -> bool:
-        with session.lock:  # the three read at one moment, not across a mutation
-            return ("n_basis" not in session.settings and not session.refitting
-                    and bool(session.model.report["settings"]["chosen"]))  # fmt: skip
+        snapshot = studio.session.snapshot()  # the three read at one moment
+        return ("n_basis" not in snapshot.store.settings and not snapshot.refitting
+                and bool(snapshot.model.report["settings"]["chosen"]))  # fmt: skip
 
     wait_until(automatic_again, what="automatic again")
-    assert '"n_basis"' not in session.workspace.index_path.read_text()
+    assert '"n_basis"' not in store(studio).workspace.index_path.read_text()
 
 
 @pytest.mark.browser
@@ -701,7 +713,7 @@ def test_readme_screenshot(browser, studio, artifacts) -> None:
     its own, at full resolution)."""
     teach = panel(studio)
     teach.primitives.dropdown.value = "curved"
-    start = LAYOUT.extract(studio.session.demos["curved"][0])[0, :3]
+    start = LAYOUT.extract(store(studio).demos["curved"][0])[0, :3]
     studio.call_in_loop(lambda: studio.arm.move_hand_to(start))  # the hand at the object
     page, client = open_page(browser, studio, dpr=1.0)
     try:

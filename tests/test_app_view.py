@@ -147,11 +147,12 @@ def test_paths_that_reach_behind_the_eye_are_framed_from_further_back(scenario, 
 
 
 class FakeScene:
-    """What the camera buttons read of the scene: the paths on show and the drawn version."""
+    """What the camera buttons read of the scene: the paths on show and what the workspace's
+    objects were drawn from (empty: nothing drawn yet)."""
 
     def __init__(self, points: np.ndarray):
         self.points = points
-        self.drawn_version = -1
+        self.drawn_from: tuple = ()
 
     def paths(self, inference: bool | None = None) -> np.ndarray:
         return self.points
@@ -192,7 +193,7 @@ def test_a_tab_that_connected_before_the_first_drawing_gets_the_start_view(scena
         server.get_clients = lambda: dict(tabs)
         view.step()  # nothing drawn yet: no start view to give
         assert_allclose(early.camera.position, (3.0, 3.0, 3.0))
-        scene.drawn_version = 0
+        scene.drawn_from = ("the workspace",)
         view.step()  # the start view is known; the early tab is queued for it
         view.step()
         start = np.asarray(server.initial_camera.position)
@@ -223,7 +224,7 @@ def studio(tmp_path_factory):
 def test_the_start_view_separates_the_paths_and_the_buttons_move_the_camera(
     browser, studio, scenario
 ) -> None:
-    wait_until(lambda: studio.scene.drawn_version >= 0, what="the workspace drawn")
+    wait_until(lambda: studio.scene.drawn_from, what="the workspace drawn")
     # The start view is framed in the canvas's pixels beside a panel in CSS pixels: at one
     # pixel per CSS pixel, as on a usual screen.
     page, client = open_page(browser, studio, width=1600, height=1000, dpr=1.0)

@@ -1,6 +1,7 @@
-"""The shape of the code: no import cycle between our modules nor between our packages,
-``promp`` imports nothing of ``app`` or ``robots``, ``robots`` nothing of ``app``, panels nothing
-of the studio, and no file of ``app`` or ``robots`` over 500 lines.
+"""The shape of the code: no import cycle between our modules nor between the packages of
+``app`` and ``robots``, ``promp`` imports nothing of ``app`` or ``robots``, ``robots`` nothing of
+``app``, panels nothing of the studio, no file of ``app`` over 400 lines nor of ``robots`` over
+500, and no class of ``app`` with more than 25 members (attributes and methods).
 
 The import graph is read from the source (every ``import`` statement, also inside functions and
 under ``TYPE_CHECKING``): an edge goes from a module to each module of ours it names.
@@ -9,12 +10,14 @@ under ``TYPE_CHECKING``): an edge goes from a module to each module of ours it n
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 from tests.conftest import REPO
 
 PACKAGES = ("app", "promp", "robots")
-MAX_LINES = 500
+MAX_LINES = {"app": 400, "robots": 500}
+MAX_MEMBERS = 25  # attributes and methods of a class of app
 
 
 def module_files() -> dict[str, Path]:
@@ -158,11 +161,114 @@ def test_dependencies_go_one_way() -> None:
     assert wrong == set()
 
 
-def test_no_file_of_app_or_robots_is_over_500_lines() -> None:
+def test_no_file_of_app_or_robots_is_too_long() -> None:
     long = {
         str(path.relative_to(REPO)): n
-        for package in ("app", "robots")
+        for package, limit in MAX_LINES.items()
         for path in (REPO / package).rglob("*.py")
-        if (n := len(path.read_text(encoding="utf-8").splitlines())) > MAX_LINES
+        if (n := len(path.read_text(encoding="utf-8").splitlines())) > limit
     }
     assert long == {}
+
+
+def members(cls: ast.ClassDef) -> set[str]:
+    """A class's members: what its body defines (methods, properties, class attributes,
+    fields) and every ``self.<name>`` its methods assign."""
+    names = set()
+    for node in cls.body:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            names.add(node.name)
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            names.add(node.target.id)
+        elif isinstance(node, ast.Assign):
+            names.update(t.id for t in node.targets if isinstance(t, ast.Name))
+    for node in ast.walk(cls):
+        if isinstance(node, ast.Assign | ast.AnnAssign | ast.AugAssign):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            for target in targets:
+                names.update(
+                    sub.attr
+                    for sub in ast.walk(target)
+                    if isinstance(sub, ast.Attribute)
+                    and isinstance(sub.value, ast.Name)
+                    and sub.value.id == "self"
+                )
+    return names
+
+
+def test_members_counts_what_a_class_defines_and_assigns() -> None:
+    source = """class A:
+    x: int
+    y = 1
+    def __init__(self):
+        self.z, self.w = 1, 2
+        self.x = 3
+    @property
+    def p(self):
+        return self.q
+"""
+    (cls,) = ast.parse(source).body
+    assert members(cls) == {"x", "y", "__init__", "z", "w", "p"}
+
+
+def test_no_class_of_app_has_more_than_25_members() -> None:
+    large = {
+        f"{path.relative_to(REPO)}:{node.name}": len(members(node))
+        for path in (REPO / "app").rglob("*.py")
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+        if isinstance(node, ast.ClassDef) and len(members(node)) > MAX_MEMBERS
+    }
+    assert large == {}
+
+
+# ---------------------------------------------------------------------- the documented paths
+
+STEP = re.compile(r"^\d+\. `(?P<path>[\w/.]+\.py)` `(?P<name>[\w.]+)` — (?P<text>.*)$")
+VIA = re.compile(r"via `(?P<path>[\w/.]+\.py)` `(?P<name>[\w.]+)`")
+COUNTS = re.compile(r"(\d+) calls over (\d+) modules of the")
+
+
+def documented_path(title: str) -> tuple[list[tuple[str, str, list]], tuple[int, int]]:
+    """The numbered steps of the section ``title`` of docs/ARCHITECTURE.md: (file, qualified
+    name, the functions it is reached through), and the counts its text states."""
+    text = (REPO / "docs" / "ARCHITECTURE.md").read_text(encoding="utf-8")
+    section = text.split(f"## {title}", 1)[1].split("\n## ", 1)[0]
+    steps = [
+        (m["path"], m["name"], [(v["path"], v["name"]) for v in VIA.finditer(m["text"])])
+        for line in section.splitlines()
+        if (m := STEP.match(line))
+    ]
+    calls, modules = COUNTS.search(" ".join(section.split())).groups()
+    return steps, (int(calls), int(modules))
+
+
+def body_of(path: str, qualname: str) -> str:
+    """The source of the function ``qualname`` (``Class.method`` or ``function``) of ``path``,
+    without its ``def`` line (AssertionError when there is none)."""
+    source = (REPO / path).read_text(encoding="utf-8")
+    nodes = ast.parse(source).body
+    node = None
+    for part in qualname.split("."):
+        node = next((n for n in nodes if getattr(n, "name", None) == part), None)
+        assert node is not None, f"{path} has no {qualname}"
+        nodes = node.body
+    lines = ast.get_source_segment(source, node).splitlines()
+    return "\n".join(lines[1:])
+
+
+def test_the_slider_and_record_paths_are_short_and_named_as_the_code_calls_them() -> None:
+    """docs/ARCHITECTURE.md's two user actions, step by step: at most 12 calls over at most
+    8 modules, the counts its text states; every step a function of its file, called (by name)
+    by an earlier step or through the functions the step names."""
+    for title in ("The slider's path", "The record path"):
+        steps, stated = documented_path(title)
+        counted = (len(steps), len({path for path, _, _ in steps}))
+        assert counted == stated, (title, counted, stated)
+        assert counted[0] <= 12 and counted[1] <= 8, (title, counted)
+        for k, (path, name, via) in enumerate(steps):
+            body_of(path, name)
+            if k == 0:
+                continue
+            callers = [body_of(p, n) for p, n, _ in steps[:k]] + [body_of(p, n) for p, n in via]
+            called = re.compile(rf"\b{re.escape(name.rsplit('.', 1)[-1])}\b")
+            assert any(called.search(c) for c in callers), f"{title}, step {k + 1}: {name}"

@@ -343,8 +343,9 @@ def studio(tmp_path_factory, dataset):
 def refused_in_the_gui(studio, path: str, cases, upload, title: str) -> None:
     """Each case given to ``upload(filename, content)`` (a GUI upload callback) is a red
     notification titled ``title...`` holding the expected fragment, and changes nothing."""
-    session, root = studio.session, studio.session.workspace.root
-    before, version = tree_hash(root), session.version
+    store = studio.session.store
+    root = store.state.workspace.root
+    before, version = tree_hash(root), store.state.version
 
     def attempt(payload: bytes, expected: str) -> None:
         studio.notes.clear()
@@ -360,7 +361,7 @@ def refused_in_the_gui(studio, path: str, cases, upload, title: str) -> None:
                         lambda payload=payload, expected=expected: attempt(payload, expected)))
     ]  # fmt: skip
     assert not problems, "\n".join(problems)
-    assert tree_hash(root) == before and session.version == version, "the workspace changed"
+    assert tree_hash(root) == before and store.state.version == version, "the workspace changed"
 
 
 def test_the_data_tab_refuses_bad_model_and_workspace_files(studio, model, dataset) -> None:
@@ -373,8 +374,8 @@ def test_the_data_tab_refuses_bad_model_and_workspace_files(studio, model, datas
     import io
     import zipfile
 
-    with zipfile.ZipFile(io.BytesIO(workspace_zip(Workspace(studio.session.workspace.root)
-                                                  .load(), model))) as z:  # fmt: skip
+    root = studio.session.store.state.workspace.root
+    with zipfile.ZipFile(io.BytesIO(workspace_zip(Workspace(root).load(), model))) as z:
         members = {name: z.read(name) for name in z.namelist()}
     archives = list(bad_inputs.workspace_zip_cases(members, make_csv(dataset)))
     refused_in_the_gui(studio, "GUI workspace upload", archives,
@@ -406,8 +407,8 @@ def test_the_head_source_refuses_bad_videos(installed, studio, tmp_path) -> None
 
     def upload(content: bytes) -> None:
         count = len(studio.notes)
-        head._process("clip.mp4", content)
-        wait_until(lambda: len(studio.notes) > count and not head.processing, timeout=60,
+        head.process("clip.mp4", content)
+        wait_until(lambda: len(studio.notes) > count and not head.tracks.processing, timeout=60,
                    what="the video's outcome")  # fmt: skip
 
     refused_in_the_gui(studio, "GUI video upload", cases, upload, "Video not usable")

@@ -207,8 +207,11 @@ def test_the_command_line_imports_a_dataset_into_a_new_workspace(tmp_path, heigh
     prepare_workspace(args("--workspace", str(new), "--import-dataset", str(heights_dir)))
     assert inspect_folder(new)[0] is FolderKind.WORKSPACE
     session = Session.open(new)
-    assert {n: len(d) for n, d in session.demos.items()} == {"bottom": 40, "middle": 40, "top": 42}
-    assert session.model is not None and session.model.names == ("bottom", "middle", "top")
+    demos = session.store.state.demos
+    assert {n: len(d) for n, d in demos.items()} == {"bottom": 40, "middle": 40, "top": 42}
+    model = session.snapshot().model
+    assert model is not None and model.names == ("bottom", "middle", "top")
+    session.close()
     assert checksums(heights_dir) == before  # the source is only read
     for argv, message in [
         (("--workspace", str(new), "--import-dataset", str(heights_dir)), "already is one"),

@@ -391,40 +391,46 @@ def test_damaged_archives_only_ever_raise_value_errors(data) -> None:
 
 def test_an_imported_model_is_used_until_the_demonstrations_change(data, model, tmp_path) -> None:
     session = Session.open(tmp_path / "ws", default=lambda: data)
-    learned = session.model
-    assert session.inference_model() is learned and session.imported_model is None
-    version = session.version
-    session.use_imported_model(model, "model.json")
-    assert session.inference_model() is model and session.imported_from == "model.json"
-    assert session.version == version + 1
-    session.set_hidden("left", "left0", True)  # display only: the import stays
-    assert session.inference_model() is model
+    store, view = session.store, session.view
+    learned = session.snapshot().model
+    assert session.snapshot().inference_model is learned and session.snapshot().imported is None
+    version = store.state.version
+    view.use_imported(model, "model.json", store.state)
+    snapshot = session.snapshot()
+    assert snapshot.inference_model is model and snapshot.imported.source == "model.json"
+    assert store.state.version == version  # the view's choice: the workspace is unchanged
+    view.set_hidden("left", "left0", True)  # display only: the import stays
+    assert session.snapshot().inference_model is model
     demo = data.demos["left"][0]
-    session.add_demo("left", demo.times, demo.select(COLUMNS))
-    assert session.imported_model is None and session.imported_from == ""
-    assert session.inference_model() is session.model
-    session.use_imported_model(model, "model.json")
-    session.use_imported_model(None)
-    assert session.inference_model() is session.model
+    store.add_demo("left", demo.times, demo.select(COLUMNS))
+    assert session.snapshot().imported is None  # what is learned from changed
+    session.wait_for_model()
+    assert session.snapshot().inference_model is session.snapshot().model
+    view.use_imported(model, "model.json", store.state)
+    view.use_imported(None, "", store.state)
+    assert session.snapshot().inference_model is session.snapshot().model
+    session.close()
 
 
 def test_the_session_refuses_a_model_of_other_modalities(data, tmp_path) -> None:
     session = Session.open(tmp_path / "ws", default=lambda: data)
     hand_only = Layout((Modality("hand", ("x", "y", "z"), unit="m"),))
     with pytest.raises(ValueError, match="are not the workspace's"):
-        session.use_imported_model(fit(data.demos, hand_only, Settings(n_basis=7)))
-    assert session.imported_model is None
+        other = fit(data.demos, hand_only, Settings(n_basis=7))
+        session.view.use_imported(other, "other.json", session.store.state)
+    assert session.snapshot().imported is None
+    session.close()
 
 
 def test_replacing_the_session_with_an_imported_archive(data, model, tmp_path) -> None:
     session = Session.open(tmp_path / "ws", default=lambda: WorkspaceData())
-    assert session.names() == []
+    assert session.store.state.names == ()
     upload = read_upload("ws.zip", workspace_zip(data, model))
-    session.replace(upload.data)
-    assert session.names() == ["left", "right"]
+    session.store.replace(upload.data)
+    assert session.store.state.names == ("left", "right")
     assert_same_data(Workspace(tmp_path / "ws").load(), data)
-    session.wait_for_model()
-    assert session.model is not None
+    assert session.wait_for_model() is not None
+    session.close()
 
 
 # ---------------------------------------------------------------------------- robot side

@@ -1,6 +1,7 @@
-"""Recent refits are reused: the same demonstrations, layout and settings give back the same
+"""Recent fits are reused: the same demonstrations, layout and settings give back the same
 model at once (Undo delete, a setting put back), anything else the fit reads is a new key, a
-crash is never kept, and Session.refit (what the benchmarks time) always learns anew."""
+crash is never kept, Session.refit (what the benchmarks time) always learns anew, and the cache
+is the one the session is given (sessions given the same one share their fits)."""
 
 from __future__ import annotations
 
@@ -11,10 +12,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-import app.core.learning
-from app.core.fit_cache import training_key
-from app.core.learning import RECENT_FITS, Training, learn
-from app.core.lru import LruCache
+import app.core.fits
+from app.core.fits import FitCache, LruCache, Training, training_key
 from app.core.session import Session
 from app.io.workspace import Workspace
 from app.studio import default_workspace
@@ -75,53 +74,58 @@ def test_the_least_recently_used_outcome_goes_first() -> None:
 def test_a_refit_of_the_same_training_reuses_its_outcome_and_a_crash_is_not_kept(
     monkeypatch,
 ) -> None:
-    RECENT_FITS.clear()
+    fits = FitCache()
     training = Training(make_dataset(seed=1, n_demos=4), LAYOUT, SETTINGS)
-    first = learn(training)
+    first = fits.fit(training)
     assert first.model is not None and not first.reused
-    again = learn(Training(copy_of(training.demos), LAYOUT, SETTINGS))
+    again = fits.fit(Training(copy_of(training.demos), LAYOUT, SETTINGS))
     assert again.reused and again.model is first.model and again.ms == first.ms
-    anew = learn(training, reuse=False)
+    anew = fits.fit(training, reuse=False)
     assert not anew.reused and anew.model is not first.model
     for a, b in zip(anew.model.primitives, first.model.primitives, strict=True):
         assert_allclose(a.mean, b.mean, rtol=1e-12, atol=1e-15)
     # A refusal of the method is an outcome too; a crash is not kept.
     short = Training({"left": training.demos["left"][:1]}, LAYOUT, SETTINGS)
-    refused = learn(short)
+    refused = fits.fit(short)
     assert refused.model is None and "at least 2" in refused.error
-    assert learn(short).reused
+    assert fits.fit(short).reused
     other = Training(make_dataset(seed=2, n_demos=4), LAYOUT, SETTINGS)
 
     def crash(*args, **kwargs):
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(app.core.learning, "fit", crash)
-    crashed = learn(other)
+    monkeypatch.setattr(app.core.fits, "fit", crash)
+    crashed = fits.fit(other)
     assert crashed.model is None and crashed.error == "RuntimeError: a bug"
     monkeypatch.undo()
-    learned = learn(other)
+    learned = fits.fit(other)
     assert learned.model is not None and not learned.reused
 
 
 def test_undo_delete_gives_back_the_model_at_once_and_refit_learns_anew(tmp_path) -> None:
-    RECENT_FITS.clear()
+    fits = FitCache()
     root = tmp_path / "ws"
     Workspace.create(root, default_workspace())
-    session = Session.open(root)
-    before = session.model
-    assert before is not None and not session.fit_reused
-    entry = session.delete_demo("curved", "curved_004")
-    assert session.wait_for_model() is not before and not session.fit_reused
-    session.restore(entry.name)
-    assert session.wait_for_model() is before and session.fit_reused
+    session = Session.open(root, fits=fits)
+    before = session.snapshot().model
+    assert before is not None and not session.learner.state.reused
+    entry = session.store.delete_demo("curved", "curved_004")
+    assert session.wait_for_model() is not before and not session.learner.state.reused
+    session.store.restore(entry.name)
+    assert session.wait_for_model() is before and session.learner.state.reused
     # What the benchmarks time: a real fit, whatever the cache holds.
     refitted = session.refit()
-    assert refitted is not before and not session.fit_reused and session.fit_ms > 0
+    learned = session.learner.state
+    assert refitted is not before and not learned.reused and learned.fit_ms > 0
     session.close()
-    # Another session of the same workspace (a studio restarted in this process) reuses it.
+    # Another session of the same workspace given the same cache (a studio restarted in this
+    # process) reuses it; one given another cache learns anew.
     copy = tmp_path / "copy"
     shutil.copytree(root, copy)
-    reopened = Session.open(copy)
-    assert reopened.model is refitted and reopened.fit_reused
+    reopened = Session.open(copy, fits=fits)
+    assert reopened.snapshot().model is refitted and reopened.learner.state.reused
     reopened.close()
-    assert np.isfinite(reopened.fit_ms)
+    assert np.isfinite(reopened.learner.state.fit_ms)
+    other = Session.open(copy, fits=FitCache())
+    assert other.snapshot().model is not refitted and not other.learner.state.reused
+    other.close()

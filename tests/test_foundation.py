@@ -169,7 +169,7 @@ def test_robot_is_rendered_in_chromium(browser, tmp_path, artifacts) -> None:
         )  # fmt: skip
         with_robot = settled_render(client)
         page.screenshot(path=str(artifacts / "foundation.png"))
-        studio.robot.root.visible = False
+        studio.arm.robot.root.visible = False
         without_robot = settled_render(client, unlike=with_robot)
     finally:
         page.close()
@@ -180,3 +180,31 @@ def test_robot_is_rendered_in_chromium(browser, tmp_path, artifacts) -> None:
     # middle, above the table; the panel covers the right.
     rows, cols = np.nonzero(changed)
     assert cols.mean() / 400 < 0.5 and rows.mean() / 300 < 0.7, (cols.mean(), rows.mean())
+
+
+def test_moving_the_arm_updates_its_joints_frames_as_a_full_update_would() -> None:
+    """The robot's display updates only the frames of the joints whose angle changed (a full
+    update of the iCub's 59 joints cost a frame of the loop at every step of a drag); the
+    frames end where viser's full update puts them."""
+    import viser
+
+    from app.scene.robot import add_robot
+    from robots.icub.scene import DEFAULT_SCENE
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    try:
+        view = add_robot(server, load_urdf(DEFAULT_ROBOT), DEFAULT_SCENE)
+        rng = np.random.default_rng(0)
+        q = view.q.copy()
+        for _ in range(5):
+            moved = rng.choice(q.size, 7, replace=False)
+            q[moved] += rng.normal(scale=0.1, size=7)
+            view.set_configuration(q)
+        frames = view.viser_urdf._joint_frames
+        fast = [(np.array(f.wxyz), np.array(f.position)) for f in frames]
+        view.viser_urdf.update_cfg(q)  # viser's own: every joint
+        for (wxyz, position), frame in zip(fast, frames, strict=True):
+            same_rotation = min(np.abs(wxyz - frame.wxyz).max(), np.abs(wxyz + frame.wxyz).max())
+            assert same_rotation < 1e-12 and np.abs(position - frame.position).max() < 1e-12
+    finally:
+        server.stop()

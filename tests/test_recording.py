@@ -1,11 +1,14 @@
-"""The Record button's state machine, without a browser or a thread: refusals, the countdown,
-cancel, start, stop and a failing recorder, on a clock the test moves."""
+"""A take without a browser: the Record button's state machine (refusals, the countdown,
+cancel, start, stop, the save, a failing recorder, on a clock the test moves), what a take
+becomes (:func:`app.live.takes.save_take`, pure) and the controller that records and saves
+it into a store on a worker."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
-from app.live.take_machine import (
+from app.live.take_controller import (
     HEAD_FAILED,
     Event,
     Phase,
@@ -30,6 +33,9 @@ def test_a_take_counts_down_then_records_until_stopped() -> None:
     assert machine.phase is Phase.RECORDING and machine.remaining(13.5) == 0
     assert machine.tick(20.0) == (Event.NONE, take)  # recording goes on until pressed
     assert machine.press(25.0) == (Event.STOPPED, take)
+    assert machine.phase is Phase.SAVING and machine.take is take
+    assert machine.press(25.5) == (Event.NONE, None)  # nothing while the take is saved
+    machine.saved()
     assert machine.phase is Phase.IDLE and machine.take is None
 
 
@@ -39,9 +45,11 @@ def test_each_take_may_have_its_own_countdown() -> None:
     assert take.starts_at == 10.5 and machine.remaining(10.0) == 1
     assert machine.tick(10.5) == (Event.STARTED, take)
     machine.press(11.0)
+    machine.saved()
     _, take = machine.press(20.0, "curved", 50.0, countdown_s=0.0)  # at once
     assert machine.tick(20.0) == (Event.STARTED, take)
     machine.press(21.0)
+    machine.saved()
     assert machine.press(30.0, "curved", 50.0)[1].starts_at == 33.0  # the machine's own
     machine.press(31.0)
     for bad in (-1.0, float("nan"), float("inf")):
@@ -88,3 +96,64 @@ def test_refusals_say_why() -> None:
     assert "also hold force" in refusal("curved", forces, None, 50.0)
     hand_only = Layout((LAYOUT.modality("hand"),))
     assert refusal("curved", hand_only, "no camera", 50.0) is None  # the head is not recorded
+
+
+def test_a_take_becomes_a_demonstration_or_says_why_not() -> None:
+    from app.live.recorder import Recording
+    from app.live.takes import TakeOptions, save_take
+
+    times = np.arange(0.0, 4.0, 0.02)
+    z = np.clip(times - 1.5, 0.0, 1.0) * 0.2  # still 1.5 s, 1 s up, still 1.5 s
+    hand = np.column_stack([np.zeros_like(z), np.zeros_like(z), z])
+    head = np.zeros((times.size, 3))
+    new, text = save_take(Recording(times, hand, head), TakeOptions(LAYOUT))
+    assert new is not None and new.raw is not None and new.values.shape[1] == 6
+    assert "still ends cut" in text and f"{new.times.size} samples" in text
+    assert new.times.size < times.size and np.ptp(new.values[:, 2]) > 0.19
+    whole, text = save_take(Recording(times, hand, head), TakeOptions(LAYOUT, trim=False))
+    assert whole.raw is None and whole.times.size == times.size and "still" not in text
+    still = Recording(times, np.zeros_like(hand), head)
+    refused, why = save_take(still, TakeOptions(LAYOUT))
+    assert refused is None and "untick Trim idle ends" in why
+    refused, why = save_take(Recording(times[:1], hand[:1], head[:1]), TakeOptions(LAYOUT))
+    assert refused is None and "at least 2 are needed" in why
+
+
+def test_the_controller_records_and_saves_a_take_into_the_store(tmp_path) -> None:
+    """Record, the countdown, the recorder's thread, Stop, the save on a worker: the take is
+    in the store, its outcome names it and the workspace it concerns; Discard sends it to the
+    trash."""
+    from app.core.store import Store
+    from app.io.workspace import WorkspaceData
+    from app.io.workspace_index import PrimitiveEntry
+    from app.live.take_controller import TakeController
+    from app.live.takes import TakeOptions
+    from tests.conftest import wait_until
+
+    store = Store.open(tmp_path / "ws", lambda: WorkspaceData(
+        primitives=[PrimitiveEntry("wave", (1, 2, 3))], demos={"wave": []}
+    ))  # fmt: skip
+    ticks = iter(range(10**6))
+
+    def sample():
+        k = next(ticks)
+        return np.array([0.0, 0.0, 0.01 * k]), np.zeros(3)
+
+    takes = TakeController(sample, store, countdown_s=0.0)
+    options = TakeOptions(store.state.layout, trim=False)
+    assert takes.press(0.0, "wave", 50.0, 0.0, None) is Event.COUNTDOWN
+    assert takes.step(0.0, options)[0] is Event.STARTED and takes.phase is Phase.RECORDING
+    wait_until(lambda: takes.recording().n_samples >= 5, what="five samples")
+    assert takes.press(1.0, None, 0.0, 0.0, None) is Event.STOPPED
+    outcome = wait_until(lambda: takes.step(1.0, options)[1], what="the save")
+    assert outcome.kind == "saved" and outcome.saved == ("wave", "wave_000")
+    assert outcome.root == store.state.workspace.root and takes.phase is Phase.IDLE
+    (demo,) = store.state.demos["wave"]
+    assert demo.n_samples >= 5 and outcome.text.startswith("Saved **wave_000**")
+    assert ("wave", "wave_000") in store.state.unscored  # the learner scores it
+    assert takes.discard().kind == "discarded" and store.state.demos["wave"] == ()
+    with pytest.raises(ValueError, match="no take saved"):
+        takes.discard()
+    refused = takes.press(2.0, None, 50.0, 0.0, "Create a primitive first.")
+    assert refused is Event.REFUSED and takes.outcome.kind == "refused"
+    takes.close()

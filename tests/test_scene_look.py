@@ -7,7 +7,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from app.scene.look import DATA, FADED, HIDDEN, INFER, SHOWN, TEACH, WORKSPACE_LOOK, Look, look
+from app.scene.look import DATA, FADED, HIDDEN, INFER, SHOWN, TEACH
+from app.scene.scene_view import WORKSPACE_LOOK, Look, look
 from app.ui.context import PanelGui
 
 

@@ -1,8 +1,9 @@
-"""The studio's session: every mutation is on disk before it is in memory, a refused one changes
-nothing, reopening restores the session exactly, typicality flags outliers, the learning
-settings (shrinkage included) refit and persist, concurrent mutations stay consistent, a
-folder that is not a workspace is refused byte for byte untouched, and what is deleted or
-replaced comes back from the trash."""
+"""The studio's session (store, learner, view state): every mutation is on disk before it is in
+the store's state, a refused one changes nothing, reopening restores the workspace exactly,
+typicality (scored by the learner, in the background) flags outliers, the learning settings
+(shrinkage included) refit and persist, concurrent mutations stay consistent, a folder that is
+not a workspace is refused byte for byte untouched, and what is deleted or replaced comes back
+from the trash."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from app.io.workspace import Workspace, WorkspaceData
 from app.io.workspace_index import PrimitiveEntry
 from app.studio import default_workspace
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
+from tests.conftest import FITS, wait_until
 
 COLUMNS = LAYOUT.columns
 
@@ -31,18 +33,37 @@ def default_folder(tmp_path_factory):
 
 
 @pytest.fixture
-def session(default_folder, tmp_path) -> Session:
+def session(default_folder, tmp_path):
     root = tmp_path / "ws"
     shutil.copytree(default_folder, root)
-    return Session.open(root)
+    session = Session.open(root, fits=FITS)
+    yield session
+    session.close()
+
+
+def state(session: Session):
+    """The store's state now."""
+    return session.store.state
+
+
+def model(session: Session):
+    return session.snapshot().model
+
+
+def scored(session: Session, key: tuple[str, str]):
+    """The typicality of the take ``key`` once the learner has scored it (None: too few
+    others)."""
+    wait_until(lambda: key not in state(session).unscored, timeout=120, what=f"{key} scored")
+    return state(session).typicality.get(key)
 
 
 def files(session: Session) -> dict[str, bytes]:
-    root = session.workspace.root
+    root = session.store.state.workspace.root
     return {str(p.relative_to(root)): p.read_bytes() for p in root.rglob("*") if p.is_file()}
 
 
-def assert_same_state(a: Session, b: Session) -> None:
+def assert_same_state(session_a: Session, session_b: Session) -> None:
+    a, b = state(session_a), state(session_b)
     assert a.primitives == b.primitives
     assert a.settings == b.settings
     assert a.demos.keys() == b.demos.keys()
@@ -54,35 +75,40 @@ def assert_same_state(a: Session, b: Session) -> None:
 
 
 def test_an_empty_workspace_opens_on_the_default_scenario(tmp_path) -> None:
-    session = Session.open(tmp_path / "ws", default=default_workspace)
-    assert session.names() == ["curved", "direct"]
-    assert [len(session.demos[n]) for n in session.names()] == [20, 20]
-    assert session.model is not None and session.model.names == ("curved", "direct")
-    assert session.fit_error is None and session.fit_ms > 0
+    session = Session.open(tmp_path / "ws", default=default_workspace, fits=FITS)
+    assert state(session).names == ("curved", "direct")
+    assert [len(state(session).demos[n]) for n in state(session).names] == [20, 20]
+    assert model(session) is not None and model(session).names == ("curved", "direct")
+    learned = session.learner.state
+    assert learned.error is None and learned.fit_ms > 0 and learned.n_demos == 40
+    session.close()
 
 
 def test_every_mutation_is_on_disk_and_reopening_restores_it_exactly(session) -> None:
-    demo = session.demos["curved"][3]
-    session.create_primitive("lift", (1, 2, 3))
-    session.add_demo("lift", demo.times + 5.0, demo.select(COLUMNS))
-    session.add_demo("lift", demo.times, demo.select(COLUMNS) + 0.01)
-    session.rename_primitive("lift", "lift_2")
-    session.recolor_primitive("lift_2", (9, 8, 7))
-    session.delete_demo("curved", "curved_005")
-    session.delete_primitive("direct")
-    session.set_learning(12, 1.25, shrinkage=0.1)
-    reopened = Session.open(session.workspace.root)
+    store = session.store
+    demo = state(session).demos["curved"][3]
+    store.create_primitive("lift", (1, 2, 3))
+    store.add_demo("lift", demo.times + 5.0, demo.select(COLUMNS))
+    store.add_demo("lift", demo.times, demo.select(COLUMNS) + 0.01)
+    store.rename_primitive("lift", "lift_2")
+    store.recolor_primitive("lift_2", (9, 8, 7))
+    store.delete_demo("curved", "curved_005")
+    store.delete_primitive("direct")
+    store.set_learning(12, 1.25, shrinkage=0.1)
+    reopened = Session.open(state(session).workspace.root, fits=FITS)
     assert_same_state(session, reopened)
-    assert reopened.names() == ["curved", "lift_2"]
-    assert reopened.color("lift_2") == (9, 8, 7)
-    assert [d.name for d in reopened.demos["lift_2"]] == ["lift_000", "lift_001"]  # files kept
-    assert reopened.demos["lift_2"][0].times[0] == 0.0  # times start at the first sample
-    assert "curved_005" not in {d.name for d in reopened.demos["curved"]}
-    assert not session.workspace.demo_dir("direct").exists()
-    kinds = [e.kind for e in reopened.trash_entries()]
+    again = state(reopened)
+    assert again.names == ("curved", "lift_2")
+    assert again.color("lift_2") == (9, 8, 7)
+    assert [d.name for d in again.demos["lift_2"]] == ["lift_000", "lift_001"]  # files kept
+    assert again.demos["lift_2"][0].times[0] == 0.0  # times start at the first sample
+    assert "curved_005" not in {d.name for d in again.demos["curved"]}
+    assert not state(session).workspace.demo_dir("direct").exists()
+    kinds = [e.kind for e in again.trash]
     assert kinds == ["primitive", "demo"]  # both deletions kept, newest first
-    assert reopened.learning_settings().shrinkage == 0.1
-    np.testing.assert_allclose(reopened.model.primitive("curved").shrinkage, 0.1)
+    assert again.learning_settings().shrinkage == 0.1
+    np.testing.assert_allclose(model(reopened).primitive("curved").shrinkage, 0.1)
+    reopened.close()
 
 
 @pytest.mark.parametrize(
@@ -104,121 +130,123 @@ def test_every_mutation_is_on_disk_and_reopening_restores_it_exactly(session) ->
     ],
 )
 def test_a_refused_mutation_changes_nothing(session, mutation, message) -> None:
-    before_files, before_version = files(session), session.version
-    before_names, before_settings = session.names(), dict(session.settings)
+    before_files, before = files(session), state(session)
     with pytest.raises(ValueError, match=message):
-        mutation(session)
+        mutation(session.store)
     assert files(session) == before_files
-    assert session.version == before_version
-    assert session.names() == before_names and session.settings == before_settings
+    assert state(session) is before  # not even a new state
 
 
-def test_a_failed_write_keeps_the_demonstration_out_of_the_session(session, monkeypatch) -> None:
-    demo = session.demos["curved"][0]
+def test_a_failed_write_keeps_the_demonstration_out_of_the_store(session, monkeypatch) -> None:
+    demo = state(session).demos["curved"][0]
 
     def full_disk(primitive, demo, layout):
         raise OSError("No space left on device")
 
-    monkeypatch.setattr(session.workspace, "write_demo", full_disk)
+    monkeypatch.setattr(state(session).workspace, "write_demo", full_disk)
     with pytest.raises(OSError, match="No space"):
-        session.add_demo("curved", demo.times, demo.select(COLUMNS))
-    assert len(session.demos["curved"]) == 20
+        session.store.add_demo("curved", demo.times, demo.select(COLUMNS))
+    assert len(state(session).demos["curved"]) == 20
 
 
 def test_typicality_flags_an_outlier_and_not_a_typical_demonstration(session) -> None:
     rng = np.random.default_rng(1)
-    typical = session.demos["curved"][7]
+    typical = state(session).demos["curved"][7]
     values = typical.select(COLUMNS).copy()  # the head angles re-measured (0.5 deg noise);
     values[:, 3:] += rng.normal(scale=np.radians(0.5), size=(len(values), 3))  # the hand is exact
-    normal = session.add_demo("curved", typical.times, values)
-    odd = session.demos["direct"][2]  # a direct movement filed under curved
-    outlier = session.add_demo("curved", odd.times, odd.select(COLUMNS))
-    good, bad = (
-        session.typicality[("curved", normal.name)],
-        session.typicality[("curved", outlier.name)],
-    )
+    normal = session.store.add_demo("curved", typical.times, values)
+    odd = state(session).demos["direct"][2]  # a direct movement filed under curved
+    outlier = session.store.add_demo("curved", odd.times, odd.select(COLUMNS))
+    good, bad = scored(session, ("curved", normal.name)), scored(session, ("curved", outlier.name))
     assert good.label == "typical" and good.percentile > 0.2
     assert bad.label == "outlier" and bad.percentile < 0.05
     assert bad.score < good.score
 
 
 def test_typicality_needs_three_other_demonstrations(session) -> None:
-    session.create_primitive("new")
-    demo = session.demos["curved"][0]
+    """Each take is scored against the others there were when it was recorded (the learner
+    scores it later, on its worker)."""
+    session.store.create_primitive("new")
+    demo = state(session).demos["curved"][0]
     for _ in range(4):
-        session.add_demo("new", demo.times, demo.select(COLUMNS))
-    scored = [d.name for d in session.demos["new"] if ("new", d.name) in session.typicality]
-    assert scored == ["new_003"]
+        session.store.add_demo("new", demo.times, demo.select(COLUMNS))
+    names = [d.name for d in state(session).demos["new"]]
+    scores = {name: scored(session, ("new", name)) for name in names}
+    assert [name for name, score in scores.items() if score is not None] == ["new_003"]
 
 
 def test_hiding_redraws_without_refitting_and_listeners_hear_every_change(session) -> None:
     heard = []
-    session.on_change(lambda: heard.append(session.version))
-    model = session.model
-    session.set_hidden("curved", "curved_000", True)
-    assert session.model is model and ("curved", "curved_000") in session.hidden
-    session.set_hidden("curved", "curved_000", False)
-    session.set_learning(8, 1.0)
+    session.store.on_change(lambda new: heard.append(new.version))
+    before = model(session)
+    session.view.set_hidden("curved", "curved_000", True)
+    assert model(session) is before and ("curved", "curved_000") in session.snapshot().hidden
+    session.view.set_hidden("curved", "curved_000", False)
+    assert session.snapshot().hidden == frozenset()
+    session.store.set_learning(8, 1.0)
     session.wait_for_model()
-    assert session.model is not model and session.model.basis.n_basis == 8
-    assert heard == [1, 2, 3]
+    assert model(session) is not before and model(session).basis.n_basis == 8
+    assert heard == [1]  # hiding is the view's: the store changed once
 
 
 def test_shrinkage_settings(session) -> None:
     # The default workspace starts on the engine's defaults (automatic covariance prior).
-    assert session.settings == {}
-    assert session.model.report["covariance"]["strength"] > 0
-    session.set_learning(10, 1.0, shrinkage=1e-6)
+    store = session.store
+    assert state(session).settings == {}
+    assert model(session).report["covariance"]["strength"] > 0
+    store.set_learning(10, 1.0, shrinkage=1e-6)
     session.wait_for_model()
-    np.testing.assert_allclose(session.model.primitive("curved").shrinkage, 1e-6)
-    session.set_learning(10, 1.0, shrinkage=None)  # the pooled prior
-    assert session.settings["shrinkage"] is None
+    np.testing.assert_allclose(model(session).primitive("curved").shrinkage, 1e-6)
+    store.set_learning(10, 1.0, shrinkage=None)  # the pooled prior
+    assert state(session).settings["shrinkage"] is None
     session.wait_for_model()
-    loo = session.model.primitive("curved").shrinkage
+    loo = model(session).primitive("curved").shrinkage
     hand, head = LAYOUT.dims(["hand"]), LAYOUT.dims(["head"])
     assert len(set(loo[hand])) == 1 and len(set(loo[head])) == 1  # one per modality
-    session.set_learning(11, 1.0)  # keeps the shrinkage
-    assert session.settings["shrinkage"] is None
-    session.set_learning(11, 1.0, shrinkage=0.3)
+    store.set_learning(11, 1.0)  # keeps the shrinkage
+    assert state(session).settings["shrinkage"] is None
+    store.set_learning(11, 1.0, shrinkage=0.3)
     session.wait_for_model()
-    np.testing.assert_allclose(session.model.primitive("direct").shrinkage, 0.3)
+    np.testing.assert_allclose(model(session).primitive("direct").shrinkage, 0.3)
 
 
 def test_automatic_settings_are_chosen_by_the_fit_and_can_be_given_back(session) -> None:
-    model = session.wait_for_model()
-    chosen = model.report["settings"]["chosen"]
+    learned = session.wait_for_model()
+    chosen = learned.report["settings"]["chosen"]
     assert set(chosen) == {"n_basis", "width", "noise_scale"}
-    resolved = session.resolved_settings()  # what typicality fits with: no new choice
+    resolved = session.snapshot().resolved_settings()  # what typicality fits with: no new choice
     assert not resolved.automatic
-    assert (resolved.n_basis, resolved.width) == (model.settings.n_basis, model.settings.width)
-    session.set_learning(9, 1.2)
+    assert (resolved.n_basis, resolved.width) == (learned.settings.n_basis, learned.settings.width)
+    session.store.set_learning(9, 1.2)
     assert session.wait_for_model().settings.n_basis == 9
-    assert session.resolved_settings().n_basis == 9
-    assert '"n_basis": 9' in session.workspace.index_path.read_text()
-    session.set_learning(None, None)  # back to automatic: absent from studio.json
-    assert "n_basis" not in session.settings and "width" not in session.settings
-    assert '"n_basis"' not in session.workspace.index_path.read_text()
+    assert session.snapshot().resolved_settings().n_basis == 9
+    index = state(session).workspace.index_path
+    assert '"n_basis": 9' in index.read_text()
+    session.store.set_learning(None, None)  # back to automatic: absent from studio.json
+    assert "n_basis" not in state(session).settings and "width" not in state(session).settings
+    assert '"n_basis"' not in index.read_text()
     assert session.wait_for_model().report["settings"]["chosen"] == chosen
 
 
 def test_primitives_with_fewer_than_two_demonstrations_are_not_learned(session) -> None:
-    session.create_primitive("alone")
-    demo = session.demos["curved"][0]
-    session.add_demo("alone", demo.times, demo.select(COLUMNS))
+    store = session.store
+    store.create_primitive("alone")
+    demo = state(session).demos["curved"][0]
+    store.add_demo("alone", demo.times, demo.select(COLUMNS))
     assert "alone" not in session.wait_for_model().names
-    session.delete_primitive("curved")
-    session.delete_primitive("direct")
+    store.delete_primitive("curved")
+    store.delete_primitive("direct")
     session.wait_for_model()
-    assert session.model is None and "at least two" in session.fit_error
+    assert model(session) is None and "at least two" in session.learner.state.error
 
 
 def test_concurrent_recordings_get_distinct_names_and_files(session) -> None:
-    demo = session.demos["curved"][0]
+    demo = state(session).demos["curved"][0]
     errors = []
 
     def record() -> None:
         try:
-            session.add_demo("curved", demo.times, demo.select(COLUMNS))
+            session.store.add_demo("curved", demo.times, demo.select(COLUMNS))
         except Exception as exc:  # pragma: no cover - reported below
             errors.append(exc)
 
@@ -228,9 +256,9 @@ def test_concurrent_recordings_get_distinct_names_and_files(session) -> None:
     for thread in threads:
         thread.join()
     assert errors == []
-    names = [d.name for d in session.demos["curved"]]
+    names = [d.name for d in state(session).demos["curved"]]
     assert len(names) == len(set(names)) == 24
-    assert len(list(session.workspace.demo_dir("curved").glob("*.csv"))) == 24
+    assert len(list(state(session).workspace.demo_dir("curved").glob("*.csv"))) == 24
 
 
 def without_trash(state: dict) -> dict:
@@ -260,56 +288,61 @@ def test_a_folder_of_recordings_is_refused_and_left_byte_identical(tmp_path, hei
 
 
 def test_deleting_and_undoing_restores_the_files_and_the_session(session) -> None:
-    before = files(session)
-    curved = session.demos["curved"][4]
-    entry = session.delete_demo("curved", curved.name)
-    assert curved.name not in {d.name for d in session.demos["curved"]}
-    session.delete_primitive("direct")
-    assert [e.name for e in session.deleted][-1] != entry.name
-    session.undo_delete()  # the primitive first
-    assert session.names() == ["curved", "direct"] and len(session.demos["direct"]) == 20
-    restored = session.undo_delete()
+    store, before = session.store, files(session)
+    curved = state(session).demos["curved"][4]
+    entry = store.delete_demo("curved", curved.name)
+    assert curved.name not in {d.name for d in state(session).demos["curved"]}
+    store.delete_primitive("direct")
+    assert [e.name for e in state(session).deleted][-1] != entry.name
+    store.undo_delete()  # the primitive first
+    assert state(session).names == ("curved", "direct")
+    assert len(state(session).demos["direct"]) == 20
+    restored = store.undo_delete()
     assert restored.name == entry.name
     assert without_trash(files(session)) == before  # byte for byte
-    assert [d.name for d in session.demos["curved"]] == [f"curved_{i:03d}" for i in range(20)]
+    names = [d.name for d in state(session).demos["curved"]]
+    assert names == [f"curved_{i:03d}" for i in range(20)]
     session.wait_for_model()
-    assert session.model is not None and session.model.names == ("curved", "direct")
+    assert model(session) is not None and model(session).names == ("curved", "direct")
     with pytest.raises(ValueError, match="nothing deleted"):
-        session.undo_delete()
+        store.undo_delete()
 
 
 def test_replacing_and_switching_workspaces(session, tmp_path) -> None:
-    before = files(session)
-    demo = session.demos["curved"][0]
+    store, before = session.store, files(session)
+    demo = state(session).demos["curved"][0]
     data = WorkspaceData(
         primitives=[PrimitiveEntry("wave", (1, 2, 3)), PrimitiveEntry("rest", (3, 2, 1))],
-        demos={"wave": session.demos["curved"][:3], "rest": session.demos["direct"][:3]},
+        demos={"wave": list(state(session).demos["curved"][:3]),
+               "rest": list(state(session).demos["direct"][:3])},  # fmt: skip
         layout=LAYOUT,
     )
-    version = session.version
-    entry = session.replace(data, "replaced by a test")
-    assert session.names() == ["wave", "rest"] and session.version > version
+    version = state(session).version
+    entry = store.replace(data, "replaced by a test")
+    assert state(session).names == ("wave", "rest") and state(session).version > version
     session.wait_for_model()
-    assert session.model.names == ("wave", "rest")
-    session.restore(entry.name)
+    assert model(session).names == ("wave", "rest")
+    store.restore(entry.name)
     assert without_trash(files(session)) == before
-    old_root = session.workspace.root
-    session.switch(tmp_path / "other", data)
-    assert session.workspace.root == tmp_path / "other" and session.names() == ["wave", "rest"]
-    assert session.deleted == []
-    assert without_trash(files(Session.open(old_root))) == before
+    old_root = state(session).workspace.root
+    store.switch(tmp_path / "other", data)
+    assert state(session).workspace.root == tmp_path / "other"
+    assert state(session).names == ("wave", "rest")
+    assert state(session).deleted == ()
+    reopened = Session.open(old_root, fits=FITS)
+    assert without_trash(files(reopened)) == before
+    reopened.close()
     with pytest.raises(ValueError, match="already a studio workspace"):
-        session.switch(old_root, data)
-    session.add_demo("wave", demo.times, demo.select(COLUMNS))
+        store.switch(old_root, data)
+    store.add_demo("wave", demo.times, demo.select(COLUMNS))
     assert (tmp_path / "other" / "demos" / "wave" / "wave_003.csv").exists()
 
 
 def test_refits_run_in_the_background_and_only_the_latest_is_adopted(session, monkeypatch):
     """A change returns at once; the previous model stays in use until the refit of the latest
     change is done; a refit superseded while it ran is never adopted."""
-    import app.core.session as module
-
-    real, learned = module.learn, []
+    fits = session.learner.fits
+    real, learned = fits.fit, []
     started, release = threading.Event(), threading.Event()
 
     def gated(training, reuse=True):
@@ -320,17 +353,18 @@ def test_refits_run_in_the_background_and_only_the_latest_is_adopted(session, mo
             release.wait(60)
         return result
 
-    monkeypatch.setattr(module, "learn", gated)
-    before, version = session.model, session.version
-    session.set_learning(8, 1.0)
+    monkeypatch.setattr(fits, "fit", gated)
+    before, adopted = model(session), session.learner.state.request
+    session.store.set_learning(8, 1.0)
     assert started.wait(60), "the refit did not start"
-    assert session.model is before and session.refitting  # the previous model meanwhile
-    session.set_learning(9, 1.0)  # supersedes the refit in flight
+    assert model(session) is before and session.snapshot().refitting  # the previous meanwhile
+    session.store.set_learning(9, 1.0)  # supersedes the refit in flight
     release.set()
-    model = session.wait_for_model()
-    assert model.basis.n_basis == 9 and session.model is model and not session.refitting
+    latest = session.wait_for_model()
+    assert latest.basis.n_basis == 9 and model(session) is latest
+    assert not session.snapshot().refitting
     assert learned == [8, 9]  # the first ran to its end, and was dropped
-    assert session.version == version + 3  # two changes, one model adopted
+    assert session.learner.state.request == adopted + 2  # two changes, one model adopted
     session.close()
 
 
@@ -344,28 +378,32 @@ def _with_a_gap(demo, name: str):
 
 
 def test_a_flagged_demonstration_is_left_out_until_kept_and_the_choice_persists(session) -> None:
-    gap = _with_a_gap(session.demos["curved"][3], "gap")
-    added = session.add_demo("curved", gap.times, gap.select(COLUMNS))
+    store = session.store
+    gap = _with_a_gap(state(session).demos["curved"][3], "gap")
+    added = store.add_demo("curved", gap.times, gap.select(COLUMNS))
     key = ("curved", added.name)
-    (finding,) = session.findings_of(*key)
+    (finding,) = state(session).findings_of(*key)
     assert finding.kind == "gap" and finding.file == f"demos/curved/{added.name}.csv"
-    assert list(session.left_out()) == [key]
-    model = session.wait_for_model()
-    assert model.primitive("curved").n_demos == 20  # learned without it
-    assert key in session.typicality  # scored against the others that are learned from
-    path = session.workspace.demo_path(*key)
+    assert list(state(session).left_out) == [key]
+    learned = session.wait_for_model()
+    assert learned.primitive("curved").n_demos == 20  # learned without it
+    assert scored(session, key) is not None  # scored against the others that are learned from
+    path = state(session).workspace.demo_path(*key)
     before = path.read_bytes()
-    session.set_kept(*key, True)
-    assert session.left_out() == {} and session.wait_for_model().primitive("curved").n_demos == 21
-    reopened = Session.open(session.workspace.root)
-    assert reopened.checks.kept == {key} and reopened.left_out() == {}
-    session.rename_primitive("curved", "arc")
-    assert session.checks.kept == {("arc", added.name)} and session.left_out() == {}
-    session.set_kept("arc", added.name, False)
-    assert list(session.left_out()) == [("arc", added.name)]
-    assert session.workspace.demo_path("arc", added.name).read_bytes() == before  # untouched
+    store.set_kept(*key, True)
+    assert state(session).left_out == {}
+    assert session.wait_for_model().primitive("curved").n_demos == 21
+    reopened = Session.open(state(session).workspace.root, fits=FITS)
+    assert state(reopened).checks.kept == {key} and state(reopened).left_out == {}
+    reopened.close()
+    store.rename_primitive("curved", "arc")
+    assert state(session).checks.kept == {("arc", added.name)} and state(session).left_out == {}
+    assert ("arc", added.name) in state(session).typicality  # the score follows the rename
+    store.set_kept("arc", added.name, False)
+    assert list(state(session).left_out) == [("arc", added.name)]
+    assert state(session).workspace.demo_path("arc", added.name).read_bytes() == before
     with pytest.raises(ValueError, match="has no demonstration"):
-        session.set_kept("arc", "nowhere", True)
+        store.set_kept("arc", "nowhere", True)
 
 
 def test_an_imports_timestamp_findings_travel_with_the_workspace(tmp_path) -> None:
@@ -381,24 +419,26 @@ def test_an_imports_timestamp_findings_travel_with_the_workspace(tmp_path) -> No
     data, summary = read_folder(tmp_path / "data", "csv")
     assert "timestamps not increasing" in " ".join(summary.findings_lines())
     Workspace.create(tmp_path / "ws", data)
-    session = Session.open(tmp_path / "ws")
+    session = Session.open(tmp_path / "ws", fits=FITS)
     key = ("direct", data.demos["direct"][1].name)
-    assert [f.kind for f in session.findings_of(*key)] == ["timestamps"]
-    assert list(session.left_out()) == [key]
+    assert [f.kind for f in state(session).findings_of(*key)] == ["timestamps"]
+    assert list(state(session).left_out) == [key]
     assert session.wait_for_model().primitive("direct").n_demos == 3
+    session.close()
 
 
 def test_a_repaired_gap_makes_new_demonstrations_and_overwrites_nothing(session) -> None:
-    gap = _with_a_gap(session.demos["direct"][1], "gap")
-    added = session.add_demo("direct", gap.times, gap.select(COLUMNS))
-    folder = session.workspace.demo_dir("direct")
+    store = session.store
+    gap = _with_a_gap(state(session).demos["direct"][1], "gap")
+    added = store.add_demo("direct", gap.times, gap.select(COLUMNS))
+    folder = state(session).workspace.demo_dir("direct")
     squatter = folder / f"{added.name}-cut.csv"
-    squatter.write_text("not a demonstration\n")  # a file the session could not read
-    before = session.workspace.demo_path("direct", added.name).read_bytes()
-    (cut,) = session.repair_gap("direct", added.name, "cut")
+    squatter.write_text("not a demonstration\n")  # a file the store could not read
+    before = state(session).workspace.demo_path("direct", added.name).read_bytes()
+    (cut,) = store.repair_gap("direct", added.name, "cut")
     assert cut.name == f"{added.name}-cut-2" and squatter.read_text() == "not a demonstration\n"
     assert cut.n_samples == gap.n_samples // 2
-    assert session.workspace.demo_path("direct", added.name).read_bytes() == before
-    assert [f.kind for f in session.findings_of("direct", cut.name)] == []
+    assert state(session).workspace.demo_path("direct", added.name).read_bytes() == before
+    assert [f.kind for f in state(session).findings_of("direct", cut.name)] == []
     with pytest.raises(ValueError, match="has no gap"):
-        session.repair_gap("direct", cut.name, "split")
+        store.repair_gap("direct", cut.name, "split")

@@ -151,7 +151,6 @@ class HeadPoseEstimator:
         self.detector = FaceDetector(paths.detector, min_score=min_detection_score)
         self.landmarker = FaceLandmarker(paths.landmarks)
         self.intrinsics = None if intrinsics is None else check_intrinsics(intrinsics)
-        self.smoothing = smoothing
         self.min_presence = float(min_presence)
         self.min_face_size = float(min_face_size)
         self.line_of_sight = bool(line_of_sight)

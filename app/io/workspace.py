@@ -116,7 +116,7 @@ def inspect_folder(root: Path) -> tuple[FolderKind, str]:
 
 class Workspace:
     """A studio session on disk (see the module docstring). Not thread-safe by itself: the
-    :class:`app.core.session.Session` serialises access."""
+    :class:`app.core.store.Store` serialises access."""
 
     def __init__(self, root: Path):
         self.root = Path(root)

@@ -1,200 +1,102 @@
-"""One scrub step of the Infer tab as pure computation: no viser, testable without a browser.
+"""What the Infer tab shows for one state of its controls and one snapshot of the studio, as
+pure computation: no viser, tested without a browser.
 
-Given a model and an early observation (the first samples of a held-out test demonstration, or
-of the live stream), a scrub step recognises the primitive and its time modulation alpha
-(Eq. 6, ML over the training alphas or the Eq. 7 model), conditions the recognised primitive on
-the observation (Eq. 8) and predicts the prior and posterior trajectory distributions (mean and
-standard deviation of every dimension over the predicted duration). With the true
-demonstration, it also measures the errors the evaluation reports (:mod:`promp.metrics`):
-position error of the remainder, goal error and duration error.
+:func:`promp.pipeline.infer` does the method's work once: from an early observation (the first
+samples of a held-out test demonstration, or of the live stream) it recognises the primitive
+and its speed (Eq. 6), conditions the recognised primitive on the observation (Eq. 8),
+predicts the prior and the posterior over the predicted duration, and, given the whole
+movement, measures the errors the evaluation reports. :func:`inferred` adds what only the
+studio draws: the predicted future hand path, from the observation point to the predicted
+end, which the 3D view shows and the arm replays.
 
-A test demonstration is held out from the model while it is inspected: :class:`HeldOutModels`
-fits (and caches) the model on the session's demonstrations minus that one.
-:func:`typical_prior` is what the Teach tab plots and the scene's tubes show: a primitive's prior
-at its typical speed.
+The model comes first (:func:`choose_model`): for a test demonstration, the model learned
+without it (the learner fits it in the background: until then there is nothing to show, and
+the view says so) or an imported one (which cannot be refitted without it); for the live
+stream, the model inference uses. Then the early observation (the first samples of the
+demonstration, or of the live stream's samples) and one inference (:func:`compute`).
+
+:func:`typical_prior` is what the Teach tab plots and the scene's tubes show: a primitive's
+prior at its typical speed.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from app.core.lru import LruCache
-from promp.data import Demonstration, Layout, Modality
-from promp.duration import Timing
+from app.core.learner import Learner
+from app.core.snapshot import Snapshot
+from app.live.stream import StreamSamples
+from promp.data import Demonstration
 from promp.inference import Observation, Prediction, predict
-from promp.learn import fit
-from promp.metrics import position_modality
-from promp.model import ProMPModel, Settings
-from promp.pipeline import infer
-from promp.recognition import Recognition
+from promp.model import ProMPModel
+from promp.pipeline import Inference, infer, relative_speed
 from promp.timing import n_observed_for
 from robots.icub.layout import hand_dims
 
 TUBE_POINTS = 100  # rings of the posterior tube (fixed mesh topology)
 PATH_POINTS = 60  # samples of the predicted future hand path
-
-
-def held_out_training(
-    demos: Mapping[str, Sequence[Demonstration]], primitive: str, demo_name: str
-) -> dict[str, list[Demonstration]]:
-    """The training set of the model that must not see ``demo_name`` of ``primitive``: every
-    primitive with at least two demonstrations once the test one is removed.
-
-    Raises
-    ------
-    ValueError
-        Unknown primitive or demonstration, or fewer than two demonstrations of ``primitive``
-        left (its model could not be learned, so it could not be recognised).
-    """
-    if primitive not in demos:
-        raise ValueError(f"unknown primitive {primitive!r}")
-    if demo_name not in {d.name for d in demos[primitive]}:
-        raise ValueError(f"primitive {primitive!r} has no demonstration {demo_name!r}")
-    train = {
-        name: [d for d in items if not (name == primitive and d.name == demo_name)]
-        for name, items in demos.items()
-    }
-    if len(train[primitive]) < 2:
-        raise ValueError(
-            f"holding out {demo_name!r} leaves {primitive!r} with {len(train[primitive])} "
-            "demonstration(s); record at least three to test one"
-        )
-    return {name: items for name, items in train.items() if len(items) >= 2}
-
-
-class HeldOutModels:
-    """Models learned without one test demonstration, cached by (version of what is learned
-    from, primitive, demonstration, settings): scrubbing never refits; a change of the
-    demonstrations or the settings does (:attr:`app.core.session.Session.learn_version`)."""
-
-    def __init__(self, max_entries: int = 8):
-        self._cache: LruCache[ProMPModel] = LruCache(max_entries)
-
-    def has(self, version: int, primitive: str, demo_name: str, settings: Settings) -> bool:
-        return (version, primitive, demo_name, repr(settings)) in self._cache
-
-    def get(
-        self,
-        version: int,
-        demos: Mapping[str, Sequence[Demonstration]],
-        primitive: str,
-        demo_name: str,
-        settings: Settings,
-        layout: Layout,
-    ) -> ProMPModel:
-        """The model fitted on ``demos`` minus ``demo_name`` (see :func:`held_out_training`)."""
-        key = (version, primitive, demo_name, repr(settings))
-        model = self._cache.get(key)
-        if model is None:
-            model = fit(held_out_training(demos, primitive, demo_name), layout, settings)
-            self._cache.put(key, model)
-        return model
-
-    def __len__(self) -> int:
-        return len(self._cache)
+TEST, LIVE = "Test demonstration", "Live stream"  # what is observed
 
 
 @dataclass(frozen=True, eq=False)
-class ScrubResult:
-    """Everything the Infer tab shows for one observation.
+class FuturePath:
+    """The posterior mean hand from the observation point to the predicted end.
 
     Attributes
     ----------
-    names : tuple of str
-        The model's primitives, in the order of ``recognition.probabilities``.
-    layout : Layout
-        The model's modalities (what ``prior`` and ``posterior`` have columns for).
-    observation : Observation
-    recognition : Recognition
-    timing : Timing
-        The duration and the observed share of the movement, with their intervals
-        (:mod:`promp.duration`).
-    prior, posterior : Prediction
-        The recognised primitive's prior and posterior at the speed of the predicted duration, on
-        ``TUBE_POINTS`` evenly spaced phases of the predicted duration.
-    observed_until : float
-        Seconds from the start of the movement to the last observed sample.
-    future_times : array, shape (PATH_POINTS,)
-        Seconds from the start, from ``observed_until`` to the predicted end.
-    future_hand : array, shape (PATH_POINTS, 3), or None
-        Posterior mean hand position at ``future_times`` (None when the layout has no hand).
-    truth : Demonstration or None
-        The whole test demonstration (None for the live stream).
-    position_error_m, goal_error_m, duration_error_s : float
-        Against the truth (NaN without one; the position error is NaN when nothing remains).
-        The first two are in the unit of :func:`error_modality` (metres for the hand).
-    typical_alpha : float
-        The recognised primitive's typical alpha (exp of its training demonstrations' mean
-        log-alpha): ``alpha / typical_alpha`` is the speed relative to its usual one.
+    times : array, shape (PATH_POINTS,)
+        Seconds from the start of the movement, from the last observed sample to the end.
+    hand : array, shape (PATH_POINTS, 3)
+        Hand positions, metres.
     """
 
-    names: tuple[str, ...]
-    layout: Layout
+    times: np.ndarray
+    hand: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Inferred:
+    """Everything the Infer tab shows of one observation.
+
+    Attributes
+    ----------
+    model : ProMPModel
+        The model inferred with (its primitives' names, its layout).
+    observation : Observation
+    inference : Inference
+        The method's answer: recognition, timing (duration and observed share with their
+        intervals), prior and posterior on ``TUBE_POINTS`` phases, and, with a truth, the
+        natural-length prediction and the errors.
+    truth : Demonstration or None
+        The whole test demonstration (None for the live stream).
+    future : FuturePath or None
+        None when the layout has no hand.
+    """
+
+    model: ProMPModel
     observation: Observation
-    recognition: Recognition
-    timing: Timing
-    prior: Prediction
-    posterior: Prediction
-    observed_until: float
-    future_times: np.ndarray
-    future_hand: np.ndarray | None
+    inference: Inference
     truth: Demonstration | None
-    position_error_m: float
-    goal_error_m: float
-    duration_error_s: float
-    typical_alpha: float = math.nan
-
-    @property
-    def primitive(self) -> str:
-        return self.recognition.primitive
-
-    @property
-    def alpha(self) -> float:
-        """The speed the predictions are drawn at (the predicted duration's)."""
-        return self.timing.alpha
-
-    @property
-    def probabilities(self) -> np.ndarray:
-        return self.recognition.probabilities
-
-    @property
-    def duration(self) -> float:
-        """Predicted duration of the whole movement, seconds."""
-        return self.posterior.duration
-
-    @property
-    def true_duration(self) -> float:
-        return self.truth.duration if self.truth is not None else math.nan
+    future: FuturePath | None
 
     @property
     def relative_speed(self) -> float:
-        """The recognised alpha over the primitive's typical one: 1 is its usual speed, more
-        is faster."""
-        return self.alpha / self.typical_alpha
-
-    @property
-    def remaining(self) -> float:
-        """Predicted time left after the observation, seconds."""
-        return max(0.0, self.duration - self.observed_until)
+        """The prediction's speed over the primitive's typical one (1: its usual speed)."""
+        return relative_speed(self.model, self.inference)
 
 
-def error_modality(layout: Layout) -> Modality:
-    """The modality the errors are measured on, the evaluation's
-    (:func:`promp.metrics.position_modality`): the hand when there is one."""
-    return layout.modality(position_modality(layout))
-
-
-def scrub_step(
+def inferred(
     model: ProMPModel,
     observation: Observation,
     alpha_method: str,
     truth: Demonstration | None = None,
-) -> ScrubResult:
-    """Recognise, condition on the recognised primitive, predict, and measure the errors.
+) -> Inferred:
+    """Infer from ``observation`` (:func:`promp.pipeline.infer`, predictions on
+    ``TUBE_POINTS`` phases) and add the future hand path.
 
     Parameters
     ----------
@@ -203,7 +105,7 @@ def scrub_step(
         Its times start at the start of the movement.
     alpha_method : {"ml", "model"}
     truth : Demonstration, optional
-        The whole movement the observation was taken from (errors are NaN without it).
+        The whole movement the observation was taken from (the errors are measured on it).
 
     Raises
     ------
@@ -211,35 +113,21 @@ def scrub_step(
         From the engine: an unknown modality, an unknown alpha method, or an observation longer
         than every candidate duration.
     """
-    result = infer(model, observation, alpha_method, n_points=TUBE_POINTS, truth=truth)
-    posterior, post_pred = result.posterior, result.prediction
-    duration = post_pred.duration
-    observed_until = result.observed_until
-    z_start = min(observed_until / duration, 1.0) if duration > 0 else 1.0
-    phases = np.linspace(z_start, 1.0, PATH_POINTS)
+    inference = infer(model, observation, alpha_method, n_points=TUBE_POINTS, truth=truth)
+    return Inferred(model, observation, inference, truth, future_path(model, inference))
+
+
+def future_path(model: ProMPModel, inference: Inference) -> FuturePath | None:
+    """The posterior mean hand from the observation point to the predicted end (None without
+    a hand)."""
     hand = hand_dims(model.layout)
-    future_hand = None
-    if hand is not None:
-        weights = posterior.mean.reshape(model.n_dims, -1)[hand]  # (3, M)
-        future_hand = model.basis(phases) @ weights.T
-    errors = result.errors
-    return ScrubResult(
-        names=model.names,
-        layout=model.layout,
-        observation=observation,
-        recognition=result.recognition,
-        timing=result.timing,
-        prior=result.prior,
-        posterior=post_pred,
-        observed_until=observed_until,
-        future_times=phases * duration,
-        future_hand=future_hand,
-        truth=truth,
-        position_error_m=math.nan if errors is None else errors.position,
-        goal_error_m=math.nan if errors is None else errors.goal,
-        duration_error_s=math.nan if errors is None else errors.duration,
-        typical_alpha=float(np.exp(model.primitives[result.index].log_alpha_mean)),
-    )
+    if hand is None:
+        return None
+    duration = inference.duration
+    z_start = min(inference.observed_until / duration, 1.0) if duration > 0 else 1.0
+    phases = np.linspace(z_start, 1.0, PATH_POINTS)
+    weights = inference.posterior.mean.reshape(model.n_dims, -1)[hand]  # (3, M)
+    return FuturePath(phases * duration, model.basis(phases) @ weights.T)
 
 
 def demo_observation(
@@ -255,4 +143,166 @@ def typical_prior(model: ProMPModel, name: str, n_points: int) -> Prediction:
     """The prior of primitive ``name`` at its typical speed (alpha = exp of the mean training
     log-alpha), on ``n_points`` phases."""
     primitive = model.primitive(name)
-    return predict(model, primitive, float(np.exp(primitive.log_alpha_mean)), n_points)
+    return predict(model, primitive, float(math.exp(primitive.log_alpha_mean)), n_points)
+
+
+# ---------------------------------------------------------------------- the Infer tab
+
+
+@dataclass(frozen=True)
+class InferState:
+    """The Infer tab's choices at one frame: what its controls say (the alpha method by the
+    engine's name), the computation's only input from the GUI."""
+
+    source: str
+    primitive: str
+    demo: str
+    observed: str
+    alpha_method: str  # the engine's name: "ml" or "model"
+    percent: int
+    show_3d: bool
+    priors: str
+
+    @property
+    def live(self) -> bool:
+        return self.source == LIVE
+
+
+@dataclass(frozen=True)
+class CurveRequest:
+    """What a curve is computed from; ``key`` says what it depends on (demonstration, model,
+    observed modalities, alpha method)."""
+
+    key: Hashable
+    model: ProMPModel
+    demo: Demonstration
+    modalities: tuple[str, ...]
+    alpha_method: str
+    truth: str
+
+
+@dataclass(frozen=True, eq=False)
+class ModelChoice:
+    """The model an inference uses, or why there is none yet (``message``).
+
+    Attributes
+    ----------
+    model : ProMPModel or None
+    note : str
+        Which model, as the status says it.
+    origin : hashable
+        What the model depends on (the recognition curve's cache key).
+    fit_ms : float
+        The time its held-out fit took (0 when reused or not fitted for it).
+    """
+
+    model: ProMPModel | None
+    note: str = ""
+    origin: Hashable = None
+    fit_ms: float = 0.0
+    message: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class InferView:
+    """What the Infer tab shows (see the module docstring).
+
+    Attributes
+    ----------
+    state : InferState
+        The controls it was computed from.
+    result : Inferred or None
+        The inference (None: ``message`` says why); its ``inference.timing`` holds the
+        duration and the observed share with their intervals.
+    message : str
+    model : ModelChoice
+    curve : CurveRequest or None
+        The recognition over the whole test demonstration (None for the live stream).
+    samples : StreamSamples or None
+        The live stream's samples it observed.
+    """
+
+    state: InferState
+    result: Inferred | None
+    message: str = ""
+    model: ModelChoice = ModelChoice(None)
+    curve: CurveRequest | None = None
+    samples: StreamSamples | None = None
+
+    @property
+    def movement(self) -> tuple:
+        """What is inspected: a test demonstration, or the live stream since its last clear
+        (the charts' ranges grow while it stays the same)."""
+        if self.state.live:
+            return ("live", self.samples.epoch if self.samples is not None else -1)
+        return ("test", self.state.primitive, self.state.demo)
+
+
+def choose_model(state: InferState, snapshot: Snapshot, learner: Learner) -> ModelChoice:
+    """The model for ``state`` (a held-out one is asked of ``learner`` when it is not known
+    yet: the one side effect, made before the pure computation)."""
+    imported = snapshot.imported
+    if state.live:
+        model = snapshot.inference_model
+        if model is None:
+            error = snapshot.learner.error or "teach some primitives"
+            return ModelChoice(None, message=f"no model yet: {error}")
+        if imported is not None:
+            return ModelChoice(model, f"imported ({imported.source})", ("imported", id(model)))
+        return ModelChoice(model, "the session's, all demonstrations", ("learned", id(model)))
+    demos = snapshot.store.demos.get(state.primitive, ())
+    if not any(d.name == state.demo for d in demos):
+        return ModelChoice(None, message="choose a test demonstration (the session has none yet)")
+    if imported is not None:  # inferred as is: an imported model cannot be refitted without it
+        model = imported.model
+        return ModelChoice(model, "imported, so NOT held out", ("imported", id(model)))
+    try:
+        fitted = learner.held_out(snapshot.store, state.primitive, state.demo)
+    except ValueError as exc:
+        return ModelChoice(None, message=str(exc))
+    if fitted is None:
+        return ModelChoice(None, message=f"learning a model without {state.demo} (held out)...")
+    if fitted.model is None:
+        return ModelChoice(None, message=fitted.error or "no model")
+    origin = ("held out", snapshot.store.learn_version, repr(snapshot.resolved_settings()))
+    return ModelChoice(
+        fitted.model, f"learned without {state.demo} (held out)", origin,
+        0.0 if fitted.reused else fitted.ms,
+    )  # fmt: skip
+
+
+def compute(
+    state: InferState,
+    snapshot: Snapshot,
+    modalities: tuple[str, ...] | None,
+    choice: ModelChoice,
+    samples: StreamSamples | None = None,
+) -> InferView:
+    """The view of ``state`` (observing ``modalities``; None: not a choice of this layout)
+    with the model ``choice``, on ``snapshot`` (a test demonstration) or the live stream's
+    ``samples``."""
+    model = choice.model
+    if modalities is None:
+        return InferView(state, None, "choose the observed modalities", choice, samples=samples)
+    if model is None:
+        return InferView(state, None, choice.message, choice, samples=samples)
+    try:
+        if state.live:
+            if samples is None:
+                raise ValueError("nothing observed yet: press Start observing and move the hand")
+            observation = samples.observation(state.percent, modalities, model.layout)
+            return InferView(
+                state, inferred(model, observation, state.alpha_method), "", choice,
+                samples=samples,
+            )  # fmt: skip
+        demo = next(d for d in snapshot.store.demos[state.primitive] if d.name == state.demo)
+        curve = CurveRequest(
+            key=(choice.origin, state.primitive, state.demo, modalities, state.alpha_method),
+            model=model, demo=demo, modalities=modalities, alpha_method=state.alpha_method,
+            truth=state.primitive,
+        )  # fmt: skip
+        observation = demo_observation(model, demo, state.percent, modalities)
+        result = inferred(model, observation, state.alpha_method, truth=demo)
+        return InferView(state, result, "", choice, curve)
+    except ValueError as exc:
+        return InferView(state, None, str(exc), choice, samples=samples)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.core.lru import LruCache
+from app.core.fits import LruCache
 from app.live.inference import demo_observation
 from promp.data import Demonstration
 from promp.model import ProMPModel

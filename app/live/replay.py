@@ -3,17 +3,31 @@
 After an inference, the path is the posterior mean hand position from the observation point to
 the predicted end, timed by the predicted speed (it lasts the predicted remaining duration).
 :class:`Replay` is advanced by the studio's loop (:meth:`Replay.step`, by the time elapsed since
-the previous step), never blocking it; each step moves the hand through the IK
-(``move_hand``, e.g. :meth:`app.scene.arm.ArmController.move_hand_to`, which also brings the gizmo
-along).
+the previous step), never blocking it; each step moves the hand through the IK (``move_hand``,
+e.g. :meth:`app.scene.arm.ArmController.move_hand_to`, which also brings the gizmo along).
+
+Who holds the arm is explicit (:class:`Phase`): the user (``IDLE``: the replay moves nothing),
+or the replay, playing, paused or finished. A new prediction (the slider moved, a refit
+landed) is followed while the replay holds the arm: played on from the same fraction while
+playing, otherwise the hand goes to the new path's start (the observation point), so the arm
+never stays at a pose of a prediction no longer shown. The user takes the arm back by dragging
+the hand (:meth:`Replay.release`).
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from enum import Enum
 
 import numpy as np
+
+
+class Phase(Enum):
+    IDLE = "idle"  # the arm is the user's
+    PLAYING = "playing"
+    PAUSED = "paused"
+    FINISHED = "finished"
 
 
 class Replay:
@@ -37,10 +51,14 @@ class Replay:
         self.times = np.zeros(0)
         self.positions = np.zeros((0, 3))
         self.elapsed = 0.0
-        self.playing = False
+        self.phase = Phase.IDLE
         self._last: float | None = None
 
     # ------------------------------------------------------------------ state
+
+    @property
+    def playing(self) -> bool:
+        return self.phase is Phase.PLAYING
 
     @property
     def has_path(self) -> bool:
@@ -69,10 +87,10 @@ class Replay:
 
     # ------------------------------------------------------------------ commands
 
-    def load(self, times: np.ndarray, positions: np.ndarray, resume: bool = False) -> None:
-        """A new path (times (m,) strictly increasing, seconds; positions (m, 3)); stops and
-        rewinds, or with ``resume`` goes on playing it from the same fraction of the path (a
-        prediction updated during a replay). An empty ``times`` clears the path.
+    def load(self, times: np.ndarray, positions: np.ndarray) -> None:
+        """A new path (times (m,) strictly increasing, seconds; positions (m, 3)); an empty
+        ``times`` clears it. While playing, the replay goes on along it from the same
+        fraction; paused or finished, the hand goes to its start; idle, nothing moves.
 
         Raises
         ------
@@ -92,12 +110,16 @@ class Replay:
             raise ValueError("path times must be strictly increasing")
         fraction = self.progress
         self.times, self.positions = times, positions
-        if resume and self.playing and self.has_path:
+        if not self.has_path:
+            self.release()
+            self.elapsed = 0.0
+        elif self.phase is Phase.PLAYING:
             self.elapsed = fraction * self.duration
-            return
-        self.elapsed = 0.0
-        self.playing = False
-        self._last = None
+        else:
+            self.elapsed = 0.0
+            if self.phase is not Phase.IDLE:  # the replay holds the arm: to the new start
+                self.phase = Phase.PAUSED
+                self.move_hand(self.position_at(0.0))
 
     def clear(self) -> None:
         self.load(np.zeros(0), np.zeros((0, 3)))
@@ -110,29 +132,36 @@ class Replay:
             self.elapsed = 0.0
         if self.elapsed == 0.0:
             self.move_hand(self.position_at(0.0))
-        self.playing = True
+        self.phase = Phase.PLAYING
         self._last = self.clock()
 
     def pause(self) -> None:
-        self.playing = False
+        if self.phase is Phase.PLAYING:
+            self.phase = Phase.PAUSED
+        self._last = None
+
+    def release(self) -> None:
+        """The user takes the arm (a drag): the replay stops and moves nothing until played."""
+        self.phase = Phase.IDLE
         self._last = None
 
     def reset(self) -> None:
         """Stop and put the hand back at the start of the path (the observation point)."""
         if not self.has_path:
             raise ValueError("no path to replay: run an inference first")
-        self.pause()
+        self.phase = Phase.PAUSED
+        self._last = None
         self.elapsed = 0.0
         self.move_hand(self.position_at(0.0))
 
     def step(self) -> bool:
         """Advance by the time elapsed since the previous step; True when the hand moved.
 
-        The hand is moved first and the state (``elapsed``, ``playing``) updated after, so
+        The hand is moved first and the state (``elapsed``, ``phase``) updated after, so
         anyone who sees the replay finished (another thread, a test) also sees the hand at
         its end.
         """
-        if not self.playing or not self.has_path:
+        if self.phase is not Phase.PLAYING or not self.has_path:
             return False
         now = self.clock()
         last = self._last if self._last is not None else now
@@ -141,6 +170,6 @@ class Replay:
         self._last = now
         self.elapsed = elapsed
         if elapsed >= self.duration:
-            self.playing = False
+            self.phase = Phase.FINISHED
             self._last = None
         return True

@@ -1,5 +1,5 @@
-"""A recorded take before it becomes a demonstration: the idle time at both ends trimmed, and
-where the primitive's demonstrations start. Pure computation, no viser.
+"""A recorded take before it becomes a demonstration: the idle time at both ends trimmed
+(:func:`save_take`), and where the primitive's demonstrations start. Pure computation, no viser.
 
 A take runs from the end of the 3-2-1 countdown to Stop, so it holds the wait before the user
 moves and the time it takes to reach the Stop button: a 3 s movement recorded as a 60 s take is
@@ -18,14 +18,36 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.live.recorder import Recording
 from promp.data import Demonstration, Layout
 from promp.stillness import HAND_IDLE_M_S, HEAD_IDLE_RAD_S, MARGIN_S, SMOOTH_S, speed
-from robots.icub.layout import hand_dims
+from robots.icub.layout import HAND, HEAD, hand_dims
 
 __all__ = [
-    "HAND_IDLE_M_S", "HEAD_IDLE_RAD_S", "MARGIN_S", "SMOOTH_S", "Trim", "active_span",
-    "mean_start", "speed",
+    "HAND_IDLE_M_S", "HEAD_IDLE_RAD_S", "MARGIN_S", "SMOOTH_S", "NewDemo", "TakeOptions", "Trim",
+    "active_span", "mean_start", "save_take", "speed",
 ]  # fmt: skip
+
+
+@dataclass(frozen=True)
+class TakeOptions:
+    """How a take becomes a demonstration: the workspace's ``layout`` (its columns), and
+    whether the still ends are trimmed, below which hand speed (m/s) and head speed (rad/s)."""
+
+    layout: Layout
+    trim: bool = True
+    hand_idle_m_s: float = HAND_IDLE_M_S
+    head_idle_rad_s: float = HEAD_IDLE_RAD_S
+
+
+@dataclass(frozen=True, eq=False)
+class NewDemo:
+    """The demonstration a take becomes: ``times`` (n,) and ``values`` (n, D) in the layout's
+    column order; ``raw``, the (times, values) of the whole take when its ends were cut."""
+
+    times: np.ndarray
+    values: np.ndarray
+    raw: tuple[np.ndarray, np.ndarray] | None
 
 
 @dataclass(frozen=True)
@@ -97,3 +119,45 @@ def mean_start(demos: Sequence[Demonstration], layout: Layout) -> np.ndarray | N
     if dims is None or not demos:
         return None
     return np.mean([layout.extract(d)[0, dims] for d in demos], axis=0)
+
+
+def save_take(recording: Recording, options: TakeOptions) -> tuple[NewDemo | None, str]:
+    """The demonstration ``recording`` becomes and what to say of it (its duration, samples,
+    the still ends cut, the head angles filled in), or None and why it is refused (fewer than
+    two samples, the face lost too long, nothing moving faster than the idle thresholds, a
+    threshold that is not positive)."""
+    try:
+        values, fill = recording.values(options.layout)
+        trim = _trim(recording, values, options)
+    except ValueError as exc:
+        return None, str(exc)
+    if trim is None:
+        return None, (
+            "neither the hand nor the head moved faster than the idle thresholds "
+            f"({100 * options.hand_idle_m_s:g} cm/s, {math.degrees(options.head_idle_rad_s):g}°/s)"
+            ": untick Trim idle ends (Take options) to keep a still take"
+        )
+    kept = slice(trim.start, trim.stop)
+    times = recording.times[kept]
+    text = f"{times[-1] - times[0]:.1f} s, {trim.stop - trim.start} samples"
+    if trim.trimmed:
+        before, after = trim.seconds(recording.times)
+        text += f" (still ends cut: {before:.1f} s before, {after:.1f} s after)"
+    if fill.n_filled:
+        text += f" ({fill.message})"
+    raw = (recording.times, values) if trim.trimmed else None
+    return NewDemo(times, values[kept], raw), text
+
+
+def _trim(recording: Recording, values: np.ndarray, options: TakeOptions) -> Trim | None:
+    """What trimming keeps of ``values`` (the take in the layout's columns): all of it when
+    trimming is off; None when nothing moves."""
+    n = recording.n_samples
+    if not options.trim:
+        return Trim(0, n, n)
+    layout = options.layout
+    head = values[:, layout.dims([HEAD.name])] if HEAD.name in layout.names else None
+    return active_span(
+        recording.times, values[:, layout.dims([HAND.name])], head,
+        hand_threshold=options.hand_idle_m_s, head_threshold=options.head_idle_rad_s,
+    )  # fmt: skip

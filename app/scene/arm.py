@@ -2,7 +2,10 @@
 
 The gizmo's callback only records the latest target pose; :meth:`ArmController.step`, called
 by the studio's loop, solves the IK from that latest target alone (warm-started from the current
-pose), so a fast drag never queues stale targets and the arm follows smoothly.
+pose), so a fast drag never queues stale targets and the arm follows smoothly. One frame solves
+at most :data:`ITERATIONS_PER_FRAME` iterations; a target not reached yet is solved on at the
+next frames (:data:`FRAMES_PER_AIM` at most, then left), so that a pose the arm cannot take
+never holds up the loop.
 """
 
 from __future__ import annotations
@@ -20,6 +23,8 @@ from robots.icub.kinematics import ArmChain
 GIZMO_NODE = "/hand_gizmo"
 GIZMO_SCALE = 0.12  # length of the gizmo's arrows, metres
 MAX_IK_STEP_M = 0.03  # longest straight move solved in one IK call, metres
+ITERATIONS_PER_FRAME = 15  # IK iterations the loop spends on a drag in one frame
+FRAMES_PER_AIM = 4  # frames one target may take (60 iterations in all)
 
 
 class ArmController:
@@ -43,7 +48,7 @@ class ArmController:
         self.q = arm.from_full(robot.q)
         self.last: IKResult | None = None
         self._lock = threading.Lock()
-        self._target: tuple[np.ndarray, np.ndarray] | None = None
+        self._target: tuple[np.ndarray, np.ndarray, int] | None = None  # and frames spent
         pose = arm.fk(self.q)
         self.gizmo = server.scene.add_transform_controls(
             GIZMO_NODE,
@@ -58,17 +63,20 @@ class ArmController:
 
         @self.gizmo.on_update
         def _(event) -> None:
-            with self._lock:
-                self._target = (
-                    np.array(self.gizmo.position, dtype=float),
-                    vtf.SO3(np.array(self.gizmo.wxyz)).as_matrix(),
-                )
+            self.aim(self.gizmo.position, self.gizmo.wxyz)
             phase = getattr(event, "phase", "update")
             if phase == "start":
                 self.dragging = True
             elif phase == "end":
                 self.dragging = False
                 self._snap_pending = True
+
+    def aim(self, position, wxyz) -> None:
+        """The hand is dragged towards ``position`` (3,) with orientation ``wxyz`` (4,): the
+        next :meth:`step` solves for the latest aim alone (from any thread)."""
+        target = (np.array(position, dtype=float), vtf.SO3(np.array(wxyz)).as_matrix(), 0)
+        with self._lock:
+            self._target = target
 
     def hand_pose(self) -> np.ndarray:
         """Homogeneous pose of the hand frame in the root frame, shape (4, 4)."""
@@ -86,7 +94,7 @@ class ArmController:
                 self._snap_pending = False
                 self.snap_gizmo()
             return False
-        position, rotation = target
+        position, rotation, frames = target
         try:
             result = solve_ik(
                 self.arm,
@@ -94,10 +102,14 @@ class ArmController:
                 self.q,
                 target_rotation=rotation,
                 lock_torso=self.lock_torso,
-                max_iterations=60,
+                max_iterations=ITERATIONS_PER_FRAME,
             )
         except ValueError:
             return False
+        if not result.reached and frames + 1 < FRAMES_PER_AIM:
+            with self._lock:  # solved on at the next frame, unless a newer aim came
+                if self._target is None:
+                    self._target = (position, rotation, frames + 1)
         self.last = result
         self.set_q(result.q, move_gizmo=False)
         return True

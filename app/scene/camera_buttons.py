@@ -29,7 +29,7 @@ class ViewControls:
         self.scene = scene
         self._requests: list[tuple[viser.ClientHandle, str]] = []
         self._lock = threading.Lock()
-        self._initial_for = -1
+        self._initial_for: tuple | None = None  # the workspace drawing the start view frames
         self._started: set[int] = set()  # browser tabs checked for the start view
         self.buttons = server.gui.add_button_group(
             "3D view",
@@ -60,15 +60,15 @@ class ViewControls:
             except AssertionError:  # the browser has not reported its camera yet
                 size = CANVAS
             apply(client, self.pose(view, current=_current(client), size=size))
-        version = self.scene.drawn_version
-        if version != self._initial_for:
-            self._initial_for = version
+        drawn = self.scene.drawn_from
+        if drawn is not self._initial_for:
+            self._initial_for = drawn
             initial = self.pose(PARTNER)
             camera = self.server.initial_camera
             camera.fov = initial.fov
             camera.position = initial.position
             camera.look_at = initial.look_at
-        if version >= 0:
+        if drawn:
             self._start_new_tabs()
 
     def _start_new_tabs(self) -> None:

@@ -2,9 +2,9 @@
 primitive, the predicted path to its end point, the point the prediction starts from, and the
 true remainder of a test demonstration.
 
-:meth:`InferenceLayer.draw` shapes them from a scrub step's result; whether they are shown is
-the scene's decision (:func:`app.scene.look.look`). The tube's mesh has a fixed topology, so a
-scrub step only replaces its vertices.
+:meth:`InferenceLayer.draw` shapes them from an inference (:class:`app.live.inference.Inferred`);
+whether they are shown is the scene's decision (:func:`app.scene.look.look`). The tube's mesh
+has a fixed topology, so a new inference only replaces its vertices.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import viser
 
-from app.live.inference import PATH_POINTS, TUBE_POINTS, ScrubResult
+from app.live.inference import PATH_POINTS, TUBE_POINTS, Inferred
 from app.scene.tubes import resample, tube_faces, tube_vertices
 from robots.icub.layout import HAND, hand_dims
 
@@ -72,30 +72,31 @@ class InferenceLayer:
         """True when the latest result had something to show in 3D."""
         return bool(self.drawn)
 
-    def draw(self, result: ScrubResult | None, color: tuple[int, int, int]) -> None:
+    def draw(self, result: Inferred | None, color: tuple[int, int, int]) -> None:
         """Shape the nodes from ``result`` (drawn in ``color``, its primitive's); none without
         a result or a hand modality."""
-        hand = hand_dims(result.layout) if result is not None else None
-        if result is None or hand is None:
+        layout = result.model.layout if result is not None else None
+        hand = hand_dims(layout) if layout is not None else None
+        if result is None or hand is None or result.future is None:
             self.drawn = set()
             return
-        post = result.posterior
+        post, future = result.inference.prediction, result.future.hand
         self.tube.vertices = tube_vertices(post.mean[:, hand], post.std[:, hand])
         self.tube.color = color
-        self.future.points = result.future_hand.astype(np.float32)
+        self.future.points = future.astype(np.float32)
         self.future.color = darker(color)
-        self.end_point.position = result.future_hand[-1]
+        self.end_point.position = future[-1]
         self.end_point.color = color
-        self.now_point.position = result.future_hand[0]
+        self.now_point.position = future[0]
         drawn = {id(n) for n in (self.tube, self.future, self.end_point, self.now_point)}
         obs = result.observation
         if HAND.name in obs.modalities and obs.n_observed >= 2:
-            cols = np.flatnonzero(np.isin(result.layout.dims(obs.modalities), hand))
+            cols = np.flatnonzero(np.isin(layout.dims(obs.modalities), hand))
             points = resample(obs.values[:, cols], min(obs.n_observed, PATH_POINTS))
             self.observed_line.points = points.astype(np.float32)
             drawn.add(id(self.observed_line))
         if result.truth is not None:
-            true_hand = result.layout.extract(result.truth)[:, hand]
+            true_hand = layout.extract(result.truth)[:, hand]
             rest = true_hand[max(obs.n_observed - 1, 0) :]
             if rest.shape[0] >= 2:
                 points = resample(rest, min(rest.shape[0], PATH_POINTS))

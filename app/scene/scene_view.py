@@ -1,113 +1,146 @@
-"""The 3D view: the robot and its table (:mod:`app.scene.robot`), the partner
-(:mod:`app.scene.partner`), the workspace's demonstrations and priors
-(:mod:`app.scene.workspace_layer`), the Infer tab's inference
-(:mod:`app.scene.inference_layer`) and Teach's start pose (:mod:`app.scene.start_marker`).
+"""What the 3D view draws, once per frame: the partner (:mod:`app.scene.partner`), the
+workspace's demonstrations and priors (:mod:`app.scene.workspace_layer`), the Infer tab's
+inference (:mod:`app.scene.inference_layer`) and Teach's start pose
+(:mod:`app.scene.start_marker`).
 
-:class:`SceneView` owns every node of the last three and is the one place that decides what is
-drawn: :func:`app.scene.look.look` of the panel in use and the Infer panel's display options.
-Panels never touch the nodes; they tell the scene what they show. Everything runs on the
-studio's loop thread except :meth:`SceneView.use_panel`, which only records.
+:class:`SceneView` owns every node of these and is the one place that decides what is shown:
+:meth:`SceneView.draw` takes the frame (the snapshot of the state) and what the panels asked
+for (:class:`app.scene.look.Shown`), redraws what changed since the frame it drew last (the
+inputs are immutable: compared by identity) and applies the look of the panel in use
+(:func:`look`, pure; the panels and options are named in :mod:`app.scene.look`) once. Panels
+never touch the nodes. Everything runs on the studio's loop thread except
+:meth:`SceneView.use_panel`, which only records.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import viser
 
-from app.core.session import Session
-from app.live.inference import ScrubResult
-from app.scene.inference_layer import InferenceLayer
-from app.scene.look import PANELS, SHOWN, TEACH, Look, look
+from app.core.snapshot import Snapshot
+from app.scene.inference_layer import DEFAULT_COLOR, InferenceLayer
+from app.scene.look import INFER, PANELS, PRIOR_MODES, SHOWN, TEACH, InferenceShown, Shown
 from app.scene.partner import PartnerView
 from app.scene.start_marker import StartMarker
-from app.scene.workspace_layer import WorkspaceLayer
+from app.scene.workspace_layer import NO_COLOR, WorkspaceLayer
 from robots.icub.layout import HEAD
+
+NOTHING_INFERRED = InferenceShown(None, DEFAULT_COLOR, False, SHOWN)
+
+
+@dataclass(frozen=True)
+class Look:
+    """What is drawn.
+
+    Attributes
+    ----------
+    demos : bool
+        The demonstration lines (each still hidden when the user hid it).
+    priors : {"shown", "faded", "hidden"}
+        The prior tubes: at their own opacity, dimmed, or not drawn.
+    inference : bool
+        The Infer layer: observation, posterior tube, predicted path and end point.
+    start : bool
+        The ghost of the selected primitive's start pose (Teach).
+    """
+
+    demos: bool
+    priors: str
+    inference: bool
+    start: bool = False
+
+
+WORKSPACE_LOOK = Look(demos=True, priors=SHOWN, inference=False)
+TEACH_LOOK = Look(demos=True, priors=SHOWN, inference=False, start=True)
+
+
+def look(panel: str, inference_shown: bool, priors: str = SHOWN) -> Look:
+    """What the scene draws while ``panel`` is in use.
+
+    Parameters
+    ----------
+    panel : {"teach", "infer", "data"}
+    inference_shown : bool
+        The Infer panel has an inference to show in 3D (a result, "Show in 3D" on, a hand
+        modality).
+    priors : {"shown", "faded", "hidden"}
+        The Infer panel's "Session priors" option.
+
+    Raises
+    ------
+    ValueError
+        An unknown panel or priors option.
+    """
+    if panel not in PANELS:
+        raise ValueError(f"unknown panel {panel!r}; expected one of {', '.join(PANELS)}")
+    if priors not in PRIOR_MODES:
+        raise ValueError(f"unknown priors option {priors!r}; expected {', '.join(PRIOR_MODES)}")
+    if panel == TEACH:
+        return TEACH_LOOK
+    if panel != INFER or not inference_shown:
+        return WORKSPACE_LOOK
+    return Look(demos=priors == SHOWN, priors=priors, inference=True)
 
 
 class SceneView:
     """The studio's 3D objects and their look (see the module docstring)."""
 
-    def __init__(self, server: viser.ViserServer, session: Session):
-        self.session = session
+    def __init__(self, server: viser.ViserServer):
         self.partner = PartnerView(server)
         self.workspace = WorkspaceLayer(server)
         self.inference = InferenceLayer(server)
         self.start = StartMarker(server)
-        self.panel = TEACH  # the panel in use: the first tab until a control is used
-        self._inference_on = False
-        self._priors = SHOWN
-        self._hidden: set[tuple[str, str]] = set()
-        self._drawn_version = -1
-        self._applied: Look | None = None
-
-    # ------------------------------------------------------------------ what panels say
+        self.panel = TEACH  # the panel in use: the first tab until another is shown or used
+        self.look = look(TEACH, False)
+        self._hidden: frozenset = frozenset()
+        self.drawn_from: tuple = ()  # what the demonstration lines were drawn from
+        self._tubes_from: tuple = (None, None)  # the model and primitives the tubes show
+        self._inferred: InferenceShown | None = None
 
     def use_panel(self, panel: str) -> None:
-        """A control of ``panel`` was used: its look is shown (from any thread)."""
+        """``panel`` is shown or used in a browser: its look is drawn (from any thread)."""
         if panel not in PANELS:
             raise ValueError(f"unknown panel {panel!r}; expected one of {', '.join(PANELS)}")
         self.panel = panel
 
-    def show_inference(
-        self, result: ScrubResult | None, color: tuple[int, int, int], shown: bool, priors: str
-    ) -> None:
-        """The Infer panel's latest result (drawn in ``color``) and its display options: show
-        it in 3D or not, and the workspace's ``priors`` meanwhile."""
-        self.inference.draw(result if shown else None, color)
-        self.set_inference_options(shown, priors)
-        self._apply(force=True)
-
-    def show_start(self, position: np.ndarray | None, color: tuple[int, int, int]) -> None:
-        """The Teach panel's start pose (its selected primitive's), None when it has none
-        (loop thread)."""
-        self.start.place(position, color)
+    def draw(self, snapshot: Snapshot, head: np.ndarray | None, shown: Shown) -> Look:
+        """Draw one frame: ``snapshot``'s workspace, the partner's ``head`` angles and what
+        the panels asked for; returns the look applied."""
+        self._draw_workspace(snapshot)
+        self.partner.orient(head)
+        inference = shown.inference or NOTHING_INFERRED
+        if inference is not self._inferred:
+            self._inferred = inference
+            self.inference.draw(inference.result if inference.in_3d else None, inference.color)
+        start = shown.start
+        self.start.place(None if start is None else start.position,
+                         NO_COLOR if start is None else start.color)  # fmt: skip
+        self.look = look(self.panel, inference.in_3d and self.inference.has_shape,
+                         inference.priors)  # fmt: skip
+        self.workspace.apply(self.look.demos, self.look.priors, self._hidden)
+        self.inference.show(self.look.inference)
         self.start.show(self.look.start)
+        return self.look
 
-    def set_inference_options(self, shown: bool, priors: str) -> None:
-        self._inference_on, self._priors = bool(shown), priors
-
-    @property
-    def drawn_version(self) -> int:
-        """The session version the workspace's objects were last drawn from."""
-        return self._drawn_version
-
-    @property
-    def look(self) -> Look:
-        return look(self.panel, self._inference_on and self.inference.has_shape, self._priors)
-
-    # ------------------------------------------------------------------ the loop
-
-    def refresh(self, head_angles: np.ndarray | None) -> bool:
-        """Orient the partner, redraw what the session changed and apply the look; True when
-        the session's objects were redrawn."""
-        redrawn = self._redraw_session()
-        self.partner.orient(head_angles)
-        self._apply(force=redrawn)
-        return redrawn
-
-    def _redraw_session(self) -> bool:
-        session = self.session
-        with session.lock:
-            if session.version == self._drawn_version:
-                return False
-            self._drawn_version = session.version
-            demos = {name: list(items) for name, items in session.demos.items()}
-            colors = {p.name: p.color for p in session.primitives}
-            self._hidden = set(session.hidden)
-            left_out = set(session.left_out())
-            model, layout = session.model, session.layout
-        self.partner.show(HEAD.name in layout.names)
-        self.workspace.draw(demos, colors, layout, model, self.look, self._hidden, left_out)
-        return True
-
-    def _apply(self, force: bool = False) -> None:
-        current = self.look
-        if current == self._applied and not force:
-            return
-        self._applied = current
-        self.workspace.apply(current, self._hidden)
-        self.inference.show(current.inference)
-        self.start.show(current.start)
+    def _draw_workspace(self, snapshot: Snapshot) -> None:
+        """The demonstration lines and the prior tubes, each when what it shows changed (the
+        hidden set compared by value, the immutable rest by identity)."""
+        store, model, hidden = snapshot.store, snapshot.model, snapshot.hidden
+        lines = (hidden, store.demos, store.primitives, store.findings, store.checks)
+        drawn = self.drawn_from
+        colors = {p.name: p.color for p in store.primitives}
+        if not drawn or hidden != drawn[0] or any(
+            a is not b for a, b in zip(lines[1:], drawn[1:], strict=True)
+        ):
+            self.drawn_from, self._hidden = lines, hidden
+            self.partner.show(HEAD.name in store.layout.names)
+            self.workspace.draw_lines(store.demos, colors, store.layout, set(store.left_out))
+        tubes = (model, store.primitives)
+        if any(a is not b for a, b in zip(tubes, self._tubes_from, strict=True)):
+            self._tubes_from = tubes
+            self.workspace.draw_tubes(model, colors, self.look.priors)
 
     # ------------------------------------------------------------------ what the camera frames
 

@@ -13,7 +13,7 @@ import numpy as np
 import viser
 
 from app.live.inference import typical_prior
-from app.scene.look import FADED, HIDDEN, Look
+from app.scene.look import FADED, HIDDEN
 from app.scene.tubes import resample, tube_faces, tube_vertices
 from promp.data import Demonstration, Layout
 from promp.model import ProMPModel
@@ -50,30 +50,34 @@ class WorkspaceLayer:
         self.tubes: dict[str, viser.MeshHandle] = {}
         self.faces = tube_faces(TUBE_POINTS)
 
-    def draw(
+    def draw_lines(
         self,
         demos: Mapping[str, Sequence[Demonstration]],
         colors: Mapping[str, tuple[int, int, int]],
         layout: Layout,
-        model: ProMPModel | None,
-        look: Look,
-        hidden: set[Key],
         left_out: set[Key] | frozenset = frozenset(),
     ) -> None:
-        """Lines for ``demos`` and tubes for the primitives both ``model`` and ``colors``
-        know; nothing of a layout without a hand. The lines of ``left_out`` (flagged
-        demonstrations not learned from) are grey."""
+        """A line per demonstration of ``demos`` in its primitive's colour (``left_out``:
+        flagged demonstrations not learned from, grey); none in a layout without a hand. A new
+        line is drawn hidden (:meth:`apply` shows it)."""
         if hand_dims(layout) is None:
-            demos, model = {}, None
+            demos = {}
         colors_of = {
             (name, d.name): NO_COLOR if (name, d.name) in left_out else colors.get(name, NO_COLOR)
             for name, items in demos.items()
             for d in items
         }
-        self._draw_lines(demos, colors_of, layout, look, hidden)
-        self._draw_tubes(model, colors, look)
+        self._draw_lines(demos, colors_of, layout)
 
-    def _draw_lines(self, demos, colors, layout: Layout, look: Look, hidden: set[Key]) -> None:
+    def draw_tubes(
+        self, model: ProMPModel | None, colors: Mapping[str, tuple[int, int, int]], priors: str
+    ) -> None:
+        """A prior tube per primitive both ``model`` and ``colors`` know (``priors`` as the look
+        shows them); none for a model without a hand."""
+        self._draw_tubes(model if model is not None and hand_dims(model.layout) is not None
+                         else None, colors, priors)  # fmt: skip
+
+    def _draw_lines(self, demos, colors, layout: Layout) -> None:
         """``colors``: per (primitive, demo)."""
         wanted = set()
         cols = hand_dims(layout)
@@ -93,7 +97,7 @@ class WorkspaceLayer:
                     color=colors[key],
                     thickness=1.5,
                     thickness_units="screen",
-                    visible=look.demos and key not in hidden,
+                    visible=False,
                 )
         for key in list(self.lines):
             if key not in wanted:
@@ -108,7 +112,7 @@ class WorkspaceLayer:
         cols = hand_dims(model.layout)
         return prediction.mean[:, cols], prediction.std[:, cols]
 
-    def _draw_tubes(self, model: ProMPModel | None, colors, look: Look) -> None:
+    def _draw_tubes(self, model: ProMPModel | None, colors, priors: str) -> None:
         # A model still being replaced may know a primitive just deleted or renamed.
         names = [n for n in model.names if n in colors] if model is not None else []
         for name in list(self.tubes):
@@ -123,20 +127,21 @@ class WorkspaceLayer:
                     vertices=vertices,
                     faces=self.faces,
                     color=colors.get(name, NO_COLOR),
-                    opacity=DIMMED_OPACITY if look.priors == FADED else PRIOR_OPACITY,
+                    opacity=DIMMED_OPACITY if priors == FADED else PRIOR_OPACITY,
                     flat_shading=False,
                     side="double",
-                    visible=look.priors != HIDDEN,
+                    visible=priors != HIDDEN,
                 )
             else:
                 tube.vertices = vertices
                 _set(tube, "color", tuple(colors.get(name, NO_COLOR)))
 
-    def apply(self, look: Look, hidden: set[Key]) -> None:
-        """Show what ``look`` asks for (``hidden``: the lines the user hid)."""
+    def apply(self, demos: bool, priors: str, hidden: set[Key]) -> None:
+        """Show the lines (``demos``, but those the user hid: ``hidden``) and the tubes as
+        ``priors`` says (shown, faded or hidden)."""
         for key, line in list(self.lines.items()):
-            _set(line, "visible", look.demos and key not in hidden)
-        opacity = DIMMED_OPACITY if look.priors == FADED else PRIOR_OPACITY
+            _set(line, "visible", demos and key not in hidden)
+        opacity = DIMMED_OPACITY if priors == FADED else PRIOR_OPACITY
         for tube in list(self.tubes.values()):
-            _set(tube, "visible", look.priors != HIDDEN)
+            _set(tube, "visible", priors != HIDDEN)
             _set(tube, "opacity", opacity)

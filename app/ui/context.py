@@ -1,10 +1,14 @@
-"""What a panel may read and do (:class:`PanelContext`), and what the studio asks of a panel
-(:class:`Panel`).
+"""What a panel may read and do (:class:`PanelContext`), what it is given each frame
+(:class:`Frame`), and what the studio asks of a panel (:class:`Panel`).
 
-The studio builds each panel inside its tab with a context of its own: the session (state and
-mutations), the scene (told what the panel shows, never edited), the arm, the partner's head,
-notifications, the GUI to build its controls with, and the few requests one panel may make of
-another through the studio (:class:`InferRequest`). Panels import nothing of the studio.
+The studio builds each panel inside its tab with a context of its own: the store (the
+workspace's mutations), the view state, the learner (its background work), the arm, the
+partner's head, notifications, the GUI to build its controls with, and the few requests one
+panel may make of another through the studio (:class:`InferRequest`). At every iteration of
+its loop the studio hands each panel one :class:`Frame`: the snapshot of the state, read once,
+and what the hand and the head are at. The panel reads its controls, computes what to show
+from the two, writes it to its controls and returns what the 3D view should show
+(:class:`app.scene.look.Shown`). Panels import nothing of the studio.
 """
 
 from __future__ import annotations
@@ -17,11 +21,15 @@ from typing import Protocol
 import numpy as np
 import viser
 
-from app.core.session import Session
+from app.core.learner import Learner
+from app.core.snapshot import Snapshot
+from app.core.store import Store
+from app.core.view_state import View
 from app.live.head import HeadInput
 from app.scene.arm import ArmController
-from app.scene.scene_view import SceneView
+from app.scene.look import TEACH, Shown
 from app.ui.upload_guard import Refused, UploadGuard
+from promp.model import ProMPModel
 
 
 @dataclass(frozen=True)
@@ -50,11 +58,41 @@ class InferRequest:
     alpha_method: str
 
 
-class Panel(Protocol):
-    """One tab of the studio. Its GUI callbacks only record what changed."""
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """One iteration of the studio's loop, as the scene and every panel see it.
 
-    def step(self) -> None:
-        """Recompute and redraw what changed (the studio's loop calls it at every iteration)."""
+    Attributes
+    ----------
+    snapshot : Snapshot
+        The state, taken once for the whole frame.
+    now : float
+        Monotonic seconds.
+    hand : array, shape (3,)
+        The hand's position (m, the robot's root frame).
+    head : array, shape (3,), or None
+        The partner's latest head angles (rad), None without a face.
+    head_error : str or None
+        Why the head source failed, if it did.
+    panel : str
+        The panel in use (the tab a browser shows: :class:`app.scene.scene_view.SceneView`);
+        one not in use may leave work that only its own tab shows for when it is.
+    """
+
+    snapshot: Snapshot
+    now: float
+    hand: np.ndarray
+    head: np.ndarray | None
+    head_error: str | None = None
+    panel: str = TEACH
+
+
+class Panel(Protocol):
+    """One tab of the studio. Its GUI callbacks only record what was pressed."""
+
+    def step(self, frame: Frame) -> Shown | None:
+        """Show ``frame``: read the controls, compute, write the controls; return what the 3D
+        view should show for this panel (the studio's loop calls it at every iteration)."""
 
     def close(self) -> None:
         """Stop background work and release what the panel holds (the studio is stopping)."""
@@ -99,14 +137,18 @@ class PanelContext:
     ----------
     gui : PanelGui
         Builds the panel's controls (inside its tab).
-    session : Session
-    scene : SceneView
+    store : Store
+        The workspace's mutations (each validated, written, then published).
+    view : View
+        What the user looks at (hidden demonstrations, the primitive taught, an imported model).
+    learner : Learner
+        Background work: held-out models, the model of the latest change.
     arm : ArmController
     head : HeadInput
     notify : callable
         ``notify(title, body, color="blue", client=None, auto_close_seconds=8.0)``: a
         notification in ``client``'s browser tab, or in every connected tab when None
-        (:meth:`app.studio.Studio.notify`).
+        (:meth:`app.studio.Studio.notify`); returns their handles.
     atomic : callable
         ``with atomic():`` sends the GUI and scene updates made inside as one group.
     guard_upload : callable
@@ -117,20 +159,26 @@ class PanelContext:
         (:class:`InferRequest`), and ``client``'s browser tab switches to it; a request the
         Infer tab cannot show (the demonstration was deleted since) is a notification to
         ``client``. Returns at once (the studio's loop does it).
+    wait_for_model : callable
+        ``wait_for_model()``: the model of the workspace as it is now, once learned
+        (:meth:`app.core.session.Session.wait_for_model`; e.g. the exports).
     """
 
     gui: PanelGui
-    session: Session
-    scene: SceneView
+    store: Store
+    view: View
+    learner: Learner
     arm: ArmController
     head: HeadInput
     notify: Callable[..., None]
     atomic: Callable[[], AbstractContextManager]
     guard_upload: Callable[[viser.GuiUploadButtonHandle, int, Refused], UploadGuard]
     open_in_infer: Callable[[InferRequest, viser.ClientHandle | None], None]
+    wait_for_model: Callable[[], ProMPModel | None]
 
     def hand_and_head(self) -> tuple[np.ndarray, np.ndarray | None]:
-        """The hand position (3,) now, and the latest head angles (3,) or None (thread-safe)."""
+        """The hand position (3,) now, and the latest head angles (3,) or None (thread-safe:
+        the recorder's thread reads them)."""
         return self.arm.hand_position(), self.head.angles
 
     def tell(self, event, title: str, body: str, color: str = "red") -> None:
@@ -138,7 +186,7 @@ class PanelContext:
         self.notify(title, body, color, client=getattr(event, "client", None))
 
     def attempt(self, event, what: str, action: Callable[[], object]) -> bool:
-        """Run one session mutation; a refusal (``ValueError``, ``OSError``) is a notification
+        """Run one mutation; a refusal (``ValueError``, ``OSError``) is a notification
         "Cannot <what>" to the client behind ``event``, and nothing changes."""
         try:
             action()

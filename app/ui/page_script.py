@@ -6,15 +6,15 @@ where a ``<script>`` tag does not run. An ``<img>`` whose source fails to load d
 handler stores the configuration in ``window.__icubStudio.config`` and appends the script (as
 a base64 ``data:`` URL) to the page's head. The script guards itself against a second load.
 What it does, and why, is written at its top: keys meant for the 3D view stay with GUI controls
-that have the focus, a click on a chart moves the slider it belongs to, and the studio can
-switch one browser to another tab (:func:`tab_switch_html`, added to that client's GUI alone).
+that have the focus, a click on a chart moves the slider it belongs to, the studio hears which
+tab a browser shows and can switch one browser to another tab (:class:`BrowserTabs`).
 """
 
 from __future__ import annotations
 
 import base64
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 
 import viser
@@ -36,11 +36,16 @@ class ChartSlider:
     x: tuple[float, float]
 
 
-def loader_html(charts: Mapping[str, ChartSlider], script: str | None = None) -> str:
-    """The hidden ``<img>`` that configures and loads the script (see the module docstring)."""
+def loader_html(
+    charts: Mapping[str, ChartSlider], tabs: Mapping | None = None, script: str | None = None
+) -> str:
+    """The hidden ``<img>`` that configures and loads the script (see the module docstring);
+    ``tabs``: the tab report's configuration (:attr:`BrowserTabs.config`)."""
     source = SCRIPT.read_text(encoding="utf-8") if script is None else script
     encoded = base64.b64encode(source.encode("utf-8")).decode("ascii")
-    config = json.dumps({"charts": {title: asdict(link) for title, link in charts.items()}})
+    config = json.dumps({
+        "charts": {title: asdict(link) for title, link in charts.items()}, "tabs": tabs or {},
+    })  # fmt: skip
     handler = (
         "var s=window.__icubStudio=window.__icubStudio||{};"
         f"s.config={config};"
@@ -62,7 +67,39 @@ def tab_switch_html(title: str) -> str:
 
 
 def add_client_script(
-    gui: viser.GuiApi, charts: Mapping[str, ChartSlider]
+    gui: viser.GuiApi, charts: Mapping[str, ChartSlider], tabs: BrowserTabs | None = None
 ) -> viser.GuiHtmlHandle:
     """Add the loader to ``gui`` (the studio's top level, so every tab has it)."""
-    return gui.add_html(loader_html(charts))
+    return gui.add_html(loader_html(charts, tabs.config if tabs is not None else None))
+
+
+class BrowserTabs:
+    """The studio's tabs in the browsers: which one a browser shows, and switching one browser
+    to another.
+
+    viser tells the server nothing of a tab chosen. The page's script watches the tabs titled
+    ``titles`` and, when the one shown changes, clicks the button of that title in a row of
+    buttons it hides (this class's reporter, a GUI element at the top level): the click reaches
+    the server as any click does, and ``shown(title)`` is called. :meth:`show` switches one
+    browser to a tab (:func:`tab_switch_html`, added to that client's GUI alone).
+    """
+
+    def __init__(
+        self, server: viser.ViserServer, titles: tuple[str, ...], shown: Callable[[str], None]
+    ):
+        self._switches: dict[int, viser.GuiHtmlHandle] = {}  # the latest, per client
+        self.reporter = server.gui.add_button_group("Tab shown", titles)
+        self.config = {"report": self.reporter._impl.uuid, "titles": list(titles)}
+
+        @self.reporter.on_click
+        def _(event: viser.GuiEvent) -> None:
+            shown(str(event.target.value))
+
+        server.on_client_disconnect(lambda client: self._switches.pop(client.client_id, None))
+
+    def show(self, client: viser.ClientHandle, title: str) -> None:
+        """Switch ``client``'s browser to the tab titled ``title``."""
+        previous = self._switches.pop(client.client_id, None)
+        if previous is not None:
+            previous.remove()
+        self._switches[client.client_id] = client.gui.add_html(tab_switch_html(title))

@@ -126,3 +126,34 @@ class UploadGuard:
             )
             connection.queue_message(_messages.RemoveNotificationMessage(f"upload-{transfer_uuid}"))
         self._refused(client, filename, size)
+
+
+class UploadRefusals:
+    """The refusals of one upload button's files, per browser tab, as notifications that a
+    later accepted file from the same tab closes: an error about an earlier file does not stay
+    beside the success of the next one.
+
+    ``notify(title, body, color, client=..., auto_close_seconds=...)`` makes a notification and
+    returns its handles (:attr:`app.ui.context.PanelContext.notify`).
+    """
+
+    def __init__(self, notify: Callable[..., list], seconds: float = 20.0):
+        self._notify = notify
+        self.seconds = seconds
+        self._shown: dict[int | None, list] = {}  # client id -> its refusals' notifications
+
+    def refuse(self, client: viser.ClientHandle | None, title: str, body: str) -> None:
+        """Tell ``client`` (every tab when None) that a file was refused, and why."""
+        handles = self._notify(title, body, "red", client=client, auto_close_seconds=self.seconds)
+        key = client.client_id if client is not None else None
+        self._shown.setdefault(key, []).extend(handles or [])
+
+    def accepted(self, client: viser.ClientHandle | None) -> None:
+        """A file from ``client`` was accepted: its earlier refusals go (all when None)."""
+        keys = list(self._shown) if client is None else [client.client_id, None]
+        for key in keys:
+            for handle in self._shown.pop(key, []):
+                try:
+                    handle.remove()
+                except Exception:  # the tab is gone, or the notification closed already
+                    pass

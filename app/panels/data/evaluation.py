@@ -1,7 +1,7 @@
 """The Data tab's leave-one-out evaluation: what it runs on, and the job that runs it.
 
 The sweep is the one of ``python -m promp.evaluate`` (:func:`promp.evaluate.sweep.run_sweep`)
-on the demonstrations the session learns from (primitives with at least :data:`MIN_DEMOS`;
+on the demonstrations the workspace learns from (primitives with at least :data:`MIN_DEMOS`;
 flagged demonstrations that the user did not keep are left out and listed in the report), with
 the workspace's learning settings. :class:`EvaluationJob` runs it in a background thread; the tab
 reads its progress and result from the studio's loop. The job keeps every trial (the figures

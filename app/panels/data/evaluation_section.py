@@ -16,10 +16,12 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import viser
 
+from app.core.snapshot import Snapshot
 from app.io.exchange import format_size
 from app.panels.data.evaluation import (
     ALPHA_CHOICES,
@@ -43,6 +45,23 @@ TRIALS_LISTED = 200  # the Failed trials dropdown's options at most
 NO_TRIAL = "(none)"
 
 
+@dataclass(frozen=True, eq=False)
+class EvaluationControls:
+    """The handles of the evaluation folder."""
+
+    observe_dropdown: viser.GuiDropdownHandle
+    alpha_dropdown: viser.GuiDropdownHandle
+    percents_text: viser.GuiTextHandle
+    run_button: viser.GuiButtonHandle
+    cancel_button: viser.GuiButtonHandle
+    progress_bar: viser.GuiProgressBarHandle
+    eval_status: viser.GuiMarkdownHandle
+    export_button: viser.GuiButtonHandle
+    failed_dropdown: viser.GuiDropdownHandle
+    open_button: viser.GuiButtonHandle
+    results_folder: viser.GuiFolderHandle
+
+
 class EvaluationSection:
     """The evaluation folder (see the module docstring)."""
 
@@ -56,66 +75,67 @@ class EvaluationSection:
         self._result_handles: list = []
         self._results_job: EvaluationJob | None = None  # the latest evaluation with results
         self._failed: dict[str, FailedTrial] = {}
-        self._layout = ctx.session.layout
+        self._layout = ctx.store.state.layout
         self._observe_choices = observe_choices(self._layout)
         gui = ctx.gui
         with gui.add_folder("Leave-one-out evaluation"):
-            self.observe_dropdown = gui.add_dropdown("Observed", tuple(self._observe_choices))
-            self.alpha_dropdown = gui.add_dropdown(
+            observe_dropdown = gui.add_dropdown("Observed", tuple(self._observe_choices))
+            alpha_dropdown = gui.add_dropdown(
                 "Alpha", tuple(ALPHA_CHOICES), initial_value="ML",
                 hint=ALPHA_HINT + " Both: one curve for each.",
             )
-            self.percents_text = gui.add_text(
+            percents_text = gui.add_text(
                 "Percents", " ".join(f"{p:g}" for p in DEFAULT_PERCENTS)
             )
-            self.run_button = gui.add_button(
+            run_button = gui.add_button(
                 "Run leave-one-out evaluation", icon=viser.Icon.PLAYER_PLAY
             )
-            self.cancel_button = gui.add_button(
+            cancel_button = gui.add_button(
                 "Cancel evaluation", icon=viser.Icon.X, color="red", visible=False
             )
-            self.progress_bar = gui.add_progress_bar(0.0, visible=False, animated=True)
-            self.eval_status = gui.add_markdown(
+            progress_bar = gui.add_progress_bar(0.0, visible=False, animated=True)
+            eval_status = gui.add_markdown(
                 f"Held out one demonstration at a time (primitives with at least {MIN_DEMOS})."
             )
-            self.export_button = gui.add_button(
+            export_button = gui.add_button(
                 "Export results", icon=viser.Icon.FILE_ZIP, disabled=True,
                 hint="Download the finished evaluation as a zip: results.json, results.csv and "
                 "the figures, as python -m promp.evaluate --json --csv --plots writes them",
             )  # fmt: skip
-            self.failed_dropdown = gui.add_dropdown(
+            failed_dropdown = gui.add_dropdown(
                 "Failed trials", (NO_TRIAL,), visible=False,
                 hint="Held-out demonstrations the evaluation did not recognise: demonstration "
                 "· primitive · % observed → what it was recognised as",
             )  # fmt: skip
-            self.open_button = gui.add_button(
+            open_button = gui.add_button(
                 "Open in Infer", icon=viser.Icon.EYE, visible=False,
                 hint="Show the chosen trial in the Infer tab: that demonstration held out, at "
                 "that observed percentage, modalities and alpha method",
             )  # fmt: skip
-            self.results_folder = gui.add_folder("Results", visible=False)
-        self.run_button.on_click(lambda event: self.start(event.client))
-        self.cancel_button.on_click(lambda _: self.cancel())
-        self.export_button.on_click(lambda event: self.export(event.client))
-        self.open_button.on_click(lambda event: self.open_in_infer(event.client))
+            results_folder = gui.add_folder("Results", visible=False)
+        self.controls = EvaluationControls(
+            observe_dropdown, alpha_dropdown, percents_text, run_button, cancel_button,
+            progress_bar, eval_status, export_button, failed_dropdown, open_button, results_folder,
+        )  # fmt: skip
+        self.controls.run_button.on_click(lambda event: self.start(event.client))
+        self.controls.cancel_button.on_click(lambda _: self.cancel())
+        self.controls.export_button.on_click(lambda event: self.export(event.client))
+        self.controls.open_button.on_click(lambda event: self.open_in_infer(event.client))
 
     def start(self, client: viser.ClientHandle | None) -> EvaluationJob | None:
         """Start the sweep in a background thread with the GUI's options (None if refused)."""
         if self._job is not None and not self._job.finished:
             return None
         try:
-            percents = parse_percents(self.percents_text.value)
+            percents = parse_percents(self.controls.percents_text.value)
         except ValueError as exc:
             self.notify(client, "Cannot evaluate", f"{exc}.", "red")
             return None
-        session = self.ctx.session
-        with session.lock:
-            order = [p.name for p in session.primitives]
-            dataset, skipped = evaluation_dataset(order, session.learned_demos())
-            findings, left_out = tuple(session.findings), session.left_out()
-            settings = session.learning_settings()
-            layout = session.layout
-        observe = self._observe_choices.get(self.observe_dropdown.value)
+        store = self.ctx.store.state
+        dataset, skipped = evaluation_dataset(store.names, store.learned)
+        findings, left_out = store.findings, store.left_out
+        settings, layout = store.learning_settings(), store.layout
+        observe = self._observe_choices.get(self.controls.observe_dropdown.value)
         if observe is None or any(n not in layout.names for names in observe for n in names):
             self.notify(client, "Cannot evaluate", "choose the observed modalities.", "red")
             return None
@@ -134,21 +154,21 @@ class EvaluationSection:
             skipped=skipped,
             percents=percents,
             observe_sets=[list(s) for s in observe],
-            alpha_methods=list(ALPHA_CHOICES[self.alpha_dropdown.value]),
+            alpha_methods=list(ALPHA_CHOICES[self.controls.alpha_dropdown.value]),
             settings=settings,
             layout=layout,
-            source=str(session.workspace.root),
+            source=str(store.workspace.root),
             total=sum(len(v) for v in dataset.values()),
             findings=findings,
             left_out=left_out,
         )
         self._job = job
-        self.run_button.disabled = True
-        self.cancel_button.visible = True
-        self.progress_bar.value = 0.0
-        self.progress_bar.animated = True
-        self.progress_bar.visible = True
-        self.eval_status.content = (
+        self.controls.run_button.disabled = True
+        self.controls.cancel_button.visible = True
+        self.controls.progress_bar.value = 0.0
+        self.controls.progress_bar.animated = True
+        self.controls.progress_bar.visible = True
+        self.controls.eval_status.content = (
             f"Running: {job.total} held-out demonstrations of {', '.join(dataset)}..."
         )
         self._thread = threading.Thread(target=job.run, name="data-evaluation", daemon=True)
@@ -161,11 +181,11 @@ class EvaluationSection:
 
     # ------------------------------------------------------------------ the loop
 
-    def step(self) -> None:
-        layout = self.ctx.session.layout
+    def step(self, snapshot: Snapshot) -> None:
+        layout = snapshot.store.layout
         if layout != self._layout:  # another workspace: its modalities
             self._layout, self._observe_choices = layout, observe_choices(layout)
-            self.observe_dropdown.options = tuple(self._observe_choices)
+            self.controls.observe_dropdown.options = tuple(self._observe_choices)
         if self._job is not None:
             self._show(self._job)
 
@@ -173,30 +193,30 @@ class EvaluationSection:
         """Progress while it runs; results, status and buttons when it has finished."""
         if job.done != self._shown_done:
             self._shown_done = job.done
-            self.progress_bar.value = 100.0 * job.done / max(job.total, 1)
+            self.controls.progress_bar.value = 100.0 * job.done / max(job.total, 1)
         if not job.finished or self._job_shown is job:
             return
         self._job_shown = job
-        self.run_button.disabled = False
-        self.cancel_button.visible = False
-        self.progress_bar.animated = False
+        self.controls.run_button.disabled = False
+        self.controls.cancel_button.visible = False
+        self.controls.progress_bar.animated = False
         if job.cancelled:
-            self.eval_status.content = "Evaluation cancelled."
-            self.progress_bar.visible = False
+            self.controls.eval_status.content = "Evaluation cancelled."
+            self.controls.progress_bar.visible = False
             return
         if job.error is not None or job.result is None:
-            self.eval_status.content = f"Evaluation failed: {escape(str(job.error))}"
-            self.progress_bar.visible = False
+            self.controls.eval_status.content = f"Evaluation failed: {escape(str(job.error))}"
+            self.controls.progress_bar.visible = False
             self.notify(None, "Evaluation failed", str(job.error), "red")
             return
-        self.eval_status.content = self._summary(job)
+        self.controls.eval_status.content = self._summary(job)
         for handle in self._result_handles:
             handle.remove()
-        with self.results_folder:
+        with self.controls.results_folder:
             self._result_handles = add_results(self.ctx.gui, job.result.rows)
-        self.results_folder.visible = bool(self._result_handles)
+        self.controls.results_folder.visible = bool(self._result_handles)
         self._results_job = job
-        self.export_button.disabled = False
+        self.controls.export_button.disabled = False
         self._list_failed(job)
         self.notify(
             None, "Evaluation done", f"{job.total} held-out demonstrations, {job.elapsed_s:.1f} s."
@@ -206,11 +226,11 @@ class EvaluationSection:
         trials = failed_trials(job.result, job.dataset)
         self._failed = trial_choices(trials[:TRIALS_LISTED])
         shown = f"first {TRIALS_LISTED} of " if len(trials) > TRIALS_LISTED else ""
-        self.failed_dropdown.label = f"Failed trials ({shown}{len(trials)})"
-        self.failed_dropdown.options = tuple(self._failed) or (NO_TRIAL,)
-        self.failed_dropdown.visible = True
-        self.open_button.visible = True
-        self.open_button.disabled = not self._failed
+        self.controls.failed_dropdown.label = f"Failed trials ({shown}{len(trials)})"
+        self.controls.failed_dropdown.options = tuple(self._failed) or (NO_TRIAL,)
+        self.controls.failed_dropdown.visible = True
+        self.controls.open_button.visible = True
+        self.controls.open_button.disabled = not self._failed
 
     # ------------------------------------------------------------------ the results
 
@@ -243,7 +263,7 @@ class EvaluationSection:
 
     def open_in_infer(self, client: viser.ClientHandle | None) -> FailedTrial | None:
         """Ask the studio to show the chosen failed trial in the Infer tab."""
-        trial = self._failed.get(self.failed_dropdown.value)
+        trial = self._failed.get(self.controls.failed_dropdown.value)
         if trial is None:
             self.notify(
                 client, "No failed trial", "The evaluation recognised every trial.", "yellow"

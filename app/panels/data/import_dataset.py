@@ -15,7 +15,8 @@ change re-reads and re-previews. Then either
   workspace, whose demonstrations go to its trash (restorable).
 
 A refused upload or mapping is a notification naming the file and the problem, and changes
-nothing.
+nothing (the notifications of refused files go when a later file is accepted); the preview
+always shows the latest upload: a refused one is not previewed, nor is the one before it.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from __future__ import annotations
 import threading
 import traceback
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import viser
@@ -37,9 +39,10 @@ from app.io.dataset_import import (
 )
 from app.io.exchange import Limits, format_size
 from app.io.workspace import WorkspaceData
-from app.ui.context import PanelContext
+from app.ui.context import PanelContext, PanelGui
 from app.ui.dialogs import confirm
 from app.ui.text import display_name, escape
+from app.ui.upload_guard import UploadRefusals
 from promp.datasets import FORMATS, format_modalities, parse_modalities
 from promp.rigs import CUTS, RIG_FORMATS, RigOptions
 
@@ -53,6 +56,77 @@ def sibling_folder(root: Path, stem: str) -> Path:
     return root.parent / safe_name(stem, taken)
 
 
+@dataclass(frozen=True, eq=False)
+class Pending:
+    """An upload previewed, not imported yet: its files, and what they read as."""
+
+    upload: DatasetUpload
+    data: WorkspaceData | None = None
+    summary: DatasetSummary | None = None
+
+
+class ImportInputs:
+    """The reading's inputs (format, modalities; for a rig's recordings the cut, the rate and
+    the marker stream), shown once an upload is previewed."""
+
+    def __init__(self, gui: PanelGui):
+        self.quiet = False  # set while the code itself changes the inputs
+        self.format = gui.add_dropdown("Format", FORMATS, visible=False)
+        self.modalities = gui.add_text(
+            "Modalities", "", visible=False,
+            hint="NAME=COL,COL,... separated by ';'; for recordings NAME=STREAM:FIELD,...[@UNIT] "
+            "(a topic, stream, port or marker, then fields: pose.position.{x,y,z}; @mm and "
+            "@deg are converted). 'hand' (x, y, z in metres, the robot's root frame) is drawn in "
+            "3D; other modalities get their own charts",
+        )  # fmt: skip
+        self.cut = gui.add_dropdown(
+            "Cut", CUTS, visible=False,
+            hint="How a recording becomes demonstrations: by its markers, at its still "
+            "periods, one per file (in <class>/ folders), or auto (markers when it has some)",
+        )  # fmt: skip
+        self.rate = gui.add_number(
+            "Rate (Hz)", 0.0, min=0.0, max=10000.0, step=1.0, visible=False,
+            hint="The time base the streams are interpolated on; 0: the slowest stream's own "
+            "time stamps",
+        )  # fmt: skip
+        self.markers = gui.add_text(
+            "Marker stream", "", visible=False,
+            hint="The stream to cut by when a recording has several; empty: its only one",
+        )  # fmt: skip
+        self.handles = (self.format, self.modalities, self.cut, self.rate, self.markers)
+
+    def set(self, format: str, modalities: str, reset: bool = False) -> None:
+        """Set the inputs without re-reading; ``reset`` also puts the recordings' options back
+        to their defaults (a new upload)."""
+        self.quiet = True
+        try:
+            self.format.value = format
+            self.modalities.value = modalities
+            if reset:
+                self.cut.value, self.rate.value, self.markers.value = CUTS[0], 0.0, ""
+        finally:
+            self.quiet = False
+
+    def show(self, visible: bool) -> None:
+        """The inputs (the recordings' options only for a rig's format), or none."""
+        rig = visible and self.format.value in RIG_FORMATS
+        self.format.visible = self.modalities.visible = visible
+        self.cut.visible = self.rate.visible = self.markers.visible = rig
+
+    def options(self) -> tuple[dict | None, RigOptions]:
+        """The modalities given (None: guessed) and the recordings' options.
+
+        Raises
+        ------
+        ValueError
+            A mapping that does not parse.
+        """
+        text = self.modalities.value.strip()
+        rate = float(self.rate.value) or None
+        rig = RigOptions(self.cut.value, rate, self.markers.value.strip())
+        return (parse_modalities(text) if text else None), rig
+
+
 class DatasetImport:
     """The "Import dataset" folder of the Data tab (see the module docstring)."""
 
@@ -62,13 +136,11 @@ class DatasetImport:
         notify: Notify,
         max_upload_bytes: int = MAX_DATASET_UPLOAD_BYTES,
     ):
-        self.session = ctx.session
+        self.store = ctx.store
         self.notify = notify
+        self.refusals = UploadRefusals(ctx.notify)
         self._lock = threading.RLock()
-        self._quiet = False  # set while the code itself changes the inputs
-        self.upload: DatasetUpload | None = None
-        self.data: WorkspaceData | None = None
-        self.summary: DatasetSummary | None = None
+        self.pending: Pending | None = None
         gui = ctx.gui
         with gui.add_folder("Import dataset"):
             gui.add_markdown(
@@ -85,53 +157,35 @@ class DatasetImport:
                 hint=f"A .zip or a session file ({', '.join(SESSION_FILES)}), up to "
                 f"{format_size(max_upload_bytes)}",
             )
-            self.format = gui.add_dropdown("Format", FORMATS, visible=False)
-            self.modalities = gui.add_text(
-                "Modalities",
-                "",
-                visible=False,
-                hint="NAME=COL,COL,... separated by ';'; for recordings "
-                "NAME=STREAM:FIELD,...[@UNIT] (a topic, stream, port or marker, then fields: "
-                "pose.position.{x,y,z}; @mm and "
-                "@deg are converted). 'hand' (x, y, z in metres, the robot's root frame) is "
-                "drawn in 3D; other modalities get their own charts",
-            )
-            self.cut = gui.add_dropdown(
-                "Cut", CUTS, visible=False,
-                hint="How a recording becomes demonstrations: by its markers, at its still "
-                "periods, one per file (in <class>/ folders), or auto (markers when it has some)",
-            )  # fmt: skip
-            self.rate = gui.add_number(
-                "Rate (Hz)", 0.0, min=0.0, max=10000.0, step=1.0, visible=False,
-                hint="The time base the streams are interpolated on; 0: the slowest stream's "
-                "own time stamps",
-            )  # fmt: skip
-            self.markers = gui.add_text(
-                "Marker stream", "", visible=False,
-                hint="The stream to cut by when a recording has several; empty: its only one",
-            )  # fmt: skip
+            self.inputs = ImportInputs(gui)
             self.preview = gui.add_markdown("")
             self.actions = gui.add_button_group("", (CREATE, REPLACE), visible=False)
-        self.guard = ctx.guard_upload(self.upload_button, max_upload_bytes, self._too_large)
+        self.guard = ctx.guard_upload(
+            self.upload_button, max_upload_bytes,
+            lambda client, filename, size: self._refuse(
+                client, display_name(filename),
+                f"The file is {format_size(size)}, over the {format_size(self.guard.max_bytes)} "
+                "limit for a dataset. Nothing was changed.",
+            ),
+        )  # fmt: skip
         self.upload_button.on_upload(
             lambda event: self.receive(
                 event.client, event.target.value.name, event.target.value.content
             )
         )
-        for handle in (self.format, self.modalities, self.cut, self.rate, self.markers):
-            handle.on_update(lambda event: None if self._quiet else self.reread(event.client))
+        for handle in self.inputs.handles:
+            handle.on_update(lambda event: None if self.inputs.quiet else self.reread(event.client))
         self.actions.on_click(lambda event: self.act(event.client, event.target.value))
 
     # ------------------------------------------------------------------ steps
 
-    def _too_large(self, client, filename: str, size: int) -> None:
-        self.notify(
-            client,
-            f"Cannot import {display_name(filename)}",
-            f"The file is {format_size(size)}, over the {format_size(self.guard.max_bytes)} "
-            "limit for a dataset. Nothing was changed.",
-            "red",
-        )
+    def _refuse(self, client, name: str, why: str) -> None:
+        """A file refused: the preview of the one before goes (the latest upload is the one
+        shown), the reason comes."""
+        with self._lock:
+            self._discard()
+            self.preview.content = f"**Cannot import {escape(name)}:** {escape(why)}"
+        self.refusals.refuse(client, f"Cannot import {name}", why)
 
     def receive(self, client, filename: str, content: bytes) -> DatasetSummary | None:
         """Extract and preview an uploaded dataset zip or session file (None when refused)."""
@@ -142,80 +196,52 @@ class DatasetImport:
             )
         except ValueError as exc:
             self.guard.dismiss(client)  # no "uploaded successfully" under the refusal
-            self.notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
+            self._refuse(client, name, f"{exc}. Nothing was changed.")
             return None
         with self._lock:
             self._discard()
-            self.upload = upload
-            self._set_inputs(upload.format, "", reset=True)
+            self.pending = Pending(upload)
+            self.inputs.set(upload.format, "", reset=True)
         summary = self.reread(client)
         if summary is None:
             self.guard.dismiss(client)
         return summary
 
-    def _set_inputs(self, format: str, modalities: str, reset: bool = False) -> None:
-        """Set the inputs without re-reading; ``reset`` also puts the recordings' options back
-        to their defaults (a new upload)."""
-        self._quiet = True
-        try:
-            self.format.value = format
-            self.modalities.value = modalities
-            if reset:
-                self.cut.value, self.rate.value, self.markers.value = CUTS[0], 0.0, ""
-        finally:
-            self._quiet = False
-
     def reread(self, client) -> DatasetSummary | None:
         """Read the uploaded dataset with the chosen format and modalities; preview it."""
         with self._lock:
-            upload = self.upload
-            if upload is None:
+            if self.pending is None:
                 return None
-            self.format.visible = self.modalities.visible = True
-            rig = self.format.value in RIG_FORMATS
-            self.cut.visible = self.rate.visible = self.markers.visible = rig
-            text = self.modalities.value.strip()
+            upload, inputs = self.pending.upload, self.inputs
+            inputs.show(True)
             try:
-                modalities = parse_modalities(text) if text else None
-                options = RigOptions(
-                    self.cut.value, float(self.rate.value) or None, self.markers.value.strip()
-                )
-                data, summary = upload.read(self.format.value, modalities, options)
+                modalities, options = inputs.options()
+                data, summary = upload.read(inputs.format.value, modalities, options)
             except ValueError as exc:
-                self.data = self.summary = None
+                self.pending = Pending(upload)
                 self.actions.visible = False
                 self.preview.content = f"**Cannot import:** {escape(str(exc))}"
-                self.notify(client, f"Cannot import {upload.filename}", str(exc), "red")
+                self.refusals.refuse(client, f"Cannot import {upload.filename}", str(exc))
                 return None
             except Exception as exc:  # an unforeseen reader failure is still a refusal
                 traceback.print_exc()
-                self.data = self.summary = None
+                self.pending = Pending(upload)
                 self.actions.visible = False
                 self.preview.content = f"**Cannot import:** {escape(type(exc).__name__)}"
                 return None
-            self.data, self.summary = data, summary
-            if not text:  # show the guess
+            self.pending = Pending(upload, data, summary)
+            self.refusals.accepted(client)
+            if not inputs.modalities.value.strip():  # show the guess
                 guess = summary.mapping or format_modalities(summary.layout)
-                self._set_inputs(self.format.value, guess)
-            lines = [
-                f"**{escape(upload.filename)}** ({summary.format}): {escape(summary.describe())}",
-                f"Columns: {escape(', '.join(summary.columns))}",
-            ]
-            if upload.ignored:
-                lines.append(f"Ignored: {escape(', '.join(upload.ignored))}")
-            if summary.mapping:  # a rig's recordings: how they were read, what they became
-                lines += [escape(line) for line in summary.notes]
-                lines += ["Demonstrations found:"]
-                lines += [escape(line) for line in summary.demonstrations_lines()]
-            lines += [escape(line) for line in summary.findings_lines()]
-            self.preview.content = "  \n".join(lines)
+                inputs.set(inputs.format.value, guess)
+            self.preview.content = preview_text(upload, summary)
             self.actions.visible = True
             return summary
 
     def act(self, client, action: str) -> None:
         with self._lock:
-            upload, data, summary = self.upload, self.data, self.summary
-        if upload is None or data is None or summary is None:
+            pending = self.pending
+        if pending is None or pending.data is None:
             self.notify(client, "Nothing to import", "Upload a dataset zip first.", "red")
             return
         if action == CREATE:
@@ -223,7 +249,7 @@ class DatasetImport:
         elif client is None:
             self.replace(None)
         else:
-            self._confirm_replace(client, summary)
+            self._confirm_replace(client, pending.summary)
 
     def create(self, client) -> Path | None:
         """Make a new workspace beside the current one from the previewed dataset, and serve
@@ -232,8 +258,8 @@ class DatasetImport:
 
         def apply(upload: DatasetUpload, data: WorkspaceData) -> str:
             nonlocal target
-            target = sibling_folder(self.session.workspace.root, Path(upload.filename).stem)
-            self.session.switch(target, data)
+            target = sibling_folder(self.store.state.workspace.root, Path(upload.filename).stem)
+            self.store.switch(target, data)
             return (
                 f"{target.resolve()}: {data.n_demos} demonstrations of {len(data.primitives)} "
                 f"primitives. The studio now serves it (reopen it with --workspace {target}); "
@@ -257,7 +283,7 @@ class DatasetImport:
         """Put the previewed dataset in the current workspace (its content to the trash)."""
 
         def apply(upload: DatasetUpload, data: WorkspaceData) -> str:
-            self.session.replace(data, f"replaced by the dataset {upload.filename}")
+            self.store.replace(data, f"replaced by the dataset {upload.filename}")
             return (
                 f"{upload.filename}: {data.n_demos} demonstrations. The previous content is "
                 "in the trash (Recently deleted)."
@@ -273,13 +299,13 @@ class DatasetImport:
     ) -> bool:
         """Run ``apply`` on the previewed dataset, then forget it; notify the outcome."""
         with self._lock:
-            upload, data = self.upload, self.data
-            if upload is None or data is None:
+            pending = self.pending
+            if pending is None or pending.data is None:
                 return False
             try:
-                message = apply(upload, data)
+                message = apply(pending.upload, pending.data)
             except (ValueError, OSError) as exc:
-                self.notify(client, f"Cannot import {upload.filename}", f"{exc}.", "red")
+                self.notify(client, f"Cannot import {pending.upload.filename}", f"{exc}.", "red")
                 return False
             self._discard()
         self.notify(client, title, message, "green")
@@ -287,16 +313,32 @@ class DatasetImport:
 
     def _discard(self) -> None:
         """Forget the pending upload and remove its temporary folder (lock held)."""
-        if self.upload is not None:
-            self.upload.close()
-        self.upload, self.data, self.summary = None, None, None
+        if self.pending is not None:
+            self.pending.upload.close()
+        self.pending = None
         self.actions.visible = False
-        self.format.visible = self.modalities.visible = False
-        self.cut.visible = self.rate.visible = self.markers.visible = False
+        self.inputs.show(False)
         self.preview.content = ""
 
     def close(self) -> None:
         with self._lock:
-            if self.upload is not None:
-                self.upload.close()
+            if self.pending is not None:
+                self.pending.upload.close()
         self.guard.close()
+
+
+def preview_text(upload: DatasetUpload, summary: DatasetSummary) -> str:
+    """What an upload reads as: its format, primitives, columns, what was ignored, how a rig's
+    recordings were read and the demonstrations found, the checks' findings (markdown)."""
+    lines = [
+        f"**{escape(upload.filename)}** ({summary.format}): {escape(summary.describe())}",
+        f"Columns: {escape(', '.join(summary.columns))}",
+    ]
+    if upload.ignored:
+        lines.append(f"Ignored: {escape(', '.join(upload.ignored))}")
+    if summary.mapping:  # a rig's recordings: how they were read, what they became
+        lines += [escape(line) for line in summary.notes]
+        lines += ["Demonstrations found:"]
+        lines += [escape(line) for line in summary.demonstrations_lines()]
+    lines += [escape(line) for line in summary.findings_lines()]
+    return "  \n".join(lines)

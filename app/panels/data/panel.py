@@ -6,19 +6,20 @@ the leave-one-out evaluation.
   ``workspace-<time>.zip`` (studio.json, demos/<primitive>/<demo>.csv, model.json). Both wait
   for the model of the latest change (learning runs in the background).
 * **Import** takes either file. Everything is validated in memory first (:mod:`app.io.exchange`);
-  a bad file gives a notification naming the file and the problem and changes nothing. A
-  model becomes the model inference uses (:meth:`app.core.session.Session.use_imported_model`)
-  until the demonstrations or settings change or "Use the learned model" is clicked; it is not
-  written to the workspace. A workspace replaces the current one after a confirmation.
+  a bad file gives a notification naming the file and the problem and changes nothing (closed
+  when a later file from the same browser tab is accepted). A model becomes the model inference
+  uses (:meth:`app.core.view_state.View.use_imported`) until the demonstrations or settings
+  change or "Use the learned model" is clicked; it is not written to the workspace. A
+  workspace replaces the current one after a confirmation.
   Uploads over :data:`app.io.exchange.MAX_UPLOAD_BYTES` are refused as soon as they start
   (:mod:`app.ui.upload_guard`).
 * **Import dataset** (:mod:`app.panels.data.import_dataset`), **Recently deleted**
   (:mod:`app.panels.data.trash_list`) and the **Leave-one-out evaluation**
   (:mod:`app.panels.data.evaluation_section`) are sections of their own.
 
-Callbacks run on viser's thread pool and only act on the session (which has its own lock) or
-record what the loop must redraw; :meth:`DataPanel.step`, on the studio's loop, updates the
-model status and the sections.
+Callbacks run on viser's thread pool and only make one mutation (the store's, the view
+state's) or start a job; :meth:`DataPanel.step`, on the studio's loop, shows the frame's
+snapshot: the model status and the sections.
 """
 
 from __future__ import annotations
@@ -27,16 +28,27 @@ import traceback
 
 import viser
 
+from app.core.snapshot import Snapshot
 from app.io import exchange
 from app.io.workspace import WorkspaceData
 from app.panels.data.evaluation_section import EvaluationSection
 from app.panels.data.import_dataset import DatasetImport
 from app.panels.data.trash_list import RecentlyDeleted
-from app.ui.context import PanelContext
+from app.scene.look import Shown
+from app.ui.context import Frame, PanelContext
 from app.ui.dialogs import confirm
 from app.ui.text import display_name, escape
+from app.ui.upload_guard import UploadRefusals
 
 ERROR_SECONDS, NOTICE_SECONDS = 20.0, 10.0  # how long a notification to one client stays
+
+
+def too_large(size: int, limit: int) -> str:
+    """Why a file over the upload limit is refused."""
+    return (
+        f"The file is {exchange.format_size(size)}, over the {exchange.format_size(limit)} "
+        "upload limit. Nothing was changed."
+    )
 
 
 class DataPanel:
@@ -44,9 +56,9 @@ class DataPanel:
 
     def __init__(self, ctx: PanelContext, max_upload_bytes: int = exchange.MAX_UPLOAD_BYTES):
         self.ctx = ctx
-        self.session = ctx.session
         self.uploads_received = 0  # uploads that reached the callback (the guard stops others)
-        self._status_version = -1
+        self.refusals = UploadRefusals(ctx.notify, ERROR_SECONDS)
+        self._status: tuple = ()  # what the model status shows
         gui = ctx.gui
         gui.add_markdown("**Export**")
         self.export_model_button = gui.add_button(
@@ -73,7 +85,13 @@ class DataPanel:
         self.importer = DatasetImport(ctx, self._notify)
         self.trash = RecentlyDeleted(ctx, self._notify)
         self.evaluation = EvaluationSection(ctx, self._notify)
-        self.guard = ctx.guard_upload(self.upload_button, max_upload_bytes, self._refused)
+        self.guard = ctx.guard_upload(
+            self.upload_button, max_upload_bytes,
+            lambda client, filename, size: self.refusals.refuse(
+                client, f"Cannot import {display_name(filename)}",
+                too_large(size, self.guard.max_bytes),
+            ),
+        )  # fmt: skip
 
         self.export_model_button.on_click(lambda event: self.export_model(event.client))
         self.export_workspace_button.on_click(lambda event: self.export_workspace(event.client))
@@ -83,7 +101,6 @@ class DataPanel:
             )
         )
         self.use_learned_button.on_click(lambda event: self.use_learned_model(event.client))
-        self._update_model_status()
 
     def _notify(
         self, client: viser.ClientHandle | None, title: str, body: str, color: str = "blue"
@@ -99,9 +116,9 @@ class DataPanel:
 
     def export_model(self, client: viser.ClientHandle | None) -> bytes | None:
         """Send the learned model to ``client`` as ``model-<time>.json``; returns the bytes."""
-        model = self.session.wait_for_model()
+        model = self.ctx.wait_for_model()
         if model is None:
-            reason = self.session.fit_error
+            reason = self.ctx.learner.state.error
             self._notify(client, "No model to export", f"The studio has no model: {reason}.", "red")
             return None
         content = exchange.model_bytes(model)
@@ -119,15 +136,13 @@ class DataPanel:
 
     def export_workspace(self, client: viser.ClientHandle | None) -> bytes:
         """Send the workspace to ``client`` as ``workspace-<time>.zip``; returns the bytes."""
-        session = self.session
-        session.wait_for_model()
-        with session.lock:
-            data = WorkspaceData(
-                primitives=list(session.primitives),
-                demos={name: list(demos) for name, demos in session.demos.items()},
-                settings=dict(session.settings),
-            )
-            model = session.model
+        model = self.ctx.wait_for_model()
+        store = self.ctx.store.state
+        data = WorkspaceData(
+            primitives=list(store.primitives),
+            demos={name: list(demos) for name, demos in store.demos.items()},
+            settings=dict(store.settings),
+        )
         content = exchange.workspace_zip(data, model)
         filename = exchange.export_filename("workspace", "zip")
         if client is not None:
@@ -143,20 +158,11 @@ class DataPanel:
 
     # ------------------------------------------------------------------ import
 
-    def _refused(self, client: viser.ClientHandle | None, filename: str, size: int) -> None:
-        self._notify(
-            client,
-            f"Cannot import {display_name(filename)}",
-            f"The file is {exchange.format_size(size)}, over the "
-            f"{exchange.format_size(self.guard.max_bytes)} upload limit. Nothing was changed.",
-            "red",
-        )
-
     def _refuse_upload(self, client: viser.ClientHandle | None, name: str, why: str) -> None:
         """A file refused after it was read: its "uploaded successfully" toast goes, the
         reason comes."""
         self.guard.dismiss(client)
-        self._notify(client, f"Cannot import {name}", why, "red")
+        self.refusals.refuse(client, f"Cannot import {name}", why)
 
     def import_file(self, client: viser.ClientHandle | None, filename: str, content: bytes):
         """Validate an uploaded file and import it (a workspace after a confirmation).
@@ -179,10 +185,11 @@ class DataPanel:
             return None
         if isinstance(upload, exchange.ModelUpload):
             try:
-                self.session.use_imported_model(upload.model, name)
+                self.ctx.view.use_imported(upload.model, name, self.ctx.store.state)
             except ValueError as exc:
                 self._refuse_upload(client, name, f"{exc}. Nothing was changed.")
                 return None
+            self.refusals.accepted(client)
             names = ", ".join(p.name for p in upload.model.primitives)
             self._notify(
                 client,
@@ -192,6 +199,7 @@ class DataPanel:
                 "green",
             )
             return upload
+        self.refusals.accepted(client)
         if client is None:
             self.replace_workspace(None, upload)
         else:
@@ -202,9 +210,9 @@ class DataPanel:
         self, client: viser.ClientHandle, upload: exchange.WorkspaceUpload
     ) -> None:
         name = display_name(upload.filename)
-        with self.session.lock:
-            current_p = len(self.session.primitives)
-            current_d = sum(len(v) for v in self.session.demos.values())
+        store = self.ctx.store.state
+        current_p = len(store.primitives)
+        current_d = sum(len(v) for v in store.demos.values())
         names = ", ".join(p.name for p in upload.data.primitives) or "none"
         confirm(
             client,
@@ -221,10 +229,10 @@ class DataPanel:
     def replace_workspace(
         self, client: viser.ClientHandle | None, upload: exchange.WorkspaceUpload
     ) -> bool:
-        """Swap the session for a validated workspace archive."""
+        """Swap the workspace for a validated workspace archive."""
         name = display_name(upload.filename)
         try:
-            self.session.replace(upload.data, f"replaced by the import of {name}")
+            self.ctx.store.replace(upload.data, f"replaced by the import of {name}")
         except (ValueError, OSError) as exc:
             self._notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
             return False
@@ -240,36 +248,36 @@ class DataPanel:
         return True
 
     def use_learned_model(self, client: viser.ClientHandle | None) -> None:
-        self.session.use_imported_model(None)
+        self.ctx.view.use_imported(None, "", self.ctx.store.state)
         self._notify(client, "Learned model", "Inference uses the model learned from the demos.")
 
-    def _update_model_status(self) -> None:
-        session = self.session
-        with session.lock:
-            self._status_version = session.version
-            imported, source = session.imported_model, session.imported_from
-            model, reason = session.model, session.fit_error
+    def _show_model_status(self, snapshot: Snapshot) -> None:
+        imported, model = snapshot.imported, snapshot.model
+        status = (imported, model, snapshot.learner.error)
+        if self._status and all(a is b for a, b in zip(status, self._status, strict=True)):
+            return
+        self._status = status
         if imported is not None:
-            names = ", ".join(p.name for p in imported.primitives)
+            names = ", ".join(p.name for p in imported.model.primitives)
             text = (
-                f"**Inference model:** imported from `{source}` ({names}), used until the "
-                "demonstrations change."
+                f"**Inference model:** imported from `{imported.source}` ({names}), used until "
+                "the demonstrations change."
             )
         elif model is not None:
             names = ", ".join(p.name for p in model.primitives)
             text = f"**Inference model:** learned from the demonstrations ({names})."
         else:
-            text = f"**Inference model:** none yet ({escape(str(reason))})."
+            text = f"**Inference model:** none yet ({escape(str(snapshot.learner.error))})."
         self.model_status.content = text
         self.use_learned_button.visible = imported is not None
 
     # ------------------------------------------------------------------ loop
 
-    def step(self) -> None:
-        if self.session.version != self._status_version:
-            self._update_model_status()
-        self.trash.step()
-        self.evaluation.step()
+    def step(self, frame: Frame) -> Shown | None:
+        self._show_model_status(frame.snapshot)
+        self.trash.step(frame.snapshot)
+        self.evaluation.step(frame.snapshot)
+        return None
 
     def close(self) -> None:
         self.evaluation.close()

@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 import viser
 
+from app.core.snapshot import Snapshot
 from app.io.trash import TrashEntry
 from app.ui.context import PanelContext
 from app.ui.text import escape
@@ -30,10 +31,10 @@ class RecentlyDeleted:
     """The "Recently deleted" folder (see the module docstring)."""
 
     def __init__(self, ctx: PanelContext, notify: Notify):
-        self.session = ctx.session
+        self.store = ctx.store
         self.notify = notify
         self._entries: dict[str, TrashEntry] = {}
-        self._shown_version = -1
+        self._shown: tuple | None = None  # the trash listed
         gui = ctx.gui
         with gui.add_folder("Recently deleted", expand_by_default=False):
             self.summary = gui.add_markdown("")
@@ -44,19 +45,18 @@ class RecentlyDeleted:
             )  # fmt: skip
         self.restore_button.on_click(lambda event: self.restore(event.client, self.choice.value))
 
-    def step(self) -> None:
-        if self.session.version != self._shown_version:
-            self.refresh()
-
-    def refresh(self) -> None:
-        self._shown_version = self.session.version
-        entries = self.session.trash_entries()
+    def step(self, snapshot: Snapshot) -> None:
+        """List the trash of ``snapshot``'s workspace, when it changed."""
+        entries = snapshot.store.trash
+        if entries is self._shown:
+            return
+        self._shown = entries
         self._entries = {entry_label(e): e for e in entries}
         options = tuple(self._entries) or (NOTHING,)
         if tuple(self.choice.options) != options:
             self.choice.options = options
         self.restore_button.disabled = not entries
-        folder = escape(str(self.session.workspace.trash.root))
+        folder = escape(str(snapshot.store.workspace.trash.root))
         self.summary.content = (
             f"{len(entries)} item(s) in {folder}, kept until you delete them yourself."
             if entries
@@ -70,7 +70,7 @@ class RecentlyDeleted:
             self.notify(client, "Nothing to restore", "Choose an entry of the trash.", "red")
             return None
         try:
-            self.session.restore(entry.name)
+            self.store.restore(entry.name)
         except (ValueError, OSError) as exc:
             self.notify(client, "Cannot restore", f"{exc}. Nothing was changed.", "red")
             return None

@@ -1,19 +1,32 @@
-"""The Infer tab's text: the probability bars and the status lines of a scrub step, as HTML.
+"""What the Infer tab shows of an inference: the probability bars and the status lines, as HTML
+(pure functions of an :class:`app.live.inference.Inferred`), and the charts (:class:`InferCharts`).
+Lengths and angles in the display units of :mod:`app.ui.display`, user text escaped by
+:mod:`app.ui.text`.
 
-Pure functions of a :class:`app.live.inference.ScrubResult`; lengths and angles in the display
-units of
-:mod:`app.ui.display`, user text escaped by :mod:`app.ui.text`.
+The charts: one chart tab per modality, one chart per dimension, each with the prior and
+posterior bands of the recognised primitive, the observed samples and the truth (the paper's
+Figs. 4, 7 and 9). While the same movement is inspected, each chart's x and y ranges only grow:
+scrubbing neither rescales (and so rebuilds) a chart at every step nor leaves uPlot's automatic
+x range to the browser (viser rescales it relative to the previous data, which a rebuild can
+leave undefined: an empty chart).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import statistics
 from collections.abc import Callable, Sequence
 
-from app.live.inference import ScrubResult, error_modality
-from app.ui.display import shown
+import numpy as np
+
+from app.live.inference import Inferred
+from app.scene.inference_layer import OBSERVED_COLOR, TRUTH_COLOR
+from app.ui.charts import Band, BandChart, Trace, add_band_chart, band_chart, update_band_chart
+from app.ui.context import PanelContext
+from app.ui.display import quantities, shown
 from app.ui.text import escape_html
+from promp.data import Layout
 
 # Right padding: viser's panel scrollbar lies over the last pixels of a full-width element.
 PAD = "padding-right:14px;box-sizing:border-box"
@@ -33,14 +46,15 @@ def seconds(value: float, digits: int = 2) -> str:
 
 
 def probabilities_html(
-    result: ScrubResult, color_of: Callable[[str], tuple[int, int, int]]
+    result: Inferred, color_of: Callable[[str], tuple[int, int, int]]
 ) -> str:
     """One bar per primitive (its probability, in its colour); the recognised one in bold.
     Each row carries ``data-primitive`` and ``data-p`` for tests and tools."""
     rows = []
-    for k, (name, p) in enumerate(zip(result.names, result.probabilities, strict=True)):
+    recognition = result.inference.recognition
+    for k, (name, p) in enumerate(zip(result.model.names, recognition.probabilities, strict=True)):
         r, g, b = color_of(name)
-        weight = "700" if k == result.recognition.index else "400"
+        weight = "700" if k == recognition.index else "400"
         rows.append(
             f'<div data-primitive="{escape_html(name)}" data-p="{p:.6f}" '
             'style="display:flex;align-items:center;gap:6px;margin:3px 0">'
@@ -74,46 +88,157 @@ def failure_html(message: str, timing: str) -> str:
     )
 
 
-def alpha_html(result: ScrubResult) -> str:
+def alpha_html(result: Inferred) -> str:
     """``α = 0.688 (0.97 × typical)``, explained on hover."""
     relative = result.relative_speed
     typical = f" ({relative:.2f} × typical)" if math.isfinite(relative) else ""
     return (
         f'<span title="{escape_html(ALPHA_HELP)}" style="text-decoration:underline dotted">'
-        f"α = {result.alpha:.3f}{typical}</span>"
+        f"α = {result.inference.alpha:.3f}{typical}</span>"
     )
 
 
 def status_html(
-    result: ScrubResult, truth_primitive: str | None, model_note: str, timing: str
+    result: Inferred, truth_primitive: str | None, model_note: str, timing: str
 ) -> str:
     """What was recognised, how much was observed, with which model, the predicted and true
     durations and the errors (against ``truth_primitive``, the test demonstration's, if any)."""
-    obs, truth = result.observation, result.truth
+    obs, truth, inference = result.observation, result.truth, result.inference
+    primitive = inference.primitive
     if truth is not None:
         if truth_primitive is None:
             mark = ""
-        elif truth_primitive == result.primitive:
+        elif truth_primitive == primitive:
             mark = ' <span style="color:#2b8a3e">✓</span>'
         else:
             mark = (
                 f' <span style="color:#c92a2a">✗ (truth: {escape_html(truth_primitive)})</span>'
             )
-        seen = f"{obs.n_observed} / {truth.n_samples} samples, {result.observed_until:.2f} s"
+        seen = f"{obs.n_observed} / {truth.n_samples} samples, {inference.observed_until:.2f} s"
     else:
         mark = ""
-        seen = f"{obs.n_observed} samples, {result.observed_until:.2f} s"
-    measured = error_modality(result.layout)
+        seen = f"{obs.n_observed} samples, {inference.observed_until:.2f} s"
+    true_duration = truth.duration if truth is not None else math.nan
     lines = [
-        f"<b>Recognised: {escape_html(result.primitive)}</b>{mark} · {alpha_html(result)}",
+        f"<b>Recognised: {escape_html(primitive)}</b>{mark} · {alpha_html(result)}",
         f"Observed: {seen} ({' + '.join(obs.modalities)})",
         f"Model: {escape_html(model_note)}",
-        f"Duration: predicted {result.duration:.2f} s · true {seconds(result.true_duration)}",
-        f"Errors: remainder {shown(result.position_error_m, measured)} · goal "
-        f"{shown(result.goal_error_m, measured)} · duration "
-        f"{seconds(result.duration_error_s)}",
+        f"Duration: predicted {inference.duration:.2f} s · true {seconds(true_duration)}",
+        errors_line(result),
     ]
     return (
         f'<div style="font-size:0.8em;line-height:1.55;{PAD}">' + "<br>".join(lines) + "</div>"
         f'<div style="font-size:0.72em;color:#777;{PAD}">{timing}</div>'
     )
+
+
+def errors_line(result: Inferred) -> str:
+    """The errors against the truth, in the unit of the modality they are measured on
+    (``—`` without a truth)."""
+    errors = result.inference.errors
+    if errors is None:
+        return "Errors: remainder — · goal — · duration —"
+    measured = result.model.layout.modality(errors.modality)
+    return (
+        f"Errors: remainder {shown(errors.position, measured)} · goal "
+        f"{shown(errors.goal, measured)} · duration {seconds(errors.duration)}"
+    )
+
+
+# ---------------------------------------------------------------------- the charts
+
+PRIOR_COLOR = (125, 125, 125)
+ASPECT = 3.3
+
+
+@dataclasses.dataclass(frozen=True)
+class FixedRangeChart(BandChart):
+    """A band chart whose x (time) range is fixed too, in seconds."""
+
+    x_range: tuple[float, float] = (0.0, 1.0)
+
+    @property
+    def scales(self) -> dict:
+        return {"x": {"time": False, "range": self.x_range}, "y": {"range": self.y_range}}
+
+
+class InferCharts:
+    """The charts (see the module docstring), built inside the ``slot`` folder."""
+
+    def __init__(self, ctx: PanelContext, slot, layout: Layout):
+        self.ctx = ctx
+        self.slot = slot
+        self.handles: list = []
+        self.quantities = quantities(layout)
+        self.layout: Layout | None = None
+        self._tabs = None
+        self._range_key: tuple | None = None
+        self._ranges: dict[int, tuple[float, float, float]] = {}
+        self.build(layout)
+
+    def build(self, layout: Layout) -> None:
+        """One chart tab per modality of ``layout``, one chart per dimension."""
+        if self._tabs is not None:
+            self._tabs.remove()
+        gui = self.ctx.gui
+        placeholder = band_chart([], [Trace("", np.array([0.0, 1.0]), np.zeros(2), (0, 0, 0))])
+        self.quantities = quantities(layout)
+        self.handles = []
+        with self.slot:
+            self._tabs = gui.add_tab_group()
+            for modality in layout.modalities:
+                with self._tabs.add_tab(modality.name.capitalize()):
+                    for q in self.quantities:
+                        if q.modality == modality.name:
+                            self.handles.append(
+                                add_band_chart(
+                                    gui,
+                                    placeholder,
+                                    title=q.title,
+                                    y_label=q.axis_label,
+                                    aspect=ASPECT,
+                                )
+                            )
+        self.layout = layout
+        self._range_key = None
+
+    def draw(self, result: Inferred, movement: tuple, color: tuple[int, int, int]) -> None:
+        """Draw ``result`` (posterior in ``color``); ranges grow while ``movement`` (what is
+        inspected) stays the same."""
+        if movement != self._range_key:
+            self._range_key, self._ranges = movement, {}
+        layout = result.model.layout
+        if layout != self.layout:
+            return  # an imported model of other modalities: no charts to draw into
+        obs = result.observation
+        observed = list(layout.dims(obs.modalities))
+        truth = layout.extract(result.truth) if result.truth is not None else None
+        for i, (handle, q) in enumerate(zip(self.handles, self.quantities, strict=True)):
+            bands = [
+                Band.from_prediction(result.inference.prior, q, "prior", PRIOR_COLOR),
+                Band.from_prediction(result.inference.prediction, q, "posterior", color),
+            ]
+            traces = []
+            if truth is not None:
+                traces.append(
+                    Trace("truth", result.truth.times, q.scale * truth[:, q.column], TRUTH_COLOR,
+                          width=1.5, dash=(5.0, 4.0))
+                )  # fmt: skip
+            if q.column in observed:
+                column = obs.values[:, observed.index(q.column)]
+                traces.append(
+                    Trace("observed", obs.elapsed, q.scale * column, OBSERVED_COLOR, points=True)
+                )
+            chart = self._sticky(i, band_chart(bands, traces))
+            update_band_chart(handle, chart, self.ctx.atomic)
+
+    def _sticky(self, index: int, chart: BandChart) -> BandChart:
+        """``chart`` with x and y ranges that only grow while the same movement is inspected."""
+        lo, hi = chart.y_range
+        x_hi = float(chart.grid[-1])
+        if index in self._ranges:
+            old_lo, old_hi, old_x = self._ranges[index]
+            lo, hi, x_hi = min(lo, old_lo), max(hi, old_hi), max(x_hi, old_x)
+        self._ranges[index] = (lo, hi, x_hi)
+        fields = {f.name: getattr(chart, f.name) for f in dataclasses.fields(chart)}
+        return FixedRangeChart(**{**fields, "y_range": (lo, hi)}, x_range=(0.0, x_hi))

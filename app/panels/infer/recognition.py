@@ -18,16 +18,14 @@ from __future__ import annotations
 import threading
 import traceback
 from collections.abc import Callable, Hashable
-from dataclasses import dataclass
 
 import numpy as np
 
+from app.live.inference import CurveRequest
 from app.live.recognition_curve import CurveCache, RecognitionCurve, recognition_curve
 from app.ui.charts import chart_axes, css
 from app.ui.context import PanelContext
 from app.ui.text import escape
-from promp.data import Demonstration
-from promp.model import ProMPModel
 
 TITLE = "Recognition probability vs observed %"
 X_RANGE = (0.0, 100.0)
@@ -35,19 +33,6 @@ CURSOR_COLOR = (30, 30, 30)
 RIGHT_COLOR = (30, 140, 60)
 WAITING = "Computing the recognition over the whole movement..."
 LIVE_NOTE = "Recognition over the whole movement: for a test demonstration."
-
-
-@dataclass(frozen=True)
-class CurveRequest:
-    """What a curve is computed from; ``key`` says what it depends on (demonstration, model,
-    observed modalities, alpha method)."""
-
-    key: Hashable
-    model: ProMPModel
-    demo: Demonstration
-    modalities: tuple[str, ...]
-    alpha_method: str
-    truth: str
 
 
 def chart_data(curve: RecognitionCurve, cursor: float) -> tuple[np.ndarray, ...]:

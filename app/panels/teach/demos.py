@@ -1,16 +1,16 @@
 """The Teach tab's Demonstrations folder: the selected primitive's demonstrations, newest first.
 
-Each row shows a demonstration's typicality (how it compares with the primitive's others, from
-:meth:`app.core.session.Session.add_demo`) and offers Hide/Show
-(:meth:`app.core.session.Session.set_hidden`: its line in the 3D view) and Delete, after a
-confirmation (:meth:`app.core.session.Session.delete_demo`:
+Each row shows a demonstration's typicality (how a take compares with the primitive's others,
+scored by the learner) and offers Hide/Show (:meth:`app.core.view_state.View.set_hidden`: its
+line in the 3D view) and Delete, after a confirmation (:meth:`app.core.store.Store.delete_demo`:
 to the workspace's trash). *Undo delete* brings back the latest deletion
-(:meth:`app.core.session.Session.undo_delete`).
+(:meth:`app.core.store.Store.undo_delete`). The list is drawn from the frame's snapshot, again
+only when what it shows changed.
 
 A demonstration the checks flag (:mod:`promp.quality`: a gap, a jump, one that does not move, a
 rate or a duration far from the others') is marked "left out" and listed above the rows with
 what was found, where and how big; its row offers *Keep* (learn from it anyway) and, once kept,
-*Leave out* (:meth:`app.core.session.Session.set_kept`); one with a gap in its timestamps offers
+*Leave out* (:meth:`app.core.store.Store.set_kept`); one with a gap in its timestamps offers
 *Repair gap* (cut at the gap, or split: new demonstrations beside it). Its file is never
 touched.
 """
@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import viser
 
+from app.core.snapshot import Snapshot
 from app.ui.context import PanelContext
 from app.ui.text import GREEN, ORANGE, RED, colored, escape
 from promp.typicality import Typicality
@@ -61,6 +62,7 @@ class DemoList:
         self._pending_delete: tuple[str, str] | None = None
         self._rows: list[tuple[tuple[str, str], viser.GuiButtonGroupHandle]] = []
         self._signature: tuple | None = None
+        self._store, self._inputs = None, None  # what the list was last drawn from
         gui = ctx.gui
         self.folder = gui.add_folder("Demonstrations")
         with self.folder:
@@ -84,7 +86,7 @@ class DemoList:
 
     def _undo(self, event) -> None:
         def undo() -> None:
-            entry = self.ctx.session.undo_delete()
+            entry = self.ctx.store.undo_delete()
             self.ctx.tell(event, "Restored", f"{entry.label} is back.", "green")
 
         self.ctx.attempt(event, "undo", undo)
@@ -95,7 +97,7 @@ class DemoList:
         if pending is None or event.target.value != DELETE:
             return
         primitive, demo = pending
-        if self.ctx.attempt(event, "delete", lambda: self.ctx.session.delete_demo(primitive, demo)):
+        if self.ctx.attempt(event, "delete", lambda: self.ctx.store.delete_demo(primitive, demo)):
             self.ctx.tell(
                 event, "Deleted",
                 f"{demo} moved to the workspace's trash (Undo delete brings it back).", "gray",
@@ -111,7 +113,7 @@ class DemoList:
         mode = "cut" if choice == CUT else "split"
 
         def apply() -> None:
-            made = self.ctx.session.repair_gap(primitive, demo, mode)
+            made = self.ctx.store.repair_gap(primitive, demo, mode)
             self.ctx.tell(
                 event, "Gap repaired",
                 f"{', '.join(d.name for d in made)} made from {demo}, which stays as it was "
@@ -141,7 +143,7 @@ class DemoList:
                 keep = choice == KEEP_FLAGGED
 
                 def apply() -> None:
-                    self.ctx.session.set_kept(primitive, demo, keep)
+                    self.ctx.store.set_kept(primitive, demo, keep)
                     what = "learned from despite its findings" if keep else "left out of learning"
                     self.ctx.tell(event, "Kept" if keep else "Left out", f"{demo} is {what}.",
                                   "green" if keep else "gray")  # fmt: skip
@@ -149,42 +151,44 @@ class DemoList:
                 self.ctx.attempt(event, "keep" if keep else "leave out", apply)
             else:
                 hide = choice == "Hide"
-                self.ctx.attempt(
-                    event, "hide", lambda: self.ctx.session.set_hidden(primitive, demo, hide)
-                )
+                self.ctx.view.set_hidden(primitive, demo, hide)
 
         return action
 
     # ------------------------------------------------------------------ display
 
-    def show_undo(self) -> None:
-        """The Undo button, labelled with the latest deletion of this run."""
-        deleted = self.ctx.session.deleted
-        self.undo_delete.visible = bool(deleted)
-        if deleted:
-            self.undo_delete.label = f"Undo delete ({deleted[-1].label})"
+    def step(self, snapshot: Snapshot) -> bool:
+        """The Undo button, labelled with the latest deletion of this run, and the list of the
+        primitive taught; True when the list was drawn again."""
+        deleted = snapshot.store.deleted
+        label = f"Undo delete ({deleted[-1].label})" if deleted else self.undo_delete.label
+        if (self.undo_delete.visible, self.undo_delete.label) != (bool(deleted), label):
+            self.undo_delete.visible, self.undo_delete.label = bool(deleted), label
+        return self.show(snapshot, snapshot.primitive)
 
-    def show(self, name: str | None) -> None:
-        """List the demonstrations of primitive ``name`` (rebuilt only when they change)."""
-        session = self.ctx.session
-        with session.lock:
-            demos = list(session.demos.get(name, [])) if name is not None else []
-            rows = tuple(
-                (
-                    d.name,
-                    d.duration,
-                    (name, d.name) in session.hidden,
-                    session.typicality.get((name, d.name)),
-                    tuple(
-                        (f.kind, f.message) for f in session.findings_of(name, d.name)
-                    ),
-                    (name, d.name) in session.checks.kept,
-                )
-                for d in reversed(demos)  # newest first
+    def show(self, snapshot: Snapshot, name: str | None) -> bool:
+        """List the demonstrations of primitive ``name`` (rebuilt only when they change); True
+        when it was drawn again."""
+        store = snapshot.store
+        inputs = (name, snapshot.hidden)
+        if store is self._store and inputs == self._inputs:
+            return False
+        self._store, self._inputs = store, inputs
+        demos = list(store.demos.get(name, ())) if name is not None else []
+        rows = tuple(
+            (
+                d.name,
+                d.duration,
+                (name, d.name) in snapshot.hidden,
+                store.typicality.get((name, d.name)),
+                tuple((f.kind, f.message) for f in store.findings_of(name, d.name)),
+                (name, d.name) in store.checks.kept,
             )
+            for d in reversed(demos)  # newest first
+        )
         signature = (name, rows)
         if signature == self._signature:
-            return
+            return False
         self._signature = signature
         flagged = [r[0] for r in rows if r[3] is not None and r[3].label != "typical"]
         if name is None:
@@ -197,16 +201,17 @@ class DemoList:
                 summary += "  \n" + colored("⚠ To check: " + ", ".join(flagged), ORANGE, True)
             summary += findings_text(rows)
         self.summary.content = summary
-        # Same demonstrations in the same order: update the rows in place (a click on a row
-        # being rebuilt would be lost); otherwise rebuild the list.
+        # A row per demonstration, kept while its demonstration is there (a click on a row
+        # being rebuilt would be lost): a take adds one row, a deletion removes one; their
+        # order (newest first) is viser's ``order``, after the folder's other controls.
         keys = [(name, r[0]) for r in rows]
-        if keys != [key for key, _ in self._rows]:
-            for _, handle in self._rows:
-                handle.remove()
-            self._rows = []
-            with self.folder:
-                for demo_name, duration, *_ in rows:
-                    handle = self.ctx.gui.add_button_group(
+        current = dict(self._rows)
+        for key in [k for k in current if k not in keys]:
+            current.pop(key).remove()
+        with self.folder:
+            for key, (demo_name, duration, *_) in zip(keys, rows, strict=True):
+                if key not in current:
+                    current[key] = handle = self.ctx.gui.add_button_group(
                         demo_name,
                         ("Hide", "Delete"),
                         hint=f"{demo_name}: {duration:.1f} s. Show or hide its line in the 3D "
@@ -214,7 +219,10 @@ class DemoList:
                         "out of learning) can be kept.",
                     )
                     handle.on_click(self._row_action(name, demo_name))
-                    self._rows.append(((name, demo_name), handle))
+        self._rows = [(key, current[key]) for key in keys]
+        for i, (_, handle) in enumerate(self._rows):
+            if handle.order != self.repair.order + 1 + i:
+                handle.order = self.repair.order + 1 + i
         for row, (_, handle) in zip(rows, self._rows, strict=True):
             demo_name, _, hidden, typicality, findings, kept = row
             label = demo_name
@@ -232,3 +240,4 @@ class DemoList:
             if findings:
                 options = (LEAVE_OUT if kept else KEEP_FLAGGED, *options)
             handle.options = options
+        return True

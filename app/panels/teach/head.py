@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -21,10 +22,9 @@ import viser
 
 from app.io.exchange import format_size
 from app.live.head import HeadSource, SimulatedPartner, StreamHeadSource, TrackHeadSource
-from app.ui.context import PanelContext
+from app.ui.context import Frame, PanelContext, PanelGui
 from app.ui.display import shown
 from app.ui.text import GREEN, ORANGE, RED, colored, escape
-from promp.data import Layout
 from robots.icub.layout import HEAD
 
 STATUS_PERIOD_S = 0.2  # the head's status line
@@ -52,6 +52,85 @@ def angles_text(angles: np.ndarray) -> str:
     )
 
 
+@dataclass(frozen=True, eq=False)
+class HeadControls:
+    """The handles of the Head source folder."""
+
+    folder: viser.GuiFolderHandle
+    source: viser.GuiDropdownHandle
+    camera_index: viser.GuiNumberHandle
+    video_path: viser.GuiTextHandle
+    connect: viser.GuiButtonHandle
+    upload: viser.GuiUploadButtonHandle
+    status: viser.GuiMarkdownHandle
+    calibrate: viser.GuiButtonHandle
+    preview: viser.GuiImageHandle
+
+    def show_inputs(self) -> None:
+        """The inputs of the source kind chosen."""
+        kind = self.source.value
+        self.camera_index.visible = kind == CAMERA
+        self.video_path.visible = kind == VIDEO
+        self.connect.visible = kind in (CAMERA, VIDEO)
+        self.upload.visible = kind == UPLOAD
+
+
+def build_controls(gui: PanelGui, source: HeadSource) -> HeadControls:
+    initial, index, path = source_kind(source), 0, ""
+    if initial == CAMERA:
+        index = int(source.name.removeprefix("camera "))
+    elif initial == VIDEO:
+        path = source.name.removeprefix("video ")
+    folder = gui.add_folder("Head source")
+    with folder:
+        controls = HeadControls(
+            folder=folder,
+            source=gui.add_dropdown(
+                "Source", SOURCES, initial_value=initial,
+                hint="Where the partner's head pose comes from while recording.",
+            ),
+            camera_index=gui.add_number("Camera index", index, min=0, max=63, step=1),
+            video_path=gui.add_text("Video file", path, hint="Path on the server."),
+            connect=gui.add_button("Connect", icon=viser.Icon.PLUG),
+            upload=gui.add_upload_button(
+                "Upload a video", icon=viser.Icon.UPLOAD, mime_type="video/*",
+                hint=f"Up to {format_size(MAX_VIDEO_BYTES)}; processed on the server.",
+            ),
+            status=gui.add_markdown(""),
+            calibrate=gui.add_button(
+                "Calibrate neutral", icon=viser.Icon.FOCUS_CENTERED, visible=False,
+                hint="The partner looks at the robot's eyes: this head pose becomes zero.",
+            ),
+            preview=gui.add_image(
+                np.zeros((240, PREVIEW_WIDTH, 3), np.uint8), label="Camera", jpeg_quality=75,
+                visible=False,
+            ),
+        )  # fmt: skip
+    controls.show_inputs()
+    return controls
+
+
+class VideoTracks:
+    """Uploaded videos tracked into head-pose tracks, one at a time, in the background."""
+
+    def __init__(self) -> None:
+        self._pool: ThreadPoolExecutor | None = None
+        self.job: Future | None = None
+
+    @property
+    def processing(self) -> bool:
+        return self.job is not None and not self.job.done()
+
+    def process(self, job: Callable[[], None]) -> None:
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="upload-video")
+        self.job = self._pool.submit(job)
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+
+
 class HeadSection:
     """The Head source folder (see the module docstring).
 
@@ -60,67 +139,20 @@ class HeadSection:
     ctx : PanelContext
     recording : callable
         True while a recording is under way (its head source must stay).
-    changed : callable
-        Called after a new source is in use.
     """
 
-    def __init__(
-        self, ctx: PanelContext, recording: Callable[[], bool], changed: Callable[[], None]
-    ):
+    def __init__(self, ctx: PanelContext, recording: Callable[[], bool]):
         self.ctx = ctx
         self.recording = recording
-        self.changed = changed
+        self.tracks = VideoTracks()
         self._shown_error: tuple[int, str] | None = None
-        self._next_status = 0.0
-        self._next_preview = 0.0
-        self._uploads: ThreadPoolExecutor | None = None
-        self._upload: Future | None = None
-        source, gui = ctx.head.source, ctx.gui
-        initial, index, path = source_kind(source), 0, ""
-        if initial == CAMERA:
-            index = int(source.name.removeprefix("camera "))
-        elif initial == VIDEO:
-            path = source.name.removeprefix("video ")
-        self.folder = gui.add_folder("Head source")
-        with self.folder:
-            self.source = gui.add_dropdown(
-                "Source",
-                SOURCES,
-                initial_value=initial,
-                hint="Where the partner's head pose comes from while recording.",
-            )
-            self.camera_index = gui.add_number("Camera index", index, min=0, max=63, step=1)
-            self.video_path = gui.add_text("Video file", path, hint="Path on the server.")
-            self.connect = gui.add_button("Connect", icon=viser.Icon.PLUG)
-            self.upload = gui.add_upload_button(
-                "Upload a video",
-                icon=viser.Icon.UPLOAD,
-                mime_type="video/*",
-                hint=f"Up to {format_size(MAX_VIDEO_BYTES)}; processed on the server.",
-            )
-            self.video_guard = ctx.guard_upload(self.upload, MAX_VIDEO_BYTES, self._refused)
-            self.status = gui.add_markdown("")
-            self.calibrate = gui.add_button(
-                "Calibrate neutral",
-                icon=viser.Icon.FOCUS_CENTERED,
-                hint="The partner looks at the robot's eyes: this head pose becomes zero.",
-                visible=False,
-            )
-            self.preview = gui.add_image(
-                np.zeros((240, PREVIEW_WIDTH, 3), np.uint8),
-                label="Camera",
-                jpeg_quality=75,
-                visible=False,
-            )
-        self._show_inputs()
-        self.source.on_update(self._source_chosen)
-        self.connect.on_click(self._connect)
-        self.upload.on_upload(self._uploaded)
-        self.calibrate.on_click(self._calibrate)
-
-    def show_for(self, layout: Layout) -> None:
-        """The head source only matters in a workspace with a head."""
-        self.folder.visible = HEAD.name in layout.names
+        self._next = (0.0, 0.0)  # when the status line and the preview are due
+        self.controls = c = build_controls(ctx.gui, ctx.head.source)
+        self.video_guard = ctx.guard_upload(c.upload, MAX_VIDEO_BYTES, self._refused)
+        c.source.on_update(self._source_chosen)
+        c.connect.on_click(self._connect)
+        c.upload.on_upload(self._uploaded)
+        c.calibrate.on_click(self._calibrate)
 
     # ------------------------------------------------------------------ callbacks
 
@@ -132,21 +164,22 @@ class HeadSection:
         return True
 
     def _source_chosen(self, event) -> None:
-        current = source_kind(self.ctx.head.source)
-        if self.source.value != current and self._refuse_while_recording(event):
-            self.source.value = current  # runs this callback again, which changes nothing
+        c, current = self.controls, source_kind(self.ctx.head.source)
+        if c.source.value != current and self._refuse_while_recording(event):
+            c.source.value = current  # runs this callback again, which changes nothing
             return
-        self._show_inputs()
-        if self.source.value == SIMULATED and current != SIMULATED:
+        c.show_inputs()
+        if c.source.value == SIMULATED and current != SIMULATED:
             self._use(SimulatedPartner())
 
     def _connect(self, event) -> None:
         if self._refuse_while_recording(event):
             return
-        if self.source.value == CAMERA:
-            self._use(StreamHeadSource(int(self.camera_index.value)))
+        c = self.controls
+        if c.source.value == CAMERA:
+            self._use(StreamHeadSource(int(c.camera_index.value)))
             return
-        path = self.video_path.value.strip()
+        path = c.video_path.value.strip()
         if not path:
             self.ctx.tell(event, "No video file", "Type the path of a video file first.")
             return
@@ -160,7 +193,15 @@ class HeadSection:
             self.video_guard.dismiss(event.client)
             self._refused(event.client, upload.name, len(upload.content))
             return
-        self._process(upload.name, upload.content, event.client)
+        self.process(upload.name, upload.content, event.client)
+
+    def process(self, name: str, content: bytes, client=None) -> None:
+        """Track the head in an uploaded video in the background, then use the track."""
+        if self.tracks.processing:
+            self.ctx.notify("Busy", "Another video is still being processed.", "yellow")
+            return
+        self.controls.status.content = f"Processing **{escape(name)}**..."
+        self.tracks.process(lambda: self._track(name, content, client))
 
     def _calibrate(self, event) -> None:
         source = self.ctx.head.source
@@ -170,16 +211,8 @@ class HeadSection:
 
     def _use(self, source: HeadSource) -> None:
         self.ctx.head.use(source)
-        self.changed()
         self._shown_error = None
-        self._next_status = 0.0
-
-    def _show_inputs(self) -> None:
-        kind = self.source.value
-        self.camera_index.visible = kind == CAMERA
-        self.video_path.visible = kind == VIDEO
-        self.connect.visible = kind in (CAMERA, VIDEO)
-        self.upload.visible = kind == UPLOAD
+        self._next = (0.0, 0.0)
 
     def _refused(self, client, filename: str, size: int) -> None:
         title = f"Cannot use the video {filename}"
@@ -189,27 +222,14 @@ class HeadSection:
         )
         self.ctx.notify(title, body, "red", client=client)
 
-    # ------------------------------------------------------------------ uploaded video
-
-    @property
-    def processing(self) -> bool:
-        return self._upload is not None and not self._upload.done()
-
-    def _process(self, name: str, content: bytes, client=None) -> None:
-        """Track the head in an uploaded video in the background, then use the track."""
-        if self.processing:
-            self.ctx.notify("Busy", "Another video is still being processed.", "yellow")
-            return
-        if self._uploads is None:
-            self._uploads = ThreadPoolExecutor(max_workers=1, thread_name_prefix="upload-video")
-        self.status.content = f"Processing **{escape(name)}**..."
-        self._upload = self._uploads.submit(self._track, name, content, client)
-
     def _track(self, name: str, content: bytes, client=None) -> None:
+        """Track the head in an uploaded video (a worker), then use the track."""
         from app.headpose import track_video  # OpenCV's DNN models: loaded when first needed
 
+        status = self.controls.status
+
         def progress(fraction: float) -> None:
-            self.status.content = f"Processing **{escape(name)}**: {100 * fraction:.0f} %"
+            status.content = f"Processing **{escape(name)}**: {100 * fraction:.0f} %"
 
         try:
             track = track_video(content, progress=progress, suffix=Path(name).suffix or ".mp4")
@@ -218,7 +238,7 @@ class HeadSection:
             source = TrackHeadSource(track.t, track.angles, track.face_found, name)
         except Exception as exc:  # any decoding failure is a message, not a crash
             message = f"uploaded video {name}: {exc}"
-            self.status.content = colored(escape(message), RED)
+            status.content = colored(escape(message), RED)
             self.video_guard.dismiss(client)  # not under an "uploaded successfully" toast
             self.ctx.notify("Video not usable", message, "red")
             return
@@ -228,11 +248,13 @@ class HeadSection:
             "Video ready", f"{name}: {len(track)} frames, face in {found:.0f} %", "green"
         )
 
-    # ------------------------------------------------------------------ the loop
+    # ------------------------------------------------------------------ the frame
 
-    def step(self, now: float) -> None:
-        source = self.ctx.head.source
-        error = source.error
+    def step(self, frame: Frame) -> None:
+        c, source, error = self.controls, self.ctx.head.source, frame.head_error
+        visible = HEAD.name in frame.snapshot.store.layout.names  # a workspace with a head
+        if c.folder.visible != visible:
+            c.folder.visible = visible
         if error is not None and (id(source), error) != self._shown_error:
             self._shown_error = (id(source), error)
             self.ctx.notify(
@@ -240,28 +262,28 @@ class HeadSection:
                 f"{error}. The rest of the studio keeps working; choose another source.",
                 "red",
             )
+        next_status, next_preview = self._next
         is_stream = isinstance(source, StreamHeadSource)
-        self.calibrate.visible = is_stream and error is None
-        if is_stream and error is None and now >= self._next_preview:
-            self._next_preview = now + PREVIEW_PERIOD_S
+        c.calibrate.visible = is_stream and error is None
+        if is_stream and error is None and frame.now >= next_preview:
+            next_preview = frame.now + PREVIEW_PERIOD_S
             image = source.preview()
             if image is not None:
                 height = max(1, round(image.shape[0] * PREVIEW_WIDTH / image.shape[1]))
-                self.preview.image = cv2.resize(image, (PREVIEW_WIDTH, height))
-                self.preview.visible = True
+                c.preview.image = cv2.resize(image, (PREVIEW_WIDTH, height))
+                c.preview.visible = True
         elif not is_stream or error is not None:
-            self.preview.visible = False
-        if now < self._next_status or self.processing:
-            return
-        self._next_status = now + STATUS_PERIOD_S
-        self.status.content = self._status(source, error)
+            c.preview.visible = False
+        if frame.now >= next_status and not self.tracks.processing:
+            next_status = frame.now + STATUS_PERIOD_S
+            c.status.content = self._status(source, error, frame.head)
+        self._next = (next_status, next_preview)
 
-    def _status(self, source: HeadSource, error: str | None) -> str:
+    def _status(self, source: HeadSource, error: str | None, angles) -> str:
         if error is not None:
             return colored(f"⚠ {escape(error)}", RED, bold=True) + (
                 "  \nThe rest of the studio keeps working: choose another source."
             )
-        angles = self.ctx.head.angles
         if angles is None:
             return f"**{escape(source.name)}**: " + colored("no face", ORANGE)
         return (
@@ -271,5 +293,4 @@ class HeadSection:
 
     def close(self) -> None:
         self.video_guard.close()
-        if self._uploads is not None:
-            self._uploads.shutdown(wait=False, cancel_futures=True)
+        self.tracks.close()

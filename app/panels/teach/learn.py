@@ -4,8 +4,13 @@
 which chooses them from the demonstrations (:mod:`promp.selection`); the sliders then show what
 the latest fit chose and are read-only. Unticked, the sliders set them. Moving a control only
 notes the time; once the controls have been still for :data:`LEARN_DEBOUNCE_S`,
-:meth:`LearnSection.step` hands the settings to :meth:`app.core.session.Session.set_learning`, which
-stores them and refits in the background.
+:meth:`LearnSection.step` hands the settings to :meth:`app.core.store.Store.set_learning`, which
+stores them; the learner refits in the background.
+
+The fit's line says what the learner's state says, and nothing else: the time of *its* fit and
+the demonstrations *it* learned from; while the model does not answer the latest change yet,
+the line says the model is being learned again (a model is never shown with the count of
+demonstrations it has not learned from).
 """
 
 from __future__ import annotations
@@ -13,9 +18,10 @@ from __future__ import annotations
 import math
 import time
 
-from app.ui.context import PanelContext
+from app.core.snapshot import Snapshot
+from app.ui.context import Frame, PanelContext
 from app.ui.text import GREEN, ORANGE, colored, escape
-from promp.model import FALLBACK, Settings
+from promp.model import FALLBACK
 
 LEARN_DEBOUNCE_S = 0.15  # a slider being dragged refits once it pauses
 FAST_FIT_MS = 100.0  # a fit slower than this is shown in orange
@@ -52,7 +58,8 @@ class LearnSection:
     def __init__(self, ctx: PanelContext):
         self.ctx = ctx
         self._changed_at: float | None = None
-        settings = ctx.session.learning_settings()
+        self._shown: tuple = ()  # what the settings and the status were drawn from
+        settings = ctx.store.state.learning_settings()
         shown = settings.with_fallback()
         gui = ctx.gui
         with gui.add_folder("Learn"):
@@ -98,14 +105,27 @@ class LearnSection:
     def _moved(self, _event) -> None:
         self._changed_at = time.monotonic()
 
-    def step(self, now: float) -> None:
-        """Store the settings once the controls have been still for a moment."""
+    def step(self, frame: Frame) -> None:
+        """Store the settings once the controls have been still for a moment; show the
+        settings and the latest fit when they changed."""
+        snapshot = frame.snapshot
         changed = self._changed_at
-        if changed is None or now - changed < LEARN_DEBOUNCE_S:
+        if changed is not None and frame.now - changed >= LEARN_DEBOUNCE_S:
+            self._changed_at = None
+            self._store_settings(snapshot)
+        store, learner = snapshot.store, snapshot.learner
+        shown = (store.settings, store.findings, store.checks, learner, store.learn_version)
+        if len(shown) == len(self._shown) and all(
+            a is b for a, b in zip(shown, self._shown, strict=True)
+        ):
             return
-        self._changed_at = None
-        session = self.ctx.session
-        current = session.learning_settings()
+        self._shown = shown
+        if self._changed_at is None:
+            self._show_settings(snapshot)
+        self.fit_status.content = fit_text(snapshot)
+
+    def _store_settings(self, snapshot: Snapshot) -> None:
+        current = snapshot.store.learning_settings()
         wanted = {
             "n_basis": int(self.n_basis.value),
             "width": round(float(self.width.value), 3),
@@ -119,24 +139,19 @@ class LearnSection:
         ) and same_value(shrinkage, current.shrinkage):
             return
         try:
-            session.set_learning(
+            self.ctx.store.set_learning(
                 wanted["n_basis"], wanted["width"], shrinkage=shrinkage,
                 noise_scale=wanted["noise_scale"],
             )  # fmt: skip
         except (ValueError, OSError) as exc:
             self.ctx.notify("Cannot change the learning settings", str(exc), "red")
-            self._show_settings(session.learning_settings())
+            self._shown = ()  # the stored settings again
 
-    def show(self) -> None:
-        """The session's settings (unless the user is moving a control) and the latest fit."""
-        if self._changed_at is None:
-            self._show_settings(self.ctx.session.learning_settings())
-        self._show_fit()
-
-    def _show_settings(self, settings: Settings) -> None:
+    def _show_settings(self, snapshot: Snapshot) -> None:
+        settings = snapshot.store.learning_settings()
         automatic = set(settings.automatic) == set(FALLBACK)
         # What the latest fit chose where the data chooses (the fallback values until then).
-        model = self.ctx.session.model
+        model = snapshot.model
         chosen = settings.with_fallback() if model is None else model.settings
         self.automatic.value = automatic
         for handle, name in zip(self.sliders, FALLBACK, strict=True):
@@ -149,46 +164,47 @@ class LearnSection:
         self.shrinkage.value = label
         self._changed_at = None  # these assignments ran the callbacks
 
-    def _show_fit(self) -> None:
-        session = self.ctx.session
-        with session.lock:
-            model, error, fit_ms = session.model, session.fit_error, session.fit_ms
-            reused = session.fit_reused
-            n_demos = sum(len(d) for d in session.learned_demos().values())
-            n_left_out = len(session.left_out())
-        left_out = (
-            "  \n" + colored(
-                f"⚠ {n_left_out} flagged demonstration(s) left out (see Demonstrations)",
-                ORANGE,
-            )
-            if n_left_out
-            else ""
+
+def fit_text(snapshot: Snapshot) -> str:
+    """The Learn folder's line (see the module docstring)."""
+    store, learner = snapshot.store, snapshot.learner
+    n_left_out = len(store.left_out)
+    left_out = (
+        "  \n" + colored(
+            f"⚠ {n_left_out} flagged demonstration(s) left out (see Demonstrations)", ORANGE
         )
-        if error is not None and model is None:
-            self.fit_status.content = colored(f"Not learned: {escape(error)}", ORANGE) + left_out
-            return
-        n_learned = len(model.names) if model is not None else 0
-        learned = f"{n_learned} primitive(s) learned from {n_demos} demonstrations"
-        if reused:  # the fit took fit_ms a moment ago; this refit none
-            text = colored("Model reused", GREEN, bold=True)
-            learned += f", the same as a recent fit ({fit_ms:.0f} ms)"
+        if n_left_out
+        else ""
+    )
+    refitting = ""
+    if snapshot.refitting:
+        n_now = sum(len(d) for d in store.learned.values())
+        refitting = "  \n" + colored(
+            f"Learning again from {n_now} demonstrations...", ORANGE, bold=True
+        )
+    model, error, fit_ms = snapshot.model, learner.error, learner.fit_ms
+    if error is not None and model is None:
+        return colored(f"Not learned: {escape(error)}", ORANGE) + refitting + left_out
+    if model is None:
+        return "Learning..." + refitting + left_out
+    learned = f"{len(model.names)} primitive(s) learned from {learner.n_demos} demonstrations"
+    if learner.reused:  # the fit took fit_ms a moment ago; this refit none
+        text = colored("Model reused", GREEN, bold=True)
+        learned += f", the same as a recent fit ({fit_ms:.0f} ms)"
+    else:
+        color = GREEN if fit_ms < FAST_FIT_MS else ORANGE
+        text = colored(f"Fit in {fit_ms:.0f} ms", color, bold=True)
+    text = f"{text}: {learned}."
+    choice = model.report.get("settings", {})
+    if choice.get("chosen"):
+        used, rule = model.settings, str(choice.get("rule", ""))
+        if rule.startswith("fallback"):
+            how = escape(rule[0].upper() + rule[1:])
+        elif rule.startswith("kept"):
+            how = "Kept from the last fit (it still beats the runner-up)"
         else:
-            color = GREEN if fit_ms < FAST_FIT_MS else ORANGE
-            text = colored(f"Fit in {fit_ms:.0f} ms", color, bold=True)
-        self.fit_status.content = f"{text}: {learned}."
-        choice = model.report.get("settings", {}) if model is not None else {}
-        if choice.get("chosen"):
-            used, rule = model.settings, str(choice.get("rule", ""))
-            if rule.startswith("fallback"):
-                how = escape(rule[0].upper() + rule[1:])
-            elif rule.startswith("kept"):
-                how = "Kept from the last fit (it still beats the runner-up)"
-            else:
-                how = "Chosen from the demonstrations"
-            self.fit_status.content += (
-                f"  \n{how}: M = {used.n_basis}, width {used.width:g}, "
-                f"noise x{used.noise_scale:g}."
-            )
-        if error is not None:
-            self.fit_status.content += "  \n" + colored(escape(error), ORANGE)
-        self.fit_status.content += left_out
+            how = "Chosen from the demonstrations"
+        text += f"  \n{how}: M = {used.n_basis}, width {used.width:g}, noise x{used.noise_scale:g}."
+    if error is not None:
+        text += "  \n" + colored(escape(error), ORANGE)
+    return text + refitting + left_out

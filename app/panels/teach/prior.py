@@ -3,13 +3,15 @@
 Each chart shows the prior at the primitive's typical speed
 (:func:`app.live.inference.typical_prior`,
 mean +- 2 sd, in the display units of :mod:`app.ui.display`) with the newest demonstration over
-it, or, while recording, the demonstration being recorded.
+it, or, while recording, the demonstration being recorded. Drawn from the frame's snapshot,
+again only when what they show changed.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from app.core.snapshot import Snapshot
 from app.live.inference import typical_prior
 from app.live.recorder import Recording
 from app.ui.charts import Band, Trace, add_band_chart, band_chart, update_band_chart
@@ -32,10 +34,11 @@ class PriorCharts:
         self.ctx = ctx
         self.plots: list = []
         self.layout: Layout | None = None
+        self._drawn: tuple = ()  # what the charts show
         self.folder = ctx.gui.add_folder("Prior")
         with self.folder:
             self.note = ctx.gui.add_markdown("")
-        self.build(ctx.session.layout)
+        self.build(ctx.store.state.layout)
 
     def build(self, layout: Layout) -> None:
         """One chart per dimension of ``layout`` (rebuilt when the workspace changes)."""
@@ -49,13 +52,18 @@ class PriorCharts:
             ]
         self.layout = layout
 
-    def draw(self, name: str | None, live: Recording | None = None) -> None:
+    def draw(self, snapshot: Snapshot, name: str | None, live: Recording | None = None) -> None:
         """The prior of ``name`` per dimension, with its newest demonstration (or ``live``)."""
-        session = self.ctx.session
-        with session.lock:
-            model, layout = session.model, session.layout
-            demos = list(session.demos.get(name, [])) if name is not None else []
-            color = session.color(name) if name in session.names() else NO_COLOR
+        store, model = snapshot.store, snapshot.model
+        layout = store.layout
+        demos = store.demos.get(name, ()) if name is not None else ()
+        color = store.color(name) if name in store.names else NO_COLOR
+        drawn = (name, color, model, demos, layout, live)  # two values, then objects
+        if self._drawn and drawn[:2] == self._drawn[:2] and all(
+            a is b for a, b in zip(drawn[2:], self._drawn[2:], strict=True)
+        ):
+            return
+        self._drawn = drawn
         prediction = None
         if model is not None and name in model.names and model.layout == layout:
             prediction = typical_prior(model, name, PLOT_POINTS)

@@ -1,0 +1,163 @@
+"""The workspace at one moment, as one immutable value (:class:`StoreState`), which
+:class:`app.core.store.Store` publishes after every change; and the helpers that derive one
+state from another."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+from types import MappingProxyType
+
+from app.io.demo_checks import DemoChecks
+from app.io.trash import TrashEntry
+from app.io.workspace import Workspace, WorkspaceData
+from app.io.workspace_index import PrimitiveEntry
+from promp.data import Demonstration, Layout
+from promp.model import Settings
+from promp.quality import Finding, split_flagged
+from promp.typicality import Typicality
+
+Key = tuple[str, str]  # (primitive, demonstration)
+
+
+@dataclass(frozen=True, eq=False)
+class StoreState:
+    """The workspace at one moment (see the module docstring). Equal only to itself.
+
+    Attributes
+    ----------
+    version : int
+        Counts the store's changes (0 when opened).
+    learn_version : int
+        Counts the changes of what is learned from (demonstrations, settings, checks, layout).
+    workspace : Workspace
+        The folder (its ``root``, paths, trash).
+    layout : Layout
+    primitives : tuple of PrimitiveEntry
+    demos : mapping of str to tuple of Demonstration
+        Every primitive's demonstrations, in the order recorded.
+    settings : mapping
+        The learning settings the workspace sets (the engine's defaults fill the rest).
+    checks : DemoChecks
+        The user's Keep and the import's findings (``studio.json``).
+    findings : tuple of Finding
+        What the checks found in the demonstrations now.
+    typicality : mapping of (primitive, demo) to Typicality
+        The scores of this run's takes (:meth:`app.core.learner.Learner.follow`).
+    unscored : frozenset of (primitive, demo)
+        Takes of this run still to be scored.
+    deleted : tuple of TrashEntry
+        This run's deletions, newest last ("Undo delete").
+    trash : tuple of TrashEntry
+        Everything in the workspace's trash, newest first.
+    problems : tuple of str
+        Files the workspace could not read when opened.
+    """
+
+    version: int
+    learn_version: int
+    workspace: Workspace
+    layout: Layout
+    primitives: tuple[PrimitiveEntry, ...]
+    demos: Mapping[str, tuple[Demonstration, ...]]
+    settings: Mapping[str, object]
+    checks: DemoChecks
+    findings: tuple[Finding, ...]
+    typicality: Mapping[Key, Typicality] = field(default_factory=dict)
+    unscored: frozenset[Key] = frozenset()
+    deleted: tuple[TrashEntry, ...] = ()
+    trash: tuple[TrashEntry, ...] = ()
+    problems: tuple[str, ...] = ()
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.primitives)
+
+    def color(self, name: str) -> tuple[int, int, int]:
+        """The colour of primitive ``name`` (ValueError when there is none)."""
+        for p in self.primitives:
+            if p.name == name:
+                return p.color
+        raise ValueError(f"unknown primitive {name!r}")
+
+    @cached_property
+    def _split(self) -> tuple[dict, dict]:
+        return split_flagged(self.demos, list(self.findings), self.checks.kept)
+
+    @property
+    def learned(self) -> dict[str, list[Demonstration]]:
+        """Every primitive's demonstrations that learning uses: all but :attr:`left_out`."""
+        return self._split[0]
+
+    @property
+    def left_out(self) -> dict[Key, list[Finding]]:
+        """The flagged demonstrations the user did not keep (left out of learning)."""
+        return self._split[1]
+
+    def findings_of(self, primitive: str, demo: str) -> list[Finding]:
+        return [f for f in self.findings if f.key == (primitive, demo)]
+
+    def learning_settings(self) -> Settings:
+        """Every stored setting honoured (an imported workspace may set the ridge or the
+        noise, for example); absent ones take the engine's defaults."""
+        return Settings(**self.settings)
+
+
+def frozen_demos(
+    demos: Mapping[str, list[Demonstration]],
+) -> Mapping[str, tuple[Demonstration, ...]]:
+    """``demos`` as the state holds them: read-only, tuples."""
+    return MappingProxyType({name: tuple(items) for name, items in demos.items()})
+
+
+
+
+def adopted(
+    workspace: Workspace, data: WorkspaceData, version: int, learn_version: int, **kept
+) -> StoreState:
+    """The state of ``data``, read from (or just written to) ``workspace``; ``kept``: fields
+    carried over (typicality, unscored, deleted), pruned to the demonstrations ``data``
+    holds."""
+    demos = {p.name: list(data.demos.get(p.name, [])) for p in data.primitives}
+    keys = {(p, d.name) for p, items in demos.items() for d in items}
+    typicality = {k: v for k, v in kept.pop("typicality", {}).items() if k in keys}
+    unscored = frozenset(kept.pop("unscored", frozenset())) & keys
+    return StoreState(
+        version=version,
+        learn_version=learn_version,
+        workspace=workspace,
+        layout=data.layout,
+        primitives=tuple(data.primitives),
+        demos=frozen_demos(demos),
+        settings=MappingProxyType(dict(data.settings)),
+        checks=data.checks,
+        findings=tuple(data.checks.findings(demos, data.layout)),
+        typicality=MappingProxyType(typicality),
+        unscored=unscored,
+        trash=tuple(workspace.trash.entries()),
+        problems=tuple(data.problems),
+        **kept,
+    )
+
+
+def next_demo_name(state: StoreState, primitive: str) -> str:
+    existing = {d.name for d in state.demos.get(primitive, ())}
+    i = len(existing)
+    while (
+        f"{primitive}_{i:03d}" in existing
+        or state.workspace.demo_path(primitive, f"{primitive}_{i:03d}").exists()
+    ):
+        i += 1
+    return f"{primitive}_{i:03d}"
+
+
+def save_index(state: StoreState) -> None:
+    state.workspace.save_index(state.primitives, state.settings, state.layout, state.checks)
+
+
+def after_trashing(state: StoreState, entry: TrashEntry) -> StoreState:
+    """``state`` after ``entry`` went to the trash (this run's deletions, the trash list)."""
+    return replace(
+        state, deleted=(*state.deleted, entry), trash=tuple(state.workspace.trash.entries())
+    )

@@ -1,0 +1,97 @@
+"""What the user chose to look at, shared by every browser tab: the demonstrations hidden in
+the 3D view, the primitive being taught, and a model imported to infer with.
+
+Not written to the workspace. :class:`View` holds the latest :class:`ViewState` (readers take
+:attr:`View.state`, lock-free); its setters publish a new one.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, replace
+
+from app.core.store_state import Key, StoreState
+from promp.model import ProMPModel
+
+
+@dataclass(frozen=True, eq=False)
+class ImportedModel:
+    """A model read from a file (the Data tab's import), inferred with instead of the learned
+    one until what is learned from next changes (the store's ``learn_version``)."""
+
+    model: ProMPModel
+    source: str
+    learn_version: int
+
+    def valid_for(self, store: StoreState) -> bool:
+        return self.learn_version == store.learn_version
+
+
+@dataclass(frozen=True)
+class ViewState:
+    """The view's choices (see the module docstring).
+
+    Attributes
+    ----------
+    hidden : frozenset of (primitive, demo)
+        Demonstrations the user hid in the 3D view (a name no longer in the workspace is
+        ignored).
+    primitive : str or None
+        The primitive chosen in Teach (recordings go into it).
+    imported : ImportedModel or None
+    """
+
+    hidden: frozenset[Key] = frozenset()
+    primitive: str | None = None
+    imported: ImportedModel | None = None
+
+
+class View:
+    """The view state and its changes (see the module docstring)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._state = ViewState()
+
+    @property
+    def state(self) -> ViewState:
+        return self._state
+
+    def _set(self, **changes) -> None:
+        with self._lock:
+            self._state = replace(self._state, **changes)
+
+    def set_hidden(self, primitive: str, demo: str, hidden: bool) -> None:
+        """Hide (or show again) one demonstration's line in the 3D view."""
+        with self._lock:
+            keys = self._state.hidden
+            keys = keys | {(primitive, demo)} if hidden else keys - {(primitive, demo)}
+            self._state = replace(self._state, hidden=keys)
+
+    def renamed(self, old: str, new: str) -> None:
+        """Primitive ``old`` is now ``new``: what was hidden of it stays hidden."""
+        with self._lock:
+            hidden = frozenset((new if p == old else p, d) for p, d in self._state.hidden)
+            primitive = new if self._state.primitive == old else self._state.primitive
+            self._state = replace(self._state, hidden=hidden, primitive=primitive)
+
+    def choose(self, primitive: str | None) -> None:
+        """The primitive being taught."""
+        self._set(primitive=primitive)
+
+    def use_imported(self, model: ProMPModel | None, source: str, store: StoreState) -> None:
+        """Infer with ``model`` (read from ``source``) until what ``store`` learns from
+        changes; None goes back to the learned model.
+
+        Raises
+        ------
+        ValueError
+            The model's modalities are not the workspace's.
+        """
+        if model is not None and model.layout != store.layout:
+            raise ValueError(
+                f"the model's modalities {list(model.layout.columns)} are not the "
+                f"workspace's {list(store.layout.columns)}"
+            )
+        imported = None if model is None else ImportedModel(model, source, store.learn_version)
+        self._set(imported=imported)

@@ -1,0 +1,133 @@
+"""The Infer tab's controls: built once (:func:`build_observation`, :func:`build_display`),
+following what the workspace offers (:meth:`InferControls.follow`), set to a request of another
+tab (:meth:`InferControls.show`); the panel reads them once per frame into an immutable
+:class:`app.live.inference.InferState`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import viser
+
+from app.core.store_state import StoreState
+from app.live.inference import LIVE, TEST
+from app.scene.look import FADED, PRIOR_MODES
+from app.ui.context import InferRequest, PanelGui
+from app.ui.display import ALPHA_HINT, INFER_ALPHAS, observed_choices
+
+NONE = "(none)"
+SOURCES = (TEST, LIVE)
+
+
+@dataclass(frozen=True, eq=False)
+class InferControls:
+    """The handles of the Infer tab's controls."""
+
+    source: viser.GuiDropdownHandle
+    primitive: viser.GuiDropdownHandle
+    demo: viser.GuiDropdownHandle
+    observed: viser.GuiDropdownHandle
+    alpha: viser.GuiDropdownHandle
+    live_button: viser.GuiButtonHandle
+    live_clear: viser.GuiButtonHandle
+    percent: viser.GuiSliderHandle
+    probabilities: viser.GuiHtmlHandle
+    status: viser.GuiHtmlHandle
+    replay_buttons: viser.GuiButtonGroupHandle
+    replay_bar: viser.GuiProgressBarHandle
+    show_3d: viser.GuiCheckboxHandle
+    session_mode: viser.GuiDropdownHandle
+
+    def follow(self, store: StoreState) -> bool:
+        """Offer what ``store`` holds: its primitives, the chosen one's demonstrations, the
+        observed modalities of its layout; the live or the test controls. True when the
+        layout's choices changed (the charts are built again)."""
+        names = store.names or (NONE,)
+        if tuple(self.primitive.options) != names:
+            self.primitive.options = names
+        demos = tuple(d.name for d in store.demos.get(self.primitive.value, ())) or (NONE,)
+        if tuple(self.demo.options) != demos:
+            self.demo.options = demos
+        observed = tuple(observed_choices(store.layout))
+        changed = tuple(self.observed.options) != observed
+        if changed:
+            self.observed.options = observed
+        live = self.source.value == LIVE
+        for handle, wanted in ((self.primitive, not live), (self.demo, not live),
+                               (self.live_button, live), (self.live_clear, live)):  # fmt: skip
+            if handle.visible != wanted:
+                handle.visible = wanted
+        return changed
+
+    def show(self, request: InferRequest, store: StoreState) -> int:
+        """Set the controls to ``request``: its demonstration as the test one, its modalities
+        and alpha method, the slider at its percentage rounded to whole percents (returned).
+
+        Raises
+        ------
+        ValueError
+            If ``store`` has no such demonstration, or the modalities or the alpha method are
+            not among the tab's choices.
+        """
+        names = tuple(d.name for d in store.demos.get(request.primitive, ()))
+        if request.demo not in names:
+            raise ValueError(
+                f"the workspace has no demonstration {request.demo!r} of {request.primitive!r} "
+                "(deleted since the evaluation?)"
+            )
+        observed = next((label for label, modalities in observed_choices(store.layout).items()
+                         if tuple(modalities) == tuple(request.observed)), None)  # fmt: skip
+        alpha = next((k for k, v in INFER_ALPHAS.items() if v == request.alpha_method), None)
+        if observed is None or alpha is None:
+            raise ValueError(
+                f"the Infer tab cannot observe {'+'.join(request.observed)} with alpha "
+                f"{request.alpha_method!r}"
+            )
+        percent = int(min(self.percent.max, max(self.percent.min, round(request.percent))))
+        self.source.value = TEST
+        self.primitive.value = request.primitive
+        self.demo.options = names
+        self.demo.value = request.demo
+        self.observed.value = observed
+        self.alpha.value = alpha
+        self.percent.value = percent
+        return percent
+
+
+def build_observation(gui: PanelGui, observed: tuple[str, ...]) -> dict:
+    """The Observation folder and the slider (in the current container)."""
+    with gui.add_folder("Observation"):
+        handles = dict(
+            source=gui.add_dropdown(
+                "Source", SOURCES, initial_value=TEST,
+                hint="A demonstration held out from the model, or the live hand and head",
+            ),
+            primitive=gui.add_dropdown("Primitive", (NONE,)),
+            demo=gui.add_dropdown(
+                "Test demo", (NONE,), hint="Inferred with a model learned without it"
+            ),
+            observed=gui.add_dropdown("Observed", observed),
+            alpha=gui.add_dropdown(
+                "Alpha", tuple(INFER_ALPHAS), initial_value="ML", hint=ALPHA_HINT,
+            ),
+            live_button=gui.add_button("Start observing", visible=False),
+            live_clear=gui.add_button("Clear observation", visible=False),
+        )  # fmt: skip
+    handles["percent"] = gui.add_slider(
+        "Observed %", min=1, max=100, step=1, initial_value=40,
+        hint="How much of the movement is seen (live: of the buffer)",
+    )  # fmt: skip
+    return handles
+
+
+def build_display(gui: PanelGui) -> dict:
+    """The Display folder (collapsed)."""
+    with gui.add_folder("Display", expand_by_default=False):
+        return dict(
+            show_3d=gui.add_checkbox("Show in 3D", True),
+            session_mode=gui.add_dropdown(
+                "Session priors", PRIOR_MODES, initial_value=FADED,
+                hint="While an inference is shown, the session's prior tubes and demonstration "
+                "lines are shown; faded: tubes dimmed, lines hidden; hidden: both hidden",
+            ),
+        )  # fmt: skip
