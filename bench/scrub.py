@@ -60,7 +60,11 @@ def scrub_to(panel: InferPanel, percent: int, timeout: float = 30.0) -> float:
     count = panel.steps.count
     panel.controls.percent.value = percent
     deadline = time.monotonic() + timeout
-    while panel.steps.count == count or panel.view.state.percent != percent:
+    while (
+        panel.steps.count == count
+        or panel.view.state.percent != percent
+        or panel.view.message.startswith("learning a model")  # the held-out model, fitted
+    ):
         if time.monotonic() > deadline:
             raise RuntimeError(f"no scrub step within {timeout} s at {percent} %")
         time.sleep(0.002)
