@@ -6,12 +6,15 @@ studio's loop, computes the camera (:mod:`app.scene.camera`) from what the scene
 it for that browser tab alone (each tab has its own camera). The presets frame the workspace's
 demonstrations; *Frame paths* keeps the current direction and frames what is on show: the
 inference in Infer, the demonstrations elsewhere. Without any hand path, the scene's hand
-targets (the object and the bins) are framed.
+targets (the object and the bins) are framed. The start view follows the demonstrations once
+they have been still for :data:`SETTLE_S` (a take, then its refit, change them: the view is
+framed once, off the busy frames).
 """
 
 from __future__ import annotations
 
 import threading
+import time
 
 import numpy as np
 import viser
@@ -19,6 +22,8 @@ import viser
 from app.scene.camera import CANVAS, FRAME, PARTNER, VIEWS, CameraPose, frame, scene_points
 from app.scene.camera import view_pose as preset_pose
 from app.scene.scene_view import SceneView
+
+SETTLE_S = 1.0  # the start view follows a changed drawing once it has not changed for this long
 
 
 class ViewControls:
@@ -30,6 +35,8 @@ class ViewControls:
         self._requests: list[tuple[viser.ClientHandle, str]] = []
         self._lock = threading.Lock()
         self._initial_for: tuple | None = None  # the workspace drawing the start view frames
+        self._drawn: tuple | None = None  # the latest drawing, and since when
+        self._drawn_at = 0.0
         self._started: set[int] = set()  # browser tabs checked for the start view
         self.buttons = server.gui.add_button_group(
             "3D view",
@@ -60,8 +67,12 @@ class ViewControls:
             except AssertionError:  # the browser has not reported its camera yet
                 size = CANVAS
             apply(client, self.pose(view, current=_current(client), size=size))
-        drawn = self.scene.drawn_from
-        if drawn is not self._initial_for:
+        drawn, now = self.scene.drawn_from, time.monotonic()
+        if drawn is not self._drawn:  # the lines changed: their start view, once they settle
+            self._drawn, self._drawn_at = drawn, now
+        if drawn is not self._initial_for and (
+            self._initial_for is None or now - self._drawn_at >= SETTLE_S
+        ):
             self._initial_for = drawn
             initial = self.pose(PARTNER)
             camera = self.server.initial_camera
