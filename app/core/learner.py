@@ -104,7 +104,8 @@ class Learner:
         self._wake = threading.Condition()
         self._refit: tuple[int, int, Training, bool] | None = None  # (request, version, ...)
         self._scores: deque[tuple[str, Demonstration, Callable[[], Typicality | None]]] = deque()
-        self._held_out: tuple[HeldOutKey, Training] | None = None
+        self._held_out: tuple[HeldOutKey, Training] | None = None  # asked for
+        self._fitting: HeldOutKey | None = None  # the held-out model being fitted
         self._asked = (-1, 0)  # (learn_version, request) of the latest refit asked for
         self._queued: dict[Key, Demonstration] = {}  # takes whose score is asked for
         self._closed = False
@@ -148,7 +149,7 @@ class Learner:
         ------
         ValueError
             The demonstration is unknown, or holding it out leaves its primitive with fewer
-            than two demonstrations (see :func:`app.live.inference.held_out_training`).
+            than two demonstrations (see :func:`app.core.fits.held_out_training`).
         """
         settings = resolved_settings(store, self._state.model)
         key = held_out_key(store, primitive, demo, settings)
@@ -156,7 +157,8 @@ class Learner:
         if known is not None:
             return known
         with self._wake:
-            if self._held_out is None or self._held_out[0] != key:
+            asked = self._held_out[0] if self._held_out is not None else self._fitting
+            if asked != key:
                 training = Training(
                     held_out_training(store.demos, primitive, demo), store.layout, settings
                 )
@@ -218,6 +220,7 @@ class Learner:
                     run, job = self._run_score, self._scores.popleft()
                 else:
                     run, job, self._held_out = self._run_held_out, self._held_out, None
+                    self._fitting = job[0]
             try:
                 run(*job)
             except Exception:  # a bug in one job must not end the worker
@@ -239,6 +242,7 @@ class Learner:
     def _run_held_out(self, key: HeldOutKey, training: Training) -> None:
         fitted = self.fits.fit(training)
         with self._wake:
+            self._fitting = None
             held_out = dict(self._state.held_out)
             held_out[key] = fitted
             while len(held_out) > HELD_OUT_KEPT:
