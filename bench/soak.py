@@ -414,7 +414,7 @@ def record(a: Client, b: Client, hand_pose: np.ndarray, rng: random.Random, kill
 
 def import_dataset(a: Client, content: bytes, rng: random.Random, kill) -> None:
     a.tab("Data")
-    button = a.page.get_by_role("button", name="Upload dataset (.zip)", exact=True).first
+    button = a.page.get_by_role("button", name="Upload dataset", exact=True).first
     button.wait_for(timeout=60_000)
     uuid = button.evaluate(
         "b => { let n = b; while (n && !n.querySelector('input[type=file]')) n = n.parentElement;"
