@@ -38,6 +38,21 @@ def press(page, locator) -> None:
     page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
 
 
+def open_tab(page, name: str, timeout: float = 120.0) -> None:
+    """Show the tab ``name`` by mouse and wait until the page says it is the selected one; a
+    click that a busy page lost (laid out again under the pointer) is made again."""
+    tab = page.get_by_role("tab", name=name)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        press(page, tab)
+        retry = time.monotonic() + 10
+        while time.monotonic() < min(retry, deadline):
+            if tab.get_attribute("aria-selected") == "true":
+                return
+            time.sleep(0.1)
+    raise AssertionError(f"the {name} tab was not shown within {timeout:.0f} s")
+
+
 def click(page, name: str) -> None:
     """Click the first button named ``name`` (a DOM click event: no animation-frame waits)."""
     page.get_by_role("button", name=name, exact=True).first.dispatch_event("click")

@@ -11,7 +11,15 @@ import pytest
 from app.scene.workspace_layer import NO_COLOR
 from promp.data import Demonstration
 from promp.datasets import demo_to_csv
-from tests.browser import choose, click, notification, press, settled_screenshot, upload_file
+from tests.browser import (
+    choose,
+    click,
+    notification,
+    open_tab,
+    press,
+    settled_screenshot,
+    upload_file,
+)
 from tests.conftest import open_page, scenario_workspace, start_studio, wait_until
 from tests.test_dataset_import import zip_of
 
@@ -43,7 +51,7 @@ def test_a_flagged_demonstration_is_shown_left_out_and_kept_with_one_click(
     members["curved/paused.csv"] = demo_to_csv(gap).encode()
     page, _ = open_page(browser, studio)
     try:
-        page.get_by_role("tab", name="Data").click()
+        open_tab(page, "Data")
         from app.panels.data import DataPanel
 
         section = next(p for p in studio.panels if isinstance(p, DataPanel)).importer
@@ -67,7 +75,7 @@ def test_a_flagged_demonstration_is_shown_left_out_and_kept_with_one_click(
         model = wait_until(model, timeout=120, what="the model")
         assert model.primitive("curved").n_demos == 5  # learned without it
 
-        page.get_by_role("tab", name="Teach").click()
+        open_tab(page, "Teach")
         from app.panels.teach import TeachPanel
 
         teach = next(p for p in studio.panels if isinstance(p, TeachPanel))

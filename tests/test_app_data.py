@@ -33,7 +33,7 @@ from promp.evaluate.report import CSV_COLUMNS, report_json, results_csv
 from promp.evaluate.sweep import run_sweep
 from promp.io import model_from_json, model_to_dict
 from promp.model import Settings
-from tests.browser import choose, notification, press, settled_screenshot
+from tests.browser import choose, notification, open_tab, press, settled_screenshot
 from tests.conftest import open_page, start_studio, wait_until
 from tests.synthetic import LAYOUT, make_dataset
 
@@ -261,7 +261,7 @@ def studio(tmp_path_factory):
 def page(browser, studio):
     page, _client = open_page(browser, studio, width=1200, height=800)
     page.set_default_timeout(120_000)  # software WebGL on a shared, loaded machine is slow
-    page.get_by_role("tab", name="Data").click()
+    open_tab(page, "Data")
     page.get_by_role("button", name="Export model").wait_for()
     yield page
     page.close()
@@ -622,7 +622,7 @@ def test_a_failed_trial_opens_in_infer(browser, page, studio, evaluated, artifac
     assert studio.scene.panel == INFER
     assert infer.view.result is not None and infer.view.result.observation.n_observed > 0
     page.screenshot(path=str(artifacts / "data_open_in_infer.png"))
-    page.get_by_role("tab", name="Data").click()
+    open_tab(page, "Data")
     page.set_viewport_size({"width": 1200, "height": 800})
 
 

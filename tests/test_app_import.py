@@ -19,6 +19,7 @@ from tests.browser import (
     choose,
     click,
     notification,
+    open_tab,
     press,
     screenshot,
     settled_screenshot,
@@ -50,7 +51,7 @@ def studio(tmp_path_factory):
 def page(browser, studio):
     page, _client = open_page(browser, studio, width=1400, height=900)
     page.set_default_timeout(120_000)
-    page.get_by_role("tab", name="Data").click()
+    open_tab(page, "Data")
     page.get_by_role("button", name="Upload dataset").wait_for()
     yield page
     page.close()
@@ -156,7 +157,7 @@ def test_the_lab_recordings_on_the_icub(browser, page, studio, heights_dir, arti
         start = view.workspace.prior_tube(studio.session.snapshot().model, name)[0][0]
         assert np.linalg.norm(start - hand) < 0.08, (name, start, hand)
 
-    page.get_by_role("tab", name="Teach").click()
+    open_tab(page, "Teach")
     page.get_by_text("40 demonstration(s) of bottom").wait_for()
     # The README's picture (docs/lab_records.png): a page of its own, at full resolution.
     shot, _ = open_page(browser, studio, dpr=1.0)
@@ -171,7 +172,7 @@ def test_the_lab_recordings_on_the_icub(browser, page, studio, heights_dir, arti
     from app.panels.infer import InferPanel
 
     panel = next(p for p in studio.panels if isinstance(p, InferPanel))
-    page.get_by_role("tab", name="Infer").click()
+    open_tab(page, "Infer")
     controls = panel.controls
     choose(page, controls.primitive, "top")
     choose(page, controls.demo, "person2_record3")
@@ -255,7 +256,7 @@ def test_an_xdf_session_through_the_page(page, studio, tmp_path) -> None:
 
     store, section = studio.session.store, importer(studio)
     old_root, old = studio.workspace, tree_hash(studio.workspace)
-    page.get_by_role("tab", name="Data").click()  # the test before it ends in Infer
+    open_tab(page, "Data")  # the test before it ends in Infer
     upload_file(page, section.upload_button, "session.xdf",
                 rf.write_xdf(tmp_path / "session.xdf").read_bytes())  # fmt: skip
     page.get_by_text("2 primitives, 6 demonstrations: reach (3), wave (3)").wait_for()

@@ -28,6 +28,7 @@ from robots.icub.layout import hand_dims
 from tests.browser import (
     choose,
     close_notifications,
+    open_tab,
     press,
     set_camera,
     settled_render,
@@ -473,7 +474,7 @@ def test_live_stream_follows_the_dragged_hand(studio, scenario, primitive) -> No
 @pytest.fixture(scope="module")
 def page(browser, studio):
     page, client = open_page(browser, studio)
-    press(page, page.get_by_role("tab", name="Infer"))
+    open_tab(page, "Infer")
     page.client = client  # type: ignore[attr-defined]
     yield page
     page.close()
@@ -700,7 +701,7 @@ def test_infer_view_screenshot(browser, studio, page, artifacts) -> None:
     assert changed.mean() > 0.005, "the inference does not show in the rendered frame"
     shot, shot_client = open_page(browser, studio, dpr=1.0)
     try:
-        press(shot, shot.get_by_role("tab", name="Infer"))
+        open_tab(shot, "Infer")
         # The hand charts (the open chart tab) show the data the server holds, on finite scales.
         for handle in panel.charts.handles[:3]:
             wait_until(

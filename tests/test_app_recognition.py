@@ -24,7 +24,7 @@ from app.ui.display import observed_choices
 from promp.learn import fit
 from promp.model import Settings
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
-from tests.browser import choose, press, wait_camera_still
+from tests.browser import choose, open_tab, wait_camera_still
 from tests.conftest import open_page, start_studio, wait_until
 
 # ---------------------------------------------------------------------- pure logic
@@ -119,7 +119,7 @@ def infer_panel(studio):
 @pytest.fixture(scope="module")
 def page(browser, studio):
     page, client = open_page(browser, studio, width=1280, height=800)
-    press(page, page.get_by_role("tab", name="Infer"))
+    open_tab(page, "Infer")
     page.client = client  # type: ignore[attr-defined]
     yield page
     page.close()

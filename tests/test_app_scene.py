@@ -9,7 +9,7 @@ import pytest
 
 from app.scene.look import FADED, INFER, SHOWN, TEACH
 from app.scene.workspace_layer import DIMMED_OPACITY, PRIOR_OPACITY
-from tests.browser import choose, press
+from tests.browser import choose, open_tab, press
 from tests.conftest import open_page, start_studio, wait_until
 
 
@@ -77,7 +77,7 @@ def test_switching_tabs_in_the_browser_never_leaves_the_other_tabs_objects(
         # Faded is the default: start from shown, so that the browser's choice is a change
         # (viser tells the server of changes only) and the test stands alone.
         infer.controls.session_mode.value = SHOWN
-        press(page, page.get_by_role("tab", name="Infer"))
+        open_tab(page, "Infer")
         folder = page.get_by_text("Display", exact=True).last  # below the charts
         folder.scroll_into_view_if_needed(timeout=60_000)
         press(page, folder)  # it opens

@@ -21,7 +21,7 @@ import pytest
 
 from app.io import exchange
 from app.scene.look import INFER, TEACH
-from tests.browser import click, close_notifications, notification, press, upload_file
+from tests.browser import click, close_notifications, notification, open_tab, press, upload_file
 from tests.conftest import open_page, scenario_workspace, start_studio, wait_until
 from tests.test_dataset_import import BAD_ZIPS, csv_demo, zip_of
 
@@ -94,13 +94,13 @@ def test_a_take_message_stays_with_its_workspace(browser, other_studio) -> None:
         record.controls.countdown.value = 3.0
         record.controls.trim.value = True
     # Another workspace, from one's own recordings (the Data tab's Import dataset).
-    press(page, page.get_by_role("tab", name="Data"))
+    open_tab(page, "Data")
     importer = panel(studio, "data").importer
     upload_file(page, importer.upload_button, "takes.zip", takes_zip())
     page.get_by_text("2 primitives, 6 demonstrations").wait_for(timeout=60_000)
     click(page, "Create workspace")
     notification(page, "Workspace created")
-    press(page, page.get_by_role("tab", name="Teach"))
+    open_tab(page, "Teach")
     wait_text(page, "Ready to record into down")  # the new workspace's, shown
     assert "Discarded" not in text(page), "the other workspace's take is still spoken of"
     page.close()
@@ -108,7 +108,7 @@ def test_a_take_message_stays_with_its_workspace(browser, other_studio) -> None:
 
 def test_a_refused_file_is_forgotten_once_a_good_one_is_accepted(studio, page) -> None:
     data = panel(studio, "data")
-    press(page, page.get_by_role("tab", name="Data"))
+    open_tab(page, "Data")
     for refusals in (data.refusals, data.importer.refusals):
         refusals.seconds = 600.0  # the refusals would stay: their going is the studio's doing
     try:
@@ -174,10 +174,10 @@ def test_choosing_a_tab_shows_its_look(studio, page) -> None:
                timeout=120, what="an inference to show")  # fmt: skip
     studio.scene.use_panel(TEACH)
     wait_until(lambda: not studio.scene.look.inference, what="Teach's look")
-    press(page, page.get_by_role("tab", name="Infer"))
+    open_tab(page, "Infer")
     wait_until(lambda: studio.scene.panel == INFER and studio.scene.look.inference,
                timeout=60, what="Infer's look, with no control touched")  # fmt: skip
-    press(page, page.get_by_role("tab", name="Teach"))
+    open_tab(page, "Teach")
     wait_until(lambda: studio.scene.panel == TEACH and studio.scene.look.start,
                timeout=60, what="Teach's look again")  # fmt: skip
 
@@ -193,7 +193,7 @@ class ManualClock:
 def test_scrubbing_after_a_replay_moves_the_arm_with_the_prediction(studio, page) -> None:
     infer = panel(studio, "infer")
     controls = infer.controls
-    press(page, page.get_by_role("tab", name="Infer"))
+    open_tab(page, "Infer")
 
     def shown_at(percent: int):
         view = infer.view
