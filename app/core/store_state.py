@@ -5,7 +5,7 @@ state from another."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 from types import MappingProxyType
 
@@ -139,6 +139,20 @@ def adopted(
         problems=tuple(data.problems),
         **kept,
     )
+
+
+def workspace_data(state: StoreState) -> WorkspaceData:
+    """Everything ``state`` holds of its workspace, as its files would (its own layout, checks
+    and every other field :class:`WorkspaceData` has, not the studio's defaults): what an
+    export writes."""
+    held = {f.name: getattr(state, f.name) for f in fields(WorkspaceData) if hasattr(state, f.name)}
+    held.update(
+        primitives=list(state.primitives),
+        demos={p.name: list(state.demos.get(p.name, ())) for p in state.primitives},
+        settings=dict(state.settings),
+        problems=list(state.problems),
+    )
+    return WorkspaceData(**held)
 
 
 def next_demo_name(state: StoreState, primitive: str) -> str:

@@ -29,8 +29,8 @@ import traceback
 import viser
 
 from app.core.snapshot import Snapshot
+from app.core.store_state import workspace_data
 from app.io import exchange
-from app.io.workspace import WorkspaceData
 from app.panels.data.evaluation_section import EvaluationSection
 from app.panels.data.import_dataset import DatasetImport
 from app.panels.data.trash_list import RecentlyDeleted
@@ -137,12 +137,7 @@ class DataPanel:
     def export_workspace(self, client: viser.ClientHandle | None) -> bytes:
         """Send the workspace to ``client`` as ``workspace-<time>.zip``; returns the bytes."""
         model = self.ctx.wait_for_model()
-        store = self.ctx.store.state
-        data = WorkspaceData(
-            primitives=list(store.primitives),
-            demos={name: list(demos) for name, demos in store.demos.items()},
-            settings=dict(store.settings),
-        )
+        data = workspace_data(self.ctx.store.state)
         content = exchange.workspace_zip(data, model)
         filename = exchange.export_filename("workspace", "zip")
         if client is not None:

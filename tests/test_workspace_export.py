@@ -1,0 +1,117 @@
+"""Export workspace, for every kind of workspace: the Data tab's "Export workspace" writes the
+workspace's own layout, checks and settings, and the zip imports back with the same layout and
+demonstrations (issue 28: an imported workspace with other modalities could not be exported,
+"has no column(s) ['roll', 'pitch', 'yaw']")."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from app.core.store import Store
+from app.io import exchange
+from app.io.dataset_import import read_folder
+from app.io.workspace import Workspace
+from promp.datasets import parse_modalities
+
+
+@pytest.fixture(scope="module")
+def server():
+    import viser
+
+    from app.io.net import free_port
+
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    yield server
+    server.stop()
+
+
+def exported(server, root: Path) -> tuple[Store, exchange.WorkspaceUpload, list]:
+    """The Data tab on the workspace at ``root`` exports it (no model: the layout and the
+    demonstrations are what is checked); the store, the zip read back, and what it told."""
+    from app.panels.data import DataPanel
+
+    store = Store.open(root)
+    told: list = []
+    guard = SimpleNamespace(max_bytes=exchange.MAX_UPLOAD_BYTES, close=lambda: None,
+                            dismiss=lambda client: None)  # fmt: skip
+    ctx = SimpleNamespace(
+        gui=server.gui,
+        store=store,
+        notify=lambda title, body, color="blue", **_: told.append((title, body, color)),
+        guard_upload=lambda *args: guard,
+        wait_for_model=lambda: None,
+    )
+    panel = DataPanel(ctx)
+    try:
+        content = panel.export_workspace(None)
+    finally:
+        panel.close()
+    return store, exchange.read_upload("exported.zip", content), told
+
+
+def assert_same_workspace(store: Store, upload: exchange.WorkspaceUpload) -> None:
+    state, data = store.state, upload.data
+    assert data.layout == state.layout
+    assert [p.name for p in data.primitives] == list(state.names)
+    for name in state.names:
+        ours, theirs = state.demos[name], data.demos[name]
+        assert [d.name for d in theirs] == [d.name for d in ours]
+        for a, b in zip(ours, theirs, strict=True):
+            assert b.columns == state.layout.columns
+            assert_allclose(b.times, a.times, atol=1e-9)
+            assert_allclose(b.select(state.layout.columns), a.select(state.layout.columns),
+                            atol=1e-9)  # fmt: skip
+    assert dict(data.settings) == dict(state.settings)
+    assert data.checks == state.checks
+
+
+def test_the_default_simulated_workspace_exports_and_imports_back(server, tmp_path) -> None:
+    from app.studio import default_workspace
+
+    Workspace.create(tmp_path / "ws", default_workspace())
+    store, upload, told = exported(server, tmp_path / "ws")
+    assert_same_workspace(store, upload)
+    assert [m.name for m in upload.data.layout.modalities] == ["hand", "head"]
+    assert told[-1][0] == "Workspace exported" and "40 demonstrations" in told[-1][1]
+
+
+def hand_and_emg_csv(folder: Path) -> None:
+    """Two classes x 3 demonstrations with a hand (x, y, z), 4 EMG channels and a robot's hand
+    (bx, by, bz), no head."""
+    rng = np.random.default_rng(3)
+    for k, name in enumerate(("give", "take")):
+        for i in range(3):
+            n = 40 + 5 * i
+            t = np.arange(n) * 0.02
+            hand = np.cumsum(rng.normal(scale=0.01, size=(n, 3)), axis=0) + 0.1 * k
+            emg = np.abs(rng.normal(size=(n, 4)))
+            robot = hand[::-1] + 0.5
+            rows = np.column_stack([t, hand, emg, robot])
+            path = folder / name / f"trial{i}.csv"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            header = "t,x,y,z,e0,e1,e2,e3,bx,by,bz\n"
+            path.write_text(header + "\n".join(",".join(f"{v:.6f}" for v in r) for r in rows))
+
+
+def test_an_imported_csv_dataset_with_other_modalities_exports(server, tmp_path) -> None:
+    hand_and_emg_csv(tmp_path / "csv")
+    mapping = parse_modalities("hand=x,y,z; emg=e0,e1,e2,e3; robot=bx,by,bz")
+    data, _ = read_folder(tmp_path / "csv", "csv", mapping)
+    Workspace.create(tmp_path / "ws", data)
+    store, upload, told = exported(server, tmp_path / "ws")
+    assert [m.name for m in store.state.layout.modalities] == ["hand", "emg", "robot"]
+    assert_same_workspace(store, upload)
+    assert told[-1][0] == "Workspace exported" and "6 demonstrations" in told[-1][1]
+
+
+def test_an_imported_lab_records_dataset_exports(server, tmp_path, heights_dir) -> None:
+    data, _ = read_folder(heights_dir, "records", parse_modalities("hand=x,y,z; force=fx,fy,fz"))
+    Workspace.create(tmp_path / "ws", data)
+    store, upload, _ = exported(server, tmp_path / "ws")
+    assert [m.name for m in store.state.layout.modalities] == ["hand", "force"]
+    assert_same_workspace(store, upload)
