@@ -37,6 +37,7 @@ from app.scene.camera_buttons import ViewControls
 from app.scene.look import DATA, INFER, TEACH, Shown
 from app.scene.robot import add_robot
 from app.scene.scene_view import SceneView
+from app.ui.callback_guard import GuardedGui
 from app.ui.context import Frame, InferRequest, Panel, PanelContext, PanelGui
 from app.ui.help import add_help
 from app.ui.page_script import BrowserTabs, add_client_script
@@ -165,7 +166,7 @@ class Studio:
             return UploadGuard(server, button, max_bytes, refused)
 
         return PanelContext(
-            gui=PanelGui(server.gui, lambda: self.scene.use_panel(panel)),
+            gui=PanelGui(server.gui, lambda: self.scene.use_panel(panel), self.notify),
             store=session.store,
             view=session.view,
             learner=session.learner,
@@ -183,7 +184,8 @@ class Studio:
         help ("?", collapsed), then the page's script (:mod:`app.ui.page_script`)."""
         names = {title: name for title, name, _ in TABS}
         self.tabs = BrowserTabs(self.server, tuple(names), lambda t: self.scene.use_panel(names[t]))
-        self.camera = ViewControls(self.server, self.scene)
+        guarded = GuardedGui(self.server.gui, self.notify)
+        self.camera = ViewControls(self.server, self.scene, guarded)
         tabs = self.server.gui.add_tab_group()
         panels: list[Panel] = []
         for title, name, build in TABS:

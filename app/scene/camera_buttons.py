@@ -29,7 +29,9 @@ SETTLE_S = 1.0  # the start view follows a changed drawing once it has not chang
 class ViewControls:
     """The camera buttons (see the module docstring), built in the current GUI container."""
 
-    def __init__(self, server: viser.ViserServer, scene: SceneView):
+    def __init__(self, server: viser.ViserServer, scene: SceneView, gui=None):
+        """``gui``: what the buttons are built with (the studio's guards its callbacks;
+        ``server.gui`` by default)."""
         self.server = server
         self.scene = scene
         self._requests: list[tuple[viser.ClientHandle, str]] = []
@@ -38,7 +40,7 @@ class ViewControls:
         self._drawn: tuple | None = None  # the latest drawing, and since when
         self._drawn_at = 0.0
         self._started: set[int] = set()  # browser tabs checked for the start view
-        self.buttons = server.gui.add_button_group(
+        self.buttons = (gui or server.gui).add_button_group(
             "3D view",
             VIEWS,
             hint="Partner view: the paths as the partner sees them (the start view). Top and "

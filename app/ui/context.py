@@ -28,6 +28,7 @@ from app.core.view_state import View
 from app.live.head import HeadInput
 from app.scene.arm import ArmController
 from app.scene.look import TEACH, Shown
+from app.ui.callback_guard import HOOKS, GuardedGui
 from app.ui.upload_guard import Refused, UploadGuard
 from promp.model import ProMPModel
 
@@ -98,31 +99,29 @@ class Panel(Protocol):
         """Stop background work and release what the panel holds (the studio is stopping)."""
 
 
-class PanelGui:
+class PanelGui(GuardedGui):
     """viser's GUI API as one panel uses it: every control it adds tells ``used()`` when a
     browser uses it, so that the scene shows the look of the panel in use (viser does not tell
-    the server which tab a browser shows; see :mod:`app.scene.look`). Everything else is
-    viser's own ``GuiApi``."""
+    the server which tab a browser shows; see :mod:`app.scene.look`), and, given ``notify``,
+    tells the user when one of its callbacks fails (:mod:`app.ui.callback_guard`). Everything
+    else is viser's own ``GuiApi``."""
 
-    def __init__(self, gui: viser.GuiApi, used: Callable[[], None]):
-        self._gui = gui
+    def __init__(
+        self,
+        gui: viser.GuiApi,
+        used: Callable[[], None],
+        notify: Callable[..., object] | None = None,
+    ):
+        super().__init__(gui, notify)
         self._used = used
 
-    def __getattr__(self, name: str):
-        attribute = getattr(self._gui, name)
-        if not name.startswith("add_"):
-            return attribute
-
-        def add(*args, **kwargs):
-            handle = attribute(*args, **kwargs)
-            for hook in ("on_click", "on_upload", "on_update"):
-                register = getattr(handle, hook, None)
-                if register is not None:
-                    register(self._on_event)
-                    break
-            return handle
-
-        return add
+    def _built(self, handle):
+        for hook in HOOKS:
+            register = getattr(handle, hook, None)
+            if register is not None:
+                register(self._on_event)
+                break
+        return super()._built(handle)
 
     def _on_event(self, event: viser.GuiEvent) -> None:
         if event.client is not None:  # a browser, not the studio's own code, used it

@@ -6,6 +6,8 @@ from collections.abc import Callable
 
 import viser
 
+from app.ui.callback_guard import guard_handle, to_client
+
 
 def confirm(
     client: viser.ClientHandle,
@@ -19,8 +21,8 @@ def confirm(
     that runs ``on_confirm()`` and a Cancel button (``on_cancel()``); either closes it."""
     with client.gui.add_modal(title) as modal:
         client.gui.add_markdown(text)
-        yes = client.gui.add_button(action, color="red")
-        no = client.gui.add_button("Cancel")
+        yes = guard_handle(client.gui.add_button(action, color="red"), to_client)
+        no = guard_handle(client.gui.add_button("Cancel"), to_client)
 
     @yes.on_click
     def _(_) -> None:
