@@ -180,7 +180,8 @@ def test_evaluation_section_without_a_browser() -> None:
 
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     told, opened = [], []
-    store = SimpleNamespace(layout=LAYOUT)
+    workspace = SimpleNamespace(root=Path("/somewhere/my lab"))  # where fake_job comes from
+    store = SimpleNamespace(layout=LAYOUT, workspace=workspace)
     ctx = SimpleNamespace(
         gui=server.gui,
         store=SimpleNamespace(state=store),
@@ -500,7 +501,8 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     assert {"hand, ML", "head, model", "hand + head, ML"} <= labels
     assert all(chart["x"] == [10, 30, 50, 70, 90] for chart in charts)
     header = "| errors (of 12) | hand, ML | hand, model | head, ML |"
-    assert header in panel._result_handles[2].content
+    assert panel._result_handles[0].content.startswith("**Results of ws** (")  # what they are
+    assert header in panel._result_handles[3].content
     status = panel.controls.eval_status.content
     assert "Held out each of 12 demonstrations of curved, direct, second_bin" in status
     page.set_viewport_size({"width": 1200, "height": 1700})  # the whole tab in the picture
@@ -514,7 +516,7 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     errors = {r["percent"]: r["recognition_errors"] for r in rows if r["alpha_method"] == "ml"}
     assert errors[90.0] <= errors[10.0]
 
-    # A second run, cancelled while it runs: the previous results stay.
+    # A second run, cancelled while it runs: its partial results are shown, said partial.
     gate = gate_sweep(monkeypatch)
     run.click()
     second = until(lambda: panel._job is not job and panel._job, what="a second run")
@@ -523,10 +525,11 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     until(second.cancel.is_set, what="the cancel click")
     gate.set()
     until(lambda: second.finished, what="the cancelled run to end")
-    assert second.cancelled and second.result is None
-    page.get_by_text("Evaluation cancelled.").wait_for()
+    assert second.cancelled and second.result.partial and 0 < second.done < 12
+    page.get_by_text(f"Cancelled after {second.done} of 12 held-out").first.wait_for()
     until(run.is_enabled, what="the button after the cancel")
-    assert len(panel._result_handles) == 3 and panel.controls.results_folder.visible
+    assert "**partial**" in panel._result_handles[0].content
+    assert panel.controls.results_folder.visible
 
 
 @pytest.fixture(scope="module")

@@ -55,8 +55,9 @@ from promp.evaluate.report import (
     trials_csv,
 )
 from promp.evaluate.seed import ToolboxBaseline
-from promp.evaluate.sweep import position_modality, run_sweep, spread_subset, tqdm_progress
+from promp.evaluate.sweep import position_modality, run_sweep, spread_subset
 from promp.model import SELECT_RULES, Settings
+from promp.progress import stderr_progress
 from promp.quality import REPAIRS, Finding, dataset_findings, repair_gaps, split_flagged
 from promp.rigs import MAPPING_HELP, add_rig_arguments, rig_options
 
@@ -323,7 +324,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.jobs == 0 or args.jobs < -1:
             raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
         held_out = None if args.subset is None else spread_subset(dataset, args.subset)
-        n_demos = sum(len(v) for v in dataset.values()) if held_out is None else len(held_out)
         result = run_sweep(
             factory,
             dataset,
@@ -332,7 +332,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             alpha_methods=args.alpha,
             observe_sets=observe,
             method_name=args.method,
-            progress=tqdm_progress(f"{args.method}: leave-one-out over {n_demos} demos"),
+            progress=stderr_progress(f"{args.method}: leave-one-out", "held-out demonstrations"),
             keep_trials=True,
             jobs=args.jobs,
             scheduler=args.scheduler if args.backend == "dask" else None,

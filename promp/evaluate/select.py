@@ -20,8 +20,9 @@ from collections.abc import Sequence
 
 from promp.evaluate.cli import add_check_arguments, add_dataset_arguments, load, print_findings
 from promp.evaluate.methods import ProMPEngine
-from promp.evaluate.sweep import run_sweep, tqdm_progress
+from promp.evaluate.sweep import run_sweep
 from promp.model import Settings
+from promp.progress import stderr_progress
 
 # (basis functions per dimension, width, noise scale); the covariance prior is chosen by
 # marginal likelihood inside every fold
@@ -71,7 +72,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             alpha_methods=["ml"],
             observe_sets=observe,
             method_name="ours",
-            progress=tqdm_progress(f"M={n_basis} width={width} noise x{noise_scale}"),
+            progress=stderr_progress(f"M={n_basis} width={width} noise x{noise_scale}", "folds"),
             jobs=args.jobs,
         )
         row = {

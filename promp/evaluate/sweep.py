@@ -27,7 +27,6 @@ from __future__ import annotations
 import functools
 import math
 import os
-import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -81,23 +80,7 @@ class SweepResult:
     rows: list[dict] = field(default_factory=list)
     trials: list[Trial] = field(default_factory=list)
     failures: list[dict] = field(default_factory=list)  # trials the method failed on
-
-
-def tqdm_progress(label: str) -> Progress:
-    """A progress bar on stderr (tqdm)."""
-    from tqdm import tqdm
-
-    bar = None
-
-    def report(done: int, total: int) -> None:
-        nonlocal bar
-        if bar is None:
-            bar = tqdm(total=total, desc=label, unit="fold", file=sys.stderr)
-        bar.update(done - bar.n)
-        if done >= total:
-            bar.close()
-
-    return report
+    partial: bool = False  # stopped before every demonstration was held out (``stop``)
 
 
 def _run_fold(
@@ -233,6 +216,7 @@ def run_sweep(
     jobs: int = 1,
     scheduler: str | None = None,
     held_out: Sequence[tuple[int, int]] | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> SweepResult:
     """Run the leave-one-out protocol; one result row per (percent, alpha, observed).
 
@@ -240,6 +224,8 @@ def run_sweep(
     address) runs them on that cluster instead. The results do not depend on either.
     ``held_out``: the (primitive index, demonstration index) pairs to test, each with a model
     fitted on all the others (default: every demonstration; see :func:`spread_subset`).
+    ``stop()`` is asked after every fold: once true, the sweep ends there and its rows hold the
+    folds done (the result says it is ``partial``).
     """
     names = list(dataset)
     for name, demos in dataset.items():
@@ -270,11 +256,14 @@ def run_sweep(
         observe_sets=[list(o) for o in observe_sets],
     )
     acc: dict[tuple, list[Trial]] = {}
-    for trials in _folds(fold, held_out, jobs, scheduler, progress):
+    result = SweepResult()
+    for done, trials in enumerate(_folds(fold, held_out, jobs, scheduler, progress), 1):
         for trial in trials:
             key = (trial.percent, trial.alpha_method, trial.observed)
             acc.setdefault(key, []).append(trial)
-    result = SweepResult()
+        if stop is not None and done < len(held_out) and stop():
+            result.partial = True
+            break
     for (percent, alpha_method, observed), trials in acc.items():
         losses = [t.log_loss(len(names)) for t in trials]
         result.rows.append(

@@ -17,15 +17,18 @@ import time
 import traceback
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from app.ui.display import ALPHA_LABELS, observed_choices
+from app.ui.text import escape
 from promp.data import Demonstration, Layout
 from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.report import basis_settings, results_report
 from promp.evaluate.sweep import SweepResult, run_sweep
 from promp.model import Settings
+from promp.progress import progress_text
 from promp.quality import Finding
 
 MIN_DEMOS = 3  # leave-one-out needs two demonstrations left to learn from
@@ -79,10 +82,6 @@ def evaluation_dataset(
     return dataset, skipped
 
 
-class _Cancelled(Exception):
-    pass
-
-
 @dataclass
 class EvaluationJob:
     """A leave-one-out sweep running in a background thread; the loop reads it."""
@@ -104,17 +103,17 @@ class EvaluationJob:
     cancelled: bool = False
     finished: bool = False
     elapsed_s: float = 0.0
+    started: float = 0.0  # time.monotonic() when it started (0: not yet)
+    finished_at: float = 0.0  # time.time() when it finished
     cancel: threading.Event = field(default_factory=threading.Event)
 
     def run(self) -> None:
-        """The sweep (blocking); sets ``result``, ``error`` or ``cancelled``, then
-        ``finished``."""
-        start = time.perf_counter()
+        """The sweep (blocking); sets ``result`` (partial, and ``cancelled``, when cancelled
+        after some held-out demonstrations), ``error`` or ``cancelled``, then ``finished``."""
+        self.started = time.monotonic()
 
         def progress(done: int, total: int) -> None:
             self.done, self.total = done, total
-            if self.cancel.is_set():
-                raise _Cancelled
 
         settings, layout = self.settings, self.layout
         try:
@@ -128,17 +127,43 @@ class EvaluationJob:
                 method_name=METHOD,
                 progress=progress,
                 keep_trials=True,
+                stop=self.cancel.is_set,
             )
-        except _Cancelled:
-            self.cancelled = True
+            if self.result.partial:  # the folds done are what it holds
+                self.cancelled = True
+                self.done = len({(t.primitive, t.demo) for t in self.result.trials})
         except ValueError as exc:
             self.error = str(exc)
         except Exception as exc:  # a bug must end the job visibly, not hang the progress bar
             traceback.print_exc()
             self.error = f"{type(exc).__name__}: {exc}"
         finally:
-            self.elapsed_s = time.perf_counter() - start
+            self.elapsed_s = time.monotonic() - self.started
+            self.finished_at = time.time()
             self.finished = True
+
+    def progress_text(self, now: float) -> str:
+        """``"5 / 12 held-out demonstrations · 0:35 elapsed · about 0:49 left"``."""
+        elapsed = now - self.started if self.started else 0.0
+        total = max(self.total, self.done)
+        return progress_text(self.done, total, elapsed, "held-out demonstrations")
+
+    def title(self) -> str:
+        """What the results show (markdown): the workspace, when, what was observed; said
+        partial when the evaluation was cancelled."""
+        observed = "; ".join(" + ".join(names) for names in self.observe_sets)
+        alphas = ", ".join(ALPHA_LABELS.get(m, m) for m in self.alpha_methods)
+        counted = (
+            f"**partial**: cancelled after {self.done} of {self.total} held-out demonstrations"
+            if self.cancelled
+            else f"{self.total} held-out demonstrations"
+        )
+        return (
+            f"**Results of {escape(Path(self.source).name or self.source)}** "
+            f"({time.strftime('%H:%M', time.localtime(self.finished_at))}): {counted}; "
+            f"observed {escape(observed)}, alpha {alphas}, "
+            f"{', '.join(f'{p:g}' for p in self.percents)} %."
+        )
 
     def report(self) -> dict:
         """The finished sweep's report, as ``python -m promp.evaluate --json`` writes it

@@ -15,6 +15,7 @@ on the studio's loop, moves the progress bar and shows the outcome once the job 
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,6 +44,13 @@ Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
 FAILURES_LISTED = 10
 TRIALS_LISTED = 200  # the Failed trials dropdown's options at most
 NO_TRIAL = "(none)"
+IDLE = f"Held out one demonstration at a time (primitives with at least {MIN_DEMOS})."
+
+
+def running_text(job: EvaluationJob, now: float) -> str:
+    """The status while it runs, e.g. "Running on lab: 5 / 12 held-out demonstrations · 0:35
+    elapsed · about 0:49 left"."""
+    return f"Running on {escape(Path(job.source).name)}: {job.progress_text(now)}."
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,7 +78,8 @@ class EvaluationSection:
         self.notify = notify
         self._job: EvaluationJob | None = None
         self._job_shown: EvaluationJob | None = None
-        self._shown_done = -1
+        self._shown = (-1, 0.0)  # the count shown, and when the status was written
+        self._root = ctx.store.state.workspace.root  # the workspace the results are of
         self._thread: threading.Thread | None = None
         self._result_handles: list = []
         self._results_job: EvaluationJob | None = None  # the latest evaluation with results
@@ -94,9 +103,7 @@ class EvaluationSection:
                 "Cancel evaluation", icon=viser.Icon.X, color="red", visible=False
             )
             progress_bar = gui.add_progress_bar(0.0, visible=False, animated=True)
-            eval_status = gui.add_markdown(
-                f"Held out one demonstration at a time (primitives with at least {MIN_DEMOS})."
-            )
+            eval_status = gui.add_markdown(IDLE)
             export_button = gui.add_button(
                 "Export results", icon=viser.Icon.FILE_ZIP, disabled=True,
                 hint="Download the finished evaluation as a zip: results.json, results.csv and "
@@ -168,9 +175,7 @@ class EvaluationSection:
         self.controls.progress_bar.value = 0.0
         self.controls.progress_bar.animated = True
         self.controls.progress_bar.visible = True
-        self.controls.eval_status.content = (
-            f"Running: {job.total} held-out demonstrations of {', '.join(dataset)}..."
-        )
+        self.controls.eval_status.content = running_text(job, time.monotonic())
         self._thread = threading.Thread(target=job.run, name="data-evaluation", daemon=True)
         self._thread.start()
         return job
@@ -186,21 +191,33 @@ class EvaluationSection:
         if layout != self._layout:  # another workspace: its modalities
             self._layout, self._observe_choices = layout, observe_choices(layout)
             self.controls.observe_dropdown.options = tuple(self._observe_choices)
+        root = snapshot.store.workspace.root
+        if root != self._root:  # another workspace: nothing of the previous one's stays
+            self._root = root
+            self.cancel()
+            self._clear_results()
         if self._job is not None:
             self._show(self._job)
 
     def _show(self, job: EvaluationJob) -> None:
         """Progress while it runs; results, status and buttons when it has finished."""
-        if job.done != self._shown_done:
-            self._shown_done = job.done
+        now = time.monotonic()
+        if job.done != self._shown[0] or (not job.finished and now - self._shown[1] >= 1.0):
+            self._shown = (job.done, now)
             self.controls.progress_bar.value = 100.0 * job.done / max(job.total, 1)
+            if not job.finished:  # the counts, and the clock every second
+                self.controls.eval_status.content = running_text(job, now)
         if not job.finished or self._job_shown is job:
             return
         self._job_shown = job
         self.controls.run_button.disabled = False
         self.controls.cancel_button.visible = False
         self.controls.progress_bar.animated = False
-        if job.cancelled:
+        if job.source != str(self._root):  # it ended after the workspace changed
+            self.controls.eval_status.content = "Evaluation cancelled: the workspace changed."
+            self.controls.progress_bar.visible = False
+            return
+        if job.cancelled and (job.result is None or not job.result.rows):
             self.controls.eval_status.content = "Evaluation cancelled."
             self.controls.progress_bar.visible = False
             return
@@ -209,18 +226,35 @@ class EvaluationSection:
             self.controls.progress_bar.visible = False
             self.notify(None, "Evaluation failed", str(job.error), "red")
             return
-        self.controls.eval_status.content = self._summary(job)
+        self.controls.eval_status.content = (
+            f"**Cancelled** after {job.done} of {job.total} held-out demonstrations "
+            f"({job.elapsed_s:.1f} s): the results below are partial."
+            if job.cancelled
+            else summary(job)
+        )
         for handle in self._result_handles:
             handle.remove()
         with self.controls.results_folder:
-            self._result_handles = add_results(self.ctx.gui, job.result.rows)
+            self._result_handles = [self.ctx.gui.add_markdown(job.title()),
+                                    *add_results(self.ctx.gui, job.result.rows)]  # fmt: skip
         self.controls.results_folder.visible = bool(self._result_handles)
         self._results_job = job
         self.controls.export_button.disabled = False
         self._list_failed(job)
-        self.notify(
-            None, "Evaluation done", f"{job.total} held-out demonstrations, {job.elapsed_s:.1f} s."
-        )
+        done = "Evaluation cancelled: partial results" if job.cancelled else "Evaluation done"
+        self.notify(None, done, f"{job.done} of {job.total} held-out demonstrations, "
+                    f"{job.elapsed_s:.1f} s.")  # fmt: skip
+
+    def _clear_results(self) -> None:
+        """Nothing of an evaluation stays shown: its results, failed trials and export."""
+        for handle in self._result_handles:
+            handle.remove()
+        self._result_handles, self._results_job, self._failed = [], None, {}
+        c = self.controls
+        c.results_folder.visible = c.failed_dropdown.visible = c.open_button.visible = False
+        c.progress_bar.visible = False
+        c.export_button.disabled = True
+        c.eval_status.content = IDLE
 
     def _list_failed(self, job: EvaluationJob) -> None:
         trials = failed_trials(job.result, job.dataset)
@@ -272,46 +306,48 @@ class EvaluationSection:
         self.ctx.open_in_infer(trial.request, client)
         return trial
 
-    @staticmethod
-    def _summary(job: EvaluationJob) -> str:
-        skipped = (
-            " Skipped (fewer than 3 demonstrations): "
-            + ", ".join(f"{n} ({c})" for n, c in job.skipped.items())
-            + "."
-            if job.skipped
-            else ""
-        )
-        left_out = (
-            f" Left out (flagged, not kept in Teach): {len(job.left_out)} demonstration(s): "
-            + escape(", ".join(f"{p}/{d}" for p, d in job.left_out))
-            + "."
-            if job.left_out
-            else ""
-        )
-        failed = ""
-        failures = job.result.failures
-        if failures:
-            listed = "; ".join(
-                f"{f['primitive']}/{f['demo']} at {f['percent']:g} % ({f['error']})"
-                for f in failures[:FAILURES_LISTED]
-            )
-            more = len(failures) - FAILURES_LISTED
-            failed = (
-                f"  \n**{len(failures)} trial(s) failed** (counted as recognition "
-                f"errors): {escape(listed)}" + (f"; and {more} more" if more > 0 else "")
-            )
-        settings = job.settings
-        how = (
-            "settings chosen from the training demonstrations in every fold"
-            if settings.automatic
-            else f"n_basis {settings.n_basis}, width {settings.width:g}"
-        )
-        return (
-            f"Held out each of {job.total} demonstrations of {', '.join(job.dataset)} in "
-            f"{job.elapsed_s:.1f} s ({how}).{skipped}{left_out}{failed}"
-        )
-
     def close(self) -> None:
         self.cancel()
         if self._thread is not None:
             self._thread.join(timeout=10.0)
+
+
+def summary(job: EvaluationJob) -> str:
+    """What a finished evaluation did (markdown): how many were held out, in how long, what
+    was skipped, left out, or failed."""
+    skipped = (
+        " Skipped (fewer than 3 demonstrations): "
+        + ", ".join(f"{n} ({c})" for n, c in job.skipped.items())
+        + "."
+        if job.skipped
+        else ""
+    )
+    left_out = (
+        f" Left out (flagged, not kept in Teach): {len(job.left_out)} demonstration(s): "
+        + escape(", ".join(f"{p}/{d}" for p, d in job.left_out))
+        + "."
+        if job.left_out
+        else ""
+    )
+    failed = ""
+    failures = job.result.failures
+    if failures:
+        listed = "; ".join(
+            f"{f['primitive']}/{f['demo']} at {f['percent']:g} % ({f['error']})"
+            for f in failures[:FAILURES_LISTED]
+        )
+        more = len(failures) - FAILURES_LISTED
+        failed = (
+            f"  \n**{len(failures)} trial(s) failed** (counted as recognition "
+            f"errors): {escape(listed)}" + (f"; and {more} more" if more > 0 else "")
+        )
+    settings = job.settings
+    how = (
+        "settings chosen from the training demonstrations in every fold"
+        if settings.automatic
+        else f"n_basis {settings.n_basis}, width {settings.width:g}"
+    )
+    return (
+        f"Held out each of {job.total} demonstrations of {', '.join(job.dataset)} in "
+        f"{job.elapsed_s:.1f} s ({how}).{skipped}{left_out}{failed}"
+    )

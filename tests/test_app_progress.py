@@ -1,0 +1,97 @@
+"""Progress a person can plan around, in the Data tab (issue 28): a running leave-one-out
+evaluation says done / total, elapsed and the time left; cancelled, its partial results are
+kept and said partial; the results say which workspace they are of, and go when the workspace
+switches (a stale "Failed trials (15)" of another workspace never stays)."""
+
+from __future__ import annotations
+
+import pytest
+
+from app.io.workspace import Workspace, WorkspaceData
+from app.io.workspace_index import PALETTE, PrimitiveEntry
+from tests.browser import click, open_tab, press
+from tests.conftest import open_page, start_studio, wait_until
+from tests.test_app_data import gate_sweep  # the next sweep waits after its first fold
+
+SETTINGS = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}  # no choice in every fold: quick
+
+
+def scenario(seed: int, n_demos: int) -> WorkspaceData:
+    from robots.icub.scenario import generate_scenario
+
+    dataset = generate_scenario(seed=seed, n_demos=n_demos, third=True)
+    return WorkspaceData(
+        primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
+        demos=dataset,
+        settings=SETTINGS,
+    )
+
+
+@pytest.fixture(scope="module")
+def studio(tmp_path_factory):
+    root = tmp_path_factory.mktemp("progress") / "lab-a"
+    Workspace.create(root, scenario(1, 4))
+    studio = start_studio(root)
+    yield studio
+    studio.stop()
+
+
+def until(predicate, what: str):
+    return wait_until(predicate, timeout=120.0, what=what)
+
+
+@pytest.mark.browser
+def test_progress_cancel_and_a_workspace_switch(browser, studio, monkeypatch, tmp_path) -> None:
+    from app.panels.data import DataPanel
+
+    section = next(p for p in studio.panels if isinstance(p, DataPanel)).evaluation
+    controls = section.controls
+    page, _client = open_page(browser, studio, width=1200, height=1000)
+    try:
+        page.set_default_timeout(120_000)
+        open_tab(page, "Data")
+        controls.percents_text.value = "10 50"
+        controls.observe_dropdown.value = "hand + head"
+        controls.alpha_dropdown.value = "ML"
+        gate = gate_sweep(monkeypatch)
+        click(page, "Run leave-one-out evaluation")
+        job = until(lambda: section.job, what="the evaluation to start")
+        until(lambda: job.done == 1, what="the first held-out demonstration")
+
+        # Counts, the time elapsed and the time left, in words a person plans with.
+        status = page.get_by_text("Running on lab-a: 1 / 12 held-out demonstrations")
+        status.wait_for()
+        text = status.inner_text()
+        assert " elapsed · about " in text and text.endswith(" left.")
+        seconds = text.split(" · ")[1]  # "0:07 elapsed": the clock moves while it runs
+        until(lambda: status.inner_text().split(" · ")[1] != seconds, what="the clock to move")
+        page.get_by_text("Leave-one-out evaluation", exact=True).first.evaluate(
+            "e => e.scrollIntoView({block: 'start'})"
+        )
+        page.screenshot(path="/tmp/progress_running.png")
+
+        # Cancelled: what was done is kept and shown, said partial.
+        press(page, page.get_by_role("button", name="Cancel evaluation"))
+        until(job.cancel.is_set, what="the cancel click")
+        gate.set()
+        until(lambda: job.finished, what="the cancelled evaluation to end")
+        assert job.cancelled and job.result.partial and 0 < job.done < 12
+        page.get_by_text(f"Cancelled after {job.done} of 12 held-out").first.wait_for()
+        title = page.locator("p", has_text="Results of lab-a").first
+        title.wait_for()
+        assert f"partial: cancelled after {job.done} of 12" in title.inner_text()
+        assert {r["trials"] for r in job.result.rows} == {job.done}
+        failed = page.get_by_text("Failed trials (", exact=False).first
+        until(lambda: controls.failed_dropdown.visible, what="the failed trials listed")
+        page.screenshot(path="/tmp/progress_partial.png")
+
+        # Another workspace: nothing of lab-a's evaluation stays.
+        studio.session.store.switch(tmp_path / "lab-b", scenario(2, 3))
+        until(lambda: not controls.failed_dropdown.visible, what="the failed trials gone")
+        title.wait_for(state="detached")
+        failed.wait_for(state="hidden")
+        assert controls.export_button.disabled and not controls.results_folder.visible
+        page.get_by_text("Held out one demonstration at a time").wait_for()
+        page.screenshot(path="/tmp/progress_switched.png")
+    finally:
+        page.close()

@@ -1,0 +1,69 @@
+"""Progress a person can plan around (issue 28): done / total, elapsed, and the time left at
+the pace so far, one pure function for the studio and the command line."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+
+from promp.progress import clock, progress_text, stderr_progress, time_left
+
+
+def test_time_left_is_the_average_pace_times_what_is_left() -> None:
+    assert time_left(10, 40, 35.0) == pytest.approx(105.0)
+    assert time_left(1, 3, 2.0) == pytest.approx(4.0)
+    assert time_left(0, 40, 12.0) is None  # nothing done: nothing to go by
+    assert time_left(40, 40, 90.0) == 0.0
+    assert time_left(0, 0, 0.0) == 0.0  # nothing to do is done
+    for bad in ((41, 40, 1.0), (-1, 40, 1.0), (1, 40, -1.0), (1, 40, float("nan"))):
+        with pytest.raises(ValueError):
+            time_left(*bad)
+
+
+def test_clock_and_text() -> None:
+    assert [clock(s) for s in (0, 0.2, 35, 70, 725, 3723)] == [
+        "0:00", "0:01", "0:35", "1:10", "12:05", "1:02:03"
+    ]  # fmt: skip
+    assert (
+        progress_text(12, 40, 15.0, "trials") == "12 / 40 trials · 0:15 elapsed · about 0:35 left"
+    )
+    assert progress_text(0, 40, 3.0) == "0 / 40 · 0:03 elapsed · estimating the time left"
+    assert progress_text(40, 40, 65.0, "trials") == "40 / 40 trials · 1:05 elapsed"
+
+
+class Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_the_command_line_printer() -> None:
+    log = io.StringIO()  # a log file: a line at most every 2 s, and the last one
+    report = stderr_progress("ours: leave-one-out", "folds", stream=log)
+    for done in range(1, 6):
+        report(done, 5)
+    lines = log.getvalue().splitlines()
+    assert lines[0].startswith("ours: leave-one-out: 1 / 5 folds · 0:0")
+    assert "about" in lines[0] and lines[-1].startswith("ours: leave-one-out: 5 / 5 folds · ")
+    assert len(lines) == 2
+    terminal = Terminal()  # a terminal: one line, rewritten in place
+    report = stderr_progress("fit", stream=terminal)
+    report(1, 2)
+    report(2, 2)
+    assert terminal.getvalue().count("\r") == 2 and terminal.getvalue().endswith("\n")
+
+
+def test_python_m_promp_evaluate_prints_its_progress_on_stderr(tmp_path, capsys) -> None:
+    from promp.datasets import write_csv_dataset
+    from promp.evaluate.cli import main
+    from tests.synthetic import make_dataset
+
+    write_csv_dataset(tmp_path / "data", make_dataset(seed=2, n_demos=3))
+    argv = [str(tmp_path / "data"), "--format", "csv", "--modality", "hand=x,y,z",
+            "--basis", "7", "--width", "1", "--noise-scale", "1.5", "--alpha", "ml",
+            "--percent", "50", "--jobs", "1"]  # fmt: skip
+    assert main(argv) == 0
+    lines = [line for line in capsys.readouterr().err.splitlines() if "leave-one-out" in line]
+    assert lines[0].startswith("ours: leave-one-out: 1 / 6 held-out demonstrations · 0:0")
+    assert " elapsed · about " in lines[0] and lines[0].endswith(" left")
+    assert lines[-1].startswith("ours: leave-one-out: 6 / 6 held-out demonstrations · ")
