@@ -116,8 +116,9 @@ def wait_until(predicate, timeout: float = 30.0, interval: float = 0.05, what="c
     pytest.fail(f"timed out after {timeout:.0f} s waiting for {what() if callable(what) else what}")
 
 
-def scenario_workspace(root: Path, seed: int, n_demos: int) -> Path:
-    """A workspace at ``root`` holding the simulated scenario (``n_demos`` per primitive)."""
+def scenario_workspace(root: Path, seed: int, n_demos: int, settings: dict | None = None) -> Path:
+    """A workspace at ``root`` holding the simulated scenario (``n_demos`` per primitive), with
+    the learning ``settings`` given (default: the engine's)."""
     from app.io.workspace import Workspace, WorkspaceData
     from app.io.workspace_index import PALETTE, PrimitiveEntry
     from robots.icub.scenario import generate_scenario
@@ -128,6 +129,7 @@ def scenario_workspace(root: Path, seed: int, n_demos: int) -> Path:
         WorkspaceData(
             primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
             demos=dataset,
+            settings=dict(settings or {}),
         ),
     )
     return root

@@ -37,6 +37,7 @@ from app.core.store_state import (
     save_index,
 )
 from app.io.dataset_import import safe_name
+from app.io.runs_folder import RUN_KIND, trash_run
 from app.io.trash import TrashEntry
 from app.io.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
 from app.io.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
@@ -245,8 +246,20 @@ class Store:
         with self._lock:
             state = self._state
             entry = state.workspace.restore(name)
-            self._reload(state.workspace, tuple(e for e in state.deleted if e.name != name))
+            deleted = tuple(e for e in state.deleted if e.name != name)
+            if entry.kind == RUN_KIND:  # an evaluation run: no demonstration came back
+                trash = tuple(state.workspace.trash.entries())
+                self._publish(replace(state, deleted=deleted, trash=trash), False, False)
+                return entry
+            self._reload(state.workspace, deleted)
             return entry
+
+    def trash_run(self, folder: str) -> TrashEntry:
+        """Move the evaluation run ``folder`` to the trash (:mod:`app.io.runs_folder`)."""
+        with self._lock:
+            trashed = trash_run(self._state.workspace.trash, folder)
+            self._publish(after_trashing(self._state, trashed), learn=False, recheck=False)
+            return trashed
 
     def undo_delete(self) -> TrashEntry:
         """Restore the latest deletion of this run."""

@@ -28,7 +28,7 @@ from promp.datasets import atomic_write_text
 TRASH_DIR = "trash"
 ENTRY_FILE = "entry.json"
 FILES_DIR = "files"
-KINDS = ("demo", "primitive", "workspace")
+KINDS = ("demo", "primitive", "workspace", "run")  # run: app.io.runs_folder
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ class TrashEntry:
     ----------
     name : str
         The entry's folder name (sorts by time).
-    kind : {"demo", "primitive", "workspace"}
+    kind : {"demo", "primitive", "workspace", "run"}
     label : str
         What was deleted, for people ("curved_003 of curved").
     deleted_at : float

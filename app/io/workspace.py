@@ -10,6 +10,7 @@
                                       each recorded take as it was sampled, before its idle
                                       ends were trimmed (never read as a demonstration)
       trash/                          what was deleted or replaced (app.io.trash), restorable
+      runs/<time>-<name>/             evaluation runs (app.io.runs_folder; never demonstrations)
 
 The studio only ever writes inside a folder that is absent, empty, or already a studio
 workspace (it has ``studio.json``): :func:`inspect_folder` tells them apart, and any other
@@ -36,6 +37,7 @@ from enum import Enum
 from pathlib import Path
 
 from app.io.demo_checks import DemoChecks
+from app.io.runs_folder import RUN_KIND, RUNS_DIR
 from app.io.trash import Trash, TrashEntry
 from app.io.workspace_index import (
     INDEX_NAME,
@@ -95,7 +97,8 @@ def inspect_folder(root: Path) -> tuple[FolderKind, str]:
         raise ValueError(f"workspace {root} exists and is not a folder")
     if (root / INDEX_NAME).is_file():
         return FolderKind.WORKSPACE, ""
-    entries = list(root.iterdir())
+    # Only runs/ (``promp.evaluate --run`` wrote one first): the workspace is made around it.
+    entries = [p for p in root.iterdir() if p.name != RUNS_DIR or not p.is_dir()]
     if not entries:
         return FolderKind.EMPTY, ""
     files = 0
@@ -161,6 +164,12 @@ class Workspace:
         staging = Path(tempfile.mkdtemp(prefix=f".{root.name}.creating-", dir=root.parent))
         try:
             _write_all(staging, data)
+            if kind is FolderKind.EMPTY and (root / RUNS_DIR).is_dir():
+                # The runs stay where they are: the demonstrations, then the index, move in.
+                os.rename(staging / DEMOS_DIR, root / DEMOS_DIR)
+                os.rename(staging / INDEX_NAME, root / INDEX_NAME)
+                staging.rmdir()
+                return cls(root)
             if kind is FolderKind.EMPTY:
                 root.rmdir()  # refuses unless still empty
             os.rename(staging, root)
@@ -307,6 +316,9 @@ class Workspace:
             )
             self._trash_content(f"workspace replaced by restoring {entry.when}")
             self.index_path.unlink()  # its copy is in the trash entry just made
+            self.trash.take_back(entry)
+            return entry
+        if entry.kind == RUN_KIND:  # an evaluation run's folder, back in runs/
             self.trash.take_back(entry)
             return entry
         index = self.read_index()

@@ -68,6 +68,7 @@ class EvaluationControls:
     failed_dropdown: viser.GuiDropdownHandle
     open_button: viser.GuiButtonHandle
     results_folder: viser.GuiFolderHandle
+    run_name_text: viser.GuiTextHandle  # the name the run is saved under (runs_section)
 
 
 class EvaluationSection:
@@ -96,6 +97,10 @@ class EvaluationSection:
             percents_text = gui.add_text(
                 "Percents", " ".join(f"{p:g}" for p in DEFAULT_PERCENTS)
             )
+            run_name_text = gui.add_text(
+                "Run name", "", hint="The name the evaluation is kept under in the workspace's "
+                "runs/ (Saved runs); empty: the observed modalities and the alpha method",
+            )  # fmt: skip
             run_button = gui.add_button(
                 "Run leave-one-out evaluation", icon=viser.Icon.PLAYER_PLAY
             )
@@ -123,6 +128,7 @@ class EvaluationSection:
         self.controls = EvaluationControls(
             observe_dropdown, alpha_dropdown, percents_text, run_button, cancel_button,
             progress_bar, eval_status, export_button, failed_dropdown, open_button, results_folder,
+            run_name_text,
         )  # fmt: skip
         self.controls.run_button.on_click(lambda event: self.start(event.client))
         self.controls.cancel_button.on_click(lambda _: self.cancel())
@@ -183,6 +189,20 @@ class EvaluationSection:
     def cancel(self) -> None:
         if self._job is not None:
             self._job.cancel.set()
+
+    @property
+    def job(self) -> EvaluationJob | None:
+        """The latest evaluation started (running or finished)."""
+        return self._job
+
+    def show_results(self, rows, title: str) -> None:
+        """Show a saved run's result ``rows`` in the results area, under ``title`` (markdown)."""
+        for handle in self._result_handles:
+            handle.remove()
+        with self.controls.results_folder:
+            self._result_handles = [self.ctx.gui.add_markdown(title),
+                                    *add_results(self.ctx.gui, rows)]  # fmt: skip
+        self.controls.results_folder.visible = True
 
     # ------------------------------------------------------------------ the loop
 

@@ -14,8 +14,9 @@ the leave-one-out evaluation.
   Uploads over :data:`app.io.exchange.MAX_UPLOAD_BYTES` are refused as soon as they start
   (:mod:`app.ui.upload_guard`).
 * **Import dataset** (:mod:`app.panels.data.import_dataset`), **Recently deleted**
-  (:mod:`app.panels.data.trash_list`) and the **Leave-one-out evaluation**
-  (:mod:`app.panels.data.evaluation_section`) are sections of their own.
+  (:mod:`app.panels.data.trash_list`), the **Leave-one-out evaluation**
+  (:mod:`app.panels.data.evaluation_section`) and its **Saved runs**
+  (:mod:`app.panels.data.runs_section`) are sections of their own.
 
 Callbacks run on viser's thread pool and only make one mutation (the store's, the view
 state's) or start a job; :meth:`DataPanel.step`, on the studio's loop, shows the frame's
@@ -28,16 +29,17 @@ import traceback
 
 import viser
 
-from app.core.snapshot import Snapshot
 from app.core.store_state import workspace_data
 from app.io import exchange
 from app.panels.data.evaluation_section import EvaluationSection
 from app.panels.data.import_dataset import DatasetImport
+from app.panels.data.model_status import ModelStatus
+from app.panels.data.runs_section import RunsSection
 from app.panels.data.trash_list import RecentlyDeleted
 from app.scene.look import Shown
 from app.ui.context import Frame, PanelContext
 from app.ui.dialogs import confirm
-from app.ui.text import display_name, escape
+from app.ui.text import display_name
 from app.ui.upload_guard import UploadRefusals
 
 ERROR_SECONDS, NOTICE_SECONDS = 20.0, 10.0  # how long a notification to one client stays
@@ -58,7 +60,6 @@ class DataPanel:
         self.ctx = ctx
         self.uploads_received = 0  # uploads that reached the callback (the guard stops others)
         self.refusals = UploadRefusals(ctx.notify, ERROR_SECONDS)
-        self._status: tuple = ()  # what the model status shows
         gui = ctx.gui
         gui.add_markdown("**Export**")
         self.export_model_button = gui.add_button(
@@ -78,13 +79,11 @@ class DataPanel:
             mime_type=".json,.zip",
             hint="A model (.json) to infer with, or a workspace (.zip) to replace this one",
         )
-        self.model_status = gui.add_markdown("")
-        self.use_learned_button = gui.add_button(
-            "Use the learned model", icon=viser.Icon.ARROW_BACK_UP, visible=False
-        )
+        self.model_status = ModelStatus(ctx, self._notify)
         self.importer = DatasetImport(ctx, self._notify)
         self.trash = RecentlyDeleted(ctx, self._notify)
         self.evaluation = EvaluationSection(ctx, self._notify)
+        self.runs = RunsSection(ctx, self._notify, self.evaluation)
         self.guard = ctx.guard_upload(
             self.upload_button, max_upload_bytes,
             lambda client, filename, size: self.refusals.refuse(
@@ -100,7 +99,6 @@ class DataPanel:
                 event.client, event.target.value.name, event.target.value.content
             )
         )
-        self.use_learned_button.on_click(lambda event: self.use_learned_model(event.client))
 
     def _notify(
         self, client: viser.ClientHandle | None, title: str, body: str, color: str = "blue"
@@ -242,39 +240,17 @@ class DataPanel:
         )
         return True
 
-    def use_learned_model(self, client: viser.ClientHandle | None) -> None:
-        self.ctx.view.use_imported(None, "", self.ctx.store.state)
-        self._notify(client, "Learned model", "Inference uses the model learned from the demos.")
-
-    def _show_model_status(self, snapshot: Snapshot) -> None:
-        imported, model = snapshot.imported, snapshot.model
-        status = (imported, model, snapshot.learner.error)
-        if self._status and all(a is b for a, b in zip(status, self._status, strict=True)):
-            return
-        self._status = status
-        if imported is not None:
-            names = ", ".join(p.name for p in imported.model.primitives)
-            text = (
-                f"**Inference model:** imported from `{imported.source}` ({names}), used until "
-                "the demonstrations change."
-            )
-        elif model is not None:
-            names = ", ".join(p.name for p in model.primitives)
-            text = f"**Inference model:** learned from the demonstrations ({names})."
-        else:
-            text = f"**Inference model:** none yet ({escape(str(snapshot.learner.error))})."
-        self.model_status.content = text
-        self.use_learned_button.visible = imported is not None
-
     # ------------------------------------------------------------------ loop
 
     def step(self, frame: Frame) -> Shown | None:
-        self._show_model_status(frame.snapshot)
+        self.model_status.step(frame.snapshot)
         self.trash.step(frame.snapshot)
         self.evaluation.step(frame.snapshot)
+        self.runs.step(frame.snapshot)
         return None
 
     def close(self) -> None:
         self.evaluation.close()
+        self.runs.close()
         self.guard.close()
         self.importer.close()

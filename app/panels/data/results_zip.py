@@ -9,7 +9,9 @@ the same run, built in memory by the command line's own writers
                         the checks' findings and what was left out
     results.csv         the result table, one line per row
     trials.csv          one line per trial (as --trials-csv writes it)
-    figures/*.png       curves, reliability diagram, one example per observed modality set
+    figures/*.png       curves, reliability diagram, the confusion matrices (one figure per
+                        observed modality set and alpha method, a panel per percentage; the
+                        counts are results.json's "confusion"), one example per modality set
 """
 
 from __future__ import annotations
@@ -57,11 +59,24 @@ def results_zip(
         archive.writestr(JSON_NAME, report_json(report))
         archive.writestr(CSV_NAME, results_csv(report["results"]))
         archive.writestr(TRIALS_NAME, trials_csv(report["trials"]))
-        with tempfile.TemporaryDirectory(prefix="evaluation-figures-") as folder, _PYPLOT:
-            method = report["settings"]["method"]
-            for path in write_figures(Path(folder), result, dataset, layout, method):
+        with tempfile.TemporaryDirectory(prefix="evaluation-figures-") as folder:
+            for path in draw_figures(Path(folder), report, result, dataset, layout):
                 archive.write(path, f"{FIGURES}/{path.name}", compress_type=zipfile.ZIP_STORED)
     return buffer.getvalue()
+
+
+def draw_figures(
+    folder: Path,
+    report: Mapping,
+    result: SweepResult,
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+) -> list[Path]:
+    """The figures of ``python -m promp.evaluate --plots`` in ``folder`` (curves, reliability,
+    a confusion matrix per percentage for each series, examples); their paths. One drawing at
+    a time: pyplot keeps its figures in global state."""
+    with _PYPLOT:
+        return write_figures(Path(folder), result, dataset, layout, report["settings"]["method"])
 
 
 def results_filename(workspace: str, when: float | None = None) -> str:

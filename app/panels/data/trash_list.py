@@ -19,7 +19,9 @@ from app.ui.text import escape
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
 NOTHING = "(the trash is empty)"
-KIND_WORDS = {"demo": "demonstration", "primitive": "primitive", "workspace": "workspace"}
+KIND_WORDS = {
+    "demo": "demonstration", "primitive": "primitive", "workspace": "workspace", "run": "evaluation"
+}  # fmt: skip
 
 
 def entry_label(entry: TrashEntry) -> str:

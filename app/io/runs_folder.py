@@ -1,0 +1,213 @@
+"""The workspace's evaluation runs: ``runs/<YYYYmmdd-HHMMSS>-<name>/``, one folder per run.
+
+::
+
+    WORKSPACE/runs/<YYYYmmdd-HHMMSS>-<name>/
+        run.json, results.csv, trials.csv, figures/     (promp.evaluate.runs)
+
+The studio writes a run after every evaluation it runs to its end (and a cancelled one with
+results, marked partial) with the command line's writer (:func:`promp.evaluate.runs.write_run`:
+built beside, renamed into place); ``python -m promp.evaluate ... --run WORKSPACE/runs/NAME``
+writes the same. The loader of demonstrations never reads ``runs/``. A run is listed from its
+``run.json``; one that cannot be read is listed with the reason and opens nowhere. Deleting a
+run moves its folder to the workspace's trash (:mod:`app.io.trash`, kind ``run``), whence it
+can be restored. Pure: no viser.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import io
+import math
+import os
+import zipfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from app.io.trash import Trash, TrashEntry
+from promp.evaluate.runs import Run, folder_name, read_run, write_run
+
+RUNS_DIR = "runs"
+RUN_KIND = "run"  # the trash entry's kind
+PARTIAL = "partial"  # the report's key marking a cancelled run's results
+
+
+@dataclass(frozen=True)
+class RunListing:
+    """One folder of ``runs/`` as the Data tab lists it.
+
+    Attributes
+    ----------
+    folder : str
+        The folder's name under ``runs/`` (sorts by time).
+    name, created : str
+        The run's name and time (ISO 8601), from its ``run.json``.
+    observed : tuple of tuple of str
+        The observed modality sets swept, e.g. ``(("hand", "head"),)``.
+    alpha : tuple of str
+        The alpha methods (``"ml"``, ``"model"``).
+    percents : tuple of float
+    errors, trials : int
+        Recognition errors and trials, summed over every result row.
+    partial : bool
+        A cancelled evaluation's results (fewer trials than asked for).
+    problem : str
+        Why the run cannot be read ("" when it can); the other fields are then empty.
+    """
+
+    folder: str
+    name: str = ""
+    created: str = ""
+    observed: tuple[tuple[str, ...], ...] = ()
+    alpha: tuple[str, ...] = ()
+    percents: tuple[float, ...] = ()
+    errors: int = 0
+    trials: int = 0
+    partial: bool = False
+    problem: str = ""
+
+
+def runs_root(workspace: Path) -> Path:
+    return Path(workspace) / RUNS_DIR
+
+
+def run_path(workspace: Path, folder: str) -> Path:
+    """The folder of run ``folder`` (a plain name under ``runs/``).
+
+    Raises
+    ------
+    ValueError
+        ``folder`` is not a plain folder name.
+    """
+    if not folder or folder.startswith(".") or "/" in folder or "\\" in folder:
+        raise ValueError(f"{folder!r} is not the name of a run folder")
+    return runs_root(workspace) / folder
+
+
+def listing(run: Run) -> RunListing:
+    """What the list shows of ``run``."""
+    report = run.report
+    settings = report.get("settings") or {}
+    rows = report["results"]
+    observed = settings.get("observe") or sorted({tuple(r["observed"]) for r in rows})
+    alpha = settings.get("alpha") or sorted({r["alpha_method"] for r in rows})
+    percents = settings.get("percents") or sorted({float(r["percent"]) for r in rows})
+    return RunListing(
+        folder=run.folder.name, name=run.name, created=run.created,
+        observed=tuple(tuple(str(n) for n in names) for names in observed),
+        alpha=tuple(str(a) for a in alpha), percents=tuple(float(p) for p in percents),
+        errors=sum(_count(r.get("recognition_errors")) for r in rows),
+        trials=sum(_count(r.get("trials")) for r in rows), partial=bool(report.get(PARTIAL)),
+    )  # fmt: skip
+
+
+def _count(value: object) -> int:
+    try:
+        number = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return 0
+    return int(round(number)) if math.isfinite(number) else 0
+
+
+def list_runs(
+    workspace: Path, known: Mapping[str, tuple[float, RunListing]] | None = None
+) -> dict[str, tuple[float, RunListing]]:
+    """Every run folder of the workspace, newest first (by the time in its ``run.json``; those
+    that cannot be read last): its name -> (the modification time of its ``run.json``, its
+    listing). ``known`` (a previous answer) saves reading again the runs
+    whose ``run.json`` has not changed. Hidden folders (a run being written) are left out."""
+    root = runs_root(workspace)
+    try:
+        folders = sorted((p for p in root.iterdir() if p.is_dir()), reverse=True)
+    except OSError:  # no runs/ yet, or unreadable: nothing to list
+        return {}
+    known = known or {}
+    out: dict[str, tuple[float, RunListing]] = {}
+    for folder in folders:
+        if folder.name.startswith("."):
+            continue
+        try:
+            mtime = (folder / "run.json").stat().st_mtime
+        except OSError:
+            mtime = math.nan
+        if folder.name in known and known[folder.name][0] == mtime:
+            out[folder.name] = known[folder.name]
+            continue
+        try:
+            item = listing(read_run(folder))
+        except (ValueError, KeyError, TypeError) as exc:
+            item = RunListing(folder.name, problem=str(exc) or type(exc).__name__)
+        out[folder.name] = (mtime, item)
+    return dict(sorted(out.items(), key=lambda kv: (kv[1][1].created, kv[0]), reverse=True))
+
+
+def open_run(workspace: Path, folder: str) -> Run:
+    """Read run ``folder`` of the workspace (:func:`promp.evaluate.runs.read_run`).
+
+    Raises
+    ------
+    ValueError
+        No such run, or one that cannot be read (the message says why).
+    """
+    path = run_path(workspace, folder)
+    if not path.is_dir():
+        raise ValueError(f"the workspace has no run {folder!r} (deleted meanwhile?)")
+    run = read_run(path)
+    listing(run)  # the rows must be readable too
+    return run
+
+
+def save_run(
+    workspace: Path,
+    report: Mapping,
+    name: str,
+    figures=None,
+    partial: bool = False,
+    created: _dt.datetime | None = None,
+) -> Run:
+    """Write ``report`` as a new run of the workspace, ``runs/<time>-<name>/`` (``-2``,
+    ``-3``... when that folder exists), with :func:`promp.evaluate.runs.write_run`;
+    ``partial`` marks a cancelled evaluation's results."""
+    created = created or _dt.datetime.now(_dt.UTC).astimezone()
+    base = folder_name(name, created)
+    report = {**report, PARTIAL: True} if partial else dict(report)
+    for suffix in range(1, 100):
+        path = runs_root(workspace) / (base if suffix == 1 else f"{base}-{suffix}")
+        if not (path.exists() or path.is_symlink()):
+            return write_run(path, report, name, figures=figures, created=created)
+    raise ValueError(f"too many runs named {base} in {runs_root(workspace)}")
+
+
+def run_zip(workspace: Path, folder: str) -> bytes:
+    """The run's folder as a zip, its files under ``<folder>/``.
+
+    Raises
+    ------
+    ValueError
+        No such run.
+    """
+    path = run_path(workspace, folder)
+    if not path.is_dir():
+        raise ValueError(f"the workspace has no run {folder!r} (deleted meanwhile?)")
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
+        for file in sorted(path.rglob("*")):
+            if file.is_file() and not file.is_symlink():
+                archive.write(file, f"{folder}/{file.relative_to(path).as_posix()}")
+    return buffer.getvalue()
+
+
+def trash_run(trash: Trash, folder: str) -> TrashEntry:
+    """Move run ``folder`` of ``trash``'s workspace to the trash (restorable as a whole).
+
+    Raises
+    ------
+    ValueError
+        No such run.
+    """
+    path = run_path(trash.workspace, folder)
+    if not path.is_dir() or path.is_symlink():
+        raise ValueError(f"the workspace has no run {folder!r} (deleted meanwhile?)")
+    relative = Path(os.path.relpath(path, trash.workspace)).as_posix()
+    return trash.put(RUN_KIND, f"run {folder}", [relative], {"run": folder})
