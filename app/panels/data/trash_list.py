@@ -62,8 +62,8 @@ class RecentlyDeleted:
         self.summary.content = (
             f"{len(entries)} item(s) in {folder}, kept until you delete them yourself."
             if entries
-            else "Deleted demonstrations and primitives, and replaced workspaces, go to the "
-            "workspace's trash folder and can be restored here."
+            else "Deleted demonstrations, primitives and evaluation runs, and replaced "
+            "workspaces, go to the workspace's trash folder and can be restored here."
         )
 
     def restore(self, client, label: str) -> TrashEntry | None:
