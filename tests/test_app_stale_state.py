@@ -13,6 +13,7 @@ each of these showed before the studio drew every frame from one snapshot of its
 
 from __future__ import annotations
 
+import re
 import threading
 import time
 
@@ -157,6 +158,14 @@ def test_the_fit_line_never_shows_a_fit_it_has_not_made(studio, page) -> None:
         row.get_by_role("button", name="Delete").dispatch_event("click")
         click(page, "Delete demonstration")
         wait_text(page, f"Learning again from {n_before - 1} demonstrations")
+        # The refit's clock moves while it runs (it has no count: the last fit is the estimate).
+        clock = re.compile(r"Learning again from \d+ demonstrations\.\.\. (\d+:\d\d) elapsed")
+        (first,) = wait_until(lambda: clock.findall(text(page)), what="the refit's clock")
+        wait_until(lambda: clock.findall(text(page)) not in ([], [first]), what="it moved")
+        page.get_by_text("Learning again from").first.evaluate(
+            "e => e.scrollIntoView({block: 'center'})"
+        )
+        page.screenshot(path="/tmp/learn_refit.png")
         assert f"learned from {n_before - 1} demonstrations" not in text(page)
         gate.set()
         wait_text(page, f"learned from {n_before - 1} demonstrations")

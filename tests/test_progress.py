@@ -67,3 +67,19 @@ def test_python_m_promp_evaluate_prints_its_progress_on_stderr(tmp_path, capsys)
     assert lines[0].startswith("ours: leave-one-out: 1 / 6 held-out demonstrations · 0:0")
     assert " elapsed · about " in lines[0] and lines[0].endswith(" left")
     assert lines[-1].startswith("ours: leave-one-out: 6 / 6 held-out demonstrations · ")
+
+
+def test_the_refit_says_how_long_it_has_run_and_the_last_fit_is_the_estimate() -> None:
+    from types import SimpleNamespace
+
+    from app.panels.teach.learn import fit_text, refit_clock
+
+    assert refit_clock(None, 3.0) == ""
+    assert refit_clock(5.0, 0.0) == " 0:05 elapsed"
+    assert refit_clock(5.0, 8.0) == " 0:05 elapsed · about 0:03 left (as long as the last fit)"
+    assert refit_clock(9.0, 8.0) == " 0:09 elapsed · longer than the last fit (0:08)"
+    store = SimpleNamespace(left_out={}, learned={"a": [1, 2, 3], "b": [4, 5]})
+    learner = SimpleNamespace(error=None, fit_ms=0.0)
+    snapshot = SimpleNamespace(store=store, learner=learner, model=None, refitting=True)
+    text = fit_text(snapshot, 12.0)
+    assert "Learning again from 5 demonstrations..." in text and "0:12 elapsed" in text

@@ -22,6 +22,7 @@ from app.core.snapshot import Snapshot
 from app.ui.context import Frame, PanelContext
 from app.ui.text import GREEN, ORANGE, colored, escape
 from promp.model import FALLBACK
+from promp.progress import clock
 
 LEARN_DEBOUNCE_S = 0.15  # a slider being dragged refits once it pauses
 FAST_FIT_MS = 100.0  # a fit slower than this is shown in orange
@@ -59,6 +60,7 @@ class LearnSection:
         self.ctx = ctx
         self._changed_at: float | None = None
         self._shown: tuple = ()  # what the settings and the status were drawn from
+        self._refit: tuple[float, int] | None = None  # a refit seen since, its whole seconds
         settings = ctx.store.state.learning_settings()
         shown = settings.with_fallback()
         gui = ctx.gui
@@ -115,14 +117,21 @@ class LearnSection:
             self._store_settings(snapshot)
         store, learner = snapshot.store, snapshot.learner
         shown = (store.settings, store.findings, store.checks, learner, store.learn_version)
-        if len(shown) == len(self._shown) and all(
+        since = None if self._refit is None else self._refit[0]
+        if snapshot.refitting:  # its clock, moved every second
+            since = frame.now if since is None else since
+            refit = (since, int(frame.now - since))
+        else:
+            refit = None
+        ticked, self._refit = refit != self._refit, refit
+        if not ticked and len(shown) == len(self._shown) and all(
             a is b for a, b in zip(shown, self._shown, strict=True)
         ):
             return
         self._shown = shown
         if self._changed_at is None:
             self._show_settings(snapshot)
-        self.fit_status.content = fit_text(snapshot)
+        self.fit_status.content = fit_text(snapshot, None if since is None else frame.now - since)
 
     def _store_settings(self, snapshot: Snapshot) -> None:
         current = snapshot.store.learning_settings()
@@ -165,8 +174,9 @@ class LearnSection:
         self._changed_at = None  # these assignments ran the callbacks
 
 
-def fit_text(snapshot: Snapshot) -> str:
-    """The Learn folder's line (see the module docstring)."""
+def fit_text(snapshot: Snapshot, refit_s: float | None = None) -> str:
+    """The Learn folder's line (see the module docstring); ``refit_s``: how long the refit
+    under way has been running."""
     store, learner = snapshot.store, snapshot.learner
     n_left_out = len(store.left_out)
     left_out = (
@@ -181,7 +191,7 @@ def fit_text(snapshot: Snapshot) -> str:
         n_now = sum(len(d) for d in store.learned.values())
         refitting = "  \n" + colored(
             f"Learning again from {n_now} demonstrations...", ORANGE, bold=True
-        )
+        ) + refit_clock(refit_s, learner.fit_ms / 1000.0 if snapshot.model is not None else 0.0)
     model, error, fit_ms = snapshot.model, learner.error, learner.fit_ms
     if error is not None and model is None:
         return colored(f"Not learned: {escape(error)}", ORANGE) + refitting + left_out
@@ -208,3 +218,16 @@ def fit_text(snapshot: Snapshot) -> str:
     if error is not None:
         text += "  \n" + colored(escape(error), ORANGE)
     return text + refitting + left_out
+
+
+def refit_clock(elapsed_s: float | None, last_s: float) -> str:
+    """`` 0:05 elapsed · about 0:03 left``: a refit has no count, so the time the last fit took
+    (``last_s``, 0: unknown) is the estimate."""
+    if elapsed_s is None:
+        return ""
+    text = f" {clock(elapsed_s)} elapsed"
+    if last_s <= 0:
+        return text
+    if last_s > elapsed_s:
+        return f"{text} · about {clock(last_s - elapsed_s)} left (as long as the last fit)"
+    return f"{text} · longer than the last fit ({clock(last_s)})"
