@@ -19,6 +19,7 @@ from app.io.runs_folder import (
     PARTIAL,
     RUN_KIND,
     RUNS_DIR,
+    RunsScanner,
     list_runs,
     open_run,
     run_path,
@@ -33,6 +34,7 @@ from app.panels.data.results_zip import results_zip
 from app.panels.data.runs_section import default_name
 from app.panels.data.runs_text import comparison_markdown, run_choices, runs_table
 from promp.evaluate.runs import RUN_FILE, compare_runs, write_run
+from tests.conftest import wait_until
 from tests.synthetic import make_dataset
 from tests.test_app_data import fake_job
 
@@ -277,8 +279,11 @@ def test_the_section_keeps_an_ended_evaluation_and_a_cancelled_one_as_partial(tm
         end(nothing, "nothing")
         assert runs.saver is saver  # nothing to keep
 
-        runs._next_scan = 0.0
-        runs.step(snapshot)
+        def listed(count: int):  # the folder is read on a worker: the loop polls for it
+            runs.step(snapshot)
+            return len(runs._listed or {}) == count
+
+        wait_until(lambda: listed(2), timeout=60, what="the two runs listed")
         items = [item for _, item in runs._listed.values()]
         assert [(i.name, i.partial) for i in items] == [("stopped early", True), ("each ML", False)]
         assert [t for t, *_ in told] == ["Run kept", "Run kept"]
@@ -294,3 +299,22 @@ def test_the_section_keeps_an_ended_evaluation_and_a_cancelled_one_as_partial(tm
         assert "stopped early" in evaluation._result_handles[0].content
     finally:
         server.stop()
+
+
+def test_the_scanner_lists_on_a_worker_and_keeps_the_listing_while_nothing_changed(
+    tmp_path: Path, job
+) -> None:
+    ws = workspace(tmp_path / "ws")
+    scanner = RunsScanner(interval_s=3600.0)  # only when asked
+    wait_until(lambda: scanner.poll(ws.root) is not None, timeout=30, what="the first listing")
+    first = scanner.poll(ws.root)
+    assert first == {}
+    scanner.rescan()
+    wait_until(lambda: not scanner._thread.is_alive(), timeout=30, what="the second scan")
+    assert scanner.poll(ws.root) is first  # unchanged: the same listing
+    run = save_run(ws.root, job.report(), "new", created=WHEN)
+    assert scanner.poll(ws.root) is first  # not due: not scanned
+    scanner.rescan()
+    wait_until(lambda: list(scanner.poll(ws.root) or {}) == [run.folder.name], timeout=30,
+               what="the new run listed")  # fmt: skip
+    assert scanner.poll(tmp_path / "another") is None  # another workspace: not its listing

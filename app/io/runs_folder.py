@@ -20,6 +20,8 @@ import datetime as _dt
 import io
 import math
 import os
+import threading
+import time
 import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -211,3 +213,40 @@ def trash_run(trash: Trash, folder: str) -> TrashEntry:
         raise ValueError(f"the workspace has no run {folder!r} (deleted meanwhile?)")
     relative = Path(os.path.relpath(path, trash.workspace)).as_posix()
     return trash.put(RUN_KIND, f"run {folder}", [relative], {"run": folder})
+
+
+class RunsScanner:
+    """Lists a workspace's runs (:func:`list_runs`) on a worker thread, at most every
+    ``interval_s`` seconds or when asked (:meth:`rescan`): the studio's loop polls for the
+    latest listing and never waits for the disk (a long run's ``run.json`` takes a while to
+    read)."""
+
+    def __init__(self, interval_s: float = 2.0):
+        self.interval_s = interval_s
+        self._latest: tuple[Path, dict[str, tuple[float, RunListing]]] | None = None
+        self._thread: threading.Thread | None = None
+        self._due = 0.0
+
+    def rescan(self) -> None:
+        """Scan again at the next :meth:`poll` (or once the scan under way has ended)."""
+        self._due = 0.0
+
+    def poll(self, workspace: Path) -> dict[str, tuple[float, RunListing]] | None:
+        """The latest listing of ``workspace``'s runs, the same object while nothing changed
+        (None until a scan of it has ended); starts a scan when one is due."""
+        now = time.monotonic()
+        if now >= self._due and (self._thread is None or not self._thread.is_alive()):
+            self._due = now + self.interval_s
+            self._thread = threading.Thread(
+                target=self._scan, args=(Path(workspace),), name="runs-scan", daemon=True
+            )
+            self._thread.start()
+        latest = self._latest
+        return latest[1] if latest is not None and latest[0] == Path(workspace) else None
+
+    def _scan(self, workspace: Path) -> None:
+        latest = self._latest
+        known = latest[1] if latest is not None and latest[0] == workspace else None
+        listed = list_runs(workspace, known)
+        if listed != known:
+            self._latest = (workspace, listed)

@@ -5,7 +5,7 @@ is written as ``runs/<YYYYmmdd-HHMMSS>-<name>/`` by the command line's writer
 (:mod:`app.io.runs_folder`, :func:`promp.evaluate.runs.write_run`), on a worker, under the
 name typed in the evaluation's "Run name" (by default its observed modalities and alpha
 method). Runs the command line wrote there (``--run WORKSPACE/runs/NAME``) are listed too: the
-folder is looked at again every :data:`SCAN_SECONDS`.
+folder is looked at again every :data:`SCAN_SECONDS`, on a worker.
 
 For the chosen run: *Open run* shows its results in the evaluation's results area, under its
 name; *Export run* downloads its folder as a zip; *Delete run* moves it to the workspace's
@@ -17,7 +17,6 @@ A run that cannot be read is listed with the reason and refused with it; nothing
 from __future__ import annotations
 
 import threading
-import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -27,7 +26,7 @@ import viser
 
 from app.core.snapshot import Snapshot
 from app.io.exchange import format_size
-from app.io.runs_folder import RUNS_DIR, RunListing, list_runs, open_run, run_zip, save_run
+from app.io.runs_folder import RUNS_DIR, RunListing, RunsScanner, open_run, run_zip, save_run
 from app.io.trash import TrashEntry
 from app.panels.data.evaluation import EvaluationJob
 from app.panels.data.evaluation_section import EvaluationSection
@@ -77,8 +76,7 @@ class RunsSection:
         self._root: Path | None = None  # the workspace listed
         self._listed: dict[str, tuple[float, RunListing]] | None = None  # what the list shows
         self._choices: dict[str, str] = {}  # dropdown label -> run folder
-        self._next_scan = 0.0
-        self._rescan = threading.Event()
+        self._scanner = RunsScanner(SCAN_SECONDS)
         self._watched: EvaluationJob | None = None  # the evaluation to save once it ends
         self._name = ""
         self.saver: threading.Thread | None = None
@@ -121,13 +119,11 @@ class RunsSection:
         if root != self._root:  # another workspace: its runs
             self._root, self._listed = root, None
             self.controls.comparison.content = ""
-            self._rescan.set()
+            self._scanner.rescan()
         self._watch(self.evaluation.job, root)
-        now = time.monotonic()
-        if self._rescan.is_set() or now >= self._next_scan:
-            self._rescan.clear()
-            self._next_scan = now + SCAN_SECONDS
-            self._show(root, list_runs(root, self._listed))
+        listed = self._scanner.poll(root)  # read on a worker: the loop never waits for it
+        if listed is not None:
+            self._show(root, listed)
 
     def _watch(self, job: EvaluationJob | None, root: Path) -> None:
         if job is None:
@@ -161,14 +157,14 @@ class RunsSection:
             self.notify(None, "Run not kept", f"{exc}.", "red")
             return None
         finally:
-            self._rescan.set()
+            self._scanner.rescan()
         partial = " (partial: the evaluation was cancelled)" if job.cancelled else ""
         self.notify(None, "Run kept", f"{RUNS_DIR}/{run.folder.name}{partial}: Saved runs "
                     "lists it.", "blue")  # fmt: skip
         return run
 
     def _show(self, root: Path, listed: dict[str, tuple[float, RunListing]]) -> None:
-        if listed == self._listed:
+        if listed is self._listed:
             return
         previous, self._listed = self._listed, listed
         items = [item for _, item in listed.values()]
@@ -259,7 +255,7 @@ class RunsSection:
         except (ValueError, OSError) as exc:
             self.notify(client, "Cannot delete run", f"{exc}. Nothing was changed.", "red")
             return None
-        self._rescan.set()
+        self._scanner.rescan()
         self.controls.comparison.content = ""
         self.notify(client, "Run deleted", f"{folder} is in the workspace's trash; Recently "
                     "deleted restores it.", "blue")  # fmt: skip
