@@ -1,5 +1,6 @@
 """What the user chose to look at, shared by every browser tab: the demonstrations hidden in
-the 3D view, the primitive being taught, and a model imported to infer with.
+the 3D view, the primitive being taught, a model imported to infer with, and how the
+distribution tubes are drawn (:data:`TUBE_STYLES`, one choice that Teach and Infer both show).
 
 Not written to the workspace. :class:`View` holds the latest :class:`ViewState` (readers take
 :attr:`View.state`, lock-free); its setters publish a new one.
@@ -12,6 +13,10 @@ from dataclasses import dataclass, replace
 
 from app.core.store_state import Key, StoreState
 from promp.model import ProMPModel
+
+# How the 3D view draws the prior and posterior tubes (what each draws: app.scene.tubes).
+BANDS_2SD, BANDS_1SD, OUTLINE, NO_TUBES = "±2σ bands", "±1σ bands", "outline only", "off"
+TUBE_STYLES = (BANDS_2SD, BANDS_1SD, OUTLINE, NO_TUBES)
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,11 +44,14 @@ class ViewState:
     primitive : str or None
         The primitive chosen in Teach (recordings go into it).
     imported : ImportedModel or None
+    tube_style : str
+        One of :data:`TUBE_STYLES`: how the prior and posterior tubes are drawn.
     """
 
     hidden: frozenset[Key] = frozenset()
     primitive: str | None = None
     imported: ImportedModel | None = None
+    tube_style: str = BANDS_2SD
 
 
 class View:
@@ -78,6 +86,18 @@ class View:
     def choose(self, primitive: str | None) -> None:
         """The primitive being taught."""
         self._set(primitive=primitive)
+
+    def set_tube_style(self, style: str) -> None:
+        """Draw the distribution tubes as ``style`` says.
+
+        Raises
+        ------
+        ValueError
+            ``style`` is not one of :data:`TUBE_STYLES`.
+        """
+        if style not in TUBE_STYLES:
+            raise ValueError(f"unknown tube style {style!r}; expected one of {TUBE_STYLES}")
+        self._set(tube_style=TUBE_STYLES[TUBE_STYLES.index(style)])  # the constant itself
 
     def use_imported(self, model: ProMPModel | None, source: str, store: StoreState) -> None:
         """Infer with ``model`` (read from ``source``) until what ``store`` learns from

@@ -4,11 +4,11 @@ starts with, and viser's "Reset view"), *Top view*, *Side view* and *Frame paths
 A click only records which view which browser tab asked for; :meth:`ViewControls.step`, on the
 studio's loop, computes the camera (:mod:`app.scene.camera`) from what the scene shows and sets
 it for that browser tab alone (each tab has its own camera). The presets frame the workspace's
-demonstrations; *Frame paths* keeps the current direction and frames what is on show: the
-inference in Infer, the demonstrations elsewhere. Without any hand path, the scene's hand
-targets (the object and the bins) are framed. The start view follows the demonstrations once
-they have been still for :data:`SETTLE_S` (a take, then its refit, change them: the view is
-framed once, off the busy frames).
+demonstrations; *Frame paths* keeps the current direction and frames the demonstrations (but
+those hidden) and, in Infer, the inference on show with them (never the dragged hand's gizmo
+alone). Without any hand path, the scene's hand targets (the object and the bins) are framed.
+The start view follows the demonstrations once they have been still for :data:`SETTLE_S` (a
+take, then its refit, change them: the view is framed once, off the busy frames).
 """
 
 from __future__ import annotations
@@ -44,7 +44,8 @@ class ViewControls:
             "3D view",
             VIEWS,
             hint="Partner view: the paths as the partner sees them (the start view). Top and "
-            "side views. Frame paths: zoom on what is shown, from the current direction.",
+            "side views. Frame paths: zoom on the demonstrations (and the inference shown), "
+            "from the current direction.",
         )
 
         @self.buttons.on_click

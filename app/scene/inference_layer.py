@@ -4,7 +4,8 @@ true remainder of a test demonstration.
 
 :meth:`InferenceLayer.draw` shapes them from an inference (:class:`app.live.inference.Inferred`);
 whether they are shown is the scene's decision (:func:`app.scene.look.look`). The tube's mesh
-has a fixed topology, so a new inference only replaces its vertices.
+has a fixed topology, so a new inference only replaces its vertices; it is drawn as the view's
+tube style says (:func:`app.scene.tubes.tube_look`: a band, its outline, or nothing).
 """
 
 from __future__ import annotations
@@ -12,8 +13,9 @@ from __future__ import annotations
 import numpy as np
 import viser
 
+from app.core.view_state import BANDS_2SD
 from app.live.inference import PATH_POINTS, TUBE_POINTS, Inferred
-from app.scene.tubes import resample, tube_faces, tube_vertices
+from app.scene import tubes
 from robots.icub.layout import HAND, hand_dims
 
 POSTERIOR_OPACITY = 0.45
@@ -33,16 +35,21 @@ class InferenceLayer:
         scene = server.scene
         line = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]])
         straight = np.linspace([0.0, 0.0, 0.0], [0.1, 0.0, 0.0], TUBE_POINTS)
+        vertices = tubes.tube_vertices(straight, np.full((TUBE_POINTS, 3), 0.01))
         self.tube = scene.add_mesh_simple(
             "/infer/posterior",
-            vertices=tube_vertices(straight, np.full((TUBE_POINTS, 3), 0.01)),
-            faces=tube_faces(TUBE_POINTS),
+            vertices=vertices,
+            faces=tubes.tube_faces(TUBE_POINTS),
             color=DEFAULT_COLOR,
             opacity=POSTERIOR_OPACITY,
             flat_shading=False,
-            side="double",
+            side=tubes.TUBE_SIDE,
             visible=False,
         )
+        self.outline = scene.add_line_segments(
+            "/infer/posterior_outline", points=tubes.outline_segments(vertices),
+            colors=DEFAULT_COLOR, thickness=1.5, thickness_units="screen", visible=False,
+        )  # fmt: skip
         self.future = scene.add_spline_catmull_rom(
             "/infer/future", points=line, thickness=5.0, thickness_units="screen",
             color=DEFAULT_COLOR, visible=False,
@@ -62,8 +69,8 @@ class InferenceLayer:
             "/infer/now", radius=0.012, color=(250, 250, 250), visible=False
         )
         self.nodes = (
-            self.tube, self.future, self.observed_line, self.truth_line, self.end_point,
-            self.now_point,
+            self.tube, self.outline, self.future, self.observed_line, self.truth_line,
+            self.end_point, self.now_point,
         )  # fmt: skip
         self.drawn: set[int] = set()  # ids of the nodes the latest result shaped
 
@@ -72,34 +79,47 @@ class InferenceLayer:
         """True when the latest result had something to show in 3D."""
         return bool(self.drawn)
 
-    def draw(self, result: Inferred | None, color: tuple[int, int, int]) -> None:
-        """Shape the nodes from ``result`` (drawn in ``color``, its primitive's); none without
-        a result or a hand modality."""
+    def draw(
+        self, result: Inferred | None, color: tuple[int, int, int], style: str = BANDS_2SD
+    ) -> None:
+        """Shape the nodes from ``result`` (drawn in ``color``, its primitive's; the tube in
+        tube ``style``); none without a result or a hand modality."""
         layout = result.model.layout if result is not None else None
         hand = hand_dims(layout) if layout is not None else None
         if result is None or hand is None or result.future is None:
             self.drawn = set()
             return
         post, future = result.inference.prediction, result.future.hand
-        self.tube.vertices = tube_vertices(post.mean[:, hand], post.std[:, hand])
-        self.tube.color = color
+        look = tubes.tube_look(style)
+        vertices = tubes.tube_vertices(post.mean[:, hand], post.std[:, hand], n_sigma=look.n_sigma)
+        drawn = {id(n) for n in (self.future, self.end_point, self.now_point)}
+        if look.surface:
+            self.tube.vertices = vertices
+            self.tube.color = color
+            drawn.add(id(self.tube))
+        if look.outline:
+            segments = tubes.outline_segments(vertices)
+            self.outline.points = segments
+            self.outline.colors = np.broadcast_to(
+                np.array(color, dtype=np.uint8), segments.shape
+            ).copy()
+            drawn.add(id(self.outline))
         self.future.points = future.astype(np.float32)
         self.future.color = darker(color)
         self.end_point.position = future[-1]
         self.end_point.color = color
         self.now_point.position = future[0]
-        drawn = {id(n) for n in (self.tube, self.future, self.end_point, self.now_point)}
         obs = result.observation
         if HAND.name in obs.modalities and obs.n_observed >= 2:
             cols = np.flatnonzero(np.isin(layout.dims(obs.modalities), hand))
-            points = resample(obs.values[:, cols], min(obs.n_observed, PATH_POINTS))
+            points = tubes.resample(obs.values[:, cols], min(obs.n_observed, PATH_POINTS))
             self.observed_line.points = points.astype(np.float32)
             drawn.add(id(self.observed_line))
         if result.truth is not None:
             true_hand = layout.extract(result.truth)[:, hand]
             rest = true_hand[max(obs.n_observed - 1, 0) :]
             if rest.shape[0] >= 2:
-                points = resample(rest, min(rest.shape[0], PATH_POINTS))
+                points = tubes.resample(rest, min(rest.shape[0], PATH_POINTS))
                 self.truth_line.points = points.astype(np.float32)
                 drawn.add(id(self.truth_line))
         self.drawn = drawn

@@ -96,8 +96,8 @@ class SceneView:
         self.look = look(TEACH, False)
         self._hidden: frozenset = frozenset()
         self.drawn_from: tuple = ()  # what the demonstration lines were drawn from
-        self._tubes_from: tuple = (None, None)  # the model and primitives the tubes show
-        self._inferred: InferenceShown | None = None
+        self._tubes_from: tuple = (None, None, None)  # model, primitives, tube style shown
+        self._inferred: tuple = (None, None)  # the inference shown, in which tube style
 
     def use_panel(self, panel: str) -> None:
         """``panel`` is shown or used in a browser: its look is drawn (from any thread)."""
@@ -110,16 +110,18 @@ class SceneView:
         the panels asked for; returns the look applied."""
         self._draw_workspace(snapshot)
         self.partner.orient(head)
-        inference = shown.inference or NOTHING_INFERRED
-        if inference is not self._inferred:
-            self._inferred = inference
-            self.inference.draw(inference.result if inference.in_3d else None, inference.color)
+        inference, style = shown.inference or NOTHING_INFERRED, snapshot.view.tube_style
+        if inference is not self._inferred[0] or style != self._inferred[1]:
+            self._inferred = (inference, style)
+            self.inference.draw(
+                inference.result if inference.in_3d else None, inference.color, style
+            )
         start = shown.start
         self.start.place(None if start is None else start.position,
                          NO_COLOR if start is None else start.color)  # fmt: skip
         self.look = look(self.panel, inference.in_3d and self.inference.has_shape,
                          inference.priors)  # fmt: skip
-        self.workspace.apply(self.look.demos, self.look.priors, self._hidden)
+        self.workspace.apply(self.look.demos, self.look.priors, self._hidden, style)
         self.inference.show(self.look.inference)
         self.start.show(self.look.start)
         return self.look
@@ -137,23 +139,30 @@ class SceneView:
             self.drawn_from, self._hidden = lines, hidden
             self.partner.show(HEAD.name in store.layout.names)
             self.workspace.draw_lines(store.demos, colors, store.layout, set(store.left_out))
-        tubes = (model, store.primitives)
-        if any(a is not b for a, b in zip(tubes, self._tubes_from, strict=True)):
+        tubes = (model, store.primitives, snapshot.view.tube_style)
+        if any(a is not b for a, b in zip(tubes[:2], self._tubes_from[:2], strict=True)) or (
+            tubes[2] != self._tubes_from[2]
+        ):
             self._tubes_from = tubes
-            self.workspace.draw_tubes(model, colors, self.look.priors)
+            self.workspace.draw_tubes(model, colors, self.look.priors, tubes[2])
 
     # ------------------------------------------------------------------ what the camera frames
 
     def paths(self, inference: bool | None = None) -> np.ndarray:
-        """The hand paths on show, points (n, 3): the Infer layer's (observation, prediction,
-        truth, posterior tube) when ``inference`` (default: when the current look shows it),
-        else the demonstration lines (but those the user hid). Empty (0, 3) without any."""
+        """The hand paths, points (n, 3): the demonstration lines (but those the user hid,
+        whether the look shows them now or not), and with them the Infer layer's (observation,
+        prediction, truth, posterior tube) when ``inference`` (default: when the current look
+        shows it). Empty (0, 3) without any.
+
+        The demonstrations are always among them: a single inference (a few centimetres of one
+        movement, beside the dragged hand's gizmo) framed alone filled the picture with the
+        gizmo, not with the paths."""
         if inference is None:
             inference = self.look.inference
+        nodes = [line for key, line in self.workspace.lines.items() if key not in self._hidden]
         if inference:
-            nodes = [n for n in self.inference.nodes if n.visible and id(n) in self.inference.drawn]
-        else:  # every line but those the user hid, whether the look shows them now or not
-            nodes = [line for key, line in self.workspace.lines.items() if key not in self._hidden]
+            drawn = self.inference.drawn
+            nodes += [n for n in self.inference.nodes if n.visible and id(n) in drawn]
         arrays = []
         for node in nodes:
             points = getattr(node, "points", None)

@@ -2,7 +2,9 @@
 
 Both are the ``hand`` modality's (a workspace without one has none). Lines keep their node while
 their demonstration is the same object; tubes keep their mesh topology (``TUBE_POINTS`` rings of
-:data:`app.scene.tubes.RING` vertices), so a refit only replaces vertices.
+:data:`app.scene.tubes.RING` vertices), so a refit only replaces vertices. A tube is drawn as
+the view's tube style says (:func:`app.scene.tubes.tube_look`): a translucent band at +-2 or
++-1 sigma, an outline (thin rings and lines, its own node), or nothing; lines stay above it.
 """
 
 from __future__ import annotations
@@ -14,7 +16,14 @@ import viser
 
 from app.live.inference import typical_prior
 from app.scene.look import FADED, HIDDEN
-from app.scene.tubes import resample, tube_faces, tube_vertices
+from app.scene.tubes import (
+    TUBE_SIDE,
+    outline_segments,
+    resample,
+    tube_faces,
+    tube_look,
+    tube_vertices,
+)
 from promp.data import Demonstration, Layout
 from promp.model import ProMPModel
 from robots.icub.layout import hand_dims
@@ -24,8 +33,15 @@ LINE_POINTS = 60
 PRIOR_OPACITY = 0.25
 DIMMED_OPACITY = 0.07
 NO_COLOR = (200, 200, 200)
+OUTLINE_WHITE = 0.35  # an outline's colour: its primitive's, this much towards white
+DIMMED_WHITE = 0.8  # and this much while the tubes are dimmed
 
 Key = tuple[str, str]  # (primitive, demonstration)
+
+
+def toward_white(color, share: float) -> tuple[int, int, int]:
+    """``color`` mixed with white (``share`` of white): a line that reads lighter."""
+    return tuple(int(round(c + share * (255 - c))) for c in color)  # type: ignore[return-value]
 
 
 def _set(node, name: str, value) -> None:
@@ -48,6 +64,8 @@ class WorkspaceLayer:
         self.lines: dict[Key, viser.SceneNodeHandle] = {}
         self._line_demo: dict[Key, Demonstration] = {}  # what each line shows
         self.tubes: dict[str, viser.MeshHandle] = {}
+        self.outlines: dict[str, viser.LineSegmentsHandle] = {}
+        self._tones: dict[str, tuple] = {}  # each outline's colour and the tone it shows
         self.faces = tube_faces(TUBE_POINTS)
 
     def draw_lines(
@@ -70,12 +88,16 @@ class WorkspaceLayer:
         self._draw_lines(demos, colors_of, layout)
 
     def draw_tubes(
-        self, model: ProMPModel | None, colors: Mapping[str, tuple[int, int, int]], priors: str
+        self,
+        model: ProMPModel | None,
+        colors: Mapping[str, tuple[int, int, int]],
+        priors: str,
+        style: str,
     ) -> None:
         """A prior tube per primitive both ``model`` and ``colors`` know (``priors`` as the look
-        shows them); none for a model without a hand."""
+        shows them, at the radius of tube ``style``); none for a model without a hand."""
         self._draw_tubes(model if model is not None and hand_dims(model.layout) is not None
-                         else None, colors, priors)  # fmt: skip
+                         else None, colors, priors, style)  # fmt: skip
 
     def _draw_lines(self, demos, colors, layout: Layout) -> None:
         """``colors``: per (primitive, demo)."""
@@ -112,36 +134,66 @@ class WorkspaceLayer:
         cols = hand_dims(model.layout)
         return prediction.mean[:, cols], prediction.std[:, cols]
 
-    def _draw_tubes(self, model: ProMPModel | None, colors, priors: str) -> None:
+    def _draw_tubes(self, model: ProMPModel | None, colors, priors: str, style: str) -> None:
         # A model still being replaced may know a primitive just deleted or renamed.
         names = [n for n in model.names if n in colors] if model is not None else []
         for name in list(self.tubes):
             if name not in names:
                 self.tubes.pop(name).remove()
+                self.outlines.pop(name).remove()
+                self._tones.pop(name, None)
+        look = tube_look(style)
         for name in names:
-            vertices = tube_vertices(*self.prior_tube(model, name))
+            vertices = tube_vertices(*self.prior_tube(model, name), n_sigma=look.n_sigma)
+            color = tuple(colors.get(name, NO_COLOR))
             tube = self.tubes.get(name)
             if tube is None:
                 self.tubes[name] = self.server.scene.add_mesh_simple(
                     f"/priors/{name}",
                     vertices=vertices,
                     faces=self.faces,
-                    color=colors.get(name, NO_COLOR),
+                    color=color,
                     opacity=DIMMED_OPACITY if priors == FADED else PRIOR_OPACITY,
                     flat_shading=False,
-                    side="double",
-                    visible=priors != HIDDEN,
+                    side=TUBE_SIDE,
+                    visible=False,  # apply() shows it
+                )
+                self.outlines[name] = self.server.scene.add_line_segments(
+                    f"/prior_outlines/{name}",
+                    points=outline_segments(vertices),
+                    colors=toward_white(color, OUTLINE_WHITE),
+                    thickness=1.0,
+                    thickness_units="screen",
+                    visible=False,
                 )
             else:
                 tube.vertices = vertices
-                _set(tube, "color", tuple(colors.get(name, NO_COLOR)))
+                _set(tube, "color", color)
+                self.outlines[name].points = outline_segments(vertices)
+            if self._tones.get(name, (None,))[0] != color:
+                self._tones[name] = (color, OUTLINE_WHITE)
+                self._tone(name, OUTLINE_WHITE)
 
-    def apply(self, demos: bool, priors: str, hidden: set[Key]) -> None:
+    def apply(self, demos: bool, priors: str, hidden: set[Key], style: str) -> None:
         """Show the lines (``demos``, but those the user hid: ``hidden``) and the tubes as
-        ``priors`` says (shown, faded or hidden)."""
+        ``priors`` says (shown, faded or hidden) in tube ``style``."""
         for key, line in list(self.lines.items()):
             _set(line, "visible", demos and key not in hidden)
+        look = tube_look(style)
         opacity = DIMMED_OPACITY if priors == FADED else PRIOR_OPACITY
         for tube in list(self.tubes.values()):
-            _set(tube, "visible", priors != HIDDEN)
+            _set(tube, "visible", priors != HIDDEN and look.surface)
             _set(tube, "opacity", opacity)
+        white = DIMMED_WHITE if priors == FADED else OUTLINE_WHITE
+        for name, outline in list(self.outlines.items()):
+            _set(outline, "visible", priors != HIDDEN and look.outline)
+            if self._tones[name][1] != white:
+                self._tone(name, white)
+
+    def _tone(self, name: str, white: float) -> None:
+        """Colour outline ``name`` its primitive's colour mixed with ``white``."""
+        color = self._tones[name][0]
+        self._tones[name] = (color, white)
+        outline = self.outlines[name]
+        rgb = np.array(toward_white(color, white), dtype=np.uint8)
+        outline.colors = np.broadcast_to(rgb, (outline.points.shape[0], 2, 3)).copy()

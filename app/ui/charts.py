@@ -24,6 +24,9 @@ Three uPlot behaviours with NaN, seen in headless Chromium, shape this module:
   a band of zero width, which fills nothing. The edges themselves are not stroked (only the
   fill and the mean line are drawn), so nothing shows there.
 
+A time and its interval (:class:`app.ui.chart_marks.TimeInterval`: the predicted end of a
+movement and its 90 % interval) is drawn across the whole height, on a scale of its own.
+
 Usage::
 
     chart = band_chart([Band("curved", t, mean, std, (213, 94, 0))],
@@ -43,10 +46,10 @@ import numpy as np
 import viser
 import viser.uplot as uplot
 
+from app.ui.chart_marks import MARK_SCALE, TimeInterval, interval_series
+from app.ui.colors import RGB, check_color, css
 from app.ui.display import Quantity
 from promp.inference import Prediction
-
-RGB = tuple[int, int, int]
 
 
 def _check_curve(what: str, times: np.ndarray, *columns: np.ndarray) -> None:
@@ -62,19 +65,6 @@ def _check_curve(what: str, times: np.ndarray, *columns: np.ndarray) -> None:
             raise ValueError(f"{what}: times and values must be finite (no NaN or inf)")
     if times.shape[0] > 1 and not np.all(np.diff(times) > 0):
         raise ValueError(f"{what}: times must be strictly increasing")
-
-
-def _check_color(what: str, color: Sequence[int]) -> RGB:
-    rgb = tuple(int(c) for c in color)
-    if len(rgb) != 3 or not all(0 <= c <= 255 for c in rgb):
-        raise ValueError(f"{what}: a colour is three integers in 0-255, got {color!r}")
-    return rgb  # type: ignore[return-value]
-
-
-def css(color: Sequence[int], alpha: float = 1.0) -> str:
-    """CSS colour string of an (r, g, b) triple in 0-255 with opacity ``alpha``."""
-    r, g, b = (int(c) for c in color)
-    return f"rgba({r}, {g}, {b}, {alpha:g})"
 
 
 @dataclass(frozen=True)
@@ -103,7 +93,7 @@ class Band:
         _check_curve(f"band {self.label!r}", self.times, self.mean, self.std)
         if np.any(self.std < 0):
             raise ValueError(f"band {self.label!r}: std must be >= 0")
-        object.__setattr__(self, "color", _check_color(f"band {self.label!r}", self.color))
+        object.__setattr__(self, "color", check_color(f"band {self.label!r}", self.color))
 
     @classmethod
     def from_prediction(
@@ -145,7 +135,7 @@ class Trace:
         for name in ("times", "values"):
             object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=float))
         _check_curve(f"trace {self.label!r}", self.times, self.values)
-        object.__setattr__(self, "color", _check_color(f"trace {self.label!r}", self.color))
+        object.__setattr__(self, "color", check_color(f"trace {self.label!r}", self.color))
         if not np.isfinite(self.width) or self.width <= 0:
             raise ValueError(f"trace {self.label!r}: width must be positive, got {self.width}")
 
@@ -163,11 +153,17 @@ class BandChart:
     @property
     def scales(self) -> dict[str, uplot.Scale]:
         """Fixed x and y ranges: the x range spans the grid (viser's browser side otherwise
-        keeps the previous relative x range when the data's span changes)."""
+        keeps the previous relative x range when the data's span changes); the marks' scale
+        when the chart has marks (:class:`TimeInterval`)."""
         x0, x1 = float(self.grid[0]), float(self.grid[-1])
         if x1 <= x0:
             x0, x1 = x0 - 0.5, x0 + 0.5
-        return {"x": {"time": False, "range": (x0, x1)}, "y": {"range": self.y_range}}
+        scales: dict[str, uplot.Scale] = {
+            "x": {"time": False, "range": (x0, x1)}, "y": {"range": self.y_range}
+        }
+        if any(s.get("scale") == MARK_SCALE for s in self.series):
+            scales[MARK_SCALE] = {"auto": False, "range": (0.0, 1.0)}
+        return scales
 
     @property
     def grid(self) -> np.ndarray:
@@ -223,16 +219,22 @@ def band_chart(
     traces: Sequence[Trace] = (),
     n_sigma: float = 2.0,
     x_label: str = "t (s)",
+    intervals: Sequence[TimeInterval] = (),
 ) -> BandChart:
-    """Series and bands of a chart showing ``bands`` and ``traces`` on a shared time grid.
+    """Series and bands of a chart showing ``bands``, ``traces`` and ``intervals`` on a
+    shared time grid.
 
     Per band, three series: upper edge, lower edge (thin, translucent, the band filled between
-    them) and mean (solid); then one series per trace, in the order given.
+    them) and mean (solid); then one series per trace, in the order given; then per interval
+    five on the mark scale: the fill's top and bottom, the line at its time, the lines at its
+    low and high ends (see the module docstring).
 
     Parameters
     ----------
     bands : sequence of Band
     traces : sequence of Trace
+    intervals : sequence of TimeInterval
+        They do not count for the y range.
     n_sigma : float
         Half-width of the bands in standard deviations (positive).
     x_label : str
@@ -252,7 +254,9 @@ def band_chart(
         raise ValueError("a chart needs at least one band or trace")
     if not np.isfinite(n_sigma) or n_sigma <= 0:
         raise ValueError(f"n_sigma must be positive, got {n_sigma}")
-    grid = np.unique(np.concatenate([b.times for b in bands] + [t.times for t in traces]))
+    grid = np.unique(np.concatenate(
+        [b.times for b in bands] + [t.times for t in traces] + [i.times for i in intervals]
+    ))  # fmt: skip
     data: list[np.ndarray] = [grid]
     series: list[uplot.Series] = [{"label": x_label}]
     fills: list[uplot.Band] = []
@@ -283,7 +287,13 @@ def band_chart(
         if trace.dash is not None:
             style["dash"] = tuple(float(d) for d in trace.dash)
         series.append(style)
-    return BandChart(tuple(data), tuple(series), tuple(fills), y_range(data[1:]))
+    y = y_range(data[1:])
+    for interval in intervals:
+        more, styles, fill = interval_series(grid, interval, len(data))
+        data += more
+        series += styles
+        fills.append(fill)
+    return BandChart(tuple(data), tuple(series), tuple(fills), y)
 
 
 TIME_LABEL = "time (s)"

@@ -2,7 +2,8 @@
 
 User-provided text (file names, paths, error messages) is shown literally: :func:`escape` for
 markdown, :func:`escape_html` for HTML elements; :func:`display_name` shortens an uploaded
-file's name to something safe to show.
+file's name to something safe to show. A name that a control may cut is given whole in its
+tooltip (:func:`chosen_hint`, a ``title`` in HTML).
 """
 
 from __future__ import annotations
@@ -36,3 +37,9 @@ def display_name(filename: str) -> str:
     """An uploaded file's name, safe to show in markdown (at most 60 characters)."""
     name = re.sub(r"[^A-Za-z0-9._ ()+-]", "_", filename.rsplit("/", 1)[-1]) or "file"
     return name if len(name) <= 60 else name[:57] + "..."
+
+
+def chosen_hint(hint: str, chosen: str) -> str:
+    """A dropdown's ``hint`` (its tooltip) that names the ``chosen`` option in full: a narrow
+    panel cuts a long name in the field ("base_to_front_...")."""
+    return f"{hint} Chosen: {chosen}"

@@ -10,12 +10,17 @@ from dataclasses import dataclass
 import viser
 
 from app.core.store_state import StoreState
+from app.core.view_state import View
 from app.live.inference import LIVE, TEST
 from app.scene.look import FADED, PRIOR_MODES
 from app.ui.context import InferRequest, PanelGui
 from app.ui.display import ALPHA_HINT, INFER_ALPHAS, observed_choices
+from app.ui.text import chosen_hint
+from app.ui.tube_style import TubeStyleControl
 
 NONE = "(none)"
+PRIMITIVE_HINT = "The primitive of the test demonstration."
+DEMO_HINT = "Inferred with a model learned without it."
 SOURCES = (TEST, LIVE)
 
 
@@ -37,17 +42,23 @@ class InferControls:
     replay_bar: viser.GuiProgressBarHandle
     show_3d: viser.GuiCheckboxHandle
     session_mode: viser.GuiDropdownHandle
+    tubes: TubeStyleControl
 
     def follow(self, store: StoreState) -> bool:
-        """Offer what ``store`` holds: its primitives, the chosen one's demonstrations, the
-        observed modalities of its layout; the live or the test controls. True when the
-        layout's choices changed (the charts are built again)."""
+        """Offer what ``store`` holds: its primitives, the chosen one's demonstrations (each
+        named whole in its dropdown's tooltip), the observed modalities of its layout; the live
+        or the test controls. True when the layout's choices changed (the charts are built
+        again)."""
         names = store.names or (NONE,)
         if tuple(self.primitive.options) != names:
             self.primitive.options = names
         demos = tuple(d.name for d in store.demos.get(self.primitive.value, ())) or (NONE,)
         if tuple(self.demo.options) != demos:
             self.demo.options = demos
+        for handle, hint in ((self.primitive, PRIMITIVE_HINT), (self.demo, DEMO_HINT)):
+            named = chosen_hint(hint, handle.value)  # the field may cut a long name
+            if handle.hint != named:
+                handle.hint = named
         observed = tuple(observed_choices(store.layout))
         changed = tuple(self.observed.options) != observed
         if changed:
@@ -102,10 +113,8 @@ def build_observation(gui: PanelGui, observed: tuple[str, ...]) -> dict:
                 "Source", SOURCES, initial_value=TEST,
                 hint="A demonstration held out from the model, or the live hand and head",
             ),
-            primitive=gui.add_dropdown("Primitive", (NONE,)),
-            demo=gui.add_dropdown(
-                "Test demo", (NONE,), hint="Inferred with a model learned without it"
-            ),
+            primitive=gui.add_dropdown("Primitive", (NONE,), hint=PRIMITIVE_HINT),
+            demo=gui.add_dropdown("Test demo", (NONE,), hint=DEMO_HINT),
             observed=gui.add_dropdown("Observed", observed),
             alpha=gui.add_dropdown(
                 "Alpha", tuple(INFER_ALPHAS), initial_value="ML", hint=ALPHA_HINT,
@@ -120,8 +129,8 @@ def build_observation(gui: PanelGui, observed: tuple[str, ...]) -> dict:
     return handles
 
 
-def build_display(gui: PanelGui) -> dict:
-    """The Display folder (collapsed)."""
+def build_display(gui: PanelGui, view: View) -> dict:
+    """The Display folder (collapsed), its tube style shared with Teach (``view``'s)."""
     with gui.add_folder("Display", expand_by_default=False):
         return dict(
             show_3d=gui.add_checkbox("Show in 3D", True),
@@ -130,4 +139,5 @@ def build_display(gui: PanelGui) -> dict:
                 hint="While an inference is shown, the session's prior tubes and demonstration "
                 "lines are shown; faded: tubes dimmed, lines hidden; hidden: both hidden",
             ),
+            tubes=TubeStyleControl(gui, view),
         )  # fmt: skip

@@ -112,7 +112,7 @@ class InferPanel:
         handles["replay_bar"] = gui.add_progress_bar(0.0, color="gray")
         gui.add_html(LEGEND_HTML)
         self.charts = InferCharts(ctx, gui.add_folder("Charts", expand_by_default=True), layout)
-        self.controls = InferControls(**handles, **build_display(gui))
+        self.controls = InferControls(**handles, **build_display(gui, ctx.view))
         c = self.controls
         c.live_button.on_click(lambda _: self._pressed.append("live"))
         c.live_clear.on_click(lambda _: self._pressed.append("clear"))
@@ -125,6 +125,7 @@ class InferPanel:
         snapshot = self._snapshot = frame.snapshot
         if self.controls.follow(snapshot.store):
             self.charts.build(snapshot.store.layout)
+        self.controls.tubes.step(snapshot)
         state = read_state(self.controls)
         self._run_pressed(state)
         samples = self._observe(frame, state)

@@ -5,10 +5,12 @@ Lengths and angles in the display units of :mod:`app.ui.display`, user text esca
 
 The charts: one chart tab per modality, one chart per dimension, each with the prior and
 posterior bands of the recognised primitive, the observed samples and the truth (the paper's
-Figs. 4, 7 and 9). While the same movement is inspected, each chart's x and y ranges only grow:
-scrubbing neither rescales (and so rebuilds) a chart at every step nor leaves uPlot's automatic
-x range to the browser (viser rescales it relative to the previous data, which a rebuild can
-leave undefined: an empty chart).
+Figs. 4, 7 and 9), and the predicted end of the movement with its 90 % interval (a vertical
+line in a shaded band: :mod:`app.panels.infer.phase`, which also words the phase estimate).
+While the same movement is inspected, each chart's x and y ranges only grow: scrubbing neither
+rescales (and so rebuilds) a chart at every step nor leaves uPlot's automatic x range to the
+browser (viser rescales it relative to the previous data, which a rebuild can leave undefined:
+an empty chart).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from app.live.inference import Inferred
+from app.panels.infer.phase import duration_html, end_interval, phase_html
 from app.scene.inference_layer import OBSERVED_COLOR, TRUTH_COLOR
 from app.ui.charts import Band, BandChart, Trace, add_band_chart, band_chart, update_band_chart
 from app.ui.context import PanelContext
@@ -37,7 +40,8 @@ ALPHA_HELP = (
 LEGEND_HTML = (
     f'<div style="font-size:0.72em;color:#555;margin-top:4px;{PAD}">'
     'Charts: bands ±2σ: <b style="color:#7d7d7d">prior</b> · <b>posterior</b> (recognised '
-    "primitive's colour) · ● observed · ╌ truth</div>"
+    "primitive's colour) · ● observed · ╌ truth · │ predicted end, shaded: its 90 % "
+    "interval</div>"
 )
 
 
@@ -48,8 +52,9 @@ def seconds(value: float, digits: int = 2) -> str:
 def probabilities_html(
     result: Inferred, color_of: Callable[[str], tuple[int, int, int]]
 ) -> str:
-    """One bar per primitive (its probability, in its colour); the recognised one in bold.
-    Each row carries ``data-primitive`` and ``data-p`` for tests and tools."""
+    """One bar per primitive (its probability, in its colour); the recognised one in bold, a
+    name cut to the column's width given whole on hover. Each row carries ``data-primitive``
+    and ``data-p`` for tests and tools."""
     rows = []
     recognition = result.inference.recognition
     for k, (name, p) in enumerate(zip(result.model.names, recognition.probabilities, strict=True)):
@@ -58,8 +63,9 @@ def probabilities_html(
         rows.append(
             f'<div data-primitive="{escape_html(name)}" data-p="{p:.6f}" '
             'style="display:flex;align-items:center;gap:6px;margin:3px 0">'
-            f'<span style="width:92px;overflow:hidden;text-overflow:ellipsis;'
-            f'white-space:nowrap;font-weight:{weight}">{escape_html(name)}</span>'
+            f'<span title="{escape_html(name)}" style="width:92px;overflow:hidden;'
+            f'text-overflow:ellipsis;white-space:nowrap;font-weight:{weight}">'
+            f"{escape_html(name)}</span>"
             '<span style="flex:1;height:11px;background:#e9ecef;border-radius:3px;'
             'overflow:hidden">'
             f'<span style="display:block;width:{100 * p:.1f}%;height:100%;'
@@ -101,8 +107,9 @@ def alpha_html(result: Inferred) -> str:
 def status_html(
     result: Inferred, truth_primitive: str | None, model_note: str, timing: str
 ) -> str:
-    """What was recognised, how much was observed, with which model, the predicted and true
-    durations and the errors (against ``truth_primitive``, the test demonstration's, if any)."""
+    """What was recognised, how much was observed (and which share of the movement the method
+    believes that is), with which model, the predicted and true durations and the errors
+    (against ``truth_primitive``, the test demonstration's, if any)."""
     obs, truth, inference = result.observation, result.truth, result.inference
     primitive = inference.primitive
     if truth is not None:
@@ -118,12 +125,12 @@ def status_html(
     else:
         mark = ""
         seen = f"{obs.n_observed} samples, {inference.observed_until:.2f} s"
-    true_duration = truth.duration if truth is not None else math.nan
     lines = [
         f"<b>Recognised: {escape_html(primitive)}</b>{mark} · {alpha_html(result)}",
         f"Observed: {seen} ({' + '.join(obs.modalities)})",
+        phase_html(result),
         f"Model: {escape_html(model_note)}",
-        f"Duration: predicted {inference.duration:.2f} s · true {seconds(true_duration)}",
+        duration_html(result),
         errors_line(result),
     ]
     return (
@@ -159,7 +166,7 @@ class FixedRangeChart(BandChart):
 
     @property
     def scales(self) -> dict:
-        return {"x": {"time": False, "range": self.x_range}, "y": {"range": self.y_range}}
+        return {**super().scales, "x": {"time": False, "range": self.x_range}}
 
 
 class InferCharts:
@@ -213,6 +220,7 @@ class InferCharts:
         obs = result.observation
         observed = list(layout.dims(obs.modalities))
         truth = layout.extract(result.truth) if result.truth is not None else None
+        end = end_interval(result, color)
         for i, (handle, q) in enumerate(zip(self.handles, self.quantities, strict=True)):
             bands = [
                 Band.from_prediction(result.inference.prior, q, "prior", PRIOR_COLOR),
@@ -229,7 +237,7 @@ class InferCharts:
                 traces.append(
                     Trace("observed", obs.elapsed, q.scale * column, OBSERVED_COLOR, points=True)
                 )
-            chart = self._sticky(i, band_chart(bands, traces))
+            chart = self._sticky(i, band_chart(bands, traces, intervals=[end]))
             update_band_chart(handle, chart, self.ctx.atomic)
 
     def _sticky(self, index: int, chart: BandChart) -> BandChart:

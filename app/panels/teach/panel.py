@@ -45,6 +45,7 @@ class TeachPanel:
         self.head.step(frame)
         listed = self.demos.step(snapshot)
         self.learn.step(frame)
+        self.prior.tubes.step(snapshot)
         take = self.record.take
         recording = take is not None and self.record.takes.phase is Phase.RECORDING
         if recording and self._live is not None:

@@ -14,10 +14,12 @@ import viser
 
 from app.core.snapshot import Snapshot
 from app.ui.context import PanelContext
+from app.ui.text import chosen_hint
 
 NO_PRIMITIVE = "(no primitive)"
 NO_COLOR = (128, 128, 128)
 CREATE, RENAME = "Create", "Rename"
+HINT = "The movement being taught; recordings go into it."
 
 
 class PrimitiveSection:
@@ -34,7 +36,7 @@ class PrimitiveSection:
             self.dropdown = gui.add_dropdown(
                 "Primitive",
                 tuple(names) or (NO_PRIMITIVE,),
-                hint="The movement being taught; recordings go into it.",
+                hint=HINT,
             )
             self.color = gui.add_rgb("Colour", state.color(names[0]) if names else NO_COLOR)
             self.new_name = gui.add_text(
@@ -128,4 +130,5 @@ class PrimitiveSection:
             if name is not None:
                 self.dropdown.value = name
                 self.color.value = shown[1]
+                self.dropdown.hint = chosen_hint(HINT, name)  # the field may cut it
         return name

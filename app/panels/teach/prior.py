@@ -4,7 +4,9 @@ Each chart shows the prior at the primitive's typical speed
 (:func:`app.live.inference.typical_prior`,
 mean +- 2 sd, in the display units of :mod:`app.ui.display`) with the newest demonstration over
 it, or, while recording, the demonstration being recorded. Drawn from the frame's snapshot,
-again only when what they show changed.
+again only when what they show changed. The folder also holds the 3D view's tube style
+(:class:`app.ui.tube_style.TubeStyleControl`, shared with Infer's Display folder); the charts
+keep their ±2σ bands whatever the tubes show.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from app.live.recorder import Recording
 from app.ui.charts import Band, Trace, add_band_chart, band_chart, update_band_chart
 from app.ui.context import PanelContext
 from app.ui.display import quantities
+from app.ui.tube_style import TubeStyleControl
 from promp.data import Layout
 from robots.icub.layout import HAND, HEAD
 
@@ -37,6 +40,7 @@ class PriorCharts:
         self._drawn: tuple = ()  # what the charts show
         self.folder = ctx.gui.add_folder("Prior")
         with self.folder:
+            self.tubes = TubeStyleControl(ctx.gui, ctx.view)
             self.note = ctx.gui.add_markdown("")
         self.build(ctx.store.state.layout)
 
