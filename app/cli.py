@@ -6,10 +6,12 @@ import argparse
 import signal
 import socket
 import sys
+import time
 from pathlib import Path
 
 from app.io.net import is_loopback, port_is_free
 from promp.datasets import FORMATS
+from promp.progress import clock
 from promp.rigs import MAPPING_HELP, add_rig_arguments
 from robots.icub.model import DEFAULT_ROBOT
 
@@ -133,9 +135,14 @@ def prepare_workspace(args: argparse.Namespace) -> None:
             "read): choose a --workspace outside it"
         )
     modalities = command_line_modalities(args.modality, args.mapping)
-    data, summary = read_folder(
-        source, args.format or detect_format(source), modalities, rig_options(args)
-    )
+    format = args.format or detect_format(source)
+    files = [source] if source.is_file() else [p for p in source.rglob("*") if p.is_file()]
+    stage(f"Reading {source} ({format}, {len(files)} files) and checking its demonstrations...")
+    start = time.monotonic()
+    data, summary = read_folder(source, format, modalities, rig_options(args))
+    stage(f"Read and checked {summary.n_demos} demonstrations of {len(summary.counts)} classes "
+          f"in {clock(time.monotonic() - start)}.")  # fmt: skip
+    stage(f"Writing the workspace {args.workspace} ({data.n_demos} demonstrations)...")
     Workspace.create(args.workspace, data)
     print(f"Created the workspace {args.workspace} from {source}: {summary.describe()}", flush=True)
     if summary.mapping:  # a rig's recordings: how they were read, and what they became
@@ -144,6 +151,32 @@ def prepare_workspace(args: argparse.Namespace) -> None:
         print("\n".join(f"  {line}" for line in lines), flush=True)
     headline, *details = summary.findings_lines(limit=50)
     print("\n  ".join([headline, *details]), flush=True)
+
+
+def stage(text: str) -> None:
+    """One stage of a long start, on stdout at once (a log shows where it is)."""
+    print(text, flush=True)
+
+
+def report_first_fit(session, every_s: float = 5.0) -> None:
+    """Wait for the workspace's first model, saying what is fitted and for how long (a line
+    every ``every_s`` seconds), then how it went."""
+    store = session.store.state
+    n_demos = sum(len(d) for d in store.learned.values())
+    stage(f"Fitting the model of {len(store.primitives)} primitives to {n_demos} "
+          "demonstrations...")  # fmt: skip
+    start = told = time.monotonic()
+    while session.snapshot().refitting:
+        time.sleep(0.1)
+        if time.monotonic() - told >= every_s:
+            told = time.monotonic()
+            stage(f"  fitting: {clock(told - start)} elapsed")
+    learner, took = session.learner.state, clock(time.monotonic() - start)
+    if learner.model is None:
+        stage(f"Not learned ({learner.error}) after {took}; the studio shows why.")
+    else:
+        stage(f"Fitted in {took}: {len(learner.model.names)} primitives from "
+              f"{learner.n_demos} demonstrations.")  # fmt: skip
 
 
 class StopSignals:
@@ -192,6 +225,8 @@ def main(argv: list[str] | None = None) -> None:
     except ValueError as exc:
         sys.exit(f"error: {exc}")
 
+    if args.import_dataset is not None:
+        stage("Starting the studio (the robot's model, the workspace)...")
     from app.studio import Studio  # heavy imports after the argument checks
 
     try:
@@ -206,6 +241,8 @@ def main(argv: list[str] | None = None) -> None:
     except ValueError as exc:
         sys.exit(f"error: {exc}")
     try:
+        if args.import_dataset is not None:  # the stages of a long start, as they go
+            report_first_fit(studio.session)
         stop = StopSignals()
         shown_host = "127.0.0.1" if args.host in ("0.0.0.0", "::") else args.host
         print(f"iCub intention studio running at http://{shown_host}:{studio.port}", flush=True)

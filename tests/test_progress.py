@@ -83,3 +83,31 @@ def test_the_refit_says_how_long_it_has_run_and_the_last_fit_is_the_estimate() -
     snapshot = SimpleNamespace(store=store, learner=learner, model=None, refitting=True)
     text = fit_text(snapshot, 12.0)
     assert "Learning again from 5 demonstrations..." in text and "0:12 elapsed" in text
+
+
+def test_importing_a_dataset_on_the_command_line_says_its_stages(tmp_path, capsys) -> None:
+    """``python -m app --import-dataset``: reading and checking, writing, fitting, each with
+    its counts, as it goes (the serving line is tests/test_foundation.py's)."""
+    from app.cli import build_parser, prepare_workspace, report_first_fit
+    from app.core.session import Session
+    from promp.datasets import write_csv_dataset
+    from tests.conftest import FITS
+    from tests.synthetic import make_dataset
+
+    write_csv_dataset(tmp_path / "data", make_dataset(seed=4, n_demos=3))
+    argv = ["--workspace", str(tmp_path / "ws"), "--import-dataset", str(tmp_path / "data")]
+    prepare_workspace(build_parser().parse_args(argv))
+    session = Session.open(tmp_path / "ws", fits=FITS)
+    try:
+        report_first_fit(session)
+    finally:
+        session.close()
+    out = capsys.readouterr().out
+    assert f"Reading {tmp_path / 'data'} (csv, 6 files) and checking" in out
+    assert "Read and checked 6 demonstrations of 2 classes in 0:0" in out
+    assert f"Writing the workspace {tmp_path / 'ws'} (6 demonstrations)..." in out
+    assert "Fitting the model of 2 primitives to 6 demonstrations..." in out
+    assert "Fitted in 0:" in out and ": 2 primitives from 6 demonstrations." in out
+    stages = ["Reading", "Read and", "Writing", "Created the workspace", "Fitting", "Fitted"]
+    positions = [out.index(s) for s in stages]
+    assert positions == sorted(positions)
