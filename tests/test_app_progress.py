@@ -95,3 +95,24 @@ def test_progress_cancel_and_a_workspace_switch(browser, studio, monkeypatch, tm
         page.screenshot(path="/tmp/progress_switched.png")
     finally:
         page.close()
+
+
+@pytest.mark.browser
+def test_an_uploaded_dataset_says_how_long_reading_and_checking_took(browser, studio) -> None:
+    from app.panels.data import DataPanel
+    from tests.browser import upload_file
+    from tests.test_dataset_import import csv_demo, zip_of
+
+    importer = next(p for p in studio.panels if isinstance(p, DataPanel)).importer
+    page, _client = open_page(browser, studio, width=1200, height=1000)
+    try:
+        page.set_default_timeout(120_000)
+        open_tab(page, "Data")
+        members = {f"{p}/take{i}.csv": csv_demo(10 * k + i) for k, p in enumerate(("up", "down"))
+                   for i in range(3)}  # fmt: skip
+        upload_file(page, importer.upload_button, "takes.zip", zip_of(members))
+        page.get_by_text("Read and checked in 0:0").wait_for()
+        page.get_by_text("Read and checked in").evaluate("e => e.scrollIntoView({block: 'center'})")
+        page.screenshot(path="/tmp/progress_import.png")
+    finally:
+        page.close()

@@ -22,6 +22,7 @@ always shows the latest upload: a refused one is not previewed, nor is the one b
 from __future__ import annotations
 
 import threading
+import time
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -44,6 +45,7 @@ from app.ui.dialogs import confirm
 from app.ui.text import display_name, escape
 from app.ui.upload_guard import UploadRefusals
 from promp.datasets import FORMATS, format_modalities, parse_modalities
+from promp.progress import clock
 from promp.rigs import CUTS, RIG_FORMATS, RigOptions
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
@@ -214,6 +216,12 @@ class DatasetImport:
                 return None
             upload, inputs = self.pending.upload, self.inputs
             inputs.show(True)
+            files = sum(1 for p in upload.root.rglob("*") if p.is_file())
+            self.preview.content = (  # the stage, while it reads (sent at once)
+                f"Reading {escape(upload.filename)} ({inputs.format.value}, {files} files) "
+                "and checking its demonstrations..."
+            )
+            started = time.monotonic()
             try:
                 modalities, options = inputs.options()
                 data, summary = upload.read(inputs.format.value, modalities, options)
@@ -234,7 +242,9 @@ class DatasetImport:
             if not inputs.modalities.value.strip():  # show the guess
                 guess = summary.mapping or format_modalities(summary.layout)
                 inputs.set(inputs.format.value, guess)
-            self.preview.content = preview_text(upload, summary)
+            self.preview.content = preview_text(upload, summary) + (
+                f"  \nRead and checked in {clock(time.monotonic() - started)}."
+            )
             self.actions.visible = True
             return summary
 
