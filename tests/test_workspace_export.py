@@ -30,12 +30,15 @@ def server():
     server.stop()
 
 
-def exported(server, root: Path) -> tuple[Store, exchange.WorkspaceUpload, list]:
+def exported(server, root: Path, learned: int = 0) -> tuple[Store, exchange.WorkspaceUpload, list]:
     """The Data tab on the workspace at ``root`` exports it (no model: the layout and the
-    demonstrations are what is checked); the store, the zip read back, and what it told."""
+    demonstrations are what is checked); the store, the zip read back, and what it told.
+    ``learned``: the store's version the learner's model answers (-1: still learning)."""
     from app.panels.data import DataPanel
 
     store = Store.open(root)
+    learner = SimpleNamespace(state=SimpleNamespace(learn_version=learned, fit_ms=2500.0,
+                                                    model=object()))  # fmt: skip
     told: list = []
     guard = SimpleNamespace(max_bytes=exchange.MAX_UPLOAD_BYTES, close=lambda: None,
                             dismiss=lambda client: None)  # fmt: skip
@@ -45,6 +48,7 @@ def exported(server, root: Path) -> tuple[Store, exchange.WorkspaceUpload, list]
         notify=lambda title, body, color="blue", **_: told.append((title, body, color)),
         guard_upload=lambda *args: guard,
         wait_for_model=lambda: None,
+        learner=learner,
     )
     panel = DataPanel(ctx)
     try:
@@ -115,3 +119,17 @@ def test_an_imported_lab_records_dataset_exports(server, tmp_path, heights_dir) 
     store, upload, _ = exported(server, tmp_path / "ws")
     assert [m.name for m in store.state.layout.modalities] == ["hand", "force"]
     assert_same_workspace(store, upload)
+
+
+def test_an_export_that_waits_for_the_model_says_so(server, tmp_path) -> None:
+    hand_and_emg_csv(tmp_path / "csv")
+    data, _ = read_folder(tmp_path / "csv", "csv", parse_modalities("hand=x,y,z"))
+    Workspace.create(tmp_path / "ws", data)
+    _, _, told = exported(server, tmp_path / "ws", learned=-1)
+    title, body, _ = told[0]
+    assert title == "Export workspace: waiting for the model"
+    assert body == (
+        "Learning again from 6 demonstrations (the last fit took 0:03); the file follows once "
+        "it is learned."
+    )
+    assert told[-1][0] == "Workspace exported"

@@ -25,6 +25,7 @@ snapshot: the model status and the sections.
 
 from __future__ import annotations
 
+import time
 import traceback
 
 import viser
@@ -41,6 +42,7 @@ from app.ui.context import Frame, PanelContext
 from app.ui.dialogs import confirm
 from app.ui.text import display_name
 from app.ui.upload_guard import UploadRefusals
+from promp.progress import clock
 
 ERROR_SECONDS, NOTICE_SECONDS = 20.0, 10.0  # how long a notification to one client stays
 
@@ -112,9 +114,27 @@ class DataPanel:
 
     # ------------------------------------------------------------------ export
 
+    def _model_for_export(self, client: viser.ClientHandle | None, what: str):
+        """The model of the workspace as it is now, once learned, and how long that was waited
+        for (s); while it is learned again, ``client`` is told what the export waits for."""
+        store, learner = self.ctx.store.state, self.ctx.learner.state
+        if learner.learn_version != store.learn_version:
+            n_demos = sum(len(d) for d in store.learned.values())
+            last = learner.fit_ms / 1000.0
+            took = f" (the last fit took {clock(last)})" if learner.model is not None else ""
+            self._notify(
+                client,
+                f"{what}: waiting for the model",
+                f"Learning again from {n_demos} demonstrations{took}; the file follows once "
+                "it is learned.",
+            )
+        start = time.monotonic()
+        model = self.ctx.wait_for_model()
+        return model, time.monotonic() - start
+
     def export_model(self, client: viser.ClientHandle | None) -> bytes | None:
         """Send the learned model to ``client`` as ``model-<time>.json``; returns the bytes."""
-        model = self.ctx.wait_for_model()
+        model, _ = self._model_for_export(client, "Export model")
         if model is None:
             reason = self.ctx.learner.state.error
             self._notify(client, "No model to export", f"The studio has no model: {reason}.", "red")
@@ -134,7 +154,7 @@ class DataPanel:
 
     def export_workspace(self, client: viser.ClientHandle | None) -> bytes:
         """Send the workspace to ``client`` as ``workspace-<time>.zip``; returns the bytes."""
-        model = self.ctx.wait_for_model()
+        model, waited = self._model_for_export(client, "Export workspace")
         data = workspace_data(self.ctx.store.state)
         content = exchange.workspace_zip(data, model)
         filename = exchange.export_filename("workspace", "zip")
@@ -145,7 +165,8 @@ class DataPanel:
             client,
             "Workspace exported",
             f"{filename} ({exchange.format_size(len(content))}): {len(data.primitives)} "
-            f"primitives, {n_demos} demonstrations" + (", the model." if model else "."),
+            f"primitives, {n_demos} demonstrations" + (", the model." if model else ".")
+            + (f" Waited {clock(waited)} for the model." if waited >= 1.0 else ""),
         )
         return content
 
