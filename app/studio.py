@@ -86,7 +86,7 @@ class Studio:
         self.arm = arm
         self.head = HeadInput(head_source)
         self.head.read(arm.hand_position())
-        self.scene = SceneView(server)
+        self.scene = SceneView(server, robot=arm.robot)
         self.panels: list[Panel] = []
         self.camera: ViewControls | None = None
         self.tabs: BrowserTabs | None = None

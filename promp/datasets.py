@@ -356,10 +356,22 @@ def parse_modality(spec: str) -> Modality:
     return modality_from_columns(name.strip(), columns)
 
 
-def parse_modalities(text: str) -> tuple[Modality, ...]:
-    """Several modalities separated by ``;`` or new lines: ``"hand=x,y,z; head=roll,pitch,yaw"``."""
+# Where one modality ends and the next begins inside a line: spaces before ``NAME=``.
+_NEXT_MODALITY = re.compile(r"\s+(?=[A-Za-z][A-Za-z0-9_-]*\s*=)")
+
+
+def modality_specs(text: str) -> list[str]:
+    """The modalities of ``text``, one ``NAME=...`` each: they are separated by new lines,
+    ``;`` or spaces (``"hand=x,y,z emg=e0,e1"``); ``#`` starts a comment."""
     lines = (line.partition("#")[0] for line in str(text).splitlines())
-    specs = [s.strip() for line in lines for s in line.split(";") if s.strip()]
+    parts = (part for line in lines for part in line.split(";"))
+    return [s.strip() for part in parts for s in _NEXT_MODALITY.split(part) if s.strip()]
+
+
+def parse_modalities(text: str) -> tuple[Modality, ...]:
+    """Several modalities, one per line or separated by ``;`` or spaces
+    (:func:`modality_specs`): ``"hand=x,y,z; head=roll,pitch,yaw"``."""
+    specs = modality_specs(text)
     if not specs:
         raise ValueError("name at least one modality, e.g. hand=x,y,z")
     return tuple(parse_modality(s) for s in specs)

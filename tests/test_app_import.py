@@ -262,7 +262,7 @@ def test_an_xdf_session_through_the_page(page, studio, tmp_path) -> None:
     page.get_by_text("2 primitives, 6 demonstrations: reach (3), wave (3)").wait_for()
     inputs = section.inputs
     assert inputs.format.value == "xdf" and inputs.cut.visible and inputs.rate.visible
-    assert inputs.modalities.value == "hand=hand:x,y,z; head=head:roll,pitch,yaw"
+    assert inputs.modalities.value == "hand=hand:x,y,z\nhead=head:roll,pitch,yaw"  # one a line
     page.get_by_text("reach/session-1 ← session.xdf [0.500-1.800 s]").wait_for()
     page.get_by_text("wave/session-6 ← session.xdf [9.200-10.300 s]").wait_for()
     inputs.rate.value = 50.0  # what typing in the number field does

@@ -10,6 +10,7 @@ from functools import cached_property
 from types import MappingProxyType
 
 from app.io.demo_checks import DemoChecks
+from app.io.hand_frame import ICUB_FRAME, HandFrame
 from app.io.trash import TrashEntry
 from app.io.workspace import Workspace, WorkspaceData
 from app.io.workspace_index import PrimitiveEntry
@@ -53,6 +54,9 @@ class StoreState:
         Everything in the workspace's trash, newest first.
     problems : tuple of str
         Files the workspace could not read when opened.
+    frame : HandFrame
+        Where the hand was recorded (``studio.json``): the iCub's frame, placed there, or its
+        own (drawn without the robot).
     """
 
     version: int
@@ -69,6 +73,7 @@ class StoreState:
     deleted: tuple[TrashEntry, ...] = ()
     trash: tuple[TrashEntry, ...] = ()
     problems: tuple[str, ...] = ()
+    frame: HandFrame = ICUB_FRAME
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -137,6 +142,7 @@ def adopted(
         unscored=unscored,
         trash=tuple(workspace.trash.entries()),
         problems=tuple(data.problems),
+        frame=data.frame,
         **kept,
     )
 
@@ -167,7 +173,9 @@ def next_demo_name(state: StoreState, primitive: str) -> str:
 
 
 def save_index(state: StoreState) -> None:
-    state.workspace.save_index(state.primitives, state.settings, state.layout, state.checks)
+    state.workspace.save_index(
+        state.primitives, state.settings, state.layout, state.checks, state.frame
+    )
 
 
 def after_trashing(state: StoreState, entry: TrashEntry) -> StoreState:

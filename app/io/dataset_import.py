@@ -33,6 +33,7 @@ from pathlib import Path, PurePosixPath
 
 from app.io.demo_checks import DemoChecks
 from app.io.exchange import Limits, check_member, format_size
+from app.io.hand_frame import HandFrame
 from app.io.workspace import WorkspaceData
 from app.io.workspace_index import PALETTE, PrimitiveEntry, check_layout
 from promp.data import Demonstration, Layout, Modality
@@ -71,6 +72,12 @@ class DatasetSummary:
     def n_demos(self) -> int:
         return sum(self.counts.values())
 
+    @property
+    def unused(self) -> tuple[str, ...]:
+        """The dataset's columns that no modality uses (left out of the workspace)."""
+        used = set(self.layout.columns)
+        return tuple(c for c in self.columns if c not in used)
+
     def findings_lines(self, limit: int = 12) -> list[str]:
         """The checks' findings in words: a headline, then one line per finding (at most
         ``limit``, then how many more)."""
@@ -106,6 +113,38 @@ class DatasetSummary:
             f"{len(self.counts)} primitives, {self.n_demos} demonstrations: {classes}. "
             f"Modalities: {modalities}."
         )
+
+
+def compact_columns(columns: Sequence[str]) -> str:
+    """``columns`` listed, runs of numbered ones shortened: ``hx, hy, hz, e0..e7``."""
+    parts: list[str] = []
+    run: list[tuple[str, int]] = []  # (prefix, number) of consecutive numbered columns
+
+    def flush() -> None:
+        if len(run) > 2:
+            parts.append(f"{run[0][0]}{run[0][1]}..{run[-1][0]}{run[-1][1]}")
+        else:
+            parts.extend(f"{prefix}{n}" for prefix, n in run)
+        run.clear()
+
+    for column in columns:
+        match = re.fullmatch(r"(.*?)(\d+)", column)
+        if match and run and match.group(1) == run[-1][0] and int(match.group(2)) == run[-1][1] + 1:
+            run.append((match.group(1), int(match.group(2))))
+            continue
+        flush()
+        if match and match.group(2) == str(int(match.group(2))):
+            run.append((match.group(1), int(match.group(2))))
+        else:
+            parts.append(column)
+    flush()
+    return ", ".join(parts)
+
+
+def placed(data: WorkspaceData, frame: HandFrame) -> WorkspaceData:
+    """``data`` (its hand as recorded) with the hand in the iCub's frame by ``frame``, which
+    the workspace keeps (:mod:`app.io.hand_frame`)."""
+    return dataclasses.replace(data, demos=frame.placed(data.demos, data.layout), frame=frame)
 
 
 def dataset_to_workspace(

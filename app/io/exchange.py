@@ -10,7 +10,9 @@ Two kinds of file leave and enter the studio:
       demos/<primitive>/<demo>.csv    t and the layout's columns
       model.json                      the learned model, when there is one
 
-  the workspace folder's own format (:mod:`app.io.workspace`) plus the model.
+  the workspace folder's own format (:mod:`app.io.workspace`) plus the model; a hand placed
+  in the iCub's frame at import goes back to the frame it was recorded in
+  (:mod:`app.io.hand_frame`), and is placed again when the archive is read.
 
 Reading an upload validates **everything** in memory before anything may change: a model must
 parse (:func:`promp.io.model_from_json`) with primitive names the studio can use (the session
@@ -102,9 +104,11 @@ def workspace_zip(
     ----------
     data : WorkspaceData
         Primitives, their demonstrations (columns in any order, at least the layout's), the
-        learning settings and the layout.
+        learning settings, the layout and the hand's frame: a hand placed in the iCub's frame
+        at import is written back in the frame it was recorded in, the placement in
+        ``studio.json`` (:mod:`app.io.hand_frame`; reading the archive places it again).
     model : ProMPModel, optional
-        Stored as ``model.json``.
+        Stored as ``model.json`` (as learned: in the iCub's frame, the one the robot uses).
     when : float, optional
         Time stamp of the members (seconds since the epoch; now by default).
     """
@@ -118,11 +122,13 @@ def workspace_zip(
             info.external_attr = (stat.S_IFREG | 0o644) << 16
             archive.writestr(info, text.encode("utf-8"))
 
-        add(INDEX_NAME, index_json(data.primitives, data.settings, data.layout, data.checks))
+        add(INDEX_NAME, index_json(data.primitives, data.settings, data.layout, data.checks,
+                                   data.frame))  # fmt: skip
         columns = data.layout.columns
+        recorded = data.frame.as_recorded(data.demos, data.layout)  # back in the data's frame
         for entry in data.primitives:
             check_name(entry.name)
-            for demo in data.demos.get(entry.name, []):
+            for demo in recorded.get(entry.name, []):
                 check_name(demo.name, "demonstration")
                 ordered = Demonstration(demo.times, demo.select(columns), columns, name=demo.name)
                 add(f"{DEMOS_DIR}/{entry.name}/{demo.name}.csv", demo_to_csv(ordered))
@@ -283,8 +289,9 @@ def read_workspace_zip(
                 raise ValueError(f"{label}: primitive {primitive!r} is not listed in {INDEX_NAME}")
             demos[primitive].append(_parse_demo(read(inner), stem, label, index.layout))
     data = WorkspaceData(
-        index.primitives, demos, index.settings, layout=index.layout, checks=index.checks
-    )
+        index.primitives, index.frame.placed(demos, index.layout), index.settings,
+        layout=index.layout, checks=index.checks, frame=index.frame,
+    )  # fmt: skip
     return WorkspaceUpload(filename, data, model, ignored)
 
 

@@ -4,7 +4,8 @@
 
     WORKSPACE/
       studio.json                     format, version, the layout of modalities, primitives
-                                      (name, colour, order), learning settings
+                                      (name, colour, order), learning settings, the hand's
+                                      frame (app.io.hand_frame)
       demos/<primitive>/<demo>.csv    one demonstration each, the engine's CSV format
       raw/<primitive>/<demo>_<time>.csv
                                       each recorded take as it was sampled, before its idle
@@ -37,6 +38,7 @@ from enum import Enum
 from pathlib import Path
 
 from app.io.demo_checks import DemoChecks
+from app.io.hand_frame import ICUB_FRAME, HandFrame
 from app.io.runs_folder import RUN_KIND, RUNS_DIR
 from app.io.trash import Trash, TrashEntry
 from app.io.workspace_index import (
@@ -68,6 +70,7 @@ class WorkspaceData:
     problems: list[str] = field(default_factory=list)  # files that could not be read
     layout: Layout = STUDIO_LAYOUT
     checks: DemoChecks = DemoChecks()  # what the user kept despite findings (app.io.demo_checks)
+    frame: HandFrame = ICUB_FRAME  # the hand's frame: the demos are in the iCub's once placed
 
     @property
     def n_demos(self) -> int:
@@ -196,7 +199,7 @@ class Workspace:
             return data
         index = self.read_index()
         data.primitives, data.settings, data.layout = index.primitives, index.settings, index.layout
-        data.checks = index.checks
+        data.checks, data.frame = index.checks, index.frame
         data.demos = {entry.name: [] for entry in data.primitives}
         for entry in data.primitives:
             folder = self.demo_dir(entry.name)
@@ -220,8 +223,9 @@ class Workspace:
         settings: Mapping,
         layout: Layout,
         checks: DemoChecks,
+        frame: HandFrame = ICUB_FRAME,
     ) -> None:
-        atomic_write_text(self.index_path, index_json(primitives, settings, layout, checks))
+        atomic_write_text(self.index_path, index_json(primitives, settings, layout, checks, frame))
 
     def write_demo(self, primitive: str, demo: Demonstration, layout: Layout) -> Path:
         """Write one demonstration (its ``name`` is the file stem), atomically."""
@@ -338,7 +342,7 @@ class Workspace:
             primitives.append(PrimitiveEntry(check_name(name_), check_color(color)))
         self.trash.take_back(entry)
         if [p.name for p in primitives] != [p.name for p in index.primitives]:
-            self.save_index(primitives, index.settings, index.layout, index.checks)
+            self.save_index(primitives, index.settings, index.layout, index.checks, index.frame)
         return entry
 
 
@@ -370,5 +374,5 @@ def _write_all(root: Path, data: WorkspaceData) -> None:
     (root / DEMOS_DIR).mkdir(parents=True, exist_ok=True)
     atomic_write_text(
         root / INDEX_NAME,
-        index_json(data.primitives, data.settings, data.layout, data.checks),
+        index_json(data.primitives, data.settings, data.layout, data.checks, data.frame),
     )

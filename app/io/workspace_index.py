@@ -5,14 +5,17 @@
     {"format": "icub-intention-studio/workspace", "version": 1,
      "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"}, ...],
      "primitives": [{"name": "curved", "color": [213, 94, 0]}, ...],
-     "settings": {"n_basis": 7, ...}}
+     "settings": {"n_basis": 7, ...},
+     "frame": {"placement": {"translation_m": [x, y, z], "yaw_rad": yaw}}}
 
 The layout lists the modalities (:func:`layout_listing`); a workspace the studio creates has
 the studio's (:data:`robots.icub.layout.STUDIO_LAYOUT`, hand and head). Primitive names are
 safe file names
 (:func:`check_name`). The settings are those of :class:`promp.model.Settings` the workspace sets;
-absent ones take the engine's defaults. The index on disk and one in an imported archive are
-checked alike (:func:`check_index`).
+absent ones take the engine's defaults. ``frame``, for data recorded elsewhere, says how its
+hand was placed in the iCub's frame or that it stays in its own (:mod:`app.io.hand_frame`;
+absent: the iCub's). The index on disk and one in an imported archive are checked alike
+(:func:`check_index`).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 
 from app.io.demo_checks import DemoChecks
+from app.io.hand_frame import ICUB_FRAME, HandFrame
 from promp.data import Layout, Modality
 from promp.datasets import MODALITY_NAME
 from promp.model import Settings
@@ -142,9 +146,10 @@ def index_json(
     settings: Mapping,
     layout: Layout = STUDIO_LAYOUT,
     checks: DemoChecks | None = None,
+    frame: HandFrame = ICUB_FRAME,
 ) -> str:
     """The text of ``studio.json`` (``checks``: :mod:`app.io.demo_checks`, written when it holds
-    something)."""
+    something; ``frame``: :mod:`app.io.hand_frame`, written unless the iCub's)."""
     index = {
         "format": FORMAT,
         "version": VERSION,
@@ -154,6 +159,8 @@ def index_json(
     }
     if checks:
         index["checks"] = checks.to_json()
+    if frame.to_json() is not None:
+        index["frame"] = frame.to_json()
     return json.dumps(index, indent=1)
 
 
@@ -168,6 +175,7 @@ class Index:
     settings: dict
     layout: Layout
     checks: DemoChecks = DemoChecks()
+    frame: HandFrame = ICUB_FRAME
 
 
 def check_index(index: object, label: str) -> Index:
@@ -221,4 +229,5 @@ def check_index(index: object, label: str) -> Index:
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{label}: invalid learning settings ({exc})") from None
     checks = DemoChecks.from_json(index["checks"], label) if "checks" in index else DemoChecks()
-    return Index(primitives, dict(settings), layout, checks)
+    frame = HandFrame.from_json(index.get("frame"), label)
+    return Index(primitives, dict(settings), layout, checks, frame)

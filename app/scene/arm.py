@@ -58,6 +58,7 @@ class ArmController:
             wxyz=vtf.SO3.from_matrix(pose[:3, :3]).wxyz,
             depth_test=False,
         )
+        robot.props.append(self.gizmo)  # no hand to drag where the robot is hidden
         self.dragging = False
         self._snap_pending = False
 

@@ -3,7 +3,9 @@
 Moving the robot (a drag, a replay) updates only the frames of the joints whose angle changed:
 viser's ``ViserUrdf.update_cfg`` recomputes every joint's transform (about 25 ms for the iCub's
 59 joints, at every frame of a drag); a joint's frame is relative to its parent, so the others
-stay as they are. The partner's head avatar is :mod:`app.scene.partner`.
+stay as they are. The partner's head avatar is :mod:`app.scene.partner`. A workspace whose
+hand stays in its own frame (:mod:`app.io.hand_frame`) is drawn without the robot and its scene
+(:meth:`RobotView.show`).
 """
 
 from __future__ import annotations
@@ -44,6 +46,17 @@ class RobotView:
     q: np.ndarray
     # Per actuated joint, the joint and its frames in the scene (None: update every frame).
     _frames: list | None = field(default=None, repr=False)
+    # What is shown and hidden with the robot: its table, object and bins, the hand's gizmo.
+    props: list = field(default_factory=list, repr=False)
+    shown: bool = True
+
+    def show(self, visible: bool) -> None:
+        """Show or hide the robot with its scene (nothing sent when it is so already)."""
+        if visible == self.shown:
+            return
+        self.shown = visible
+        for node in (self.root, *self.props):
+            node.visible = visible
 
     def set_configuration(self, q: np.ndarray) -> None:
         """Show the actuated joint vector ``q``, shape (n_actuated,): the frames of the joints
@@ -108,35 +121,25 @@ def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> R
     view = RobotView(urdf=urdf, viser_urdf=viser_urdf, root=root, q=natural_pose(urdf))
     view.set_configuration(view.q)
 
+    def add_box(name: str, **kwargs) -> None:  # the robot's scene: hidden with the robot
+        view.props.append(server.scene.add_box(name, **kwargs))
+
     table = scene.table
-    server.scene.add_box(
-        "/scene/table/top",
-        dimensions=table.size,
-        position=table.center,
-        color=TABLE_COLOR,
-    )
+    add_box("/scene/table/top", dimensions=table.size, position=table.center, color=TABLE_COLOR)
     leg_height = table.center[2] - table.size[2] / 2 - ground
     for i, (sx, sy) in enumerate(((-1, -1), (-1, 1), (1, -1), (1, 1))):
         x = table.center[0] + sx * (table.size[0] / 2 - 0.03)
         y = table.center[1] + sy * (table.size[1] / 2 - 0.03)
-        server.scene.add_box(
+        add_box(
             f"/scene/table/leg{i}",
             dimensions=(0.04, 0.04, leg_height),
             position=(x, y, ground + leg_height / 2),
             color=LEG_COLOR,
         )
-    server.scene.add_box(
-        "/scene/object",
-        dimensions=scene.object.size,
-        position=scene.object.center,
-        color=OBJECT_COLOR,
-    )
+    add_box("/scene/object", dimensions=scene.object.size, position=scene.object.center,
+            color=OBJECT_COLOR)  # fmt: skip
     for i, bin_ in enumerate(scene.bins):
         for j, part in enumerate(bin_.parts()):
-            server.scene.add_box(
-                f"/scene/bin{i}/part{j}",
-                dimensions=part.size,
-                position=part.center,
-                color=BIN_COLOR,
-            )
+            add_box(f"/scene/bin{i}/part{j}", dimensions=part.size, position=part.center,
+                    color=BIN_COLOR)  # fmt: skip
     return view

@@ -9,7 +9,8 @@ for (:class:`app.scene.look.Shown`), redraws what changed since the frame it dre
 inputs are immutable: compared by identity) and applies the look of the panel in use
 (:func:`look`, pure; the panels and options are named in :mod:`app.scene.look`) once. Panels
 never touch the nodes. Everything runs on the studio's loop thread except
-:meth:`SceneView.use_panel`, which only records.
+:meth:`SceneView.use_panel`, which only records. The robot (:mod:`app.scene.robot`) is drawn
+unless the workspace's hand stays in its own frame (:attr:`app.io.hand_frame.HandFrame.own`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from app.core.snapshot import Snapshot
 from app.scene.inference_layer import DEFAULT_COLOR, InferenceLayer
 from app.scene.look import INFER, PANELS, PRIOR_MODES, SHOWN, TEACH, InferenceShown, Shown
 from app.scene.partner import PartnerView
+from app.scene.robot import RobotView
 from app.scene.start_marker import StartMarker
 from app.scene.workspace_layer import NO_COLOR, WorkspaceLayer
 from robots.icub.layout import HEAD
@@ -87,7 +89,8 @@ def look(panel: str, inference_shown: bool, priors: str = SHOWN) -> Look:
 class SceneView:
     """The studio's 3D objects and their look (see the module docstring)."""
 
-    def __init__(self, server: viser.ViserServer):
+    def __init__(self, server: viser.ViserServer, robot: RobotView | None = None):
+        self.robot = robot  # shown or hidden with the workspace's frame
         self.partner = PartnerView(server)
         self.workspace = WorkspaceLayer(server)
         self.inference = InferenceLayer(server)
@@ -109,6 +112,8 @@ class SceneView:
         """Draw one frame: ``snapshot``'s workspace, the partner's ``head`` angles and what
         the panels asked for; returns the look applied."""
         self._draw_workspace(snapshot)
+        if self.robot is not None:
+            self.robot.show(snapshot.store.frame.robot_shown)
         self.partner.orient(head)
         inference, style = shown.inference or NOTHING_INFERRED, snapshot.view.tube_style
         if inference is not self._inferred[0] or style != self._inferred[1]:

@@ -5,9 +5,11 @@ recordings: YARP dumps, ROS bags, XDF, C3D), or a single session file (a bag, ``
 ``.c3d``); the studio extracts it into a temporary folder of its own, guesses the format and the
 modalities from the files (the streams), and previews what it would create, with every
 demonstration found and where it comes from. The user may change the format, the mapping of
-columns (``hand=x,y,z; head=roll,pitch,yaw``) or of streams (``hand=/pose:pose.position.{x,y,z}``)
-to modalities, and for recordings how sessions are cut and the rate of the time base; each
-change re-reads and re-previews. Then either
+columns (``hand=x,y,z``, one modality per line) or of streams
+(``hand=/pose:pose.position.{x,y,z}``) to modalities (:mod:`app.panels.data.import_inputs`), and
+for recordings how sessions are cut and the rate of the time base; each change re-reads and
+re-previews. A hand mostly out of the iCub's reach is said so, and the user places it in the
+iCub's frame or keeps it in its own (:mod:`app.panels.data.import_frame`). Then either
 
 * **Create workspace** makes a new workspace folder beside the current one (named after the
   zip) and the studio serves it; the current workspace stays as it is on disk; or
@@ -38,15 +40,18 @@ from app.io.dataset_import import (
     extract_dataset_zip,
     safe_name,
 )
+from app.io.dataset_import import placed as placed_data
 from app.io.exchange import Limits, format_size
+from app.io.hand_frame import hand_points
 from app.io.workspace import WorkspaceData
-from app.ui.context import PanelContext, PanelGui
+from app.panels.data.import_frame import FrameChoice
+from app.panels.data.import_inputs import ImportInputs, one_per_line, preview_text
+from app.ui.context import PanelContext
 from app.ui.dialogs import confirm
 from app.ui.text import display_name, escape
 from app.ui.upload_guard import UploadRefusals
-from promp.datasets import FORMATS, format_modalities, parse_modalities
+from promp.datasets import format_modalities
 from promp.progress import clock
-from promp.rigs import CUTS, RIG_FORMATS, RigOptions
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
 CREATE, REPLACE = "Create workspace", "Replace this workspace"
@@ -65,68 +70,6 @@ class Pending:
     upload: DatasetUpload
     data: WorkspaceData | None = None
     summary: DatasetSummary | None = None
-
-
-class ImportInputs:
-    """The reading's inputs (format, modalities; for a rig's recordings the cut, the rate and
-    the marker stream), shown once an upload is previewed."""
-
-    def __init__(self, gui: PanelGui):
-        self.quiet = False  # set while the code itself changes the inputs
-        self.format = gui.add_dropdown("Format", FORMATS, visible=False)
-        self.modalities = gui.add_text(
-            "Modalities", "", visible=False,
-            hint="NAME=COL,COL,... separated by ';'; for recordings NAME=STREAM:FIELD,...[@UNIT] "
-            "(a topic, stream, port or marker, then fields: pose.position.{x,y,z}; @mm and "
-            "@deg are converted). 'hand' (x, y, z in metres, the robot's root frame) is drawn in "
-            "3D; other modalities get their own charts",
-        )  # fmt: skip
-        self.cut = gui.add_dropdown(
-            "Cut", CUTS, visible=False,
-            hint="How a recording becomes demonstrations: by its markers, at its still "
-            "periods, one per file (in <class>/ folders), or auto (markers when it has some)",
-        )  # fmt: skip
-        self.rate = gui.add_number(
-            "Rate (Hz)", 0.0, min=0.0, max=10000.0, step=1.0, visible=False,
-            hint="The time base the streams are interpolated on; 0: the slowest stream's own "
-            "time stamps",
-        )  # fmt: skip
-        self.markers = gui.add_text(
-            "Marker stream", "", visible=False,
-            hint="The stream to cut by when a recording has several; empty: its only one",
-        )  # fmt: skip
-        self.handles = (self.format, self.modalities, self.cut, self.rate, self.markers)
-
-    def set(self, format: str, modalities: str, reset: bool = False) -> None:
-        """Set the inputs without re-reading; ``reset`` also puts the recordings' options back
-        to their defaults (a new upload)."""
-        self.quiet = True
-        try:
-            self.format.value = format
-            self.modalities.value = modalities
-            if reset:
-                self.cut.value, self.rate.value, self.markers.value = CUTS[0], 0.0, ""
-        finally:
-            self.quiet = False
-
-    def show(self, visible: bool) -> None:
-        """The inputs (the recordings' options only for a rig's format), or none."""
-        rig = visible and self.format.value in RIG_FORMATS
-        self.format.visible = self.modalities.visible = visible
-        self.cut.visible = self.rate.visible = self.markers.visible = rig
-
-    def options(self) -> tuple[dict | None, RigOptions]:
-        """The modalities given (None: guessed) and the recordings' options.
-
-        Raises
-        ------
-        ValueError
-            A mapping that does not parse.
-        """
-        text = self.modalities.value.strip()
-        rate = float(self.rate.value) or None
-        rig = RigOptions(self.cut.value, rate, self.markers.value.strip())
-        return (parse_modalities(text) if text else None), rig
 
 
 class DatasetImport:
@@ -161,6 +104,7 @@ class DatasetImport:
             )
             self.inputs = ImportInputs(gui)
             self.preview = gui.add_markdown("")
+            self.frame = FrameChoice(gui)
             self.actions = gui.add_button_group("", (CREATE, REPLACE), visible=False)
         self.guard = ctx.guard_upload(
             self.upload_button, max_upload_bytes,
@@ -177,6 +121,8 @@ class DatasetImport:
         )
         for handle in self.inputs.handles:
             handle.on_update(lambda event: None if self.inputs.quiet else self.reread(event.client))
+        for handle in self.frame.handles:
+            handle.on_update(lambda event: None if self.frame.quiet else self.reframe(event.client))
         self.actions.on_click(lambda event: self.act(event.client, event.target.value))
 
     # ------------------------------------------------------------------ steps
@@ -228,6 +174,7 @@ class DatasetImport:
             except ValueError as exc:
                 self.pending = Pending(upload)
                 self.actions.visible = False
+                self.frame.hide()
                 self.preview.content = f"**Cannot import:** {escape(str(exc))}"
                 self.refusals.refuse(client, f"Cannot import {upload.filename}", str(exc))
                 return None
@@ -235,18 +182,29 @@ class DatasetImport:
                 traceback.print_exc()
                 self.pending = Pending(upload)
                 self.actions.visible = False
+                self.frame.hide()
                 self.preview.content = f"**Cannot import:** {escape(type(exc).__name__)}"
                 return None
             self.pending = Pending(upload, data, summary)
             self.refusals.accepted(client)
             if not inputs.modalities.value.strip():  # show the guess
                 guess = summary.mapping or format_modalities(summary.layout)
-                inputs.set(inputs.format.value, guess)
+                inputs.set(inputs.format.value, one_per_line(guess))
             self.preview.content = preview_text(upload, summary) + (
                 f"  \nRead and checked in {clock(time.monotonic() - started)}."
             )
+            self.frame.reset(hand_points(data.demos, data.layout))
             self.actions.visible = True
             return summary
+
+    def reframe(self, client) -> None:
+        """The hand's frame or placement changed: the preview says where it is now."""
+        with self._lock:
+            if self.pending is None or self.pending.data is None:
+                return
+            refused = self.frame.update()
+        if refused is not None:
+            self.refusals.refuse(client, "Cannot place the hand", refused)
 
     def act(self, client, action: str) -> None:
         with self._lock:
@@ -313,7 +271,7 @@ class DatasetImport:
             if pending is None or pending.data is None:
                 return False
             try:
-                message = apply(pending.upload, pending.data)
+                message = apply(pending.upload, placed_data(pending.data, self.frame.frame()))
             except (ValueError, OSError) as exc:
                 self.notify(client, f"Cannot import {pending.upload.filename}", f"{exc}.", "red")
                 return False
@@ -328,6 +286,7 @@ class DatasetImport:
         self.pending = None
         self.actions.visible = False
         self.inputs.show(False)
+        self.frame.hide()
         self.preview.content = ""
 
     def close(self) -> None:
@@ -335,20 +294,3 @@ class DatasetImport:
             if self.pending is not None:
                 self.pending.upload.close()
         self.guard.close()
-
-
-def preview_text(upload: DatasetUpload, summary: DatasetSummary) -> str:
-    """What an upload reads as: its format, primitives, columns, what was ignored, how a rig's
-    recordings were read and the demonstrations found, the checks' findings (markdown)."""
-    lines = [
-        f"**{escape(upload.filename)}** ({summary.format}): {escape(summary.describe())}",
-        f"Columns: {escape(', '.join(summary.columns))}",
-    ]
-    if upload.ignored:
-        lines.append(f"Ignored: {escape(', '.join(upload.ignored))}")
-    if summary.mapping:  # a rig's recordings: how they were read, what they became
-        lines += [escape(line) for line in summary.notes]
-        lines += ["Demonstrations found:"]
-        lines += [escape(line) for line in summary.demonstrations_lines()]
-    lines += [escape(line) for line in summary.findings_lines()]
-    return "  \n".join(lines)

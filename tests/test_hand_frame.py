@@ -1,0 +1,230 @@
+"""Data recorded elsewhere, brought in: the modalities' field takes one per line (or ``;`` or
+spaces), the preview names the columns no modality uses, and a hand placed in the iCub's frame
+at import is kept with the workspace (``studio.json``), loaded back, and undone on export: the
+exported CSVs are the recorded ones. Old workspaces (no ``frame``) open as before; a bad
+placement is refused with a message."""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import zipfile
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from app.core.store import Store
+from app.core.store_state import workspace_data
+from app.io.dataset_import import compact_columns, placed, read_folder
+from app.io.exchange import read_workspace_zip, workspace_zip
+from app.io.hand_frame import ICUB_FRAME, HandFrame, hand_points, placement_from_fields
+from app.io.workspace import Workspace
+from app.io.workspace_index import check_index
+from app.panels.data.import_inputs import one_per_line, preview_text
+from promp.datasets import demo_from_csv, parse_modalities
+from robots.icub.placement import IN_REACH, Placement, guess_placement, reach_share
+from robots.icub.scenario import generate_scenario
+
+FAR = np.array([2.0, 0.0, 0.0])  # m: the dataset's hand is 2 m in front of the iCub's root
+EXTRA = ("hx", "hy", "hz", *(f"e{i}" for i in range(8)))
+
+
+def far_csv(demo, seed: int) -> str:
+    """One scenario demonstration 2 m away, with a human hand (hx..hz) and 8 EMG channels."""
+    rng = np.random.default_rng(seed)
+    hand = demo.select(("x", "y", "z")) + FAR
+    extra = rng.normal(size=(demo.n_samples, len(EXTRA)))
+    rows = np.column_stack([demo.times - demo.times[0], hand, extra])
+    header = ",".join(("t", "x", "y", "z", *EXTRA))
+    return header + "\n" + "\n".join(",".join(f"{v:.9f}" for v in row) for row in rows) + "\n"
+
+
+def far_dataset(folder, n_demos: int = 3):
+    """A CSV dataset of the scenario's two primitives, 2 m away; returns {path: text}."""
+    files = {}
+    for k, (primitive, demos) in enumerate(generate_scenario(seed=5, n_demos=n_demos).items()):
+        for i, demo in enumerate(demos):
+            text = far_csv(demo, 10 * k + i)
+            path = folder / primitive / f"take{i}.csv"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+            files[f"{primitive}/take{i}"] = text
+    return files
+
+
+# ------------------------------------------------------------------------- the modalities' text
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "hand=x,y,z; emg=e0,e1,e2",
+        "hand=x,y,z\nemg=e0,e1,e2",
+        "hand=x,y,z emg=e0,e1,e2",  # failed: "missing column(s) ['hz emg=e0', ...]"
+        "  hand = x, y, z \n\n emg=e0, e1, e2  # the EMG\n",
+        "hand=x,y,z;\nemg=e0,e1,e2;",
+    ],
+)
+def test_modalities_one_per_line_or_separated_by_semicolons_or_spaces(text) -> None:
+    modalities = parse_modalities(text)
+    assert [(m.name, m.columns) for m in modalities] == [
+        ("hand", ("x", "y", "z")),
+        ("emg", ("e0", "e1", "e2")),
+    ]
+    assert len(one_per_line(text).splitlines()) == 2
+
+
+def test_a_stream_name_with_spaces_is_not_split() -> None:
+    (hand, head) = parse_modalities("hand=Hand Pose:pose.{x,y,z}@mm head=head:roll,pitch,yaw")
+    assert hand.stream == "Hand Pose" and hand.fields == ("pose.x", "pose.y", "pose.z")
+    assert head.stream == "head"
+
+
+def test_the_guess_is_shown_one_modality_per_line() -> None:
+    assert one_per_line("hand=x,y,z; head=roll,pitch,yaw") == "hand=x,y,z\nhead=roll,pitch,yaw"
+
+
+def test_spaces_between_modalities_read_a_dataset(tmp_path) -> None:
+    far_dataset(tmp_path)
+    data, summary = read_folder(tmp_path, "csv", parse_modalities("hand=x,y,z emg=e0,e1,e2"))
+    assert data.layout.names == ("hand", "emg")
+    assert summary.unused == ("hx", "hy", "hz", "e3", "e4", "e5", "e6", "e7")
+
+
+# ------------------------------------------------------------------------- the columns left out
+
+
+def test_the_preview_lists_the_columns_the_guess_leaves_out(tmp_path) -> None:
+    far_dataset(tmp_path)
+    data, summary = read_folder(tmp_path, "csv")
+    assert data.layout.names == ("hand",)
+    assert summary.unused == EXTRA
+    assert compact_columns(summary.unused) == "hx, hy, hz, e0..e7"
+
+    class Upload:
+        filename, ignored = "handover.zip", []
+
+    assert "**Not used:** hx, hy, hz, e0..e7" in preview_text(Upload(), summary)
+
+
+def test_compact_columns() -> None:
+    assert compact_columns(["a1", "a2", "b", "x7", "x8", "x9", "x10", "t0"]) == (
+        "a1, a2, b, x7..x10, t0"
+    )
+    assert compact_columns([]) == ""
+
+
+# ------------------------------------------------------------------------- the placement
+
+
+def test_a_placement_from_the_fields_is_checked() -> None:
+    placement = placement_from_fields(90.0, -195.0, 3.5, 0.0)
+    assert placement.yaw == pytest.approx(math.pi / 2)
+    assert placement.translation == pytest.approx((-1.95, 0.035, 0.0))
+    for fields, message in [
+        ((float("nan"), 0.0, 0.0, 0.0), "finite numbers"),
+        ((0.0, float("inf"), 0.0, 0.0), "finite numbers"),
+        ((0.0, 5000.0, 0.0, 0.0), "at most 1000 cm"),
+        ((720.0, 0.0, 0.0, 0.0), "at most 360°"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            placement_from_fields(*fields)
+
+
+def test_a_frame_travels_in_studio_json_and_bad_ones_are_refused() -> None:
+    index = {"format": "icub-intention-studio/workspace", "version": 1, "primitives": []}
+    assert check_index(index, "old").frame == ICUB_FRAME  # written before frames: the iCub's
+    frame = HandFrame(Placement((-1.95, 0.04, 0.06), 0.3))
+    assert check_index({**index, "frame": frame.to_json()}, "s").frame == frame
+    assert check_index({**index, "frame": {"own": True}}, "s").frame == HandFrame(own=True)
+    assert not HandFrame(own=True).robot_shown and ICUB_FRAME.robot_shown
+    bad = [
+        ({"placement": {"translation_m": [1e9, 0, 0], "yaw_rad": 0}}, "at most 1000 cm"),
+        ({"placement": {"translation_m": ["nan", 0, 0], "yaw_rad": 0}}, "finite"),
+        ({"placement": {"translation_m": [0, 0], "yaw_rad": 0}}, "finite"),
+        ({"own": True, "placement": {}}, "'frame' is"),
+        ("elsewhere", "'frame' is"),
+    ]
+    for value, message in bad:
+        with pytest.raises(ValueError, match=message):
+            check_index({**index, "frame": value}, "studio.json")
+    with pytest.raises(ValueError, match="not both"):
+        HandFrame(Placement(), own=True)
+
+
+def exported_csvs(content: bytes) -> dict[str, str]:
+    with zipfile.ZipFile(io.BytesIO(content)) as archive:
+        return {
+            name[len("demos/") : -len(".csv")]: archive.read(name).decode()
+            for name in archive.namelist()
+            if name.startswith("demos/")
+        }
+
+
+def test_a_placed_workspace_keeps_its_placement_and_exports_the_data_as_recorded(
+    tmp_path,
+) -> None:
+    originals = far_dataset(tmp_path / "handover")
+    data, _ = read_folder(tmp_path / "handover", "csv")
+    points = hand_points(data.demos, data.layout)
+    assert reach_share(points) < IN_REACH  # recorded 2 m away
+    frame = HandFrame(guess_placement(points))
+    workspace = Workspace.create(tmp_path / "ws", placed(data, frame))
+    # studio.json keeps the placement; the demonstrations are in the iCub's frame, in reach.
+    index = json.loads((tmp_path / "ws" / "studio.json").read_text())
+    assert index["frame"] == frame.to_json()
+    loaded = workspace.load()
+    assert loaded.frame == frame
+    assert reach_share(hand_points(loaded.demos, loaded.layout)) >= IN_REACH
+    # A change of the index (a new primitive) keeps the frame.
+    store = Store(workspace, loaded)
+    store.create_primitive("wave")
+    assert json.loads((tmp_path / "ws" / "studio.json").read_text())["frame"] == frame.to_json()
+    assert store.state.frame == frame
+    # Export (what Export workspace writes): the data back in its own frame, the CSVs equal to
+    # the recorded ones.
+    content = workspace_zip(workspace_data(store.state))
+    exported = exported_csvs(content)
+    assert sorted(exported) == sorted(originals)
+    for key, text in originals.items():
+        original, back = demo_from_csv(text), demo_from_csv(exported[key])
+        assert back.columns == ("x", "y", "z")
+        assert_allclose(back.times, original.times, atol=1e-9, rtol=0)
+        assert_allclose(back.values, original.select(("x", "y", "z")), atol=1e-9, rtol=0)
+    # The exported archive says the placement, and reading it places the hand again.
+    upload = read_workspace_zip(content)
+    assert upload.data.frame == frame
+    for name, demos in loaded.demos.items():
+        for demo, again in zip(demos, upload.data.demos[name], strict=True):
+            assert_allclose(again.values, demo.values, atol=1e-9, rtol=0)
+
+
+def test_a_workspace_in_its_own_frame_is_stored_and_exported_as_it_is(tmp_path) -> None:
+    originals = far_dataset(tmp_path / "handover")
+    data, _ = read_folder(tmp_path / "handover", "csv")
+    workspace = Workspace.create(tmp_path / "ws", placed(data, HandFrame(own=True)))
+    loaded = workspace.load()
+    assert loaded.frame == HandFrame(own=True) and not loaded.frame.robot_shown
+    exported = exported_csvs(workspace_zip(loaded))
+    for key, text in originals.items():
+        original, back = demo_from_csv(text), demo_from_csv(exported[key])
+        assert_allclose(back.values, original.select(("x", "y", "z")), atol=1e-9, rtol=0)
+
+
+def test_an_old_workspace_opens_and_exports_as_before(tmp_path) -> None:
+    dataset = generate_scenario(seed=3, n_demos=2)
+    from app.io.workspace import WorkspaceData
+    from app.io.workspace_index import PALETTE, PrimitiveEntry
+
+    data = WorkspaceData([PrimitiveEntry(n, PALETTE[i]) for i, n in enumerate(dataset)], dataset)
+    workspace = Workspace.create(tmp_path / "ws", data)
+    assert "frame" not in json.loads((tmp_path / "ws" / "studio.json").read_text())
+    loaded = workspace.load()
+    assert loaded.frame == ICUB_FRAME
+    exported = exported_csvs(workspace_zip(loaded))
+    name = next(iter(dataset))
+    demo = dataset[name][0]
+    back = demo_from_csv(exported[f"{name}/{demo.name}"])
+    assert_allclose(back.values, demo.select(back.columns), atol=0, rtol=0)
