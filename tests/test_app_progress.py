@@ -5,6 +5,10 @@ switches (a stale "Failed trials (15)" of another workspace never stays)."""
 
 from __future__ import annotations
 
+import io
+import json
+import zipfile
+
 import pytest
 
 from app.io.workspace import Workspace, WorkspaceData
@@ -84,6 +88,9 @@ def test_progress_cancel_and_a_workspace_switch(browser, studio, monkeypatch, tm
         failed = page.get_by_text("Failed trials (", exact=False).first
         until(lambda: controls.failed_dropdown.visible, what="the failed trials listed")
         page.screenshot(path="/tmp/progress_partial.png")
+        with zipfile.ZipFile(io.BytesIO(section.export(None))) as archive:  # said partial
+            report = json.loads(archive.read("results.json"))
+        assert report["partial"] == {"held_out": job.done, "of": 12}
 
         # Another workspace: nothing of lab-a's evaluation stays.
         studio.session.store.switch(tmp_path / "lab-b", scenario(2, 3))

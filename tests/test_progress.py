@@ -111,3 +111,25 @@ def test_importing_a_dataset_on_the_command_line_says_its_stages(tmp_path, capsy
     stages = ["Reading", "Read and", "Writing", "Created the workspace", "Fitting", "Fitted"]
     positions = [out.index(s) for s in stages]
     assert positions == sorted(positions)
+
+
+def test_a_stopped_sweep_keeps_the_folds_done_and_says_it_is_partial() -> None:
+    from promp.evaluate.methods import ProMPEngine
+    from promp.evaluate.sweep import run_sweep
+    from promp.model import Settings
+    from tests.synthetic import LAYOUT, make_dataset
+
+    dataset = make_dataset(seed=5, n_demos=3)
+    settings = Settings(n_basis=7, width=1.0, noise_scale=1.5)
+    seen: list[int] = []
+    result = run_sweep(
+        lambda: ProMPEngine(LAYOUT, settings), dataset, LAYOUT, [50.0], ["ml"], [["hand"]],
+        "ours", progress=lambda done, total: seen.append(done), keep_trials=True,
+        stop=lambda: len(seen) >= 1,
+    )  # fmt: skip
+    assert result.partial
+    assert {(t.primitive, t.demo) for t in result.trials} == {(0, "left0"), (0, "left1")}
+    assert [row["trials"] for row in result.rows] == [2]
+    whole = run_sweep(lambda: ProMPEngine(LAYOUT, settings), dataset, LAYOUT, [50.0], ["ml"],
+                      [["hand"]], "ours", stop=lambda: False)  # fmt: skip
+    assert not whole.partial and whole.rows[0]["trials"] == 6

@@ -172,11 +172,12 @@ class EvaluationJob:
         Raises
         ------
         ValueError
-            If the sweep has not finished with a result.
+            If the sweep has not finished with a result. A cancelled sweep's report holds
+            the held-out demonstrations done, and says it is ``partial``.
         """
         if self.result is None:
             raise ValueError("the evaluation has no results (it has not finished, or failed)")
-        return results_report(
+        report = results_report(
             self.result,
             self.dataset,
             self.layout,
@@ -190,3 +191,6 @@ class EvaluationJob:
             findings=self.findings,
             excluded=self.left_out,
         )
+        if self.result.partial:  # cancelled: what was done, said so
+            report["partial"] = {"held_out": self.done, "of": self.total}
+        return report
