@@ -122,3 +122,7 @@ def test_a_hand_in_its_own_frame_is_drawn_where_it_is_without_the_robot(page, st
     centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
     wait_until(lambda: np.linalg.norm(np.asarray(studio.server.initial_camera.look_at) - centre)
                < 0.3, timeout=120, what="the start view on the demonstrations")  # fmt: skip
+    # Recording is off: a take of the iCub's hand would not be in the data's frame.
+    page.get_by_role("tab", name="Teach").scroll_into_view_if_needed()  # the panel scrolled
+    open_tab(page, "Teach")
+    page.get_by_text("its hand stays in the frame it was recorded in").wait_for()

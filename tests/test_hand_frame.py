@@ -228,3 +228,12 @@ def test_an_old_workspace_opens_and_exports_as_before(tmp_path) -> None:
     demo = dataset[name][0]
     back = demo_from_csv(exported[f"{name}/{demo.name}"])
     assert_allclose(back.values, demo.select(back.columns), atol=0, rtol=0)
+
+
+def test_a_workspace_in_its_own_frame_records_no_take() -> None:
+    from app.live.take_controller import OWN_FRAME_REFUSAL, refusal
+    from robots.icub.layout import STUDIO_LAYOUT
+
+    assert refusal("reach", STUDIO_LAYOUT, None, 50.0) is None
+    assert refusal("reach", STUDIO_LAYOUT, None, 50.0, own_frame=True) == OWN_FRAME_REFUSAL
+    assert "not be in that frame" in OWN_FRAME_REFUSAL

@@ -64,15 +64,29 @@ class Take:
     rate_hz: float
 
 
+OWN_FRAME_REFUSAL = (
+    "This workspace's hand stays in the frame it was recorded in (shown without the robot): "
+    "a take of the iCub's hand would not be in that frame. Record in a workspace in the "
+    "iCub's frame (or import the data placed in it)."
+)
+
+
 def refusal(
-    primitive: str | None, layout: Layout, head_error: str | None, rate_hz: float
+    primitive: str | None,
+    layout: Layout,
+    head_error: str | None,
+    rate_hz: float,
+    own_frame: bool = False,
 ) -> str | None:
     """Why a recording cannot start (None when it can): no primitive, a workspace of
-    modalities the studio cannot record, a failed head source when the head is recorded, or a
-    rate outside :data:`RATE_RANGE_HZ`."""
+    modalities the studio cannot record or whose hand stays in its own frame
+    (:mod:`app.io.hand_frame`), a failed head source when the head is recorded, or a rate
+    outside :data:`RATE_RANGE_HZ`."""
     missing = unrecordable(layout)
     if primitive is None:
         return "Create a primitive first: a demonstration belongs to one."
+    if own_frame:
+        return OWN_FRAME_REFUSAL
     if missing:
         return (
             f"This workspace's demonstrations also hold {', '.join(missing)}, which the "

@@ -179,6 +179,9 @@ def idle_text(frame: Frame, controls: RecordControls) -> str:
             f"Recording is off in this workspace: its demonstrations also hold "
             f"{', '.join(missing)}, which the studio cannot record.", ORANGE,
         )  # fmt: skip
+    if store.frame.own:
+        return colored("Recording is off in this workspace: its hand stays in the frame it "
+                       "was recorded in, not the iCub's.", ORANGE)  # fmt: skip
     if name is None:
         return "Create a primitive to record into."
     text = f"Ready to record into **{name}**: drag the hand's gizmo while recording."
@@ -291,7 +294,8 @@ class RecordSection:
     def _begin(self, frame: Frame) -> None:
         name, c = frame.snapshot.primitive, self.controls
         rate = float(c.rate.value)
-        reason = refusal(name, frame.snapshot.store.layout, frame.head_error, rate)
+        store = frame.snapshot.store
+        reason = refusal(name, store.layout, frame.head_error, rate, store.frame.own)
         self.takes.press(frame.now, name, rate, c.countdown_s(), reason)
         outcome = self.takes.outcome
         if outcome is not None and outcome.kind in ("refused", "head"):
