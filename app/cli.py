@@ -18,6 +18,7 @@ from robots.icub.model import DEFAULT_ROBOT
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
 DEFAULT_WORKSPACE = Path("workspace")
+HAND_FRAMES = ("recorded", "place", "own")  # --hand-frame: see placed_as_asked
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -72,6 +73,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_rig_arguments(parser)
     parser.add_argument(
+        "--hand-frame",
+        choices=HAND_FRAMES,
+        default="recorded",
+        help="with --import-dataset, where the hand goes: recorded (as it is, in the iCub's "
+        "root frame), place (moved into the iCub's reach by a shift guessed from its extent, "
+        "kept in studio.json and undone on export) or own (its own frame, drawn without the "
+        "robot); a hand mostly out of reach is said so",
+    )
+    parser.add_argument(
         "--robot", default=DEFAULT_ROBOT, help="robot model from the icub-models package"
     )
     source = parser.add_mutually_exclusive_group()
@@ -110,10 +120,11 @@ def prepare_workspace(args: argparse.Namespace) -> None:
     kind, message = inspect_folder(args.workspace)
     if args.import_dataset is None:
         given = args.format is not None or args.modality or args.mapping
+        given = given or args.hand_frame != "recorded"
         if given or args.cut != "auto" or args.rate is not None or args.markers:
             raise ValueError(
-                "--format, --modality, --mapping, --cut, --rate and --markers go with "
-                "--import-dataset"
+                "--format, --modality, --mapping, --cut, --rate, --markers and --hand-frame go "
+                "with --import-dataset"
             )
         if kind is FolderKind.FOREIGN:
             raise ValueError(message)
@@ -142,6 +153,7 @@ def prepare_workspace(args: argparse.Namespace) -> None:
     data, summary = read_folder(source, format, modalities, rig_options(args))
     stage(f"Read and checked {summary.n_demos} demonstrations of {len(summary.counts)} classes "
           f"in {clock(time.monotonic() - start)}.")  # fmt: skip
+    data = placed_as_asked(data, args.hand_frame)
     stage(f"Writing the workspace {args.workspace} ({data.n_demos} demonstrations)...")
     Workspace.create(args.workspace, data)
     print(f"Created the workspace {args.workspace} from {source}: {summary.describe()}", flush=True)
@@ -151,6 +163,34 @@ def prepare_workspace(args: argparse.Namespace) -> None:
         print("\n".join(f"  {line}" for line in lines), flush=True)
     headline, *details = summary.findings_lines(limit=50)
     print("\n  ".join([headline, *details]), flush=True)
+
+
+def placed_as_asked(data, hand_frame: str):
+    """``data`` with its hand where ``--hand-frame`` puts it (app.io.hand_frame), saying where
+    and how much of its path the iCub reaches."""
+    from app.io.dataset_import import placed
+    from app.io.hand_frame import HandFrame, hand_points, placement_text, reach_sentence
+    from robots.icub.placement import IN_REACH, guess_placement, reach_share
+
+    points = hand_points(data.demos, data.layout)
+    if not points.shape[0]:
+        return data
+    if hand_frame == "own":
+        stage("The hand stays in its own frame: drawn where it is, without the robot.")
+        return placed(data, HandFrame(own=True))
+    if hand_frame == "place":
+        frame = HandFrame(guess_placement(points))
+        share = reach_share(frame.placement.apply(points))
+        stage(
+            f"Placed the hand in the iCub's frame ({placement_text(frame.placement)}): "
+            f"{share * 100:.0f} % within reach; an export gives it back as recorded."
+        )
+        return placed(data, frame)
+    share = reach_share(points)
+    if share < IN_REACH:
+        stage(f"{reach_sentence(share)} Import it with --hand-frame place (moved into reach) "
+              "or --hand-frame own (without the robot).")  # fmt: skip
+    return data
 
 
 def stage(text: str) -> None:

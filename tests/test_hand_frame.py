@@ -237,3 +237,30 @@ def test_a_workspace_in_its_own_frame_records_no_take() -> None:
     assert refusal("reach", STUDIO_LAYOUT, None, 50.0) is None
     assert refusal("reach", STUDIO_LAYOUT, None, 50.0, own_frame=True) == OWN_FRAME_REFUSAL
     assert "not be in that frame" in OWN_FRAME_REFUSAL
+
+
+def test_the_command_line_says_a_hand_is_out_of_reach_and_places_it(tmp_path, capsys) -> None:
+    from app.cli import build_parser, prepare_workspace
+
+    originals = far_dataset(tmp_path / "handover")
+
+    def imported(name: str, *flags: str):
+        argv = ["--workspace", str(tmp_path / name), "--import-dataset",
+                str(tmp_path / "handover"), *flags]  # fmt: skip
+        prepare_workspace(build_parser().parse_args(argv))
+        return capsys.readouterr().out, Workspace(tmp_path / name).load()
+
+    out, data = imported("as-recorded")
+    assert "The hand's path is 0 % within the iCub's reach" in out and "--hand-frame place" in out
+    assert data.frame == ICUB_FRAME
+    out, data = imported("placed", "--hand-frame", "place")
+    assert "Placed the hand in the iCub's frame (yaw 0°, x -19" in out
+    assert reach_share(hand_points(data.demos, data.layout)) >= IN_REACH
+    back = demo_from_csv(exported_csvs(workspace_zip(data))["curved/take0"])
+    assert_allclose(back.values, demo_from_csv(originals["curved/take0"]).select(("x", "y", "z")),
+                    atol=1e-9)  # fmt: skip
+    out, data = imported("own", "--hand-frame", "own")
+    assert "its own frame" in out and data.frame == HandFrame(own=True)
+    with pytest.raises(ValueError, match="--hand-frame go with --import-dataset"):
+        prepare_workspace(build_parser().parse_args(["--workspace", str(tmp_path / "ws"),
+                                                     "--hand-frame", "own"]))  # fmt: skip

@@ -64,6 +64,20 @@ def placement_from_fields(yaw_deg: float, x_cm: float, y_cm: float, z_cm: float)
     return checked_placement(Placement(translation, math.radians(yaw_deg)))
 
 
+def reach_sentence(share: float) -> str:
+    """What is said of a hand path ``share`` (0-1) within the iCub's reach, when too little."""
+    return (
+        f"The hand's path is {share * 100:.0f} % within the iCub's reach: it was recorded in "
+        "another frame."
+    )
+
+
+def placement_text(placement: Placement) -> str:
+    """``placement`` in the units the user types: ``yaw 0°, x -198.2 cm, y -4.1 cm, z -6.2 cm``."""
+    x, y, z = (v * 100.0 for v in placement.translation)
+    return f"yaw {math.degrees(placement.yaw):.0f}°, x {x:.1f} cm, y {y:.1f} cm, z {z:.1f} cm"
+
+
 @dataclass(frozen=True)
 class HandFrame:
     """The frame of a workspace's hand (see the module docstring): ``placement`` moved it into

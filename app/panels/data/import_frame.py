@@ -21,7 +21,13 @@ import math
 
 import numpy as np
 
-from app.io.hand_frame import ICUB_FRAME, HandFrame, placement_from_fields
+from app.io.hand_frame import (
+    ICUB_FRAME,
+    HandFrame,
+    placement_from_fields,
+    placement_text,
+    reach_sentence,
+)
 from app.ui.context import PanelGui
 from robots.icub.placement import IN_REACH, Placement, guess_placement, reach_share
 
@@ -32,10 +38,9 @@ FIELD_CM = 1000.0  # the number fields' bounds: the placement's own (app.io.hand
 def reach_line(share: float) -> str:
     """What the preview says of a hand path ``share`` within reach (markdown)."""
     return (
-        f"**The hand's path is {share * 100:.0f} % within the iCub's reach: it was recorded in "
-        "another frame.** Place it in the iCub's frame (a turn about the vertical and a shift, "
-        "guessed from its extent; edit them below) or show it in its own frame, without the "
-        "robot."
+        f"**{reach_sentence(share)}** Place it in the iCub's frame (a turn about the vertical "
+        "and a shift, guessed from its extent; edit them below) or show it in its own frame, "
+        "without the robot."
     )
 
 
@@ -133,11 +138,9 @@ class FrameChoice:
                          "are, without the robot.")  # fmt: skip
         else:
             placed = reach_share(self.good.apply(self.points))
-            x, y, z = (v * 100.0 for v in self.good.translation)
             lines.append(
-                f"Placed (yaw {math.degrees(self.good.yaw):.0f}°, x {x:.1f} cm, y {y:.1f} cm, "
-                f"z {z:.1f} cm): **{placed * 100:.0f} % within reach**. The workspace keeps the "
-                "placement; its export gives the data back as recorded."
+                f"Placed ({placement_text(self.good)}): **{placed * 100:.0f} % within reach**. "
+                "The workspace keeps the placement; its export gives the data back as recorded."
             )
         return "  \n".join(lines)
 
