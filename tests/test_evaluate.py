@@ -241,7 +241,7 @@ def test_python_dash_m_entry_point(tmp_path: Path) -> None:
         cwd=REPO, capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
-    assert "leave-one-out over 6 demos" in proc.stderr  # the progress bar
+    assert "6 / 6 held-out demonstrations" in proc.stderr  # the progress, on stderr
     assert "hand" in proc.stdout and "/6" in proc.stdout
 
 
