@@ -159,7 +159,7 @@ def test_the_lab_recordings_on_the_icub(browser, page, studio, heights_dir, arti
 
     open_tab(page, "Teach")
     page.get_by_text("40 demonstration(s) of bottom").wait_for()
-    # The README's picture (docs/lab_records.png): a page of its own, at full resolution.
+    # A picture of the tab (the README's are docs/pictures.py's): a page of its own.
     shot, _ = open_page(browser, studio, dpr=1.0)
     try:
         shot.get_by_text("40 demonstration(s) of bottom").wait_for()

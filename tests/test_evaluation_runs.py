@@ -94,6 +94,24 @@ def test_two_runs_compared_row_by_row(tmp_path: Path, capsys) -> None:
     assert compare_main([str(a.folder), str(tmp_path)]) == 2
 
 
+def test_runs_made_with_two_alpha_methods_compare_row_by_row(tmp_path: Path, capsys) -> None:
+    """ML in one run, the model alpha in the other: each percentage's rows side by side (not
+    two half-empty rows), named by both; a row without any twin stays alone."""
+    ml = _report(5, 0.6)
+    model = _report(7, 0.7)
+    model["results"][0]["alpha_method"] = "model"
+    extra = dict(model["results"][0], percent=80.0, observed=["head"])
+    model["results"].append(extra)
+    a = write_run(tmp_path / "a", ml, "ml")
+    b = write_run(tmp_path / "b", model, "model")
+    paired, alone = compare_runs(a, b)
+    assert (paired["alpha"], paired["alpha_b"], paired["percent"]) == ("ml", "model", 40.0)
+    assert paired["errors_a"] == 5 and paired["errors_b"] == 7 and paired["errors_diff"] == 2
+    assert alone["observed_b"] == "head" and math.isnan(alone["errors_a"])
+    assert compare_main([str(a.folder), str(b.folder)]) == 0
+    assert "ml>model" in capsys.readouterr().out
+
+
 def test_the_command_line_keeps_a_run_and_refuses_an_existing_folder_at_once(
     tmp_path: Path, capsys
 ) -> None:

@@ -218,6 +218,11 @@ def test_two_runs_compared_say_what_differs_and_each_change(tmp_path: Path, job)
     first = report["results"][0]
     errors = int(first["recognition_errors"])
     assert f"| {first['percent']:g} | {errors} → {errors + 2} (+2) |" in text
+    model = json.loads(json.dumps(report))
+    for row in model["results"]:
+        row["alpha_method"] = "model"
+    c = save_run(ws.root, model, "model", created=WHEN + dt.timedelta(seconds=2))
+    assert "**hand, ML → hand, model**" in comparison_markdown(a, c, compare_runs(a, c))
     same = comparison_markdown(a, a, compare_runs(a, a))
     assert "Made alike" in same and "(+" not in same
 

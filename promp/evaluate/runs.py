@@ -177,15 +177,34 @@ def _key(row: Mapping) -> tuple:
 def compare_runs(a: Run, b: Run) -> list[dict]:
     """The two runs side by side, one row per (observed, alpha, percent) of either: every
     value of :data:`COMPARED` for ``a`` and ``b`` and ``b - a`` (NaN where a run lacks the
-    row), ordered like the runs' tables."""
+    row), ordered like the runs' tables.
+
+    A row of one run without its twin in the other is paired with the other's row at the same
+    percentage that differs only in the alpha method, or else only in the observed modalities,
+    when exactly one does (two runs made with ML and with the model alpha compare row by row);
+    ``observed_b`` and ``alpha_b`` name the row of ``b``."""
     rows_a = {_key(r): r for r in a.report["results"]}
     rows_b = {_key(r): r for r in b.report["results"]}
+    pairs = [(k, k) for k in sorted(set(rows_a) & set(rows_b))]
+    alone_a = sorted(set(rows_a) - set(rows_b))
+    alone_b = sorted(set(rows_b) - set(rows_a))
+    for same in ((0, 2), (1, 2)):  # the same modalities and %, else the same alpha and %
+        for ka in list(alone_a):
+            twins = [kb for kb in alone_b if all(kb[i] == ka[i] for i in same)]
+            mates = [k for k in alone_a if all(k[i] == ka[i] for i in same)]
+            if len(twins) == 1 and len(mates) == 1:
+                pairs.append((ka, twins[0]))
+                alone_a.remove(ka)
+                alone_b.remove(twins[0])
+    pairs += [(k, None) for k in alone_a] + [(None, k) for k in alone_b]
     out = []
-    for key in sorted(set(rows_a) | set(rows_b)):
-        row: dict = {"observed": key[0], "alpha": key[1], "percent": key[2]}
+    for ka, kb in sorted(pairs, key=lambda p: p[0] or p[1]):
+        key = ka or kb
+        row: dict = {"observed": key[0], "alpha": key[1], "percent": key[2],
+                     "observed_b": (kb or key)[0], "alpha_b": (kb or key)[1]}  # fmt: skip
         for name, read in COMPARED:
-            va = float(read(rows_a[key])) if key in rows_a else math.nan
-            vb = float(read(rows_b[key])) if key in rows_b else math.nan
+            va = float(read(rows_a[ka])) if ka is not None else math.nan
+            vb = float(read(rows_b[kb])) if kb is not None else math.nan
             row[f"{name}_a"], row[f"{name}_b"], row[f"{name}_diff"] = va, vb, vb - va
         out.append(row)
     return out
@@ -204,8 +223,10 @@ def comparison_text(a: Run, b: Run, rows: Sequence[Mapping]) -> str:
         return f"{_fmt(va, fmt)}->{_fmt(vb, fmt)}"
 
     for r in rows:
+        observed, alpha = (r[k] if r[k] == r[f"{k}_b"] else f"{r[k]}>{r[f'{k}_b']}"
+                           for k in ("observed", "alpha"))  # fmt: skip
         lines.append(
-            f"{r['observed']:14s} {r['alpha']:5s} {r['percent']:4.0f}  "
+            f"{observed:14s} {alpha:5s} {r['percent']:4.0f}  "
             f"{pair(r, 'errors', 'd'):>13s}  "
             f"{pair(r, 'log_loss', '.3f'):>15s} ({_fmt(r['log_loss_diff'], '+.3f'):>6s})  "
             f"{pair(r, 'position_error_m', '.2f', 100.0):>13s}  "

@@ -78,7 +78,10 @@ def _change(row: Mapping, name: str, fmt: str, scale: float = 1.0) -> str:
     a, b, diff = (row[f"{name}_{k}"] * scale for k in ("a", "b", "diff"))
     signed = "+" + fmt if not fmt.startswith("+") else fmt
     shown = f"{_number(a, fmt)} → {_number(b, fmt)}"
-    return shown + (f" ({_number(diff, signed)})" if math.isfinite(diff) and diff else "")
+    change = _number(diff, signed) if math.isfinite(diff) else ""
+    if not change or float(change) == 0.0:  # no change at the precision shown: no "(-0.0)"
+        return shown
+    return f"{shown} ({change})"
 
 
 def differences(a: Run, b: Run) -> list[str]:
@@ -129,12 +132,16 @@ def comparison_markdown(a: Run, b: Run, rows: Sequence[Mapping]) -> str:
     made = differences(a, b)
     lines += ["Made differently: " + "; ".join(made) if made else "Made alike (settings, "
               "demonstrations, code).", ""]  # fmt: skip
-    series: dict[tuple[str, str], list[Mapping]] = {}
+    series: dict[tuple[str, ...], list[Mapping]] = {}
     for row in rows:
-        series.setdefault((row["observed"], row["alpha"]), []).append(row)
-    for (observed, alpha), group in series.items():
+        key = (row["observed"], row["alpha"], row["observed_b"], row["alpha_b"])
+        series.setdefault(key, []).append(row)
+    for (observed, alpha, observed_b, alpha_b), group in series.items():
+        title = series_title(observed.split("+"), alpha)
+        if (observed_b, alpha_b) != (observed, alpha):  # a row of A beside its twin in B
+            title += " → " + series_title(observed_b.split("+"), alpha_b)
         lines += [
-            f"**{escape(series_title(observed.split('+'), alpha))}**", "",
+            f"**{escape(title)}**", "",
             f"| % | errors | position ({LENGTH_UNIT}) | duration (s) |", "|---:|---:|---:|---:|",
         ]  # fmt: skip
         for row in group:
