@@ -126,7 +126,7 @@ def test_runs_are_kept_listed_opened_compared_deleted_and_restored(browser, stud
         page.get_by_text("Made differently").first.wait_for()
         text = runs.controls.comparison.content
         assert "**A:** both seen" in text and "**B:** hand only" in text
-        assert "**hand + head, ML**" in text and "**hand, ML**" in text
+        assert "**hand + head, ML → hand, ML**" in text  # each percentage side by side
         page.get_by_text("position (cm)").last.wait_for()
         section = page.get_by_text("Saved runs", exact=True).first
         section.evaluate("e => e.scrollIntoView({block: 'start'})")
