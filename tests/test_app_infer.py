@@ -354,6 +354,13 @@ def infer_panel(studio):
     return next(p for p in studio.panels if isinstance(p, InferPanel))
 
 
+def wait_drawn(studio, result, timeout: float = 60.0) -> None:
+    """Wait until the 3D view has drawn ``result`` (the scene draws a frame's result after the
+    panel computed it: on a busy machine, a frame or more later)."""
+    wait_until(lambda: studio.scene._inferred[0].result is result, timeout=timeout,
+               what="the scrub step drawn in 3D")  # fmt: skip
+
+
 def wait_scrubbed(panel, percent: int | None = None, timeout: float = 60.0):
     """Wait until the panel shows an inference of the test demonstration chosen at the
     slider's value (or ``percent``): the view says which state of the controls it was
@@ -536,6 +543,7 @@ def test_slider_scrubbed_in_the_browser(studio, page) -> None:
     click_slider(page, panel, 0.01)  # the track's left end: the first samples only
     wait_until(lambda: controls.percent.value <= 3, timeout=30, what="the slider at its start")
     early = wait_scrubbed(panel)
+    wait_drawn(studio, early)
     early_vertices = np.array(studio.scene.inference.tube.vertices)
     wait_until(lambda: bars_in_page(page) and abs(
         bars_in_page(page)["curved"] - early.inference.probabilities[0]) < 1e-4, timeout=30,
@@ -545,6 +553,7 @@ def test_slider_scrubbed_in_the_browser(studio, page) -> None:
     wait_until(lambda: 25 <= controls.percent.value <= 35, timeout=30, what="the slider near 30 %")
     later = wait_scrubbed(panel)
     assert later.observation.n_observed > early.observation.n_observed
+    wait_drawn(studio, later)
     moved = np.linalg.norm(np.array(studio.scene.inference.tube.vertices) - early_vertices, axis=1)
     assert moved.max() > 0.01, "the posterior tube did not change"
     assert np.abs(later.inference.probabilities - early.inference.probabilities).max() > 0.05
