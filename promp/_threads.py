@@ -1,47 +1,48 @@
-"""One BLAS thread for the inference's many small factorisations.
+"""One BLAS thread for the method's many small factorisations, set once for the process.
 
 A scrub step factorises dozens of matrices of a few hundred rows at most. OpenBLAS splits each
 across its threads, whose start-up and hand-over cost more than the work: measured with
 ``bench/inference.py`` on two cores, a step with ten primitives of 180 weights took twice as
 long with OpenBLAS's two threads as with one, and on a machine whose other core is busy a
-thread waiting for its partner stalls the studio's loop. The studio has threads of its own (the
-loop, the learner) and the evaluation runs its folds in processes, so the inference runs its
-linear algebra on the calling thread: :func:`one_blas_thread` limits every BLAS library loaded
-in the process (threadpoolctl) for the duration of a call, and restores the limit after.
+thread waiting for its partner stalls the studio's loop.
+
+**Once for the process, when promp is imported.** A BLAS library's thread count belongs to
+the whole process, not to a thread, and the studio infers on several threads at once (its loop,
+the recognition chart's worker, an evaluation). A limit set and restored around each call let
+one thread's exit give the library its threads back under another thread still inferring, and
+threadpoolctl (>= 3.6) lets only one Python thread change OpenBLAS's count: a limit asked for
+from any other thread is silently ignored. So promp limits every BLAS library loaded with numpy
+and SciPy to one thread once, at import (:func:`limit_blas_threads`), and never changes it
+again: every thread sees the same limit, and results do not depend on which thread computed
+them. A program that wants more threads for its own algebra sets them after importing promp
+(``threadpoolctl.threadpool_limits``); promp then runs with what it set.
 """
 
 from __future__ import annotations
 
-import contextlib
-import functools
-from collections.abc import Callable, Iterator
-from typing import ParamSpec, TypeVar
+# numpy's and SciPy's BLAS are loaded before the limit is set (scipy.linalg brings its own
+# OpenBLAS): a library loaded later keeps its own threads.
+import numpy  # noqa: F401
+import scipy.linalg  # noqa: F401
+import threadpoolctl
 
-from threadpoolctl import ThreadpoolController
-
-P = ParamSpec("P")
-R = TypeVar("R")
+_limited: threadpoolctl.ThreadpoolController | None = None
 
 
-@functools.cache
-def _controller() -> ThreadpoolController:
-    # Built once, on first use, after numpy and scipy have loaded their BLAS (~2 ms to scan
-    # the process's libraries); each limit afterwards costs ~30 us.
-    return ThreadpoolController()
+def limit_blas_threads() -> None:
+    """Limit every BLAS library loaded now to one thread, once for the process (see the
+    module docstring); later calls do nothing."""
+    global _limited
+    if _limited is None:
+        controller = threadpoolctl.ThreadpoolController()
+        controller.limit(limits=1, user_api="blas")  # kept: never restored
+        _limited = controller
 
 
-@contextlib.contextmanager
-def one_blas_thread_context() -> Iterator[None]:
-    with _controller().limit(limits=1, user_api="blas"):
-        yield
+def promp_blas_threads() -> set[int]:
+    """The thread counts of the BLAS libraries promp limited (numpy's and SciPy's) now."""
+    limit_blas_threads()
+    return {lib["num_threads"] for lib in _limited.info() if lib["user_api"] == "blas"}
 
 
-def one_blas_thread(function: Callable[P, R]) -> Callable[P, R]:
-    """Run ``function`` with every BLAS library limited to one thread."""
-
-    @functools.wraps(function)
-    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
-        with one_blas_thread_context():
-            return function(*args, **kwargs)
-
-    return wrapper
+limit_blas_threads()

@@ -24,6 +24,7 @@ import math
 import numpy as np
 from scipy.linalg import lapack
 
+from promp._recent import cached_on
 from promp.model import Primitive, ProMPModel
 from promp.noise import noise_groups, whiten
 from promp.observation import Observation
@@ -55,8 +56,8 @@ def observed_precision(primitive: Primitive, dims: np.ndarray) -> tuple[np.ndarr
     ``Sigma_o = diag(t) + U_o U_o^T``.
     """
     key = tuple(int(d) for d in dims)
-    cache = primitive.__dict__.setdefault("_observed_precisions", {})
-    if key not in cache:
+
+    def make() -> tuple[np.ndarray, float]:
         u = primitive.observed_factor(dims)  # (Do, M, r)
         n_do, m = u.shape[:2]
         t = primitive.cov_diag.reshape(primitive.noise_var.shape[0], -1)[list(key), 0]
@@ -66,8 +67,10 @@ def observed_precision(primitive: Primitive, dims: np.ndarray) -> tuple[np.ndarr
         precision, logdet = equilibrated_precision(sigma)
         padded = np.zeros((sigma.shape[0] + 1,) * 2)  # bordered below and right (see below)
         padded[:-1, :-1] = precision
-        cache[key] = (padded, float(logdet))
-    return cache[key]
+        padded.setflags(write=False)  # shared by threads: read, never written
+        return padded, float(logdet)
+
+    return cached_on(primitive, "_observed_precisions", key, make)
 
 
 def cheaper_than_woodbury(n_weights: int, rank: int) -> bool:

@@ -8,6 +8,7 @@ multi-dimensional basis is block-diagonal: weights are stored dimension-major,
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,21 +72,26 @@ class PhaseBasisCache:
 
     Scrubbing an observation re-scores the same candidate durations on a growing prefix of the
     same samples, so each duration keeps the longest ``elapsed`` seen and its basis rows; a
-    request for a prefix of it is a slice. Bounded; not shared between threads.
+    request for a prefix of it is a slice. Bounded. Shared by the threads that infer with one
+    model: the entries are read and replaced under a lock, and an entry's arrays are never
+    written once stored (a thread that copies from one while another replaces it still copies
+    the rows it found).
     """
 
     def __init__(self, basis: RBFBasis, max_entries: int = 512):
         self.basis = basis
         self.max_entries = max_entries
         self._entries: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+        self._lock = threading.Lock()
 
     def __call__(self, elapsed: np.ndarray, durations: np.ndarray) -> np.ndarray:
         """Basis rows, shape (len(durations), len(elapsed), n_basis)."""
         n = elapsed.shape[0]
         out = np.empty((durations.shape[0], n, self.basis.n_basis))
         missing = []
-        for i, duration in enumerate(durations.tolist()):
-            entry = self._entries.get(duration)
+        with self._lock:
+            found = [self._entries.get(d) for d in durations.tolist()]
+        for i, entry in enumerate(found):
             if (
                 entry is not None
                 and entry[0].shape[0] >= n
@@ -98,11 +104,14 @@ class PhaseBasisCache:
             rows = self.basis((elapsed[None, :] / durations[missing, None]).reshape(-1))
             rows = rows.reshape(len(missing), n, -1)  # the cache's own: never handed out
             out[missing] = rows
-            if len(self._entries) + len(missing) > self.max_entries:
-                self._entries.clear()
             seen = elapsed.copy()
-            for j, i in enumerate(missing):
-                self._entries[float(durations[i])] = (seen, rows[j])
+            seen.setflags(write=False)
+            rows.setflags(write=False)
+            with self._lock:
+                if len(self._entries) + len(missing) > self.max_entries:
+                    self._entries.clear()
+                for j, i in enumerate(missing):
+                    self._entries[float(durations[i])] = (seen, rows[j])
         return out
 
 

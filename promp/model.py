@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from promp._recent import recent
+from promp._recent import cached_on, recent
 from promp.alpha_model import AlphaModel, resample_uniform
 from promp.basis import PhaseBasisCache, RBFBasis
 from promp.covariance import (
@@ -260,15 +260,18 @@ class Primitive:
         the whole factor; computed once per set of dimensions (a QR factorisation).
         """
         key = tuple(int(d) for d in dims)
-        cache = self.__dict__.setdefault("_observed_factors", {})
-        if key not in cache:
+
+        def make() -> np.ndarray:
             n_dims = self.noise_var.shape[0]
             u = self.cov_factor.reshape(n_dims, -1, self.cov_factor.shape[1])[list(key)]
             rows = u.reshape(-1, u.shape[-1])
             if rows.shape[1] > rows.shape[0]:
                 rows = compress_factor(rows)  # row by row: the units may differ
-            cache[key] = rows.reshape(len(key), u.shape[1], -1)
-        return cache[key]
+            factor = rows.reshape(len(key), u.shape[1], -1)
+            factor.setflags(write=False)  # shared by threads: read, never written
+            return factor
+
+        return cached_on(self, "_observed_factors", key, make)
 
 
 @dataclass(frozen=True, eq=False)

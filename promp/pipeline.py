@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp import metrics
-from promp._threads import one_blas_thread
 from promp.data import Demonstration
 from promp.duration import Timing, timing
 from promp.inference import Observation, Posterior, Prediction, condition, predict
@@ -98,7 +97,6 @@ class Inference:
         return max(0.0, self.duration - self.observed_until)
 
 
-@one_blas_thread
 def infer(
     model: ProMPModel,
     obs: Observation,

@@ -45,7 +45,6 @@ from typing import Literal
 import numpy as np
 from scipy import special
 
-from promp._threads import one_blas_thread
 from promp.inference import Observation, check_observation, log_likelihoods, logsumexp
 from promp.model import Primitive, ProMPModel
 from promp.quality import winsorized
@@ -288,7 +287,6 @@ def _integrate(
     return nodes, ll, lp, evidence
 
 
-@one_blas_thread
 def recognise(
     model: ProMPModel,
     obs: Observation,

@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +22,8 @@ from promp.pipeline import infer
 from promp.recognition import AlphaPrior, recognise
 from tests import dense_reference as dense
 from tests.synthetic import LAYOUT, make_dataset, make_demo
+
+REPO = Path(__file__).resolve().parent.parent
 
 SMALL = Settings(n_basis=6, width=1.0, noise_scale=1.5)
 
@@ -291,25 +298,43 @@ def test_gaussian_prior_override(model, test_demo) -> None:
     assert_allclose(explicit.cov, implicit.cov, atol=1e-15)
 
 
-def test_the_inference_runs_its_linear_algebra_on_one_blas_thread(model, test_demo, monkeypatch):
+def test_promp_runs_every_blas_library_on_one_thread_once_for_the_process() -> None:
     """OpenBLAS splits each small factorisation across its threads, which costs more than the
-    work (bench/inference.py: twice the step with two threads). During a step every BLAS is
-    limited to one thread; before and after, the process's own setting holds."""
-    from threadpoolctl import threadpool_info, threadpool_limits
-
-    import promp.pipeline
-
-    seen = []
-    original = promp.pipeline.condition
-
-    def spy(*args, **kwargs):
-        seen.append({lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"})
-        return original(*args, **kwargs)
-
-    monkeypatch.setattr(promp.pipeline, "condition", spy)
-    obs = Observation.from_demo(model, test_demo, 20, ["hand", "head"])
-    with threadpool_limits(limits=2, user_api="blas"):
-        infer(model, obs)
-        after = {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
-    assert seen == [{1}]
-    assert after == {2}
+    work (bench/inference.py: twice the step with two threads). Importing promp limits every
+    BLAS library to one thread for the process (promp/_threads.py), and no inference changes
+    the limit afterwards, whichever thread runs it; a program that sets its own limit after
+    importing promp keeps it. In a new process, so that nothing else set a limit first."""
+    script = """
+import json, threading
+import numpy, scipy.linalg
+from threadpoolctl import threadpool_info, threadpool_limits
+def blas():
+    return sorted({lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"})
+seen = {"before": blas()}
+import promp
+from promp.inference import Observation
+from promp.learn import fit
+from promp.model import Settings
+from promp.pipeline import infer
+from tests.synthetic import LAYOUT, make_dataset
+seen["imported"] = blas()
+data = make_dataset(seed=0, n_demos=5)
+model = fit(data, LAYOUT, Settings(n_basis=7, width=1.0, noise_scale=1.5))
+obs = Observation.from_demo(model, data["left"][0], 20, ["hand", "head"])
+thread = threading.Thread(target=lambda: infer(model, obs))
+thread.start(); thread.join()
+infer(model, obs)
+seen["after inferences on two threads"] = blas()
+with threadpool_limits(limits=2, user_api="blas"):
+    infer(model, obs)
+    seen["the program's own limit"] = blas()
+print(json.dumps(seen))
+"""
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "2", "PYTHONPATH": str(REPO)}
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True,
+                         text=True, check=True, timeout=120, cwd=REPO)  # fmt: skip
+    seen = json.loads(out.stdout.strip().splitlines()[-1])
+    assert seen == {
+        "before": [2], "imported": [1], "after inferences on two threads": [1],
+        "the program's own limit": [2],
+    }  # fmt: skip
