@@ -91,6 +91,7 @@ class Studio:
         self.camera: ViewControls | None = None
         self.tabs: BrowserTabs | None = None
         self.frame_starts: collections.deque[float] = collections.deque(maxlen=FRAMES_KEPT)
+        self.frames_done = 0  # whole frames the loop has run (what a "nothing happened" waits for)
         self._stop = threading.Event()
         self._tasks: collections.deque[Callable[[], None]] = collections.deque()
         self._thread = threading.Thread(target=self._loop, name="studio-loop", daemon=True)
@@ -260,6 +261,7 @@ class Studio:
         self.scene.draw(frame.snapshot, frame.head, shown)
         if self.camera is not None:
             self.camera.step()
+        self.frames_done += 1
 
     def notify(
         self,

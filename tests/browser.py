@@ -152,6 +152,32 @@ def wait_camera_still(client, quiet_s: float = 0.5) -> None:
                timeout=60, what="the camera still")  # fmt: skip
 
 
+def server_caught_up(studio, client, frames: int = 3) -> int:
+    """Wait until every message ``client``'s page sent before the call has reached the studio,
+    and its loop has run ``frames`` whole frames since (a check that nothing happened, such as
+    a key press that must not reach the server, can then fail where a sleep proves nothing).
+    Returns the index, in :func:`camera_reports`, of the probe's report: every report the page
+    sent before the call comes before it.
+
+    The probe: the server raises the page's camera by 1 cm and waits for the page to
+    report it. The page sends that report on the websocket after everything it sent before,
+    viser handles a connection's messages in order, and the loop handles what their callbacks
+    recorded at its next frame. The camera is then put back the same way."""
+    from tests.conftest import wait_frames
+
+    reports = camera_reports(client)
+    seen = len(reports.poses)
+    position = np.array(client.camera.position, dtype=float)
+    look_at = np.array(client.camera.look_at, dtype=float)
+    up = np.array([0.0, 0.0, 0.01])  # beyond set_camera's tolerance (1 mm)
+    set_camera(client, position + up, look_at + up)
+    probe = seen + next(i for i, p in enumerate(reports.poses[seen:])
+                        if np.allclose(p[1], position + up, atol=1e-4))  # fmt: skip
+    set_camera(client, position, look_at)
+    wait_frames(studio, frames)
+    return probe
+
+
 def _same(a, b) -> bool:
     """Equal pictures: PNG bytes, or pixel arrays."""
     return a == b if isinstance(a, bytes) else np.array_equal(a, b)

@@ -116,6 +116,16 @@ def wait_until(predicate, timeout: float = 30.0, interval: float = 0.05, what="c
     pytest.fail(f"timed out after {timeout:.0f} s waiting for {what() if callable(what) else what}")
 
 
+def wait_frames(studio, n: int = 3, timeout: float = 60.0) -> None:
+    """Wait until the studio's loop has run ``n`` whole frames from now: whatever a callback
+    recorded or a task asked of the loop before the call has been handled (a check that
+    nothing happened can then fail, where a sleep passes on a busy machine without proving
+    anything)."""
+    start = studio.frames_done
+    wait_until(lambda: studio.frames_done >= start + n + 1, timeout=timeout,
+               what=f"{n} frames of the studio's loop")  # fmt: skip
+
+
 def scenario_workspace(root: Path, seed: int, n_demos: int, settings: dict | None = None) -> Path:
     """A workspace at ``root`` holding the simulated scenario (``n_demos`` per primitive), with
     the learning ``settings`` given (default: the engine's)."""

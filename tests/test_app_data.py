@@ -11,7 +11,6 @@ import io
 import json
 import re
 import threading
-import time
 import zipfile
 from pathlib import Path
 from types import SimpleNamespace
@@ -33,8 +32,15 @@ from promp.evaluate.report import CSV_COLUMNS, report_json, results_csv
 from promp.evaluate.sweep import run_sweep
 from promp.io import model_from_json, model_to_dict
 from promp.model import Settings
-from tests.browser import choose, notification, open_tab, press, settled_screenshot
-from tests.conftest import open_page, start_studio, wait_until
+from tests.browser import (
+    choose,
+    notification,
+    open_tab,
+    press,
+    server_caught_up,
+    settled_screenshot,
+)
+from tests.conftest import open_page, start_studio, wait_frames, wait_until
 from tests.synthetic import LAYOUT, make_dataset
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -260,7 +266,8 @@ def studio(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def page(browser, studio):
-    page, _client = open_page(browser, studio, width=1200, height=800)
+    page, client = open_page(browser, studio, width=1200, height=800)
+    page.client = client  # type: ignore[attr-defined]
     page.set_default_timeout(120_000)  # software WebGL on a shared, loaded machine is slow
     open_tab(page, "Data")
     page.get_by_role("button", name="Export model").wait_for()
@@ -358,7 +365,7 @@ def test_a_bad_file_is_refused_and_changes_nothing(page, studio, artifacts, name
     wait_until(lambda: success.count() == 0, timeout=60, what="no success toast")
     if name == "evil.zip":
         page.screenshot(path=str(artifacts / "data_refused_zip.png"))
-    time.sleep(0.2)
+    server_caught_up(studio, page.client)  # anything the refusal set off has run
     assert workspace_hash(studio.workspace) == before
     snapshot = studio.session.snapshot()
     assert snapshot.store.version == version and snapshot.model is model
@@ -371,6 +378,7 @@ def test_an_oversized_upload_is_refused_before_it_is_buffered(page, studio) -> N
     panel = panel_of(studio)
     before = workspace_hash(studio.workspace)
     received, refusals = panel.uploads_received, panel.guard.refusals
+    parts = panel.guard.parts_seen
     assert panel.guard.active
     panel.guard.max_bytes = 256 * 1024
     try:
@@ -378,7 +386,10 @@ def test_an_oversized_upload_is_refused_before_it_is_buffered(page, studio) -> N
         text = notification(page, "Cannot import huge.zip")
         assert "3.0 MB, over the 256.0 KB upload limit. Nothing was changed." in text
         until(lambda: panel.guard.refusals == refusals + 1, what="the guard's refusal")
-        time.sleep(1.0)  # the browser keeps sending the parts: none may be kept
+        # The browser sends every part (3 MB in 512 KB parts) after the refusal too: once all
+        # six have reached the server, none may be kept.
+        until(lambda: panel.guard.parts_seen == parts + 6, what="the six parts at the server")
+        wait_frames(studio)
         assert studio.server.gui._current_file_upload_states == {}
         assert panel.uploads_received == received  # the callback never saw the file
         button = page.get_by_role("button", name="Import model or workspace")
@@ -507,8 +518,7 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     assert "Held out each of 12 demonstrations of curved, direct, second_bin" in status
     page.set_viewport_size({"width": 1200, "height": 1700})  # the whole tab in the picture
     page.get_by_text("position (cm)").wait_for()
-    time.sleep(0.5)
-    page.screenshot(path=str(artifacts / "data_evaluation.png"))
+    settled_screenshot(page, artifacts / "data_evaluation.png")
     page.set_viewport_size({"width": 1200, "height": 800})
 
     # The curves are the sweep's: recognition improves as more is observed (hand+head).

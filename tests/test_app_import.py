@@ -7,7 +7,6 @@ while the arm replays the prediction through IK."""
 from __future__ import annotations
 
 import hashlib
-import time
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +21,7 @@ from tests.browser import (
     open_tab,
     press,
     screenshot,
+    server_caught_up,
     settled_screenshot,
     upload_file,
 )
@@ -49,7 +49,8 @@ def studio(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def page(browser, studio):
-    page, _client = open_page(browser, studio, width=1400, height=900)
+    page, client = open_page(browser, studio, width=1400, height=900)
+    page.client = client  # type: ignore[attr-defined]
     page.set_default_timeout(120_000)
     open_tab(page, "Data")
     page.get_by_role("button", name="Upload dataset").wait_for()
@@ -99,7 +100,7 @@ def test_bad_imports_are_refused_and_change_nothing(page, studio) -> None:
     section.inputs.modalities.value = "hand=x,y,w"
     assert "missing column(s) ['w']" in notification(page, "Cannot import mine.zip", "['w']")
     assert not section.actions.visible
-    time.sleep(0.5)  # anything that would (wrongly) change the workspace has had time to
+    server_caught_up(studio, page.client)  # anything the refusals set off has run
     assert tree_hash(studio.workspace) == before and store.state.version == version
 
 

@@ -24,7 +24,7 @@ from app.ui.display import observed_choices
 from promp.learn import fit
 from promp.model import Settings
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
-from tests.browser import choose, open_tab, wait_camera_still
+from tests.browser import camera_reports, choose, open_tab, server_caught_up, wait_camera_still
 from tests.conftest import open_page, start_studio, wait_until
 
 # ---------------------------------------------------------------------- pure logic
@@ -212,6 +212,8 @@ def test_arrow_keys_move_the_slider_and_not_the_camera(studio, page) -> None:
     thumb.focus()
     wait_camera_still(client)
     wxyz, position = np.array(client.camera.wxyz), np.array(client.camera.position)
+    reports = camera_reports(client)
+    seen = len(reports.poses)
     for _ in range(5):
         page.keyboard.press("ArrowLeft")
     page.keyboard.down("ArrowLeft")  # held for a second: 50 degrees of orbit in viser
@@ -219,10 +221,12 @@ def test_arrow_keys_move_the_slider_and_not_the_camera(studio, page) -> None:
     page.keyboard.up("ArrowLeft")
     wait_until(lambda: panel.controls.percent.value <= 44, timeout=30,
                what="the slider moved by keys")  # fmt: skip
-    time.sleep(1.0)  # a camera update would have arrived by now
-    assert_allclose(client.camera.wxyz, wxyz, atol=1e-9)
-    assert_allclose(client.camera.position, position, atol=1e-9)
+    # Had the keys turned the camera, the page's reports would come before the probe's.
+    probe = server_caught_up(studio, client)
+    for _, at, _looking in reports.poses[seen:probe]:
+        assert_allclose(at, position, atol=1e-9)
     assert page.evaluate("window.__icubStudio.stoppedKeys") >= 6
+    wxyz = np.array(client.camera.wxyz)  # the probe put the camera back
     # With the 3D view focused, the same key turns the camera (the test can see it).
     page.evaluate("document.activeElement.blur()")
     page.keyboard.down("ArrowLeft")

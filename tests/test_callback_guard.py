@@ -13,7 +13,7 @@ import pytest
 from app.ui.callback_guard import GuardedGui, guard_handle
 from app.ui.context import PanelGui
 from tests.browser import click, notification, open_tab, screenshot
-from tests.conftest import open_page, scenario_workspace, start_studio, wait_until
+from tests.conftest import open_page, scenario_workspace, start_studio, wait_frames, wait_until
 
 
 class Handle(SimpleNamespace):
@@ -99,8 +99,7 @@ def test_an_exception_in_a_callback_reaches_the_browser(browser, studio, monkeyp
 
         # The studio keeps running: its loop, and the next press of the same button.
         loop = next(t for t in threading.enumerate() if t.name == "studio-loop")
-        frames = len(studio.frame_starts)
-        wait_until(lambda: len(studio.frame_starts) > frames + 10, timeout=60, what="frames")
+        wait_frames(studio, 10)
         assert loop.is_alive()
         monkeypatch.undo()
         screenshot(page, Path("/tmp/callback_after.png"))  # closes the notifications

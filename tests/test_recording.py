@@ -133,11 +133,8 @@ def test_the_controller_records_and_saves_a_take_into_the_store(tmp_path) -> Non
     store = Store.open(tmp_path / "ws", lambda: WorkspaceData(
         primitives=[PrimitiveEntry("wave", (1, 2, 3))], demos={"wave": []}
     ))  # fmt: skip
-    ticks = iter(range(10**6))
-
-    def sample():
-        k = next(ticks)
-        return np.array([0.0, 0.0, 0.01 * k]), np.zeros(3)
+    def sample(t: float):
+        return np.array([0.0, 0.0, 0.5 * t]), np.zeros(3)
 
     takes = TakeController(sample, store, countdown_s=0.0)
     options = TakeOptions(store.state.layout, trim=False)
@@ -157,3 +154,28 @@ def test_the_controller_records_and_saves_a_take_into_the_store(tmp_path) -> Non
     refused = takes.press(2.0, None, 50.0, 0.0, "Create a primitive first.")
     assert refused is Event.REFUSED and takes.outcome.kind == "refused"
     takes.close()
+
+
+def test_a_state_history_answers_what_was_current_at_any_recent_moment() -> None:
+    """The recorder's source (app/live/history.py): the value recorded last at or before the
+    time asked; before the first one, or older than what is kept, a LookupError."""
+    from app.live.history import StateHistory
+
+    now = [10.0]
+    history = StateHistory(kept_s=5.0, clock=lambda: now[0])
+    with pytest.raises(LookupError, match="nothing recorded"):
+        history.at(10.0)
+    for t, value in ((10.0, "a"), (10.5, "b"), (12.0, "c")):
+        now[0] = t
+        history.record(value)
+    assert [history.at(t) for t in (10.0, 10.49, 10.5, 11.9, 12.0, 99.0)] == list("aabbcc")
+    assert history.latest() == "c"
+    with pytest.raises(LookupError, match="no value at 9.999"):
+        history.at(9.999)
+    now[0] = 30.0  # much later: what is older than kept_s goes, the value current then stays
+    history.record("d")
+    assert history.at(29.0) == "c" and history.at(30.0) == "d"
+    with pytest.raises(LookupError):
+        history.at(10.2)
+    with pytest.raises(ValueError, match="positive"):
+        StateHistory(kept_s=0.0)

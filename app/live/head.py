@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.live.history import StateHistory
 from robots.icub.scene import DEFAULT_SCENE, head_orientation_looking_at
 
 # A camera sample older than this is "no face" rather than a stale angle.
@@ -170,6 +171,9 @@ class HeadInput:
         self._lock = threading.Lock()
         self._source = source
         self.reading = HeadReading(time.monotonic(), None)
+        # The angles of each reading, from the moment it was read (the recorder's ticks).
+        self.history: StateHistory[np.ndarray | None] = StateHistory()
+        self.history.record(None)
 
     @property
     def source(self) -> HeadSource:
@@ -179,6 +183,11 @@ class HeadInput:
     def angles(self) -> np.ndarray | None:
         """Roll, pitch, yaw (rad) of the latest reading, None when it saw no face."""
         return self.reading.angles
+
+    def angles_at(self, t: float) -> np.ndarray | None:
+        """The head angles (3,) of the reading current at monotonic time ``t`` (None: no
+        face); ``LookupError`` when ``t`` is older than what is kept."""
+        return self.history.at(t)
 
     def use(self, source: HeadSource) -> None:
         """Read the head from ``source`` from now on; the previous one is closed."""
@@ -191,8 +200,10 @@ class HeadInput:
         """Read the source (the simulated partner looks where the hand goes)."""
         with self._lock:
             source = self._source
-        self.reading = source.read(hand_position)
-        return self.reading
+        reading = source.read(hand_position)
+        self.reading = reading
+        self.history.record(reading.angles)
+        return reading
 
     def close(self) -> None:
         self._source.close()

@@ -1,11 +1,14 @@
 """Recording a demonstration: the hand and the partner's head sampled at a fixed rate.
 
 A :class:`Recorder` runs its own thread that wakes on a fixed schedule (default 50 Hz, the
-schedule does not drift: tick ``k`` is due at ``start + k / rate``) and stores, per tick, the
-time it actually sampled (monotonic seconds), the hand position (forward kinematics of the
-arm's current joint angles) and the head angles of the current head reading, or no angles when
-the head source saw no face. If the thread falls behind (a loaded machine), missed ticks are
-skipped rather than sampled in a burst of identical values.
+schedule does not drift: tick ``k`` is due at ``start + k / rate``) and stores, per tick, its
+time (monotonic seconds), the hand position and the head angles of the head reading current
+at that time, or no angles when the head source saw no face. The values come from the studio's
+histories (:class:`app.live.history.StateHistory`: the hand each time the loop moved the arm,
+the head at each reading), so a thread that wakes late on a loaded machine samples every
+missed tick as it was, not a gap in the take (which the checks would flag, leaving the take
+out of learning) nor a burst of identical values. Only a tick older than the histories keep
+is skipped, and counted.
 
 Samples without a face
 ----------------------
@@ -35,7 +38,7 @@ from robots.icub.layout import HAND, HEAD, STUDIO_LAYOUT
 RECORD_RATE_HZ = 50.0  # the studio records takes at this rate (the simulated scenario has its own)
 MAX_GAP_S = 0.5
 
-Sampler = Callable[[], tuple[np.ndarray, np.ndarray | None]]
+Sampler = Callable[[float], tuple[np.ndarray, np.ndarray | None]]
 
 
 @dataclass(frozen=True)
@@ -166,9 +169,10 @@ class Recorder:
     Parameters
     ----------
     sample : callable
-        Returns ``(hand (3,), head angles (3,) or None)`` for "now"; called from the
-        recorder's thread, so it must be thread-safe (the studio's reads are: they copy the
-        latest values).
+        ``sample(t)`` returns ``(hand (3,), head angles (3,) or None)`` as they were at the
+        monotonic time ``t`` (a tick, now or a little earlier), or raises ``LookupError`` when
+        ``t`` is too old to know; called from the recorder's thread, so it must be thread-safe
+        (the studio's histories are).
     rate_hz : float
         Sampling rate, 1 to 1000 Hz.
     clock : callable
@@ -193,7 +197,7 @@ class Recorder:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.error: str | None = None
-        self.skipped = 0  # ticks missed because the thread fell behind
+        self.skipped = 0  # ticks too old to sample when the thread got to them
 
     @property
     def running(self) -> bool:
@@ -213,25 +217,24 @@ class Recorder:
 
     def _run(self) -> None:
         period = 1.0 / self.rate_hz
-        due = self.clock()
+        start = self.clock()
+        k = 0  # the next tick, due at start + k * period
         while True:
-            try:
-                self._take()
-            except Exception as exc:  # a failing sampler ends the recording with its reason
-                self.error = f"{type(exc).__name__}: {exc}"
-                return
-            due += period
             now = self.clock()
-            if now > due + period:  # fell behind: skip the missed ticks
-                missed = int((now - due) / period)
-                self.skipped += missed
-                due += missed * period
-            if self._stop.wait(max(0.0, due - now)):
+            while start + k * period <= now:  # every tick due by now, late ones too
+                try:
+                    self._take(start + k * period)
+                except LookupError:  # older than the histories keep: nothing to sample
+                    self.skipped += 1
+                except Exception as exc:  # a failing sampler ends the recording with its reason
+                    self.error = f"{type(exc).__name__}: {exc}"
+                    return
+                k += 1
+            if self._stop.wait(max(0.0, start + k * period - self.clock())):
                 return
 
-    def _take(self) -> None:
-        hand, head = self.sample()
-        t = self.clock()
+    def _take(self, t: float) -> None:
+        hand, head = self.sample(t)
         hand = np.array(hand, dtype=float).reshape(3)
         head = np.full(3, np.nan) if head is None else np.array(head, dtype=float).reshape(3)
         with self._lock:

@@ -215,7 +215,8 @@ class TakeController:
     Parameters
     ----------
     sample : callable
-        ``sample() -> (hand (3,), head angles (3,) or None)``, read from the recorder's thread.
+        ``sample(t) -> (hand (3,), head angles (3,) or None)`` at monotonic time ``t``, read
+        from the recorder's thread (see :class:`app.live.recorder.Recorder`).
     store : Store
         Where a take is saved.
     countdown_s : float

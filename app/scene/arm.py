@@ -16,6 +16,7 @@ import numpy as np
 import viser
 import viser.transforms as vtf
 
+from app.live.history import StateHistory
 from app.scene.robot import RobotView
 from robots.icub.ik import IKResult, solve_ik
 from robots.icub.kinematics import ArmChain
@@ -46,6 +47,9 @@ class ArmController:
         self.arm = arm
         self.lock_torso = lock_torso
         self.q = arm.from_full(robot.q)
+        # The hand's position each time the arm moved (the recorder samples it at its ticks).
+        self.hand_history: StateHistory[np.ndarray] = StateHistory()
+        self.hand_history.record(arm.position(self.q))
         self.last: IKResult | None = None
         self._lock = threading.Lock()
         self._target: tuple[np.ndarray, np.ndarray, int] | None = None  # and frames spent
@@ -86,6 +90,11 @@ class ArmController:
     def hand_position(self) -> np.ndarray:
         return self.arm.position(self.q)
 
+    def hand_at(self, t: float) -> np.ndarray:
+        """The hand's position (3,) at monotonic time ``t`` (recent; see
+        :class:`app.live.history.StateHistory`, whose ``LookupError`` it raises)."""
+        return self.hand_history.at(t)
+
     def step(self) -> bool:
         """Solve for the latest gizmo target, if any; True when the arm moved."""
         with self._lock:
@@ -118,6 +127,7 @@ class ArmController:
     def set_q(self, q: np.ndarray, move_gizmo: bool = True) -> None:
         """Show the arm configuration ``q`` (e.g. during a replay)."""
         self.q = self.arm.clip(np.asarray(q, dtype=float))
+        self.hand_history.record(self.arm.position(self.q))
         self.robot.set_configuration(self.arm.into_full(self.q, self.robot.q))
         if move_gizmo:
             self.snap_gizmo()

@@ -6,9 +6,16 @@ true remainder of a test demonstration.
 whether they are shown is the scene's decision (:func:`app.scene.look.look`). The tube's mesh
 has a fixed topology, so a new inference only replaces its vertices; it is drawn as the view's
 tube style says (:func:`app.scene.tubes.tube_look`: a band, its outline, or nothing).
+
+"This result is drawn" is said in one place, :attr:`InferenceLayer.drawn`: a
+:class:`DrawnInference` replaced only once the tube, its outline, the paths and the points of a
+result have all been written (a reader that sees a result there sees its geometry in the nodes,
+never the previous one's).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import viser
@@ -26,6 +33,22 @@ DEFAULT_COLOR = (120, 120, 120)
 
 def darker(color, factor: float = 0.6) -> tuple[int, int, int]:
     return tuple(int(round(c * factor)) for c in color)  # type: ignore[return-value]
+
+
+@dataclass(frozen=True, eq=False)
+class DrawnInference:
+    """What the Infer layer's nodes show: ``result`` (None: nothing) in ``color`` and tube
+    ``style``; ``shaped``: the nodes it gave a shape to (the others keep an older shape and
+    stay hidden)."""
+
+    result: Inferred | None
+    color: tuple[int, int, int]
+    style: str
+    shaped: frozenset[int] = frozenset()
+
+    def shows(self, result: Inferred | None, color, style: str) -> bool:
+        """Whether this is what drawing ``result`` in ``color`` and ``style`` would give."""
+        return result is self.result and tuple(color) == self.color and style == self.style
 
 
 class InferenceLayer:
@@ -72,23 +95,29 @@ class InferenceLayer:
             self.tube, self.outline, self.future, self.observed_line, self.truth_line,
             self.end_point, self.now_point,
         )  # fmt: skip
-        self.drawn: set[int] = set()  # ids of the nodes the latest result shaped
+        self.drawn = DrawnInference(None, DEFAULT_COLOR, BANDS_2SD)
 
     @property
     def has_shape(self) -> bool:
-        """True when the latest result had something to show in 3D."""
-        return bool(self.drawn)
+        """True when the result drawn last had something to show in 3D."""
+        return bool(self.drawn.shaped)
 
     def draw(
         self, result: Inferred | None, color: tuple[int, int, int], style: str = BANDS_2SD
     ) -> None:
         """Shape the nodes from ``result`` (drawn in ``color``, its primitive's; the tube in
-        tube ``style``); none without a result or a hand modality."""
+        tube ``style``); none without a result or a hand modality. :attr:`drawn` says so once
+        every node is written."""
+        color = tuple(int(c) for c in color)
+        shaped = self._shape(result, color, style)
+        self.drawn = DrawnInference(result, color, style, frozenset(shaped))
+
+    def _shape(self, result: Inferred | None, color: tuple[int, int, int], style: str) -> set:
+        """Write the nodes ``result`` shapes; their ids."""
         layout = result.model.layout if result is not None else None
         hand = hand_dims(layout) if layout is not None else None
         if result is None or hand is None or result.future is None:
-            self.drawn = set()
-            return
+            return set()
         post, future = result.inference.prediction, result.future.hand
         look = tubes.tube_look(style)
         vertices = tubes.tube_vertices(post.mean[:, hand], post.std[:, hand], n_sigma=look.n_sigma)
@@ -122,11 +151,12 @@ class InferenceLayer:
                 points = tubes.resample(rest, min(rest.shape[0], PATH_POINTS))
                 self.truth_line.points = points.astype(np.float32)
                 drawn.add(id(self.truth_line))
-        self.drawn = drawn
+        return drawn
 
     def show(self, visible: bool) -> None:
         """Show the nodes the latest result shaped (``visible``), or none."""
+        shaped = self.drawn.shaped
         for node in self.nodes:
-            wanted = visible and id(node) in self.drawn
+            wanted = visible and id(node) in shaped
             if node.visible != wanted:
                 node.visible = wanted

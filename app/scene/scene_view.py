@@ -100,7 +100,6 @@ class SceneView:
         self._hidden: frozenset = frozenset()
         self.drawn_from: tuple = ()  # what the demonstration lines were drawn from
         self._tubes_from: tuple = (None, None, None)  # model, primitives, tube style shown
-        self._inferred: tuple = (None, None)  # the inference shown, in which tube style
 
     def use_panel(self, panel: str) -> None:
         """``panel`` is shown or used in a browser: its look is drawn (from any thread)."""
@@ -116,11 +115,9 @@ class SceneView:
             self.robot.show(snapshot.store.frame.robot_shown)
         self.partner.orient(head)
         inference, style = shown.inference or NOTHING_INFERRED, snapshot.view.tube_style
-        if inference is not self._inferred[0] or style != self._inferred[1]:
-            self._inferred = (inference, style)
-            self.inference.draw(
-                inference.result if inference.in_3d else None, inference.color, style
-            )
+        wanted = inference.result if inference.in_3d else None
+        if not self.inference.drawn.shows(wanted, inference.color, style):
+            self.inference.draw(wanted, inference.color, style)
         start = shown.start
         self.start.place(None if start is None else start.position,
                          NO_COLOR if start is None else start.color)  # fmt: skip
@@ -166,8 +163,8 @@ class SceneView:
             inference = self.look.inference
         nodes = [line for key, line in self.workspace.lines.items() if key not in self._hidden]
         if inference:
-            drawn = self.inference.drawn
-            nodes += [n for n in self.inference.nodes if n.visible and id(n) in drawn]
+            shaped = self.inference.drawn.shaped
+            nodes += [n for n in self.inference.nodes if n.visible and id(n) in shaped]
         arrays = []
         for node in nodes:
             points = getattr(node, "points", None)

@@ -175,10 +175,11 @@ class PanelContext:
     open_in_infer: Callable[[InferRequest, viser.ClientHandle | None], None]
     wait_for_model: Callable[[], ProMPModel | None]
 
-    def hand_and_head(self) -> tuple[np.ndarray, np.ndarray | None]:
-        """The hand position (3,) now, and the latest head angles (3,) or None (thread-safe:
-        the recorder's thread reads them)."""
-        return self.arm.hand_position(), self.head.angles
+    def hand_and_head(self, t: float) -> tuple[np.ndarray, np.ndarray | None]:
+        """The hand position (3,) and the head angles (3,) or None at monotonic time ``t``
+        (thread-safe: the recorder's thread reads them, at its ticks, however late it runs);
+        ``LookupError`` when ``t`` is older than what is kept."""
+        return self.arm.hand_at(t), self.head.angles_at(t)
 
     def tell(self, event, title: str, body: str, color: str = "red") -> None:
         """A notification to the client behind ``event`` (every client when unknown)."""

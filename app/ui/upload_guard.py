@@ -68,6 +68,7 @@ class UploadGuard:
         )
         self.refusals = 0
         self.dismissals = 0  # upload notifications closed by dismiss
+        self.parts_seen = 0  # parts of uploads to this button that reached the server
         self._latest: dict[int, str] = {}  # client id -> its latest transfer on this button
         if self.active:
             self._interface.register_handler(_messages.FileTransferStartUpload, self._on_start)
@@ -100,6 +101,7 @@ class UploadGuard:
     def _on_part(self, client_id: int, message: _messages.FileTransferPart) -> None:
         if message.source_component_uuid != self._uuid:
             return
+        self.parts_seen += 1
         state = self._states.get(message.transfer_uuid)
         if state is not None and state["transferred_bytes"] > self.max_bytes:
             self._refuse(
