@@ -92,6 +92,8 @@ class Studio:
         self.tabs: BrowserTabs | None = None
         self.frame_starts: collections.deque[float] = collections.deque(maxlen=FRAMES_KEPT)
         self.frames_done = 0  # whole frames the loop has run (what a "nothing happened" waits for)
+        # The latest notifications (title, body, color), newest last: what the studio said.
+        self.notices: collections.deque[tuple[str, str, str]] = collections.deque(maxlen=256)
         self._stop = threading.Event()
         self._tasks: collections.deque[Callable[[], None]] = collections.deque()
         self._thread = threading.Thread(target=self._loop, name="studio-loop", daemon=True)
@@ -272,7 +274,8 @@ class Studio:
         auto_close_seconds: float = 8.0,
     ) -> list[viser.NotificationHandle]:
         """A notification in ``client``'s browser tab, or in every connected tab when None;
-        their handles (to close them)."""
+        their handles (to close them). Kept in :attr:`notices` too."""
+        self.notices.append((title, body, color))
         clients = [client] if client is not None else self.server.get_clients().values()
         return [
             target.add_notification(

@@ -34,6 +34,9 @@ def press(page, locator) -> None:
     for the element to be stable over animation frames, which software WebGL makes very slow
     on a busy machine.)"""
     locator.wait_for(state="visible", timeout=120_000)
+    # Scrolled into view first, as a person would (a page shared by a module's tests may have
+    # been left scrolled; a click outside the viewport lands nowhere).
+    locator.evaluate("e => e.scrollIntoView({block: 'nearest', inline: 'nearest'})")
     box = locator.bounding_box(timeout=120_000)
     page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
 

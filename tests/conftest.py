@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -126,14 +127,17 @@ def wait_frames(studio, n: int = 3, timeout: float = 60.0) -> None:
                what=f"{n} frames of the studio's loop")  # fmt: skip
 
 
-def scenario_workspace(root: Path, seed: int, n_demos: int, settings: dict | None = None) -> Path:
-    """A workspace at ``root`` holding the simulated scenario (``n_demos`` per primitive), with
-    the learning ``settings`` given (default: the engine's)."""
+def scenario_workspace(
+    root: Path, seed: int, n_demos: int, settings: dict | None = None, third: bool = False
+) -> Path:
+    """A workspace at ``root`` holding the simulated scenario (``n_demos`` per primitive, and a
+    third primitive when ``third``), with the learning ``settings`` given (default: the
+    engine's)."""
     from app.io.workspace import Workspace, WorkspaceData
     from app.io.workspace_index import PALETTE, PrimitiveEntry
     from robots.icub.scenario import generate_scenario
 
-    dataset = generate_scenario(seed=seed, n_demos=n_demos)
+    dataset = generate_scenario(seed=seed, n_demos=n_demos, third=third)
     Workspace.create(
         root,
         WorkspaceData(
@@ -143,6 +147,94 @@ def scenario_workspace(root: Path, seed: int, n_demos: int, settings: dict | Non
         ),
     )
     return root
+
+
+# Learning settings given rather than automatic: a leave-one-out run from the GUI then fits each
+# fold once instead of choosing the settings in every fold (the choice inside the folds is
+# tests/test_evaluate.py's; in a browser test it cost a minute of a 2-core run).
+GIVEN_SETTINGS = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
+
+
+@dataclass(frozen=True)
+class StudioSpec:
+    """What a test module's ``studio`` opens: its module-level ``STUDIO`` (default: the
+    studio's default workspace, as ``make run`` starts it).
+
+    Attributes
+    ----------
+    seed : int or None
+        The simulated scenario with this seed (``n_demos`` per primitive, a third primitive
+        when ``third``, learning ``settings``); None: the default workspace.
+    make : callable or None
+        ``make(root, request)`` writes the workspace at ``root`` instead (``request``: the
+        module's, for its fixtures).
+    folder : str
+        The workspace folder's name.
+    ready : callable or None
+        ``ready(studio)`` truthy once the studio is ready for the module's first test.
+    """
+
+    seed: int | None = None
+    n_demos: int = 4
+    third: bool = False
+    settings: dict | None = None
+    make: Callable[[Path, pytest.FixtureRequest], object] | None = None
+    folder: str = "ws"
+    ready: Callable[[object], object] | None = None
+
+
+@dataclass(frozen=True)
+class PageSpec:
+    """The module's ``page`` (its module-level ``PAGE``): a Chromium tab of ``width`` x
+    ``height`` CSS pixels, its 3D view at ``dpr`` pixels per CSS pixel, showing ``tab``;
+    ``ready(page, studio)`` is called (to wait for something) before the first test."""
+
+    width: int = 1400
+    height: int = 900
+    dpr: float | None = None  # None: TEST_DPR
+    tab: str | None = None
+    ready: Callable[[object], object] | None = None
+
+
+@pytest.fixture(scope="module")
+def studio(request, tmp_path_factory):
+    """The module's studio (see :class:`StudioSpec`), on a free loopback port, in this
+    process; stopped after the module."""
+    spec = getattr(request.module, "STUDIO", StudioSpec())
+    name = request.module.__name__.rsplit(".", 1)[-1].removeprefix("test_")
+    root = tmp_path_factory.mktemp(name) / spec.folder
+    if spec.make is not None:
+        spec.make(root, request)
+    elif spec.seed is not None:
+        scenario_workspace(root, spec.seed, spec.n_demos, spec.settings, third=spec.third)
+    studio = start_studio(root)
+    try:
+        if spec.ready is not None:
+            wait_until(lambda: spec.ready(studio), timeout=60, what="the studio ready")
+        yield studio
+    finally:
+        studio.stop()
+
+
+@pytest.fixture(scope="module")
+def page(request, browser, studio):
+    """A Chromium tab on the module's studio (see :class:`PageSpec`), with its viser client
+    handle as ``page.client``; closed after the module."""
+    spec = getattr(request.module, "PAGE", PageSpec())
+    dpr = TEST_DPR if spec.dpr is None else spec.dpr
+    page, client = open_page(browser, studio, width=spec.width, height=spec.height, dpr=dpr)
+    page.client = client  # type: ignore[attr-defined]
+    page.set_default_timeout(120_000)  # software WebGL on a shared, loaded machine is slow
+    try:
+        if spec.tab is not None:
+            from tests.browser import open_tab
+
+            open_tab(page, spec.tab)
+        if spec.ready is not None:
+            spec.ready(page, studio)
+        yield page
+    finally:
+        page.close()
 
 
 def start_studio(workspace: Path, **kwargs):

@@ -20,16 +20,10 @@ from tests.browser import (
     settled_screenshot,
     upload_file,
 )
-from tests.conftest import open_page, scenario_workspace, start_studio, wait_until
+from tests.conftest import StudioSpec, open_page, wait_until
 from tests.test_dataset_import import zip_of
 
-
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    root = scenario_workspace(tmp_path_factory.mktemp("checks") / "ws", seed=2, n_demos=3)
-    studio = start_studio(root)
-    yield studio
-    studio.stop()
+STUDIO = StudioSpec(seed=2, n_demos=3)
 
 
 def paused(demo: Demonstration) -> Demonstration:

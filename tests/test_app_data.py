@@ -19,8 +19,7 @@ import numpy as np
 import pytest
 
 from app.io import exchange
-from app.io.workspace import Workspace, WorkspaceData
-from app.io.workspace_index import FORMAT, PALETTE, PrimitiveEntry
+from app.io.workspace_index import FORMAT
 from app.panels.data.evaluation import EvaluationJob, evaluation_dataset, parse_percents
 from app.panels.data.failed_trials import failed_trials, trial_choices
 from app.panels.data.results import curves, results_table
@@ -40,7 +39,14 @@ from tests.browser import (
     server_caught_up,
     settled_screenshot,
 )
-from tests.conftest import open_page, start_studio, wait_frames, wait_until
+from tests.conftest import (
+    GIVEN_SETTINGS,
+    PageSpec,
+    StudioSpec,
+    open_page,
+    wait_frames,
+    wait_until,
+)
 from tests.synthetic import LAYOUT, make_dataset
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -241,38 +247,10 @@ def workspace_hash(root: Path, trash: bool = True) -> str:
     return digest.hexdigest()
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    """A studio on 3 primitives x 4 demonstrations of the simulated scenario."""
-    from robots.icub.scenario import generate_scenario
-
-    root = tmp_path_factory.mktemp("data") / "ws"
-    dataset = generate_scenario(seed=1, n_demos=4, third=True)
-    Workspace.create(
-        root,
-        WorkspaceData(
-            primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
-            demos=dataset,
-            # Given rather than automatic: the leave-one-out runs from the GUI then fit each
-            # fold once instead of choosing the settings in every fold (the choice inside the
-            # folds is tests/test_evaluate.py's; here it cost a minute of a 2-core run).
-            settings={"n_basis": 7, "width": 1.0, "noise_scale": 1.5},
-        ),
-    )
-    studio = start_studio(root)
-    yield studio
-    studio.stop()
-
-
-@pytest.fixture(scope="module")
-def page(browser, studio):
-    page, client = open_page(browser, studio, width=1200, height=800)
-    page.client = client  # type: ignore[attr-defined]
-    page.set_default_timeout(120_000)  # software WebGL on a shared, loaded machine is slow
-    open_tab(page, "Data")
-    page.get_by_role("button", name="Export model").wait_for()
-    yield page
-    page.close()
+# 3 primitives x 4 demonstrations of the simulated scenario, settings given; the Data tab.
+STUDIO = StudioSpec(seed=1, n_demos=4, third=True, settings=GIVEN_SETTINGS)
+PAGE = PageSpec(width=1200, height=800, tab="Data",
+                ready=lambda page, _: page.get_by_role("button", name="Export model").wait_for())
 
 
 def readme_picture(browser, studio, path: Path) -> None:

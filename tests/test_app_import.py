@@ -25,7 +25,13 @@ from tests.browser import (
     settled_screenshot,
     upload_file,
 )
-from tests.conftest import open_page, scenario_workspace, start_studio, wait_until
+from tests.conftest import (
+    PageSpec,
+    StudioSpec,
+    open_page,
+    start_studio,
+    wait_until,
+)
 from tests.test_dataset_import import BAD_ZIPS, csv_demo, zip_folder, zip_of
 
 
@@ -38,24 +44,10 @@ def tree_hash(root: Path, trash: bool = True) -> str:
     return digest.hexdigest()
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    """A studio on 2 primitives x 4 demonstrations of the simulated scenario."""
-    root = scenario_workspace(tmp_path_factory.mktemp("import") / "ws", seed=2, n_demos=4)
-    studio = start_studio(root)
-    yield studio
-    studio.stop()
-
-
-@pytest.fixture(scope="module")
-def page(browser, studio):
-    page, client = open_page(browser, studio, width=1400, height=900)
-    page.client = client  # type: ignore[attr-defined]
-    page.set_default_timeout(120_000)
-    open_tab(page, "Data")
-    page.get_by_role("button", name="Upload dataset").wait_for()
-    yield page
-    page.close()
+# 2 primitives x 4 demonstrations of the simulated scenario; the Data tab.
+STUDIO = StudioSpec(seed=2, n_demos=4)
+PAGE = PageSpec(tab="Data",
+                ready=lambda page, _: page.get_by_role("button", name="Upload dataset").wait_for())
 
 
 def importer(studio):

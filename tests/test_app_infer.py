@@ -34,7 +34,7 @@ from tests.browser import (
     settled_render,
     settled_screenshot,
 )
-from tests.conftest import open_page, start_studio, wait_frames, wait_until
+from tests.conftest import PageSpec, StudioSpec, open_page, wait_frames, wait_until
 
 COLUMNS = LAYOUT.columns
 
@@ -339,13 +339,8 @@ def moved_to(moves: list[np.ndarray], where: np.ndarray) -> bool:
 # ---------------------------------------------------------------------- the tab in the studio
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    studio = start_studio(tmp_path_factory.mktemp("infer") / "workspace")
-    panel = infer_panel(studio)
-    wait_until(lambda: panel.steps.count > 0, timeout=60, what="the first view")
-    yield studio
-    studio.stop()
+STUDIO = StudioSpec(folder="workspace", ready=lambda studio: infer_panel(studio).steps.count)
+PAGE = PageSpec(tab="Infer")
 
 
 def infer_panel(studio):
@@ -526,15 +521,6 @@ def test_live_stream_follows_the_dragged_hand(studio, scenario, primitive) -> No
 
 
 # ---------------------------------------------------------------------- real browser
-
-
-@pytest.fixture(scope="module")
-def page(browser, studio):
-    page, client = open_page(browser, studio)
-    open_tab(page, "Infer")
-    page.client = client  # type: ignore[attr-defined]
-    yield page
-    page.close()
 
 
 def slider_box(page, panel):

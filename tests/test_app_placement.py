@@ -15,7 +15,11 @@ from app.panels.data.import_frame import OWN, PLACE
 from robots.icub.placement import IN_REACH, reach_share
 from robots.icub.scenario import generate_scenario
 from tests.browser import choose, click, notification, open_tab, upload_file
-from tests.conftest import open_page, scenario_workspace, start_studio, wait_until
+from tests.conftest import (
+    PageSpec,
+    StudioSpec,
+    wait_until,
+)
 from tests.test_app_import import importer
 from tests.test_dataset_import import zip_of
 from tests.test_hand_frame import FAR, far_csv
@@ -23,23 +27,10 @@ from tests.test_hand_frame import FAR, far_csv
 SCREENSHOT = Path("/tmp/placement.png")
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    root = scenario_workspace(tmp_path_factory.mktemp("placement") / "ws", seed=2, n_demos=3)
-    studio = start_studio(root)
-    yield studio
-    studio.stop()
-
-
-@pytest.fixture(scope="module")
-def page(browser, studio):
-    """The Data tab, tall enough for the preview and the placement (at full resolution: its
-    picture is looked at)."""
-    page, _client = open_page(browser, studio, width=1400, height=1000, dpr=1.0)
-    page.set_default_timeout(120_000)
-    open_tab(page, "Data")
-    yield page
-    page.close()
+STUDIO = StudioSpec(seed=2, n_demos=3)
+# The Data tab, tall enough for the preview and the placement (at full resolution: its picture
+# is looked at).
+PAGE = PageSpec(width=1400, height=1000, dpr=1.0, tab="Data")
 
 
 def far_zip() -> bytes:

@@ -14,7 +14,7 @@ import pytest
 from app.io.workspace import Workspace, WorkspaceData
 from app.io.workspace_index import PALETTE, PrimitiveEntry
 from tests.browser import click, open_tab, press
-from tests.conftest import open_page, start_studio, wait_until
+from tests.conftest import StudioSpec, open_page, wait_until
 from tests.test_app_data import gate_sweep  # the next sweep waits after its first fold
 
 SETTINGS = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}  # no choice in every fold: quick
@@ -31,13 +31,7 @@ def scenario(seed: int, n_demos: int) -> WorkspaceData:
     )
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    root = tmp_path_factory.mktemp("progress") / "lab-a"
-    Workspace.create(root, scenario(1, 4))
-    studio = start_studio(root)
-    yield studio
-    studio.stop()
+STUDIO = StudioSpec(folder="lab-a", make=lambda root, _: Workspace.create(root, scenario(1, 4)))
 
 
 def until(predicate, what: str):

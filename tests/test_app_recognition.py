@@ -24,8 +24,8 @@ from app.ui.display import observed_choices
 from promp.learn import fit
 from promp.model import Settings
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
-from tests.browser import camera_reports, choose, open_tab, server_caught_up, wait_camera_still
-from tests.conftest import open_page, start_studio, wait_until
+from tests.browser import camera_reports, choose, server_caught_up, wait_camera_still
+from tests.conftest import PageSpec, wait_until
 
 # ---------------------------------------------------------------------- pure logic
 
@@ -103,26 +103,13 @@ def test_the_curve_is_the_scrub_steps_probabilities_over_the_movement(scenario) 
 # ---------------------------------------------------------------------- in a real browser
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    studio = start_studio(tmp_path_factory.mktemp("recognition") / "ws")
-    yield studio
-    studio.stop()
-
-
 def infer_panel(studio):
     from app.panels.infer import InferPanel
 
     return next(p for p in studio.panels if isinstance(p, InferPanel))
 
 
-@pytest.fixture(scope="module")
-def page(browser, studio):
-    page, client = open_page(browser, studio, width=1280, height=800)
-    open_tab(page, "Infer")
-    page.client = client  # type: ignore[attr-defined]
-    yield page
-    page.close()
+PAGE = PageSpec(width=1280, height=800, tab="Infer")
 
 
 CHART_JS = """(title) => {

@@ -14,7 +14,12 @@ import pytest
 from app.io.runs_folder import RUN_KIND, RUNS_DIR
 from promp.evaluate.runs import RUN_FILE, write_run
 from tests.browser import choose, click, close_notifications, notification, open_tab, press
-from tests.conftest import open_page, scenario_workspace, start_studio, wait_until
+from tests.conftest import (
+    GIVEN_SETTINGS,
+    StudioSpec,
+    open_page,
+    wait_until,
+)
 
 RUN_SHOT = Path("/tmp/runs_section.png")
 
@@ -23,15 +28,9 @@ def until(predicate, what: str):
     return wait_until(predicate, timeout=120.0, what=what)
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    """A studio on 2 primitives x 3 demonstrations of the simulated scenario, with settings
-    given (each fold fits once)."""
-    root = tmp_path_factory.mktemp("runs") / "ws"
-    settings = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
-    studio = start_studio(scenario_workspace(root, seed=1, n_demos=3, settings=settings))
-    yield studio
-    studio.stop()
+# 2 primitives x 3 demonstrations of the simulated scenario, settings given (each fold fits
+# once).
+STUDIO = StudioSpec(seed=1, n_demos=3, settings=GIVEN_SETTINGS)
 
 
 def data_panel(studio):

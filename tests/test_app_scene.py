@@ -10,17 +10,15 @@ import pytest
 from app.scene.look import FADED, INFER, SHOWN, TEACH
 from app.scene.workspace_layer import DIMMED_OPACITY, PRIOR_OPACITY
 from tests.browser import choose, open_tab, press
-from tests.conftest import open_page, start_studio, wait_until
+from tests.conftest import StudioSpec, open_page, wait_until
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    studio = start_studio(tmp_path_factory.mktemp("scene") / "ws")
+def first_inference(studio):
     infer = infer_panel(studio)
-    wait_until(lambda: infer.view is not None and infer.view.result is not None, timeout=60,
-               what="the first inference")  # fmt: skip
-    yield studio
-    studio.stop()
+    return infer.view is not None and infer.view.result is not None
+
+
+STUDIO = StudioSpec(ready=first_inference)
 
 
 def infer_panel(studio):

@@ -23,26 +23,13 @@ import pytest
 from app.io import exchange
 from app.scene.look import INFER, TEACH
 from tests.browser import click, close_notifications, notification, open_tab, press, upload_file
-from tests.conftest import open_page, scenario_workspace, start_studio, wait_until
+from tests.conftest import StudioSpec, open_page, scenario_workspace, start_studio, wait_until
 from tests.test_dataset_import import BAD_ZIPS, csv_demo, zip_of
 
 pytestmark = pytest.mark.browser
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    """A studio on 2 primitives x 4 demonstrations of the simulated scenario."""
-    studio = start_studio(scenario_workspace(tmp_path_factory.mktemp("stale") / "ws", 4, 4))
-    yield studio
-    studio.stop()
-
-
-@pytest.fixture
-def page(browser, studio):
-    page, client = open_page(browser, studio)
-    page.client = client  # type: ignore[attr-defined]
-    yield page
-    page.close()
+STUDIO = StudioSpec(seed=4, n_demos=4)  # 2 primitives x 4 simulated demonstrations
 
 
 def panel(studio, kind: str):
@@ -149,6 +136,7 @@ def test_the_fit_line_never_shows_a_fit_it_has_not_made(studio, page) -> None:
         return real(training, reuse)
 
     fits.fit = gated
+    open_tab(page, "Teach")  # the Learn folder
     try:
         wait_text(page, f"learned from {n_before} demonstrations")
         name = store.state.demos["curved"][1].name

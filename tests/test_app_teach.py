@@ -33,7 +33,7 @@ from tests.browser import (
     set_camera,
     settled_screenshot,
 )
-from tests.conftest import FITS, REPO, open_page, start_studio, wait_until
+from tests.conftest import FITS, REPO, open_page, wait_until
 
 # ====================================================================== without a browser
 
@@ -198,18 +198,6 @@ def test_default_workspace_refits_every_primitive_and_reports_the_time(tmp_path)
 # ====================================================================== in a real browser
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    studio = start_studio(tmp_path_factory.mktemp("teach") / "ws")
-    yield studio
-    studio.stop()
-
-
-@pytest.fixture(scope="module")
-def tab(browser, studio):
-    page, client = open_page(browser, studio)
-    yield page, client
-    page.close()
 
 
 def panel(studio):
@@ -340,8 +328,7 @@ def test_the_head_source_stays_during_a_recording(studio) -> None:
 
 
 @pytest.mark.browser
-def test_panel_lists_primitives_demonstrations_and_prior_plots(studio, tab) -> None:
-    page, _ = tab
+def test_panel_lists_primitives_demonstrations_and_prior_plots(studio, page) -> None:
     body = text(page)
     for wanted in ("Primitive", "Record", "Head source", "Learn", "Prior of curved"):
         assert wanted in body
@@ -353,8 +340,8 @@ def test_panel_lists_primitives_demonstrations_and_prior_plots(studio, tab) -> N
 
 
 @pytest.mark.browser
-def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> None:
-    page, client = tab
+def test_record_a_demonstration_by_dragging_the_hand(studio, page, artifacts) -> None:
+    client = page.client
     teach = panel(studio)
     assert teach.primitives.selected() == "curved"
     tube_before = np.array(studio.scene.workspace.tubes["curved"].vertices)
@@ -415,8 +402,7 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, tab, artifacts) -> 
 
 
 @pytest.mark.browser
-def test_hide_and_delete_a_demonstration(studio, tab) -> None:
-    page, _ = tab
+def test_hide_and_delete_a_demonstration(studio, page) -> None:
     lines = studio.scene.workspace.lines
     line = wait_until(lambda: lines.get(("curved", "curved_020")), what="the line of curved_020")
     row(page, "curved_020").get_by_role("button", name="Hide").dispatch_event("click")
@@ -461,13 +447,13 @@ def test_hide_and_delete_a_demonstration(studio, tab) -> None:
 
 @pytest.mark.browser
 def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
-    studio, tab
+    studio, page
 ) -> None:
     """Go to start puts the hand on the ghost of the primitive's start; Space records (the 3D
     view has the focus); the still time before and after the drag is cut from the saved
     demonstration and kept, untrimmed, in raw/ (which the workspace does not load); the hand
     goes back to the start after Stop; Discard last take sends it to the trash, undoably."""
-    page, client = tab
+    client = page.client
     teach = panel(studio)
     record = teach.record
     assert record.controls.trim.value and record.controls.back_to_start.value
@@ -530,8 +516,7 @@ def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
 
 
 @pytest.mark.browser
-def test_primitives_are_managed_from_the_gui_and_two_tabs_agree(browser, studio, tab) -> None:
-    page, _ = tab
+def test_primitives_are_managed_from_the_gui_and_two_tabs_agree(browser, studio, page) -> None:
     other, _ = open_page(browser, studio)
     try:
         # A bad name changes nothing and says why.
@@ -583,8 +568,7 @@ def test_primitives_are_managed_from_the_gui_and_two_tabs_agree(browser, studio,
 
 
 @pytest.mark.browser
-def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, tab) -> None:
-    page, _ = tab
+def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, page) -> None:
     choose(page, "Source", "Camera")
     index = row(page, "Camera index").locator("input").first
     index.fill("99")
@@ -613,7 +597,7 @@ def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, 
 
 @pytest.mark.browser
 def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
-    installed, studio, tab, tmp_path
+    installed, studio, page, tmp_path
 ) -> None:
     from skimage.data import astronaut
 
@@ -627,7 +611,6 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     for roll in np.linspace(-10, 10, 60):  # 4 s
         writer.write(place_face(face, ASTRONAUT_FACE_CENTRE, (640, 480), roll_deg=roll, scale=1.5))
     writer.release()
-    page, _ = tab
     choose(page, "Source", "Video file")
     row(page, "Video file").locator("input").first.fill(str(path))
     wait_until(lambda: panel(studio).head.controls.video_path.value == str(path),
@@ -672,8 +655,7 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
 
 
 @pytest.mark.browser
-def test_learning_settings_from_the_gui_refit_and_are_saved(studio, tab) -> None:
-    page, _ = tab
+def test_learning_settings_from_the_gui_refit_and_are_saved(studio, page) -> None:
     session = studio.session
     model = session.wait_for_model()
     # Automatic: the sliders show what the fit chose, read-only.

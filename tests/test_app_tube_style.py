@@ -21,17 +21,20 @@ from app.scene.camera import FRAME, PANEL_PX
 from app.scene.inference_layer import darker
 from app.scene.tubes import TUBE_SIDE, tube_vertices
 from robots.icub.layout import hand_dims
-from tests.browser import camera_pixels, camera_reports, open_tab, press, settled_screenshot
-from tests.conftest import open_page, start_studio, wait_until
+from tests.browser import camera_pixels, camera_reports, press, settled_screenshot
+from tests.conftest import PageSpec, open_page, wait_until
 
 WIDTH, HEIGHT = 1400, 900
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    studio = start_studio(tmp_path_factory.mktemp("tubes") / "ws")  # the default workspace
-    yield studio
-    studio.stop()
+def inference_shown(page, studio) -> None:
+    infer = panel(studio, InferPanel)
+    wait_until(lambda: infer.view is not None and infer.view.result is not None
+               and studio.scene.look.inference, timeout=180,
+               what="an inference shown in 3D")  # fmt: skip
+
+
+PAGE = PageSpec(tab="Infer", ready=inference_shown)  # on the default workspace
 
 
 def panel(studio, kind):
@@ -92,22 +95,9 @@ def test_the_tube_style_control_changes_what_is_drawn(browser, studio) -> None:
         studio.session.view.set_tube_style(BANDS_2SD)
 
 
-@pytest.fixture(scope="module")
-def infer_page(browser, studio):
-    page, client = open_page(browser, studio)
-    open_tab(page, "Infer")
-    infer = panel(studio, InferPanel)
-    wait_until(lambda: infer.view is not None and infer.view.result is not None
-               and studio.scene.look.inference, timeout=180,
-               what="an inference shown in 3D")  # fmt: skip
-    page.client = client  # type: ignore[attr-defined]
-    yield page
-    page.close()
-
-
 @pytest.mark.browser
-def test_frame_paths_frames_the_demonstrations_not_the_gizmo(studio, infer_page) -> None:
-    page, client = infer_page, infer_page.client
+def test_frame_paths_frames_the_demonstrations_not_the_gizmo(studio, page) -> None:
+    client = page.client
     # A direct movement: its inference alone (framed by the old Frame paths) leaves the curved
     # demonstrations' arcs out of the picture.
     infer = panel(studio, InferPanel)
@@ -159,10 +149,9 @@ PHASE = re.compile(
 
 
 @pytest.mark.browser
-def test_the_readout_shows_the_phase_and_the_charts_the_end_interval(studio, infer_page) -> None:
+def test_the_readout_shows_the_phase_and_the_charts_the_end_interval(studio, page) -> None:
     from PIL import Image
 
-    page = infer_page
     infer = panel(studio, InferPanel)
     status = page.locator("div", has_text=re.compile(r"^Recognised:")).last
     match = wait_until(lambda: PHASE.search(page.inner_text("body")), timeout=120,

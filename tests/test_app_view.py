@@ -24,7 +24,7 @@ from app.scene.camera import (
     view_pose,
 )
 from tests.browser import camera_pixels, press
-from tests.conftest import open_page, start_studio, wait_until
+from tests.conftest import open_page, wait_until
 
 
 @pytest.fixture(scope="module")
@@ -213,11 +213,6 @@ def test_a_tab_that_connected_before_the_first_drawing_gets_the_start_view(scena
         server.stop()
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    studio = start_studio(tmp_path_factory.mktemp("view") / "ws")
-    yield studio
-    studio.stop()
 
 
 @pytest.mark.browser

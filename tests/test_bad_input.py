@@ -32,6 +32,7 @@ from promp.model import Settings
 from promp.pipeline import infer
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests import bad_inputs
+from tests.conftest import GIVEN_SETTINGS, StudioSpec
 from tests.synthetic import make_dataset
 
 TALLY: Counter = Counter()
@@ -312,32 +313,17 @@ def test_observations(model) -> None:
 # ------------------------------------------------------------------------------ in the studio
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory, dataset):
-    """A running studio (no browser: the upload callbacks are called as viser calls them) whose
-    notifications are recorded."""
-    from app.studio import Studio
-    from tests.conftest import start_studio
-
-    notes: list[tuple[str, str, str]] = []
-    original = Studio.notify
-
-    def notify(self, title, body, color="blue", client=None, auto_close_seconds=8.0):
-        notes.append((title, body, color))
-        original(self, title, body, color, client, auto_close_seconds)
-
-    root = tmp_path_factory.mktemp("studio") / "ws"
+def _studio_workspace(root, request) -> None:
+    """The module's dataset, learned with the settings given (no browser: the upload
+    callbacks are called as viser calls them; the studio's notices are what it said)."""
+    dataset = request.getfixturevalue("dataset")
     Workspace.create(root, WorkspaceData(
         primitives=[PrimitiveEntry(name, PALETTE[i]) for i, name in enumerate(dataset)],
-        demos=dataset, settings={"n_basis": 7, "width": 1.0, "noise_scale": 1.5},
+        demos=dataset, settings=GIVEN_SETTINGS,
     ))  # fmt: skip
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(Studio, "notify", notify)
-        studio = start_studio(root)
-    studio.notes = notes
-    studio.session.wait_for_model()
-    yield studio
-    studio.stop()
+
+
+STUDIO = StudioSpec(make=_studio_workspace, ready=lambda studio: studio.session.wait_for_model())
 
 
 def refused_in_the_gui(studio, path: str, cases, upload, title: str) -> None:
@@ -348,11 +334,11 @@ def refused_in_the_gui(studio, path: str, cases, upload, title: str) -> None:
     before, version = tree_hash(root), store.state.version
 
     def attempt(payload: bytes, expected: str) -> None:
-        studio.notes.clear()
+        studio.notices.clear()
         upload(payload)
-        red = [n for n in studio.notes if n[2] == "red" and n[0].startswith(title)]
+        red = [n for n in studio.notices if n[2] == "red" and n[0].startswith(title)]
         if not red:
-            raise AssertionError(f"no refusal shown (notifications: {studio.notes})")
+            raise AssertionError(f"no refusal shown (notifications: {studio.notices})")
         raise ValueError(red[0][1])  # the refusal, checked by refuse() like any other
 
     problems = [
@@ -406,9 +392,9 @@ def test_the_head_source_refuses_bad_videos(installed, studio, tmp_path) -> None
              ("a video without a face", path.read_bytes(), "no face")]  # fmt: skip
 
     def upload(content: bytes) -> None:
-        count = len(studio.notes)
+        count = len(studio.notices)
         head.process("clip.mp4", content)
-        wait_until(lambda: len(studio.notes) > count and not head.tracks.processing, timeout=60,
+        wait_until(lambda: len(studio.notices) > count and not head.tracks.processing, timeout=60,
                    what="the video's outcome")  # fmt: skip
 
     refused_in_the_gui(studio, "GUI video upload", cases, upload, "Video not usable")

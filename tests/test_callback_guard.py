@@ -13,7 +13,12 @@ import pytest
 from app.ui.callback_guard import GuardedGui, guard_handle
 from app.ui.context import PanelGui
 from tests.browser import click, notification, open_tab, screenshot
-from tests.conftest import open_page, scenario_workspace, start_studio, wait_frames, wait_until
+from tests.conftest import (
+    StudioSpec,
+    open_page,
+    wait_frames,
+    wait_until,
+)
 
 
 class Handle(SimpleNamespace):
@@ -69,11 +74,7 @@ def test_panels_and_other_guis_guard_every_control_they_add() -> None:
     assert used == [1]  # the panel's control also said its panel is in use
 
 
-@pytest.fixture(scope="module")
-def studio(tmp_path_factory):
-    studio = start_studio(scenario_workspace(tmp_path_factory.mktemp("guard") / "ws", 2, 3))
-    yield studio
-    studio.stop()
+STUDIO = StudioSpec(seed=2, n_demos=3)
 
 
 @pytest.mark.browser
