@@ -41,6 +41,7 @@ from promp.datasets import FORMATS, RECORD_COLUMNS, Dataset, dataset_columns, re
 from promp.quality import Finding
 from promp.rigs import RigOptions
 from promp.rigs.mapping import unique_name
+from promp.units import unitless_note
 
 MIN_DEMOS = 2
 MAX_DATASET_UPLOAD_BYTES = 200 * 2**20
@@ -89,6 +90,8 @@ class DatasetSummary:
             "these are left out of learning until kept in Teach > Demonstrations (their "
             "files are imported as they are):"
         ]
+        if note := unitless_note(self.layout.modalities):
+            lines.append(f"({note})")
         lines += [f"{f.where}: {f.message}" for f in self.findings[:limit]]
         if len(self.findings) > limit:
             lines.append(f"... and {len(self.findings) - limit} more")

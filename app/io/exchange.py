@@ -42,6 +42,7 @@ from promp.data import Demonstration, Layout
 from promp.datasets import demo_from_csv, demo_to_csv
 from promp.io import model_from_json, model_to_json
 from promp.model import ProMPModel
+from promp.names import natural_sorted
 
 MAX_UPLOAD_BYTES = 20 * 2**20  # an upload (model or archive) larger than this is refused
 MAX_MEMBERS = 10_000  # files in a workspace archive
@@ -263,7 +264,7 @@ def read_workspace_zip(
         index = _parse_index(read(INDEX_NAME), prefix + INDEX_NAME)
         demos: dict[str, list[Demonstration]] = {p.name: [] for p in index.primitives}
         model = None
-        for inner in sorted(members):
+        for inner in natural_sorted(members, key=PurePosixPath):
             label = prefix + inner
             if inner == INDEX_NAME:
                 continue
