@@ -32,10 +32,10 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
 from app.io.demo_checks import DemoChecks
-from app.io.exchange import Limits, check_member, format_size
 from app.io.hand_frame import HandFrame
 from app.io.workspace import WorkspaceData
 from app.io.workspace_index import PALETTE, PrimitiveEntry, check_layout
+from app.io.zip_members import Limits, check_member, format_size
 from promp.data import Demonstration, Layout, Modality
 from promp.datasets import FORMATS, RECORD_COLUMNS, Dataset, dataset_columns, read_dataset
 from promp.quality import Finding
