@@ -212,7 +212,8 @@ def test_the_saved_runs_travel_with_the_workspace_and_none_is_overwritten(
         panel.close()
     title, body, _ = told[-1]
     assert title == "Workspace imported"
-    assert "1 evaluation run(s) added to the saved runs (1 already there" in body
+    assert "; 1 evaluation run(s) added to the saved runs, 1 run(s) already there, left as " \
+           "they were." in body
     runs = {p.name: run_tree(p) for p in (target / RUNS_DIR).iterdir()}
     imported = f"{second.folder.name}-imported"
     assert set(runs) == {first.folder.name, second.folder.name, imported}
@@ -227,5 +228,5 @@ def test_the_saved_runs_travel_with_the_workspace_and_none_is_overwritten(
         panel.replace_workspace(None, upload)
     finally:
         panel.close()
-    assert "evaluation run(s) added" not in told[-1][1] and "2 already there" in told[-1][1]
+    assert "added" not in told[-1][1] and "; 2 run(s) already there" in told[-1][1]
     assert {p.name: run_tree(p) for p in (target / RUNS_DIR).iterdir()} == runs

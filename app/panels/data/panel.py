@@ -242,12 +242,13 @@ class DataPanel:
         confirm(
             client,
             "Replace the workspace?",
-            f"**{name}** holds {len(upload.data.primitives)} primitives ({names}), "
-            f"{upload.n_demos} demonstrations and {len(upload.runs)} evaluation run(s)."
-            "\n\nImporting it replaces the current "
+            f"**{name}** holds {len(upload.data.primitives)} primitives ({names}) and "
+            f"{upload.n_demos} demonstrations"
+            + (f", with {len(upload.runs)} evaluation run(s)" if upload.runs else "")
+            + ".\n\nImporting it replaces the current "
             f"workspace ({current_p} primitives, {current_d} demonstrations), which moves "
-            "to the workspace's trash (*Recently deleted* restores it); its runs join the "
-            "saved runs, none overwritten.",
+            "to the workspace's trash (*Recently deleted* restores it)"
+            + ("; its runs join the saved runs, none overwritten." if upload.runs else "."),
             "Replace the workspace",
             lambda: self.replace_workspace(client, upload),
             lambda: self._notify(client, "Import cancelled", f"{name}: nothing was changed."),
@@ -272,15 +273,15 @@ class DataPanel:
                          f"{exc}. The demonstrations were imported.", "red")  # fmt: skip
             added, present = [], []
         self.runs.rescan()
-        runs = f", {len(added)} evaluation run(s) added to the saved runs" if added else ""
+        runs = [f"{len(added)} evaluation run(s) added to the saved runs"] if added else []
         if present:
-            runs += f" ({len(present)} already there, left as they were)"
+            runs.append(f"{len(present)} run(s) already there, left as they were")
         self._notify(
             client,
             "Workspace imported",
             f"{name}: {len(upload.data.primitives)} primitives, {upload.n_demos} "
-            f"demonstrations{runs}{skipped}. The previous workspace is in the trash (Recently "
-            "deleted).",
+            f"demonstrations{skipped}{'; ' + ', '.join(runs) if runs else ''}. The previous "
+            "workspace is in the trash (Recently deleted).",
             "green",
         )
         return True
