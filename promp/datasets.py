@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from promp.data import Demonstration, Kind, Layout, Modality, check_values
+from promp.names import natural_sorted
 from promp.quality import Finding, dataset_findings, increasing_samples, timestamp_finding
 from promp.rigs import RIG_FORMATS, RigOptions, read_rig_dataset
 from promp.rigs.mapping import SourcedModality, parse_sourced
@@ -167,14 +168,20 @@ def _placed_in_time(
 
 
 def _sorted_files(folder: Path, pattern: str) -> list[Path]:
-    return sorted(p for p in folder.rglob(pattern) if p.is_file() and not p.name.startswith("."))
+    return natural_sorted(
+        (p for p in folder.rglob(pattern) if p.is_file() and not p.name.startswith(".")),
+        key=lambda p: p.relative_to(folder),
+    )
 
 
 def _class_folders(root: Path) -> list[Path]:
     root = Path(root)
     if not root.is_dir():
         raise ValueError(f"dataset folder {root} does not exist")
-    return sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
+    return natural_sorted(
+        (p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")),
+        key=lambda p: p.name,
+    )
 
 
 def _demo_name(path: Path, class_folder: Path) -> str:

@@ -10,8 +10,9 @@ Checks of one demonstration on its own (:func:`demo_findings`):
 * ``timestamps``: found by the readers (:func:`increasing_samples`): samples whose time does not
   exceed every earlier one (a repeated stamp, a clock that went back) cannot be placed in time;
   the reader keeps the others and reports how many it set aside, and where;
-* ``gap``: a step between samples longer than :data:`GAP_FACTOR` times the demonstration's
-  median step (the logger paused), with the jump of every modality across it;
+* ``gap``: a step between samples longer than :data:`promp.gaps.GAP_FACTOR` times the
+  demonstration's median step (the logger paused), with the jump of every modality across it
+  and the demonstration's two spans (:func:`promp.gaps.duration_text`);
 * ``jump``: a step of a modality larger than :data:`JUMP_SHARE` of the demonstration's extent
   in that modality **and** :data:`JUMP_RATIO` times its own pace (the step that
   :data:`JUMP_QUANTILE` of its moving steps stay under): a glitch, not a fast movement (a fast
@@ -31,6 +32,9 @@ Checks against the other demonstrations (:func:`dataset_findings`):
   themselves: people move at different speeds (3-6x within a class of the lab recordings),
   a 98 s take among 4 s ones is something else.
 
+Sizes and times are written by :mod:`promp.units` (``2.07 mm``, ``24.4 cm``, ``12°``,
+``0.4 s``), as the studio writes them.
+
 Every threshold is a ratio of the data's own quantities (no unit, no absolute time), so the
 same rule holds for a hand in metres, a head in radians or an EMG in volts. On the three shared
 lab sets and the simulated experiment none of them fires (``tests/test_promp_quality.py``);
@@ -38,7 +42,8 @@ the nearest clean values are given beside each constant.
 
 Excluding is the caller's choice (:func:`split_flagged`): the evaluation and the studio leave
 flagged demonstrations out of learning by default and say so; the files are never touched.
-A demonstration with a gap may be repaired on request (:func:`repair_gaps`), never by default.
+A demonstration with a gap may be repaired on request (:func:`promp.gaps.repair_gaps`), never
+by default.
 """
 
 from __future__ import annotations
@@ -50,9 +55,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from promp.data import Demonstration, Layout
+from promp.gaps import active_duration, duration_text, gap_steps
+from promp.units import amount, seconds
 
-# A step over 10x the median step is a pause of the logger (clean sets: at most 1.3x).
-GAP_FACTOR = 10.0
 # A jump: over 20 % of the extent in one step and 5x the demonstration's own pace, the step
 # that 90 % of its moving steps stay under (clean sets: at most 7 % of the extent on the hand;
 # the simulated head turns 40 % of its extent in one step, at most 2.1x its pace; a take
@@ -76,7 +81,6 @@ OUTLIER_Z = 3.5  # robust deviations: Iglewicz and Hoaglin's cut-off for outlier
 MIN_OTHERS = 3  # comparisons with the class need this many other demonstrations
 
 KINDS = ("timestamps", "gap", "jump", "still", "rate", "duration")
-REPAIRS = ("cut", "split")
 
 
 @dataclass(frozen=True)
@@ -147,19 +151,6 @@ class Finding:
         return finding
 
 
-def _s(seconds: float) -> str:
-    return f"{seconds:.3g} s"
-
-
-def _amount(value: float, unit: str) -> str:
-    """``value`` in words: metres as cm or mm, radians as degrees, others as they are."""
-    if unit == "m":
-        return f"{100 * value:.3g} cm" if abs(value) >= 0.01 else f"{1000 * value:.3g} mm"
-    if unit == "rad":
-        return f"{math.degrees(value):.3g} deg"
-    return f"{value:.3g} {unit}".rstrip()
-
-
 # ------------------------------------------------------------------------------ readers
 
 
@@ -194,18 +185,12 @@ def timestamp_finding(
         float(dropped.size),
         "samples",
         f"timestamps not increasing: {dropped.size} of {times.size} samples set aside (the "
-        f"first, sample {first}, {what} {_s(previous - t0)} at {_s(times[first] - t0)})",
+        f"first, sample {first}, {what} {seconds(previous - t0)} at {seconds(times[first] - t0)})",
         file,
     )
 
 
 # ------------------------------------------------------------------------------ one demo
-
-
-def _gaps(demo: Demonstration) -> np.ndarray:
-    """Indices ``i`` of the steps ``times[i] -> times[i + 1]`` that are gaps."""
-    steps = np.diff(demo.times)
-    return np.flatnonzero(steps > GAP_FACTOR * float(np.median(steps)))
 
 
 def _modality_steps(values: np.ndarray) -> np.ndarray:
@@ -225,7 +210,7 @@ def demo_findings(
     out: list[Finding] = []
     values = layout.extract(demo)
     t0 = float(demo.times[0])
-    gaps = _gaps(demo)
+    gaps = gap_steps(demo.times)
     median_step = float(np.median(np.diff(demo.times)))
     for i in gaps:
         length = float(demo.times[i + 1] - demo.times[i])
@@ -233,7 +218,7 @@ def demo_findings(
         for modality in layout.modalities:
             x = values[:, layout.dims([modality.name])]
             jump = float(np.linalg.norm(x[i + 1] - x[i]))
-            jumps.append(f"{modality.name} jumps {_amount(jump, modality.unit)}")
+            jumps.append(f"{modality.name} jumps {amount(jump, modality.unit)}")
         out.append(
             Finding(
                 primitive,
@@ -242,12 +227,13 @@ def demo_findings(
                 float(demo.times[i] - t0),
                 length,
                 "s",
-                f"a {_s(length)} gap in the timestamps at {_s(demo.times[i] - t0)} "
-                f"({length / median_step:.0f}x the median step; {', '.join(jumps)} across it)",
+                f"a {seconds(length)} gap in the timestamps at {seconds(demo.times[i] - t0)} "
+                f"({length / median_step:.0f}x the median step; {', '.join(jumps)} across it; "
+                f"{duration_text(demo.times)})",
                 file,
             )
         )
-    gap_steps = set(int(i) for i in gaps)
+    across_gaps = set(int(i) for i in gaps)
     paced = {}
     for modality in layout.modalities:
         x = values[:, layout.dims([modality.name])]
@@ -269,7 +255,7 @@ def demo_findings(
                 for other, (s, e, _) in paced.items()
                 if other != name
             ]
-            if int(i) in gap_steps or any(others):
+            if int(i) in across_gaps or any(others):
                 continue
             out.append(
                 Finding(
@@ -279,9 +265,9 @@ def demo_findings(
                     float(demo.times[i + 1] - t0),
                     float(steps[i]),
                     unit,
-                    f"{name} jumps {_amount(float(steps[i]), unit)} in one step at "
-                    f"{_s(demo.times[i + 1] - t0)} ({steps[i] / extent:.0%} of its extent; "
-                    f"{JUMP_QUANTILE:.0%} of its moving steps are under {_amount(own, unit)})",
+                    f"{name} jumps {amount(float(steps[i]), unit)} in one step at "
+                    f"{seconds(demo.times[i + 1] - t0)} ({steps[i] / extent:.0%} of its extent; "
+                    f"{JUMP_QUANTILE:.0%} of its moving steps are under {amount(own, unit)})",
                     file,
                 )
             )
@@ -317,7 +303,7 @@ def dataset_findings(
                 for d in demos
             ]
         ).reshape(len(demos), len(layout.modalities))
-        durations = np.array([_active_duration(d) for d in demos])
+        durations = np.array([active_duration(d) for d in demos])
         for j, demo in enumerate(demos):
             file = files.get((primitive, demo.name), "")
             out.extend(demo_findings(demo, layout, primitive, file))
@@ -351,9 +337,9 @@ def dataset_findings(
                             float(extents[j, m]),
                             modality.unit,
                             f"{modality.name} does not move: "
-                            f"{_amount(float(extents[j, m]), modality.unit)} in all, where "
+                            f"{amount(float(extents[j, m]), modality.unit)} in all, where "
                             f"{primitive}'s other demonstrations move "
-                            f"{_amount(typical, modality.unit)} (median)",
+                            f"{amount(typical, modality.unit)} (median)",
                             file,
                         )
                     )
@@ -363,13 +349,6 @@ def dataset_findings(
             if finding is not None:
                 out.append(finding)
     return out
-
-
-def _active_duration(demo: Demonstration) -> float:
-    """The demonstration's duration without its gaps (a gap is reported on its own; a movement
-    with a logging pause is not also a slow one)."""
-    steps = np.diff(demo.times)
-    return float(steps.sum() - steps[_gaps(demo)].sum())
 
 
 def ordinary(logs: np.ndarray) -> np.ndarray:
@@ -412,8 +391,9 @@ def _duration_finding(
         None,
         duration,
         "s",
-        f"lasts {_s(duration)}, {what} of {primitive}'s other demonstrations "
-        f"({_s(shortest)} to {_s(longest)}, median {_s(float(np.median(ordinary_ones)))}"
+        f"lasts {duration_text(demo.times)}, {what} of {primitive}'s other demonstrations "
+        f"({seconds(shortest)} to {seconds(longest)}, "
+        f"median {seconds(float(np.median(ordinary_ones)))}"
         + (f"; {others.size - ordinary_ones.size} far out left aside"
            if ordinary_ones.size < others.size else "")
         + ")",
@@ -455,35 +435,3 @@ def split_flagged(
             else:
                 kept[primitive].append(demo)
     return kept, excluded
-
-
-def repair_gaps(demo: Demonstration, mode: str) -> list[Demonstration]:
-    """``demo`` repaired at its gaps: ``"cut"`` keeps the part before the first gap, ``"split"``
-    makes every part its own demonstration (named ``<name>-part1``, ``-part2``...).
-    Parts of a single sample cannot be demonstrations and are dropped; a demonstration without
-    a gap comes back as it is.
-
-    Raises
-    ------
-    ValueError
-        Unknown mode, or nothing of two samples or more is left.
-    """
-    if mode not in REPAIRS:
-        raise ValueError(f"repair must be one of {REPAIRS}, got {mode!r}")
-    gaps = _gaps(demo)
-    if gaps.size == 0:
-        return [demo]
-    bounds = np.concatenate([[0], gaps + 1, [demo.n_samples]])
-    parts = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if b - a >= 2]
-    if mode == "cut":
-        parts = [p for p in parts if p[0] == 0]
-    if not parts:
-        raise ValueError(
-            f"demonstration {demo.name!r}: no part of two samples or more around its gaps"
-        )
-    out = []
-    for k, (a, b) in enumerate(parts, start=1):
-        name = demo.name if mode == "cut" else f"{demo.name}-part{k}"
-        times = demo.times[a:b] - demo.times[a] + demo.times[0]
-        out.append(Demonstration(times, demo.values[a:b], demo.columns, name=name))
-    return out

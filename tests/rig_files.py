@@ -298,3 +298,32 @@ def write_yarp_session(folder: Path, markers: Sequence[tuple[float, str]] = MARK
         write_yarp_port(folder / "events", "/events:o", [YARP_START + s for s, _ in markers],
                         [[label] for _, label in markers])  # fmt: skip
     return folder
+
+
+# A dump of several takes per class, in either layout yarpdatadumper's folders come in
+# (promp.rigs.yarp_layout): each take's ports at their own rates, the hand nested, the head in
+# degrees. ``takes``: {class: {number: {port: (times in s from the take's start, rows)}}}.
+YARP_DUMP_PORTS = {"state": ("/icub/left_arm/state:o", True), "head": ("/partner/head:o", False)}
+
+
+def yarp_dump_folder(root: Path, klass: str, number: str, port: str, numbered: bool) -> Path:
+    """Where a port's dump of one take goes: ``<class>/<port>/<port>:o[_NNNNN]`` (numbered
+    ports; take 00000 is the port's first, unnumbered dump) or ``<class>/<number>/<port>``
+    (take folders)."""
+    if not numbered:
+        return Path(root) / klass / number / port
+    return Path(root) / klass / port / (f"{port}:o" + ("" if number == "00000" else f"_{number}"))
+
+
+def write_yarp_dump(root: Path, takes, numbered: bool) -> Path:
+    """The dump of ``takes`` in one layout (see :func:`yarp_dump_folder`), each take starting
+    10 s after the previous one on YARP's clock."""
+    start = YARP_START
+    for klass, numbers in takes.items():
+        for number, ports in numbers.items():
+            for port, (times, rows) in ports.items():
+                name, nested = YARP_DUMP_PORTS[port]
+                folder = yarp_dump_folder(root, klass, number, port, numbered)
+                write_yarp_port(folder, name, start + np.asarray(times), rows, nested=nested)
+            start += 10.0
+    return Path(root)

@@ -138,7 +138,7 @@ def test_an_example_of_many_dimensions_is_a_grid_in_the_studios_units(tmp_path: 
     emg = Modality("emg", tuple(f"e{i}" for i in range(8)), unit="V")
     layout = Layout((hand, head, emg))
     assert display_unit(hand) == (100.0, "cm")
-    assert display_unit(head) == pytest.approx((180 / math.pi, "deg"))
+    assert display_unit(head) == pytest.approx((180 / math.pi, "°"))
     assert display_unit(emg) == (1.0, "V")
     from promp.data import Demonstration
 

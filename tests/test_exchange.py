@@ -170,6 +170,17 @@ def _encrypted_flag(content: bytes) -> bytes:
 
 
 GOOD_DEMO = {"studio.json": index(), "demos/a/d1.csv": csv_text()}
+
+
+def run_json(**changed) -> str:
+    """The run.json of an evaluation run of one result row (promp.evaluate.runs)."""
+    from promp.evaluate.runs import RUN_FORMAT, RUN_VERSION
+
+    row = {"observed": ["hand"], "alpha_method": "ml", "percent": 50.0, "trials": 4,
+           "recognition_errors": 1}  # fmt: skip
+    report = {"results": changed.pop("results", [row]), "settings": {}}
+    return json.dumps({"format": RUN_FORMAT, "version": RUN_VERSION, "name": "r",
+                       "created": "2026-11-26T01:23:45+00:00", "report": report, **changed})
 ZIP_CASES = {
     "not a zip": (b"PK\x03\x04 this is no archive", "not a zip archive"),
     "absolute path": (make_zip({**GOOD_DEMO, "/etc/evil": "x"}), "absolute paths are refused"),
@@ -272,7 +283,19 @@ ZIP_CASES = {
         "model.json: not a model file: not UTF-8 text",
     ),
     "model not json": (make_zip({**GOOD_DEMO, "model.json": "{"}), "model.json: not valid JSON"),
-}
+    "run without folder": (make_zip({**GOOD_DEMO, "runs/run.json": run_json()}),
+                           "runs/run.json: unexpected file; a run is a folder"),
+    "hidden run folder": (make_zip({**GOOD_DEMO, "runs/.r/run.json": run_json()}),
+                          "runs/.r/run.json: '.r' is not the name of a run folder"),
+    "run without run.json": (make_zip({**GOOD_DEMO, "runs/r/results.csv": "a,b\n"}),
+                             "runs/r/: not an evaluation run (it has no run.json)"),
+    "run not json": (make_zip({**GOOD_DEMO, "runs/r/run.json": "{"}),
+                     "runs/r/run.json: cannot read as JSON"),
+    "run of another format": (make_zip({**GOOD_DEMO, "runs/r/run.json": run_json(format="x")}),
+                              "runs/r/run.json: not an evaluation run"),
+    "run rows unreadable": (make_zip({**GOOD_DEMO, "runs/r/run.json": run_json(results=[1])}),
+                            "runs/r/run.json: its result rows cannot be read"),
+}  # fmt: skip
 
 
 @pytest.mark.parametrize("case", list(ZIP_CASES))
@@ -287,6 +310,12 @@ def test_the_good_archive_of_the_refusal_cases_is_accepted() -> None:
     """The refusal cases differ from an accepted archive only by what they test."""
     upload = read_upload("ws.zip", make_zip(GOOD_DEMO))
     assert upload.n_demos == 1 and upload.data.demos["a"][0].name == "d1"
+    assert upload.runs == {}
+    with_run = {**GOOD_DEMO, "runs/r/run.json": run_json(), "runs/r/figures/c.png": b"\x89PNG"}
+    upload = read_upload("ws.zip", make_zip(with_run))
+    assert upload.runs == {"r": {"run.json": run_json().encode(), "figures/c.png": b"\x89PNG"}}
+    assert exchange.read_workspace_zip(
+        exchange.workspace_zip(upload.data, runs=upload.runs)).runs == upload.runs  # fmt: skip
 
 
 def test_duplicate_members_are_refused() -> None:

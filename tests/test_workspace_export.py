@@ -5,6 +5,7 @@ demonstrations (issue 28: an imported workspace with other modalities could not 
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -133,3 +134,99 @@ def test_an_export_that_waits_for_the_model_says_so(server, tmp_path) -> None:
         "it is learned."
     )
     assert told[-1][0] == "Workspace exported"
+
+
+def panel_on(server, root: Path):
+    """The Data tab on the workspace at ``root`` (its model taken as learned), and what it
+    tells."""
+    from app.panels.data import DataPanel
+
+    store = Store.open(root)
+    learner = SimpleNamespace(state=SimpleNamespace(learn_version=0, fit_ms=10.0,
+                                                    model=object(), error=None))  # fmt: skip
+    told: list = []
+    guard = SimpleNamespace(max_bytes=exchange.MAX_UPLOAD_BYTES, close=lambda: None,
+                            dismiss=lambda client: None)  # fmt: skip
+    ctx = SimpleNamespace(
+        gui=server.gui, store=store, learner=learner, wait_for_model=lambda: None,
+        notify=lambda title, body, color="blue", **_: told.append((title, body, color)),
+        guard_upload=lambda *args: guard,
+    )  # fmt: skip
+    return DataPanel(ctx), store, told
+
+
+def run_tree(root: Path) -> dict[str, bytes]:
+    return {p.relative_to(root).as_posix(): p.read_bytes()
+            for p in sorted(root.rglob("*")) if p.is_file()}  # fmt: skip
+
+
+def test_the_saved_runs_travel_with_the_workspace_and_none_is_overwritten(
+    server, tmp_path
+) -> None:
+    """Export workspace carries runs/ (the readable runs, file for file); importing the archive
+    into another workspace brings them back beside its own runs: the same run already there is
+    left as it is, another run of a taken name comes in as <name>-imported."""
+    import datetime as dt
+
+    from app.io.runs_folder import RUNS_DIR, list_runs, save_run
+    from tests.test_app_data import fake_job
+
+    when = dt.datetime(2026, 11, 26, 1, 23, 45, tzinfo=dt.UTC)
+    report = fake_job().report()
+    hand_and_emg_csv(tmp_path / "csv")
+    data, _ = read_folder(tmp_path / "csv", "csv", parse_modalities("hand=x,y,z"))
+    source = Workspace.create(tmp_path / "source", data).root
+    first = save_run(source, report, "hand ML", created=when)
+    second = save_run(source, report, "hand model", created=when + dt.timedelta(1))
+    broken = source / RUNS_DIR / "20261125-000000-broken"
+    broken.mkdir()
+    (broken / "run.json").write_text("{not json")
+    panel, _, told = panel_on(server, source)
+    try:
+        content = panel.export_workspace(None)
+    finally:
+        panel.close()
+    title, body, color = told[-1]
+    assert title == "Workspace exported" and "6 demonstrations, 2 evaluation run(s)" in body
+    assert "Left out, unreadable: 20261125-000000-broken (" in body and color == "yellow"
+    upload = exchange.read_upload("shared.zip", content)
+    assert sorted(upload.runs) == sorted([first.folder.name, second.folder.name])
+    for run in (first, second):
+        assert upload.runs[run.folder.name] == run_tree(run.folder)  # file for file
+        assert "run.json" in upload.runs[run.folder.name]
+
+    # Another workspace, with the first run already (a copy) and another run of the
+    # second's name.
+    hand_and_emg_csv(tmp_path / "csv2")
+    other, _ = read_folder(tmp_path / "csv2", "csv", parse_modalities("hand=x,y,z"))
+    target = Workspace.create(tmp_path / "target", other).root
+    shutil.copytree(first.folder, target / RUNS_DIR / first.folder.name)
+    taken = save_run(target, {**report, "note": "theirs"}, "hand model",
+                     created=when + dt.timedelta(1))  # fmt: skip
+    assert taken.folder.name == second.folder.name
+    before = {p.name: run_tree(p) for p in (target / RUNS_DIR).iterdir()}
+    panel, store, told = panel_on(server, target)
+    try:
+        assert panel.replace_workspace(None, upload)
+    finally:
+        panel.close()
+    title, body, _ = told[-1]
+    assert title == "Workspace imported"
+    assert "; 1 evaluation run(s) added to the saved runs, 1 run(s) already there, left as " \
+           "they were." in body
+    runs = {p.name: run_tree(p) for p in (target / RUNS_DIR).iterdir()}
+    imported = f"{second.folder.name}-imported"
+    assert set(runs) == {first.folder.name, second.folder.name, imported}
+    for name, files in before.items():
+        assert runs[name] == files  # nothing overwritten
+    assert runs[imported] == run_tree(second.folder)
+    assert imported in list_runs(target)  # listed in the Data tab
+    assert [p.name for p in store.state.primitives] == [p.name for p in upload.data.primitives]
+    # Importing again adds nothing: every run is there.
+    panel, _, told = panel_on(server, target)
+    try:
+        panel.replace_workspace(None, upload)
+    finally:
+        panel.close()
+    assert "added" not in told[-1][1] and "; 2 run(s) already there" in told[-1][1]
+    assert {p.name: run_tree(p) for p in (target / RUNS_DIR).iterdir()} == runs

@@ -42,8 +42,8 @@ from app.io.trash import TrashEntry
 from app.io.workspace import FolderKind, Workspace, WorkspaceData, inspect_folder
 from app.io.workspace_index import PALETTE, PrimitiveEntry, check_color, check_name
 from promp.data import Demonstration
+from promp.gaps import repair_gaps
 from promp.model import FALLBACK, Settings
-from promp.quality import repair_gaps
 from promp.typicality import Typicality
 
 KEEP = object()  # Store.set_learning: leave a setting as it is
@@ -320,7 +320,7 @@ class Store:
             self._publish(after, recheck=False)
 
     def repair_gap(self, primitive: str, demo: str, mode: str) -> list[Demonstration]:
-        """New demonstrations from ``demo``'s gap repaired (:func:`promp.quality.repair_gaps`:
+        """New demonstrations from ``demo``'s gap repaired (:func:`promp.gaps.repair_gaps`:
         ``"cut"`` keeps the part before the gap, ``"split"`` every part), written beside it
         (``<demo>-cut``, ``<demo>-part1``...); ``demo`` itself stays as it is (flagged).
 

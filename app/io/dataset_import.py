@@ -32,15 +32,16 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
 from app.io.demo_checks import DemoChecks
-from app.io.exchange import Limits, check_member, format_size
 from app.io.hand_frame import HandFrame
 from app.io.workspace import WorkspaceData
 from app.io.workspace_index import PALETTE, PrimitiveEntry, check_layout
+from app.io.zip_members import Limits, check_member, format_size
 from promp.data import Demonstration, Layout, Modality
 from promp.datasets import FORMATS, RECORD_COLUMNS, Dataset, dataset_columns, read_dataset
 from promp.quality import Finding
 from promp.rigs import RigOptions
 from promp.rigs.mapping import unique_name
+from promp.units import unitless_note
 
 MIN_DEMOS = 2
 MAX_DATASET_UPLOAD_BYTES = 200 * 2**20
@@ -89,6 +90,8 @@ class DatasetSummary:
             "these are left out of learning until kept in Teach > Demonstrations (their "
             "files are imported as they are):"
         ]
+        if note := unitless_note(self.layout.modalities):
+            lines.append(f"({note})")
         lines += [f"{f.where}: {f.message}" for f in self.findings[:limit]]
         if len(self.findings) > limit:
             lines.append(f"... and {len(self.findings) - limit} more")

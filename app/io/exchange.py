@@ -9,6 +9,7 @@ Two kinds of file leave and enter the studio:
       studio.json                     layout, primitives (name, colour, order), settings
       demos/<primitive>/<demo>.csv    t and the layout's columns
       model.json                      the learned model, when there is one
+      runs/<time>-<name>/...          the saved evaluation runs (app.io.runs_folder)
 
   the workspace folder's own format (:mod:`app.io.workspace`) plus the model; a hand placed
   in the iCub's frame at import goes back to the frame it was recorded in
@@ -20,8 +21,8 @@ checks that its modalities are the workspace's); a workspace archive must pass t
 rules (:func:`check_member`: no absolute paths, ``..``, symlinks, encrypted or unexpected
 members; bounded member count and uncompressed size against zip bombs) and every member must
 parse (UTF-8 CSV with exactly the layout's columns, valid names, a valid ``studio.json``, a
-valid ``model.json``). Every problem is a ``ValueError`` whose message names the file and says
-what is wrong. Nothing is ever unpickled.
+valid ``model.json``, every run folder a ``run.json`` that reads as a run). Every problem is a
+``ValueError`` whose message names the file and says what is wrong. Nothing is ever unpickled.
 """
 
 from __future__ import annotations
@@ -31,31 +32,31 @@ import json
 import stat
 import time
 import zipfile
-import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import PurePosixPath
 
+from app.io.runs_folder import RUNS_DIR, RunFiles, listing, run_path
 from app.io.workspace import DEMOS_DIR, WorkspaceData
 from app.io.workspace_index import INDEX_NAME, Index, check_index, check_name, index_json
+
+# MAX_UPLOAD_BYTES and format_size are the callers' too (exchange.MAX_UPLOAD_BYTES...).
+from app.io.zip_members import (  # noqa: F401
+    MAX_UPLOAD_BYTES,
+    Limits,
+    check_member,
+    format_size,
+    member_text,
+    read_member,
+)
 from promp.data import Demonstration, Layout
 from promp.datasets import demo_from_csv, demo_to_csv
+from promp.evaluate.runs import RUN_FILE, run_from_json
 from promp.io import model_from_json, model_to_json
 from promp.model import ProMPModel
+from promp.names import natural_sorted
 
-MAX_UPLOAD_BYTES = 20 * 2**20  # an upload (model or archive) larger than this is refused
-MAX_MEMBERS = 10_000  # files in a workspace archive
-MAX_UNCOMPRESSED_BYTES = 256 * 2**20  # sum of the archive's uncompressed sizes
 MODEL_NAME = "model.json"
-
-
-@dataclass(frozen=True)
-class Limits:
-    """Bounds on what an upload may hold (see the module constants)."""
-
-    max_upload_bytes: int = MAX_UPLOAD_BYTES
-    max_members: int = MAX_MEMBERS
-    max_uncompressed_bytes: int = MAX_UNCOMPRESSED_BYTES
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +76,7 @@ class WorkspaceUpload:
     data: WorkspaceData
     model: ProMPModel | None = None
     ignored: list[str] = field(default_factory=list)  # __MACOSX/ and hidden files skipped
+    runs: dict[str, dict[str, bytes]] = field(default_factory=dict)  # runs/: folder -> files
 
     @property
     def n_demos(self) -> int:
@@ -96,7 +98,10 @@ def model_bytes(model: ProMPModel) -> bytes:
 
 
 def workspace_zip(
-    data: WorkspaceData, model: ProMPModel | None = None, when: float | None = None
+    data: WorkspaceData,
+    model: ProMPModel | None = None,
+    when: float | None = None,
+    runs: RunFiles | None = None,
 ) -> bytes:
     """The workspace archive of ``data`` (and ``model``), deflated.
 
@@ -111,16 +116,19 @@ def workspace_zip(
         Stored as ``model.json`` (as learned: in the iCub's frame, the one the robot uses).
     when : float, optional
         Time stamp of the members (seconds since the epoch; now by default).
+    runs : mapping of str to mapping of str to bytes, optional
+        The evaluation runs, by folder under ``runs/``: their files as they are
+        (:func:`app.io.runs_folder.run_files`).
     """
     stamp = time.localtime(when)[:6]
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as archive:
 
-        def add(name: str, text: str) -> None:
+        def add(name: str, content: str | bytes) -> None:
             info = zipfile.ZipInfo(name, date_time=stamp)
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = (stat.S_IFREG | 0o644) << 16
-            archive.writestr(info, text.encode("utf-8"))
+            archive.writestr(info, content.encode("utf-8") if isinstance(content, str) else content)
 
         add(INDEX_NAME, index_json(data.primitives, data.settings, data.layout, data.checks,
                                    data.frame))  # fmt: skip
@@ -134,6 +142,10 @@ def workspace_zip(
                 add(f"{DEMOS_DIR}/{entry.name}/{demo.name}.csv", demo_to_csv(ordered))
         if model is not None:
             add(MODEL_NAME, model_to_json(model))
+        for folder, files in (runs or {}).items():
+            run_path(PurePosixPath("."), folder)  # a plain folder name
+            for relative, content in files.items():
+                add(f"{RUNS_DIR}/{folder}/{relative}", content)
     return buffer.getvalue()
 
 
@@ -141,7 +153,7 @@ def workspace_zip(
 
 
 def read_upload(
-    filename: str, content: bytes, limits: Limits = Limits()
+    filename: str, content: bytes, limits: Limits | None = None
 ) -> ModelUpload | WorkspaceUpload:
     """Validate an uploaded file: a model (``.json``) or a workspace archive (``.zip``).
 
@@ -152,6 +164,7 @@ def read_upload(
         :func:`read_workspace_zip` finds. The message says what is wrong (the caller adds the
         file name).
     """
+    limits = limits or Limits()
     size = len(content)
     if size > limits.max_upload_bytes:
         raise ValueError(
@@ -202,7 +215,7 @@ def check_model(model: ProMPModel) -> ProMPModel:
 
 
 def read_workspace_zip(
-    content: bytes, filename: str = "workspace.zip", limits: Limits = Limits()
+    content: bytes, filename: str = "workspace.zip", limits: Limits | None = None
 ) -> WorkspaceUpload:
     """Parse a workspace archive into memory, checking everything (module docstring).
 
@@ -211,6 +224,7 @@ def read_workspace_zip(
     ValueError
         The first problem found, naming the archive member it concerns.
     """
+    limits = limits or Limits()
     try:
         archive = zipfile.ZipFile(io.BytesIO(content))
     except (
@@ -258,14 +272,26 @@ def read_workspace_zip(
         budget = [limits.max_uncompressed_bytes]
 
         def read(inner: str) -> bytes:
-            return _read_member(archive, members[inner], prefix + inner, budget)
+            return read_member(archive, members[inner], prefix + inner, budget)
 
         index = _parse_index(read(INDEX_NAME), prefix + INDEX_NAME)
         demos: dict[str, list[Demonstration]] = {p.name: [] for p in index.primitives}
         model = None
-        for inner in sorted(members):
+        runs: dict[str, dict[str, bytes]] = {}
+        for inner in natural_sorted(members, key=PurePosixPath):
             label = prefix + inner
             if inner == INDEX_NAME:
+                continue
+            if inner.startswith(f"{RUNS_DIR}/"):
+                folder, _, relative = inner[len(RUNS_DIR) + 1 :].partition("/")
+                if not relative:
+                    raise ValueError(f"{label}: unexpected file; a run is a folder, "
+                                     f"{RUNS_DIR}/<run>/{RUN_FILE} and its files")  # fmt: skip
+                try:
+                    run_path(PurePosixPath("."), folder)
+                except ValueError as exc:
+                    raise ValueError(f"{label}: {exc}") from None
+                runs.setdefault(folder, {})[relative] = read(inner)
                 continue
             if inner == MODEL_NAME:
                 try:
@@ -277,7 +303,8 @@ def read_workspace_zip(
             if len(parts) != 3 or parts[0] != DEMOS_DIR or not parts[2].endswith(".csv"):
                 raise ValueError(
                     f"{label}: unexpected file; a workspace archive holds {INDEX_NAME}, "
-                    f"{DEMOS_DIR}/<primitive>/<demo>.csv and optionally {MODEL_NAME}"
+                    f"{DEMOS_DIR}/<primitive>/<demo>.csv and optionally {MODEL_NAME} and "
+                    f"{RUNS_DIR}/<run>/"
                 )
             primitive, stem = parts[1], parts[2][: -len(".csv")]
             try:
@@ -288,41 +315,16 @@ def read_workspace_zip(
             if primitive not in demos:
                 raise ValueError(f"{label}: primitive {primitive!r} is not listed in {INDEX_NAME}")
             demos[primitive].append(_parse_demo(read(inner), stem, label, index.layout))
+        for folder, files in runs.items():
+            _check_run(folder, files, f"{prefix}{RUNS_DIR}/{folder}")
     data = WorkspaceData(
         index.primitives, index.frame.placed(demos, index.layout), index.settings,
         layout=index.layout, checks=index.checks, frame=index.frame,
     )  # fmt: skip
-    return WorkspaceUpload(filename, data, model, ignored)
+    return WorkspaceUpload(filename, data, model, ignored, runs)
 
 
 # ---------------------------------------------------------------------------------- helpers
-
-
-def format_size(n_bytes: int) -> str:
-    """``"1.5 MB"``-style size (powers of 1024)."""
-    if n_bytes < 1024:
-        return f"{n_bytes} bytes"
-    if n_bytes < 1024**2:
-        return f"{n_bytes / 1024:.1f} KB"
-    return f"{n_bytes / 1024**2:.1f} MB"
-
-
-def check_member(info: zipfile.ZipInfo) -> str:
-    """The member's name if it is safe to read, else ValueError."""
-    name = info.filename
-    if "\\" in name or "\x00" in name:
-        raise ValueError(f"{name!r}: a member name with a backslash or NUL is refused")
-    if name.startswith("/") or (len(name) > 1 and name[1] == ":"):
-        raise ValueError(f"{name}: absolute paths are refused")
-    parts = name.rstrip("/").split("/")
-    if any(part in ("", ".", "..") for part in parts):
-        raise ValueError(f"{name}: '..', '.' and empty path components are refused")
-    mode = info.external_attr >> 16
-    if stat.S_ISLNK(mode):
-        raise ValueError(f"{name}: symbolic links are refused")
-    if info.flag_bits & 0x1:
-        raise ValueError(f"{name}: encrypted members are refused")
-    return name
 
 
 def _common_root(files: Mapping[str, zipfile.ZipInfo]) -> str:
@@ -338,39 +340,9 @@ def _common_root(files: Mapping[str, zipfile.ZipInfo]) -> str:
     return ""
 
 
-def _read_member(
-    archive: zipfile.ZipFile, info: zipfile.ZipInfo, label: str, budget: list[int]
-) -> bytes:
-    """A member's bytes, never more than its declared size nor the remaining budget."""
-    try:
-        with archive.open(info) as handle:
-            data = handle.read(min(info.file_size, budget[0]) + 1)
-    except (
-        zipfile.BadZipFile,
-        zlib.error,
-        NotImplementedError,
-        RuntimeError,
-        EOFError,
-        OSError,
-        ValueError,
-    ) as exc:
-        raise ValueError(f"{label}: cannot be read from the archive ({exc})") from None
-    if len(data) > info.file_size or len(data) > budget[0]:
-        raise ValueError(f"{label}: larger than the archive declares")
-    budget[0] -= len(data)
-    return data
-
-
-def _text(data: bytes, label: str) -> str:
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"{label}: not UTF-8 text ({exc})") from None
-
-
 def _parse_demo(data: bytes, name: str, label: str, layout: Layout) -> Demonstration:
     columns = layout.columns
-    demo = demo_from_csv(_text(data, label), name=name, label=label)
+    demo = demo_from_csv(member_text(data, label), name=name, label=label)
     missing = [c for c in columns if c not in demo.columns]
     extra = [c for c in demo.columns if c not in columns]
     if missing or extra:
@@ -386,9 +358,22 @@ def _parse_demo(data: bytes, name: str, label: str, layout: Layout) -> Demonstra
     return Demonstration(demo.times, demo.select(columns), columns, name=name)
 
 
+def _check_run(folder: str, files: Mapping[str, bytes], label: str) -> None:
+    """ValueError naming ``label`` unless ``files`` are an evaluation run's: a ``run.json``
+    that reads as a run, with rows the Data tab can list."""
+    if RUN_FILE not in files:
+        raise ValueError(f"{label}/: not an evaluation run (it has no {RUN_FILE})")
+    run = run_from_json(member_text(files[RUN_FILE], f"{label}/{RUN_FILE}"), PurePosixPath(folder),
+                        f"{label}/{RUN_FILE}")  # fmt: skip
+    try:
+        listing(run)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise ValueError(f"{label}/{RUN_FILE}: its result rows cannot be read ({exc!r})") from None
+
+
 def _parse_index(data: bytes, label: str) -> Index:
     try:
-        index = json.loads(_text(data, label))
+        index = json.loads(member_text(data, label))
     except json.JSONDecodeError as exc:
         raise ValueError(f"{label}: not valid JSON ({exc})") from None
     except RecursionError:

@@ -11,7 +11,10 @@ built beside, renamed into place); ``python -m promp.evaluate ... --run WORKSPAC
 writes the same. The loader of demonstrations never reads ``runs/``. A run is listed from its
 ``run.json``; one that cannot be read is listed with the reason and opens nowhere. Deleting a
 run moves its folder to the workspace's trash (:mod:`app.io.trash`, kind ``run``), whence it
-can be restored. Pure: no viser.
+can be restored. Exporting the workspace carries its readable runs (:func:`run_files`), and
+importing that archive adds them back (:func:`add_runs`): each as a new folder, built beside
+and renamed into place; never over an existing run (the same run already there is left as it
+is; another run of that name comes in as ``<name>-imported``). Pure: no viser.
 """
 
 from __future__ import annotations
@@ -25,10 +28,13 @@ import time
 import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from app.io.trash import Trash, TrashEntry
-from promp.evaluate.runs import Run, folder_name, read_run, write_run
+from promp.evaluate.runs import Run, folder_name, read_run, write_new_folder, write_run
+from promp.names import natural_sorted
+
+RunFiles = Mapping[str, Mapping[str, bytes]]  # run folder -> its files (relative path -> bytes)
 
 RUNS_DIR = "runs"
 RUN_KIND = "run"  # the trash entry's kind
@@ -198,6 +204,87 @@ def run_zip(workspace: Path, folder: str) -> bytes:
             if file.is_file() and not file.is_symlink():
                 archive.write(file, f"{folder}/{file.relative_to(path).as_posix()}")
     return buffer.getvalue()
+
+
+def _files_of(path: Path) -> dict[str, bytes]:
+    """The files of the run folder ``path`` (relative POSIX path -> content), hidden files and
+    links left out."""
+    out = {}
+    for file in natural_sorted(path.rglob("*"), key=lambda p: p.relative_to(path)):
+        relative = file.relative_to(path)
+        if file.is_file() and not file.is_symlink() and not any(
+            part.startswith(".") for part in relative.parts
+        ):
+            out[relative.as_posix()] = file.read_bytes()
+    return out
+
+
+def run_files(workspace: Path) -> tuple[dict[str, dict[str, bytes]], list[str]]:
+    """What an export of the workspace carries of ``runs/``: every run that can be read, by
+    folder (its files), and the folders left out because they cannot be (with why)."""
+    runs: dict[str, dict[str, bytes]] = {}
+    left_out: list[str] = []
+    for name, (_, item) in list_runs(workspace).items():
+        if item.problem:
+            left_out.append(f"{name} ({item.problem})")
+            continue
+        path = run_path(workspace, name)
+        if path.is_symlink():
+            left_out.append(f"{name} (a link)")
+            continue
+        try:
+            runs[name] = _files_of(path)
+        except OSError as exc:
+            left_out.append(f"{name} ({exc})")
+    return runs, left_out
+
+
+def add_runs(workspace: Path, runs: RunFiles) -> tuple[list[str], list[str]]:
+    """Add ``runs`` (checked: :func:`app.io.exchange.read_workspace_zip`) to the workspace's
+    ``runs/``, each as a new folder written beside and renamed into place. Returns the folders
+    written and the runs already there (the same files under the same name: left as they are).
+    A different run of a name already taken comes in as ``<name>-imported`` (``-imported-2``,
+    ...): nothing is ever overwritten.
+
+    Raises
+    ------
+    ValueError
+        A folder name that is not a plain one, or a file path leaving its folder (nothing of
+        that run is written); an OSError of the disk stops there, the runs written staying.
+    """
+    root = runs_root(workspace)
+    written: list[str] = []
+    present: list[str] = []
+    for name, files in runs.items():
+        run_path(workspace, name)  # a plain folder name
+        for relative in files:
+            parts = PurePosixPath(relative).parts
+            if not parts or any(p in ("", ".", "..") for p in parts) or relative.startswith("/"):
+                raise ValueError(f"run {name}: {relative!r} is not a path inside its folder")
+        target, k = root / name, 1
+        while target.exists() or target.is_symlink():
+            if target.is_dir() and not target.is_symlink() and _files_of(target) == dict(files):
+                present.append(name)
+                break
+            k += 1
+            target = root / (f"{name}-imported" if k == 2 else f"{name}-imported-{k - 1}")
+        else:
+            _write_run_folder(target, files)
+            written.append(target.name)
+    return written, present
+
+
+def _write_run_folder(target: Path, files: Mapping[str, bytes]) -> None:
+    """``files`` as the new folder ``target``, whole or not at all
+    (:func:`promp.evaluate.runs.write_new_folder`; the lister skips the hidden staging)."""
+
+    def fill(staging: Path) -> None:
+        for relative, content in files.items():
+            path = staging / relative
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(content)
+
+    write_new_folder(target, fill)
 
 
 def trash_run(trash: Trash, folder: str) -> TrashEntry:

@@ -54,6 +54,7 @@ from app.io.workspace_index import (
 from promp.data import Demonstration, Layout
 from promp.datasets import atomic_write_text, read_csv_demo, write_csv_demo
 from promp.model import Settings
+from promp.names import natural_sorted
 from robots.icub.layout import STUDIO_LAYOUT
 
 DEMOS_DIR = "demos"
@@ -106,7 +107,7 @@ def inspect_folder(root: Path) -> tuple[FolderKind, str]:
         return FolderKind.EMPTY, ""
     files = 0
     examples: list[str] = []
-    for path in sorted(root.rglob("*")):
+    for path in natural_sorted(root.rglob("*"), key=lambda p: p.relative_to(root)):
         if path.is_file():
             files += 1
             if len(examples) < 3:
@@ -205,7 +206,7 @@ class Workspace:
             folder = self.demo_dir(entry.name)
             if not folder.is_dir():
                 continue
-            for path in sorted(folder.glob("*.csv")):
+            for path in natural_sorted(folder.glob("*.csv"), key=lambda p: p.name):
                 try:
                     demo = read_csv_demo(path)
                     demo.select(data.layout.columns)

@@ -64,11 +64,32 @@ class Take:
     rate_hz: float
 
 
+OFF = "Recording is off in this workspace"
 OWN_FRAME_REFUSAL = (
-    "This workspace's hand stays in the frame it was recorded in (shown without the robot): "
-    "a take of the iCub's hand would not be in that frame. Record in a workspace in the "
-    "iCub's frame (or import the data placed in it)."
+    f"{OFF}: its hand stays in the frame it was recorded in (shown without the robot), and a "
+    "take of the iCub's hand would not be in that frame. Record in a workspace in the iCub's "
+    "frame (or import the data placed in it)."
 )
+NO_PRIMITIVE = "Create a primitive first: a demonstration belongs to one."
+
+
+def workspace_refusal(primitive: str | None, layout: Layout, own_frame: bool = False) -> str | None:
+    """Why nothing can be recorded here, whatever the head source or the rate (None when a
+    take can be): no primitive, a hand in its own frame (:mod:`app.io.hand_frame`), or
+    modalities the studio cannot record. The Record button is disabled with this reason beside
+    it, and a press (Space) is refused with the same words."""
+    if primitive is None:
+        return NO_PRIMITIVE
+    if own_frame:
+        return OWN_FRAME_REFUSAL
+    missing = unrecordable(layout)
+    if missing:
+        return (
+            f"{OFF}: its demonstrations also hold {', '.join(missing)}, which the studio cannot "
+            "record, so a new demonstration would lack them. Record in a workspace of hand and "
+            "head demonstrations."
+        )
+    return None
 
 
 def refusal(
@@ -78,21 +99,11 @@ def refusal(
     rate_hz: float,
     own_frame: bool = False,
 ) -> str | None:
-    """Why a recording cannot start (None when it can): no primitive, a workspace of
-    modalities the studio cannot record or whose hand stays in its own frame
-    (:mod:`app.io.hand_frame`), a failed head source when the head is recorded, or a rate
-    outside :data:`RATE_RANGE_HZ`."""
-    missing = unrecordable(layout)
-    if primitive is None:
-        return "Create a primitive first: a demonstration belongs to one."
-    if own_frame:
-        return OWN_FRAME_REFUSAL
-    if missing:
-        return (
-            f"This workspace's demonstrations also hold {', '.join(missing)}, which the "
-            "studio cannot record: a new demonstration would lack them. Record in a "
-            "workspace of hand and head demonstrations."
-        )
+    """Why a recording cannot start (None when it can): :func:`workspace_refusal`, a failed
+    head source when the head is recorded, or a rate outside :data:`RATE_RANGE_HZ`."""
+    blocked = workspace_refusal(primitive, layout, own_frame)
+    if blocked is not None:
+        return blocked
     if HEAD.name in layout.names and head_error is not None:
         return (
             f"{HEAD_FAILED} ({head_error}). Choose another head source (e.g. the simulated "

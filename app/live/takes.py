@@ -20,6 +20,7 @@ import numpy as np
 
 from app.live.recorder import Recording
 from promp.data import Demonstration, Layout
+from promp.gaps import duration_text
 from promp.stillness import HAND_IDLE_M_S, HEAD_IDLE_RAD_S, MARGIN_S, SMOOTH_S, speed
 from robots.icub.layout import HAND, HEAD, hand_dims
 
@@ -139,7 +140,7 @@ def save_take(recording: Recording, options: TakeOptions) -> tuple[NewDemo | Non
         )
     kept = slice(trim.start, trim.stop)
     times = recording.times[kept]
-    text = f"{times[-1] - times[0]:.1f} s, {trim.stop - trim.start} samples"
+    text = f"{duration_text(times)}, {trim.stop - trim.start} samples"
     if trim.trimmed:
         before, after = trim.seconds(recording.times)
         text += f" (still ends cut: {before:.1f} s before, {after:.1f} s after)"

@@ -3,36 +3,29 @@
 Every chart, table and readout of the studio takes its titles, units and scales from this
 table: lengths in centimetres, angles in degrees, any other unit as recorded
 (:func:`quantities` for charts, :func:`shown` for text). The engine keeps metres and radians;
-only the display converts.
+only the display converts, with :mod:`promp.units`, which the command lines use too (the
+checks' findings say "2.07 mm" in both).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
+from promp import units
 from promp.data import Layout, Modality
 
-# Unit conversions for display: (engine unit, kind) -> (shown unit, factor).
-_DISPLAY_UNITS = {("m", "linear"): ("cm", 100.0), ("rad", "angle"): ("°", 180.0 / math.pi)}
-LENGTH_UNIT, LENGTH_SCALE = _DISPLAY_UNITS[("m", "linear")]  # a length in metres, as shown
+LENGTH_UNIT, LENGTH_SCALE = units.display_unit("m")  # a length in metres, as shown
 
 
 def display_unit(modality: Modality) -> tuple[str, float]:
     """(shown unit, factor from the engine's unit) of ``modality``'s values."""
-    return _DISPLAY_UNITS.get((modality.unit, modality.kind), (modality.unit, 1.0))
+    return units.display_unit(modality.unit, modality.kind)
 
 
 def shown(value: float, modality: Modality, digits: int = 1, signed: bool = False) -> str:
     """``value`` (in ``modality``'s unit) as the studio writes it, e.g. ``1.2 cm`` or
-    ``+12°``; ``—`` when it is not finite."""
-    if not math.isfinite(value):
-        return "—"
-    unit, scale = display_unit(modality)
-    number = f"{value * scale:{'+' if signed else ''}.{digits}f}"
-    if not unit:
-        return number
-    return number + (unit if unit == "°" else f" {unit}")
+    ``+12°``; ``—`` when it is not finite (:func:`promp.units.shown`)."""
+    return units.shown(value, modality.unit, modality.kind, digits, signed)
 
 
 @dataclass(frozen=True)

@@ -56,10 +56,12 @@ from promp.evaluate.report import (
 )
 from promp.evaluate.seed import ToolboxBaseline
 from promp.evaluate.sweep import position_modality, run_sweep, spread_subset
+from promp.gaps import REPAIRS, repair_gaps
 from promp.model import SELECT_RULES, Settings
 from promp.progress import stderr_progress
-from promp.quality import REPAIRS, Finding, dataset_findings, repair_gaps, split_flagged
+from promp.quality import Finding, dataset_findings, split_flagged
 from promp.rigs import MAPPING_HELP, add_rig_arguments, rig_options
+from promp.units import unitless_note
 
 DEFAULT_PERCENTS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
 
@@ -272,6 +274,8 @@ def print_findings(loaded: Loaded, include_flagged: bool) -> None:
         f"checks: {len(loaded.findings)} finding(s) in {len(flagged)} demonstration(s)",
         file=sys.stderr,
     )
+    if note := unitless_note(loaded.layout.modalities):
+        print(f"  ({note})", file=sys.stderr)
     for finding in loaded.findings:
         print(f"  {finding.describe()}", file=sys.stderr)
     if include_flagged:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from promp import metrics
+from promp import metrics, units
 from promp.data import Layout, Modality
 from promp.datasets import Dataset
 from promp.evaluate.report import confusion_matrices, trial_rows
@@ -30,12 +30,10 @@ MAX_COLUMNS = 4  # panels per row of a figure: at 3.2 in and 100 dpi, at most 1,
 
 def display_unit(modality: Modality) -> tuple[float, str]:
     """What a modality's values are multiplied by to be shown as the studio shows them, and
-    the unit then: metres as cm, radians (angles) as degrees, anything else as it is."""
-    if modality.unit == "m":
-        return 100.0, "cm"
-    if modality.kind == "angle" or modality.unit == "rad":
-        return 180.0 / np.pi, "deg"
-    return 1.0, modality.unit
+    the unit then (:func:`promp.units.display_unit`: metres as cm, angles as degrees, anything
+    else as it is)."""
+    unit, scale = units.display_unit(modality.unit, modality.kind)
+    return scale, unit
 
 
 def column_units(layout: Layout) -> list[tuple[float, str]]:

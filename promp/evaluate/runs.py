@@ -26,7 +26,7 @@ import re
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -108,39 +108,55 @@ def write_run(
     ValueError
         ``folder`` exists (nothing is overwritten), or its parent cannot be written.
     """
-    folder = Path(folder)
-    if folder.exists() or folder.is_symlink():
-        raise ValueError(f"{folder} already exists: a run is written to a new folder, nothing "
-                         "is overwritten")  # fmt: skip
     created = created or _dt.datetime.now(_dt.UTC).astimezone()
     meta = {
         "format": RUN_FORMAT, "version": RUN_VERSION, "name": name,
         "created": created.isoformat(timespec="seconds"), "code_version": code_version(),
         "report": dict(report),
     }  # fmt: skip
+
+    def fill(staging: Path) -> None:
+        (staging / RUN_FILE).write_text(json.dumps(meta, indent=1), encoding="utf-8")
+        (staging / "results.csv").write_text(results_csv(report["results"]), encoding="utf-8")
+        (staging / "trials.csv").write_text(trials_csv(report.get("trials", [])), "utf-8")
+        if figures is not None:
+            figures(staging / "figures")
+
+    write_new_folder(Path(folder), fill)
+    return read_run(folder)
+
+
+def write_new_folder(folder: Path, fill: Callable[[Path], None]) -> None:
+    """Make the run folder ``folder`` (which must not exist) whole or not at all: ``fill``
+    writes its files into a hidden sibling, which is synced, then renamed into place.
+
+    Raises
+    ------
+    ValueError
+        ``folder`` exists or appears meanwhile (nothing is overwritten), or its parent cannot
+        be written.
+    """
+    if folder.exists() or folder.is_symlink():
+        raise ValueError(f"{folder} already exists: a run is written to a new folder, nothing "
+                         "is overwritten")  # fmt: skip
     try:
         folder.parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{folder.name}."))
     except OSError as exc:
         raise ValueError(f"cannot write a run next to {folder}: {exc}") from exc
     try:
-        (staging / RUN_FILE).write_text(json.dumps(meta, indent=1), encoding="utf-8")
-        (staging / "results.csv").write_text(results_csv(report["results"]), encoding="utf-8")
-        (staging / "trials.csv").write_text(trials_csv(report.get("trials", [])), "utf-8")
-        if figures is not None:
-            figures(staging / "figures")
+        fill(staging)
         for path in staging.rglob("*"):
             if path.is_file():
                 with open(path, "rb") as handle:
                     os.fsync(handle.fileno())
-        if folder.exists():  # made meanwhile by someone else: theirs, left alone
+        if folder.exists() or folder.is_symlink():  # made meanwhile: theirs, left alone
             raise ValueError(f"{folder} appeared while the run was written; nothing was "
                              "written there")  # fmt: skip
         os.rename(staging, folder)
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)  # our own staging folder only
         raise
-    return read_run(folder)
 
 
 def read_run(folder: Path) -> Run:
@@ -154,18 +170,34 @@ def read_run(folder: Path) -> Run:
     folder = Path(folder)
     path = folder / RUN_FILE
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ValueError(f"{folder} is not an evaluation run: it has no {RUN_FILE}") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path}: cannot read as JSON ({exc})") from exc
+    return run_from_json(text, folder, str(path))
+
+
+def run_from_json(text: str, folder: Path, label: str) -> Run:
+    """The run of ``folder`` whose ``run.json`` holds ``text`` (``label`` names it in errors);
+    :func:`read_run` reads the file, a workspace archive its member.
+
+    Raises
+    ------
+    ValueError
+        Not JSON, another format or version, or a report without results.
+    """
+    try:
+        data = json.loads(text)
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise ValueError(f"{label}: cannot read as JSON ({exc})") from None
     if not isinstance(data, dict) or data.get("format") != RUN_FORMAT:
-        raise ValueError(f"{path}: not an evaluation run (format {RUN_FORMAT!r} expected)")
+        raise ValueError(f"{label}: not an evaluation run (format {RUN_FORMAT!r} expected)")
     if data.get("version") != RUN_VERSION:
-        raise ValueError(f"{path}: run version {data.get('version')!r}, expected {RUN_VERSION}")
+        raise ValueError(f"{label}: run version {data.get('version')!r}, expected {RUN_VERSION}")
     report = data.get("report")
     if not isinstance(report, dict) or not isinstance(report.get("results"), list):
-        raise ValueError(f"{path}: the run has no result rows")
+        raise ValueError(f"{label}: the run has no result rows")
     return Run(folder, str(data.get("name", folder.name)), str(data.get("created", "")),
                str(data.get("code_version", "")), report)  # fmt: skip
 

@@ -5,7 +5,8 @@ yarp|rosbag|xdf|c3d``), each on the field's own library, installed as an optiona
 (``pip install 'icub-intention-studio[rigs]'``, or one of ``[rosbag]``, ``[xdf]``, ``[c3d]``;
 YARP's text logs need none). A missing library is a ValueError naming its extra.
 
-* :mod:`promp.rigs.yarp`: ``dataDumper`` folders, ``<recording>/<port>/data.log``;
+* :mod:`promp.rigs.yarp`: ``dataDumper`` folders, take folders ``<class>/<take>/<port>/data.log``
+  or numbered port folders ``<class>/<port>/<port>_NNNNN/data.log`` (:mod:`promp.rigs.yarp_layout`);
 * :mod:`promp.rigs.rosbag`: ROS 1 ``.bag``, ROS 2 bags (``.db3``, ``.mcap``), via ``rosbags``;
 * :mod:`promp.rigs.xdf`: LabRecorder's ``.xdf``, via ``pyxdf``;
 * :mod:`promp.rigs.c3d`: ``.c3d``, via ``ezc3d`` (millimetres converted to metres).

@@ -28,6 +28,7 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from promp.data import Demonstration, Modality
+from promp.names import natural_sorted
 from promp.rigs import c3d, rosbag, xdf, yarp
 from promp.rigs.cutting import marker_spans, still_spans
 from promp.rigs.mapping import (
@@ -38,13 +39,15 @@ from promp.rigs.mapping import (
     sourced,
 )
 from promp.rigs.streams import Recording, Stream, on_one_clock, read_stream
+from promp.rigs.yarp_layout import NumberedTake, layout_notes
 
 READERS = {"yarp": yarp, "rosbag": rosbag, "xdf": xdf, "c3d": c3d}
 RIG_FORMATS = tuple(READERS)
 CUTS = ("auto", "markers", "still", "files")
 MAX_GUESSED = 8
 WHAT = {
-    "yarp": "YARP dump folders (<recording>/<port>/data.log)",
+    "yarp": "YARP dumps (<class>/<take>/<port>/data.log or <class>/<port>/<port>_NNNNN/"
+            "data.log)",
     "rosbag": "ROS bags (.bag, .mcap, .db3 or a ROS 2 bag folder)",
     "xdf": "XDF files (.xdf, .xdfz)",
     "c3d": "C3D files (.c3d)",
@@ -89,23 +92,27 @@ class RigRead:
     notes: tuple[str, ...]
 
 
-def find_recordings(root: Path, format: str) -> list[Path]:
-    """The recordings of ``format`` under ``root`` (or ``root`` itself), sorted."""
+def find_recordings(root: Path, format: str) -> list[Path | NumberedTake]:
+    """The recordings of ``format`` under ``root`` (or ``root`` itself), in natural order."""
     reader = READERS[format]
     root = Path(root)
     if hasattr(reader, "find_recordings"):
         return reader.find_recordings(root)
     if root.is_file():
         return [root] if root.suffix.lower() in reader.SUFFIXES else []
-    return sorted(
-        p for p in root.rglob("*")
-        if p.is_file() and p.suffix.lower() in reader.SUFFIXES
-        and not any(part.startswith(".") for part in p.relative_to(root).parts)
+    return natural_sorted(
+        (p for p in root.rglob("*")
+         if p.is_file() and p.suffix.lower() in reader.SUFFIXES
+         and not any(part.startswith(".") for part in p.relative_to(root).parts)),
+        key=lambda p: p.relative_to(root),
     )  # fmt: skip
 
 
-def _place(root: Path, unit: Path) -> tuple[str, str | None, str]:
-    """The label, the class (None for a session) and the name of a recording."""
+def _place(root: Path, unit: Path | NumberedTake) -> tuple[str, str | None, str]:
+    """The label, the class (None for a session) and the name of a recording (a numbered
+    YARP take is named as its take folder would be, ``<class>/<number>``)."""
+    if isinstance(unit, NumberedTake):
+        unit = unit.where
     parts = () if unit == root else unit.relative_to(root).parts
     label = PurePosixPath(*parts).as_posix() if parts else root.name
     below = parts[1:] if len(parts) >= 2 else (parts or (root.name,))
@@ -188,7 +195,7 @@ def read_rig_dataset(
     if not units:
         raise ValueError(f"{root}: no {WHAT[format]} found")
     mapping = [sourced(m) for m in modalities] if modalities else None
-    notes: list[str] = []
+    notes: list[str] = layout_notes(units, root) if format == "yarp" else []
     dataset: dict[str, list[Demonstration]] = {}
     files: dict[tuple[str, str], str] = {}
     units_seen: list[tuple[str, ...]] = []

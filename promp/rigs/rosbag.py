@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from promp.names import natural_sorted
 from promp.rigs.streams import Recording, unreadable
 
 SUFFIXES = (".bag", ".mcap", ".db3")
@@ -62,7 +63,7 @@ def find_recordings(root: Path) -> list[Path]:
         if p.is_file() and p.suffix.lower() in SUFFIXES and not p.name.startswith(".")
         and not any(f == p.parent or f in p.parents for f in folders)
     ]  # fmt: skip
-    return sorted(files + sorted(folders))
+    return natural_sorted(files + list(folders), key=lambda p: p.relative_to(root))
 
 
 def _is_message(value: object) -> bool:

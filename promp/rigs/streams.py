@@ -8,7 +8,7 @@ them, timed in seconds from the recording's start on the recording's own clock.
 :mod:`promp.rigs.mapping`), and :func:`on_one_clock` puts several such streams on one time base:
 by default the times of the slowest stream (the others interpolated linearly at them; angles
 across +-pi unwrapped first), or a regular grid at a chosen rate. A stream that starts late,
-stops early or pauses (:data:`promp.quality.GAP_FACTOR` times its own step, and over the
+stops early or pauses (:data:`promp.gaps.GAP_FACTOR` times its own step, and over the
 tolerance) inside a demonstration cannot be interpolated there: that is an error naming it.
 """
 
@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from promp.data import check_values
-from promp.quality import GAP_FACTOR, Finding, increasing_samples, timestamp_finding
+from promp.gaps import GAP_FACTOR
+from promp.quality import Finding, increasing_samples, timestamp_finding
 from promp.rigs.mapping import SourcedModality, si_unit
 
 # A stream may begin or end this many steps of the slowest stream away from the others (the
@@ -76,6 +77,9 @@ class Recording:
         The samples of in-memory readers; a reader that reads on demand overrides
         :meth:`samples` instead.
     events : dict of str to list of (time, label)
+    hint : str
+        How the reader found the recording's streams, said when a stream the mapping names
+        is missing (a YARP dump's layout).
     """
 
     label: str
@@ -86,6 +90,7 @@ class Recording:
     left_out: tuple[str, ...] = ()
     tables: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     events: dict[str, list[tuple[float, str]]] = field(default_factory=dict)
+    hint: str = ""
 
     def describe_streams(self) -> str:
         listed = [f"{name} ({', '.join(fields[:6])}{', ...' if len(fields) > 6 else ''})"
@@ -108,6 +113,7 @@ class Recording:
                 raise ValueError(
                     f"{self.label}: no numeric stream {modality.stream!r}{markers} for "
                     f"modality {modality.name!r}; its streams: {self.describe_streams()}"
+                    + (f" ({self.hint})" if self.hint else "")
                 )
             return stream
         having = [s for s in self.catalogue if self.has_fields(s, modality.fields)]

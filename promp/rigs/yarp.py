@@ -3,10 +3,13 @@
 A dumper writes one folder per port: ``data.log``, one line per message,
 ``<counter> <time stamp> <values...>`` (``<counter> <tx stamp> <rx stamp> <values...>`` when
 ``info.log`` says ``Stamp: tx+rx``: the sender's stamp is used), and ``info.log`` beside it
-(``Type: Bottle;`` and ``[time] /port/name [connected]``). A **recording** is a folder of such
-port folders (``<recording>/<port>/data.log``; a folder holding ``data.log`` itself is a
-recording of one port). A port is a stream named by its folder (or by the port name
-``info.log`` gives); its fields are the values' indices ``0, 1, ...`` (nested lists
+(``Type: Bottle;`` and ``[time] /port/name [connected]``). A **recording** is a take: a folder
+of such port folders (``<class>/<take>/<port>/data.log``; a folder holding ``data.log`` itself
+is a recording of one port), or the folders of one number in a class's numbered port folders
+(``<class>/<port>/<port name>_NNNNN/data.log``, as ``yarpdatadumper`` numbers its dumps):
+:mod:`promp.rigs.yarp_layout` finds them, and refuses a folder matching neither layout. A
+port is a stream named by its port folder (or by the port name ``info.log`` gives, or a
+numbered folder's stem); its fields are the values' indices ``0, 1, ...`` (nested lists
 ``(...)`` flattened in order). A port whose values are text (``"start reach"``) is a marker
 stream. YARP logs carry no units: state them in the mapping (``@deg`` for the iCub's joint
 encoders, converted to radians).
@@ -22,20 +25,17 @@ from pathlib import Path
 
 import numpy as np
 
+from promp.names import natural_sorted
 from promp.rigs.streams import Recording
+from promp.rigs.yarp_layout import LAYOUTS, NumberedTake, find_takes
 
 TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|[()]|[^\s()"]+')
 CONNECTED = re.compile(r"^\[[^\]]*\]\s+(\S+)\s+\[connected\]")
 
 
-def find_recordings(root: Path) -> list[Path]:
-    """The recording folders under ``root`` (the folders above the port folders), sorted."""
-    logs = sorted(p for p in Path(root).rglob("data.log") if p.is_file())
-    folders: set[Path] = set()
-    for log in logs:
-        port = log.parent
-        folders.add(port if port == root else port.parent)
-    return sorted(folders)
+def find_recordings(root: Path) -> list[Path | NumberedTake]:
+    """The takes under ``root``, in natural order (:func:`promp.rigs.yarp_layout.find_takes`)."""
+    return find_takes(root)
 
 
 def _info(folder: Path) -> tuple[str, int, str]:
@@ -99,23 +99,37 @@ def _is_number(token: str) -> bool:
     return True
 
 
-def open_recording(path: Path, label: str) -> Recording:
-    """The ports of the dump folder ``path`` (see the module docstring).
+def _ports(take: Path | NumberedTake, label: str) -> list[tuple[str, Path, str]]:
+    """(stream name, folder holding data.log, the folder as messages name it) of each port."""
+    if isinstance(take, NumberedTake):
+        return list(take.ports)
+    path = Path(take)
+    if (path / "data.log").is_file():
+        return [(path.name, path, label)]
+    return [(p.name, p, f"{label}/{p.name}") for p in natural_sorted(
+        (p for p in path.iterdir() if p.is_dir() and (p / "data.log").is_file()),
+        key=lambda p: p.name)]  # fmt: skip
+
+
+def open_recording(take: Path | NumberedTake, label: str) -> Recording:
+    """The ports of the take ``take`` (a take folder, or a numbered take; see the module
+    docstring).
 
     Raises
     ------
     ValueError
         Naming the file and the line, as the module docstring says.
     """
-    path = Path(path)
-    ports = [path] if (path / "data.log").is_file() else sorted(
-        p for p in path.iterdir() if p.is_dir() and (p / "data.log").is_file()
-    )  # fmt: skip
+    ports = _ports(take, label)
     recording = Recording(label, {}, {})
+    layout = "numbered port folders" if isinstance(take, NumberedTake) else "a take folder"
+    recording.hint = (f"{label} was read as {layout}, its ports "
+                      f"{', '.join(name for name, _, _ in ports)}; {LAYOUTS}")  # fmt: skip
+    if isinstance(take, NumberedTake):
+        recording.aliases.update(take.aliases)
     left_out, markers = [], []
-    for folder in ports:
-        name = folder.name
-        where = f"{label}/{name}/data.log" if folder != path else f"{label}/data.log"
+    for name, folder, shown in ports:
+        where = f"{shown}/data.log"
         kind, stamps, port = _info(folder)
         if port:
             recording.aliases[port] = name

@@ -3,14 +3,16 @@ the leave-one-out evaluation.
 
 * **Export model** downloads the model learned from the demonstrations (``model-<time>.json``,
   :mod:`promp.io`'s format, what robot-side code loads); **Export workspace** downloads
-  ``workspace-<time>.zip`` (studio.json, demos/<primitive>/<demo>.csv, model.json). Both wait
-  for the model of the latest change (learning runs in the background).
+  ``workspace-<time>.zip`` (studio.json, demos/<primitive>/<demo>.csv, model.json, the saved
+  evaluation runs under runs/). Both wait for the model of the latest change (learning runs
+  in the background).
 * **Import** takes either file. Everything is validated in memory first (:mod:`app.io.exchange`);
   a bad file gives a notification naming the file and the problem and changes nothing (closed
   when a later file from the same browser tab is accepted). A model becomes the model inference
   uses (:meth:`app.core.view_state.View.use_imported`) until the demonstrations or settings
   change or "Use the learned model" is clicked; it is not written to the workspace. A
-  workspace replaces the current one after a confirmation.
+  workspace replaces the current one after a confirmation, and its evaluation runs join the
+  saved runs (:func:`app.io.runs_folder.add_runs`: never over an existing run).
   Uploads over :data:`app.io.exchange.MAX_UPLOAD_BYTES` are refused as soon as they start
   (:mod:`app.ui.upload_guard`).
 * **Import dataset** (:mod:`app.panels.data.import_dataset`), **Recently deleted**
@@ -31,7 +33,7 @@ import traceback
 import viser
 
 from app.core.store_state import workspace_data
-from app.io import exchange
+from app.io import exchange, runs_folder
 from app.panels.data.evaluation_section import EvaluationSection
 from app.panels.data.import_dataset import DatasetImport
 from app.panels.data.model_status import ModelStatus
@@ -72,7 +74,8 @@ class DataPanel:
         self.export_workspace_button = gui.add_button(
             "Export workspace",
             icon=viser.Icon.FILE_ZIP,
-            hint="Download every primitive, demonstration and the model as one zip",
+            hint="Download every primitive, demonstration, saved evaluation run and the "
+            "model as one zip",
         )
         gui.add_markdown("**Import**")
         self.upload_button = gui.add_upload_button(
@@ -155,19 +158,27 @@ class DataPanel:
     def export_workspace(self, client: viser.ClientHandle | None) -> bytes:
         """Send the workspace to ``client`` as ``workspace-<time>.zip``; returns the bytes."""
         model, waited = self._model_for_export(client, "Export workspace")
-        data = workspace_data(self.ctx.store.state)
-        content = exchange.workspace_zip(data, model)
+        state = self.ctx.store.state
+        data = workspace_data(state)
+        runs, unreadable = runs_folder.run_files(state.workspace.root)
+        content = exchange.workspace_zip(data, model, runs=runs)
         filename = exchange.export_filename("workspace", "zip")
         if client is not None:
             client.send_file_download(filename, content, save_immediately=True)
         n_demos = sum(len(v) for v in data.demos.values())
+        size, limit = len(content), self.guard.max_bytes
         self._notify(
             client,
             "Workspace exported",
-            f"{filename} ({exchange.format_size(len(content))}): {len(data.primitives)} "
-            f"primitives, {n_demos} demonstrations" + (", the model." if model else ".")
-            + (f" Waited {clock(waited)} for the model." if waited >= 1.0 else ""),
-        )
+            f"{filename} ({exchange.format_size(size)}): {len(data.primitives)} "
+            f"primitives, {n_demos} demonstrations, {len(runs)} evaluation run(s)"
+            + (", the model." if model else ".")
+            + (f" Left out, unreadable: {'; '.join(unreadable)}." if unreadable else "")
+            + (f" Waited {clock(waited)} for the model." if waited >= 1.0 else "")
+            + (f" It is over the {exchange.format_size(limit)} a studio imports: delete "
+               "runs you no longer need to share it whole." if size > limit else ""),
+            "yellow" if unreadable or size > limit else "blue",
+        )  # fmt: skip
         return content
 
     # ------------------------------------------------------------------ import
@@ -232,9 +243,12 @@ class DataPanel:
             client,
             "Replace the workspace?",
             f"**{name}** holds {len(upload.data.primitives)} primitives ({names}) and "
-            f"{upload.n_demos} demonstrations.\n\nImporting it replaces the current "
+            f"{upload.n_demos} demonstrations"
+            + (f", with {len(upload.runs)} evaluation run(s)" if upload.runs else "")
+            + ".\n\nImporting it replaces the current "
             f"workspace ({current_p} primitives, {current_d} demonstrations), which moves "
-            "to the workspace's trash (*Recently deleted* restores it).",
+            "to the workspace's trash (*Recently deleted* restores it)"
+            + ("; its runs join the saved runs, none overwritten." if upload.runs else "."),
             "Replace the workspace",
             lambda: self.replace_workspace(client, upload),
             lambda: self._notify(client, "Import cancelled", f"{name}: nothing was changed."),
@@ -251,12 +265,23 @@ class DataPanel:
             self._notify(client, f"Cannot import {name}", f"{exc}. Nothing was changed.", "red")
             return False
         skipped = f" (ignored: {', '.join(upload.ignored)})" if upload.ignored else ""
+        try:
+            added, present = runs_folder.add_runs(self.ctx.store.state.workspace.root,
+                                                  upload.runs)  # fmt: skip
+        except (ValueError, OSError) as exc:
+            self._notify(client, f"{name}: evaluation runs not imported",
+                         f"{exc}. The demonstrations were imported.", "red")  # fmt: skip
+            added, present = [], []
+        self.runs.rescan()
+        runs = [f"{len(added)} evaluation run(s) added to the saved runs"] if added else []
+        if present:
+            runs.append(f"{len(present)} run(s) already there, left as they were")
         self._notify(
             client,
             "Workspace imported",
             f"{name}: {len(upload.data.primitives)} primitives, {upload.n_demos} "
-            f"demonstrations{skipped}. The previous workspace is in the trash (Recently "
-            "deleted).",
+            f"demonstrations{skipped}{'; ' + ', '.join(runs) if runs else ''}. The previous "
+            "workspace is in the trash (Recently deleted).",
             "green",
         )
         return True

@@ -113,6 +113,10 @@ class RunsSection:
 
     # ------------------------------------------------------------------ the loop
 
+    def rescan(self) -> None:
+        """List ``runs/`` again soon (runs were added from outside the section)."""
+        self._scanner.rescan()
+
     def step(self, snapshot: Snapshot) -> None:
         """Save the evaluation that has just ended; list ``runs/`` when it may have changed."""
         root = snapshot.store.workspace.root

@@ -22,6 +22,7 @@ import viser
 from app.core.snapshot import Snapshot
 from app.ui.context import PanelContext
 from app.ui.text import GREEN, ORANGE, RED, colored, escape
+from promp.gaps import duration_text
 from promp.typicality import Typicality
 
 TYPICALITY_COLORS = {"typical": GREEN, "unusual": ORANGE, "outlier": RED}
@@ -178,7 +179,7 @@ class DemoList:
         rows = tuple(
             (
                 d.name,
-                d.duration,
+                duration_text(d.times),
                 (name, d.name) in snapshot.hidden,
                 store.typicality.get((name, d.name)),
                 tuple((f.kind, f.message) for f in store.findings_of(name, d.name)),
@@ -214,7 +215,7 @@ class DemoList:
                     current[key] = handle = self.ctx.gui.add_button_group(
                         demo_name,
                         ("Hide", "Delete"),
-                        hint=f"{demo_name}: {duration:.1f} s. Show or hide its line in the 3D "
+                        hint=f"{demo_name}: {duration}. Show or hide its line in the 3D "
                         "view, or delete it from the workspace. A flagged demonstration (left "
                         "out of learning) can be kept.",
                     )

@@ -21,7 +21,7 @@ import numpy as np
 import viser
 
 from app.core.snapshot import Snapshot
-from app.live.recorder import RECORD_RATE_HZ, Recording, unrecordable
+from app.live.recorder import RECORD_RATE_HZ, Recording
 from app.live.take_controller import (
     COUNTDOWN_S,
     MAX_COUNTDOWN_S,
@@ -30,6 +30,7 @@ from app.live.take_controller import (
     Phase,
     TakeController,
     refusal,
+    workspace_refusal,
 )
 from app.live.takes import HAND_IDLE_M_S, HEAD_IDLE_RAD_S, TakeOptions, mean_start
 from app.panels.teach.demos import NOTIFY_COLORS, TYPICALITY_COLORS, typicality_text
@@ -48,6 +49,10 @@ BUTTON = {  # the Record button in each phase: label, colour, icon
     Phase.SAVING: ("Saving...", "gray", viser.Icon.DEVICE_FLOPPY),
 }
 LIVE_PLOT_PERIOD_S = 0.25  # the prior plots with the demonstration being recorded
+RECORD_HINT = (
+    "Counts down (3-2-1; the time is under Take options), then records the hand and the "
+    "partner's head until Stop (Space does the same while the 3D view has the focus)."
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,11 +88,8 @@ def build_controls(gui: PanelGui, countdown_s: float) -> RecordControls:
     with gui.add_folder("Record"):
         status = gui.add_markdown("")
         button = gui.add_button(
-            "Record", color="red", icon=viser.Icon.PLAYER_RECORD_FILLED,
-            hint="Counts down (3-2-1; the time is under Take options), then records the hand "
-            "and the partner's head until Stop (Space does the same while the 3D view has the "
-            "focus).",
-        )  # fmt: skip
+            "Record", color="red", icon=viser.Icon.PLAYER_RECORD_FILLED, hint=RECORD_HINT
+        )
         start_button = gui.add_button(
             "Go to start", icon=viser.Icon.HOME,
             hint="Move the hand to where this primitive's demonstrations start (the ghost).",
@@ -173,17 +175,9 @@ def outcome_text(outcome: Outcome | None, frame: Frame) -> str:
 def idle_text(frame: Frame, controls: RecordControls) -> str:
     """The line between takes: what a take goes into, and how its still ends are trimmed."""
     store, name = frame.snapshot.store, frame.snapshot.primitive
-    missing = unrecordable(store.layout)
-    if missing:
-        return colored(
-            f"Recording is off in this workspace: its demonstrations also hold "
-            f"{', '.join(missing)}, which the studio cannot record.", ORANGE,
-        )  # fmt: skip
-    if store.frame.own:
-        return colored("Recording is off in this workspace: its hand stays in the frame it "
-                       "was recorded in, not the iCub's.", ORANGE)  # fmt: skip
-    if name is None:
-        return "Create a primitive to record into."
+    blocked = workspace_refusal(name, store.layout, store.frame.own)
+    if blocked is not None:  # beside the disabled Record button
+        return colored(escape(blocked), ORANGE)
     text = f"Ready to record into **{name}**: drag the hand's gizmo while recording."
     if controls.trim.value:
         text += f" Still ends are trimmed: hand below {float(controls.hand_idle.value):g} cm/s"
@@ -258,7 +252,7 @@ class RecordSection:
         if outcome is not None:
             self._told(outcome)
         phase = self.takes.phase
-        self._show_button(phase)
+        self._show_button(phase, snapshot)
         if phase is Phase.COUNTDOWN:
             c.status.content = (
                 f'<div style="text-align:center;font-size:2.4em;font-weight:700;'
@@ -317,12 +311,20 @@ class RecordSection:
 
     # ------------------------------------------------------------------ display
 
-    def _show_button(self, phase: Phase) -> None:
+    def _show_button(self, phase: Phase, snapshot: Snapshot) -> None:
+        """The button of the phase; between takes, disabled where nothing can be recorded
+        (:func:`app.live.take_controller.workspace_refusal`, said in the status beside it)."""
         label, color, icon = BUTTON.get(phase, BUTTON[Phase.IDLE])
         button = self.controls.button
         if button.label != label:
             button.label, button.color = label, color
             set_icon(button, icon)
+        store = snapshot.store
+        reason = workspace_refusal(snapshot.primitive, store.layout, store.frame.own)
+        off = phase is Phase.IDLE and reason is not None
+        if button.disabled != off:
+            button.disabled = off
+            button.hint = reason if off else RECORD_HINT
 
     def _show_recording(self, frame: Frame) -> None:
         next_status, next_plot = self._next
