@@ -11,7 +11,7 @@ the curves already computed, by what they depend on.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,12 +96,16 @@ def recognition_curve(
     alpha_method: str,
     truth: str | None = None,
     percents: Sequence[float] = PERCENTS,
+    between: Callable[[], None] | None = None,
 ) -> RecognitionCurve:
     """Recognise the first ``p`` % of ``demo`` (``modalities`` observed, ``alpha_method``)
-    for every ``p`` of ``percents``."""
+    for every ``p`` of ``percents``; ``between()``, when given, is called before each (a
+    worker computing the curve gives way there to more urgent work)."""
     percents = np.asarray(percents, dtype=float)
     probabilities = np.full((percents.size, len(model.names)), np.nan)
     for i, percent in enumerate(percents):
+        if between is not None:
+            between()
         try:
             observation = demo_observation(model, demo, percent, modalities)
             probabilities[i] = recognise(model, observation, alpha_method).probabilities

@@ -10,6 +10,7 @@ plot), so that they never move the y range; each vertical is two samples a hair 
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,14 +49,17 @@ class TimeInterval:
             )
         object.__setattr__(self, "color", check_color(f"interval {self.label!r}", self.color))
 
-    @property
+    @functools.cached_property
     def times(self) -> np.ndarray:
         """The grid times its verticals need: each a hair before, then at, its time; the
-        fill's edges also a hair after ``high``."""
+        fill's edges also a hair after ``high`` (one array: the charts of one inference
+        share their grid by the identity of the times they are drawn on)."""
         edges = (self.low, self.value, self.high)
-        return np.array(
+        times = np.array(
             [t + d for t in edges for d in (-VERTICAL_S, 0.0)] + [self.high + VERTICAL_S]
         )
+        times.setflags(write=False)
+        return times
 
 
 def _vertical(grid: np.ndarray, time: float) -> np.ndarray:

@@ -220,6 +220,7 @@ def band_chart(
     n_sigma: float = 2.0,
     x_label: str = "t (s)",
     intervals: Sequence[TimeInterval] = (),
+    grids: dict | None = None,
 ) -> BandChart:
     """Series and bands of a chart showing ``bands``, ``traces`` and ``intervals`` on a
     shared time grid.
@@ -238,6 +239,10 @@ def band_chart(
     n_sigma : float
         Half-width of the bands in standard deviations (positive).
     x_label : str
+    grids : dict, optional
+        Where the charts drawn together keep their time grids (the union of the times given),
+        by the times arrays' identities: charts of one inference share their times, and each
+        union is sorted once, not once per chart.
 
     Returns
     -------
@@ -254,9 +259,13 @@ def band_chart(
         raise ValueError("a chart needs at least one band or trace")
     if not np.isfinite(n_sigma) or n_sigma <= 0:
         raise ValueError(f"n_sigma must be positive, got {n_sigma}")
-    grid = np.unique(np.concatenate(
-        [b.times for b in bands] + [t.times for t in traces] + [i.times for i in intervals]
-    ))  # fmt: skip
+    times = [b.times for b in bands] + [t.times for t in traces] + [i.times for i in intervals]
+    key = tuple(id(t) for t in times)
+    grid = None if grids is None else grids.get(key, (None, None))[1]
+    if grid is None:
+        grid = np.unique(np.concatenate(times))
+        if grids is not None:
+            grids[key] = (times, grid)  # the arrays held: their ids stay theirs meanwhile
     data: list[np.ndarray] = [grid]
     series: list[uplot.Series] = [{"label": x_label}]
     fills: list[uplot.Band] = []

@@ -221,6 +221,8 @@ class InferCharts:
         observed = list(layout.dims(obs.modalities))
         truth = layout.extract(result.truth) if result.truth is not None else None
         end = end_interval(result, color)
+        grids: dict = {}  # the charts' time grids, shared (see band_chart)
+        elapsed = obs.elapsed  # (computed on each access: one array for every chart)
         for i, (handle, q) in enumerate(zip(self.handles, self.quantities, strict=True)):
             bands = [
                 Band.from_prediction(result.inference.prior, q, "prior", PRIOR_COLOR),
@@ -235,9 +237,9 @@ class InferCharts:
             if q.column in observed:
                 column = obs.values[:, observed.index(q.column)]
                 traces.append(
-                    Trace("observed", obs.elapsed, q.scale * column, OBSERVED_COLOR, points=True)
+                    Trace("observed", elapsed, q.scale * column, OBSERVED_COLOR, points=True)
                 )
-            chart = self._sticky(i, band_chart(bands, traces, intervals=[end]))
+            chart = self._sticky(i, band_chart(bands, traces, intervals=[end], grids=grids))
             update_band_chart(handle, chart, self.ctx.atomic)
 
     def _sticky(self, index: int, chart: BandChart) -> BandChart:

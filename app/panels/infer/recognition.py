@@ -5,8 +5,14 @@ marker at the earliest point from which the recognition stays right.
 The curve takes a hundred recognitions (half a second, more on a loaded machine), so a worker
 thread computes it; the loop asks for the curve of what it inspects (:meth:`request`) and
 draws it once there, cached per demonstration and settings. Moving the slider only moves the
-cursor. A click on the chart moves the slider there: the page's script (``static/studio.js``)
-turns it into a click on the slider's track at the same percentage.
+cursor. The worker gives way to the slider: between two of its recognitions it waits while the
+loop has computed a scrub step in the last :data:`QUIET_S` (:meth:`RecognitionChart.busy`).
+Both are Python threads of one process, so while the worker runs the loop's step waits for the
+interpreter in turns with it: measured with ``bench/scrub.py``, the step took twice as long
+(median 28 ms against 12 ms once the curve was done) until the worker gave way.
+
+A click on the chart moves the slider there: the page's script (``static/studio.js``) turns it
+into a click on the slider's track at the same percentage.
 
 uPlot shares one x array between all series, so the cursor and the marker are vertical
 segments drawn by a series that holds values at two equal x entries inserted in the grid (and
@@ -16,6 +22,7 @@ NaN elsewhere, where nothing is drawn); every other series is interpolated there
 from __future__ import annotations
 
 import threading
+import time
 import traceback
 from collections.abc import Callable, Hashable
 
@@ -32,6 +39,7 @@ X_RANGE = (0.0, 100.0)
 CURSOR_COLOR = (30, 30, 30)
 RIGHT_COLOR = (30, 140, 60)
 WAITING = "Computing the recognition over the whole movement..."
+QUIET_S = 0.15  # the curve's worker waits until the slider has rested this long
 LIVE_NOTE = "Recognition over the whole movement: for a test demonstration."
 
 
@@ -90,6 +98,7 @@ class RecognitionChart:
         self._wake = threading.Event()
         self._stop = threading.Event()
         self.computed = 0  # curves computed (not served from the cache)
+        self._busy_at = float("-inf")  # when the loop last computed a scrub step
         gui = ctx.gui
         self.chart = gui.add_uplot(
             data=(np.array(X_RANGE), np.zeros(2)),
@@ -120,6 +129,19 @@ class RecognitionChart:
             if self._wanted is None or self._wanted.key != wanted.key:
                 self._wanted = wanted
                 self._wake.set()
+
+    def busy(self) -> None:
+        """The loop has just computed a scrub step: the worker waits until the slider rests
+        (:data:`QUIET_S`) before its next recognition."""
+        self._busy_at = time.monotonic()
+
+    def _give_way(self) -> None:
+        """On the worker: wait while the slider moves (or until the chart closes)."""
+        while not self._stop.is_set():
+            rest = self._busy_at + QUIET_S - time.monotonic()
+            if rest <= 0:
+                return
+            self._stop.wait(rest)
 
     def show(self, percent: float) -> None:
         """Draw the wanted curve (when computed) with the cursor at ``percent``."""
@@ -179,7 +201,7 @@ class RecognitionChart:
             try:
                 curve = recognition_curve(
                     wanted.model, wanted.demo, wanted.modalities, wanted.alpha_method,
-                    truth=wanted.truth,
+                    truth=wanted.truth, between=self._give_way,
                 )  # fmt: skip
             except Exception:  # a bug here must not end the worker; the chart just waits
                 traceback.print_exc()
