@@ -73,6 +73,30 @@ def test_a_growing_observation_costs_a_row_per_sample_and_answers_every_length()
     assert_allclose(dtw.ends, open_end_dtw(query, references)[1])
 
 
+def test_the_phase_search_matches_resampling_each_prefix_by_np_interp() -> None:
+    """The closed form (a Gram matrix, no resampled array) against the plain recipe: each
+    prefix [0, f (m - 1)] resampled column by column with np.interp."""
+    rng = np.random.default_rng(5)
+    for _ in range(15):
+        query = rng.normal(size=(int(rng.integers(2, 30)), 3)).cumsum(axis=0)
+        references = [rng.normal(size=(int(rng.integers(2, 60)), 3)).cumsum(axis=0)
+                      for _ in range(4)]  # fmt: skip
+        distances, best = prefix_search(query, references)
+        for k, reference in enumerate(references):
+            m = reference.shape[0]
+            plain = []
+            for f in FRACTIONS:
+                at = np.linspace(0.0, f * (m - 1), query.shape[0])
+                resampled = np.column_stack(
+                    [np.interp(at, np.arange(m), reference[:, j]) for j in range(3)]
+                )
+                plain.append(np.linalg.norm(resampled - query))
+            assert_allclose(distances[k], min(plain), rtol=1e-9, atol=1e-9)
+            assert plain[int(np.argmin(plain))] == pytest.approx(
+                plain[list(FRACTIONS).index(best[k])], rel=1e-9, abs=1e-9
+            )
+
+
 def test_the_phase_search_finds_a_slower_copy_of_a_beginning() -> None:
     """The observation is the first 40 % of a reference, played 2.5 times slower: the prefix
     search finds f = 0.4 and a near-zero distance; another reference is far."""

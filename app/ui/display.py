@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 from promp.data import Layout, Modality
+from promp.evaluate.registry import METHOD_TITLES
 
 # Unit conversions for display: (engine unit, kind) -> (shown unit, factor).
 _DISPLAY_UNITS = {("m", "linear"): ("cm", 100.0), ("rad", "angle"): ("°", 180.0 / math.pi)}
@@ -85,6 +86,12 @@ ALPHA_HINT = (
     "How the speed (alpha, the time modulation: 100 / samples of the whole movement) is "
     "estimated. ML: the most likely of the training speeds; model: regressed on the early motion."
 )
+
+
+def method_label(method: str) -> str:
+    """A method of the evaluation as the studio names it, e.g. ``DTW 1-NN`` for ``dtw``
+    (:data:`promp.evaluate.registry.METHOD_TITLES`)."""
+    return METHOD_TITLES.get(method, method)
 
 
 def observed_label(names) -> str:

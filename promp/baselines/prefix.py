@@ -17,13 +17,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from promp._threads import one_blas_thread
 from promp.baselines.relative import check_movement
 
 FRACTIONS = np.linspace(0.02, 1.0, 50)
-# Interpolated values held at once at most (references x fractions x samples x columns).
-MAX_VALUES = 2_000_000
 
 
+@one_blas_thread  # small products: BLAS threads would cost more than the work
 def prefix_search(
     query: np.ndarray,
     references: Sequence[np.ndarray],
@@ -70,15 +70,22 @@ def prefix_search(
 
 def _distances(q: np.ndarray, r: np.ndarray, spans: np.ndarray, n: int) -> np.ndarray:
     """||q - prefix resampled|| for every prefix, ``spans`` (n_fractions,) its last fractional
-    sample index."""
-    out = np.empty(spans.size)
-    step = max(1, MAX_VALUES // (n * r.shape[1]))
+    sample index.
+
+    With ``p_i = (1 - w_i) r_a + w_i r_{a+1}`` (``a = low_i``), the squared distance
+    ``||q||^2 - 2 sum_i <q_i, p_i> + sum_i ||p_i||^2`` needs only the Gram matrix ``q r^T``
+    (n, m), the squared norms ``||r_j||^2`` and the products ``<r_j, r_{j+1}>``: no (F, n, D)
+    array, so the columns cost once (one matrix product), not once per fraction."""
     grid = np.arange(n) / (n - 1)
-    for start in range(0, spans.size, step):
-        chunk = spans[start : start + step]
-        position = grid[None, :] * chunk[:, None]  # fractional sample index (F, n)
-        low = np.minimum(np.floor(position).astype(int), r.shape[0] - 2)
-        weight = (position - low)[..., None]
-        resampled = (1.0 - weight) * r[low] + weight * r[low + 1]  # (F, n, D)
-        out[start : start + chunk.size] = np.sqrt(((resampled - q) ** 2).sum(axis=(1, 2)))
-    return out
+    position = grid[None, :] * spans[:, None]  # fractional sample index (F, n)
+    low = np.minimum(np.floor(position).astype(int), r.shape[0] - 2)
+    w = position - low
+    rows = np.arange(n)[None, :]
+    gram = q @ r.T  # <q_i, r_j>: (n, m)
+    cross = ((1.0 - w) * gram[rows, low] + w * gram[rows, low + 1]).sum(axis=1)
+    norms = np.einsum("md,md->m", r, r)
+    neighbours = np.einsum("md,md->m", r[:-1], r[1:])
+    own = ((1.0 - w) ** 2 * norms[low] + 2.0 * w * (1.0 - w) * neighbours[low]
+           + w**2 * norms[low + 1]).sum(axis=1)  # fmt: skip
+    squared = np.einsum("nd,nd->", q, q) - 2.0 * cross + own
+    return np.sqrt(np.maximum(squared, 0.0))
