@@ -116,7 +116,7 @@ def main() -> None:
     cpu = per_trial(loaded.dataset, loaded.layout)
     for name, seconds in cpu.items():
         ratio = seconds / cpu["ours"]
-        print(f"2. {name:9s} {1e3 * seconds:7.1f} ms CPU per trial ({ratio:.2f}x ours)")
+        print(f"2. {name:9s} {1e3 * seconds:7.1f} ms CPU per trial ({ratio:.3f}x ours)")
     print(json.dumps({
         "goal_run_s": round(goal, 2), "goal_s": GOAL_S, "goal_met": goal <= GOAL_S,
         "goal_trials": trials, "load_average": round(load, 2), "cores": os.cpu_count(),
