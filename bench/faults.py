@@ -50,9 +50,11 @@ RUNS = {
 }
 
 
-def evaluate(folder: Path, extra: list[str], common: list[str], out: Path) -> tuple[dict, float]:
+def evaluate(
+    folder: Path, extra: list[str], common: list[str], out: Path, data_format: str = "records"
+) -> tuple[dict, float]:
     """One run of the evaluation's command line; (its JSON report, seconds)."""
-    args = [str(folder), "--format", "records", *common, "--json", str(out), *extra]
+    args = [str(folder), "--format", data_format, *common, "--json", str(out), *extra]
     start = time.perf_counter()
     with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
         code = cli.main(args)

@@ -94,6 +94,24 @@ def test_curves_and_table_from_sweep_rows() -> None:
     assert table[7:] == ["| 10 % | 5.0 | 6.0 | 2.0 |", "| 50 % | 4.0 | 5.0 | 1.0 |"]
 
 
+def test_several_methods_side_by_side_in_the_curves_and_the_table() -> None:
+    """ours beside DTW: a series per method, named after it, and the table's columns side by
+    side; DTW's position error (it predicts none) is n/a."""
+    rows = [
+        {"method": m, "percent": p, "alpha_method": "ml", "observed": ["hand"],
+         "recognition_errors": e, "trials": 12,
+         "position_error_m": 0.01 * e if m == "ours" else float("nan"), "duration_error_s": 0.1}
+        for m, e0 in (("ours", 2), ("dtw", 4)) for p, e in ((10.0, e0), (50.0, e0 - 1))
+    ]  # fmt: skip
+    series = curves(rows)
+    assert list(series) == ["ours: hand, ML", "DTW 1-NN: hand, ML"]
+    assert series["DTW 1-NN: hand, ML"]["method"] == "dtw"
+    table = results_table(rows).splitlines()
+    assert table[0] == "| errors (of 12) | ours: hand, ML | DTW 1-NN: hand, ML |"
+    assert table[2:4] == ["| 10 % | 2 | 4 |", "| 50 % | 1 | 3 |"]
+    assert table[7:] == ["| 10 % | 2.0 | n/a |", "| 50 % | 1.0 | n/a |"]
+
+
 def test_display_name_is_markdown_safe() -> None:
     assert display_name("model-2024.json") == "model-2024.json"
     assert display_name("<img src=x>`**.json") == "_img src_x____.json"
@@ -180,6 +198,17 @@ def test_failed_trials_list_every_misrecognised_trial() -> None:
     assert "right1 · right · 60 % of hand + head, ML → failed" in labels
     one_setting = [t for t in trials if t.request.observed == ("hand",)]
     assert list(trial_choices(one_setting))[0] == "right0 · right · 30 % → left"
+
+
+def test_failed_trials_of_several_methods_say_whose_they_are() -> None:
+    dataset = make_dataset(seed=0, n_demos=3)
+    result = run_sweep({"ours": FirstOrFails, "dtw": FirstOrFails}, dataset, LAYOUT, [30.0],
+                       ["ml"], [["hand"]], keep_trials=True)  # fmt: skip
+    trials = failed_trials(result, dataset)
+    assert [t.method for t in trials] == ["ours"] * 3 + ["dtw"] * 3  # the sweep's order
+    labels = list(trial_choices(trials))
+    assert labels[0] == "ours: right0 · right · 30 % → left"
+    assert labels[3] == "DTW 1-NN: right0 · right · 30 % → left"
 
 
 def test_evaluation_section_without_a_browser() -> None:

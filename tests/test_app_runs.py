@@ -1,6 +1,7 @@
 """The Data tab's "Saved runs" in a real browser: two small evaluations are kept in the
 workspace's runs/, listed with a run the command line wrote there, opened in the results area,
-exported, compared, and one deleted to the trash and restored from "Recently deleted"."""
+exported, compared, and one deleted to the trash and restored from "Recently deleted"; an
+evaluation of ours beside the toolbox and both baselines, shown, kept and compared by method."""
 
 from __future__ import annotations
 
@@ -52,9 +53,9 @@ def pick(page, handle, option: str) -> None:
     choose(page, handle, option)
 
 
-def evaluate(page, panel, name: str, observed: str) -> None:
-    """Run a leave-one-out evaluation from the GUI at 40 % observed, named ``name``, and wait
-    until it has been kept in runs/."""
+def evaluate(page, panel, name: str, observed: str, methods: str = "ours"):
+    """Run a leave-one-out evaluation of ``methods`` (the Methods dropdown's choice) from the
+    GUI at 40 % observed, named ``name``, and wait until it has been kept in runs/; its job."""
     evaluation, runs = panel.evaluation, panel.runs
     controls = evaluation.controls
     for handle, value in ((controls.percents_text, "40"), (controls.run_name_text, name)):
@@ -62,6 +63,7 @@ def evaluate(page, panel, name: str, observed: str) -> None:
         until(lambda h=handle, v=value: h.value == v, what=f"{value!r} typed")
     pick(page, controls.observe_dropdown, observed)
     pick(page, controls.alpha_dropdown, "ML")
+    pick(page, controls.methods_dropdown, methods)
     kept = len(runs._listed or {})
     previous = evaluation.job
     click(page, "Run leave-one-out evaluation")
@@ -70,6 +72,7 @@ def evaluate(page, panel, name: str, observed: str) -> None:
     assert job.error is None and not job.cancelled
     notification(page, "Run kept", name.replace(" ", "_"))
     until(lambda: len(runs._listed or {}) == kept + 1, what=f"run {name!r} listed")
+    return job
 
 
 @pytest.mark.browser
@@ -150,6 +153,59 @@ def test_runs_are_kept_listed_opened_compared_deleted_and_restored(browser, stud
         assert (root / RUNS_DIR / folder / RUN_FILE).is_file()
     except Exception:
         page.screenshot(path="/tmp/runs_failed.png")
+        raise
+    finally:
+        page.close()
+
+
+@pytest.mark.browser
+def test_ours_beside_the_toolbox_and_both_baselines(browser, studio) -> None:
+    """Methods "ours + toolbox + baselines": the four run on the same trials; the results name
+    each (the baselines' position errors n/a), the kept run lists each method's errors, and
+    the comparison with a run of ours alone pairs ours with ours and names the others."""
+    panel = data_panel(studio)
+    runs = panel.runs
+    page, _client = open_page(browser, studio, width=1200, height=1400)
+    try:
+        page.set_default_timeout(60_000)
+        open_tab(page, "Data")
+        page.get_by_text("Saved runs", exact=True).first.wait_for()
+        evaluate(page, panel, "ours alone", "hand")
+        job = evaluate(page, panel, "with baselines", "hand", "ours + toolbox + baselines")
+        assert job.methods == ["ours", "seed", "dtw", "prefix-nn"]
+        rows = job.result.rows
+        assert [r["method"] for r in rows] == job.methods and {r["trials"] for r in rows} == {6}
+        tested = {m: sorted((t.primitive, t.demo) for t in job.result.trials if t.method == m)
+                  for m in job.methods}  # fmt: skip
+        assert all(trials == tested["ours"] for trials in tested.values())
+        page.get_by_text("Recognition errors (of 6)").first.wait_for()
+        table = panel.evaluation._result_handles[3].content
+        assert table.splitlines()[0] == ("| errors (of 6) | ours: hand, ML | toolbox (2017): "
+                                         "hand, ML | DTW 1-NN: hand, ML | prefix 1-NN: hand, ML |")
+        position = table.splitlines()[-1]
+        assert position.startswith("| 40 % |") and position.endswith("| n/a | n/a |")
+        page.get_by_text("prefix 1-NN: hand, ML").first.wait_for()  # the table in the page
+        assert "methods ours, seed, dtw, prefix-nn" in panel.evaluation._result_handles[0].content
+
+        errors = ", ".join(f"{label} {r['recognition_errors']}" for label, r in zip(
+            ("ours", "toolbox (2017)", "DTW 1-NN", "prefix 1-NN"), rows, strict=True))
+        until(lambda: f"{errors} (of 6 each)" in runs.controls.table.content,
+              what="the kept run's errors per method")  # fmt: skip
+        labels = list(runs._choices)
+        newest, alone = labels[0], next(label for label in labels if "ours alone" in label)
+        assert "with baselines" in newest
+        close_notifications(page)
+        pick(page, runs.controls.choice, alone)
+        pick(page, runs.controls.other, newest)
+        click(page, "Compare runs")
+        page.get_by_text("Made differently").first.wait_for()
+        text = runs.controls.comparison.content
+        assert "methods ours → ours + seed + dtw + prefix-nn" in text
+        assert "**ours: hand, ML**" in text and "**DTW 1-NN: hand, ML**" in text
+        assert "**toolbox (2017): hand, ML**" in text and "**prefix 1-NN: hand, ML**" in text
+        page.get_by_text("DTW 1-NN: hand, ML").last.wait_for()
+    except Exception:
+        page.screenshot(path="/tmp/runs_baselines_failed.png")
         raise
     finally:
         page.close()

@@ -214,6 +214,40 @@ def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
     ]  # fmt: skip
 
 
+def test_command_line_compares_several_methods_side_by_side(tmp_path: Path, capsys) -> None:
+    """--method seed dtw prefix-nn: one run, rows per method on the same trials, the printed
+    tables side by side (n/a where a baseline gives no value), the figures per method."""
+    write_csv_dataset(tmp_path / "data", make_dataset(seed=2, n_demos=4))
+    out = tmp_path / "out.json"
+    code = main([str(tmp_path / "data"), "--format", "csv", "--percent", "30", "70", "--alpha",
+                 "ml", "--method", "seed", "dtw", "prefix-nn", "--jobs", "1", "--json", str(out),
+                 "--plots", str(tmp_path / "plots")])  # fmt: skip
+    assert code == 0
+    printed = capsys.readouterr().out
+    report = json.loads(out.read_text())
+    assert report["settings"]["methods"] == ["seed", "dtw", "prefix-nn"]
+    assert report["settings"]["method"] == "seed+dtw+prefix-nn"
+    assert [r["method"] for r in report["results"]] == ["seed"] * 2 + ["dtw"] * 2 + [
+        "prefix-nn"
+    ] * 2  # fmt: skip
+    for method in ("seed", "dtw", "prefix-nn"):
+        trials = sorted((t["demo"], t["percent"]) for t in report["trials"]
+                        if t["method"] == method)  # fmt: skip
+        assert len(trials) == 16
+    assert "recognition errors (of 8 trials)" in printed
+    side = printed[printed.index("position error of the remainder, cm"):].splitlines()
+    assert side[1].split() == ["observed", "alpha", "%", "seed", "dtw", "prefix-nn"]
+    assert side[2].split()[3:] != ["n/a"] * 3 and side[2].split()[-2:] == ["n/a", "n/a"]
+    assert {m["method"] for m in report["confusion"]} == {"seed", "dtw", "prefix-nn"}
+    pngs = sorted(p.name for p in (tmp_path / "plots").iterdir())
+    assert "curves_seed+dtw+prefix-nn.png" in pngs and "example_seed_hand.png" in pngs
+    assert "confusion_dtw_hand_ml.png" in pngs and "reliability_prefix-nn.png" in pngs
+    assert not any(p.startswith("example_dtw") for p in pngs)  # no trajectory to show
+    with pytest.raises(SystemExit):  # argparse: not a choice
+        main([str(tmp_path / "data"), "--format", "csv", "--method", "knn"])
+    assert "invalid choice: 'knn'" in capsys.readouterr().err
+
+
 def test_command_line_rejects_bad_arguments(tmp_path: Path, capsys) -> None:
     write_csv_dataset(tmp_path / "data", make_dataset(seed=2, n_demos=3))
     assert main([str(tmp_path / "data"), "--format", "csv", "--observe", "gaze"]) == 2

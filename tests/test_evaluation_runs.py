@@ -112,6 +112,32 @@ def test_runs_made_with_two_alpha_methods_compare_row_by_row(tmp_path: Path, cap
     assert "ml>model" in capsys.readouterr().out
 
 
+def test_runs_of_several_methods_compare_method_by_method(tmp_path: Path, capsys) -> None:
+    """A run of ours and dtw against a run of ours: ours beside ours, dtw's row alone (n/a in
+    A); a run of dtw alone against a run of ours alone: the two rows side by side."""
+    ours = _report(5, 0.6)
+    both = _report(3, 0.4)
+    both["results"].append(dict(both["results"][0], method="dtw", recognition_errors=8,
+                                position_error_m=math.nan))  # fmt: skip
+    a = write_run(tmp_path / "a", ours, "ours")
+    b = write_run(tmp_path / "b", both, "both")
+    same, alone = compare_runs(a, b)
+    assert (same["method"], same["method_b"], same["errors_a"], same["errors_b"]) == (
+        "ours", "ours", 5, 3
+    )  # fmt: skip
+    assert alone["method"] == "dtw" and math.isnan(alone["errors_a"]) and alone["errors_b"] == 8
+    assert compare_main([str(a.folder), str(b.folder)]) == 0
+    text = capsys.readouterr().out
+    assert "dtw" in text and "n/a->8" in text and "n/a->n/a" in text
+    dtw_only = _report(8, 0.9)
+    dtw_only["results"][0]["method"] = "dtw"
+    c = write_run(tmp_path / "c", dtw_only, "dtw")
+    (paired,) = compare_runs(a, c)
+    assert (paired["method"], paired["method_b"], paired["errors_diff"]) == ("ours", "dtw", 3)
+    assert compare_main([str(a.folder), str(c.folder)]) == 0
+    assert "ours>dtw" in capsys.readouterr().out
+
+
 def test_the_command_line_keeps_a_run_and_refuses_an_existing_folder_at_once(
     tmp_path: Path, capsys
 ) -> None:

@@ -227,11 +227,40 @@ def test_two_runs_compared_say_what_differs_and_each_change(tmp_path: Path, job)
     assert "Made alike" in same and "(+" not in same
 
 
+def test_a_run_of_several_methods_is_listed_and_compared_method_by_method(
+    tmp_path: Path, job
+) -> None:
+    """A run of ours and dtw (the same rows, dtw's without position errors): the list gives
+    each method's errors, the comparison with a run of ours alone pairs ours with ours and
+    leaves dtw's rows alone, named, with n/a where a value is missing."""
+    ws = workspace(tmp_path / "ws")
+    report = json.loads(json.dumps(job.report()))
+    a = save_run(ws.root, report, "ours", created=WHEN)
+    both = json.loads(json.dumps(report))
+    dtw = [dict(r, method="dtw", position_error_m=float("nan"), recognition_errors=1)
+           for r in both["results"]]  # fmt: skip
+    both["results"] += dtw
+    both["settings"]["methods"] = ["ours", "dtw"]
+    b = save_run(ws.root, both, "both", created=WHEN + dt.timedelta(seconds=1))
+    listed = {item.name: item for _, item in list_runs(ws.root).values()}
+    assert listed["both"].methods == (("ours", 12, 24), ("dtw", 4, 24))
+    assert "| ours 12, DTW 1-NN 4 (of 24 each) |" in runs_table(list(listed.values()))
+    assert "| 12 of 24 |" in runs_table([listed["ours"]])
+    text = comparison_markdown(a, b, compare_runs(a, b))
+    assert "methods ours → ours + dtw" in text
+    assert "**ours: hand, ML**" in text and "**DTW 1-NN: hand, ML**" in text
+    assert "| 30 | – → 1 | n/a → n/a |" not in text  # missing values say n/a, not a dash
+    assert "| 30 | n/a → 1 | n/a → n/a |" in text
+
+
 def test_default_name_says_what_was_observed_and_how(job) -> None:
     assert default_name(job) == "each ML"
     job_one = type(job)(**{**job.__dict__, "observe_sets": [["hand", "head"]],
                            "alpha_methods": ["ml", "model"]})  # fmt: skip
     assert default_name(job_one) == "hand + head ML+model"
+    job_all = type(job)(**{**job.__dict__, "observe_sets": [["hand"]],
+                           "methods": ["ours", "seed", "dtw", "prefix-nn"]})  # fmt: skip
+    assert default_name(job_all) == "hand ML ours+seed+dtw+prefix-nn"
 
 
 def test_the_results_export_holds_a_confusion_matrix_per_percentage(job) -> None:

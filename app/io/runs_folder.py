@@ -58,6 +58,9 @@ class RunListing:
     percents : tuple of float
     errors, trials : int
         Recognition errors and trials, summed over every result row.
+    methods : tuple of (str, int, int)
+        Per method the run compared (in its order): its name, its errors and its trials
+        summed over its rows (one entry for a run of one method).
     partial : bool
         A cancelled evaluation's results (fewer trials than asked for).
     problem : str
@@ -74,6 +77,7 @@ class RunListing:
     trials: int = 0
     partial: bool = False
     problem: str = ""
+    methods: tuple[tuple[str, int, int], ...] = ()
 
 
 def runs_root(workspace: Path) -> Path:
@@ -107,7 +111,18 @@ def listing(run: Run) -> RunListing:
         alpha=tuple(str(a) for a in alpha), percents=tuple(float(p) for p in percents),
         errors=sum(_count(r.get("recognition_errors")) for r in rows),
         trials=sum(_count(r.get("trials")) for r in rows), partial=bool(report.get(PARTIAL)),
+        methods=_per_method(rows),
     )  # fmt: skip
+
+
+def _per_method(rows: list) -> tuple[tuple[str, int, int], ...]:
+    """(method, errors, trials) of each method of ``rows``, in the order they come."""
+    totals: dict[str, list[int]] = {}
+    for r in rows:
+        total = totals.setdefault(str(r.get("method", "")), [0, 0])
+        total[0] += _count(r.get("recognition_errors"))
+        total[1] += _count(r.get("trials"))
+    return tuple((method, errors, trials) for method, (errors, trials) in totals.items())
 
 
 def _count(value: object) -> int:

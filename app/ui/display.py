@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from promp import units
 from promp.data import Layout, Modality
+from promp.evaluate.registry import METHOD_TITLES
 
 LENGTH_UNIT, LENGTH_SCALE = units.display_unit("m")  # a length in metres, as shown
 
@@ -78,6 +79,12 @@ ALPHA_HINT = (
     "How the speed (alpha, the time modulation: 100 / samples of the whole movement) is "
     "estimated. ML: the most likely of the training speeds; model: regressed on the early motion."
 )
+
+
+def method_label(method: str) -> str:
+    """A method of the evaluation as the studio names it, e.g. ``DTW 1-NN`` for ``dtw``
+    (:data:`promp.evaluate.registry.METHOD_TITLES`)."""
+    return METHOD_TITLES.get(method, method)
 
 
 def observed_label(names) -> str:

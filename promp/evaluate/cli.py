@@ -5,7 +5,8 @@
     python -m promp.evaluate DATASET --format records|csv|yarp|rosbag|xdf|c3d
         [--modality NAME=COL,COL,...]... [--mapping FILE] [--cut auto|markers|still|files]
         [--rate HZ] [--markers STREAM]
-        [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model] [--method ours|seed]
+        [--observe NAME[,NAME...]]... [--percent P ...] [--alpha ml model]
+        [--method ours seed dtw prefix-nn] [--baseline-scaling modality|column|none]
         [--json OUT.json] [--csv OUT.csv] [--plots DIR] [--basis M] [--width W]
         [--shrinkage S|auto] [--noise-scale X] [--duration-temperature T]
         [--select loo|cv] [--subset N] [--jobs N]
@@ -30,6 +31,10 @@ others'); what is found is printed with the file, the time and the size, and the
 demonstrations are left out of the sweep (neither learned from nor tested) unless
 ``--include-flagged``. ``--repair-gaps cut|split`` repairs the gaps first (never by default).
 
+``--method`` takes several methods: they run on the same folds, trials and settings, and the
+tables, the report and the run hold a row per method (:mod:`promp.evaluate.registry`); the
+printed tables end with the methods side by side (:mod:`promp.evaluate.tables`).
+
 ``--json`` writes the report (settings, the result rows, the failed trials, every trial, the
 findings and what was left out), ``--csv`` the result table, ``--trials-csv`` one line per
 trial (:mod:`promp.evaluate.report`, which the studio's "Export results" writes too),
@@ -46,7 +51,9 @@ from pathlib import Path
 
 from promp.data import Layout
 from promp.datasets import FORMATS, Dataset, command_line_modalities, read_dataset
-from promp.evaluate.methods import ALPHA_ROWS, ProMPEngine
+from promp.evaluate.baselines import SCALINGS
+from promp.evaluate.methods import ALPHA_ROWS
+from promp.evaluate.registry import METHODS, method_factories
 from promp.evaluate.report import (
     basis_settings,
     report_json,
@@ -54,8 +61,8 @@ from promp.evaluate.report import (
     results_report,
     trials_csv,
 )
-from promp.evaluate.seed import ToolboxBaseline
 from promp.evaluate.sweep import position_modality, run_sweep, spread_subset
+from promp.evaluate.tables import results_text, side_by_side_text
 from promp.gaps import REPAIRS, repair_gaps
 from promp.model import SELECT_RULES, Settings
 from promp.progress import stderr_progress
@@ -129,7 +136,26 @@ def build_parser() -> argparse.ArgumentParser:
         "(Eq. 7 from the early motion), true (the test movement's true duration told: the "
         "oracle row, how far a perfect duration estimate would take the method)",
     )
-    parser.add_argument("--method", choices=("ours", "seed"), default="ours")
+    parser.add_argument(
+        "--method",
+        nargs="+",
+        choices=METHODS,
+        default=["ours"],
+        help="the methods, run on the same folds and settings and reported side by side: ours "
+        "(this project's ProMP engine), seed (the authors' 2017 toolbox), dtw (open-end DTW "
+        "1-NN) and prefix-nn (prefix 1-NN with a phase search), both relative to the "
+        "movement's start; the last two only recognise (their position and duration errors "
+        "are n/a, their rows the same for every alpha)",
+    )
+    parser.add_argument(
+        "--baseline-scaling",
+        choices=SCALINGS,
+        default="modality",
+        help="how dtw and prefix-nn put columns of different units on one scale, by their "
+        "spread over the training demonstrations: one scale per modality of one unit (its "
+        "Euclidean geometry kept) and per column otherwise (modality), every column alone "
+        "(column), or none (the raw values)",
+    )
     parser.add_argument(
         "--basis",
         type=int,
@@ -313,30 +339,21 @@ def main(argv: Sequence[str] | None = None) -> int:
             duration_temperature=args.duration_temperature,
             select=args.select,
         )
-        if args.method == "seed":
-
-            def factory():
-                return ToolboxBaseline(layout)
-
-        else:
-
-            def factory():
-                return ProMPEngine(layout, settings)
-
+        methods = method_factories(args.method, layout, settings, args.baseline_scaling)
+        title = "+".join(methods)
         if args.backend == "dask" and not args.scheduler:
             raise ValueError("--backend dask needs --scheduler ADDRESS")
         if args.jobs == 0 or args.jobs < -1:
             raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
         held_out = None if args.subset is None else spread_subset(dataset, args.subset)
         result = run_sweep(
-            factory,
+            methods,
             dataset,
             layout,
             percents=args.percent,
             alpha_methods=args.alpha,
             observe_sets=observe,
-            method_name=args.method,
-            progress=stderr_progress(f"{args.method}: leave-one-out", "held-out demonstrations"),
+            progress=stderr_progress(f"{title}: leave-one-out", "held-out demonstrations"),
             keep_trials=True,
             jobs=args.jobs,
             scheduler=args.scheduler if args.backend == "dask" else None,
@@ -351,7 +368,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         layout,
         source=str(args.dataset),
         data_format=args.format,
-        method=args.method,
+        method=list(methods),
         observe=observe,
         percents=args.percent,
         alpha_methods=args.alpha,
@@ -363,7 +380,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     print_table(result.rows)
     for failure in result.failures:
         print(
-            f"failed: {failure['primitive']}/{failure['demo']} at {failure['percent']:g} % "
+            f"failed ({failure['method']}): {failure['primitive']}/{failure['demo']} at "
+            f"{failure['percent']:g} % "
             f"({'+'.join(failure['observed'])}, alpha {failure['alpha_method']}): "
             f"{failure['error']}"
         )
@@ -380,15 +398,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         from promp.evaluate.plots import write_figures
 
         if args.plots is not None:
-            write_figures(args.plots, result, dataset, layout, args.method)
+            write_figures(args.plots, result, dataset, layout, title)
         if args.run is not None:
             from promp.evaluate.runs import write_run
 
             try:
                 run = write_run(
                     args.run, report, args.run_name or args.run.name,
-                    figures=lambda folder: write_figures(folder, result, dataset, layout,
-                                                         args.method),
+                    figures=lambda folder: write_figures(folder, result, dataset, layout, title),
                 )  # fmt: skip
             except ValueError as exc:
                 print(f"error: {exc}", file=sys.stderr)
@@ -398,23 +415,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def print_table(rows: list[dict]) -> None:
-    header = (
-        f"{'observed':14s} {'alpha':5s} {'%':>4s} {'errors':>9s} {'pos cm':>7s} "
-        f"{'goal cm':>7s} {'dur s':>6s} {'cover':>5s} {'nrmse prior':>11s} {'post':>6s} "
-        f"{'log-loss':>8s} "
-        f"{'p<0.01':>6s} {'worst':>6s}"
-    )
-    print(header)
-    for r in rows:
-        print(
-            f"{','.join(r['observed']):14s} {r['alpha_method']:5s} {r['percent']:4.0f} "
-            f"{r['recognition_errors']:>4d}/{r['trials']:<4d} {100 * r['position_error_m']:7.2f} "
-            f"{100 * r['goal_error_m']:7.2f} {r['duration_error_s']:6.2f} "
-            f"{_percent(r.get('duration_coverage', float('nan'))):>5s} "
-            f"{r['nrmse_prior']:11.3f} {r['nrmse_posterior']:6.3f} {r['log_loss']:8.3f} "
-            f"{r['confident_mistakes']:6d} {r['worst_log_loss']:6.1f}"
-        )
-
-
-def _percent(share: float) -> str:
-    return "-" if share != share else f"{100 * share:.0f}%"
+    """The result rows, then the methods side by side when there are several
+    (:mod:`promp.evaluate.tables`)."""
+    print(results_text(rows))
+    side = side_by_side_text(rows)
+    if side:
+        print()
+        print(side)

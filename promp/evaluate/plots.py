@@ -53,20 +53,32 @@ def grid(plt, n_panels: int, size: float = 3.2):
     return fig, flat[:n_panels]
 
 
-def series_label(observed: Sequence[str], alpha_method: str) -> str:
-    """The name of one curve, e.g. ``hand+head, alpha ml``."""
-    return f"{'+'.join(observed)}, alpha {alpha_method}"
+def series_label(observed: Sequence[str], alpha_method: str, method: str = "") -> str:
+    """The name of one curve, e.g. ``hand+head, alpha ml``, or with its method
+    ``dtw: hand+head, alpha ml``."""
+    label = f"{'+'.join(observed)}, alpha {alpha_method}"
+    return f"{method}: {label}" if method else label
+
+
+def methods_of(rows: Sequence[Mapping]) -> list[str]:
+    """The methods of a sweep's rows (or trials' rows), in the order they first come."""
+    return list(dict.fromkeys(str(r.get("method", "")) for r in rows))
 
 
 def group_series(rows: Sequence[Mapping]) -> dict[str, list[Mapping]]:
-    """The sweep's rows as one series per (observed modalities, alpha method), by
-    :func:`series_label`: single modalities first, then larger sets, each set's alpha methods
-    in name order; each series' rows by percent."""
+    """The sweep's rows as one series per (method, observed modalities, alpha method), by
+    :func:`series_label` (the method named only when the rows hold several): the methods in
+    the sweep's order, then single modalities first, then larger sets, each set's alpha
+    methods in name order; each series' rows by percent."""
     groups: dict[str, list[Mapping]] = defaultdict(list)
-    order = sorted(rows, key=lambda r: (len(r["observed"]), "+".join(r["observed"]),
+    methods = methods_of(rows)
+    named = len(methods) > 1
+    order = sorted(rows, key=lambda r: (methods.index(str(r.get("method", ""))),
+                                        len(r["observed"]), "+".join(r["observed"]),
                                         r["alpha_method"], r["percent"]))  # fmt: skip
     for row in order:
-        groups[series_label(row["observed"], row["alpha_method"])].append(row)
+        method = str(row.get("method", "")) if named else ""
+        groups[series_label(row["observed"], row["alpha_method"], method)].append(row)
     return dict(groups)
 
 
@@ -115,7 +127,8 @@ def curves(rows: list[dict], path: Path, method: str, position: Modality | None 
 
 def reliability_diagram(trials: list[Trial], n_primitives: int, path: Path, method: str) -> None:
     """Predicted probability against observed frequency, per alpha method (all observed
-    percentages together; a failed trial counts as a uniform guess)."""
+    percentages together; a failed trial counts as a uniform guess), of the trials of
+    ``method``."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(5.2, 5))
     ax.plot([0, 1], [0, 1], color="0.6", lw=1, ls="--", label="calibrated")
@@ -226,29 +239,42 @@ def _short(name: str, limit: int = 18) -> str:
 def write_figures(
     folder: Path, result: SweepResult, dataset: Dataset, layout: Layout, method: str
 ) -> list[Path]:
-    """Write the curves, the reliability diagram, the confusion matrices (one figure per
-    observed modality set and alpha method) and one example per observed modality set; return
-    the paths."""
+    """Write the curves (every method of the sweep in one figure, named after ``method``, the
+    run's), and per method the reliability diagram, the confusion matrices (one figure per
+    observed modality set and alpha method) and, for a method that predicts a trajectory, one
+    example per observed modality set; return the paths."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    paths = [folder / f"curves_{method}.png", folder / f"reliability_{method}.png"]
+    paths = [folder / f"curves_{method}.png"]
     curves(result.rows, paths[0], method, layout.modality(metrics.position_modality(layout)))
-    reliability_diagram(result.trials, len(dataset), paths[1], method)
-    by_series: dict[str, list[Mapping]] = defaultdict(list)
+    names = methods_of(result.rows) if result.rows else [method]
+    for name in names:
+        own = [t for t in result.trials if t.method == name or len(names) == 1]
+        path = folder / f"reliability_{name or method}.png"
+        reliability_diagram(own, len(dataset), path, name or method)
+        paths.append(path)
+    by_series: dict[tuple[str, str], list[Mapping]] = defaultdict(list)
     for matrix in confusion_matrices(trial_rows(result, list(dataset)), list(dataset)):
-        by_series[series_label(matrix["observed"], matrix["alpha"])].append(matrix)
-    for label, matrices in by_series.items():
-        path = folder / f"confusion_{method}_{label.replace(', alpha ', '_')}.png"
-        confusion_figure(matrices, path, method)
+        key = (matrix["method"] or method, series_label(matrix["observed"], matrix["alpha"]))
+        by_series[key].append(matrix)
+    for (name, label), matrices in by_series.items():
+        path = folder / f"confusion_{name}_{label.replace(', alpha ', '_')}.png"
+        confusion_figure(matrices, path, name)
         paths.append(path)
-    ran = [t for t in result.trials if t.inferred is not None]
-    for observed in sorted({t.observed for t in ran}):
-        candidates = [t for t in ran if t.observed == observed and t.alpha_method == "ml"] or [
-            t for t in ran if t.observed == observed
-        ]
-        # A correctly recognised trial near 40 % observed, as in the paper's figures.
-        candidates.sort(key=lambda t: (not t.correct, abs(t.percent - 40)))
-        path = folder / f"example_{method}_{'+'.join(observed)}.png"
-        example(candidates[0], dataset, layout, path)
-        paths.append(path)
+    ran = [t for t in result.trials if t.inferred is not None and _predicts(t.inferred)]
+    for name in names:
+        own = [t for t in ran if t.method == name or len(names) == 1]
+        for observed in sorted({t.observed for t in own}):
+            candidates = [t for t in own if t.observed == observed and t.alpha_method == "ml"]
+            candidates = candidates or [t for t in own if t.observed == observed]
+            # A correctly recognised trial near 40 % observed, as in the paper's figures.
+            candidates.sort(key=lambda t: (not t.correct, abs(t.percent - 40)))
+            path = folder / f"example_{name or method}_{'+'.join(observed)}.png"
+            example(candidates[0], dataset, layout, path)
+            paths.append(path)
     return paths
+
+
+def _predicts(inferred) -> bool:
+    """Whether a method predicted a trajectory (the baselines only recognise: NaN)."""
+    return bool(np.isfinite(inferred.posterior_mean).any())

@@ -24,7 +24,7 @@ from promp.quality import Finding
 # One CSV row per trial (``--trials-csv``, the JSON's ``trials``): which demonstration, at which
 # setting, what the method said and how far off it was.
 TRIAL_COLUMNS = (
-    "primitive", "demo", "percent", "alpha_method", "observed", "recognised", "p_true",
+    "method", "primitive", "demo", "percent", "alpha_method", "observed", "recognised", "p_true",
     "alpha", "duration_s", "duration_low_s", "duration_high_s", "position_error_m",
     "goal_error_m", "duration_error_s", "nrmse_prior", "nrmse_posterior", "error",
 )  # fmt: skip
@@ -59,7 +59,7 @@ def results_report(
     *,
     source: str,
     data_format: str,
-    method: str,
+    method: str | Sequence[str],
     observe: Sequence[Sequence[str]],
     percents: Sequence[float],
     alpha_methods: Sequence[str],
@@ -80,7 +80,10 @@ def results_report(
         Where the demonstrations came from (a dataset folder, a workspace).
     data_format : str
         How they were read (``records``, ``csv``; the studio writes ``workspace``).
-    method, observe, percents, alpha_methods
+    method : str or sequence of str
+        The method, or the methods the sweep compared (in its order): ``settings.methods``
+        lists them, ``settings.method`` names them joined by ``+`` (one method: its name).
+    observe, percents, alpha_methods
         The sweep's arguments.
     basis : mapping
         The learning settings, as :func:`basis_settings` writes them.
@@ -100,11 +103,14 @@ def results_report(
         swept, by primitive), ``findings`` and ``excluded``.
     """
     excluded = excluded or {}
+    methods = [method] if isinstance(method, str) else list(method)
+    trials = trial_rows(result, list(dataset))
     return {
         "dataset": str(source),
         "settings": {
             "format": data_format,
-            "method": method,
+            "method": "+".join(methods),
+            "methods": methods,
             "modalities": {m.name: list(m.columns) for m in layout.modalities},
             "observe": [list(names) for names in observe],
             "percents": [float(p) for p in percents],
@@ -116,8 +122,8 @@ def results_report(
         "primitives": list(dataset),
         "results": result.rows,
         "failures": result.failures,
-        "trials": trial_rows(result, list(dataset)),
-        "confusion": confusion_matrices(trial_rows(result, list(dataset)), list(dataset)),
+        "trials": trials,
+        "confusion": confusion_matrices(trials, list(dataset)),
         "used": {name: [d.name for d in demos] for name, demos in dataset.items()},
         "findings": [f.to_json() for f in findings],
         "excluded": [
@@ -134,14 +140,15 @@ def results_report(
 
 def trial_rows(result: SweepResult, primitives: Sequence[str]) -> list[dict]:
     """One row per kept trial of ``result`` (the columns of :data:`TRIAL_COLUMNS`), in the
-    sweep's order: the demonstration, the setting, the recognised primitive, the probability
-    of the true one, alpha, the predicted duration and every error (NaN where the method
+    sweep's order: the method, the demonstration, the setting, the recognised primitive, the
+    probability of the true one, alpha, the predicted duration and every error (NaN where the method
     failed, with ``error`` saying why)."""
     rows = []
     for t in result.trials:
         inferred = t.inferred
         rows.append(
             {
+                "method": t.method,
                 "primitive": primitives[t.primitive],
                 "demo": t.demo,
                 "percent": t.percent,
@@ -167,24 +174,27 @@ def trial_rows(result: SweepResult, primitives: Sequence[str]) -> list[dict]:
 
 
 def confusion_matrices(trials: Sequence[Mapping], primitives: Sequence[str]) -> list[dict]:
-    """The confusion matrix of every (observed modalities, alpha method, percent) of a
-    report's ``trials`` (:func:`trial_rows`): ``counts[i][j]`` trials of primitive ``i``
+    """The confusion matrix of every (method, observed modalities, alpha method, percent) of
+    a report's ``trials`` (:func:`trial_rows`): ``counts[i][j]`` trials of primitive ``i``
     recognised as ``j``, and in a last column those the method failed on. JSON-ready, in the
-    order of observed sets, alpha methods, then percents."""
+    order of the methods (as the trials come), observed sets, alpha methods, then percents."""
     index = {name: i for i, name in enumerate(primitives)}
     groups: dict[tuple, np.ndarray] = {}
+    order: dict[str, int] = {}
     for t in trials:
-        key = (tuple(t["observed"]), t["alpha_method"], float(t["percent"]))
+        method = str(t.get("method", ""))  # runs written before several methods: none
+        order.setdefault(method, len(order))
+        key = (method, tuple(t["observed"]), t["alpha_method"], float(t["percent"]))
         counts = groups.setdefault(key, np.zeros((len(primitives), len(primitives) + 1), int))
         recognised = index.get(t["recognised"], len(primitives))  # "" when it failed
         counts[index[t["primitive"]], recognised] += 1
     return [
         {
-            "observed": list(observed), "alpha": alpha, "percent": percent,
+            "method": method, "observed": list(observed), "alpha": alpha, "percent": percent,
             "primitives": list(primitives), "counts": counts.tolist(),
         }
-        for (observed, alpha, percent), counts in sorted(
-            groups.items(), key=lambda item: (len(item[0][0]), item[0])
+        for (method, observed, alpha, percent), counts in sorted(
+            groups.items(), key=lambda item: (order[item[0][0]], len(item[0][1]), item[0][1:])
         )
     ]  # fmt: skip
 
@@ -196,7 +206,7 @@ def trials_csv(rows: Sequence[Mapping]) -> str:
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(TRIAL_COLUMNS)
     for row in rows:
-        cells = dict(row, observed="+".join(row["observed"]))
+        cells = {"method": "", **row, "observed": "+".join(row["observed"])}
         writer.writerow([cells[column] for column in TRIAL_COLUMNS])
     return out.getvalue()
 

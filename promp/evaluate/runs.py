@@ -203,24 +203,28 @@ def run_from_json(text: str, folder: Path, label: str) -> Run:
 
 
 def _key(row: Mapping) -> tuple:
-    return ("+".join(row["observed"]), row["alpha_method"], float(row["percent"]))
+    return (str(row.get("method", "")), "+".join(row["observed"]), row["alpha_method"],
+            float(row["percent"]))  # fmt: skip
 
 
 def compare_runs(a: Run, b: Run) -> list[dict]:
-    """The two runs side by side, one row per (observed, alpha, percent) of either: every
-    value of :data:`COMPARED` for ``a`` and ``b`` and ``b - a`` (NaN where a run lacks the
-    row), ordered like the runs' tables.
+    """The two runs side by side, one row per (method, observed, alpha, percent) of either:
+    every value of :data:`COMPARED` for ``a`` and ``b`` and ``b - a`` (NaN where a run lacks
+    the row), ordered like the runs' tables (the methods in the order the runs hold them).
 
     A row of one run without its twin in the other is paired with the other's row at the same
     percentage that differs only in the alpha method, or else only in the observed modalities,
-    when exactly one does (two runs made with ML and with the model alpha compare row by row);
-    ``observed_b`` and ``alpha_b`` name the row of ``b``."""
+    or else only in the method, when exactly one does (two runs made with ML and with the
+    model alpha compare row by row, as do a run of ``ours`` and one of ``dtw``);
+    ``method_b``, ``observed_b`` and ``alpha_b`` name the row of ``b``."""
     rows_a = {_key(r): r for r in a.report["results"]}
     rows_b = {_key(r): r for r in b.report["results"]}
     pairs = [(k, k) for k in sorted(set(rows_a) & set(rows_b))]
     alone_a = sorted(set(rows_a) - set(rows_b))
     alone_b = sorted(set(rows_b) - set(rows_a))
-    for same in ((0, 2), (1, 2)):  # the same modalities and %, else the same alpha and %
+    # the same method, modalities and %; else the same method, alpha and %; else all but the
+    # method
+    for same in ((0, 1, 3), (0, 2, 3), (1, 2, 3)):
         for ka in list(alone_a):
             twins = [kb for kb in alone_b if all(kb[i] == ka[i] for i in same)]
             mates = [k for k in alone_a if all(k[i] == ka[i] for i in same)]
@@ -229,11 +233,13 @@ def compare_runs(a: Run, b: Run) -> list[dict]:
                 alone_a.remove(ka)
                 alone_b.remove(twins[0])
     pairs += [(k, None) for k in alone_a] + [(None, k) for k in alone_b]
+    order = {m: i for i, m in enumerate(dict.fromkeys(k[0] for k in [*rows_a, *rows_b]))}
     out = []
-    for ka, kb in sorted(pairs, key=lambda p: p[0] or p[1]):
+    for ka, kb in sorted(pairs, key=lambda p: (order[(p[0] or p[1])[0]], (p[0] or p[1])[1:])):
         key = ka or kb
-        row: dict = {"observed": key[0], "alpha": key[1], "percent": key[2],
-                     "observed_b": (kb or key)[0], "alpha_b": (kb or key)[1]}  # fmt: skip
+        row: dict = {"method": key[0], "observed": key[1], "alpha": key[2], "percent": key[3],
+                     "method_b": (kb or key)[0], "observed_b": (kb or key)[1],
+                     "alpha_b": (kb or key)[2]}  # fmt: skip
         for name, read in COMPARED:
             va = float(read(rows_a[ka])) if ka is not None else math.nan
             vb = float(read(rows_b[kb])) if kb is not None else math.nan
@@ -244,9 +250,10 @@ def compare_runs(a: Run, b: Run) -> list[dict]:
 
 def comparison_text(a: Run, b: Run, rows: Sequence[Mapping]) -> str:
     """:func:`compare_runs` as a table to read: errors, log-loss, position error (cm) and
-    duration error of ``a`` -> ``b`` and the difference."""
+    duration error of ``a`` -> ``b`` and the difference (``n/a`` for a value a method does
+    not give, or a row a run does not have)."""
     lines = [f"A: {a.label}, {a.code_version}", f"B: {b.label}, {b.code_version}",
-             f"{'observed':14s} {'alpha':5s} {'%':>4s}  {'errors A->B':>13s}  "
+             f"{'method':10s} {'observed':14s} {'alpha':5s} {'%':>4s}  {'errors A->B':>13s}  "
              f"{'log-loss A->B (diff)':>24s}  {'pos cm A->B':>13s}  "
              f"{'dur s A->B':>12s}"]  # fmt: skip
 
@@ -255,10 +262,12 @@ def comparison_text(a: Run, b: Run, rows: Sequence[Mapping]) -> str:
         return f"{_fmt(va, fmt)}->{_fmt(vb, fmt)}"
 
     for r in rows:
-        observed, alpha = (r[k] if r[k] == r[f"{k}_b"] else f"{r[k]}>{r[f'{k}_b']}"
-                           for k in ("observed", "alpha"))  # fmt: skip
+        method, observed, alpha = (
+            r[k] if r[k] == r[f"{k}_b"] else f"{r[k]}>{r[f'{k}_b']}"
+            for k in ("method", "observed", "alpha")
+        )
         lines.append(
-            f"{observed:14s} {alpha:5s} {r['percent']:4.0f}  "
+            f"{method:10s} {observed:14s} {alpha:5s} {r['percent']:4.0f}  "
             f"{pair(r, 'errors', 'd'):>13s}  "
             f"{pair(r, 'log_loss', '.3f'):>15s} ({_fmt(r['log_loss_diff'], '+.3f'):>6s})  "
             f"{pair(r, 'position_error_m', '.2f', 100.0):>13s}  "
@@ -269,5 +278,5 @@ def comparison_text(a: Run, b: Run, rows: Sequence[Mapping]) -> str:
 
 def _fmt(value: float, fmt: str) -> str:
     if not math.isfinite(value):
-        return "-"
+        return "n/a"
     return format(int(round(value)), fmt) if fmt == "d" else format(value, fmt)

@@ -6,6 +6,11 @@ The first ``n_o = ceil(p / 100 * n)`` samples of the observed modalities are sho
 primitive is recognised, the weights are conditioned on the recognised primitive, and the rest
 is predicted. Results are averaged per (percent, alpha method, observed modalities).
 
+Several methods run in one sweep (``method_factory`` a mapping of names to factories): every
+fold fits each of them on the same training demonstrations and tests the same held-out one at
+the same settings, so their rows (one per method, percent, alpha method and observed
+modalities) compare trial for trial.
+
 Folds are independent: ``jobs`` runs them on several processes (joblib; ``-1`` = every core)
 and ``scheduler`` on a Dask cluster (``dask.distributed``, the ``cluster`` extra), with results
 identical to one process: every fold is computed the same way wherever it runs, and the rows
@@ -40,6 +45,7 @@ from promp.model import sample_period_of
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
 Progress = Callable[[int, int], None]
+Factory = Callable[[], object]
 # A trial whose true primitive got p < 0.01 is a confident mistake (-ln 0.01 = 4.6 nats).
 CONFIDENT_MISTAKE = -math.log(0.01)
 
@@ -62,6 +68,7 @@ class Trial:
     nrmse_prior: float = math.nan
     nrmse_posterior: float = math.nan
     error: str = ""
+    method: str = ""  # the method's name (its key in the sweep's methods)
 
     @property
     def correct(self) -> bool:
@@ -84,7 +91,7 @@ class SweepResult:
 
 
 def _run_fold(
-    method_factory: Callable[[], object],
+    methods: Mapping[str, Factory],
     dataset: Mapping[str, Sequence[Demonstration]],
     layout: Layout,
     k: int,
@@ -94,7 +101,8 @@ def _run_fold(
     alpha_methods: Sequence[str],
     observe_sets: Sequence[Sequence[str]],
 ) -> list[Trial]:
-    """Fit without demonstration ``j`` of primitive ``k``, then infer it at every setting."""
+    """Fit every method without demonstration ``j`` of primitive ``k``, then infer it at every
+    setting."""
     names = list(dataset)
     pos_dims = layout.dims([position_modality(layout)])
     train = {
@@ -102,28 +110,30 @@ def _run_fold(
         for kk, (name, demos) in enumerate(dataset.items())
     }
     demo = dataset[names[k]][j]
-    method = method_factory()
-    try:
-        method.fit(train, dt)
-        fit_error = ""
-    except ValueError as exc:
-        fit_error = f"fit without it failed: {exc}"
     truth = layout.extract(demo)[:, pos_dims]
     trials = []
-    for percent in percents:
-        n_o = n_observed_for(percent, demo.n_samples)
-        for observed in observe_sets:
-            for alpha_method in alpha_methods:
-                trial = Trial(k, demo.name, float(percent), alpha_method, tuple(observed), None)
-                try:
-                    if fit_error:
-                        raise ValueError(fit_error)
-                    inferred = method.infer(demo, n_o, observed, alpha_method)
-                except ValueError as exc:
-                    trial.error = str(exc)
-                else:
-                    _measure(trial, inferred, truth, demo.duration, n_o, pos_dims)
-                trials.append(trial)
+    for method_name, factory in methods.items():
+        method = factory()
+        try:
+            method.fit(train, dt)
+            fit_error = ""
+        except ValueError as exc:
+            fit_error = f"fit without it failed: {exc}"
+        for percent in percents:
+            n_o = n_observed_for(percent, demo.n_samples)
+            for observed in observe_sets:
+                for alpha_method in alpha_methods:
+                    trial = Trial(k, demo.name, float(percent), alpha_method, tuple(observed),
+                                  None, method=method_name)  # fmt: skip
+                    try:
+                        if fit_error:
+                            raise ValueError(fit_error)
+                        inferred = method.infer(demo, n_o, observed, alpha_method)
+                    except ValueError as exc:
+                        trial.error = str(exc)
+                    else:
+                        _measure(trial, inferred, truth, demo.duration, n_o, pos_dims)
+                    trials.append(trial)
     return trials
 
 
@@ -204,13 +214,13 @@ def _folds(
 
 
 def run_sweep(
-    method_factory: Callable[[], object],
+    method_factory: Factory | Mapping[str, Factory],
     dataset: Mapping[str, Sequence[Demonstration]],
     layout: Layout,
     percents: Sequence[float],
     alpha_methods: Sequence[str],
     observe_sets: Sequence[Sequence[str]],
-    method_name: str,
+    method_name: str = "",
     progress: Progress | None = None,
     keep_trials: bool = False,
     jobs: int = 1,
@@ -218,7 +228,11 @@ def run_sweep(
     held_out: Sequence[tuple[int, int]] | None = None,
     stop: Callable[[], bool] | None = None,
 ) -> SweepResult:
-    """Run the leave-one-out protocol; one result row per (percent, alpha, observed).
+    """Run the leave-one-out protocol; one result row per (method, percent, alpha, observed).
+
+    ``method_factory`` makes a fresh method (``fit``, ``infer``), named ``method_name``; or a
+    mapping of names to such factories: the methods then run on the same folds and settings,
+    and the rows come method by method, in the mapping's order.
 
     ``jobs`` processes run the folds (-1: every core); ``scheduler`` (a Dask scheduler's
     address) runs them on that cluster instead. The results do not depend on either.
@@ -228,6 +242,12 @@ def run_sweep(
     folds done (the result says it is ``partial``).
     """
     names = list(dataset)
+    if isinstance(method_factory, Mapping):
+        methods = dict(method_factory)
+        if not methods:
+            raise ValueError("name at least one method to evaluate")
+    else:
+        methods = {method_name: method_factory}
     for name, demos in dataset.items():
         if len(demos) < 3:
             raise ValueError(
@@ -247,7 +267,7 @@ def run_sweep(
             raise ValueError("held_out must name distinct demonstrations, at least one")
     fold = functools.partial(
         _run_fold,
-        method_factory,
+        methods,
         dataset,
         layout,
         dt=dt,
@@ -259,19 +279,19 @@ def run_sweep(
     result = SweepResult()
     for done, trials in enumerate(_folds(fold, held_out, jobs, scheduler, progress), 1):
         for trial in trials:
-            key = (trial.percent, trial.alpha_method, trial.observed)
+            key = (trial.method, trial.percent, trial.alpha_method, trial.observed)
             acc.setdefault(key, []).append(trial)
         if stop is not None and done < len(held_out) and stop():
             result.partial = True
             break
-    for (percent, alpha_method, observed), trials in acc.items():
+    for (method, percent, alpha_method, observed), trials in acc.items():
         losses = [t.log_loss(len(names)) for t in trials]
         result.rows.append(
             {
                 "percent": percent,
                 "alpha_method": alpha_method,
                 "observed": list(observed),
-                "method": method_name,
+                "method": method,
                 "recognition_errors": int(sum(not t.correct for t in trials)),
                 "trials": len(trials),
                 "log_loss": float(np.mean(losses)),
@@ -288,6 +308,7 @@ def run_sweep(
         )
         result.failures.extend(
             {
+                "method": method,
                 "primitive": names[t.primitive],
                 "demo": t.demo,
                 "percent": t.percent,
@@ -300,7 +321,10 @@ def run_sweep(
         )
         if keep_trials:
             result.trials.extend(trials)
-    result.rows.sort(key=lambda r: (r["observed"], r["alpha_method"], r["percent"]))
+    order = {name: i for i, name in enumerate(methods)}
+    result.rows.sort(
+        key=lambda r: (order[r["method"]], r["observed"], r["alpha_method"], r["percent"])
+    )
     return result
 
 

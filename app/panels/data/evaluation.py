@@ -6,7 +6,9 @@ flagged demonstrations that the user did not keep are left out and listed in the
 the workspace's learning settings. :class:`EvaluationJob` runs it in a background thread; the tab
 reads its progress and result from the studio's loop. The job keeps every trial (the figures
 and the list of failed trials need them) and writes the report ``--json`` would
-(:meth:`EvaluationJob.report`).
+(:meth:`EvaluationJob.report`). It runs our method alone, or beside the 2017 toolbox and the
+two early-classification baselines on the same folds (:data:`METHOD_CHOICES`, as
+``--method ours seed dtw prefix-nn`` does).
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import numpy as np
 from app.ui.display import ALPHA_LABELS, observed_choices
 from app.ui.text import escape
 from promp.data import Demonstration, Layout
-from promp.evaluate.methods import ProMPEngine
+from promp.evaluate.registry import METHODS, method_factories
 from promp.evaluate.report import basis_settings, results_report
 from promp.evaluate.sweep import SweepResult, run_sweep
 from promp.model import Settings
@@ -33,6 +35,9 @@ from promp.quality import Finding
 
 MIN_DEMOS = 3  # leave-one-out needs two demonstrations left to learn from
 METHOD = "ours"  # the sweep's method name, as the command line's --method writes it
+# The Methods dropdown: ours alone, or beside the toolbox and both baselines (same folds).
+METHOD_CHOICES: dict[str, list[str]] = {"ours": [METHOD], "ours + toolbox + baselines":
+                                        list(METHODS)}  # fmt: skip
 MAX_PERCENTS = 20
 COMPARE = "compare each"
 ALPHA_CHOICES: dict[str, list[str]] = {
@@ -96,6 +101,7 @@ class EvaluationJob:
     source: str = ""  # where the demonstrations come from (the workspace folder)
     findings: tuple[Finding, ...] = ()  # what the checks found in the workspace
     left_out: dict[tuple[str, str], list[Finding]] = field(default_factory=dict)  # not swept
+    methods: list[str] = field(default_factory=lambda: [METHOD])  # promp.evaluate.registry
     total: int = 0
     done: int = 0
     result: SweepResult | None = None
@@ -115,16 +121,14 @@ class EvaluationJob:
         def progress(done: int, total: int) -> None:
             self.done, self.total = done, total
 
-        settings, layout = self.settings, self.layout
         try:
             self.result = run_sweep(
-                lambda: ProMPEngine(layout, settings),
+                method_factories(self.methods, self.layout, self.settings),
                 self.dataset,
-                layout,
+                self.layout,
                 percents=self.percents,
                 alpha_methods=self.alpha_methods,
                 observe_sets=self.observe_sets,
-                method_name=METHOD,
                 progress=progress,
                 keep_trials=True,
                 stop=self.cancel.is_set,
@@ -158,10 +162,11 @@ class EvaluationJob:
             if self.cancelled
             else f"{self.total} held-out demonstrations"
         )
+        methods = f"methods {', '.join(self.methods)}; " if self.methods != [METHOD] else ""
         return (
             f"**Results of {escape(Path(self.source).name or self.source)}** "
             f"({time.strftime('%H:%M', time.localtime(self.finished_at))}): {counted}; "
-            f"observed {escape(observed)}, alpha {alphas}, "
+            f"{methods}observed {escape(observed)}, alpha {alphas}, "
             f"{', '.join(f'{p:g}' for p in self.percents)} %."
         )
 
@@ -183,7 +188,7 @@ class EvaluationJob:
             self.layout,
             source=self.source,
             data_format="workspace",
-            method=METHOD,
+            method=self.methods,
             observe=self.observe_sets,
             percents=self.percents,
             alpha_methods=self.alpha_methods,

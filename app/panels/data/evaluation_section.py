@@ -1,6 +1,7 @@
-"""The Data tab's "Leave-one-out evaluation" folder: choose what is observed, the alpha method
-and the percentages, run the sweep in the background (:class:`EvaluationJob`) with a progress
-bar and a Cancel button, then show its results (:mod:`app.panels.data.results`).
+"""The Data tab's "Leave-one-out evaluation" folder: choose what is observed, the alpha method,
+the percentages and the methods (ours, or ours beside the toolbox and both baselines), run the
+sweep in the background (:class:`EvaluationJob`) with a progress bar and a Cancel button, then
+show its results (:mod:`app.panels.data.results`).
 
 Once an evaluation has finished, "Export results" downloads what ``python -m promp.evaluate
 --json --csv --plots`` writes for the same run, as one zip (:mod:`app.panels.data.results_zip`),
@@ -26,6 +27,7 @@ from app.core.snapshot import Snapshot
 from app.io.exchange import format_size
 from app.panels.data.evaluation import (
     ALPHA_CHOICES,
+    METHOD_CHOICES,
     MIN_DEMOS,
     EvaluationJob,
     evaluation_dataset,
@@ -69,6 +71,7 @@ class EvaluationControls:
     open_button: viser.GuiButtonHandle
     results_folder: viser.GuiFolderHandle
     run_name_text: viser.GuiTextHandle  # the name the run is saved under (runs_section)
+    methods_dropdown: viser.GuiDropdownHandle
 
 
 class EvaluationSection:
@@ -97,6 +100,11 @@ class EvaluationSection:
             percents_text = gui.add_text(
                 "Percents", " ".join(f"{p:g}" for p in DEFAULT_PERCENTS)
             )
+            methods_dropdown = gui.add_dropdown(
+                "Methods", tuple(METHOD_CHOICES), hint="ours alone, or beside the 2017 toolbox "
+                "(seed) and two baselines on the same trials: open-end DTW and prefix nearest "
+                "neighbour (dtw, prefix-nn), which only recognise (their position errors n/a)",
+            )  # fmt: skip
             run_name_text = gui.add_text(
                 "Run name", "", hint="The name the evaluation is kept under in the workspace's "
                 "runs/ (Saved runs); empty: the observed modalities and the alpha method",
@@ -128,7 +136,7 @@ class EvaluationSection:
         self.controls = EvaluationControls(
             observe_dropdown, alpha_dropdown, percents_text, run_button, cancel_button,
             progress_bar, eval_status, export_button, failed_dropdown, open_button, results_folder,
-            run_name_text,
+            run_name_text, methods_dropdown,
         )  # fmt: skip
         self.controls.run_button.on_click(lambda event: self.start(event.client))
         self.controls.cancel_button.on_click(lambda _: self.cancel())
@@ -174,6 +182,7 @@ class EvaluationSection:
             total=sum(len(v) for v in dataset.values()),
             findings=findings,
             left_out=left_out,
+            methods=list(METHOD_CHOICES.get(self.controls.methods_dropdown.value, ["ours"])),
         )
         self._job = job
         self.controls.run_button.disabled = True
@@ -352,8 +361,10 @@ def summary(job: EvaluationJob) -> str:
     failed = ""
     failures = job.result.failures
     if failures:
+        named = len(job.methods) > 1  # which method failed
         listed = "; ".join(
-            f"{f['primitive']}/{f['demo']} at {f['percent']:g} % ({f['error']})"
+            (f"{f['method']}: " if named else "")
+            + f"{f['primitive']}/{f['demo']} at {f['percent']:g} % ({f['error']})"
             for f in failures[:FAILURES_LISTED]
         )
         more = len(failures) - FAILURES_LISTED

@@ -2,36 +2,47 @@
 errors, and the position error of the remainder, against the percentage observed) and a table.
 
 The series are the evaluation's own (:func:`promp.evaluate.plots.group_series`: one per
-observed modalities and alpha method), so the tab and ``python -m promp.evaluate --plots``
-group and order them alike; positions are in the display unit of :mod:`app.ui.display`.
+method, observed modalities and alpha method), so the tab and ``python -m promp.evaluate
+--plots`` group and order them alike; positions are in the display unit of
+:mod:`app.ui.display`. When several methods were compared, each series is named after its
+method (``DTW 1-NN: hand, ML``) and coloured by it, so the table lays them side by side; a value
+a method does not give (the baselines predict no trajectory) is ``n/a``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 import viser
 
-from app.ui.display import LENGTH_SCALE, LENGTH_UNIT, series_title
-from promp.evaluate.plots import group_series
+from app.ui.display import LENGTH_SCALE, LENGTH_UNIT, method_label, series_title
+from promp.evaluate.plots import group_series, methods_of
+from promp.evaluate.tables import NOT_GIVEN
 from robots.icub.layout import HAND, HEAD
 
 SERIES_COLORS = {
     HAND.name: "#e4572e", HEAD.name: "#2980b9", f"{HAND.name}+{HEAD.name}": "#27ae60"
 }
+METHOD_COLORS = {"ours": "#e4572e", "seed": "#2980b9", "dtw": "#27ae60", "prefix-nn": "#8e44ad"}
 OTHER_COLOR = "#555555"
 
 
 def curves(rows: Sequence[Mapping]) -> dict[str, dict]:
-    """Per (observed, alpha) series, named as the studio writes it (``hand + head, ML``,
-    :func:`app.ui.display.series_title`): ``observed`` and ``alpha_method`` (the engine's
+    """Per (method, observed, alpha) series, named as the studio writes it (``hand + head,
+    ML``, :func:`app.ui.display.series_title`; after the method when the rows hold several,
+    ``DTW 1-NN: hand, ML``): ``method``, ``observed`` and ``alpha_method`` (the engine's
     names), then ``percent``, ``recognition_errors``, ``trials``, ``position_cm``,
     ``duration_s``, arrays of shape (n_percents,), sorted by percent."""
     out = {}
+    named = len(methods_of(rows)) > 1
     for group in group_series(rows).values():
         observed, alpha_method = list(group[0]["observed"]), group[0]["alpha_method"]
-        out[series_title(observed, alpha_method)] = {
+        method = str(group[0].get("method", ""))
+        title = series_title(observed, alpha_method)
+        out[f"{method_label(method)}: {title}" if named else title] = {
+            "method": method,
             "observed": observed,
             "alpha_method": alpha_method,
             "percent": np.array([r["percent"] for r in group], dtype=float),
@@ -61,7 +72,9 @@ def results_table(rows: Sequence[Mapping]) -> str:
             cells = []
             for label in labels:
                 i = np.flatnonzero(series[label]["percent"] == p)
-                cells.append(format(series[label][key][i[0]], fmt) if i.size else "")
+                value = float(series[label][key][i[0]]) if i.size else math.nan
+                cells.append("" if not i.size else format(value, fmt)
+                             if math.isfinite(value) else NOT_GIVEN)  # fmt: skip
             lines.append(f"| {p:g} % | " + " | ".join(cells) + " |")
         return lines
 
@@ -82,12 +95,15 @@ def add_results(gui: viser.GuiApi, rows: Sequence[Mapping]) -> list:
     trials = int(next(iter(series.values()))["trials"][0])
     labels = list(series)
     x = next(iter(series.values()))["percent"]  # one sweep: every series has the same percents
+    by_method = len({s["method"] for s in series.values()}) > 1
     styles = []
     for label in labels:
         observed = "+".join(series[label]["observed"])
+        colors, key = (METHOD_COLORS, series[label]["method"]) if by_method else (
+            SERIES_COLORS, observed)  # fmt: skip
         style: dict = {
             "label": label,
-            "stroke": SERIES_COLORS.get(observed, OTHER_COLOR),
+            "stroke": colors.get(key, OTHER_COLOR),
             "width": 2,
             "points": {"show": True, "size": 6},
         }

@@ -43,10 +43,12 @@ SCAN_SECONDS = 2.0  # how often runs/ is looked at for runs written by others
 
 def default_name(job: EvaluationJob) -> str:
     """A run's name when none is typed: its observed modalities and alpha method, e.g.
-    ``hand + head ML`` (``each`` when several modality sets are compared)."""
+    ``hand + head ML`` (``each`` when several modality sets are compared), and the methods
+    when not ours alone (``hand ML ours+seed+dtw+prefix-nn``)."""
     sets = job.observe_sets
     observed = observed_label(sets[0]) if len(sets) == 1 else "each"
-    return f"{observed} {'+'.join(ALPHA_LABELS.get(a, a) for a in job.alpha_methods)}"
+    methods = "" if job.methods == ["ours"] else " " + "+".join(job.methods)
+    return f"{observed} {'+'.join(ALPHA_LABELS.get(a, a) for a in job.alpha_methods)}{methods}"
 
 
 def _workspace(ctx: PanelContext) -> Path:

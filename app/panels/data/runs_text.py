@@ -8,9 +8,17 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 
 from app.io.runs_folder import RunListing
-from app.ui.display import ALPHA_LABELS, LENGTH_SCALE, LENGTH_UNIT, observed_label, series_title
+from app.ui.display import (
+    ALPHA_LABELS,
+    LENGTH_SCALE,
+    LENGTH_UNIT,
+    method_label,
+    observed_label,
+    series_title,
+)
 from app.ui.text import escape
 from promp.evaluate.runs import Run
+from promp.evaluate.tables import NOT_GIVEN
 
 NO_RUN = "(no saved run)"
 LISTED = 15  # runs in the table at most (the dropdown holds them all)
@@ -47,9 +55,21 @@ def run_choices(items: Iterable[RunListing]) -> dict[str, str]:
     return out
 
 
+def errors_text(item: RunListing) -> str:
+    """A run's recognition errors of all its trials, ``12 of 488``; per method when it
+    compared several, ``ours 12, DTW 1-NN 30 (of 488 each)``."""
+    if len(item.methods) < 2:
+        return f"{item.errors} of {item.trials}"
+    counts = {trials for _, _, trials in item.methods}
+    of = f" (of {counts.pop()} each)" if len(counts) == 1 else ""
+    return ", ".join(f"{method_label(m)} {e}" + ("" if of else f" of {t}")
+                     for m, e, t in item.methods) + of  # fmt: skip
+
+
 def runs_table(items: Sequence[RunListing], limit: int = LISTED) -> str:
     """Markdown: the newest ``limit`` runs, one line each (time, name, observed modalities,
-    alpha, percentages, recognition errors of all trials); unreadable ones with the reason."""
+    alpha, percentages, recognition errors of all trials, per method when it compared
+    several: :func:`errors_text`); unreadable ones with the reason."""
     if not items:
         return ""
     lines = ["| time | name | observed | alpha | % | errors |", "|---|---|---|---|---|---:|"]
@@ -62,7 +82,7 @@ def runs_table(items: Sequence[RunListing], limit: int = LISTED) -> str:
         name = _cell(item.name) + (" *(partial)*" if item.partial else "")
         lines.append(
             f"| {when(item.created)} | {name} | {_cell(observed)} | {alpha} | {percents} "
-            f"| {item.errors} of {item.trials} |"
+            f"| {_cell(errors_text(item))} |"
         )
     if len(items) > limit:
         lines.append(f"\n{len(items) - limit} older run(s) in the dropdown.")
@@ -70,7 +90,7 @@ def runs_table(items: Sequence[RunListing], limit: int = LISTED) -> str:
 
 
 def _number(value: float, fmt: str) -> str:
-    return format(value, fmt) if math.isfinite(value) else "–"
+    return format(value, fmt) if math.isfinite(value) else NOT_GIVEN
 
 
 def _change(row: Mapping, name: str, fmt: str, scale: float = 1.0) -> str:
@@ -88,7 +108,7 @@ def differences(a: Run, b: Run) -> list[str]:
     """What differs in how the two runs were made: their settings, the demonstrations used
     and left out, the code version (markdown lines)."""
     lines = []
-    settings_a, settings_b = a.report.get("settings") or {}, b.report.get("settings") or {}
+    settings_a, settings_b = _settings(a), _settings(b)
     for key in sorted(set(settings_a) | set(settings_b)):
         if settings_a.get(key) != settings_b.get(key):
             shown_a, shown_b = _setting(settings_a.get(key)), _setting(settings_b.get(key))
@@ -101,6 +121,14 @@ def differences(a: Run, b: Run) -> list[str]:
     if a.code_version != b.code_version:
         lines.append(f"code: {escape(a.code_version)} → {escape(b.code_version)}")
     return lines
+
+
+def _settings(run: Run) -> dict:
+    """A run's settings; ``methods`` from ``method`` for a run written before it was kept."""
+    settings = dict(run.report.get("settings") or {})
+    if "methods" not in settings and "method" in settings:
+        settings["methods"] = [settings["method"]]
+    return settings
 
 
 def _setting(value: object) -> str:
@@ -125,21 +153,29 @@ def _demos(used: object) -> set[str]:
 
 def comparison_markdown(a: Run, b: Run, rows: Sequence[Mapping]) -> str:
     """Two runs compared (``rows``: :func:`promp.evaluate.runs.compare_runs`): what differs in
-    how they were made, then per series (observed modalities, alpha) a table per percentage
-    of the recognition errors, the position error of the remainder and the duration error,
-    A → B (B − A)."""
+    how they were made, then per series (method, observed modalities, alpha; the method named
+    when either run compared several or they differ in it) a table per percentage of the
+    recognition errors, the position error of the remainder and the duration error,
+    A → B (B − A); ``n/a`` where a method gives no value or a run has no such row."""
     lines = [f"**A:** {escape(a.label)}  \n**B:** {escape(b.label)}", ""]
     made = differences(a, b)
     lines += ["Made differently: " + "; ".join(made) if made else "Made alike (settings, "
               "demonstrations, code).", ""]  # fmt: skip
     series: dict[tuple[str, ...], list[Mapping]] = {}
     for row in rows:
-        key = (row["observed"], row["alpha"], row["observed_b"], row["alpha_b"])
+        key = (row.get("method", ""), row["observed"], row["alpha"],
+               row.get("method_b", ""), row["observed_b"], row["alpha_b"])  # fmt: skip
         series.setdefault(key, []).append(row)
-    for (observed, alpha, observed_b, alpha_b), group in series.items():
+    named = len({k[0] for k in series} | {k[3] for k in series}) > 1
+
+    def name(method: str, observed: str, alpha: str) -> str:
         title = series_title(observed.split("+"), alpha)
-        if (observed_b, alpha_b) != (observed, alpha):  # a row of A beside its twin in B
-            title += " → " + series_title(observed_b.split("+"), alpha_b)
+        return f"{method_label(method)}: {title}" if named else title
+
+    for (method, observed, alpha, method_b, observed_b, alpha_b), group in series.items():
+        title = name(method, observed, alpha)
+        if (method_b, observed_b, alpha_b) != (method, observed, alpha):  # A's beside B's twin
+            title += " → " + name(method_b, observed_b, alpha_b)
         lines += [
             f"**{escape(title)}**", "",
             f"| % | errors | position ({LENGTH_UNIT}) | duration (s) |", "|---:|---:|---:|---:|",
