@@ -16,10 +16,8 @@ from __future__ import annotations
 
 import collections
 import functools
-import threading
 import time
 import traceback
-from collections.abc import Callable
 from pathlib import Path
 
 import viser
@@ -28,6 +26,7 @@ from app.core.fits import FitCache
 from app.core.session import Session
 from app.io.workspace import FolderKind, WorkspaceData, inspect_folder
 from app.io.workspace_index import PALETTE, PrimitiveEntry
+from app.live.frame_loop import FrameLoop
 from app.live.head import HeadInput, HeadSource, SimulatedPartner, StreamHeadSource
 from app.panels.data import DataPanel
 from app.panels.infer import InferPanel
@@ -47,8 +46,6 @@ from robots.icub.kinematics import ArmChain
 from robots.icub.model import DEFAULT_ROBOT, load_urdf
 from robots.icub.scene import DEFAULT_SCENE
 
-LOOP_HZ = 60.0
-FRAMES_KEPT = 4096  # the latest frames' start times (about a minute at 60 Hz)
 TABS = (("Teach", TEACH, TeachPanel), ("Infer", INFER, InferPanel), ("Data", DATA, DataPanel))
 
 
@@ -90,13 +87,9 @@ class Studio:
         self.panels: list[Panel] = []
         self.camera: ViewControls | None = None
         self.tabs: BrowserTabs | None = None
-        self.frame_starts: collections.deque[float] = collections.deque(maxlen=FRAMES_KEPT)
-        self.frames_done = 0  # whole frames the loop has run (what a "nothing happened" waits for)
         # The latest notifications (title, body, color), newest last: what the studio said.
         self.notices: collections.deque[tuple[str, str, str]] = collections.deque(maxlen=256)
-        self._stop = threading.Event()
-        self._tasks: collections.deque[Callable[[], None]] = collections.deque()
-        self._thread = threading.Thread(target=self._loop, name="studio-loop", daemon=True)
+        self.loop = FrameLoop(self._frame, self._frame_failed)
 
     @property
     def port(self) -> int:
@@ -158,7 +151,7 @@ class Studio:
             source = SimulatedPartner()
         studio = cls(server, session, arm, source)
         studio.panels = studio._build_panels()
-        studio._thread.start()
+        studio.loop.start()
         return studio
 
     def _context(self, panel: str) -> PanelContext:
@@ -226,38 +219,25 @@ class Studio:
                     client=client,
                 )
 
-        self.call_in_loop(open_it)
+        self.loop.call(open_it)
 
     # ------------------------------------------------------------------ loop
 
-    def call_in_loop(self, task: Callable[[], None]) -> None:
-        """Run ``task()`` on the loop thread at its next iteration (from any thread)."""
-        self._tasks.append(task)
-
-    def _loop(self) -> None:
-        period = 1.0 / LOOP_HZ
-        while not self._stop.is_set():
-            start = time.perf_counter()
-            try:
-                self.step()
-            except Exception as exc:  # a bug in one step must not kill the studio
-                traceback.print_exc()
-                self.notify("Internal error", f"{type(exc).__name__}: {exc}", color="red")
-            elapsed = time.perf_counter() - start
-            self._stop.wait(max(0.0, period - elapsed))
-
     def step(self) -> None:
-        """One frame (also callable directly, e.g. from tests): the tasks asked for, the arm,
-        the head, then one snapshot shown by every panel and drawn by the scene.
+        """One frame, now, on the calling thread (e.g. from tests; the loop runs them ~60
+        times a second on its own: :class:`app.live.frame_loop.FrameLoop`)."""
+        self.loop.step()
+
+    def _frame(self) -> None:
+        """One frame: the tasks asked of the loop, the arm, the head, then one snapshot shown
+        by every panel and drawn by the scene.
 
         One message group per frame (``server.atomic()``): the browser applies the arm, the
         panels' controls and the 3D view of one frame together, and viser's sender is woken
         once per frame rather than once per message (measured with ``bench/scrub.py``: each
         wake-up is a write to the event loop's pipe, ~7 a frame while scrubbing)."""
-        self.frame_starts.append(time.perf_counter())
         with self.server.atomic():
-            while self._tasks:
-                self._tasks.popleft()()
+            self.loop.run_tasks()
             self.arm.step()
             hand = self.arm.hand_position()
             reading = self.head.read(hand)
@@ -269,7 +249,10 @@ class Studio:
             self.scene.draw(frame.snapshot, frame.head, shown)
             if self.camera is not None:
                 self.camera.step()
-        self.frames_done += 1
+
+    def _frame_failed(self, exc: Exception) -> None:
+        traceback.print_exc()
+        self.notify("Internal error", f"{type(exc).__name__}: {exc}", color="red")
 
     def notify(
         self,
@@ -291,9 +274,7 @@ class Studio:
         ]
 
     def stop(self) -> None:
-        self._stop.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=5.0)
+        self.loop.stop()
         for panel in self.panels:
             panel.close()
         self.head.close()

@@ -10,10 +10,10 @@ pose handed to the arm at 50 Hz, as the browser's drag does; the loop solves the
 the studio then saves the take (a worker), the learner scores its typicality, refits the
 workspace and fits the Infer tab's held-out model again (its worker), and every frame meanwhile
 shows the latest state (the Teach tab in use: the Infer tab leaves its new view for when it is
-shown). The loop's frame start times
-(:attr:`app.studio.Studio.frame_starts`) are collected from Record until all of that is done
-and drawn; the gaps between consecutive frames are what the user sees as the hand, the IK and
-the scene freezing (a 60 Hz loop: 16.7 ms). Target: no gap over 50 ms.
+shown). The loop's frame start times (:attr:`app.live.frame_loop.FrameLoop.frame_starts`) are
+collected from Record until all of that is done and drawn; the gaps between consecutive frames
+are what the user sees as the hand, the IK and the scene freezing (a 60 Hz loop: 16.7 ms).
+Target: no gap over 50 ms.
 
 Run: ``.venv/bin/python bench/frames.py [--takes 3]``. The last line is one JSON object with
 the max and the p99 gap.
@@ -70,7 +70,7 @@ def one_take(studio: Studio, teach: TeachPanel, infer: InferPanel, k: int) -> li
     """Record, drag, stop; the frame start times from Record until everything is shown."""
     demo = studio.session.store.state.demos["curved"][k % 20]
     hand = demo.select(("x", "y", "z"))
-    studio.call_in_loop(lambda: studio.arm.move_hand_to(hand[0]))  # before the take
+    studio.loop.call(lambda: studio.arm.move_hand_to(hand[0]))  # before the take
     wait(lambda: np.linalg.norm(studio.arm.hand_position() - hand[0]) < 0.01, 30.0, "the start")
     wxyz = np.array(studio.arm.gizmo.wxyz)
     started_at = time.perf_counter()
@@ -85,7 +85,7 @@ def one_take(studio: Studio, teach: TeachPanel, infer: InferPanel, k: int) -> li
     wait(lambda: teach.record.takes.phase is Phase.IDLE, 30.0, "the save")
     wait(lambda: settled(studio, infer), 120.0, "the score, the refit and the Infer tab")
     time.sleep(0.5)  # the frames that show it
-    return [t for t in list(studio.frame_starts) if t >= started_at]
+    return [t for t in list(studio.loop.frame_starts) if t >= started_at]
 
 
 def main(takes: int = 3) -> None:

@@ -251,7 +251,7 @@ def under_load(seconds: float = 20.0, clients: int = 2, rate_hz: float = 30.0) -
                 while not stop.is_set():
                     t = (time.monotonic() - start) % demo.duration
                     target = np.array([np.interp(t, demo.times, hand[:, j]) for j in range(3)])
-                    studio.call_in_loop(lambda p=target: studio.arm.move_hand_to(p))
+                    studio.loop.call(lambda p=target: studio.arm.move_hand_to(p))
                     time.sleep(0.02)
 
             def collect() -> None:  # every scrub step the loop computes meanwhile

@@ -122,8 +122,8 @@ def wait_frames(studio, n: int = 3, timeout: float = 60.0) -> None:
     recorded or a task asked of the loop before the call has been handled (a check that
     nothing happened can then fail, where a sleep passes on a busy machine without proving
     anything)."""
-    start = studio.frames_done
-    wait_until(lambda: studio.frames_done >= start + n + 1, timeout=timeout,
+    start = studio.loop.frames_done
+    wait_until(lambda: studio.loop.frames_done >= start + n + 1, timeout=timeout,
                what=f"{n} frames of the studio's loop")  # fmt: skip
 
 

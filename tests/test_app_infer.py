@@ -470,7 +470,7 @@ def test_live_stream_follows_the_dragged_hand(studio, scenario, primitive) -> No
     controls.source.value = LIVE
     controls.observed.value = "hand"
     controls.percent.value = 100
-    studio.call_in_loop(lambda: studio.arm.move_hand_to(hand[0]))
+    studio.loop.call(lambda: studio.arm.move_hand_to(hand[0]))
     wait_until(
         lambda: np.linalg.norm(studio.arm.hand_position() - hand[0]) < 5e-3,
         timeout=30, what="the hand at the start",
@@ -485,7 +485,7 @@ def test_live_stream_follows_the_dragged_hand(studio, scenario, primitive) -> No
         # stamped with its own time once the IK has put the hand there.
         n_drive = int(np.searchsorted(demo.times, demo.times[0] + 0.6 * demo.duration))
         for k in range(1, n_drive):
-            studio.call_in_loop(lambda p=hand[k]: studio.arm.move_hand_to(p))
+            studio.loop.call(lambda p=hand[k]: studio.arm.move_hand_to(p))
             wait_until(
                 lambda p=hand[k]: np.linalg.norm(studio.arm.hand_position() - p) < 5e-3,
                 timeout=30, what=f"the hand at sample {k}",
@@ -758,7 +758,7 @@ def test_infer_view_screenshot(browser, studio, page, artifacts) -> None:
     wait_until(lambda: 42 <= controls.percent.value <= 48, timeout=30, what="the slider at 45 %")
     result = wait_scrubbed(panel)
     assert result.truth.name == "curved_002"
-    studio.call_in_loop(lambda: panel.replay.reset())  # the robot's hand at the observation point
+    studio.loop.call(lambda: panel.replay.reset())  # the robot's hand at the observation point
     camera = dict(position=[-0.9, -0.45, 0.9], look_at=[-0.22, -0.15, 0.05], fov_deg=42.0)
     set_camera(client, **camera)
     with_tube = settled_render(client)

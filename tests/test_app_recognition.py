@@ -159,7 +159,7 @@ def test_the_chart_follows_the_slider_and_a_click_on_it_moves_the_slider(studio,
         timeout=60, what=lambda: f"{expected!r} (page: {verdict.all_inner_texts()})",
     )  # fmt: skip
     # The slider moves the cursor (the curve is not computed again).
-    computed = panel.recognition.computed
+    computed = panel.recognition.worker.computed
     root = page.locator(f"[id='{panel.controls.percent._impl.uuid}']")
     box = root.bounding_box()
     page.mouse.click(box["x"] + 0.8 * box["width"], box["y"] + box["height"] / 2)
@@ -167,7 +167,7 @@ def test_the_chart_follows_the_slider_and_a_click_on_it_moves_the_slider(studio,
                what="the slider near 80 %")  # fmt: skip
     wait_until(lambda: cursor_in_page(page) == panel.controls.percent.value, timeout=60,
                what="the cursor following the slider")  # fmt: skip
-    assert panel.recognition.computed == computed
+    assert panel.recognition.worker.computed == computed
     # A click on the chart moves the slider to the percentage clicked.
     over = page.locator(".uplot", has_text=TITLE).locator(".u-over")
     box = over.bounding_box()
@@ -178,11 +178,11 @@ def test_the_chart_follows_the_slider_and_a_click_on_it_moves_the_slider(studio,
                what="the cursor at the clicked percentage")  # fmt: skip
     # Another setting is another curve, cached: back to the first costs nothing.
     choose(page, panel.controls.observed, "head")
-    wait_until(lambda: panel.recognition.computed == computed + 1, timeout=120,
+    wait_until(lambda: panel.recognition.worker.computed == computed + 1, timeout=120,
                what="the head-only curve")  # fmt: skip
     choose(page, panel.controls.observed, "hand + head")
     wait_until(lambda: panel.recognition.curve() is curve, timeout=60, what="the cached curve")
-    assert panel.recognition.computed == computed + 1
+    assert panel.recognition.worker.computed == computed + 1
 
 
 @pytest.mark.browser

@@ -464,7 +464,7 @@ def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
     wait_until(lambda: ghost.visible and np.allclose(ghost.position, start, atol=1e-6),
                what="the ghost at the mean start of curved")  # fmt: skip
     # The previous take left the hand at the start (Back to start after Stop): lift it.
-    studio.call_in_loop(lambda: studio.arm.move_hand_to(start + [0.0, 0.0, 0.08]))
+    studio.loop.call(lambda: studio.arm.move_hand_to(start + [0.0, 0.0, 0.08]))
     wait_until(lambda: np.linalg.norm(studio.arm.hand_position() - start) > 0.05,
                what="the hand away from the start")  # fmt: skip
     click(page, "Go to start")
@@ -714,7 +714,7 @@ def test_readme_screenshot(browser, studio, artifacts) -> None:
     teach = panel(studio)
     teach.primitives.dropdown.value = "curved"
     start = LAYOUT.extract(store(studio).demos["curved"][0])[0, :3]
-    studio.call_in_loop(lambda: studio.arm.move_hand_to(start))  # the hand at the object
+    studio.loop.call(lambda: studio.arm.move_hand_to(start))  # the hand at the object
     page, client = open_page(browser, studio, dpr=1.0)
     try:
         for folder in ("Primitive", "Demonstrations"):

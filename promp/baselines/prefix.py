@@ -17,13 +17,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from promp._threads import one_blas_thread
 from promp.baselines.relative import check_movement
 
 FRACTIONS = np.linspace(0.02, 1.0, 50)
 
 
-@one_blas_thread  # small products: BLAS threads would cost more than the work
 def prefix_search(
     query: np.ndarray,
     references: Sequence[np.ndarray],

@@ -160,7 +160,7 @@ class InferPanel:
         start = time.perf_counter()
         modalities = observed_choices(frame.snapshot.store.layout).get(state.observed)
         view = compute(state, frame.snapshot, modalities, choice, samples)
-        self.recognition.busy()  # its worker gives way while the slider moves
+        self.recognition.worker.busy()  # the curve's worker gives way while the slider moves
         previous, self.view = self.view, view
         if view.result is None and view.message and not state.live and (
             previous is None or previous.message != view.message

@@ -3,13 +3,9 @@ over the whole test demonstration (:mod:`app.live.recognition_curve`), a cursor 
 marker at the earliest point from which the recognition stays right.
 
 The curve takes a hundred recognitions (half a second, more on a loaded machine), so a worker
-thread computes it; the loop asks for the curve of what it inspects (:meth:`request`) and
-draws it once there, cached per demonstration and settings. Moving the slider only moves the
-cursor. The worker gives way to the slider: between two of its recognitions it waits while the
-loop has computed a scrub step in the last :data:`QUIET_S` (:meth:`RecognitionChart.busy`).
-Both are Python threads of one process, so while the worker runs the loop's step waits for the
-interpreter in turns with it: measured with ``bench/scrub.py``, the step took twice as long
-(median 28 ms against 12 ms once the curve was done) until the worker gave way.
+thread computes it (:class:`app.live.recognition_curve.CurveWorker`, which gives way while the
+slider moves); the loop asks for the curve of what it inspects (:meth:`request`) and draws it
+once there, cached per demonstration and settings. Moving the slider only moves the cursor.
 
 A click on the chart moves the slider there: the page's script (``static/studio.js``) turns it
 into a click on the slider's track at the same percentage.
@@ -21,15 +17,12 @@ NaN elsewhere, where nothing is drawn); every other series is interpolated there
 
 from __future__ import annotations
 
-import threading
-import time
-import traceback
 from collections.abc import Callable, Hashable
 
 import numpy as np
 
 from app.live.inference import CurveRequest
-from app.live.recognition_curve import CurveCache, RecognitionCurve, recognition_curve
+from app.live.recognition_curve import CurveWorker, RecognitionCurve
 from app.ui.charts import chart_axes, css
 from app.ui.context import PanelContext
 from app.ui.text import escape
@@ -39,7 +32,6 @@ X_RANGE = (0.0, 100.0)
 CURSOR_COLOR = (30, 30, 30)
 RIGHT_COLOR = (30, 140, 60)
 WAITING = "Computing the recognition over the whole movement..."
-QUIET_S = 0.15  # the curve's worker waits until the slider has rested this long
 LIVE_NOTE = "Recognition over the whole movement: for a test demonstration."
 
 
@@ -83,22 +75,17 @@ def right_text(curve: RecognitionCurve) -> str:
 
 
 class RecognitionChart:
-    """The chart, its note and the worker computing the curves (see the module docstring)."""
+    """The chart and its note; the curves come from a :class:`CurveWorker` (see the module
+    docstring)."""
 
     def __init__(self, ctx: PanelContext, color_of: Callable[[str], tuple[int, int, int]]):
         self.ctx = ctx
         self.color_of = color_of
-        self.cache = CurveCache()
+        self.worker = CurveWorker()
         self._names: tuple[str, ...] = ()
         self._shown: tuple | None = None
-        self._wanted: CurveRequest | None = None
         self._key: Hashable | None = None  # what the chart should show
         self._absent = ""
-        self._lock = threading.Lock()
-        self._wake = threading.Event()
-        self._stop = threading.Event()
-        self.computed = 0  # curves computed (not served from the cache)
-        self._busy_at = float("-inf")  # when the loop last computed a scrub step
         gui = ctx.gui
         self.chart = gui.add_uplot(
             data=(np.array(X_RANGE), np.zeros(2)),
@@ -113,8 +100,6 @@ class RecognitionChart:
             visible=False,
         )
         self.note = gui.add_markdown("")
-        self._thread = threading.Thread(target=self._work, name="recognition-curve", daemon=True)
-        self._thread.start()
 
     # ------------------------------------------------------------------ the loop
 
@@ -123,30 +108,13 @@ class RecognitionChart:
         (``absent`` says why)."""
         self._key = None if wanted is None else wanted.key
         self._absent = absent
-        if wanted is None or self.cache.get(wanted.key) is not None:
-            return
-        with self._lock:
-            if self._wanted is None or self._wanted.key != wanted.key:
-                self._wanted = wanted
-                self._wake.set()
-
-    def busy(self) -> None:
-        """The loop has just computed a scrub step: the worker waits until the slider rests
-        (:data:`QUIET_S`) before its next recognition."""
-        self._busy_at = time.monotonic()
-
-    def _give_way(self) -> None:
-        """On the worker: wait while the slider moves (or until the chart closes)."""
-        while not self._stop.is_set():
-            rest = self._busy_at + QUIET_S - time.monotonic()
-            if rest <= 0:
-                return
-            self._stop.wait(rest)
+        if wanted is not None:
+            self.worker.request(wanted)
 
     def show(self, percent: float) -> None:
         """Draw the wanted curve (when computed) with the cursor at ``percent``."""
         key = self._key
-        curve = self.cache.get(key) if key is not None else None
+        curve = self.worker.cache.get(key) if key is not None else None
         state = (key, float(percent), curve is not None, self._absent)
         if state == self._shown:
             return
@@ -186,29 +154,6 @@ class RecognitionChart:
         if self._names:
             self.chart.series = self._series(self._names)
 
-    # ------------------------------------------------------------------ the worker
-
-    def _work(self) -> None:
-        while not self._stop.is_set():
-            self._wake.wait()
-            if self._stop.is_set():
-                return
-            with self._lock:
-                wanted, self._wanted = self._wanted, None
-                self._wake.clear()
-            if wanted is None or self.cache.get(wanted.key) is not None:
-                continue
-            try:
-                curve = recognition_curve(
-                    wanted.model, wanted.demo, wanted.modalities, wanted.alpha_method,
-                    truth=wanted.truth, between=self._give_way,
-                )  # fmt: skip
-            except Exception:  # a bug here must not end the worker; the chart just waits
-                traceback.print_exc()
-                continue
-            self.cache.put(wanted.key, curve)
-            self.computed += 1
-
     @property
     def key(self) -> Hashable | None:
         """What the chart should show now (the key of its curve request)."""
@@ -216,9 +161,7 @@ class RecognitionChart:
 
     def curve(self) -> RecognitionCurve | None:
         """The curve of what is inspected now, once computed."""
-        return self.cache.get(self._key) if self._key is not None else None
+        return self.worker.cache.get(self._key) if self._key is not None else None
 
     def close(self) -> None:
-        self._stop.set()
-        self._wake.set()
-        self._thread.join(timeout=5.0)
+        self.worker.close()

@@ -1,0 +1,79 @@
+"""The studio's loop: one thread that runs a frame about 60 times a second.
+
+:class:`FrameLoop` owns the thread, the tasks other threads ask it to run at its next frame
+(:meth:`FrameLoop.call`), and what it has done: the start times of the latest frames and the
+count of whole frames run (a test that checks that nothing happened waits for frames, not for a
+time). What a frame does is the studio's (:meth:`app.studio.Studio.step`); a frame that raises is
+reported to ``failed`` and the loop goes on.
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+from collections.abc import Callable
+
+LOOP_HZ = 60.0
+FRAMES_KEPT = 4096  # the latest frames' start times (about a minute at 60 Hz)
+
+
+class FrameLoop:
+    """Runs ``frame()`` ``hz`` times a second on a thread of its own (see the module docstring).
+
+    Parameters
+    ----------
+    frame : callable
+        One frame; it calls :meth:`run_tasks` where the asked-for tasks belong.
+    failed : callable
+        ``failed(exception)``, called on the loop's thread when a frame raised.
+    hz : float
+    """
+
+    def __init__(
+        self,
+        frame: Callable[[], None],
+        failed: Callable[[Exception], None],
+        hz: float = LOOP_HZ,
+    ):
+        self.frame = frame
+        self.failed = failed
+        self.period = 1.0 / hz
+        self.frame_starts: collections.deque[float] = collections.deque(maxlen=FRAMES_KEPT)
+        self.frames_done = 0  # whole frames run
+        self._tasks: collections.deque[Callable[[], None]] = collections.deque()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="studio-loop", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def call(self, task: Callable[[], None]) -> None:
+        """Run ``task()`` on the loop's thread at its next frame (from any thread)."""
+        self._tasks.append(task)
+
+    def run_tasks(self) -> None:
+        """The tasks asked for so far, in order (from the frame)."""
+        while self._tasks:
+            self._tasks.popleft()()
+
+    def step(self) -> None:
+        """One frame, counted (also callable directly, e.g. from tests)."""
+        self.frame_starts.append(time.perf_counter())
+        self.frame()
+        self.frames_done += 1
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            start = time.perf_counter()
+            try:
+                self.step()
+            except Exception as exc:  # a bug in one frame must not end the loop
+                self.failed(exc)
+            self._stop.wait(max(0.0, self.period - (time.perf_counter() - start)))
+
+    def stop(self) -> None:
+        """Stop after the frame under way (waits up to 5 s for it)."""
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=5.0)
