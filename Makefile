@@ -31,13 +31,15 @@ run: $(VENV)/.run-installed
 lint: $(VENV)/.test-installed
 	$(PY) -m ruff check .
 
+# Two workers (this machine's two cores), a test file each at a time: a file's studio and
+# page stay in one worker. Most of a browser test is waiting on the page, so the two overlap.
 test: lint
-	$(PY) -m pytest
+	$(PY) -m pytest -n 2 --dist loadfile
 
 # The same without the tests marked `slow` (property tests over many inputs, the accuracy
 # check on the heights recordings): a quick check while working; `make test` runs them all.
 test-fast: lint
-	$(PY) -m pytest -m "not slow"
+	$(PY) -m pytest -n 2 --dist loadfile -m "not slow"
 
 clean:
 	rm -rf $(VENV) artifacts .pytest_cache .ruff_cache

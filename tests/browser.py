@@ -57,8 +57,13 @@ def open_tab(page, name: str, timeout: float = 120.0) -> None:
 
 
 def click(page, name: str) -> None:
-    """Click the first button named ``name`` (a DOM click event: no animation-frame waits)."""
-    page.get_by_role("button", name=name, exact=True).first.dispatch_event("click")
+    """Click the first button named ``name`` (a DOM click event: no animation-frame waits),
+    once the page shows it enabled: a click on a button the studio has enabled but the page
+    not yet (a busy page, a message in flight) would be lost, as a person's would be."""
+    button = page.get_by_role("button", name=name, exact=True).first
+    button.wait_for(state="attached", timeout=120_000)
+    wait_until(button.is_enabled, timeout=120, what=f"the {name!r} button enabled in the page")
+    button.dispatch_event("click")
 
 
 def choose(page, handle, option: str) -> None:
