@@ -216,3 +216,8 @@ class Layout:
 
 
 _EXTRACTED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def sample_period_of(demos: Sequence[Demonstration]) -> float:
+    """The recording period of a set of demonstrations: the median of their median steps."""
+    return float(np.median([d.sample_period for d in demos]))

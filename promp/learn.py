@@ -12,8 +12,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from promp.data import Demonstration, Layout
-from promp.model import ProMPModel, Settings, fit_with, sample_period_of
+from promp.data import Demonstration, Layout, sample_period_of
+from promp.fitting import fit_with
+from promp.model import ProMPModel, Settings
 from promp.selection import choose_settings
 
 

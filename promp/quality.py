@@ -373,25 +373,29 @@ def _active_duration(demo: Demonstration) -> float:
 
 
 def ordinary(logs: np.ndarray) -> np.ndarray:
-    """Which of ``logs`` (log durations or log speeds) are not far out, boolean mask: within
-    :data:`OUTLIER_Z` robust deviations (median absolute deviation, as a normal's standard
-    deviation) of the median, or within :data:`DURATION_FACTOR` of it (a class of nearly equal
-    durations has almost no deviation). Two far-out takes then cannot hide each other."""
+    """Which of ``logs`` (log durations or log speeds; along the last axis, each row on its
+    own) are not far out, boolean mask of the same shape: within :data:`OUTLIER_Z` robust
+    deviations (median absolute deviation, as a normal's standard deviation) of the median,
+    or within :data:`DURATION_FACTOR` of it (a class of nearly equal durations has almost no
+    deviation). Two far-out takes then cannot hide each other."""
     logs = np.asarray(logs, dtype=float)
-    centre = float(np.median(logs))
-    spread = float(np.median(np.abs(logs - centre))) / 0.6745
-    bound = max(OUTLIER_Z * spread, math.log(DURATION_FACTOR))
+    centre = np.median(logs, axis=-1, keepdims=True)
+    spread = np.median(np.abs(logs - centre), axis=-1, keepdims=True) / 0.6745
+    bound = np.maximum(OUTLIER_Z * spread, math.log(DURATION_FACTOR))
     return np.abs(logs - centre) <= bound
 
 
 def winsorized(logs: np.ndarray) -> np.ndarray:
-    """``logs`` with the far-out values (:func:`ordinary`) brought to the nearest ordinary
-    one: the same values when none is far out. What the speed prior and the coupling of shape
-    and speed are fitted to, so that one demonstration 30x slower than the others (kept by the
-    user despite its finding) cannot stretch them."""
+    """``logs`` (along the last axis, each row on its own) with the far-out values
+    (:func:`ordinary`) brought to the nearest ordinary one: the same values when none is far
+    out. What the speed prior and the coupling of shape and speed are fitted to, so that one
+    demonstration 30x slower than the others (kept by the user despite its finding) cannot
+    stretch them."""
     logs = np.asarray(logs, dtype=float)
     keep = ordinary(logs)
-    return np.clip(logs, logs[keep].min(), logs[keep].max())
+    low = np.where(keep, logs, np.inf).min(axis=-1, keepdims=True)
+    high = np.where(keep, logs, -np.inf).max(axis=-1, keepdims=True)
+    return np.clip(logs, low, high)
 
 
 def _duration_finding(

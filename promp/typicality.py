@@ -26,8 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from promp.data import Demonstration, Layout
-from promp.model import ProMPModel, Settings, fit_with, sample_period_of
+from promp.data import Demonstration, Layout, sample_period_of
+from promp.fitting import fit_with
+from promp.model import ProMPModel, Settings
 from promp.timing import demo_phases
 
 GRID = 50  # points per unit of phase

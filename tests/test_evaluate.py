@@ -349,8 +349,9 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch
     ``d``, and every model its choice of settings fitted and every demonstration it scored
     were among them."""
     from promp import selection
+    from promp.selection import candidates, cv
 
-    fit_parts, batches = selection.fit_parts, selection._batches
+    fit_parts, batches = candidates.fit_parts, candidates.make_batches
 
     def spy_fit(train, *args, **kwargs):
         Spy.inner |= {f"{k}/{d.name}" for k, demos in train.items() for d in demos}
@@ -362,7 +363,7 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch
                       for t in trials}  # fmt: skip
         return batches(train, layout, trials, *args)
 
-    fit_with, losses = selection.fit_with, selection._losses
+    fit_with, losses = cv.fit_with, cv.trial_losses
 
     def spy_fit_with(train, *args, **kwargs):
         Spy.inner |= {f"{k}/{d.name}" for k, demos in train.items() for d in demos}
@@ -372,10 +373,10 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch
         Spy.inner |= {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos if d is demo}
         return losses(model, demo, *args)
 
-    monkeypatch.setattr(selection, "fit_parts", spy_fit)
-    monkeypatch.setattr(selection, "_batches", spy_batches)
-    monkeypatch.setattr(selection, "fit_with", spy_fit_with)
-    monkeypatch.setattr(selection, "_losses", spy_losses)
+    monkeypatch.setattr(candidates, "fit_parts", spy_fit)
+    monkeypatch.setattr(candidates, "make_batches", spy_batches)
+    monkeypatch.setattr(cv, "fit_with", spy_fit_with)
+    monkeypatch.setattr(cv, "trial_losses", spy_losses)
     dataset = make_dataset(seed=4, n_demos=4)
     everyone = {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos}
     Spy.seen = []

@@ -33,10 +33,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from promp import metrics
-from promp.data import Demonstration, Layout
+from promp.data import Demonstration, Layout, sample_period_of
 from promp.evaluate.methods import Inferred
 from promp.metrics import position_modality  # noqa: F401  (re-exported)
-from promp.model import sample_period_of
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
 Progress = Callable[[int, int], None]
