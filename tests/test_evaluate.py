@@ -311,17 +311,17 @@ def test_a_subset_holds_out_only_its_demonstrations_with_every_other_one_fitted(
         spread_subset(dataset, 0)
 
 
-def test_selection_rule_scores_every_candidate_and_picks_the_lowest_log_loss(
+def test_fixed_settings_scores_every_candidate_and_picks_the_lowest_log_loss(
     tmp_path: Path, monkeypatch
 ) -> None:
-    from promp.evaluate import select
+    from promp.evaluate import fixed_settings
 
-    monkeypatch.setattr(select, "CANDIDATES", ((6, 1.0, 1.0), (8, 1.0, 1.5)))
-    monkeypatch.setattr(select, "PERCENTS", (40, 80))
+    monkeypatch.setattr(fixed_settings, "CANDIDATES", ((6, 1.0, 1.0), (8, 1.0, 1.5)))
+    monkeypatch.setattr(fixed_settings, "PERCENTS", (40, 80))
     write_csv_dataset(tmp_path / "data", make_dataset(seed=3, n_demos=4))
-    out = tmp_path / "select.json"
+    out = tmp_path / "fixed_settings.json"
     args = [str(tmp_path / "data"), "--format", "csv", "--json", str(out), "--jobs", "1"]
-    assert select.main(args) == 0
+    assert fixed_settings.main(args) == 0
     report = json.loads(out.read_text())
     assert [(c["n_basis"], c["noise_scale"]) for c in report["candidates"]] == [(6, 1.0), (8, 1.5)]
     best = min(report["candidates"], key=lambda c: c["log_loss"])
