@@ -51,6 +51,12 @@ from promp.data import Demonstration, Layout, Modality
 from promp.datasets import atomic_write_text
 from promp.model import Primitive, ProMPModel, Settings
 
+__all__ = [
+    "MODEL_FORMAT", "MODEL_VERSION", "READABLE_VERSIONS", "demo_from_npz_bytes",
+    "demo_to_npz_bytes", "load_model", "model_from_dict", "model_from_json", "model_to_dict",
+    "model_to_json", "save_model"
+]  # fmt: skip
+
 MODEL_FORMAT = "icub-intention-studio/promp-model"
 MODEL_VERSION = 2
 READABLE_VERSIONS = (1, 2)
@@ -332,11 +338,35 @@ def model_from_json(text: str | bytes) -> ProMPModel:
 
 
 def save_model(path: Path, model: ProMPModel) -> None:
-    """Write ``model`` as JSON, atomically."""
+    """Write ``model`` to ``path`` as JSON (the format of the module docstring, version
+    :data:`MODEL_VERSION`), atomically: a reader never sees half a file.
+
+    Parameters
+    ----------
+    path : path
+    model : ProMPModel
+    """
     atomic_write_text(Path(path), model_to_json(model))
 
 
 def load_model(path: Path) -> ProMPModel:
+    """The model in the JSON file ``path``, of any version this code reads
+    (:func:`model_from_dict`).
+
+    Parameters
+    ----------
+    path : path
+
+    Returns
+    -------
+    ProMPModel
+
+    Raises
+    ------
+    ValueError
+        An unreadable file, not JSON, not a model file, an unknown version, a missing field,
+        a wrong shape or a non-finite number, with the file named.
+    """
     path = Path(path)
     try:
         text = path.read_bytes()

@@ -261,10 +261,21 @@ class Primitive:
 
 @dataclass(frozen=True, eq=False)
 class ProMPModel:
-    """Primitives learned over one layout of modalities, with their shared settings.
+    """Primitives learned over one layout of modalities, with their shared settings: what
+    :func:`promp.learn.fit` returns and :mod:`promp.io` saves and loads.
 
-    ``sample_period`` is the recording period (s) that converts alpha to durations;
-    ``report`` says what the fit chose from the data and by which rule (JSON-ready).
+    Attributes
+    ----------
+    layout : Layout
+        The modalities, ``n_dims`` columns in all.
+    settings : Settings
+        The settings the primitives were fitted with (every automatic one chosen).
+    sample_period : float
+        The recording period (s) that converts alpha to durations.
+    primitives : tuple of Primitive
+        One per movement, in the order of the dataset's primitives.
+    report : mapping
+        What the fit chose from the data and by which rule (JSON-ready).
     """
 
     layout: Layout

@@ -51,6 +51,13 @@ import numpy as np
 
 from promp.data import Demonstration, Layout
 
+__all__ = [
+    "DURATION_FACTOR", "Finding", "GAP_FACTOR", "JUMP_NEAR", "JUMP_QUANTILE", "JUMP_RATIO",
+    "JUMP_SHARE", "KINDS", "MIN_OTHERS", "OUTLIER_Z", "RATE_FACTOR", "REPAIRS", "STILL_SHARE",
+    "by_demo", "dataset_findings", "demo_findings", "increasing_samples", "ordinary",
+    "repair_gaps", "split_flagged", "timestamp_finding", "winsorized"
+]  # fmt: skip
+
 # A step over 10x the median step is a pause of the logger (clean sets: at most 1.3x).
 GAP_FACTOR = 10.0
 # A jump: over 20 % of the extent in one step and 5x the demonstration's own pace, the step

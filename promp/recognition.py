@@ -45,11 +45,18 @@ from typing import Literal
 import numpy as np
 from scipy import special
 
-from promp._likelihood import logsumexp_rows
-from promp.inference import Observation, check_observation, log_likelihoods, logsumexp
+from promp._likelihood import log_likelihoods, logsumexp, logsumexp_rows
 from promp.model import Primitive, ProMPModel
+from promp.observation import Observation, check_observation
 from promp.quality import winsorized
 from promp.timing import alpha_from_duration
+
+__all__ = [
+    "ALPHA_METHODS", "AlphaMethod", "AlphaPrior", "MAX_SPAN", "N_NODES", "N_REFINE", "Recognition",
+    "TAIL", "alpha_prior", "central_range", "label_noise", "longest_alpha", "modality_columns",
+    "model_alpha", "quadrature", "quadrature_weights", "recognise", "speed_prior", "t_logpdf",
+    "with_label_noise"
+]  # fmt: skip
 
 AlphaMethod = Literal["ml", "model"]
 ALPHA_METHODS: tuple[str, ...] = ("ml", "model")
@@ -342,9 +349,29 @@ def recognise(
 ) -> Recognition:
     """Recognise the primitive and its time modulation from an early observation.
 
-    ``duration`` (seconds), when the whole movement's duration is known (the evaluation's
-    oracle row: how far a perfect estimate of the speed would take the method): every
-    primitive is scored at the speed of that duration alone, and ``alpha_method`` is not used.
+    Every primitive k is scored by its evidence, the likelihood of Eq. 6 integrated over its
+    speed prior (module docstring), ``p(y_o | k) = int N(y_o | Phi_o(alpha) mu_k(alpha),
+    S_k(alpha)) p(alpha | k) d alpha``; the class posterior (a uniform prior over the
+    primitives) carries the "none of these" hypothesis (:func:`with_label_noise`).
+
+    Parameters
+    ----------
+    model : ProMPModel
+    obs : Observation
+    alpha_method : {"ml", "model"}
+        The speed's prior: the primitive's training speeds, or half of it on the Eq. 7
+        regression from the early displacement.
+    duration : float, optional
+        When the whole movement's duration is known (s; the evaluation's oracle row: how far
+        a perfect estimate of the speed would take the method): every primitive is scored at
+        the speed of that duration alone, and ``alpha_method`` is not used.
+
+    Returns
+    -------
+    Recognition
+        ``index``/``primitive`` recognised, ``probabilities`` (n_primitives,), ``alpha`` (its
+        posterior mode), and per primitive the nodes, log-likelihoods and log prior of the
+        quadrature.
 
     Raises
     ------

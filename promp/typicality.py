@@ -31,6 +31,8 @@ from promp.fitting import fit_with
 from promp.model import ProMPModel, Settings
 from promp.timing import demo_phases
 
+__all__ = ["COVERAGES", "GRID", "MIN_OTHERS", "Typicality", "distance", "phase_grid", "typicality"]
+
 GRID = 50  # points per unit of phase
 COVERAGES = tuple(np.round(np.linspace(0.2, 1.0, 9), 3))  # the share of the movement a take covers
 MIN_OTHERS = 3

@@ -25,6 +25,8 @@ from promp.evaluate.sweep import run_sweep
 from promp.model import Settings
 from promp.progress import stderr_progress
 
+__all__ = ["CANDIDATES", "PERCENTS", "main", "score"]
+
 # (basis functions per dimension, width, noise scale); the covariance prior is chosen by
 # marginal likelihood inside every fold
 CANDIDATES = (
