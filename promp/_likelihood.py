@@ -52,16 +52,14 @@ def logsumexp_rows(values: np.ndarray) -> np.ndarray:
     values = np.asarray(values, dtype=float)
     if values.shape[-1] == 0:
         return np.full(values.shape[:-1], -np.inf)
-    rows = values.reshape(-1, values.shape[-1])
-    top = rows.max(axis=-1)
+    top = values.max(axis=-1, keepdims=True)
     finite = np.isfinite(top)
     if finite.all():
-        out = top + np.log(np.exp(rows - top[:, None]).sum(axis=-1))
-    else:
-        out = top.copy()
-        shifted = rows[finite] - top[finite, None]
-        out[finite] = top[finite] + np.log(np.exp(shifted).sum(axis=-1))
-    return out.reshape(values.shape[:-1])
+        return (top + np.log(np.exp(values - top).sum(axis=-1, keepdims=True)))[..., 0]
+    safe = np.where(finite, top, 0.0)  # rows without a finite maximum: their maximum
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = safe + np.log(np.exp(values - safe).sum(axis=-1, keepdims=True))
+    return np.where(finite, out, top)[..., 0]
 
 
 def per_dimension(vector: np.ndarray, n_dims: int) -> np.ndarray:

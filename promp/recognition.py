@@ -46,6 +46,7 @@ import numpy as np
 from scipy import special
 
 from promp._likelihood import log_likelihoods, logsumexp, logsumexp_rows
+from promp._recent import cached_on
 from promp.model import Primitive, ProMPModel
 from promp.observation import Observation, check_observation
 from promp.quality import winsorized
@@ -277,7 +278,13 @@ def model_alpha(model: ProMPModel, primitive: Primitive, obs: Observation) -> tu
 def alpha_prior(
     model: ProMPModel, primitive: Primitive, obs: Observation, alpha_method: str
 ) -> AlphaPrior:
-    prior = AlphaPrior.from_alphas(primitive.alphas, model.settings.s_bar)
+    """The speed prior of ``primitive`` for ``obs``: its training speeds' (computed once per
+    primitive, :func:`promp._recent.cached_on`), or for ``alpha_method="model"`` half of it
+    moved to the Eq. 7 regression from the observation (module docstring)."""
+    s_bar = model.settings.s_bar
+    prior = cached_on(
+        primitive, "_speed_priors", s_bar, lambda: AlphaPrior.from_alphas(primitive.alphas, s_bar)
+    )
     if alpha_method == "ml":
         return prior
     alpha, log_sd = model_alpha(model, primitive, obs)
