@@ -46,7 +46,8 @@ from promp._weight_space import (  # noqa: E402
 )
 from promp.data import Demonstration  # noqa: E402
 from promp.datasets import read_dataset  # noqa: E402
-from promp.model import Settings, fit_with  # noqa: E402
+from promp.fitting import fit_with  # noqa: E402
+from promp.model import Settings  # noqa: E402
 from promp.noise import noise_groups, whiten  # noqa: E402
 from promp.observation import Observation  # noqa: E402
 from promp.timing import alpha_from_duration, n_observed_for  # noqa: E402

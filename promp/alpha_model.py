@@ -21,6 +21,11 @@ import numpy as np
 
 from promp.data import Demonstration
 
+__all__ = [
+    "AlphaModel", "GRID_POINTS", "MAX_U", "N_RBF", "RELATIVE_SPAN", "combine", "min_span",
+    "resample_uniform"
+]  # fmt: skip
+
 N_RBF = 5
 GRID_POINTS = 60
 _RIDGES = np.logspace(-8, 2, 11)

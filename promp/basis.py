@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+__all__ = ["PhaseBasisCache", "RBFBasis", "SeedBasis"]
+
 
 @dataclass(frozen=True)
 class RBFBasis:

@@ -35,6 +35,11 @@ from scipy.special import gammaln
 
 from promp.basis import RBFBasis
 
+__all__ = [
+    "CV_FOLDS", "MIN_SHRINKAGE", "PooledPrior", "STRENGTH_GRID", "TARGET_GRID", "block_target",
+    "compress_factor", "fixed_shrinkage", "niw_log_evidence", "pooled_covariances", "target_weight"
+]  # fmt: skip
+
 TARGET_GRID = (1e-4, 1e-3, 1e-2, 0.03, 0.1, 0.3, 0.6, 0.9)
 STRENGTH_GRID = np.logspace(-1, 6, 57)  # c = nu_0 - P - 1
 CV_FOLDS = 10

@@ -16,6 +16,11 @@ import numpy as np
 
 from promp._recent import per_object
 
+__all__ = [
+    "Demonstration", "Kind", "Layout", "MAX_MAGNITUDE", "Modality", "check_values",
+    "sample_period_of"
+]  # fmt: skip
+
 Kind = Literal["linear", "angle"]
 
 # No sensor in any sensible unit reads beyond this; such values (a unit or parsing mistake)
@@ -125,7 +130,16 @@ class Demonstration:
 class Modality:
     """A block of columns observed together, e.g. the hand position or the head orientation.
 
-    ``kind="angle"`` columns are unwrapped before fitting and their errors taken on the circle.
+    Parameters
+    ----------
+    name : str
+        What the observation names (``Observation.modalities``), e.g. ``"hand"``.
+    columns : tuple of str
+        The demonstrations' columns it is made of, in order, e.g. ``("x", "y", "z")``.
+    unit : str
+        Their unit (``"m"``, ``"rad"``...): noise and errors are in it.
+    kind : {"linear", "angle"}
+        ``"angle"`` columns are unwrapped before fitting and their errors taken on the circle.
     """
 
     name: str
@@ -147,7 +161,13 @@ class Modality:
 
 @dataclass(frozen=True)
 class Layout:
-    """The ordered modalities a model is learned over; dimension d of the model is column d."""
+    """The ordered modalities a model is learned over; dimension d of the model is column d.
+
+    Parameters
+    ----------
+    modalities : tuple of Modality
+        Distinct names and columns; ``n_dims`` is the total number of their columns.
+    """
 
     modalities: tuple[Modality, ...]
 
@@ -216,3 +236,8 @@ class Layout:
 
 
 _EXTRACTED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def sample_period_of(demos: Sequence[Demonstration]) -> float:
+    """The recording period of a set of demonstrations: the median of their median steps."""
+    return float(np.median([d.sample_period for d in demos]))

@@ -24,6 +24,11 @@ import numpy as np
 from promp.recognition import Recognition
 from promp.timing import alpha_from_duration, duration_from_alpha
 
+__all__ = [
+    "Estimate", "LEVEL", "REFINE", "TEMPERATURES", "Timing", "choose_temperature", "summarise",
+    "timing", "weighted_quantiles"
+]  # fmt: skip
+
 LEVEL = 0.9  # the central interval reported
 
 

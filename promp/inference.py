@@ -23,9 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_solve, solve_triangular
 
-from promp._likelihood import (  # noqa: F401  (re-exported: the public names of the method)
-    log_likelihoods,
-    logsumexp,
+from promp._likelihood import (
+    log_likelihoods,  # (re-exported: Eq. 6 is a public name of the method)
     noise_groups,
     per_dimension,
     rotate,
@@ -33,8 +32,13 @@ from promp._likelihood import (  # noqa: F401  (re-exported: the public names of
     woodbury,
 )
 from promp.model import Primitive, ProMPModel
-from promp.observation import Observation, check_observation, observed_dims  # noqa: F401
+from promp.observation import Observation, check_observation  # (Observation re-exported)
 from promp.timing import check_alpha, duration_from_alpha, n_samples_from_alpha
+
+__all__ = [
+    "Gaussian", "Observation", "Posterior", "Prediction", "condition", "log_likelihoods",
+    "observation_basis", "predict"
+]  # fmt: skip
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,6 +107,11 @@ def condition(
 ) -> Posterior:
     """Posterior weight distribution given the observation (Eq. 8).
 
+    ``mu' = mu + Sigma A^T (A Sigma A^T + R)^-1 (y_o - A mu)`` and ``Sigma' = Sigma -
+    Sigma A^T (A Sigma A^T + R)^-1 A Sigma``, with ``A`` the basis at the observed phases
+    for ``alpha`` (block-diagonal over the observed dimensions) and ``R`` the
+    Ornstein-Uhlenbeck observation noise.
+
     A batch update on all observed samples of all observed modalities. Without ``prior``, the
     primitive's prior at ``alpha`` is used and the update exploits its structure (Woodbury's
     identity on ``Sigma_w = T + U U^T``, see :class:`promp._likelihood.Woodbury`): the mean and each
@@ -110,6 +119,23 @@ def condition(
     with the dense update below. With an explicit ``prior`` (any Gaussian), the dense update
     runs directly: in observation space or weight space, whichever is smaller, with Cholesky
     solves. Returns a new object; nothing is modified.
+
+    Parameters
+    ----------
+    model : ProMPModel
+    primitive : Primitive
+        One of ``model.primitives`` (its prior at ``alpha`` unless ``prior`` is given).
+    obs : Observation
+    alpha : float
+        The time modulation (> 0); the observation must fit in its duration.
+    prior : Gaussian, optional
+        Any prior over the weights: mean (n_weights,), cov (n_weights, n_weights).
+
+    Returns
+    -------
+    Posterior
+        ``mean`` (n_weights,), ``blocks(n_dims)`` (n_dims, n_basis, n_basis), ``cov``
+        (n_weights, n_weights) on first use.
 
     Raises
     ------
@@ -251,9 +277,26 @@ def predict(
 ) -> Prediction:
     """Mean and standard deviation of every dimension over the predicted duration.
 
-    ``n_points`` defaults to the predicted number of samples, ``round(s_bar / alpha)``.
-    The standard deviation is that of the trajectory distribution (observation noise
-    excluded).
+    ``y(z) = Phi(z) w`` over the phases ``z`` in [0, 1] (Eq. 1), ``w`` distributed as
+    ``dist``: the mean ``Phi mu_w`` and the standard deviation ``sqrt(diag(Phi Sigma_w
+    Phi^T))`` of the trajectory distribution (observation noise excluded), every dimension
+    whether observed or not.
+
+    Parameters
+    ----------
+    model : ProMPModel
+    dist : Gaussian, Posterior or Primitive
+        The weights' distribution: a primitive's prior (at ``alpha``) or a posterior.
+    alpha : float
+        The time modulation: the duration is ``(s_bar / alpha - 1) sample_period``.
+    n_points : int, optional
+        Samples over [0, duration] (at least 2); default the predicted number of samples,
+        ``round(s_bar / alpha)``.
+
+    Returns
+    -------
+    Prediction
+        ``times`` (n_points,) in s, ``mean`` and ``std`` (n_points, n_dims).
     """
     n_samples = float(n_samples_from_alpha(alpha, model.settings.s_bar))
     n = max(int(round(n_samples)), 2) if n_points is None else int(n_points)

@@ -1,7 +1,7 @@
 """File formats: versioned JSON for models, NPZ (or CSV, see :mod:`promp.datasets`) for
 demonstrations. No pickle anywhere: NPZ files are read with ``allow_pickle=False``.
 
-Model JSON, schema version 2 (version 1 files, without ``report``, still load)::
+Model JSON, schema version 2 (version 1 files still load: see :func:`model_from_dict`)::
 
     {
       "format": "icub-intention-studio/promp-model",
@@ -51,6 +51,12 @@ from promp.data import Demonstration, Layout, Modality
 from promp.datasets import atomic_write_text
 from promp.model import Primitive, ProMPModel, Settings
 
+__all__ = [
+    "MODEL_FORMAT", "MODEL_VERSION", "READABLE_VERSIONS", "demo_from_npz_bytes",
+    "demo_to_npz_bytes", "load_model", "model_from_dict", "model_from_json", "model_to_dict",
+    "model_to_json", "save_model"
+]  # fmt: skip
+
 MODEL_FORMAT = "icub-intention-studio/promp-model"
 MODEL_VERSION = 2
 READABLE_VERSIONS = (1, 2)
@@ -95,6 +101,24 @@ def _number(obj: Mapping, key: str, what: str) -> float:
     if not np.isfinite(value):
         raise ValueError(f"{what} {key}: must be finite, got {value!r}")
     return float(value)
+
+
+def _block_diagonal(
+    cov_diag: np.ndarray, factor: np.ndarray, n_dims: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``Sigma_w = diag(cov_diag) + factor factor^T`` with a diagonal constant within each
+    dimension's block (what :class:`promp.model.Primitive` stores): the same matrix, the
+    diagonal's excess over its block's least entry moved into the factor as columns. The first
+    version-1 writer's diagonal was not constant; later ones are, and are returned as given."""
+    blocks = cov_diag.reshape(n_dims, -1)
+    least = np.repeat(blocks.min(axis=1), blocks.shape[1])
+    excess = cov_diag - least
+    moved = np.nonzero(excess > 0)[0]
+    if not moved.size:
+        return cov_diag, factor
+    columns = np.zeros((cov_diag.shape[0], moved.shape[0]))
+    columns[moved, np.arange(moved.shape[0])] = np.sqrt(excess[moved])
+    return least, np.hstack([factor, columns])
 
 
 def model_to_dict(model: ProMPModel) -> dict[str, Any]:
@@ -150,6 +174,17 @@ def model_to_json(model: ProMPModel) -> str:
 
 def model_from_dict(data: Any) -> ProMPModel:
     """Rebuild a model from :func:`model_to_dict` output, validating everything.
+
+    Every version this code reads (:data:`READABLE_VERSIONS`) loads as its writer meant it
+    (``tests/test_model_format.py`` loads a file of each writer and compares the prior it
+    predicts with the one that writer's code predicted):
+
+    * version 2 adds ``report``; its later writers add the settings ``select`` and
+      ``duration_temperature`` (absent: ``"loo"``, and 1, the plain posterior);
+    * version 1 has no ``report``; its first writers had white observation noise (no
+      ``noise_tau``: 0), one shrinkage for every dimension (a number, not a list), Eq. 7
+      models with a row for every ``n_o`` from 1 (no ``n_observed``) and, the very first, a
+      prior diagonal not constant within a dimension's block (:func:`_block_diagonal`).
 
     Raises
     ------
@@ -220,10 +255,15 @@ def model_from_dict(data: Any) -> ProMPModel:
         cov_diag = _array(_field(p, "cov_diag", what), f"{what} cov_diag", (n_weights,))
         if np.any(cov_diag <= 0):
             raise ValueError(f"{what} cov_diag: variances must be positive")
+        if version == 1:
+            cov_diag, factor = _block_diagonal(cov_diag, factor, n_dims)
         noise_var = _array(_field(p, "noise_var", what), f"{what} noise_var", (n_dims,))
         if np.any(noise_var <= 0):
             raise ValueError(f"{what} noise_var: variances must be positive")
-        noise_tau = _array(_field(p, "noise_tau", what), f"{what} noise_tau", (n_dims,))
+        if version == 1 and "noise_tau" not in p:  # white noise: the first writer's model
+            noise_tau = np.zeros(n_dims)
+        else:
+            noise_tau = _array(_field(p, "noise_tau", what), f"{what} noise_tau", (n_dims,))
         if np.any(noise_tau < 0):
             raise ValueError(f"{what} noise_tau: correlation times must be >= 0")
         alphas = _array(_field(p, "alphas", what), f"{what} alphas", (None,))
@@ -238,7 +278,12 @@ def model_from_dict(data: Any) -> ProMPModel:
             width = len(modality.columns)
             label = f"{what} alpha model {modality.name!r}"
             lo = _array(_field(am, "lo", label), f"{label} lo", (None, width))
-            grid = _array(_field(am, "n_observed", label), f"{label} n_observed", (lo.shape[0],))
+            if version == 1 and "n_observed" not in am:  # one row per n_o from 1
+                grid = np.arange(1.0, lo.shape[0] + 1.0)
+            else:
+                grid = _array(
+                    _field(am, "n_observed", label), f"{label} n_observed", (lo.shape[0],)
+                )
             if grid.size == 0 or grid[0] != 1 or np.any(np.diff(grid) <= 0):
                 raise ValueError(f"{label} n_observed: must increase from 1")
             alpha_models[modality.name] = AlphaModel(
@@ -252,7 +297,10 @@ def model_from_dict(data: Any) -> ProMPModel:
                     _field(am, "residual_var", label), f"{label} residual_var", (lo.shape[0],)
                 ),
             )
-        shrinkage = _array(_field(p, "shrinkage", what), f"{what} shrinkage", (n_dims,))
+        shrinkage = _field(p, "shrinkage", what)
+        if version == 1 and not isinstance(shrinkage, (list, bool)):  # one for every dimension
+            shrinkage = [shrinkage] * n_dims
+        shrinkage = _array(shrinkage, f"{what} shrinkage", (n_dims,))
         if np.any((shrinkage <= 0) | (shrinkage > 1)):
             raise ValueError(f"{what} shrinkage: intensities must be in (0, 1]")
         log_alpha_mean = _number(p, "log_alpha_mean", what)
@@ -290,11 +338,35 @@ def model_from_json(text: str | bytes) -> ProMPModel:
 
 
 def save_model(path: Path, model: ProMPModel) -> None:
-    """Write ``model`` as JSON, atomically."""
+    """Write ``model`` to ``path`` as JSON (the format of the module docstring, version
+    :data:`MODEL_VERSION`), atomically: a reader never sees half a file.
+
+    Parameters
+    ----------
+    path : path
+    model : ProMPModel
+    """
     atomic_write_text(Path(path), model_to_json(model))
 
 
 def load_model(path: Path) -> ProMPModel:
+    """The model in the JSON file ``path``, of any version this code reads
+    (:func:`model_from_dict`).
+
+    Parameters
+    ----------
+    path : path
+
+    Returns
+    -------
+    ProMPModel
+
+    Raises
+    ------
+    ValueError
+        An unreadable file, not JSON, not a model file, an unknown version, a missing field,
+        a wrong shape or a non-finite number, with the file named.
+    """
     path = Path(path)
     try:
         text = path.read_bytes()

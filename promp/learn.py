@@ -12,9 +12,12 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from promp.data import Demonstration, Layout
-from promp.model import ProMPModel, Settings, fit_with, sample_period_of
+from promp.data import Demonstration, Layout, sample_period_of
+from promp.fitting import fit_with
+from promp.model import ProMPModel, Settings
 from promp.selection import choose_settings
+
+__all__ = ["fit"]
 
 
 def fit(
@@ -26,12 +29,34 @@ def fit(
 ) -> ProMPModel:
     """Learn one primitive per entry of ``dataset`` ({primitive name: demonstrations}).
 
-    Settings left to the data (None: by default the basis count, its width and the noise
-    scale) are chosen from ``dataset`` by :func:`promp.selection.choose_settings`; the model's
-    ``settings`` hold the values used and ``report["settings"]`` what was chosen, and why.
-    ``previous``: the ``report["settings"]`` of a fit of nearly the same demonstrations (the
-    studio's refit after a demonstration was added or deleted), which the choice may keep
-    (:func:`promp.selection.choose_settings`).
+    Per demonstration, ridge weights on the phase basis (Eqs. 1-2); per primitive, their mean
+    and covariance, under a prior pooled across the primitives (Eqs. 3-4), regressed on the
+    log speed; the observation noise of every modality and its Eq. 7 speed model
+    (:mod:`promp.fitting`). Settings left to the data (None: by default the basis count, its
+    width, the noise scale and the duration's temperature) are chosen from ``dataset`` first
+    by :func:`promp.selection.choose_settings`.
+
+    Parameters
+    ----------
+    dataset : mapping of str to sequence of Demonstration
+        ``{primitive name: demonstrations}``, at least 2 per primitive, each with the
+        layout's columns.
+    layout : Layout
+        The modalities to learn (columns of the demonstrations; others are ignored).
+    settings : Settings, optional
+        Default ``Settings()``: everything automatic.
+    sample_period : float, optional
+        The period (s) that converts alpha to durations; default: the demonstrations'
+        median sample step.
+    previous : mapping, optional
+        The ``report["settings"]`` of a fit of nearly the same demonstrations (the studio's
+        refit after a demonstration was added or deleted), which the choice may keep.
+
+    Returns
+    -------
+    ProMPModel
+        Its ``settings`` hold the values used, ``report["settings"]`` what was chosen, and
+        why.
 
     Raises
     ------

@@ -23,6 +23,11 @@ import numpy as np
 
 from promp.data import Layout
 
+__all__ = [
+    "calibration_error", "goal_error", "nrmse", "position_modality", "reliability",
+    "remainder_error", "resample"
+]  # fmt: skip
+
 
 def resample(values: np.ndarray, positions: np.ndarray) -> np.ndarray:
     """Linear interpolation of ``values`` (n, d) at fractional row indices ``positions``."""

@@ -10,6 +10,8 @@ import numpy as np
 from promp.data import Demonstration, check_values
 from promp.model import ProMPModel
 
+__all__ = ["Observation", "check_observation", "observed_dims"]
+
 
 @dataclass(frozen=True, eq=False)
 class Observation:

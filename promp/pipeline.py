@@ -24,6 +24,8 @@ from promp.inference import Observation, Posterior, Prediction, condition, predi
 from promp.model import ProMPModel
 from promp.recognition import AlphaMethod, Recognition, recognise
 
+__all__ = ["Errors", "Inference", "infer", "measure", "relative_speed"]
+
 
 @dataclass(frozen=True)
 class Errors:
@@ -108,9 +110,35 @@ def infer(
     """Recognise the primitive and its speed, condition on the observation, predict; with
     ``truth`` (the whole movement ``obs`` is the start of), measure the errors.
 
-    ``n_points`` samples the predictions (default: the predicted number of samples).
-    ``duration``: the movement's duration when it is known (seconds;
-    :func:`promp.recognition.recognise`).
+    The primitive whose evidence (Eq. 6 integrated over its speed prior) is highest is
+    recognised (:func:`promp.recognition.recognise`); the prediction is drawn at the speed of
+    its posterior-mean duration (:mod:`promp.duration`), the weights conditioned on the
+    observation there (Eq. 8, :func:`promp.inference.condition`) and every dimension
+    predicted over the whole movement (:func:`promp.inference.predict`).
+
+    Parameters
+    ----------
+    model : ProMPModel
+    obs : Observation
+        The first samples of the movement, in any of the model's modalities.
+    alpha_method : {"ml", "model"}
+        The speed's prior: each primitive's, fitted to its training speeds (``"ml"``), or
+        half of it centred on the Eq. 7 regression from the early displacement
+        (``"model"``).
+    n_points : int, optional
+        Samples of the predictions (default: the predicted number of samples).
+    truth : Demonstration, optional
+        The whole movement: the errors are measured against it.
+    duration : float, optional
+        The movement's duration when it is known (s): every primitive scored at that speed.
+
+    Returns
+    -------
+    Inference
+        ``primitive``, ``probabilities`` (n_primitives,), ``timing`` (the duration and the
+        observed share, with intervals), ``posterior`` (weights), ``prior`` and
+        ``prediction`` (trajectories: ``mean``, ``std`` of shape (n_points, n_dims)),
+        ``errors`` with ``truth``.
 
     Raises
     ------

@@ -14,6 +14,8 @@ import time
 from collections.abc import Callable
 from typing import TextIO
 
+__all__ = ["Progress", "clock", "progress_text", "stderr_progress", "time_left"]
+
 Progress = Callable[[int, int], None]
 
 

@@ -58,6 +58,13 @@ from promp.data import Demonstration, Layout
 from promp.gaps import active_duration, duration_text, gap_steps
 from promp.units import amount, seconds
 
+__all__ = [
+    "DURATION_FACTOR", "Finding", "JUMP_NEAR", "JUMP_QUANTILE", "JUMP_RATIO", "JUMP_SHARE",
+    "KINDS", "MIN_OTHERS", "OUTLIER_Z", "RATE_FACTOR", "STILL_SHARE", "by_demo",
+    "dataset_findings", "demo_findings", "increasing_samples", "ordinary", "split_flagged",
+    "timestamp_finding", "winsorized"
+]  # fmt: skip
+
 # A jump: over 20 % of the extent in one step and 5x the demonstration's own pace, the step
 # that 90 % of its moving steps stay under (clean sets: at most 7 % of the extent on the hand;
 # the simulated head turns 40 % of its extent in one step, at most 2.1x its pace; a take
@@ -352,25 +359,29 @@ def dataset_findings(
 
 
 def ordinary(logs: np.ndarray) -> np.ndarray:
-    """Which of ``logs`` (log durations or log speeds) are not far out, boolean mask: within
-    :data:`OUTLIER_Z` robust deviations (median absolute deviation, as a normal's standard
-    deviation) of the median, or within :data:`DURATION_FACTOR` of it (a class of nearly equal
-    durations has almost no deviation). Two far-out takes then cannot hide each other."""
+    """Which of ``logs`` (log durations or log speeds; along the last axis, each row on its
+    own) are not far out, boolean mask of the same shape: within :data:`OUTLIER_Z` robust
+    deviations (median absolute deviation, as a normal's standard deviation) of the median,
+    or within :data:`DURATION_FACTOR` of it (a class of nearly equal durations has almost no
+    deviation). Two far-out takes then cannot hide each other."""
     logs = np.asarray(logs, dtype=float)
-    centre = float(np.median(logs))
-    spread = float(np.median(np.abs(logs - centre))) / 0.6745
-    bound = max(OUTLIER_Z * spread, math.log(DURATION_FACTOR))
+    centre = np.median(logs, axis=-1, keepdims=True)
+    spread = np.median(np.abs(logs - centre), axis=-1, keepdims=True) / 0.6745
+    bound = np.maximum(OUTLIER_Z * spread, math.log(DURATION_FACTOR))
     return np.abs(logs - centre) <= bound
 
 
 def winsorized(logs: np.ndarray) -> np.ndarray:
-    """``logs`` with the far-out values (:func:`ordinary`) brought to the nearest ordinary
-    one: the same values when none is far out. What the speed prior and the coupling of shape
-    and speed are fitted to, so that one demonstration 30x slower than the others (kept by the
-    user despite its finding) cannot stretch them."""
+    """``logs`` (along the last axis, each row on its own) with the far-out values
+    (:func:`ordinary`) brought to the nearest ordinary one: the same values when none is far
+    out. What the speed prior and the coupling of shape and speed are fitted to, so that one
+    demonstration 30x slower than the others (kept by the user despite its finding) cannot
+    stretch them."""
     logs = np.asarray(logs, dtype=float)
     keep = ordinary(logs)
-    return np.clip(logs, logs[keep].min(), logs[keep].max())
+    low = np.where(keep, logs, np.inf).min(axis=-1, keepdims=True)
+    high = np.where(keep, logs, -np.inf).max(axis=-1, keepdims=True)
+    return np.clip(logs, low, high)
 
 
 def _duration_finding(

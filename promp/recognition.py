@@ -45,10 +45,19 @@ from typing import Literal
 import numpy as np
 from scipy import special
 
-from promp.inference import Observation, check_observation, log_likelihoods, logsumexp
+from promp._likelihood import log_likelihoods, logsumexp, logsumexp_rows
+from promp._recent import cached_on
 from promp.model import Primitive, ProMPModel
+from promp.observation import Observation, check_observation
 from promp.quality import winsorized
 from promp.timing import alpha_from_duration
+
+__all__ = [
+    "ALPHA_METHODS", "AlphaMethod", "AlphaPrior", "MAX_SPAN", "N_NODES", "N_REFINE", "Recognition",
+    "TAIL", "alpha_prior", "central_range", "label_noise", "longest_alpha", "modality_columns",
+    "model_alpha", "quadrature", "quadrature_weights", "recognise", "speed_prior", "t_logpdf",
+    "with_label_noise"
+]  # fmt: skip
 
 AlphaMethod = Literal["ml", "model"]
 ALPHA_METHODS: tuple[str, ...] = ("ml", "model")
@@ -58,13 +67,54 @@ TAIL = 0.002  # prior mass left out at each end of the quadrature range
 MAX_SPAN = math.log(20.0)  # the quadrature never spans more than x20 around the prior's centre
 
 
-def _t_logpdf(z: np.ndarray, dof: float) -> np.ndarray:
-    """Log density of a standard Student-t with ``dof`` degrees of freedom (closed form:
-    scipy's frozen distributions cost ~0.2 ms each to build, too much for a scrub loop)."""
+def t_logpdf(z: np.ndarray, dof: float | np.ndarray) -> np.ndarray:
+    """Log density of a standard Student-t with ``dof`` degrees of freedom at ``z`` (any
+    shapes that broadcast; closed form: scipy's frozen distributions cost ~0.2 ms each to
+    build, too much for a scrub loop). The one Student-t of recognition and of the
+    leave-one-out scorer (:mod:`promp.selection.batches`)."""
     const = (
-        special.gammaln((dof + 1) / 2) - special.gammaln(dof / 2) - 0.5 * math.log(dof * math.pi)
+        special.gammaln((dof + 1) / 2) - special.gammaln(dof / 2) - 0.5 * np.log(dof * math.pi)
     )
     return const - (dof + 1) / 2 * np.log1p(z**2 / dof)
+
+
+def speed_prior(log_alphas: np.ndarray, s_bar: float) -> tuple[np.ndarray, ...]:
+    """The speed prior of each row of training log alphas (the module docstring): location,
+    scale and degrees of freedom of its Student-t in log alpha.
+
+    Parameters
+    ----------
+    log_alphas : array, shape (..., n)
+        One row of n training log alphas per prior (one row: :meth:`AlphaPrior.from_alphas`;
+        a primitive's alphas without each one in turn: the leave-one-out scorer).
+    s_bar : float
+
+    Returns
+    -------
+    loc, scale, dof : arrays, shape (...,)
+        ``loc`` the mean of the row winsorized (:func:`promp.quality.winsorized`: a
+        demonstration kept despite lasting 30x the others does not stretch the prior),
+        ``scale`` its standard deviation times ``sqrt(1 + 1/n)`` and never below one sample's
+        worth of duration (``alpha / s_bar``), ``dof = n - 1`` (at least 1).
+    """
+    logs = winsorized(log_alphas)
+    n = logs.shape[-1]
+    loc = logs.mean(axis=-1)
+    spread = logs.std(axis=-1, ddof=1) if n > 1 else np.zeros_like(loc)
+    floor = np.maximum(np.exp(loc) / s_bar, 1e-3)
+    scale = np.maximum(spread * math.sqrt(1.0 + 1.0 / n), floor)
+    return loc, scale, np.full_like(loc, float(max(n - 1, 1)))
+
+
+def central_range(
+    loc: np.ndarray, scale: np.ndarray, dof: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The quadrature's range of Student-t priors in log alpha (any shapes that broadcast):
+    their central mass (:data:`TAIL` left out at each end), never wider than
+    :data:`MAX_SPAN` either side of the location."""
+    lo = np.maximum(loc + scale * special.stdtrit(dof, TAIL), loc - MAX_SPAN)
+    hi = np.minimum(loc + scale * special.stdtrit(dof, 1.0 - TAIL), loc + MAX_SPAN)
+    return lo, hi
 
 
 @dataclass(frozen=True)
@@ -78,17 +128,10 @@ class AlphaPrior:
 
     @classmethod
     def from_alphas(cls, alphas: np.ndarray, s_bar: float) -> AlphaPrior:
-        """The predictive of a normal sample of the training log alphas (module docstring),
-        far-out ones brought to the nearest ordinary one (:func:`promp.quality.winsorized`: a
-        demonstration kept despite lasting 30x the others does not stretch the prior); the
-        scale never drops below one sample's worth of duration (``alpha / s_bar``)."""
-        logs = winsorized(np.log(np.asarray(alphas, dtype=float)))
-        n = logs.size
-        loc = float(logs.mean())
-        spread = float(logs.std(ddof=1)) if n > 1 else 0.0
-        floor = max(math.exp(loc) / s_bar, 1e-3)
-        scale = max(spread * math.sqrt(1.0 + 1.0 / n), floor)
-        return cls((loc,), (scale,), (float(max(n - 1, 1)),), (1.0,))
+        """The predictive of a normal sample of the training log alphas, winsorized
+        (:func:`speed_prior` of one row)."""
+        loc, scale, dof = speed_prior(np.log(np.asarray(alphas, dtype=float)), s_bar)
+        return cls((float(loc),), (float(scale),), (float(dof),), (1.0,))
 
     def mixed_with(self, loc: float, scale: float, dof: float, weight: float) -> AlphaPrior:
         keep = 1.0 - weight
@@ -105,7 +148,7 @@ class AlphaPrior:
     def logpdf(self, log_alpha: np.ndarray) -> np.ndarray:
         x = np.asarray(log_alpha, dtype=float)
         parts = [
-            math.log(w) + _t_logpdf((x - m) / s, d) - math.log(s)
+            math.log(w) + t_logpdf((x - m) / s, d) - math.log(s)
             for m, s, d, w in self._components()
         ]
         return np.logaddexp.reduce(np.array(parts), axis=0)
@@ -119,15 +162,11 @@ class AlphaPrior:
         return float(logsumexp(np.array(parts)))
 
     def span(self, log_alpha_max: float) -> tuple[float, float]:
-        """The quadrature range: the central mass of every component, truncated at the bound."""
-        lo = min(
-            max(m + s * float(special.stdtrit(d, TAIL)), m - MAX_SPAN)
-            for m, s, d, _ in self._components()
-        )
-        hi = max(
-            min(m + s * float(special.stdtrit(d, 1 - TAIL)), m + MAX_SPAN)
-            for m, s, d, _ in self._components()
-        )
+        """The quadrature range: the central mass of every component (:func:`central_range`),
+        truncated at the bound."""
+        ranges = [central_range(m, s, d) for m, s, d, _ in self._components()]
+        lo = min(float(r[0]) for r in ranges)
+        hi = max(float(r[1]) for r in ranges)
         hi = min(hi, log_alpha_max)
         if hi <= lo:  # every plausible speed ends too early: the tail just below the bound
             lo = log_alpha_max - 4.0 * max(self.scales)
@@ -239,7 +278,13 @@ def model_alpha(model: ProMPModel, primitive: Primitive, obs: Observation) -> tu
 def alpha_prior(
     model: ProMPModel, primitive: Primitive, obs: Observation, alpha_method: str
 ) -> AlphaPrior:
-    prior = AlphaPrior.from_alphas(primitive.alphas, model.settings.s_bar)
+    """The speed prior of ``primitive`` for ``obs``: its training speeds' (computed once per
+    primitive, :func:`promp._recent.cached_on`), or for ``alpha_method="model"`` half of it
+    moved to the Eq. 7 regression from the observation (module docstring)."""
+    s_bar = model.settings.s_bar
+    prior = cached_on(
+        primitive, "_speed_priors", s_bar, lambda: AlphaPrior.from_alphas(primitive.alphas, s_bar)
+    )
     if alpha_method == "ml":
         return prior
     alpha, log_sd = model_alpha(model, primitive, obs)
@@ -258,12 +303,28 @@ def quadrature(
     return nodes, prior.logpdf(nodes), prior.logcdf(bound)
 
 
-def quadrature_weights(nodes: np.ndarray, log_prior: np.ndarray, log_mass: float) -> np.ndarray:
+def quadrature_weights(
+    nodes: np.ndarray, log_prior: np.ndarray, log_mass: float | np.ndarray
+) -> np.ndarray:
     """Log trapezoid weights of increasing ``nodes``, normalised to the prior mass ``log_mass``
-    below the bound (so the evidence is ``logsumexp(log_likelihood + weights)``)."""
-    widths = np.gradient(nodes) if nodes.size > 1 else np.ones(1)
+    below the bound (so the evidence is ``logsumexp(log_likelihood + weights)``).
+
+    Parameters
+    ----------
+    nodes : array, shape (..., A)
+        Increasing along the last axis (the leave-one-out scorer's batch: (T, 1, A), the nodes
+        every primitive of a trial shares).
+    log_prior : array, shape (..., A)
+        The log prior density at each node (per unit of log alpha).
+    log_mass : float or array, shape (...,)
+
+    Returns
+    -------
+    array, shape (..., A), the shape ``nodes`` and ``log_prior`` broadcast to.
+    """
+    widths = np.gradient(nodes, axis=-1) if nodes.shape[-1] > 1 else np.ones_like(nodes)
     log_w = log_prior + np.log(widths)
-    return log_w + log_mass - logsumexp(log_w)
+    return log_w + np.asarray(log_mass)[..., None] - logsumexp_rows(log_w)[..., None]
 
 
 def _integrate(
@@ -295,9 +356,29 @@ def recognise(
 ) -> Recognition:
     """Recognise the primitive and its time modulation from an early observation.
 
-    ``duration`` (seconds), when the whole movement's duration is known (the evaluation's
-    oracle row: how far a perfect estimate of the speed would take the method): every
-    primitive is scored at the speed of that duration alone, and ``alpha_method`` is not used.
+    Every primitive k is scored by its evidence, the likelihood of Eq. 6 integrated over its
+    speed prior (module docstring), ``p(y_o | k) = int N(y_o | Phi_o(alpha) mu_k(alpha),
+    S_k(alpha)) p(alpha | k) d alpha``; the class posterior (a uniform prior over the
+    primitives) carries the "none of these" hypothesis (:func:`with_label_noise`).
+
+    Parameters
+    ----------
+    model : ProMPModel
+    obs : Observation
+    alpha_method : {"ml", "model"}
+        The speed's prior: the primitive's training speeds, or half of it on the Eq. 7
+        regression from the early displacement.
+    duration : float, optional
+        When the whole movement's duration is known (s; the evaluation's oracle row: how far
+        a perfect estimate of the speed would take the method): every primitive is scored at
+        the speed of that duration alone, and ``alpha_method`` is not used.
+
+    Returns
+    -------
+    Recognition
+        ``index``/``primitive`` recognised, ``probabilities`` (n_primitives,), ``alpha`` (its
+        posterior mode), and per primitive the nodes, log-likelihoods and log prior of the
+        quadrature.
 
     Raises
     ------

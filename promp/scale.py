@@ -17,6 +17,8 @@ import numpy as np
 
 from promp.data import Layout
 
+__all__ = ["RELATIVE_FLOOR", "modality_scale"]
+
 # Smallest variance, as a fraction of the modality's squared scale: far below any sensor's
 # resolution (a relative precision of 1e-6 in standard deviation), far above round-off.
 RELATIVE_FLOOR = 1e-12

@@ -17,6 +17,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+__all__ = [
+    "HAND_IDLE_M_S", "HEAD_IDLE_RAD_S", "IDLE_QUANTILE", "IDLE_SHARE", "MARGIN_S", "MIN_MOVE_S",
+    "MIN_STILL_S", "SMOOTH_S", "idle_threshold", "moving_spans", "speed"
+]  # fmt: skip
+
 HAND_IDLE_M_S = 0.02  # below 2 cm/s the hand is still
 HEAD_IDLE_RAD_S = math.radians(10.0)  # below 10 deg/s the head is still
 IDLE_SHARE = 0.1  # other units: still below 10 % of the signal's high speed

@@ -17,6 +17,11 @@ import math
 
 import numpy as np
 
+__all__ = [
+    "alpha_from_duration", "check_alpha", "demo_phases", "duration_from_alpha", "n_observed_for",
+    "n_samples_from_alpha", "phases"
+]  # fmt: skip
+
 
 def check_alpha(alpha: float | np.ndarray) -> None:
     if not np.all(np.isfinite(alpha)) or np.any(np.asarray(alpha) <= 0):

@@ -26,9 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from promp.data import Demonstration, Layout
-from promp.model import ProMPModel, Settings, fit_with, sample_period_of
+from promp.data import Demonstration, Layout, sample_period_of
+from promp.fitting import fit_with
+from promp.model import ProMPModel, Settings
 from promp.timing import demo_phases
+
+__all__ = ["COVERAGES", "GRID", "MIN_OTHERS", "Typicality", "distance", "phase_grid", "typicality"]
 
 GRID = 50  # points per unit of phase
 COVERAGES = tuple(np.round(np.linspace(0.2, 1.0, 9), 3))  # the share of the movement a take covers

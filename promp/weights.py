@@ -24,6 +24,11 @@ from promp.data import Demonstration, Layout
 from promp.scale import modality_scale
 from promp.timing import demo_phases
 
+__all__ = [
+    "DemoStatistics", "RIDGE_GRID", "WeightFits", "demo_statistics", "fit_all_weights",
+    "fit_weights", "uniform_phase_values"
+]  # fmt: skip
+
 
 def fit_weights(
     basis: RBFBasis, times: np.ndarray, values: np.ndarray, ridge: float

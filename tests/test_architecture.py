@@ -1,7 +1,7 @@
 """The shape of the code: no import cycle between our modules nor between the packages of
 ``app`` and ``robots``, ``promp`` imports nothing of ``app`` or ``robots``, ``robots`` nothing of
-``app``, panels nothing of the studio, no file of ``app`` over 400 lines nor of ``robots`` over
-500, and no class of ``app`` with more than 25 members (attributes and methods).
+``app``, panels nothing of the studio, no file of ``app`` over 400 lines nor of ``robots`` or
+``promp`` over 500, and no class of ``app`` with more than 25 members (attributes and methods).
 
 The import graph is read from the source (every ``import`` statement, also inside functions and
 under ``TYPE_CHECKING``): an edge goes from a module to each module of ours it names.
@@ -169,6 +169,21 @@ def test_no_file_of_app_or_robots_is_too_long() -> None:
         if (n := len(path.read_text(encoding="utf-8").splitlines())) > limit
     }
     assert long == {}
+
+
+# promp/datasets.py (the dataset readers) is being reworked with the rig formats by another
+# engineer; it is split by concept with that work, and is the one file of promp allowed here.
+PROMP_MAX_LINES = 500
+PROMP_LONG_FILES = {"promp/datasets.py"}
+
+
+def test_no_file_of_promp_is_over_500_lines() -> None:
+    long = {
+        path.relative_to(REPO).as_posix(): n
+        for path in (REPO / "promp").rglob("*.py")
+        if (n := len(path.read_text(encoding="utf-8").splitlines())) > PROMP_MAX_LINES
+    }
+    assert set(long) <= PROMP_LONG_FILES, long
 
 
 def members(cls: ast.ClassDef) -> set[str]:

@@ -345,17 +345,17 @@ def test_a_subset_holds_out_only_its_demonstrations_with_every_other_one_fitted(
         spread_subset(dataset, 0)
 
 
-def test_selection_rule_scores_every_candidate_and_picks_the_lowest_log_loss(
+def test_fixed_settings_scores_every_candidate_and_picks_the_lowest_log_loss(
     tmp_path: Path, monkeypatch
 ) -> None:
-    from promp.evaluate import select
+    from promp.evaluate import fixed_settings
 
-    monkeypatch.setattr(select, "CANDIDATES", ((6, 1.0, 1.0), (8, 1.0, 1.5)))
-    monkeypatch.setattr(select, "PERCENTS", (40, 80))
+    monkeypatch.setattr(fixed_settings, "CANDIDATES", ((6, 1.0, 1.0), (8, 1.0, 1.5)))
+    monkeypatch.setattr(fixed_settings, "PERCENTS", (40, 80))
     write_csv_dataset(tmp_path / "data", make_dataset(seed=3, n_demos=4))
-    out = tmp_path / "select.json"
+    out = tmp_path / "fixed_settings.json"
     args = [str(tmp_path / "data"), "--format", "csv", "--json", str(out), "--jobs", "1"]
-    assert select.main(args) == 0
+    assert fixed_settings.main(args) == 0
     report = json.loads(out.read_text())
     assert [(c["n_basis"], c["noise_scale"]) for c in report["candidates"]] == [(6, 1.0), (8, 1.5)]
     best = min(report["candidates"], key=lambda c: c["log_loss"])
@@ -383,8 +383,9 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch
     ``d``, and every model its choice of settings fitted and every demonstration it scored
     were among them."""
     from promp import selection
+    from promp.selection import candidates, cv
 
-    fit_parts, batches = selection.fit_parts, selection._batches
+    fit_parts, batches = candidates.fit_parts, candidates.make_batches
 
     def spy_fit(train, *args, **kwargs):
         Spy.inner |= {f"{k}/{d.name}" for k, demos in train.items() for d in demos}
@@ -396,7 +397,7 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch
                       for t in trials}  # fmt: skip
         return batches(train, layout, trials, *args)
 
-    fit_with, losses = selection.fit_with, selection._losses
+    fit_with, losses = cv.fit_with, cv.trial_losses
 
     def spy_fit_with(train, *args, **kwargs):
         Spy.inner |= {f"{k}/{d.name}" for k, demos in train.items() for d in demos}
@@ -406,10 +407,10 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch
         Spy.inner |= {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos if d is demo}
         return losses(model, demo, *args)
 
-    monkeypatch.setattr(selection, "fit_parts", spy_fit)
-    monkeypatch.setattr(selection, "_batches", spy_batches)
-    monkeypatch.setattr(selection, "fit_with", spy_fit_with)
-    monkeypatch.setattr(selection, "_losses", spy_losses)
+    monkeypatch.setattr(candidates, "fit_parts", spy_fit)
+    monkeypatch.setattr(candidates, "make_batches", spy_batches)
+    monkeypatch.setattr(cv, "fit_with", spy_fit_with)
+    monkeypatch.setattr(cv, "trial_losses", spy_losses)
     dataset = make_dataset(seed=4, n_demos=4)
     everyone = {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos}
     Spy.seen = []

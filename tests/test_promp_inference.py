@@ -234,6 +234,27 @@ def test_recognition_integrates_over_a_continuous_alpha_prior(model, test_demo) 
     assert_allclose(by_model.probabilities.sum(), 1.0)
 
 
+def test_the_speed_prior_of_a_primitive_is_computed_once_and_is_its_training_speeds(
+    model, test_demo
+) -> None:
+    """Every inference asks each primitive for its speed prior: the ML prior is the one of
+    its training alphas, kept on the primitive (the same object at the next step); the
+    "model" prior mixes it with the Eq. 7 regression and is not kept (it depends on the
+    observation)."""
+    from promp.recognition import alpha_prior
+
+    obs = Observation.from_demo(model, test_demo, 30, ["hand"])
+    prim = model.primitives[0]
+    first = alpha_prior(model, prim, obs, "ml")
+    assert alpha_prior(model, prim, obs, "ml") is first
+    expected = AlphaPrior.from_alphas(prim.alphas, model.settings.s_bar)
+    assert first == expected
+    mixed = alpha_prior(model, prim, obs, "model")
+    assert mixed.locs[0] == first.locs[0] and len(mixed.locs) == 2
+    other = dataclasses.replace(prim, alphas=prim.alphas * 2.0)  # another primitive: its own
+    assert_allclose(alpha_prior(model, other, obs, "ml").locs[0], first.locs[0] + np.log(2.0))
+
+
 def test_an_observation_longer_than_every_demonstration_is_still_recognised(model) -> None:
     """A slow movement: 1.6 times the slowest training demonstration's duration, observed
     whole. Every training alpha would end before it; the prior's tail does not."""

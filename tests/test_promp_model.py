@@ -12,8 +12,9 @@ from promp.basis import RBFBasis, SeedBasis
 from promp.covariance import block_target, pooled_covariances
 from promp.data import Demonstration
 from promp.learn import fit
-from promp.model import Settings, fit_weights
+from promp.model import Settings
 from promp.timing import alpha_from_duration, duration_from_alpha
+from promp.weights import fit_weights
 from tests.synthetic import COLUMNS, LAYOUT, make_dataset
 
 FLOOR = np.full(3, 1e-12)  # the smallest trajectory variance of the 3 dimensions below

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 
 from promp import selection
 from promp.data import Demonstration, Layout, Modality
 from promp.io import model_from_json, model_to_json
 from promp.learn import fit
 from promp.model import FALLBACK, Settings
+from promp.selection import batches, candidates, search
 from tests.synthetic import LAYOUT, make_dataset
 
 HAND = Layout((Modality("hand", ("x", "y", "z")),))
@@ -91,25 +93,26 @@ def test_the_walk_scores_both_neighbours_then_goes_downhill_to_a_local_minimum()
         seen.append(i)
         return (i - 4) ** 2
 
-    selection._neighbours_walk(list(range(8)), 1, bowl)
+    search.neighbours_walk(list(range(8)), 1, bowl)
     assert seen == [1, 0, 2, 3, 4, 5]  # right is downhill: on to 4, stopped by 5
     seen.clear()
-    selection._neighbours_walk(list(range(8)), 4, bowl)
+    search.neighbours_walk(list(range(8)), 4, bowl)
     assert seen == [4, 3, 5]  # already at the bottom
     seen.clear()
-    selection._neighbours_walk(list(range(8)), 6, bowl, both_sides=False)
+    search.neighbours_walk(list(range(8)), 6, bowl, both_sides=False)
     assert seen == [6, 5, 4, 3]  # one side: downhill at once, the other never tried
     seen.clear()
     two_dips = {0: 0.3, 1: 0.5, 2: 0.2, 3: 0.4}.__getitem__  # 5, 7, 10, 14 functions
-    selection._neighbours_walk([5, 7, 10, 14], 1, lambda i: seen.append(i) or two_dips(i))
+    search.neighbours_walk([5, 7, 10, 14], 1, lambda i: seen.append(i) or two_dips(i))
     assert seen == [1, 0, 2, 3]  # the walk does not stop at 5 when 10 beats both
 
 
 def test_the_leave_one_out_downdates_equal_a_refit_without_the_demonstration() -> None:
-    """The closed form of :class:`promp.model.FitParts`: the held-out prediction of the
+    """The closed form of :class:`promp.fitting.FitParts`: the held-out prediction of the
     weights (the regression on log alpha refitted without it) and the residual scatter of
-    the others, against :func:`promp.model._moments` run on the others."""
-    from promp.model import _moments, fit_parts, sample_period_of
+    the others, against :func:`promp.fitting._moments` run on the others."""
+    from promp.data import sample_period_of
+    from promp.fitting import _moments, fit_parts
     from promp.timing import alpha_from_duration
 
     dataset = make_dataset(seed=5, n_demos=6)
@@ -193,24 +196,25 @@ def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(
     import math
 
     from promp._likelihood import log_likelihoods_scaled
-    from promp.model import fit_parts, sample_period_of
+    from promp.data import sample_period_of
+    from promp.fitting import fit_parts
     from promp.observation import Observation
     from promp.recognition import AlphaPrior, label_noise, quadrature_weights
     from promp.timing import n_observed_for
 
-    monkeypatch.setattr(selection, "LOO_ROWS", 10_000)  # every sample: the engine's input
+    monkeypatch.setattr(batches, "LOO_ROWS", 10_000)  # every sample: the engine's input
     dataset = make_dataset(seed=7, n_demos=5)
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
     settings = Settings(n_basis=6, width=1.0, noise_scale=1.0, shrinkage=shrinkage)
     fitted = fit_parts(dataset, LAYOUT, settings, dt, alpha_models=False)
     model, parts = fitted
     trials = selection.plan_trials(dataset, LAYOUT, max_trials=12)
-    batches = selection._batches(dataset, LAYOUT, trials, dt, settings.s_bar)
+    laid_out = batches.make_batches(dataset, LAYOUT, trials, dt, settings.s_bar)
     scales = (1.0, 2.0)
-    losses = selection.loo_score(fitted, batches, len(trials), scales, None)
+    losses = selection.loo_score(fitted, laid_out, len(trials), scales, None)
     names = list(dataset)
     checked = 0
-    for batch in batches:
+    for batch in laid_out:
         for row, i in enumerate(batch.index):
             trial = trials[i]
             demo = dataset[names[trial.primitive]][trial.demo]
@@ -295,7 +299,8 @@ def _covariances_without(model, parts, k: int, j: int) -> list[np.ndarray]:
 def test_the_parts_of_a_fit_give_its_covariances_and_downdate_like_a_refit() -> None:
     """``a Sigma_0 + b E^T E`` is each primitive's Sigma_w, and the pooled scatter without a
     demonstration is that of the residual rows refitted without it."""
-    from promp.model import _moments, fit_parts, sample_period_of
+    from promp.data import sample_period_of
+    from promp.fitting import _moments, fit_parts
 
     dataset = make_dataset(seed=8, n_demos=5)
     settings = Settings(n_basis=5, width=1.0, noise_scale=1.0)
@@ -334,13 +339,13 @@ def test_a_refit_keeps_the_previous_choice_while_it_beats_the_runner_up(monkeypa
     assert before["rule"] == selection.LOO_RULE and before["runner_up"] != before["chosen"]
     assert round(before["runner_up_log_loss"], 9) >= round(before["log_loss"], 9)
     calls: list = []
-    real = selection.fit_parts
+    real = candidates.fit_parts
 
     def counting(*args, **kwargs):
         calls.append(args[2])
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(selection, "fit_parts", counting)
+    monkeypatch.setattr(candidates, "fit_parts", counting)
     kept = fit(dataset, STUDIO_LAYOUT, previous=before).report["settings"]
     assert kept["rule"] == selection.KEPT_RULE and kept["kept"] == 1
     assert kept["chosen"] == before["chosen"] and kept["runner_up"] == before["runner_up"]
@@ -357,16 +362,98 @@ def test_a_refit_keeps_the_previous_choice_while_it_beats_the_runner_up(monkeypa
 
 
 def test_the_priors_without_each_demonstration_match_the_speed_prior() -> None:
-    """:func:`promp.selection._loo_priors` (every demonstration left out at once) against
-    :meth:`AlphaPrior.from_alphas` of the others, a far-out speed among them."""
+    """:func:`promp.selection.batches.priors_without_each` (every demonstration left out at
+    once) against :meth:`AlphaPrior.from_alphas` of the others, a far-out speed among them."""
     from promp.recognition import AlphaPrior
 
     rng = np.random.default_rng(0)
     for n in (3, 4, 10, 40):
         alphas = np.exp(rng.normal(0.0, 0.3, n))
         alphas[0] *= 30.0  # winsorized away, except where it is left out
-        table = selection._loo_priors(alphas, 100.0)
+        table = batches.priors_without_each(alphas, 100.0)
         for j in range(n):
             prior = AlphaPrior.from_alphas(np.delete(alphas, j), 100.0)
             expected = [prior.locs[0], prior.scales[0], prior.dofs[0]]
             assert np.allclose(table[:, j], expected, rtol=1e-12, atol=1e-14)
+
+
+def test_the_speed_prior_is_the_predictive_of_the_winsorized_sample() -> None:
+    """:func:`promp.recognition.speed_prior` (the one both paths call) against its definition
+    written out: the far-out speed brought to the nearest ordinary one, the sample's mean,
+    its standard deviation inflated by sqrt(1 + 1/n), n - 1 degrees of freedom; the floor of
+    one sample's worth of duration when the sample hardly spreads."""
+    from promp.recognition import speed_prior
+
+    logs = np.log([0.9, 1.0, 1.1, 1.05, 30.0])
+    loc, scale, dof = speed_prior(logs, 100.0)
+    kept = np.minimum(logs, np.log(1.1))  # 30 is far out: brought to the largest ordinary one
+    assert_allclose(loc, kept.mean(), rtol=1e-15)
+    assert_allclose(scale, kept.std(ddof=1) * np.sqrt(1.0 + 1.0 / 5), rtol=1e-15)
+    assert dof == 4.0
+    loc, scale, dof = speed_prior(np.log([2.0, 2.0, 2.0]), 100.0)
+    assert_allclose([loc, scale, dof], [np.log(2.0), 2.0 / 100.0, 2.0], rtol=1e-15)
+    rows = np.stack([logs, logs[::-1], logs + 1.0])  # three priors at once, each its own row
+    for row, (l_i, s_i, d_i) in zip(rows, zip(*speed_prior(rows, 100.0), strict=True),
+                                     strict=True):  # fmt: skip
+        assert_allclose([l_i, s_i, d_i], speed_prior(row, 100.0), rtol=1e-15)
+
+
+def test_the_batched_logsumexp_is_the_single_one_row_by_row() -> None:
+    """One logsumexp: :func:`promp._likelihood.logsumexp` is :func:`logsumexp_rows` of one
+    row; rows with -inf entries, all -inf, +inf, and an empty last axis; against scipy."""
+    from scipy.special import logsumexp as reference
+
+    from promp._likelihood import logsumexp, logsumexp_rows
+
+    rng = np.random.default_rng(1)
+    values = rng.normal(0.0, 300.0, (6, 4, 9))
+    values[0, 0, :3] = -np.inf
+    values[1, 2] = -np.inf
+    values[2, 1, 4] = np.inf
+    rows = logsumexp_rows(values)
+    assert rows.shape == (6, 4)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        assert_allclose(rows, reference(values, axis=-1), rtol=1e-14)
+    for index in np.ndindex(rows.shape):
+        assert_allclose(rows[index], logsumexp(values[index]), rtol=1e-15)
+    assert rows[1, 2] == -np.inf and rows[2, 1] == np.inf
+    assert_allclose(logsumexp_rows(np.empty((3, 0))), np.full(3, -np.inf))
+    assert logsumexp(np.empty(0)) == -np.inf
+
+
+def test_the_batched_student_t_and_quadrature_are_recognitions() -> None:
+    """One Student-t, one quadrature: the leave-one-out scorer's grid (every trial and
+    primitive at once, :func:`promp.selection.batches._quadrature_grid`) against
+    recognition's prior of each pair alone (:meth:`AlphaPrior.logpdf`, ``logcdf``, ``span``,
+    :func:`quadrature_weights`), a trial whose bound lies below every prior among them; and
+    :func:`t_logpdf` against scipy's Student-t."""
+    from scipy import stats
+
+    from promp.recognition import AlphaPrior, quadrature_weights, t_logpdf
+    from promp.selection.batches import LOO_NODES, _quadrature_grid
+
+    rng = np.random.default_rng(2)
+    n_trials, n_prims = 5, 3
+    locs = rng.normal(0.0, 0.5, (n_trials, n_prims))
+    scales = rng.uniform(0.05, 0.4, (n_trials, n_prims))
+    dofs = rng.integers(1, 12, (n_trials, n_prims)).astype(float)
+    bounds = locs.max(axis=1) + rng.uniform(-0.2, 1.0, n_trials)
+    bounds[3] = locs[3].min() - 3.0  # every plausible speed of trial 3 ends too early
+    nodes, log_w = _quadrature_grid(locs, scales, dofs, bounds)
+    assert nodes.shape == (n_trials, LOO_NODES) and log_w.shape == (n_trials, n_prims, LOO_NODES)
+    for t in range(n_trials):
+        assert nodes[t, -1] <= bounds[t] + 1e-12
+        spans = []
+        for k in range(n_prims):
+            prior = AlphaPrior((locs[t, k],), (scales[t, k],), (dofs[t, k],), (1.0,))
+            single = quadrature_weights(nodes[t], prior.logpdf(nodes[t]), prior.logcdf(bounds[t]))
+            assert_allclose(log_w[t, k], single, rtol=1e-13, atol=1e-13)
+            spans.append(prior.span(bounds[t]))
+        if t != 3:  # the grid spans every primitive's range, as recognition's quadrature does
+            assert_allclose(nodes[t, [0, -1]], [min(s[0] for s in spans),
+                                                max(s[1] for s in spans)], rtol=1e-14)  # fmt: skip
+    z = rng.normal(0.0, 3.0, (4, 7))
+    dof = rng.uniform(0.5, 30.0, (4, 1))
+    assert_allclose(t_logpdf(z, dof), stats.t.logpdf(z, dof), rtol=1e-12)
+    for i in range(4):
+        assert_allclose(t_logpdf(z[i], float(dof[i, 0])), t_logpdf(z, dof)[i], rtol=1e-15)

@@ -16,6 +16,8 @@ from pathlib import Path
 
 from promp.evaluate.runs import compare_runs, comparison_text, read_run
 
+__all__ = ["main"]
+
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

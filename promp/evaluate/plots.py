@@ -15,6 +15,11 @@ from promp.datasets import Dataset
 from promp.evaluate.report import confusion_matrices, trial_rows
 from promp.evaluate.sweep import SweepResult, Trial
 
+__all__ = [
+    "MAX_COLUMNS", "column_units", "confusion_figure", "curves", "display_unit", "example", "grid",
+    "group_series", "reliability_diagram", "series_label", "write_figures"
+]  # fmt: skip
+
 
 def _pyplot():
     import matplotlib

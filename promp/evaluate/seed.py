@@ -30,6 +30,8 @@ from promp.basis import SeedBasis
 from promp.data import Demonstration, Layout
 from promp.evaluate.methods import TRUE_DURATION, Inferred
 
+__all__ = ["NOISE", "N_BASIS", "RIDGE", "S_BAR", "ToolboxBaseline"]
+
 N_BASIS = 5
 RIDGE = 1e-12
 NOISE = 1e-5

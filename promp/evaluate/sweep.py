@@ -38,11 +38,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from promp import metrics
-from promp.data import Demonstration, Layout
-from promp.evaluate.methods import Inferred
-from promp.metrics import position_modality  # noqa: F401  (re-exported)
-from promp.model import sample_period_of
+from promp.data import Demonstration, Layout, sample_period_of
+from promp.evaluate.methods import ALPHA_ROWS, Inferred, ProMPEngine
+from promp.metrics import position_modality  # (also re-exported)
+from promp.model import Settings
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
+
+__all__ = [
+    "CONFIDENT_MISTAKE", "Progress", "SweepResult", "Trial", "leave_one_out", "run_sweep",
+    "spread_subset",
+]  # fmt: skip
 
 Progress = Callable[[int, int], None]
 Factory = Callable[[], object]
@@ -84,6 +89,23 @@ class Trial:
 
 @dataclass
 class SweepResult:
+    """What a leave-one-out sweep gives (:func:`run_sweep`, :func:`leave_one_out`).
+
+    Attributes
+    ----------
+    rows : list of dict
+        One per (percent, alpha method, observed set): ``recognition_errors``, ``trials``,
+        ``log_loss`` (mean ``-ln p(true primitive)``), ``confident_mistakes``, position,
+        goal and duration errors, ``duration_coverage``, ``nrmse_prior``,
+        ``nrmse_posterior``, ``failed``.
+    trials : list of Trial
+        Every trial, when kept.
+    failures : list of dict
+        The trials the method could not run, and why.
+    partial : bool
+        Stopped before every demonstration was held out (``stop``).
+    """
+
     rows: list[dict] = field(default_factory=list)
     trials: list[Trial] = field(default_factory=list)
     failures: list[dict] = field(default_factory=list)  # trials the method failed on
@@ -326,6 +348,87 @@ def run_sweep(
         key=lambda r: (order[r["method"]], r["observed"], r["alpha_method"], r["percent"])
     )
     return result
+
+
+def leave_one_out(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+    percents: Sequence[float],
+    settings: Settings | None = None,
+    alpha_methods: Sequence[str] = ("ml", "model"),
+    observe: Sequence[Sequence[str]] | None = None,
+    jobs: int = 1,
+    progress: Progress | None = None,
+) -> SweepResult:
+    """The leave-one-out evaluation of the method on ``dataset``: what
+    ``python -m promp.evaluate`` runs, the protocol of the paper's curves (module docstring).
+
+    Every demonstration is held out in turn; :func:`promp.learn.fit` learns from all the
+    others (with ``settings``: by default every fit chooses its basis, width and noise from
+    its own training demonstrations); the first ``p`` % of the held-out one's samples
+    (``n_o = ceil(p / 100 n)``) in the ``observe`` modalities are recognised, conditioned on
+    and the rest predicted (:func:`promp.pipeline.infer`), and measured against it.
+
+    Parameters
+    ----------
+    dataset : mapping of str to sequence of Demonstration
+        ``{primitive name: demonstrations}``, at least 3 per primitive.
+    layout : Layout
+        The modalities the model learns (:func:`promp.read_dataset` gives one).
+    percents : sequence of float
+        The observed shares p, each in (0, 100].
+    settings : Settings, optional
+        The learning settings of every fold (default ``Settings()``: chosen by each fit).
+    alpha_methods : sequence of str
+        How the speed is found, rows of the result: ``"ml"`` (integrated over the
+        primitive's speed prior), ``"model"`` (Eq. 7 from the early motion), ``"true"`` (the
+        held-out movement's true duration told: the oracle row).
+    observe : sequence of sequences of str, optional
+        The observed modality sets, one row each (default: the position modality alone,
+        ``hand`` when the layout has it).
+    jobs : int
+        Processes running the folds (-1: every core); the results do not depend on it.
+    progress : callable, optional
+        Called with (folds done, folds) after every fold.
+
+    Returns
+    -------
+    SweepResult
+        ``rows``: one dict per (percent, alpha method, observed set): recognition errors,
+        ``log_loss`` (mean ``-ln p(true primitive)``), position, goal and duration errors,
+        NRMSE...; ``trials``: every trial; ``failures``: the trials the method could not run.
+
+    Raises
+    ------
+    ValueError
+        A percent outside (0, 100], an unknown alpha method or modality, ``jobs`` 0 or below
+        -1, a primitive with fewer than 3 demonstrations.
+    """
+    percents = [float(p) for p in percents]
+    if not percents or any(not 0.0 < p <= 100.0 for p in percents):
+        raise ValueError(f"percents must be in (0, 100], at least one; got {percents}")
+    unknown = sorted(set(alpha_methods) - set(ALPHA_ROWS))
+    if unknown or not alpha_methods:
+        raise ValueError(f"alpha_methods must be some of {list(ALPHA_ROWS)}, got "
+                         f"{list(alpha_methods)}")  # fmt: skip
+    observe = [list(names) for names in observe] if observe else [[position_modality(layout)]]
+    for names in observe:
+        layout.dims(names)  # an unknown modality is a ValueError before any work
+    if jobs == 0 or jobs < -1:
+        raise ValueError(f"jobs must be a positive number or -1, got {jobs}")
+    settings = settings if settings is not None else Settings()
+    return run_sweep(
+        functools.partial(ProMPEngine, layout, settings),
+        dataset,
+        layout,
+        percents=percents,
+        alpha_methods=list(alpha_methods),
+        observe_sets=observe,
+        method_name=ProMPEngine.name,
+        progress=progress,
+        keep_trials=True,
+        jobs=jobs,
+    )
 
 
 def _measure(

@@ -1,14 +1,15 @@
-"""Choosing the settings by a rule: leave-one-out recognition log-loss.
+"""Fixed settings compared by the whole leave-one-out sweep: the outer check of the rule.
 
-``python -m promp.evaluate.select DATASET --format ...`` scores each candidate setting (number
-of basis functions per dimension M, width, observation noise scale) by the mean negative log
-posterior probability of the true primitive, over every held-out demonstration and every
-observed percentage (10 ... 90 %): a proper scoring rule of what the studio does, averaged over
-the whole movement rather than one percentage, so it is not tuned to a single operating point.
-The lowest wins. It works on any dataset the evaluation reads. It is an outer check of fixed
-candidates (each scored by the whole leave-one-out sweep); by default every fit chooses its own
-settings from its training demonstrations instead (:mod:`promp.selection`, the same score inside
-the training set), and the covariance prior needs no search (marginal likelihood, per fit).
+``python -m promp.evaluate.fixed_settings DATASET --format ...`` scores each candidate
+setting of :data:`CANDIDATES` (number of basis functions per dimension M, width,
+observation noise scale) by the mean negative log posterior probability of the true
+primitive, over every held-out demonstration and every observed percentage (10 ... 90 %): a
+proper scoring rule of what the studio does, averaged over the whole movement rather than one
+percentage, so it is not tuned to a single operating point. The lowest wins. It works on any
+dataset the evaluation reads. It is an outer check of fixed candidates (each scored by the
+whole leave-one-out sweep); by default every fit chooses its own settings from its training
+demonstrations instead (:mod:`promp.selection`, the same score inside the training set), and
+the covariance prior needs no search (marginal likelihood, per fit).
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.sweep import run_sweep
 from promp.model import Settings
 from promp.progress import stderr_progress
+
+__all__ = ["CANDIDATES", "PERCENTS", "main", "score"]
 
 # (basis functions per dimension, width, noise scale); the covariance prior is chosen by
 # marginal likelihood inside every fold
@@ -47,7 +50,9 @@ def score(rows: list[dict]) -> dict:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m promp.evaluate.select", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m promp.evaluate.fixed_settings", description=__doc__
+    )
     add_dataset_arguments(parser)
     parser.add_argument("--observe", action="append", default=None)
     parser.add_argument("--json", default=None)

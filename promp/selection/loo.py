@@ -1,0 +1,273 @@
+"""The closed-form leave-one-out scorer: the recognition log-loss of every trial of a candidate
+at any noise scale, each trial's demonstration left out of the model fitted on all of them
+(rank-one downdates of :class:`promp.fitting.FitParts`), every trial of a modality set in one
+batch (:mod:`promp.selection.batches`). ``tests/test_promp_selection.py`` checks the downdates
+against refits and the batched score against the engine's own likelihood."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from promp._likelihood import logsumexp_rows
+from promp._weight_space import equilibrated_precision
+from promp.fitting import FitParts
+from promp.model import ProMPModel
+from promp.recognition import label_noise, with_label_noise
+from promp.selection.batches import Batch
+from promp.selection.region import within_region
+from promp.timing import duration_from_alpha
+
+__all__ = ["LooScorer", "loo_score"]
+
+
+def _whiten_padded(elapsed: np.ndarray, mask: np.ndarray, tau: float, x: np.ndarray) -> np.ndarray:
+    """:func:`promp.noise.whiten` along axis -2 of padded observations (..., T, [A,] n, k):
+    ``elapsed``/``mask`` (T, n) broadcast over the axes between; padded rows come out zero."""
+    extra = x.ndim - 3  # axes between T and n
+    shape = (elapsed.shape[0],) + (1,) * extra + (elapsed.shape[1], 1)
+    keep = mask.reshape(shape)
+    if tau <= 0:
+        return np.where(keep, x, 0.0)
+    step = np.diff(elapsed, axis=1)
+    rho = np.exp(-np.where(step > 0, step, np.inf) / tau).reshape(shape[:-2] + (-1, 1))
+    out = np.array(x, dtype=float, copy=True)
+    out[..., 1:, :] = (x[..., 1:, :] - rho * x[..., :-1, :]) / np.sqrt(1.0 - rho**2)
+    return np.where(keep, out, 0.0)
+
+
+def loo_score(
+    fitted: tuple[ProMPModel, Sequence[FitParts]],
+    batches: Sequence[Batch],
+    n_trials: int,
+    noise_scales: Sequence[float],
+    region: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
+    """:func:`score` by the closed-form leave-one-out rule: shape (n_scales, n_trials),
+    ``-ln p(true primitive)`` of every trial; infinite everywhere when the model's mean
+    trajectories leave ``region``.
+
+    ``fitted``: the model fitted on every demonstration with the candidate settings (noise
+    scale 1, or the one given), and its parts (:func:`promp.model.fit_parts`). A trial's
+    demonstration is then left out of its own primitive exactly for the mean, the regression
+    on log alpha and the residual scatter (rank-one downdates, :class:`promp.model.FitParts`),
+    while the noise, the ridge and the pooled prior's target and strength stay those of the
+    whole set (an approximation: one demonstration moves them little). Each primitive's
+    likelihood (Eq. 6 in weight space, with the Ornstein-Uhlenbeck noise) is integrated over
+    its speed prior on the batch's nodes, as :func:`promp.recognition.recognise` does; the
+    terms every primitive shares (the noise determinant) cancel in the posterior.
+    """
+    return LooScorer(fitted, batches, n_trials, region)(noise_scales)
+
+
+class LooScorer:
+    """:func:`loo_score` of one candidate at any noise scales: what does not depend on the
+    scale (the observations' whitened statistics against every primitive's prior, the
+    downdated covariances' factorisations) is computed once per batch, on first use."""
+
+    def __init__(
+        self,
+        fitted: tuple[ProMPModel, Sequence[FitParts]],
+        batches: Sequence[Batch],
+        n_trials: int,
+        region: tuple[np.ndarray, np.ndarray] | None = None,
+    ):
+        self.model, self.parts = fitted
+        self.batches, self.n_trials = batches, n_trials
+        self.inside = region is None or within_region(self.model, *region)
+        self._setups: dict[int, tuple] = {}
+        # per noise scale: each batch's true primitive's log-likelihood at every node, (T, A)
+        self._speed_tables: dict[float, dict[int, np.ndarray]] = {}
+
+    def __call__(self, noise_scales: Sequence[float]) -> np.ndarray:
+        """``-ln p(true primitive)`` of every trial at every scale, (n_scales, n_trials)."""
+        model, settings = self.model, self.model.settings
+        layout = model.layout
+        n_scales = len(noise_scales)
+        out = np.empty((n_scales, self.n_trials))
+        if not self.inside:
+            out[:] = np.inf
+            return out
+        n_prims, m = len(model.primitives), model.basis.n_basis
+        scaled = np.array([name not in settings.noise_std for name in layout.names])
+        per_dim = np.concatenate(
+            [np.full(len(mod.columns), s) for mod, s in zip(layout.modalities, scaled, strict=True)]
+        )
+        factors = np.where(per_dim[None, :], np.square(noise_scales)[:, None], 1.0)
+        noise_var = model.primitives[0].noise_var  # pooled: the same for every primitive
+        eps = label_noise(model)
+        for i, batch in enumerate(self.batches):
+            if i not in self._setups:
+                self._setups[i] = self._setup(batch)
+            precision, logdet_sigma, gram, proj, rr = self._setups[i]
+            dims = batch.dims
+            n_t, n_a = batch.log_alphas.shape
+            n_do = dims.shape[0]
+            p = n_do * m
+            inv_s2 = 1.0 / (noise_var[dims][None, :] * factors[:, dims])  # (L, Do)
+            bordered = np.empty((n_t, n_prims, n_a, p + 1, p + 1))
+            for level in range(n_scales):
+                bordered[..., :p, :p] = precision[:, :, None]
+                for d in range(n_do):
+                    block = slice(d * m, (d + 1) * m)
+                    bordered[..., block, block] += inv_s2[level, d] * gram[:, None, :, d]
+                b = (inv_s2[level, :, None] * proj).reshape(n_t, n_prims, n_a, p)
+                bordered[..., :p, p] = b
+                bordered[..., p, :p] = b
+                bordered[..., p, p] = rr @ inv_s2[level] + 1.0
+                diag = np.diagonal(np.linalg.cholesky(bordered), axis1=-2, axis2=-1)
+                log_lik = -0.5 * (
+                    diag[..., p] ** 2
+                    - 1.0
+                    + 2.0 * np.log(diag[..., :p]).sum(-1)
+                    + logdet_sigma[..., None]
+                )  # (T, K, A), without the terms every primitive shares
+                self._speed_tables.setdefault(float(noise_scales[level]), {})[i] = log_lik[
+                    np.arange(n_t), batch.truth
+                ]
+                evidence = logsumexp_rows((log_lik + batch.log_weights).reshape(-1, n_a))
+                evidence = evidence.reshape(n_t, n_prims)
+                total = logsumexp_rows(evidence)
+                with np.errstate(invalid="ignore", over="ignore"):
+                    p_all = with_label_noise(np.exp(evidence - total[:, None]), eps)
+                out[level, batch.index] = np.where(
+                    np.isfinite(total),
+                    -np.log(p_all[np.arange(n_t), batch.truth]),
+                    math.log(n_prims),
+                )
+        return out
+
+    def speed_trials(self, noise_scale: float) -> list[tuple[np.ndarray, ...]]:
+        """What the speed's posterior of every trial's own primitive is made of at
+        ``noise_scale`` (scored first if it was not): per batch, the nodes (T, A) in log
+        alpha, the log-likelihood (T, A) and the log quadrature weights (T, A) of the true
+        primitive, and the true log alphas (T,)."""
+        if not self.inside:
+            return []
+        if float(noise_scale) not in self._speed_tables:
+            self((noise_scale,))
+        tables = self._speed_tables[float(noise_scale)]
+        return [
+            (b.log_alphas, tables[i], b.log_weights[np.arange(b.truth.shape[0]), b.truth],
+             b.true_log_alphas)
+            for i, b in enumerate(self.batches)
+        ]  # fmt: skip
+
+    def _setup(self, batch: Batch) -> tuple:
+        """(precision (T, K, p, p), log det Sigma (T, K), gram (T, A, Do, M, M), proj
+        (T, K, A, Do, M), rr (T, K, A, Do)) of one batch: every primitive's prior of the
+        observed weights, without the trial's demonstration (its own primitive's mean,
+        regression and scatter, and the pooled prior every primitive borrows from), and the
+        whitened statistics of the observation's residual at every node."""
+        model, parts = self.model, self.parts
+        settings, dt = model.settings, model.sample_period
+        n_prims, m = len(model.primitives), model.basis.n_basis
+        noise_tau = model.primitives[0].noise_tau
+        dims = batch.dims
+        n_t, n_a = batch.log_alphas.shape
+        n_do = dims.shape[0]
+        p = n_do * m
+        cols = (dims[:, None] * m + np.arange(m)).reshape(-1)
+        durations = duration_from_alpha(np.exp(batch.log_alphas), dt, settings.s_bar)
+        phases = batch.elapsed[:, None, :] / durations[:, :, None]  # (T, A, n)
+        real = np.broadcast_to(batch.mask[:, None, :], phases.shape)
+        psi = np.zeros(phases.shape + (m,))  # (T, A, n, M), padded rows zero
+        psi[real] = model.basis(phases[real])
+        gram = np.empty((n_t, n_a, n_do, m, m))
+        cross = np.empty((n_t, n_a, n_do, m))  # Psi^T K^-1 y
+        yy = np.empty((n_t, n_do))
+        for tau in np.unique(noise_tau[dims]):
+            group = np.nonzero(noise_tau[dims] == tau)[0]
+            psi_w = _whiten_padded(batch.elapsed, batch.mask, float(tau), psi)
+            y_w = _whiten_padded(batch.elapsed, batch.mask, float(tau), batch.values[..., group])
+            gram[:, :, group] = (psi_w.swapaxes(-1, -2) @ psi_w)[:, :, None]
+            cross[:, :, group] = (psi_w.swapaxes(-1, -2) @ y_w[:, None]).swapaxes(-1, -2)
+            yy[:, group] = (y_w**2).sum(axis=1)
+        truth = batch.truth
+        held = _held_out(parts, model, truth, np.array(batch.demos), cols)
+        means = np.empty((n_t, n_prims, n_a, p))
+        sigma = np.empty((n_t, n_prims, p, p))
+        prior = parts[0].prior
+        if prior is not None:
+            keep = prior.keep[cols]
+            pooled = (prior.scatter[np.ix_(cols, cols)][None] - held.drop) / (prior.dof - 1.0)
+            sigma0 = keep[:, None] * pooled * keep[None, :]
+            sigma0[:, np.arange(p), np.arange(p)] += prior.target_part[cols]
+        for k, prim in enumerate(model.primitives):
+            part = parts[k]
+            means[:, k] = prim.mean_at(np.exp(batch.log_alphas))[..., cols]
+            n = part.residuals.shape[0]
+            scatter = part.residuals[:, cols].T @ part.residuals[:, cols]
+            mine = truth == k
+            own = np.where(mine[:, None, None], scatter[None] - held.drop, scatter[None])
+            a_full, b_full = part.weights_of(n, part.dof)
+            loo = {d: part.weights_of(n - 1, int(d)) for d in np.unique(held.dof[mine])}
+            a = np.array([loo[d][0] if t else a_full for d, t in zip(held.dof, mine, strict=True)])
+            b = np.array([loo[d][1] if t else b_full for d, t in zip(held.dof, mine, strict=True)])
+            if prior is not None:
+                sigma[:, k] = a[:, None, None] * sigma0 + b[:, None, None] * own
+            else:  # a fixed shrinkage: the target part stays
+                target = prim.cov[np.ix_(cols, cols)] - b_full * scatter
+                sigma[:, k] = target[None] + b[:, None, None] * own
+            if mine.any():  # the regression without the demonstration
+                shift = batch.log_alphas[mine] - prim.log_alpha_mean  # (T_k, A)
+                means[mine, k] = (
+                    held.mean[mine][:, None] + shift[..., None] * held.slope[mine][:, None]
+                )[..., cols]
+        precision, logdet_sigma = equilibrated_precision(sigma)  # (T, K, p, p), (T, K)
+        means = means.reshape(n_t, n_prims, n_a, n_do, m)
+        proj = cross[:, None] - np.einsum("tadmn,tkadn->tkadm", gram, means)  # Psi^T K^-1 r
+        rr = (
+            yy[:, None, None]
+            - 2.0 * np.einsum("tkadm,tadm->tkad", means, cross)
+            + np.einsum("tkadm,tadmn,tkadn->tkad", means, gram, means)
+        )
+        return precision, logdet_sigma, gram, proj, rr
+
+
+@dataclasses.dataclass(frozen=True)
+class _HeldOut:
+    """Each trial's primitive refitted without its demonstration (:meth:`FitParts.without`,
+    vectorised): mean and slope (T, P), scatter lost (T, p, p), degrees of freedom (T,)."""
+
+    mean: np.ndarray
+    slope: np.ndarray
+    drop: np.ndarray
+    dof: np.ndarray
+
+
+def _held_out(
+    parts: Sequence[FitParts],
+    model: ProMPModel,
+    truth: np.ndarray,
+    demos: np.ndarray,
+    cols: np.ndarray,
+) -> _HeldOut:
+    n_t, n_w = truth.shape[0], model.primitives[0].mean.shape[0]
+    mean, slope = np.empty((n_t, n_w)), np.empty((n_t, n_w))
+    drop, dof = np.empty((n_t, cols.shape[0], cols.shape[0])), np.empty(n_t, dtype=int)
+    for k, (prim, part) in enumerate(zip(model.primitives, parts, strict=True)):
+        mine = np.nonzero(truth == k)[0]
+        if not mine.size:
+            continue
+        n = part.residuals.shape[0]
+        if part.slope_weight > 0.0 and n - 1 < 3:  # the few: one at a time
+            for t in mine:
+                mean[t], slope[t], drop[t], dof[t] = part.without(
+                    int(demos[t]), prim.mean, prim.alpha_slope, cols
+                )
+            continue
+        rows = demos[mine]
+        e, h = part.residuals[rows], part.leverage[rows]
+        mean[mine] = prim.mean - e / (n * (1.0 - h))[:, None]
+        slope[mine] = (
+            prim.alpha_slope
+            - (part.slope_weight * part.centred_log_alphas[rows] / (1.0 - h))[:, None] * e
+        )
+        e_o = e[:, cols]
+        drop[mine] = e_o[:, :, None] * e_o[:, None, :] / (1.0 - h)[:, None, None]
+        dof[mine] = part.dof - 1
+    return _HeldOut(mean, slope, drop, dof)
