@@ -19,6 +19,16 @@ import numpy as np
 from promp.data import Demonstration
 from promp.units import seconds
 
+__all__ = [
+    "active_duration",
+    "duration_text",
+    "GAP_FACTOR",
+    "gap_lengths",
+    "gap_steps",
+    "repair_gaps",
+    "REPAIRS",
+]
+
 # A step over 10x the median step is a pause of the logger (clean sets: at most 1.3x).
 GAP_FACTOR = 10.0
 REPAIRS = ("cut", "split")

@@ -18,7 +18,9 @@ from collections.abc import Callable, Iterable
 from pathlib import PurePath
 from typing import TypeVar
 
-T = TypeVar("T")
+__all__ = ["DIGITS", "natural_key", "natural_sorted"]
+
+_T = TypeVar("_T")
 DIGITS = re.compile(r"([0-9]+)")
 
 
@@ -44,8 +46,8 @@ def natural_key(name: str | PurePath) -> tuple:
 
 
 def natural_sorted(
-    items: Iterable[T], key: Callable[[T], str | PurePath] | None = None, reverse: bool = False
-) -> list[T]:
+    items: Iterable[_T], key: Callable[[_T], str | PurePath] | None = None, reverse: bool = False
+) -> list[_T]:
     """``items`` in natural order of their names (``key(item)``, or the items themselves)."""
     if key is None:
         return sorted(items, key=natural_key, reverse=reverse)  # type: ignore[arg-type]

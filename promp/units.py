@@ -22,6 +22,17 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 
+__all__ = [
+    "amount",
+    "display_unit",
+    "DISPLAY_UNITS",
+    "MISSING",
+    "seconds",
+    "shown",
+    "unitless_note",
+    "with_unit",
+]
+
 # (engine unit, kind) -> (shown unit, factor from the engine's unit).
 DISPLAY_UNITS = {("m", "linear"): ("cm", 100.0), ("rad", "angle"): ("°", 180.0 / math.pi)}
 MISSING = "—"  # a value that is not a finite number

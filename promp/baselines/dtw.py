@@ -27,6 +27,8 @@ import numpy as np
 
 from promp.baselines.relative import check_movement
 
+__all__ = ["open_end_dtw", "OpenEndDTW"]
+
 
 class OpenEndDTW:
     """Open-end DTW of a growing observation against fixed references.

@@ -17,6 +17,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+__all__ = ["nearest_primitive"]
+
 
 def nearest_primitive(
     distances: np.ndarray, labels: Sequence[int], n_primitives: int

@@ -19,6 +19,8 @@ import numpy as np
 
 from promp.baselines.relative import check_movement
 
+__all__ = ["FRACTIONS", "prefix_search"]
+
 FRACTIONS = np.linspace(0.02, 1.0, 50)
 
 

@@ -16,6 +16,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+__all__ = ["check_movement", "column_spread", "relative_to_start"]
+
 
 def check_movement(values: np.ndarray, label: str, min_samples: int = 2) -> np.ndarray:
     """``values`` as a float array of shape (n, D), or a ValueError saying what is wrong.

@@ -38,6 +38,14 @@ from promp.baselines.relative import column_spread, relative_to_start
 from promp.data import Demonstration, Layout
 from promp.evaluate.methods import Inferred
 
+__all__ = [
+    "DTWBaseline",
+    "NearestNeighbourBaseline",
+    "PrefixBaseline",
+    "scale_groups",
+    "SCALINGS",
+]
+
 SCALINGS = ("modality", "column", "none")
 
 

@@ -17,7 +17,7 @@ from promp.evaluate.sweep import SweepResult, Trial
 
 __all__ = [
     "MAX_COLUMNS", "column_units", "confusion_figure", "curves", "display_unit", "example", "grid",
-    "group_series", "reliability_diagram", "series_label", "write_figures"
+    "group_series", "methods_of", "reliability_diagram", "series_label", "write_figures"
 ]  # fmt: skip
 
 

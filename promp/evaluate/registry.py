@@ -21,6 +21,8 @@ from promp.evaluate.methods import ProMPEngine
 from promp.evaluate.seed import ToolboxBaseline
 from promp.model import Settings
 
+__all__ = ["method_factories", "METHOD_TITLES", "METHODS", "RECOGNITION_ONLY"]
+
 METHODS = ("ours", "seed", "dtw", "prefix-nn")
 # How tables name them where a reader needs more than the name.
 METHOD_TITLES = {

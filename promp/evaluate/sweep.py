@@ -45,7 +45,7 @@ from promp.model import Settings
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
 __all__ = [
-    "CONFIDENT_MISTAKE", "Progress", "SweepResult", "Trial", "leave_one_out", "run_sweep",
+    "CONFIDENT_MISTAKE", "Factory", "Progress", "SweepResult", "Trial", "leave_one_out", "run_sweep",
     "spread_subset",
 ]  # fmt: skip
 

@@ -11,6 +11,8 @@ from collections.abc import Mapping, Sequence
 
 from promp.evaluate.plots import methods_of
 
+__all__ = ["NOT_GIVEN", "number", "results_text", "SIDE_BY_SIDE", "side_by_side_text"]
+
 NOT_GIVEN = "n/a"
 
 
