@@ -45,8 +45,8 @@ from promp.model import Settings
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
 __all__ = [
-    "CONFIDENT_MISTAKE", "Factory", "Progress", "SweepResult", "Trial", "leave_one_out", "run_sweep",
-    "spread_subset",
+    "CONFIDENT_MISTAKE", "Factory", "Progress", "SweepResult", "Trial", "leave_one_out",
+    "run_sweep", "spread_subset",
 ]  # fmt: skip
 
 Progress = Callable[[int, int], None]
