@@ -48,7 +48,7 @@ import numpy as np
 
 from promp.alpha_model import N_RBF, AlphaModel
 from promp.data import Demonstration, Layout, Modality
-from promp.datasets import atomic_write_text
+from promp.files import atomic_write_text
 from promp.model import Primitive, ProMPModel, Settings
 
 __all__ = [

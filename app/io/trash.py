@@ -23,7 +23,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from promp.datasets import atomic_write_text
+from promp.files import atomic_write_text
 
 TRASH_DIR = "trash"
 ENTRY_FILE = "entry.json"

@@ -52,7 +52,8 @@ from app.io.workspace_index import (
     index_json,
 )
 from promp.data import Demonstration, Layout
-from promp.datasets import atomic_write_text, read_csv_demo, write_csv_demo
+from promp.datasets import read_csv_demo, write_csv_demo
+from promp.files import atomic_write_text
 from promp.model import Settings
 from promp.names import natural_sorted
 from robots.icub.layout import STUDIO_LAYOUT

@@ -70,6 +70,18 @@ from promp.quality import Finding, dataset_findings, split_flagged
 from promp.rigs import MAPPING_HELP, add_rig_arguments, rig_options
 from promp.units import unitless_note
 
+__all__ = [
+    "add_check_arguments",
+    "add_dataset_arguments",
+    "build_parser",
+    "DEFAULT_PERCENTS",
+    "load",
+    "Loaded",
+    "main",
+    "print_findings",
+    "print_table",
+]
+
 DEFAULT_PERCENTS = (10, 20, 30, 40, 50, 60, 70, 80, 90)
 
 

@@ -18,6 +18,8 @@ from promp.learn import fit
 from promp.model import ProMPModel, Settings
 from promp.pipeline import infer
 
+__all__ = ["ALPHA_ROWS", "Inferred", "ProMPEngine", "TRUE_DURATION"]
+
 # The evaluation's oracle row: the speed told, from the test movement's true duration (how far
 # a perfect estimate of the duration would take the method).
 TRUE_DURATION = "true"

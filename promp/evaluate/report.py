@@ -21,6 +21,18 @@ from promp.evaluate.sweep import SweepResult
 from promp.model import Settings
 from promp.quality import Finding
 
+__all__ = [
+    "basis_settings",
+    "confusion_matrices",
+    "CSV_COLUMNS",
+    "report_json",
+    "results_csv",
+    "results_report",
+    "TRIAL_COLUMNS",
+    "trial_rows",
+    "trials_csv",
+]
+
 # One CSV row per trial (``--trials-csv``, the JSON's ``trials``): which demonstration, at which
 # setting, what the method said and how far off it was.
 TRIAL_COLUMNS = (

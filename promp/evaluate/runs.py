@@ -32,6 +32,23 @@ from pathlib import Path
 
 from promp.evaluate.report import results_csv, trials_csv
 
+__all__ = [
+    "code_version",
+    "compare_runs",
+    "COMPARED",
+    "comparison_text",
+    "folder_name",
+    "NAME",
+    "read_run",
+    "Run",
+    "RUN_FILE",
+    "RUN_FORMAT",
+    "run_from_json",
+    "RUN_VERSION",
+    "write_new_folder",
+    "write_run",
+]
+
 RUN_FORMAT = "icub-intention-studio/evaluation-run"
 RUN_VERSION = 1
 RUN_FILE = "run.json"

@@ -32,7 +32,7 @@ import argparse
 
 from promp.rigs.dataset import CUTS, RIG_FORMATS, RigOptions, RigRead, read_rig_dataset
 
-__all__ = ["CUTS", "RIG_FORMATS", "RigOptions", "RigRead", "read_rig_dataset",
+__all__ = ["CUTS", "MAPPING_HELP", "RIG_FORMATS", "RigOptions", "RigRead", "read_rig_dataset",
            "add_rig_arguments", "rig_options"]  # fmt: skip
 
 MAPPING_HELP = (

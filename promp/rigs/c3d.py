@@ -22,6 +22,8 @@ import numpy as np
 
 from promp.rigs.streams import Recording, unreadable
 
+__all__ = ["check_size", "needs_ezc3d", "open_recording", "SUFFIXES"]
+
 SUFFIXES = (".c3d",)
 ANALOG, EVENT = "ANALOG", "EVENT"
 

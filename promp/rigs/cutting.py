@@ -20,6 +20,8 @@ import numpy as np
 
 from promp.stillness import moving_spans
 
+__all__ = ["MARKER", "marker_spans", "parse_marker", "still_spans"]
+
 START, END = ("start", "begin"), ("end", "stop")
 MARKER = re.compile(r"^\s*([A-Za-z]+)(?:[\s:/_]+(.*?))?\s*$")
 

@@ -41,6 +41,19 @@ from promp.rigs.mapping import (
 from promp.rigs.streams import Recording, Stream, on_one_clock, read_stream
 from promp.rigs.yarp_layout import NumberedTake, layout_notes
 
+__all__ = [
+    "CUTS",
+    "find_recordings",
+    "guess",
+    "MAX_GUESSED",
+    "read_rig_dataset",
+    "READERS",
+    "RIG_FORMATS",
+    "RigOptions",
+    "RigRead",
+    "WHAT",
+]
+
 READERS = {"yarp": yarp, "rosbag": rosbag, "xdf": xdf, "c3d": c3d}
 RIG_FORMATS = tuple(READERS)
 CUTS = ("auto", "markers", "still", "files")

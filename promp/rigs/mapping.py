@@ -38,6 +38,23 @@ from dataclasses import dataclass
 
 from promp.data import Modality
 
+__all__ = [
+    "column_names",
+    "compress_fields",
+    "field_leaf",
+    "mapping_text",
+    "MODALITY_NAME",
+    "modality_name",
+    "parse_sourced",
+    "SHARED_LEAVES",
+    "si_unit",
+    "sourced",
+    "SourcedModality",
+    "split_fields",
+    "unique_name",
+    "UNITS",
+]
+
 # Units a recording or a mapping may state, and the unit they become with the factor.
 UNITS: dict[str, tuple[str, float]] = {
     **dict.fromkeys(("m", "meter", "meters", "metre", "metres"), ("m", 1.0)),

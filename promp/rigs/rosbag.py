@@ -25,6 +25,24 @@ import numpy as np
 from promp.names import natural_sorted
 from promp.rigs.streams import Recording, unreadable
 
+__all__ = [
+    "CLOCK_S",
+    "euler",
+    "find_recordings",
+    "FRAMES_SCAN",
+    "getter",
+    "leaves",
+    "LEFT_OUT_TYPES",
+    "MARKER_TYPES",
+    "MAX_GUESSED_ARRAY",
+    "needs_rosbags",
+    "open_recording",
+    "PART",
+    "RosbagRecording",
+    "SUFFIXES",
+    "TF_TYPES",
+]
+
 SUFFIXES = (".bag", ".mcap", ".db3")
 CLOCK_S = 1.0
 MAX_GUESSED_ARRAY = 16  # arrays up to this length are flattened into the guess

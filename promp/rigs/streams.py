@@ -24,6 +24,8 @@ from promp.gaps import GAP_FACTOR
 from promp.quality import Finding, increasing_samples, timestamp_finding
 from promp.rigs.mapping import SourcedModality, si_unit
 
+__all__ = ["on_one_clock", "read_stream", "Recording", "STOP_STEPS", "Stream", "unreadable"]
+
 # A stream may begin or end this many steps of the slowest stream away from the others (the
 # streams of a recording are started and stopped one after the other, not at one instant).
 STOP_STEPS = 3.0

@@ -24,6 +24,8 @@ import numpy as np
 
 from promp.rigs.streams import Recording, unreadable
 
+__all__ = ["check_chunks", "needs_pyxdf", "open_recording", "SUFFIXES", "TAGS"]
+
 SUFFIXES = (".xdf", ".xdfz")
 TAGS = range(1, 7)  # FileHeader, StreamHeader, Samples, ClockOffset, Boundary, StreamFooter
 

@@ -29,6 +29,8 @@ from promp.names import natural_sorted
 from promp.rigs.streams import Recording
 from promp.rigs.yarp_layout import LAYOUTS, NumberedTake, find_takes
 
+__all__ = ["CONNECTED", "find_recordings", "open_recording", "TOKEN"]
+
 TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|[()]|[^\s()"]+')
 CONNECTED = re.compile(r"^\[[^\]]*\]\s+(\S+)\s+\[connected\]")
 

@@ -30,6 +30,8 @@ from pathlib import Path
 
 from promp.names import natural_sorted
 
+__all__ = ["find_takes", "FIRST", "layout_notes", "LAYOUTS", "LOG", "NUMBERED", "NumberedTake"]
+
 LOG = "data.log"
 NUMBERED = re.compile(r"^(?P<stem>.+)_(?P<number>[0-9]{5})$")
 FIRST = "00000"  # the number of a port's unnumbered first dump
