@@ -15,6 +15,8 @@ estimate would otherwise shift the samples of one movement against each other.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from promp.live.transport import (
@@ -43,6 +45,7 @@ except (OSError, RuntimeError) as exc:  # pylsl raises RuntimeError when liblsl 
     ) from None
 
 OFFSET_STEP_S = 1e-3
+FORGET_S = 2.0
 OPEN_TIMEOUT_S = 5.0
 MAX_BUFFER_S = 360  # what an inlet keeps while the session is busy
 FORMATS = {
@@ -106,7 +109,7 @@ class LslInlet:
             chunks, stamps = [], []
             while True:
                 samples, times = self._inlet.pull_chunk(timeout=0.0, max_samples=4096)
-                if not times:
+                if len(times) == 0:
                     break
                 chunks.append(samples)
                 stamps.extend(times)
@@ -159,16 +162,27 @@ class LslOutlet:
 
 
 class LslTransport:
-    """The Lab Streaming Layer as a :class:`promp.live.transport.Transport`."""
+    """The Lab Streaming Layer as a :class:`promp.live.transport.Transport`.
+
+    Streams are found by a continuous resolver (LSL's own: it keeps asking the network in the
+    background, and a stream gone for :data:`FORGET_S` is forgotten); a one-off resolve with
+    a short wait may miss some of the streams that are there."""
 
     def __init__(self) -> None:
+        self._resolver = pylsl.ContinuousResolver(forget_after=FORGET_S)
+        self._since = pylsl.local_clock()
         self._found: dict[str, pylsl.StreamInfo] = {}  # by uid, from the last find
 
     def clock(self) -> float:
         return float(pylsl.local_clock())
 
     def find(self, wait: float) -> list[StreamDescription]:
-        infos = pylsl.resolve_streams(wait_time=wait)
+        """The streams seen lately; the first look waits up to ``wait`` seconds for the
+        resolver's first answers."""
+        left = self._since + max(wait, 0.0) - pylsl.local_clock()
+        if left > 0:
+            time.sleep(left)
+        infos = self._resolver.results()
         self._found = {info.uid(): info for info in infos}
         return [describe(info) for info in infos]
 

@@ -35,15 +35,21 @@ class Recorder:
         The demonstrations' columns (the rows' columns, in order).
     prefix : str
         Demonstrations are named ``<prefix>-<movement number>``.
+    output : Path, optional
+        Where :meth:`finish` writes each demonstration when no path is given:
+        ``<output>/<class>/<name>.csv``, the class its start marker named (else ``live``),
+        never over an existing file.
     """
 
-    def __init__(self, folder: Path, columns: tuple[str, ...], prefix: str = "live"):
+    def __init__(self, folder: Path, columns: tuple[str, ...], prefix: str = "live",
+                 output: Path | None = None):  # fmt: skip
         if not re.fullmatch(r"[A-Za-z0-9_-]{1,40}", prefix):
             raise ValueError(f"the recordings' prefix must be 1-40 letters, digits, - or _: "
                              f"{prefix!r}")  # fmt: skip
         self.folder = Path(folder)
         self.columns = tuple(columns)
         self.prefix = prefix
+        self.output = None if output is None else Path(output)
         self._journal: Journal | None = None
         self._number = 0
         self._stamp = ""
@@ -79,7 +85,8 @@ class Recorder:
 
     def finish(self, movement: Movement, path: Path | None = None) -> Demonstration | None:
         """The ended ``movement`` as a demonstration (None with fewer than 2 rows); with
-        ``path``, written there atomically and its journal removed."""
+        ``path`` (or an ``output`` folder), written there atomically and its journal
+        removed."""
         if len(movement) > 0:
             self.append(movement)
         self.close()
@@ -88,6 +95,8 @@ class Recorder:
             return None
         demo = Demonstration(movement.times - movement.times[0], movement.values, self.columns,
                              name=self.name_of(movement.number))  # fmt: skip
+        if path is None and self.output is not None:
+            path = free_path(self.output / (movement.label or "live") / f"{demo.name}.csv")
         if path is not None:
             write_csv_demo(Path(path), demo)
             self.release(movement.number)
@@ -103,6 +112,14 @@ class Recorder:
         if self._journal is not None:
             self._journal.close()
             self._journal = None
+
+
+def free_path(path: Path) -> Path:
+    """``path``, or ``path`` with ``-2``, ``-3``... before its suffix: never over a file."""
+    k, candidate = 2, Path(path)
+    while candidate.exists():
+        candidate, k = path.with_name(f"{path.stem}-{k}{path.suffix}"), k + 1
+    return candidate
 
 
 def recover(folder: Path) -> list[tuple[Path, Demonstration | str]]:

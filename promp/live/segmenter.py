@@ -37,6 +37,9 @@ STARTS = ("still", "marker", "call")
 MAX_MOVEMENT_S = 30.0
 HISTORY_S = 3.0  # rows kept while nothing moves (a late marker, the stillness window)
 END_WINDOW_S = 2.0  # the rows looked at for the end of a movement
+# A marker and a sample stamped at one instant may differ by the streams' clock corrections
+# (microseconds on one machine): a row this close to a start or end marker belongs inside.
+SLACK_S = 0.002
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,19 +157,19 @@ class Segmenter:
         self._pending.sort(key=lambda p: p[0])
         while self._pending:
             time, kind, label = self._pending[0]
-            if kind == "end" and (not self._times.size or self._times[-1] < time):
+            if kind == "end" and (not self._times.size or self._times[-1] < time + SLACK_S):
                 break  # wait for the rows up to the end
             self._pending.pop(0)
             if kind == "start":
                 if self._open is not None:
                     out += self._close(time, "a new movement started")
-                first = int(np.searchsorted(self._times, time, side="left"))
+                first = int(np.searchsorted(self._times, time - SLACK_S, side="left"))
                 out += self._open_at(first, label, time)
             elif self._open is not None:
                 out += self._close(time, "end marker" if self.start == "marker" else "ended")
         if self.start == "still":
             out += self._still()
-        if self._open is not None and self._times.size:
+        if self._open is not None and self._first < self._times.size:
             if self._times[-1] - self._times[self._first] > self.max_movement_s:
                 out += self._close(float(self._times[-1]),
                                    f"longer than {self.max_movement_s:g} s")  # fmt: skip
@@ -197,7 +200,7 @@ class Segmenter:
 
     def _close(self, time: float, reason: str) -> list[Boundary]:
         number, label = self._open
-        stop = int(np.searchsorted(self._times, time, side="right"))
+        stop = int(np.searchsorted(self._times, time + SLACK_S, side="right"))
         times, values = self._times[self._first:stop], self._values[self._first:stop]
         ended = Movement(number, label, times, values, reason)
         self._open = None

@@ -14,9 +14,11 @@ from __future__ import annotations
 
 import queue
 import threading
+import traceback
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 from promp.live.outlets import PredictionOutlets
 from promp.live.predictor import LivePrediction, OnlinePredictor, observed_columns
@@ -29,6 +31,7 @@ from promp.live.transport import Selector, StreamDescription, Transport
 from promp.model import ProMPModel
 
 IDLE_S = 0.002  # the loop's pause when nothing arrived
+ERROR_PAUSE_S = 0.5
 FIND_EVERY_S = 1.0  # how often the resolver looks (for the missing streams, and the list)
 FIND_WAIT_S = 0.5
 EVENTS_KEPT = 50
@@ -88,6 +91,8 @@ class LiveSnapshot:
         The latest (of the movement going on, or of the last one).
     events : tuple of LiveEvent
         The latest :data:`EVENTS_KEPT`.
+    n_events : int
+        The events so far (the last of them are ``events``).
     ended : tuple of Movement
         The movements that ended, latest last (at most :data:`EVENTS_KEPT`).
     predictions : int
@@ -103,6 +108,7 @@ class LiveSnapshot:
     movement: Movement | None
     prediction: LivePrediction | None
     events: tuple[LiveEvent, ...]
+    n_events: int
     ended: tuple[Movement, ...]
     predictions: int
     counts: dict[str, tuple[int, int]]
@@ -166,6 +172,8 @@ class LiveSession:
         self._predicted = (0, 0)  # (movement, rows) of the latest prediction
         self._prediction: LivePrediction | None = None
         self._count = 0
+        self.compute_s: deque[float] = deque(maxlen=100_000)  # each inference's time
+        self._n_events = 0
         self._version = 0
         self._snapshot = self._take()
         self._stop = threading.Event()
@@ -212,7 +220,16 @@ class LiveSession:
 
     def _loop(self) -> None:
         while not self._stop.is_set():
-            if not self.step():
+            try:
+                worked = self.step()
+            except Exception as exc:  # a defect here must show, not end the session silently
+                where = traceback.extract_tb(exc.__traceback__)[-1]
+                self._calls.put(("event", self.transport.clock(),
+                                 f"the session's step failed: {type(exc).__name__}: {exc} "
+                                 f"({Path(where.filename).name}:{where.lineno})"))
+                self._stop.wait(ERROR_PAUSE_S)
+                continue
+            if not worked:
                 self._stop.wait(IDLE_S)
 
     def _resolve(self) -> None:
@@ -269,11 +286,19 @@ class LiveSession:
         rows = self.timebase.advance({n: self.source.nominal_rate(n)
                                       for n in self.timebase.names})  # fmt: skip
         boundaries += self.segmenter.feed(rows)
+        predicted = False
         for b in boundaries:
+            if b.movement is not None:  # its last rows, if they came with its end
+                predicted |= self._predict(b.movement, events)
             events += self._boundary(b)
-        predicted = self._predict(events)
+        movement = self.segmenter.movement
+        if movement is not None:
+            if self.recorder is not None:
+                self._sink(lambda: self.recorder.append(movement), events)
+            predicted |= self._predict(movement, events)
         for event in events:
             self._events.append(event)
+            self._n_events += 1
             self._sink(lambda e=event: self.outlets and self.outlets.event(e), events)
         changed = bool(events or boundaries or rows is not None or predicted)
         if changed or len(self._found) != len(self._snapshot.found):
@@ -290,14 +315,12 @@ class LiveSession:
                 self._sink(lambda: self.recorder.finish(b.movement), events)
         return events
 
-    def _predict(self, events: list[LiveEvent]) -> bool:
-        movement = self.segmenter.movement
-        if movement is None:
-            return False
-        if self.recorder is not None:
-            self._sink(lambda: self.recorder.append(movement), events)
+    def _predict(self, movement: Movement, events: list[LiveEvent]) -> bool:
+        """A prediction from ``movement``'s rows, unless they were predicted from (or a
+        still end cut them back to fewer)."""
         n = len(movement)
-        if n < self.options.min_observed or self._predicted == (movement.number, n):
+        number, done = self._predicted
+        if n < self.options.min_observed or (number == movement.number and n <= done):
             return False
         self._predicted = (movement.number, n)
         try:
@@ -307,6 +330,7 @@ class LiveSession:
             return False
         self._prediction = prediction
         self._count += 1
+        self.compute_s.append(prediction.compute_s)
         if self.outlets is not None:
             self._sink(lambda: self.outlets.publish(prediction), events)
         if self.on_prediction is not None:
@@ -325,7 +349,8 @@ class LiveSession:
         self._version += 1
         return LiveSnapshot(
             self._version, self.transport.clock(), self._found, self.source.statuses(),
-            self.segmenter.movement, self._prediction, tuple(self._events), tuple(self._ended),
+            self.segmenter.movement, self._prediction, tuple(self._events), self._n_events,
+            tuple(self._ended),
             self._count, self.source.counts(),
         )  # fmt: skip
 

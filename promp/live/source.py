@@ -144,11 +144,10 @@ class SourceBatch:
 class _Feed:
     """One input's (or the marker stream's) connection and what is known of its samples."""
 
-    label: str
     selector: Selector
-    live_input: LiveInput | None  # None: the marker stream
+    inputs: tuple[LiveInput, ...]  # none: the marker stream
     inlet: Inlet | None = None
-    channels: Channels | None = None
+    channels: tuple[Channels, ...] = ()
     uid: str = ""
     rejected: str = ""  # the uid of a stream without the mapping's channels
     status: StreamStatus | None = None
@@ -159,6 +158,14 @@ class _Feed:
     recent: deque = field(default_factory=deque)  # recent times, for the rate
     received: int = 0
     left_out: int = 0
+
+    @property
+    def label(self) -> str:
+        return str(self.selector)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(i.name for i in self.inputs)
 
     @property
     def step(self) -> float:
@@ -190,9 +197,14 @@ class Source:
         self.inputs = tuple(inputs)
         self.transport = transport
         now = transport.clock()
-        self._feeds = [_Feed(i.name, i.selector, i) for i in inputs]
+        # inputs of one stream share its inlet
+        selectors = list(dict.fromkeys(i.selector for i in inputs))
+        self._feeds = [_Feed(sel, tuple(i for i in inputs if i.selector == sel))
+                       for sel in selectors]  # fmt: skip
         if markers is not None:
-            self._feeds.append(_Feed("markers", markers, None))
+            if markers in selectors:
+                raise ValueError(f"the marker stream {str(markers)!r} is also an input's")
+            self._feeds.append(_Feed(markers, ()))
         for feed in self._feeds:
             feed.status = StreamStatus(str(feed.selector), Condition.WAITING, now, "not found yet")
 
@@ -212,7 +224,7 @@ class Source:
         out = []
         for k in wanted:
             feed = self._feeds[k]
-            markers = feed.live_input is None
+            markers = not feed.inputs
             matching = [s for s in streams
                         if feed.selector.matches(s) and s.is_markers == markers]  # fmt: skip
             if not matching:
@@ -249,9 +261,9 @@ class Source:
                 events += self._set(feed, Condition.WAITING, now, problem)
                 continue
             assert stream is not None
-            if feed.live_input is not None:
+            if feed.inputs:
                 try:
-                    feed.channels = channels_of(feed.live_input, stream)
+                    feed.channels = tuple(channels_of(i, stream) for i in feed.inputs)
                 except ValueError as exc:
                     inlet.close()
                     feed.rejected = stream.uid
@@ -283,12 +295,13 @@ class Source:
                 feed.inlet = None
                 batch.events += self._set(feed, Condition.VANISHED, now, "its outlet is gone; "
                                           "looking for it again")  # fmt: skip
-                batch.broken.add(feed.label)
+                batch.broken.update(feed.names)
                 continue
             if len(times) == 0:
                 batch.events += self._check_stall(feed, now)
                 continue
-            if feed.live_input is None:
+            if not feed.inputs:
+                feed.received += len(times)
                 times = np.asarray(times, dtype=float) + feed.shift
                 batch.markers += [(float(t), str(v)) for t, v in zip(times, values, strict=True)]
                 feed.arrival = now
@@ -298,9 +311,10 @@ class Source:
 
     def _samples(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
                  batch: SourceBatch) -> None:  # fmt: skip
-        assert feed.channels is not None
         feed.received += times.shape[0]
-        values = values[:, feed.channels.index] * feed.channels.scale
+        index = np.concatenate([c.index for c in feed.channels])
+        scale = np.concatenate([c.scale for c in feed.channels])
+        values = values[:, index] * scale
         finite = np.all(np.isfinite(values), axis=1) & np.isfinite(times)
         if not finite.all():
             bad = int((~finite).sum())
@@ -318,7 +332,12 @@ class Source:
             return
         feed.last, feed.arrival = float(times[-1]), now
         batch.events += self._check_rate(feed, times, now)
-        batch.samples[feed.label] = (times, values, feed.channels.units)
+        start = 0
+        for live_input, channels in zip(feed.inputs, feed.channels, strict=True):
+            width = channels.index.shape[0]
+            batch.samples[live_input.name] = (times, values[:, start:start + width],
+                                              channels.units)  # fmt: skip
+            start += width
 
     def _clock(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
                batch: SourceBatch) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
@@ -334,7 +353,7 @@ class Source:
                 feed.shift += delta
                 times = times.copy()
                 times[i:] += delta
-                batch.broken.add(feed.label)
+                batch.broken.update(feed.names)
                 batch.events += self._set(
                     feed, Condition.CLOCK_JUMP, now,
                     f"its time stamps jumped by {-delta:+.3f} s; re-anchored",
@@ -364,7 +383,7 @@ class Source:
                          f"from {before:.4g} Hz to {measured:.4g} Hz")  # fmt: skip
 
     def _check_stall(self, feed: _Feed, now: float) -> list[LiveEvent]:
-        if feed.live_input is None or not math.isfinite(feed.last):
+        if not feed.inputs or not math.isfinite(feed.last):
             return []
         limit = max(STALL_MIN_S, STALL_STEPS * feed.step)
         if now - feed.arrival < limit or feed.status.condition is Condition.STALLED:
@@ -383,16 +402,17 @@ class Source:
     # ------------------------------------------------------------------ reading
 
     def statuses(self) -> tuple[StreamStatus, ...]:
-        """Each input's status (and the marker stream's, last)."""
+        """Each input stream's status (and the marker stream's, last)."""
         return tuple(f.status for f in self._feeds if f.status is not None)
 
     def counts(self) -> dict[str, tuple[int, int]]:
-        """Per feed label: samples received, and left out (bad values, stamps going back)."""
+        """Per stream (as selected): samples received, and left out (bad values, stamps
+        going back)."""
         return {f.label: (f.received, f.left_out) for f in self._feeds}
 
     def nominal_rate(self, name: str) -> float:
-        """The rate input ``name`` is believed to run at (Hz; 0 while unknown)."""
-        return next(f.rate for f in self._feeds if f.label == name)
+        """The rate input ``name``'s stream is believed to run at (Hz; 0 while unknown)."""
+        return next(f.rate for f in self._feeds if name in f.names)
 
     def close(self) -> None:
         for feed in self._feeds:
