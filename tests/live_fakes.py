@@ -103,7 +103,8 @@ def held(demo: Demonstration, before_s: float, after_s: float) -> Demonstration:
     dt = demo.sample_period
     n0, n1 = int(round(before_s / dt)), int(round(after_s / dt))
     t = demo.times - demo.times[0]
-    times = np.concatenate([np.arange(n0) * dt, n0 * dt + t, n0 * dt + t[-1] + dt * np.arange(1, n1 + 1)])
+    after = n0 * dt + t[-1] + dt * np.arange(1, n1 + 1)
+    times = np.concatenate([np.arange(n0) * dt, n0 * dt + t, after])
     values = np.vstack([np.repeat(demo.values[:1], n0, axis=0), demo.values,
                         np.repeat(demo.values[-1:], n1, axis=0)])  # fmt: skip
     return Demonstration(times, values, demo.columns, demo.name)
@@ -125,3 +126,52 @@ def replay(session, transport: FakeTransport, stream: FakeStream, times, values,
             i = j
         session.step()
     return stamps
+
+
+# ---------------------------------------------------------------------------- shared data
+
+_CACHE: dict = {}
+
+
+def flt_dataset():
+    """The shared set lab-records-flt (the test is skipped when it is absent)."""
+    import pytest
+
+    from promp.datasets import load_records_dataset
+    from tests.conftest import SHARED_DATA
+
+    root = SHARED_DATA / "lab-records-flt"
+    if not root.is_dir():
+        pytest.skip(f"shared lab recordings not found at {root}")
+    if "flt" not in _CACHE:
+        _CACHE["flt"] = load_records_dataset(root)
+    return _CACHE["flt"]
+
+
+def hand_model():
+    """A hand model of lab-records-flt learned without each class's first demonstration (the
+    replayed ones), fixed settings (fast and deterministic)."""
+    from promp.data import Layout, Modality
+    from promp.learn import fit
+    from promp.model import Settings
+
+    dataset = flt_dataset()
+    if "hand" not in _CACHE:
+        layout = Layout((Modality("hand", ("x", "y", "z"), unit="m"),))
+        train = {k: v[1:] for k, v in dataset.items()}
+        settings = Settings(n_basis=7, width=1.0, noise_scale=1.5, duration_temperature=1.0)
+        _CACHE["hand"] = fit(train, layout, settings)
+    return _CACHE["hand"]
+
+
+def session_with(model, inputs, transport, **options):
+    """A stepped session (no threads) over ``transport``, its streams found."""
+    from promp.live.session import LiveOptions, LiveSession
+
+    predictions: list = []
+    session = LiveSession(model, inputs, transport, LiveOptions(**options),
+                          on_prediction=predictions.append)  # fmt: skip
+    session.connect()
+    session.step()
+    session.predictions = predictions
+    return session
