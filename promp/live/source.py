@@ -48,6 +48,8 @@ STALL_STEPS = 10.0
 STALL_MIN_S = 0.5
 RATE_TOLERANCE = 0.25
 RATE_WINDOW_S = 2.0
+CLEAN_S = 1.0  # NaNs are said until the samples have been clean this long
+BAD_DETAIL = "sample(s) with NaN or infinite values left out"
 
 
 @dataclass(frozen=True)
@@ -158,6 +160,7 @@ class _Feed:
     recent: deque = field(default_factory=deque)  # recent times, for the rate
     received: int = 0
     left_out: int = 0
+    clean_since: float = math.inf
 
     @property
     def label(self) -> str:
@@ -316,13 +319,23 @@ class Source:
         scale = np.concatenate([c.scale for c in feed.channels])
         values = values[:, index] * scale
         finite = np.all(np.isfinite(values), axis=1) & np.isfinite(times)
+        condition = feed.status.condition
         if not finite.all():
             bad = int((~finite).sum())
             feed.left_out += bad
-            batch.events += self._set(feed, Condition.BAD_VALUES, now,
-                                      f"{bad} sample(s) with NaN or infinite values left out")
+            if condition is Condition.BAD_VALUES:  # the same episode: counted, said once
+                bad += int(feed.status.detail.split(" ")[0])
+                feed.status = StreamStatus(feed.status.stream, condition, feed.status.since,
+                                           f"{bad} {BAD_DETAIL}")  # fmt: skip
+            else:
+                batch.events += self._set(feed, Condition.BAD_VALUES, now, f"{bad} {BAD_DETAIL}")
+            feed.clean_since = math.inf
             times, values = times[finite], values[finite]
-        elif feed.status.condition in (Condition.BAD_VALUES, Condition.STALLED, Condition.WAITING):
+        elif condition is Condition.BAD_VALUES:
+            feed.clean_since = min(feed.clean_since, now)
+            if now - feed.clean_since >= CLEAN_S:
+                batch.events += self._set(feed, Condition.OK, now, "samples usable again")
+        elif condition in (Condition.STALLED, Condition.WAITING):
             batch.events += self._set(feed, Condition.OK, now, "samples usable again")
         if times.shape[0] == 0:
             return
@@ -365,14 +378,19 @@ class Source:
         return times, values
 
     def _check_rate(self, feed: _Feed, times: np.ndarray, now: float) -> list[LiveEvent]:
+        """The rate from the median step of the last :data:`RATE_WINDOW_S` (a pause is not
+        a rate: the window starts again after one; the median follows a new rate once it
+        holds half the window)."""
         recent = feed.recent
+        if recent and times[0] - recent[-1] > max(STALL_MIN_S, STALL_STEPS * feed.step):
+            recent.clear()
         recent.extend(times.tolist())
         while recent and recent[-1] - recent[0] > RATE_WINDOW_S:
             recent.popleft()
         span = recent[-1] - recent[0] if recent else 0.0
         if len(recent) < 5 or span < 0.5 * RATE_WINDOW_S:
             return []
-        measured = (len(recent) - 1) / span
+        measured = 1.0 / float(np.median(np.diff(np.asarray(recent))))
         if feed.rate <= 0:
             feed.rate = measured
             return []
