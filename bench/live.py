@@ -238,7 +238,7 @@ def offline(model, pushed: Pushed, plan: Plan, p: Published) -> tuple[np.ndarray
          timing.duration.high, left.value, left.low, left.high, inference.index, n],
         np.column_stack([after, mean[:, dims], std[:, dims]]).ravel(),
     ])  # fmt: skip
-    remainder = np.vstack(p.remainder)[:, 2:] if p.remainder else np.zeros((0, 7))
+    remainder = np.vstack(p.remainder)[:, 4:] if p.remainder else np.zeros((0, 7))
     got = np.concatenate([p.probabilities[2:], p.timing[3:15], remainder.ravel()])
     return got, expected
 

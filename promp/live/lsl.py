@@ -157,6 +157,9 @@ class LslOutlet:
                 row if self._strings else row.tolist(), stamp, pushthrough=k == len(rows) - 1
             )
 
+    def wait_for_consumers(self, timeout: float) -> bool:
+        return bool(self._outlet.wait_for_consumers(timeout))
+
     def close(self) -> None:
         del self._outlet
 

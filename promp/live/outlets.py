@@ -15,17 +15,19 @@ the predictor's LSL clock (a reader's time correction maps it to its own), and j
   ``remaining_high`` (s left after the stamp), ``primitive`` (the recognised one's index),
   ``n_observed`` (samples observed).
 * ``NAME-remainder`` (type ``Trajectory``), with ``--remainder MODALITY``: per prediction one
-  **chunk**, every row stamped alike: ``seq``, ``movement``, ``after`` (s after the stamp:
-  ``1/rate, 2/rate, ...`` and, last, the predicted end), then the modality's predicted mean
-  per column and its standard deviation per column (``x``, ``y``, ``z``, ``x_std``...).
-  The chunk's rows all carry the same ``seq``; its last row is the predicted end.
+  **chunk**, every row stamped alike: ``seq``, ``movement``, ``index`` and ``count`` (the row's
+  place in the chunk, its number of rows), ``after`` (s after the stamp: ``1/rate, 2/rate,
+  ...`` and, last, the predicted end), then the modality's predicted mean per column and its
+  standard deviation per column (``x``, ``y``, ``z``, ``x_std``...). The row with ``index ==
+  count - 1`` is the predicted end.
 * ``NAME-events`` (type ``Markers``, strings): ``movement N started``, ``movement N ended
   (REASON)``, and each change of an input's condition (``stream 'MocapHand': stalled ...``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -63,8 +65,9 @@ def outlet_specs(model: ProMPModel, out: str, remainder: str | None) -> dict[str
         columns = modality.columns
         specs["remainder"] = OutletSpec(
             f"{out}-remainder", "Trajectory", f"promp-live-{out}-remainder",
-            ("seq", "movement", "after", *columns, *(f"{c}_std" for c in columns)),
-            ("count", "count", "s", *(modality.unit,) * (2 * len(columns))),
+            ("seq", "movement", "index", "count", "after", *columns,
+             *(f"{c}_std" for c in columns)),
+            ("count", "count", "count", "count", "s", *(modality.unit,) * (2 * len(columns))),
         )
     return specs
 
@@ -86,7 +89,8 @@ def remainder_rows(p: LivePrediction) -> np.ndarray:
     r = p.remainder
     assert r is not None
     k = r.after.shape[0]
-    return np.column_stack([np.full(k, p.seq), np.full(k, p.movement), r.after, r.mean, r.std])
+    return np.column_stack([np.full(k, p.seq), np.full(k, p.movement), np.arange(k),
+                            np.full(k, k), r.after, r.mean, r.std])  # fmt: skip
 
 
 class PredictionOutlets:
@@ -106,6 +110,17 @@ class PredictionOutlets:
 
     def event(self, event: LiveEvent) -> None:
         self._outlets["events"].push([event.text], event.time)
+
+    def wait_for_readers(self, timeout: float, kinds: Sequence[str] | None = None) -> bool:
+        """Whether the outlets ``kinds`` (default: all) have a reader within ``timeout``
+        seconds (an outlet that cannot tell counts as read)."""
+        deadline = time.monotonic() + timeout
+        for kind in kinds or list(self._outlets):
+            outlet = self._outlets[kind]
+            wait = getattr(outlet, "wait_for_consumers", None)
+            if wait is not None and not wait(max(deadline - time.monotonic(), 0.0)):
+                return False
+        return True
 
     def close(self) -> None:
         for outlet in self._outlets.values():

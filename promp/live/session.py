@@ -32,7 +32,7 @@ from promp.model import ProMPModel
 
 IDLE_S = 0.002  # the loop's pause when nothing arrived
 ERROR_PAUSE_S = 0.5
-FIND_EVERY_S = 1.0  # how often the resolver looks (for the missing streams, and the list)
+FIND_EVERY_S = 0.5  # how often the resolver looks (for the missing streams, and the list)
 FIND_WAIT_S = 0.5
 EVENTS_KEPT = 50
 
