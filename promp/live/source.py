@@ -12,7 +12,8 @@ the mapping states none. The channels are looked up with the XDF reader's own co
 transport's time correction applied), strictly increasing per stream, and updates each
 input's :class:`StreamStatus`. What it does with faults, never raising:
 
-* **NaN or infinite values**: the sample is left out (``bad values``);
+* **NaN or infinite values** (or beyond :data:`promp.data.MAX_MAGNITUDE`): the sample is left
+  out (``bad values``); samples not of the stream's channel count too (``wrong channels``);
 * **a stamp that goes back** a little (under :data:`JUMP_S`): left out;
 * **a clock jump**: stamps that go back by :data:`JUMP_S` or more, or that leap ahead by
   :data:`JUMP_S` more than the time that passed here, are re-anchored: the stream's later
@@ -38,6 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from promp.data import MAX_MAGNITUDE
 from promp.live.status import Condition, LiveEvent, StreamStatus
 from promp.live.transport import Inlet, Selector, StreamDescription, StreamLost, Transport
 from promp.rigs.mapping import SourcedModality, parse_sourced, si_unit
@@ -49,7 +51,7 @@ STALL_MIN_S = 0.5
 RATE_TOLERANCE = 0.25
 RATE_WINDOW_S = 2.0
 CLEAN_S = 1.0  # NaNs are said until the samples have been clean this long
-BAD_DETAIL = "sample(s) with NaN or infinite values left out"
+BAD_DETAIL = f"sample(s) with NaN, infinite or beyond {MAX_MAGNITUDE:.0e} values left out"
 
 
 @dataclass(frozen=True)
@@ -315,10 +317,19 @@ class Source:
     def _samples(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
                  batch: SourceBatch) -> None:  # fmt: skip
         feed.received += times.shape[0]
+        width = feed.inlet.description.n_channels if feed.inlet is not None else 0
+        if values.ndim != 2 or values.shape[1] != width or times.ndim != 1 \
+                or values.shape[0] != times.shape[0]:  # fmt: skip
+            feed.left_out += times.shape[0]
+            batch.events += self._set(feed, Condition.WRONG_CHANNELS, now,
+                                      f"samples of shape {values.shape}, not (n, {width}): "
+                                      "left out")  # fmt: skip
+            return
         index = np.concatenate([c.index for c in feed.channels])
         scale = np.concatenate([c.scale for c in feed.channels])
         values = values[:, index] * scale
-        finite = np.all(np.isfinite(values), axis=1) & np.isfinite(times)
+        with np.errstate(invalid="ignore"):
+            finite = np.all(np.abs(values) <= MAX_MAGNITUDE, axis=1) & np.isfinite(times)
         condition = feed.status.condition
         if not finite.all():
             bad = int((~finite).sum())
@@ -335,7 +346,7 @@ class Source:
             feed.clean_since = min(feed.clean_since, now)
             if now - feed.clean_since >= CLEAN_S:
                 batch.events += self._set(feed, Condition.OK, now, "samples usable again")
-        elif condition in (Condition.STALLED, Condition.WAITING):
+        elif condition in (Condition.STALLED, Condition.WAITING, Condition.WRONG_CHANNELS):
             batch.events += self._set(feed, Condition.OK, now, "samples usable again")
         if times.shape[0] == 0:
             return
