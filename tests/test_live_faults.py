@@ -174,6 +174,9 @@ def test_what_is_recorded_across_faults_stays_a_valid_demonstration(tmp_path) ->
     assert going.n_samples >= 45
     (movement,) = rig.session.snapshot().ended
     np.testing.assert_array_equal(ended.values, movement.values)
+    (recorded,) = rig.session.snapshot().recorded  # the take the studio would save
+    assert recorded.journal == first and recorded.number == 1
+    np.testing.assert_array_equal(recorded.demo.values, movement.values)
     for demo in (ended, going):
         assert np.all(np.isfinite(demo.values)) and np.all(np.diff(demo.times) > 0)
 

@@ -48,14 +48,17 @@ def test_a_finished_movement_is_written_atomically_and_its_journal_removed(tmp_p
     recorder.append(Movement(7, "left", TIMES[:120], VALUES[:120]))
     assert recorder.acknowledged == 120
     target = tmp_path / "demos" / "left" / "session-007.csv"
-    demo = recorder.finish(movement, target)
+    recorded = recorder.finish(movement, target)
+    demo = recorded.demo
+    assert recorded.path == target and recorded.journal is None and recorded.label == "left"
     assert target.read_text() == demo_to_csv(demo)
     assert_array_equal(demo.values, VALUES[:200])
     assert list((tmp_path / "journals").glob("*")) == []
     # with an output folder: never over an existing file
     out = Recorder(tmp_path / "journals", ("x", "y", "z"), "session", output=tmp_path / "demos")
     again = out.finish(movement)
-    assert again is not None and (tmp_path / "demos" / "left" / "session-007-2.csv").is_file()
+    assert again.path == tmp_path / "demos" / "left" / "session-007-2.csv"
+    assert again.path.read_text() == demo_to_csv(demo)
     assert target.read_text() == demo_to_csv(demo)
 
 

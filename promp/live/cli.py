@@ -118,6 +118,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if not _wait_for_inputs(session, args.wait):
             return _fail(_missing_message(session), session)
+        for stream in session.snapshot().found:
+            print(f"found {stream.summary()}", flush=True)
         _report(session, args.status_every, started)
     except KeyboardInterrupt:
         pass

@@ -14,6 +14,7 @@ journal left holds: every acknowledged row.
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,19 @@ from promp.data import Demonstration
 from promp.datasets import write_csv_demo
 from promp.live.journal import SUFFIX, Journal, journals, read_journal
 from promp.live.segmenter import Movement
+
+
+@dataclass(frozen=True, eq=False)
+class Recorded:
+    """A movement recorded: its number, its class (the start marker's, '' otherwise), its
+    demonstration, and the journal that keeps it until :meth:`Recorder.release` (None once
+    written to ``path`` and released)."""
+
+    number: int
+    label: str
+    demo: Demonstration
+    journal: Path | None
+    path: Path | None = None
 
 
 class Recorder:
@@ -83,7 +97,7 @@ class Recorder:
         done = self._journal.acknowledged
         return self._journal.append(movement.times[done:], movement.values[done:])
 
-    def finish(self, movement: Movement, path: Path | None = None) -> Demonstration | None:
+    def finish(self, movement: Movement, path: Path | None = None) -> Recorded | None:
         """The ended ``movement`` as a demonstration (None with fewer than 2 rows); with
         ``path`` (or an ``output`` folder), written there atomically and its journal
         removed."""
@@ -95,12 +109,15 @@ class Recorder:
             return None
         demo = Demonstration(movement.times - movement.times[0], movement.values, self.columns,
                              name=self.name_of(movement.number))  # fmt: skip
+        journal = self.journal_path(movement.number)
         if path is None and self.output is not None:
             path = free_path(self.output / (movement.label or "live") / f"{demo.name}.csv")
         if path is not None:
             write_csv_demo(Path(path), demo)
             self.release(movement.number)
-        return demo
+            journal = None
+        return Recorded(movement.number, movement.label, demo, journal,
+                        None if path is None else Path(path))  # fmt: skip
 
     def release(self, number: int) -> None:
         """Remove movement ``number``'s journal (its demonstration is safe elsewhere)."""

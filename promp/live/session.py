@@ -22,7 +22,7 @@ from pathlib import Path
 
 from promp.live.outlets import PredictionOutlets
 from promp.live.predictor import LivePrediction, OnlinePredictor, observed_columns
-from promp.live.recorder import Recorder
+from promp.live.recorder import Recorded, Recorder
 from promp.live.segmenter import MAX_MOVEMENT_S, Boundary, Movement, Segmenter
 from promp.live.source import LiveInput, Source
 from promp.live.status import LiveEvent, StreamStatus
@@ -95,6 +95,9 @@ class LiveSnapshot:
         The events so far (the last of them are ``events``).
     ended : tuple of Movement
         The movements that ended, latest last (at most :data:`EVENTS_KEPT`).
+    recorded : tuple of Recorded
+        With a recorder, the movements it recorded (latest last, at most
+        :data:`EVENTS_KEPT`): each one's demonstration, for a take.
     predictions : int
         Published so far.
     counts : dict of str to (int, int)
@@ -110,6 +113,7 @@ class LiveSnapshot:
     events: tuple[LiveEvent, ...]
     n_events: int
     ended: tuple[Movement, ...]
+    recorded: tuple[Recorded, ...]
     predictions: int
     counts: dict[str, tuple[int, int]]
 
@@ -168,6 +172,7 @@ class LiveSession:
         self._opened: queue.SimpleQueue = queue.SimpleQueue()
         self._events: deque[LiveEvent] = deque(maxlen=EVENTS_KEPT)
         self._ended: deque[Movement] = deque(maxlen=EVENTS_KEPT)
+        self._recorded: deque[Recorded] = deque(maxlen=EVENTS_KEPT)
         self._found: tuple[StreamDescription, ...] = ()
         self._predicted = (0, 0)  # (movement, rows) of the latest prediction
         self._prediction: LivePrediction | None = None
@@ -312,7 +317,12 @@ class LiveSession:
         if b.movement is not None:
             self._ended.append(b.movement)
             if self.recorder is not None:
-                self._sink(lambda: self.recorder.finish(b.movement), events)
+                def finish(movement=b.movement) -> None:
+                    recorded = self.recorder.finish(movement)
+                    if recorded is not None:
+                        self._recorded.append(recorded)
+
+                self._sink(finish, events)
         return events
 
     def _predict(self, movement: Movement, events: list[LiveEvent]) -> bool:
@@ -350,7 +360,7 @@ class LiveSession:
         return LiveSnapshot(
             self._version, self.transport.clock(), self._found, self.source.statuses(),
             self.segmenter.movement, self._prediction, tuple(self._events), self._n_events,
-            tuple(self._ended),
+            tuple(self._ended), tuple(self._recorded),
             self._count, self.source.counts(),
         )  # fmt: skip
 
