@@ -205,7 +205,11 @@ def headless(model_path: Path, log: Path) -> Iterator[dict]:
     finally:
         stop.set()
         process.send_signal(signal.SIGINT)
-        process.wait(timeout=60)
+        try:
+            process.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            process.kill()  # its counts are then unknown: samples_dropped is null
+            process.wait()
         lines = log.read_text().strip().splitlines()
         collected["summary"] = json.loads(lines[-1]) if lines and lines[-1].startswith("{") \
             else {}  # fmt: skip

@@ -112,7 +112,10 @@ def main(argv: list[str] | None = None) -> int:
         return _fail(str(exc))
     session.outlets = PredictionOutlets(specs, transport.outlet)
     session.recorder = recorder
-    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    # Ctrl-C and a service manager's stop end it cleanly, even when started with SIGINT
+    # ignored (a background job of a shell script inherits that)
+    signal.signal(signal.SIGINT, _interrupt)
+    signal.signal(signal.SIGTERM, _interrupt)
     session.start()
     started = time.monotonic()
     try:
@@ -135,6 +138,10 @@ def main(argv: list[str] | None = None) -> int:
         summary["infer_ms_p99"] = round(float(np.percentile(ms, 99)), 2)
     print(json.dumps(summary), flush=True)
     return 0
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
 
 
 def _fail(message: str, session=None) -> int:
