@@ -128,7 +128,8 @@ def main(argv: list[str] | None = None) -> int:
         pass
     session.close()
     snap = session.snapshot()
-    summary = {"predictions": snap.predictions, "movements": len(snap.ended),
+    movements = snap.ended[-1].number if snap.ended else 0
+    summary = {"predictions": snap.predictions, "movements": movements,
                "seconds": round(time.monotonic() - started, 3),
                "received": {k: v[0] for k, v in snap.counts.items()},
                "left_out": {k: v[1] for k, v in snap.counts.items()}}  # fmt: skip
