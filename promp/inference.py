@@ -304,7 +304,21 @@ def predict(
         raise ValueError(f"n_points must be >= 2, got {n}")
     duration = float(duration_from_alpha(alpha, model.sample_period, model.settings.s_bar))
     z = np.linspace(0.0, 1.0, n)
-    psi = model.basis(z)
+    mean, std = trajectory_at(model, dist, alpha, z)
+    return Prediction(times=z * duration, mean=mean, std=std, alpha=float(alpha))
+
+
+def trajectory_at(
+    model: ProMPModel,
+    dist: Gaussian | Posterior | Primitive,
+    alpha: float,
+    phases: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard deviation of every dimension at ``phases`` (n,) in [0, 1]: arrays
+    of shape (n, n_dims), ``psi(z) mu_d`` and ``sqrt(psi(z) Sigma_dd psi(z)^T)`` (the
+    trajectory distribution, observation noise excluded; what :func:`predict` samples evenly
+    and the live predictor at a stated rate, :mod:`promp.live.predictor`)."""
+    psi = model.basis(np.asarray(phases, dtype=float))
     n_dims = model.n_dims
     if isinstance(dist, Primitive):
         mean_w, blocks = dist.mean_at(alpha), dist.cov_blocks
@@ -312,5 +326,4 @@ def predict(
         mean_w, blocks = dist.mean, dist.blocks(n_dims)
     mean = psi @ per_dimension(mean_w, n_dims).T
     var = (((psi[None] @ blocks) * psi[None]).sum(axis=-1)).T  # diag(psi Sigma_dd psi^T)
-    std = np.sqrt(np.maximum(var, 0.0))
-    return Prediction(times=z * duration, mean=mean, std=std, alpha=float(alpha))
+    return mean, np.sqrt(np.maximum(var, 0.0))

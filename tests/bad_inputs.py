@@ -389,3 +389,64 @@ def observation_cases(n_dims: int) -> Iterator[Case]:
     yield "no modality", (t, v, ()), "modality"
     yield "unknown modality", (t, v, ("tail",)), "unknown modality"
     yield "too many columns", (t, np.zeros((11, n_dims + 2)), ("hand",)), "column"
+
+
+# ------------------------------------------------------------------------------ live sessions
+
+
+def live_input_cases() -> Iterator[Case]:
+    """``--in`` specs a live session over a hand (x, y, z in m) model must refuse."""
+    yield "no '='", "hand", "name=stream:field"
+    yield "no name", "=S:0,1,2", "name=stream:field"
+    yield "bad name", "1hand=S:0,1,2", "invalid modality name"
+    yield "no stream", "hand=0,1,2", "names its stream"
+    yield "no field", "hand=S:", "names no field"
+    yield "unbalanced braces", "hand=S:p.{x,y", "unbalanced braces"
+    yield "a field twice", "hand=S:0,0,1", "names a field twice"
+    yield "'@' without unit", "hand=S:0,1,2@", "followed by a unit"
+    yield "unknown selector", "hand=kind=Mocap:0,1,2", "unknown stream selector 'kind'"
+    yield "empty selector", "hand=type=:0,1,2", "no stream named"
+    yield "unknown modality", "tail=S:0,1,2", "unknown modality 'tail'"
+    yield "too few channels", "hand=S:0,1", "maps 2 channel(s)"
+    yield "too many channels", "hand=S:0,1,2,3", "maps 4 channel(s)"
+    yield "an angle for a position", "hand=S:0,1,2@deg", "is in 'deg'"
+
+
+def journal_cases(valid: bytes) -> Iterator[Case]:
+    """Journal files :func:`promp.live.journal.read_journal` must refuse (a journal is what a
+    killed recording leaves: torn at any byte, a last line cut short is left out)."""
+    header, _, rest = valid.partition(b"\n")
+    columns, _, rows = rest.partition(b"\n")
+    first = rows.split(b"\n")[0]
+    yield "empty", b"", "not a promp-live journal"
+    yield "a CSV demonstration", rest, "not a promp-live journal"
+    yield "broken header", header[:-5] + b"\n" + rest, "header is broken"
+    yield "header without name", b'# promp-live journal 1 {"label": ""}\n' + rest, "header"
+    yield "no rows", header + b"\n" + columns + b"\n", "no samples"
+    yield "one row", header + b"\n" + columns + b"\n" + first + b"\n", "at least 2"
+    yield "NaN value", valid.replace(first, first.rsplit(b",", 1)[0] + b",nan"), "nan"
+    yield "time goes back", valid + first + b"\n", "increasing"
+    yield "ragged row", valid + b"0.5,1\n", "values like the header"
+    yield "text value", valid + b"9,a,b,c\n", "non-numeric"
+    yield "not UTF-8", header + b"\n\xff\xfe" + rest, "cannot read"
+    for k, cut in enumerate(truncations(header + b"\n" + columns + b"\n" + first + b"\n")):
+        if cut.count(b"\n") < 3:
+            yield f"torn before its rows #{k}", cut, ""
+
+
+def live_sample_cases(n_channels: int) -> Iterator[Case]:
+    """Chunks a live stream may send, ``(times, values)`` after a valid first chunk at
+    t = 0 ... 0.09 s: a session must leave them out with a status, never raise."""
+    t = 0.1 + np.arange(10) * 0.01
+    v = np.zeros((10, n_channels))
+    yield "NaN value", (t, _with(v, np.nan)), "bad values"
+    yield "inf value", (t, _with(v, np.inf)), "bad values"
+    yield "1e300 value", (t, _with(v, 1e300)), "bad values"
+    yield "NaN time", (np.where(np.arange(10) == 3, np.nan, t), v), "bad values"
+    yield "fewer channels", (t, v[:, :-1]), "wrong channels"
+    yield "more channels", (t, np.zeros((10, n_channels + 2))), "wrong channels"
+    yield "1-D values", (t, v[:, 0]), "wrong channels"
+    yield "rows != times", (t, v[:-1]), "wrong channels"
+    yield "times repeat", (np.zeros(10) + 0.05, v), ""
+    yield "time far back", (t - 100.0, v), "clock jumped"
+    yield "time far ahead", (t + 1e6, v), "clock jumped"

@@ -15,7 +15,10 @@ from pathlib import Path
 
 import pytest
 
-from app.core.fits import FitCache
+# LSL keeps every test's streams on this machine (before pylsl is imported anywhere).
+os.environ["LSLAPICFG"] = str(Path(__file__).resolve().parent / "lsl_loopback.cfg")
+
+from app.core.fits import FitCache  # noqa: E402
 
 # The fits of the tests' sessions and studios, shared (the studio injects a cache: one per
 # studio by default). Many tests open the same workspaces: their fits are learned once.

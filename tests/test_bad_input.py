@@ -487,3 +487,76 @@ def heights_record() -> bytes:
     t = np.arange(50) * 0.01
     table = np.column_stack([t, rng.normal(size=(50, 12)) * 0.1])
     return ("\n".join(" ".join(f"{v:.6f}" for v in row) for row in table) + "\n").encode()
+
+
+# ------------------------------------------------------------------------------ live sessions
+
+
+@pytest.fixture(scope="module")
+def hand_model(dataset):
+    from promp.data import Layout
+
+    return fit(dataset, Layout((LAYOUT.modality("hand"),)), Settings())
+
+
+def test_live_inputs(hand_model) -> None:
+    from promp.live.session import LiveSession
+    from tests.live_fakes import FakeTransport
+
+    run_corpus("live input (--in)", bad_inputs.live_input_cases(),
+               lambda spec: LiveSession(hand_model, [spec], FakeTransport()))  # fmt: skip
+
+
+def test_live_journals(tmp_path) -> None:
+    from promp.live.journal import Journal, read_journal
+
+    journal = Journal(tmp_path / "valid.journal", ("x", "y", "z"), "take", "", 10.0)
+    journal.append(10.0 + np.arange(4) * 0.01, np.arange(12.0).reshape(4, 3))
+    journal.close()
+    valid = (tmp_path / "valid.journal").read_bytes()
+    read_journal(tmp_path / "valid.journal")
+
+    def read(content: bytes) -> None:
+        path = tmp_path / "case.journal"
+        path.write_bytes(content)
+        read_journal(path)
+
+    run_corpus("live journal", bad_inputs.journal_cases(valid), read)
+
+
+def test_live_samples_are_left_out_with_a_status(hand_model) -> None:
+    """A chunk no session can use is not refused by raising (a live session never stops): its
+    samples are left out, the stream's status says why, the movement's rows stay valid."""
+    from promp.live.session import LiveOptions, LiveSession
+    from tests.live_fakes import FakeStream, FakeTransport
+
+    problems = []
+    for case, (times, values), expected in bad_inputs.live_sample_cases(3):
+        TALLY[("live samples", "tried")] += 1
+        transport = FakeTransport(now=0.0)
+        stream = transport.add(FakeStream("Hand", ("x", "y", "z")))
+        session = LiveSession(hand_model, ["hand=Hand:0,1,2"], transport,
+                              LiveOptions(start="call"))  # fmt: skip
+        session.connect()
+        session.begin(time=0.0)
+        stream.push(np.arange(10) * 0.01, np.random.default_rng(0).normal(size=(10, 3)) * 0.01)
+        transport.now = 0.1
+        try:
+            session.step()
+            stream.pending.append((np.asarray(times), np.asarray(values)))
+            transport.now = 0.2
+            session.step()
+        except Exception as exc:  # a crash is what this test counts
+            CRASHES.append(f"live samples / {case}: {type(exc).__name__}: {exc}")
+            problems.append(case)
+            continue
+        snap = session.snapshot()
+        rows = snap.movement if snap.movement is not None else snap.ended[-1]
+        texts = " ".join(e.text for e in snap.events)
+        valid = np.all(np.isfinite(rows.values)) and np.all(np.diff(rows.times) > 0)
+        if not valid or expected not in texts:
+            problems.append(f"{case}: {texts}")
+            CRASHES.append(f"live samples / {case}: not said or not valid ({texts})")
+            continue
+        TALLY[("live samples", "refused")] += 1
+    assert not problems, problems

@@ -257,10 +257,14 @@ def on_one_clock(
     end: float,
     rate: float | None,
     label: str,
+    base: int | None = None,
 ) -> tuple[np.ndarray, list[np.ndarray]]:
     """The streams' values on one time base over ``[start, end]`` (seconds from the
     recording's start): the slowest stream's own times there (``rate`` None), or a grid at
-    ``rate`` Hz from the first time every stream has a sample.
+    ``rate`` Hz from the first time every stream has a sample. ``base``: the index of the
+    stream whose times are the time base when ``rate`` is None (default: the slowest; a live
+    time base fixes it once, :mod:`promp.live.timebase`, as a short slice of each stream may
+    not tell which is the slowest).
 
     Returns
     -------
@@ -275,7 +279,7 @@ def on_one_clock(
         inside the span, or a span with fewer than two samples on the time base.
     """
     steps = [s.step for s in streams]
-    slowest = int(np.argmax(steps))
+    slowest = int(np.argmax(steps)) if base is None else int(base)
     tolerance = STOP_STEPS * max(max(steps), 1.0 / rate if rate else 0.0)
     for s in streams:
         if s.times[0] > start + tolerance:

@@ -1,0 +1,336 @@
+"""Live prediction end to end: an LSL outlet replays demonstrations at 250 Hz with 15 channels
+into the headless predictor (``python -m promp.live``, its own process), whose published
+streams are read back here.
+
+The demonstrations are the shared set ``lab-records-flt`` (60 real movements, 100 Hz, 3
+goals), resampled at 250 Hz, one after the other (shuffled, seed 0) with 0.3 s of the last
+sample held between them, for ``--seconds``. The stream ``BenchMocap`` carries 15 channels: the
+hand in millimetres (converted by the predictor's mapping ``@mm``), the haptic device's
+position (m), the force (N), the moment (N m), and three channels the model does not use (a
+second marker: the hand 5 cm aside, m). The model is learned over the four modalities (12
+dimensions) from the same set. The marker stream ``BenchMarkers`` says ``start CLASS`` and
+``end CLASS`` at each movement's first and last sample (``--start marker``).
+
+Measured, from this process's pushes and what its inlets receive (one machine, one
+``local_clock``):
+
+* ``latency_ms_p50``, ``latency_ms_p99``: from a sample's push to the receipt of the first
+  published prediction that includes it (its ``NAME-timing`` sample says the movement's first
+  sample and how many were observed; a prediction is received when all its streams are);
+* ``predictions_per_s``: predictions published over the movements' time;
+* ``samples_dropped``: samples pushed that the predictor did not receive or left out (its
+  closing line counts them);
+* ``agree_with_offline``: the share of published predictions whose every number (the
+  probabilities, the phase, duration and time left with their intervals, the remainder's rows)
+  equals, within 1e-9, :func:`promp.pipeline.infer` run here on the same samples.
+
+Targets on this 2-core machine: p99 <= 50 ms, >= 30 predictions/s, 0 dropped, agreement 1.0.
+Every LSL stream stays on the loopback (``LSLAPICFG`` is ``tests/lsl_loopback.cfg``).
+
+The studio half: :func:`figures` takes what was pushed and the :class:`Published` predictions,
+wherever they came out; :func:`headless` is the headless predictor's source of them, and a
+function reading the studio's snapshots the same way would measure the studio.
+
+Run: ``.venv/bin/python bench/live.py [--seconds 60]``. The last line is one JSON object.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+LSL_CONFIG = REPO / "tests" / "lsl_loopback.cfg"
+os.environ["LSLAPICFG"] = str(LSL_CONFIG)  # before pylsl loads
+sys.path.insert(0, str(REPO))
+
+import pylsl  # noqa: E402
+
+from promp.data import Layout, Modality  # noqa: E402
+from promp.datasets import load_records_dataset  # noqa: E402
+from promp.inference import Observation, trajectory_at  # noqa: E402
+from promp.io import save_model  # noqa: E402
+from promp.learn import fit  # noqa: E402
+from promp.pipeline import infer  # noqa: E402
+
+DATA = REPO.parent / "shared" / "data" / "lab-records-flt"
+RATE_HZ = 250.0
+PAUSE_S = 0.3
+TOLERANCE = 1e-9
+LAYOUT = Layout((
+    Modality("hand", ("x", "y", "z"), unit="m"),
+    Modality("device", ("device_x", "device_y", "device_z"), unit="m"),
+    Modality("force", ("fx", "fy", "fz"), unit="N"),
+    Modality("moment", ("mx", "my", "mz"), unit="Nm"),
+))  # fmt: skip
+LABELS = ("hand_x", "hand_y", "hand_z", "device_x", "device_y", "device_z", "fx", "fy", "fz",
+          "mx", "my", "mz", "second_x", "second_y", "second_z")  # fmt: skip
+UNITS = ("mm",) * 3 + ("m",) * 3 + ("N",) * 3 + ("Nm",) * 3 + ("m",) * 3
+INPUTS = ("hand=BenchMocap:hand_x,hand_y,hand_z@mm", "device=BenchMocap:3,4,5",
+          "force=BenchMocap:fx,fy,fz", "moment=BenchMocap:mx,my,mz")  # fmt: skip
+SCALE = np.array([1e-3] * 3 + [1.0] * 9)  # what the mapping converts the 12 used channels by
+OUT = "bench"
+
+
+@dataclass(eq=False)
+class Plan:
+    """What the outlet pushes: ``rows`` (n, 15) at ``times`` (n,) s from the start; each
+    movement's class and rows ``[first, last]``."""
+
+    times: np.ndarray
+    rows: np.ndarray
+    movements: list[tuple[str, int, int]]
+
+
+def make_plan(dataset: dict, seconds: float, seed: int = 0) -> Plan:
+    demos = [(k, d) for k, ds in dataset.items() for d in ds]
+    order = np.random.default_rng(seed).permutation(len(demos))
+    rows, movements, n, k = [], [], 0, 0
+    while n / RATE_HZ < seconds:
+        klass, demo = demos[order[k % len(demos)]]
+        k += 1
+        t = demo.times - demo.times[0]
+        grid = np.arange(0.0, t[-1] + 1e-9, 1.0 / RATE_HZ)
+        values = np.column_stack([np.interp(grid, t, c) for c in LAYOUT.extract(demo).T])
+        table = np.column_stack([values[:, :3] * 1000.0, values[:, 3:12], values[:, :3] + 0.05])
+        movements.append((klass, n, n + grid.size - 1))
+        hold = np.repeat(table[-1:], int(PAUSE_S * RATE_HZ), axis=0)
+        rows += [table, hold]
+        n += grid.size + hold.shape[0]
+    table = np.vstack(rows)
+    return Plan(np.arange(table.shape[0]) / RATE_HZ, table, movements)
+
+
+@dataclass(eq=False)
+class Pushed:
+    """The stamps (session clock) and push times of every row, once replayed."""
+
+    stamps: np.ndarray
+    pushed_at: np.ndarray
+
+
+@dataclass(eq=False)
+class Published:
+    """One prediction as it came out: received at ``received`` (local clock), its timing
+    row, probabilities row and remainder rows (see promp.live.outlets)."""
+
+    seq: int
+    received: float = 0.0
+    timing: np.ndarray | None = None
+    probabilities: np.ndarray | None = None
+    remainder: list[np.ndarray] = field(default_factory=list)
+
+
+def replay(plan: Plan, outlet, markers) -> Pushed:
+    """Push ``plan`` at its real rate; the start and end markers around each movement."""
+    starts = {first: klass for klass, first, _ in plan.movements}
+    ends = {last: klass for klass, _, last in plan.movements}
+    t0 = pylsl.local_clock() + 0.2
+    stamps = t0 + plan.times
+    pushed_at = np.empty(stamps.size)
+    for k in range(stamps.size):
+        delay = stamps[k] - pylsl.local_clock()
+        if delay > 0.0005:
+            time.sleep(delay)
+        if k in starts:
+            markers.push_sample([f"start {starts[k]}"], stamps[k])
+        outlet.push_sample(plan.rows[k].tolist(), stamps[k])
+        pushed_at[k] = pylsl.local_clock()
+        if k in ends:
+            markers.push_sample([f"end {ends[k]}"], stamps[k])
+    return Pushed(stamps, pushed_at)
+
+
+def _read(name: str, into: dict, kind: str, stop: threading.Event, ready: threading.Event):
+    info = pylsl.resolve_byprop("name", name, 1, 30.0)
+    if not info:
+        raise RuntimeError(f"the predictor's stream {name} did not appear")
+    inlet = pylsl.StreamInlet(info[0], max_buflen=360, recover=False)
+    inlet.open_stream(10.0)
+    ready.set()
+    while not stop.is_set():
+        try:
+            rows, _ = inlet.pull_chunk(timeout=0.02, max_samples=4096, min_samples=1)
+        except pylsl.util.LostError:  # the predictor stopped
+            return
+        if not rows:
+            continue
+        now = pylsl.local_clock()
+        for row in rows:
+            row = np.asarray(row, dtype=float)
+            p = into.setdefault(int(row[0]), Published(int(row[0])))
+            p.received = max(p.received, now)
+            if kind == "remainder":
+                p.remainder.append(row)
+            else:
+                setattr(p, kind, row)
+
+
+@contextmanager
+def headless(model_path: Path, log: Path) -> Iterator[dict]:
+    """The headless predictor on the bench's streams; yields the dict its predictions are
+    collected into (by seq), then stops it with Ctrl-C; its closing JSON is in
+    ``collected['summary']`` afterwards."""
+    command = [sys.executable, "-m", "promp.live", "--model", str(model_path),
+               *(a for spec in INPUTS for a in ("--in", spec)), "--out", OUT,
+               "--remainder", "hand", "--rate", "50", "--start", "marker", "--markers",
+               "BenchMarkers", "--lsl-config", str(LSL_CONFIG), "--status-every", "5"]  # fmt: skip
+    with open(log, "w") as out:
+        process = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, cwd=REPO)
+    collected: dict = {}
+    stop = threading.Event()
+    readers = []
+    try:
+        for kind in ("timing", "probabilities", "remainder"):
+            ready = threading.Event()
+            thread = threading.Thread(target=_read, daemon=True,
+                                      args=(f"{OUT}-{kind}", collected, kind, stop, ready))
+            thread.start()
+            readers.append((thread, ready))
+        for _, ready in readers:
+            if not ready.wait(60.0):
+                raise RuntimeError(f"the predictor's streams did not appear; see {log}")
+        yield collected
+        time.sleep(1.0)  # the last predictions on their way
+    finally:
+        stop.set()
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            process.kill()  # its counts are then unknown: samples_dropped is null
+            process.wait()
+        lines = log.read_text().strip().splitlines()
+        collected["summary"] = json.loads(lines[-1]) if lines and lines[-1].startswith("{") \
+            else {}  # fmt: skip
+
+
+def offline(model, pushed: Pushed, plan: Plan, p: Published) -> tuple[np.ndarray, np.ndarray]:
+    """The published numbers of ``p`` and the same from promp.pipeline.infer on the samples
+    it observed (flattened, in the order of the outlets' channels)."""
+    start, n = float(p.timing[2]), int(p.timing[14])
+    i0 = int(np.argmin(np.abs(pushed.stamps - start)))
+    correction = start - pushed.stamps[i0]
+    times = pushed.stamps[i0:i0 + n] + correction
+    values = plan.rows[i0:i0 + n, :12] * SCALE
+    obs = Observation(times - times[0], values, LAYOUT.names)
+    inference = infer(model, obs)
+    elapsed = inference.observed_until
+    timing = inference.timing
+    left = timing.remaining_after(elapsed)
+    duration = inference.duration
+    rest = max(duration - elapsed, 0.0)
+    after = np.arange(1, int(np.ceil(rest * 50.0)) + 1) / 50.0
+    after = np.append(after[after < rest], rest)
+    mean, std = trajectory_at(model, inference.posterior, inference.alpha,
+                              np.clip((elapsed + after) / duration, 0.0, 1.0))  # fmt: skip
+    dims = model.layout.dims(["hand"])
+    expected = np.concatenate([
+        inference.probabilities,
+        [elapsed, timing.observed_fraction.value, timing.observed_fraction.low,
+         timing.observed_fraction.high, timing.duration.value, timing.duration.low,
+         timing.duration.high, left.value, left.low, left.high, inference.index, n],
+        np.column_stack([after, mean[:, dims], std[:, dims]]).ravel(),
+    ])  # fmt: skip
+    remainder = np.vstack(p.remainder)[:, 4:] if p.remainder else np.zeros((0, 7))
+    got = np.concatenate([p.probabilities[2:], p.timing[3:15], remainder.ravel()])
+    return got, expected
+
+
+def figures(model, plan: Plan, pushed: Pushed, published: dict, summary: dict,
+            check_every: int = 1) -> dict:  # fmt: skip
+    """The bench's figures from what was pushed and the predictions as they came out."""
+    complete = sorted((p for k, p in published.items() if isinstance(k, int)
+                       and p.timing is not None and p.probabilities is not None),
+                      key=lambda p: p.seq)  # fmt: skip
+    # the first prediction (in order of receipt) that includes each sample
+    first_seen = np.full(pushed.stamps.size, np.inf)
+    for p in complete:
+        i0 = int(np.argmin(np.abs(pushed.stamps - float(p.timing[2]))))
+        last = i0 + int(p.timing[14])
+        block = first_seen[i0:last]
+        np.minimum(block, p.received, out=block)
+    inside = np.concatenate([np.arange(a, b + 1) for _, a, b in plan.movements])
+    seen = inside[np.isfinite(first_seen[inside])]
+    never = [(m, int(k - a)) for m, (_, a, b) in enumerate(plan.movements, start=1)
+             for k in range(a, b + 1) if not np.isfinite(first_seen[k])]
+    if never:
+        print(f"samples never predicted (movement, sample): {never[:20]}")
+    latency_ms = (first_seen[seen] - pushed.pushed_at[seen]) * 1000.0
+    moving_s = sum((b - a) / RATE_HZ for _, a, b in plan.movements)
+    checked = complete[::max(check_every, 1)]
+    agree = 0
+    for p in checked:
+        got, expected = offline(model, pushed, plan, p)
+        agree += got.shape == expected.shape and bool(np.all(np.abs(got - expected) <= TOLERANCE))
+    received = summary.get("received", {}).get("BenchMocap", 0)  # not the marker stream's
+    left_out = summary.get("left_out", {}).get("BenchMocap", 0)
+    return {
+        "samples": int(pushed.stamps.size),
+        "movements": len(plan.movements),
+        "predictions": len(complete),
+        "samples_in_movements": int(inside.size),
+        "samples_never_predicted": int(inside.size - seen.size),
+        "predictions_checked": len(checked),
+        "latency_ms_p50": round(float(np.percentile(latency_ms, 50)), 2) if seen.size else None,
+        "latency_ms_p99": round(float(np.percentile(latency_ms, 99)), 2) if seen.size else None,
+        "predictions_per_s": round(len(complete) / moving_s, 1),
+        "samples_dropped": int(pushed.stamps.size - received + left_out) if summary else None,
+        "agree_with_offline": round(agree / max(len(checked), 1), 6),
+    }
+
+
+def main(seconds: float = 60.0, check_every: int = 1) -> dict:
+    dataset = load_records_dataset(DATA)
+    model = fit(dataset, LAYOUT)
+    plan = make_plan(dataset, seconds)
+    with tempfile.TemporaryDirectory() as tmp:
+        model_path = Path(tmp) / "model.json"
+        save_model(model_path, model)
+        info = pylsl.StreamInfo("BenchMocap", "Mocap", len(LABELS), RATE_HZ, pylsl.cf_double64,
+                                "bench-mocap")  # fmt: skip
+        channels = info.desc().append_child("channels")
+        for label, unit in zip(LABELS, UNITS, strict=True):
+            c = channels.append_child("channel")
+            c.append_child_value("label", label)
+            c.append_child_value("unit", unit)
+        outlet = pylsl.StreamOutlet(info)
+        markers = pylsl.StreamOutlet(pylsl.StreamInfo("BenchMarkers", "Markers", 1, 0,
+                                                      pylsl.cf_string, "bench-markers"))
+        with headless(model_path, Path(tmp) / "predictor.log") as published:
+            if not (outlet.wait_for_consumers(60.0) and markers.wait_for_consumers(60.0)):
+                raise RuntimeError("the predictor did not connect to the bench's streams")
+            time.sleep(0.5)
+            began = time.monotonic()
+            pushed = replay(plan, outlet, markers)
+            replay_s = time.monotonic() - began
+        log = (Path(tmp) / "predictor.log").read_text().splitlines()
+    print("\n".join(log[-4:]))
+    result = figures(model, plan, pushed, published, published.get("summary", {}), check_every)
+    result["replay_s"] = round(replay_s, 1)
+    result["load_average"] = [round(x, 2) for x in os.getloadavg()]
+    return result
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seconds", type=float, default=60.0,
+                        help="how long the replay lasts (default 60 s)")
+    parser.add_argument("--check-every", type=int, default=1, metavar="K",
+                        help="compare every K-th prediction with the offline engine (default "
+                        "1: all)")
+    args = parser.parse_args()
+    print(json.dumps(main(args.seconds, args.check_every)))

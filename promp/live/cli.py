@@ -1,0 +1,206 @@
+"""``python -m promp.live``: the headless live predictor, for the robot's computer.
+
+Reads a model (the JSON that :func:`promp.io.save_model` and the studio's Export model write),
+observes the inputs' LSL streams, finds each movement's start, predicts as the movement
+happens and publishes the predictions as LSL streams (:mod:`promp.live.outlets`; docs/live.md
+lists their layouts). It prints a status line every ``--status-every`` seconds and a line per
+event; Ctrl-C (or SIGTERM) ends it cleanly with a last line of JSON (the counts).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from promp.live.predictor import REMAINDER_HZ
+from promp.live.segmenter import MAX_MOVEMENT_S
+
+EXAMPLE = (
+    "example: python -m promp.live --model model.json --in hand=MocapHand:0,1,2@mm "
+    "--in head=type=HeadTracker:roll,pitch,yaw@deg --out icub --remainder hand --rate 50"
+)
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="python -m promp.live",
+        description="Predict a partner's movement live from LSL streams and publish the "
+        "prediction as LSL streams (NAME-probabilities, NAME-timing, NAME-remainder, "
+        "NAME-events; see docs/live.md).",
+        epilog=EXAMPLE,
+    )
+    p.add_argument("--model", required=True, type=Path, metavar="FILE",
+                   help="the model: a JSON file written by the studio's Export model or "
+                   "promp.io.save_model")
+    p.add_argument("--in", dest="inputs", action="append", required=True,
+                   metavar="NAME=STREAM:CHANNEL,...[@UNIT]",
+                   help="an observed modality of the model and where it comes from, repeated "
+                   "for each: STREAM is a stream's name, type=TYPE or source_id=ID; CHANNELs "
+                   "are channel labels or indices 0,1,...; @mm, @cm and @deg are converted "
+                   "to metres and radians (the channels' own units are, when the stream says "
+                   "them). E.g. hand=MocapHand:0,1,2@mm")
+    p.add_argument("--out", required=True, metavar="NAME",
+                   help="the outputs' name: the streams NAME-probabilities, NAME-timing, "
+                   "NAME-events and, with --remainder, NAME-remainder")
+    p.add_argument("--remainder", default=None, metavar="MODALITY",
+                   help="publish the predicted remainder of this modality of the model "
+                   "(observed or not), e.g. hand")
+    p.add_argument("--rate", type=float, default=REMAINDER_HZ, metavar="HZ",
+                   help=f"the remainder's rate (default {REMAINDER_HZ:g} Hz): one chunk per "
+                   "prediction, a row every 1/HZ s to the predicted end")
+    p.add_argument("--start", choices=("still", "marker"), default="still",
+                   help="how a movement's start and end are found: 'still' (default) by "
+                   "stillness of the inputs in metres or radians, 'marker' by a marker stream "
+                   "('start [CLASS]' ... 'end [CLASS]')")
+    p.add_argument("--markers", default="", metavar="STREAM",
+                   help="the marker stream for --start marker (name, type=TYPE or "
+                   "source_id=ID)")
+    p.add_argument("--alpha-method", choices=("ml", "model"), default="ml",
+                   help="how the speed is estimated (promp.recognition; default ml)")
+    p.add_argument("--time-base", type=float, default=None, metavar="HZ",
+                   help="put the inputs on a regular time base at this rate; default: the "
+                   "slowest input's own samples (the others interpolated at them)")
+    p.add_argument("--max-movement", type=float, default=MAX_MOVEMENT_S, metavar="S",
+                   help=f"a movement is ended after this long (default {MAX_MOVEMENT_S:g} s)")
+    p.add_argument("--record", type=Path, default=None, metavar="DIR",
+                   help="also record each movement as a CSV demonstration in DIR/<class>/ "
+                   "(the class its start marker names, else 'live'); journals in "
+                   "DIR/.journals keep what a kill would lose, recovered at the next start")
+    p.add_argument("--wait", type=float, default=30.0, metavar="S",
+                   help="how long to wait at the start for every input's stream (default 30 s;"
+                   " then it stops, listing the streams found)")
+    p.add_argument("--lsl-config", type=Path, default=None, metavar="FILE",
+                   help="an LSL configuration file (sets LSLAPICFG; e.g. the loopback-only "
+                   "tests/lsl_loopback.cfg)")
+    p.add_argument("--status-every", type=float, default=1.0, metavar="S",
+                   help="seconds between status lines (default 1; 0: none)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    if args.lsl_config is not None:
+        if not args.lsl_config.is_file():
+            return _fail(f"--lsl-config: {args.lsl_config} is not a file")
+        os.environ["LSLAPICFG"] = str(args.lsl_config.resolve())
+    try:
+        from promp.live.lsl import LslTransport
+    except ImportError as exc:
+        return _fail(str(exc))
+    from promp.io import load_model
+    from promp.live.outlets import PredictionOutlets, outlet_specs
+    from promp.live.session import LiveOptions, LiveSession
+
+    try:
+        model = load_model(args.model)
+        options = LiveOptions(start=args.start, markers=args.markers,
+                              alpha_method=args.alpha_method, remainder=args.remainder,
+                              remainder_rate=args.rate, rate=args.time_base,
+                              max_movement_s=args.max_movement)  # fmt: skip
+        transport = LslTransport()
+        specs = outlet_specs(model, args.out, args.remainder)
+        session = LiveSession(model, args.inputs, transport, options)
+        recorder = _recorder(args.record, session) if args.record else None
+    except ValueError as exc:
+        return _fail(str(exc))
+    session.outlets = PredictionOutlets(specs, transport.outlet)
+    session.recorder = recorder
+    # Ctrl-C and a service manager's stop end it cleanly, even when started with SIGINT
+    # ignored (a background job of a shell script inherits that)
+    signal.signal(signal.SIGINT, _interrupt)
+    signal.signal(signal.SIGTERM, _interrupt)
+    session.start()
+    started = time.monotonic()
+    try:
+        if not _wait_for_inputs(session, args.wait):
+            return _fail(_missing_message(session), session)
+        for stream in session.snapshot().found:
+            print(f"found {stream.summary()}", flush=True)
+        _report(session, args.status_every, started)
+    except KeyboardInterrupt:
+        pass
+    session.close()
+    snap = session.snapshot()
+    movements = snap.ended[-1].number if snap.ended else 0
+    summary = {"predictions": snap.predictions, "movements": movements,
+               "seconds": round(time.monotonic() - started, 3),
+               "received": {k: v[0] for k, v in snap.counts.items()},
+               "left_out": {k: v[1] for k, v in snap.counts.items()}}  # fmt: skip
+    if session.compute_s:
+        ms = np.array(session.compute_s) * 1000.0
+        summary["infer_ms_p50"] = round(float(np.percentile(ms, 50)), 2)
+        summary["infer_ms_p99"] = round(float(np.percentile(ms, 99)), 2)
+    print(json.dumps(summary), flush=True)
+    return 0
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def _fail(message: str, session=None) -> int:
+    if session is not None:
+        session.close()
+    print(f"error: {message}", file=sys.stderr, flush=True)
+    return 2
+
+
+def _recorder(folder: Path, session):
+    from promp.datasets import write_csv_demo
+    from promp.live.recorder import Recorder, free_path, recover
+
+    for path, demo in recover(folder / ".journals"):
+        if isinstance(demo, str):
+            print(f"a journal left by a kill cannot be read: {demo}", flush=True)
+            continue
+        target = free_path(folder / "recovered" / f"{demo.name}.csv")
+        write_csv_demo(target, demo)
+        path.unlink()
+        print(f"recovered {demo.n_samples} samples of an interrupted recording: {target}",
+              flush=True)  # fmt: skip
+    prefix = time.strftime("live-%Y%m%d-%H%M%S")
+    return Recorder(folder / ".journals", session.columns, prefix, output=folder)
+
+
+def _wait_for_inputs(session, wait: float) -> bool:
+    from promp.live.status import Condition
+
+    deadline = time.monotonic() + wait
+    while time.monotonic() < deadline:
+        statuses = session.snapshot().statuses
+        if all(s.condition is not Condition.WAITING for s in statuses):
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def _missing_message(session) -> str:
+    snap = session.snapshot()
+    waiting = [f"{s.stream} ({s.detail})" for s in snap.statuses if not s.healthy]
+    found = "; ".join(d.summary() for d in snap.found) or "none"
+    return f"no usable stream for {', '.join(waiting)} after --wait; streams found: {found}"
+
+
+def _report(session, every: float, started: float) -> None:
+    from promp.live.status_line import status_line
+
+    shown, last_line, count = 0, 0.0, (0, time.monotonic())
+    while True:
+        time.sleep(0.05)
+        snap = session.snapshot()
+        new = snap.events[len(snap.events) - min(snap.n_events - shown, len(snap.events)):]
+        for event in new:
+            print(f"{event.time:.3f} {event.text}", flush=True)
+        shown = snap.n_events
+        now = time.monotonic()
+        if every > 0 and now - last_line >= every:
+            rate = (snap.predictions - count[0]) / max(now - count[1], 1e-9)
+            print(status_line(snap, rate), flush=True)
+            last_line, count = now, (snap.predictions, now)

@@ -1,0 +1,110 @@
+"""A recording's journal: every row appended to a file as it comes, so that a kill loses
+nothing acknowledged.
+
+A journal is a text file the recorder owns (``<folder>/<name>.journal``): a first line
+``# promp-live journal 1 {"name": ..., "label": ..., "start": ...}`` (JSON: the
+demonstration's name, its class, the session-clock time of its first row), the CSV header
+``t,<columns>``, then one line per row, times in seconds from the first row and numbers with
+17 significant digits (the CSV demonstrations' format, :func:`promp.datasets.demo_to_csv`: an
+exact round trip). Each :meth:`Journal.append` is one ``write`` to the operating system: when
+it returns, the rows are **acknowledged**, and survive the process being killed; the file is
+also ``fsync``-ed every :data:`FSYNC_S` and when closed (a power cut may lose the last
+second). :func:`read_journal` reads one back, a last line cut short by a kill left out.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from promp.data import Demonstration
+from promp.datasets import demo_from_csv
+
+MAGIC = "# promp-live journal 1 "
+SUFFIX = ".journal"
+FSYNC_S = 1.0
+
+
+class Journal:
+    """An open journal (see the module docstring); created new, never over a file."""
+
+    def __init__(self, path: Path, columns: tuple[str, ...], name: str, label: str, start: float):
+        self.path = Path(path)
+        self.columns = tuple(columns)
+        self.start = float(start)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
+        header = {"name": name, "label": label, "start": self.start, "columns": list(columns)}
+        self._write(f"{MAGIC}{json.dumps(header)}\n{','.join(('t', *self.columns))}\n")
+        os.fsync(self._fd)
+        self._synced = time.monotonic()
+        self.acknowledged = 0
+
+    def _write(self, text: str) -> None:
+        data = text.encode("utf-8")
+        while data:
+            data = data[os.write(self._fd, data):]
+
+    def append(self, times: np.ndarray, values: np.ndarray) -> int:
+        """Append rows (times on the session's clock (n,), values (n, n_columns)); returns
+        the rows acknowledged so far."""
+        if self._fd < 0:
+            raise ValueError(f"{self.path}: the journal is closed")
+        times = np.asarray(times, dtype=float)
+        if times.size == 0:
+            return self.acknowledged
+        buffer = io.StringIO()
+        table = np.column_stack([times - self.start, np.asarray(values, dtype=float)])
+        np.savetxt(buffer, table, delimiter=",", fmt="%.17g")
+        self._write(buffer.getvalue())
+        self.acknowledged += int(times.shape[0])
+        if time.monotonic() - self._synced > FSYNC_S:
+            os.fsync(self._fd)
+            self._synced = time.monotonic()
+        return self.acknowledged
+
+    def close(self) -> None:
+        if self._fd >= 0:
+            os.fsync(self._fd)
+            os.close(self._fd)
+            self._fd = -1
+
+
+def read_journal(path: Path) -> tuple[Demonstration, dict]:
+    """The demonstration a journal holds, and its header (name, label, start, columns).
+
+    Raises
+    ------
+    ValueError
+        Not a journal, a broken header, or fewer than 2 whole rows.
+    """
+    path = Path(path)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: cannot read the journal ({exc})") from None
+    if not text.startswith(MAGIC):
+        raise ValueError(f"{path}: not a promp-live journal (no {MAGIC.strip()!r} line)")
+    first, _, rest = text.partition("\n")
+    try:
+        header = json.loads(first[len(MAGIC):])
+        name = str(header["name"])
+        str(header["label"])
+    except (json.JSONDecodeError, KeyError, TypeError) as exc:
+        raise ValueError(f"{path}: the journal's header is broken ({exc})") from None
+    if not rest.endswith("\n"):
+        rest = rest[: rest.rfind("\n") + 1]  # a row cut short by a kill: never acknowledged
+    return demo_from_csv(rest, name=name, label=str(path)), header
+
+
+def journals(folder: Path) -> list[Path]:
+    """The journals left in ``folder`` (a recording a kill interrupted), oldest first."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return []
+    return sorted(folder.glob(f"*{SUFFIX}"), key=lambda p: (p.stat().st_mtime, p.name))

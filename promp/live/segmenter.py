@@ -1,0 +1,246 @@
+"""The segmenter stage: where a movement starts and ends in the rows of the time base.
+
+Three ways, one at a time (``start``):
+
+* ``"still"``: the take trimming's stillness detection (:mod:`promp.stillness`): a movement
+  starts :data:`promp.stillness.MARGIN_S` before the first sample of a run of motion that has
+  lasted :data:`promp.stillness.MIN_MOVE_S` (a shorter burst is a twitch), found by
+  :func:`promp.stillness.moving_spans` over the recent rows; it ends
+  :data:`promp.stillness.MARGIN_S` after its last moving sample once the inputs have been
+  still for :data:`promp.stillness.MIN_STILL_S`. Only inputs in metres or radians are watched
+  (they have a fixed idle speed; a force or an EMG in its own unit has none while nothing
+  moves): a session with none of them cannot use it.
+* ``"marker"``: a marker stream's ``start [CLASS]`` and ``end [CLASS]``
+  (:func:`promp.rigs.cutting.parse_marker`): the movement holds the rows from the start
+  marker's time to the end marker's, and is labelled with the class.
+* ``"call"``: :meth:`Segmenter.begin` and :meth:`Segmenter.end` (the studio's buttons), at
+  the times given.
+
+Calls work in every mode (a button overrides the automatic start). A movement also ends
+when an input breaks (:meth:`Segmenter.abort`) and after :data:`MAX_MOVEMENT_S`. A new
+movement starts a new observation: its rows are its own, from its start.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from promp.live.timebase import Rows
+from promp.rigs.cutting import parse_marker
+from promp.stillness import MARGIN_S, MIN_STILL_S, idle_threshold, moving_spans, speed
+
+STARTS = ("still", "marker", "call")
+MAX_MOVEMENT_S = 30.0
+HISTORY_S = 3.0  # rows kept while nothing moves (a late marker, the stillness window)
+END_WINDOW_S = 2.0  # the rows looked at for the end of a movement
+# A marker and a sample stamped at one instant may differ by the streams' clock corrections
+# (microseconds on one machine): a row this close to a start or end marker belongs inside.
+SLACK_S = 0.002
+
+
+@dataclass(frozen=True, eq=False)
+class Movement:
+    """The rows of one movement so far.
+
+    Attributes
+    ----------
+    number : int
+        Counts the session's movements from 1.
+    label : str
+        The class its start marker named ('' otherwise).
+    times : array, shape (n,)
+        Seconds on the session's clock; ``times[0]`` is the movement's start.
+    values : array, shape (n, n_channels)
+    ended : str
+        Why it ended ('' while it goes on).
+    """
+
+    number: int
+    label: str
+    times: np.ndarray
+    values: np.ndarray
+    ended: str = ""
+
+    def __len__(self) -> int:
+        return int(self.times.shape[0])
+
+    @property
+    def start(self) -> float:
+        return float(self.times[0]) if len(self) else math.nan
+
+
+@dataclass(frozen=True, eq=False)
+class Boundary:
+    """A movement started or ended (``kind``), at ``time``; for an end, ``reason`` and the
+    ended ``movement`` (all its rows)."""
+
+    kind: str  # "start" or "end"
+    number: int
+    time: float
+    reason: str = ""
+    movement: Movement | None = None
+
+
+class Segmenter:
+    """Rows in, movements out (see the module docstring).
+
+    Parameters
+    ----------
+    start : {"still", "marker", "call"}
+    width : int
+        The rows' number of columns.
+    still_blocks : sequence of (slice, unit)
+        The columns of each input the stillness detection watches, and its unit.
+    max_movement_s : float
+    """
+
+    def __init__(
+        self,
+        start: str,
+        width: int,
+        still_blocks: Sequence[tuple[slice, str]] = (),
+        max_movement_s: float = MAX_MOVEMENT_S,
+    ):
+        if start not in STARTS:
+            raise ValueError(f"unknown movement start {start!r}; expected one of {STARTS}")
+        blocks = [(cols, unit) for cols, unit in still_blocks if unit in ("m", "rad")]
+        if start == "still" and not blocks:
+            raise ValueError(
+                "the stillness detection watches inputs in metres or radians (a position, "
+                "angles), and none is given: use --start marker (a marker stream) instead"
+            )
+        self.start = start
+        self.blocks = blocks
+        self.max_movement_s = float(max_movement_s)
+        self._times = np.zeros(0)
+        self._values = np.zeros((0, int(width)))
+        self._first = 0  # the movement's first row in the buffer, when one goes on
+        self._open: tuple[int, str] | None = None  # (number, label) of the movement going on
+        self._count = 0
+        self._pending: list[tuple[float, str, str]] = []  # (time, "start"/"end", label)
+        self.unknown: list[tuple[float, str]] = []  # markers that were neither
+
+    # ------------------------------------------------------------------ what says when
+
+    def begin(self, time: float, label: str = "") -> None:
+        """A movement starts at ``time`` (session clock): rows from then on belong to it."""
+        self._pending.append((float(time), "start", label))
+
+    def end(self, time: float) -> None:
+        """The movement going on ends at ``time``: rows after it do not belong to it."""
+        self._pending.append((float(time), "end", ""))
+
+    def markers(self, markers: Sequence[tuple[float, str]]) -> None:
+        """Marker events ``(time, label)``; used in ``"marker"`` mode, others set aside in
+        :attr:`unknown`."""
+        for time, label in markers:
+            parsed = parse_marker(label)
+            if parsed is None or self.start != "marker":
+                self.unknown.append((float(time), str(label)))
+                continue
+            self._pending.append((float(time), parsed[0], parsed[1]))
+
+    # ------------------------------------------------------------------ rows
+
+    def feed(self, rows: Rows | None) -> list[Boundary]:
+        """Add the time base's new rows; the boundaries they (and the calls and markers so
+        far) make, in order."""
+        if rows is not None and len(rows):
+            values = np.asarray(rows.values, dtype=float)
+            self._times = np.concatenate([self._times, rows.times])
+            self._values = np.concatenate([self._values, values])
+        out: list[Boundary] = []
+        self._pending.sort(key=lambda p: p[0])
+        while self._pending:
+            time, kind, label = self._pending[0]
+            if kind == "end" and (not self._times.size or self._times[-1] < time + SLACK_S):
+                break  # wait for the rows up to the end
+            self._pending.pop(0)
+            if kind == "start":
+                if self._open is not None:
+                    out += self._close(time, "a new movement started")
+                first = int(np.searchsorted(self._times, time - SLACK_S, side="left"))
+                out += self._open_at(first, label, time)
+            elif self._open is not None:
+                out += self._close(time, "end marker" if self.start == "marker" else "ended")
+        if self.start == "still":
+            out += self._still()
+        if self._open is not None and self._first < self._times.size:
+            if self._times[-1] - self._times[self._first] > self.max_movement_s:
+                out += self._close(float(self._times[-1]),
+                                   f"longer than {self.max_movement_s:g} s")  # fmt: skip
+        self._trim()
+        return out
+
+    def abort(self, reason: str) -> list[Boundary]:
+        """End the movement going on now (an input broke): with the rows it has."""
+        if self._open is None:
+            return []
+        end = float(self._times[-1]) if self._times.size else math.inf
+        return self._close(end, reason)
+
+    @property
+    def movement(self) -> Movement | None:
+        """The movement going on (None between movements)."""
+        if self._open is None:
+            return None
+        return Movement(self._open[0], self._open[1], self._times[self._first:],
+                        self._values[self._first:])  # fmt: skip
+
+    # ------------------------------------------------------------------ inside
+
+    def _open_at(self, first: int, label: str, time: float) -> list[Boundary]:
+        self._count += 1
+        self._open, self._first = (self._count, label), first
+        return [Boundary("start", self._count, float(time))]
+
+    def _close(self, time: float, reason: str) -> list[Boundary]:
+        number, label = self._open
+        stop = int(np.searchsorted(self._times, time + SLACK_S, side="right"))
+        times, values = self._times[self._first:stop], self._values[self._first:stop]
+        ended = Movement(number, label, times, values, reason)
+        self._open = None
+        self._times, self._values = self._times[stop:], self._values[stop:]
+        self._first = 0
+        return [Boundary("end", number, float(time), reason, ended)]
+
+    def _blocks(self, lo: int) -> list[tuple[np.ndarray, str]]:
+        return [(self._values[lo:, cols], unit) for cols, unit in self.blocks]
+
+    def _still(self) -> list[Boundary]:
+        if self._times.size < 3:
+            return []
+        if self._open is None:
+            spans = moving_spans(self._times, self._blocks(0))
+            if not spans:
+                return []
+            return self._open_at(spans[0][0], "", float(self._times[spans[0][0]]))
+        lo = max(self._first, int(np.searchsorted(self._times, self._times[-1] - END_WINDOW_S)))
+        times = self._times[lo:]
+        if times.size < 3:
+            return []
+        moving = np.zeros(times.size, dtype=bool)
+        for values, unit in self._blocks(lo):
+            if unit == "rad":
+                values = np.unwrap(values, axis=0)
+            speeds = speed(times, values)
+            moving |= speeds > idle_threshold(unit, speeds)
+        last = float(times[np.flatnonzero(moving)[-1]]) if moving.any() else float(times[0])
+        if times[-1] - last < MIN_STILL_S:
+            return []
+        return self._close(last + MARGIN_S, "still")
+
+    def _trim(self) -> None:
+        """Rows before the movement going on (or older than :data:`HISTORY_S`) go."""
+        if not self._times.size:
+            return
+        keep = int(np.searchsorted(self._times, self._times[-1] - HISTORY_S))
+        if self._open is not None:
+            keep = min(keep, self._first)
+        if keep:
+            self._times, self._values = self._times[keep:], self._values[keep:]
+            self._first -= keep if self._open is not None else 0

@@ -1,0 +1,458 @@
+"""The source stage: live streams in, as timed samples of modalities, with the faults seen.
+
+Each :class:`LiveInput` is one modality in the rig formats' mapping syntax
+(:mod:`promp.rigs.mapping`): ``hand=MocapHand:0,1,2@mm`` takes channels 0, 1, 2 of the stream
+named ``MocapHand`` (or ``type=Mocap``, ``source_id=vicon-1``: :class:`Selector`), in
+millimetres, converted to metres; channels are named by their labels or their indices, and a
+channel's own unit (its ``unit`` in the stream's description) is converted the same way when
+the mapping states none. The channels are looked up with the XDF reader's own code
+(:class:`promp.rigs.streams.Recording`).
+
+:meth:`Source.poll` returns what arrived since the last poll, on the session's clock (the
+transport's time correction applied), strictly increasing per stream, and updates each
+input's :class:`StreamStatus`. What it does with faults, never raising:
+
+* **NaN or infinite values** (or beyond :data:`promp.data.MAX_MAGNITUDE`): the sample is left
+  out (``bad values``); samples not of the stream's channel count too (``wrong channels``);
+* **a stamp that goes back** a little (under :data:`JUMP_S`): left out;
+* **a clock jump**: stamps that go back by :data:`JUMP_S` or more, or that leap ahead by
+  :data:`JUMP_S` more than the time that passed here, are re-anchored: the stream's later
+  stamps are shifted so that the first sample after the jump follows the last one by the
+  stream's step (``clock jumped``); the movement under way is ended (:class:`SourceBatch`
+  ``broken``);
+* **a stall**: no sample for :data:`STALL_STEPS` steps (at least :data:`STALL_MIN_S`):
+  ``stalled`` until samples come again;
+* **a rate change** of over :data:`RATE_TOLERANCE` over the last :data:`RATE_WINDOW_S`:
+  ``rate changed`` (the time base works from the stamps, whatever the rate);
+* **vanished**: the outlet is gone; the stream is looked for again (:meth:`Source.open_missing`,
+  on the session's resolver thread) and, found, is ``back`` (the same outlet) or
+  ``restarted`` (a new one), or ``wrong channels`` when it no longer has the mapping's channels
+  (it is then not used: the mapping would read the wrong values).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from promp.data import MAX_MAGNITUDE
+from promp.live.status import Condition, LiveEvent, StreamStatus
+from promp.live.transport import Inlet, Selector, StreamDescription, StreamLost, Transport
+from promp.rigs.mapping import SourcedModality, parse_sourced, si_unit
+from promp.rigs.streams import Recording
+
+JUMP_S = 0.25
+STALL_STEPS = 10.0
+STALL_MIN_S = 0.5
+RATE_TOLERANCE = 0.25
+RATE_WINDOW_S = 2.0
+CLEAN_S = 1.0  # NaNs are said until the samples have been clean this long
+BAD_DETAIL = f"sample(s) with NaN, infinite or beyond {MAX_MAGNITUDE:.0e} values left out"
+
+
+@dataclass(frozen=True)
+class LiveInput:
+    """One modality of a live session: its mapping and the stream it comes from."""
+
+    modality: SourcedModality
+    selector: Selector
+
+    @classmethod
+    def parse(cls, spec: str) -> LiveInput:
+        """``"hand=MocapHand:0,1,2@mm"`` as an input.
+
+        Raises
+        ------
+        ValueError
+            The mapping syntax's errors, or no stream named (``hand=0,1,2``).
+        """
+        modality = parse_sourced(spec)
+        if not modality.stream:
+            raise ValueError(
+                f"a live input names its stream: NAME=STREAM:CHANNEL,...[@UNIT], e.g. "
+                f"{modality.name}=MocapHand:0,1,2@mm; got {spec!r}"
+            )
+        return cls(modality, Selector.parse(modality.stream))
+
+    @property
+    def name(self) -> str:
+        return self.modality.name
+
+    @property
+    def stream(self) -> str:
+        return str(self.selector)
+
+
+@dataclass(frozen=True)
+class Channels:
+    """Where an input's values are in its stream's samples, and how they are converted.
+
+    ``index`` (k,) the channels, ``scale`` (k,) the factor to SI, ``units`` the SI units."""
+
+    index: np.ndarray
+    scale: np.ndarray
+    units: tuple[str, ...]
+
+
+def channels_of(live_input: LiveInput, stream: StreamDescription) -> Channels:
+    """The channels of ``live_input`` in ``stream``.
+
+    Raises
+    ------
+    ValueError
+        ``stream`` is a marker stream, or lacks a channel the mapping names.
+    """
+    if stream.is_markers:
+        raise ValueError(f"stream {stream.name!r} is a marker stream, not {live_input.name!r}'s")
+    labels = stream.labels
+    if not all(labels) or len(set(labels)) != len(labels):
+        labels = tuple(str(i) for i in range(stream.n_channels))
+    recording = Recording(f"LSL stream {stream.name!r}", {stream.name: labels},
+                          {stream.name: stream.units})  # fmt: skip
+    fields = live_input.modality.fields
+    recording.require_fields(stream.name, fields)
+    index = np.array([recording.field_index(stream.name, f) for f in fields], dtype=int)
+    stated = live_input.modality.stated_unit
+    raw = (stated,) * len(fields) if stated else recording.field_units(stream.name, fields)
+    units, scales = zip(*(si_unit(u) for u in raw), strict=True)
+    return Channels(index, np.array(scales, dtype=float), tuple(units))
+
+
+@dataclass(eq=False)
+class SourceBatch:
+    """What one poll brought.
+
+    Attributes
+    ----------
+    samples : dict of str to (times (n,), values (n, k), units)
+        Per input (by modality name), the new samples in SI units.
+    markers : list of (time, label)
+    events : list of LiveEvent
+        Conditions that changed.
+    broken : set of str
+        Inputs whose samples do not continue the earlier ones (vanished, restarted, a
+        clock jump): the movement under way cannot be observed across them.
+    """
+
+    samples: dict[str, tuple[np.ndarray, np.ndarray, tuple[str, ...]]]
+    markers: list[tuple[float, str]]
+    events: list[LiveEvent]
+    broken: set[str]
+
+
+@dataclass(eq=False)
+class _Feed:
+    """One input's (or the marker stream's) connection and what is known of its samples."""
+
+    selector: Selector
+    inputs: tuple[LiveInput, ...]  # none: the marker stream
+    inlet: Inlet | None = None
+    channels: tuple[Channels, ...] = ()
+    uid: str = ""
+    rejected: str = ""  # the uid of a stream without the mapping's channels
+    status: StreamStatus | None = None
+    last: float = -math.inf  # the last accepted time
+    shift: float = 0.0  # re-anchoring after clock jumps
+    arrival: float = -math.inf  # when the last sample arrived here
+    rate: float = 0.0  # the rate the stream is believed to run at (Hz; 0 unknown)
+    recent: deque = field(default_factory=deque)  # recent times, for the rate
+    received: int = 0
+    left_out: int = 0
+    clean_since: float = math.inf
+
+    @property
+    def label(self) -> str:
+        return str(self.selector)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(i.name for i in self.inputs)
+
+    @property
+    def step(self) -> float:
+        return 1.0 / self.rate if self.rate > 0 else 0.0
+
+
+class Source:
+    """The inputs' streams, opened and polled (see the module docstring).
+
+    Parameters
+    ----------
+    inputs : sequence of LiveInput
+    transport : Transport
+    markers : Selector, optional
+        The marker stream (``start CLASS`` / ``end CLASS``).
+    """
+
+    def __init__(
+        self,
+        inputs: Sequence[LiveInput],
+        transport: Transport,
+        markers: Selector | None = None,
+    ):
+        names = [i.name for i in inputs]
+        if not inputs:
+            raise ValueError("a live session needs at least one input (--in NAME=STREAM:...)")
+        if len(set(names)) != len(names):
+            raise ValueError(f"a modality is given twice among the inputs {names}")
+        self.inputs = tuple(inputs)
+        self.transport = transport
+        now = transport.clock()
+        # inputs of one stream share its inlet
+        selectors = list(dict.fromkeys(i.selector for i in inputs))
+        self._feeds = [_Feed(sel, tuple(i for i in inputs if i.selector == sel))
+                       for sel in selectors]  # fmt: skip
+        if markers is not None:
+            if markers in selectors:
+                raise ValueError(f"the marker stream {str(markers)!r} is also an input's")
+            self._feeds.append(_Feed(markers, ()))
+        for feed in self._feeds:
+            feed.status = StreamStatus(str(feed.selector), Condition.WAITING, now, "not found yet")
+
+    # ------------------------------------------------------------------ connecting
+
+    def missing(self) -> tuple[int, ...]:
+        """The feeds without an inlet (what the resolver looks for)."""
+        return tuple(k for k, f in enumerate(self._feeds) if f.inlet is None)
+
+    def open_missing(
+        self, streams: Sequence[StreamDescription], wanted: Sequence[int]
+    ) -> list[tuple[int, Inlet | None, StreamDescription | None, str]]:
+        """Open inlets for the feeds ``wanted`` among ``streams`` (a find's answer); returns
+        ``(feed, inlet, stream, problem)`` for each: an inlet, or None and why. Safe on
+        another thread: it reads only what does not change (the inputs); :meth:`adopt` hands
+        the inlets to the feeds."""
+        out = []
+        for k in wanted:
+            feed = self._feeds[k]
+            markers = not feed.inputs
+            matching = [s for s in streams
+                        if feed.selector.matches(s) and s.is_markers == markers]  # fmt: skip
+            if not matching:
+                continue
+            uids = {s.uid for s in matching}
+            if len(uids) > 1:
+                names = ", ".join(s.summary() for s in matching)
+                out.append((k, None, None, f"several streams match: {names}; name one by "
+                                           "source_id=ID"))  # fmt: skip
+                continue
+            stream = matching[0]
+            if stream.uid == feed.rejected:
+                continue
+            try:
+                inlet = self.transport.open(stream)
+            except StreamLost as exc:
+                out.append((k, None, stream, str(exc)))
+                continue
+            out.append((k, inlet, inlet.description, ""))
+        return out
+
+    def adopt(self, opened: Sequence[tuple[int, Inlet | None, StreamDescription | None, str]]
+              ) -> list[LiveEvent]:  # fmt: skip
+        """Give the feeds the inlets :meth:`open_missing` opened (on the polling thread)."""
+        now = self.transport.clock()
+        events = []
+        for k, inlet, stream, problem in opened:
+            feed = self._feeds[k]
+            if feed.inlet is not None:  # found twice: keep the first
+                if inlet is not None:
+                    inlet.close()
+                continue
+            if inlet is None:
+                events += self._set(feed, Condition.WAITING, now, problem)
+                continue
+            assert stream is not None
+            if feed.inputs:
+                try:
+                    feed.channels = tuple(channels_of(i, stream) for i in feed.inputs)
+                except ValueError as exc:
+                    inlet.close()
+                    feed.rejected = stream.uid
+                    events += self._set(feed, Condition.WRONG_CHANNELS, now, str(exc))
+                    continue
+            was = feed.status.condition if feed.status else Condition.WAITING
+            condition = Condition.OK
+            if was is Condition.VANISHED or feed.uid:
+                condition = Condition.BACK if stream.uid == feed.uid else Condition.RESTARTED
+            feed.inlet, feed.uid, feed.arrival = inlet, stream.uid, now
+            feed.rate, feed.recent = max(stream.rate, 0.0), deque()
+            feed.last, feed.shift = -math.inf, 0.0
+            events += self._set(feed, condition, now, stream.summary())
+        return events
+
+    # ------------------------------------------------------------------ polling
+
+    def poll(self) -> SourceBatch:
+        """What arrived since the last poll (see the module docstring)."""
+        now = self.transport.clock()
+        batch = SourceBatch({}, [], [], set())
+        for feed in self._feeds:
+            if feed.inlet is None:
+                continue
+            try:
+                times, values = feed.inlet.pull()
+            except StreamLost:
+                feed.inlet.close()
+                feed.inlet = None
+                batch.events += self._set(feed, Condition.VANISHED, now, "its outlet is gone; "
+                                          "looking for it again")  # fmt: skip
+                batch.broken.update(feed.names)
+                continue
+            if len(times) == 0:
+                batch.events += self._check_stall(feed, now)
+                continue
+            if not feed.inputs:
+                feed.received += len(times)
+                times = np.asarray(times, dtype=float) + feed.shift
+                batch.markers += [(float(t), str(v)) for t, v in zip(times, values, strict=True)]
+                feed.arrival = now
+                continue
+            self._samples(feed, np.asarray(times, dtype=float), np.asarray(values), now, batch)
+        return batch
+
+    def _samples(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
+                 batch: SourceBatch) -> None:  # fmt: skip
+        feed.received += times.shape[0]
+        width = feed.inlet.description.n_channels if feed.inlet is not None else 0
+        if values.ndim != 2 or values.shape[1] != width or times.ndim != 1 \
+                or values.shape[0] != times.shape[0]:  # fmt: skip
+            feed.left_out += times.shape[0]
+            batch.events += self._set(feed, Condition.WRONG_CHANNELS, now,
+                                      f"samples of shape {values.shape}, not (n, {width}): "
+                                      "left out")  # fmt: skip
+            return
+        index = np.concatenate([c.index for c in feed.channels])
+        scale = np.concatenate([c.scale for c in feed.channels])
+        values = values[:, index] * scale
+        with np.errstate(invalid="ignore"):
+            finite = np.all(np.abs(values) <= MAX_MAGNITUDE, axis=1) & np.isfinite(times)
+        condition = feed.status.condition
+        if not finite.all():
+            bad = int((~finite).sum())
+            feed.left_out += bad
+            if condition is Condition.BAD_VALUES:  # the same episode: counted, said once
+                bad += int(feed.status.detail.split(" ")[0])
+                feed.status = StreamStatus(feed.status.stream, condition, feed.status.since,
+                                           f"{bad} {BAD_DETAIL}")  # fmt: skip
+            else:
+                batch.events += self._set(feed, Condition.BAD_VALUES, now, f"{bad} {BAD_DETAIL}")
+            feed.clean_since = math.inf
+            times, values = times[finite], values[finite]
+        elif condition is Condition.BAD_VALUES:
+            feed.clean_since = min(feed.clean_since, now)
+            if now - feed.clean_since >= CLEAN_S:
+                batch.events += self._set(feed, Condition.OK, now, "samples usable again")
+        elif condition in (Condition.STALLED, Condition.WAITING, Condition.WRONG_CHANNELS):
+            batch.events += self._set(feed, Condition.OK, now, "samples usable again")
+        if times.shape[0] == 0:
+            return
+        times = times + feed.shift
+        times, values = self._clock(feed, times, values, now, batch)
+        if times.shape[0] == 0:
+            return
+        feed.last, feed.arrival = float(times[-1]), now
+        batch.events += self._check_rate(feed, times, now)
+        start = 0
+        for live_input, channels in zip(feed.inputs, feed.channels, strict=True):
+            width = channels.index.shape[0]
+            batch.samples[live_input.name] = (times, values[:, start:start + width],
+                                              channels.units)  # fmt: skip
+            start += width
+
+    def _clock(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
+               batch: SourceBatch) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """Jumps re-anchored, stamps that go back a little left out (module docstring)."""
+        if math.isfinite(feed.last):
+            diffs = np.diff(np.concatenate([[feed.last], times]))
+            back = np.flatnonzero(diffs <= -JUMP_S)
+            leap = (times[-1] - feed.last) - (now - feed.arrival) > JUMP_S
+            if back.size or leap:
+                i = int(back[0]) if back.size else int(np.argmax(diffs))
+                previous = feed.last if i == 0 else float(times[i - 1])
+                delta = previous + (feed.step or float(np.median(np.abs(diffs)))) - times[i]
+                feed.shift += delta
+                times = times.copy()
+                times[i:] += delta
+                batch.broken.update(feed.names)
+                batch.events += self._set(
+                    feed, Condition.CLOCK_JUMP, now,
+                    f"its time stamps jumped by {-delta:+.3f} s; re-anchored",
+                )  # fmt: skip
+        keep = times > np.maximum.accumulate(np.concatenate([[feed.last], times]))[:-1]
+        if not keep.all():
+            feed.left_out += int((~keep).sum())
+            times, values = times[keep], values[keep]
+        return times, values
+
+    def _check_rate(self, feed: _Feed, times: np.ndarray, now: float) -> list[LiveEvent]:
+        """The rate from the median step of the last :data:`RATE_WINDOW_S` (a pause is not
+        a rate: the window starts again after one; the median follows a new rate once it
+        holds half the window)."""
+        recent = feed.recent
+        if recent and times[0] - recent[-1] > max(STALL_MIN_S, STALL_STEPS * feed.step):
+            recent.clear()
+        recent.extend(times.tolist())
+        while recent and recent[-1] - recent[0] > RATE_WINDOW_S:
+            recent.popleft()
+        span = recent[-1] - recent[0] if recent else 0.0
+        if len(recent) < 5 or span < 0.5 * RATE_WINDOW_S:
+            return []
+        measured = 1.0 / float(np.median(np.diff(np.asarray(recent))))
+        if feed.rate <= 0:
+            feed.rate = measured
+            return []
+        if abs(measured / feed.rate - 1.0) <= RATE_TOLERANCE:
+            return []
+        before, feed.rate = feed.rate, measured
+        return self._set(feed, Condition.RATE_CHANGED, now,
+                         f"from {before:.4g} Hz to {measured:.4g} Hz")  # fmt: skip
+
+    def _check_stall(self, feed: _Feed, now: float) -> list[LiveEvent]:
+        if not feed.inputs or not math.isfinite(feed.last):
+            return []
+        limit = max(STALL_MIN_S, STALL_STEPS * feed.step)
+        if now - feed.arrival < limit or feed.status.condition is Condition.STALLED:
+            return []
+        return self._set(feed, Condition.STALLED, feed.arrival,
+                         f"no sample for over {limit:.2g} s")  # fmt: skip
+
+    @staticmethod
+    def _set(feed: _Feed, condition: Condition, since: float, detail: str) -> list[LiveEvent]:
+        old = feed.status
+        if old is not None and old.condition is condition and old.detail == detail:
+            return []
+        feed.status = StreamStatus(str(feed.selector), condition, since, detail)
+        return [LiveEvent(since, f"stream {str(feed.selector)!r}: {condition.value} ({detail})")]
+
+    # ------------------------------------------------------------------ reading
+
+    def statuses(self) -> tuple[StreamStatus, ...]:
+        """Each input stream's status (and the marker stream's, last)."""
+        return tuple(f.status for f in self._feeds if f.status is not None)
+
+    def counts(self) -> dict[str, tuple[int, int]]:
+        """Per stream (as selected): samples received, and left out (bad values, stamps
+        going back)."""
+        return {f.label: (f.received, f.left_out) for f in self._feeds}
+
+    def nominal_rate(self, name: str) -> float:
+        """The rate input ``name``'s stream is believed to run at (Hz; 0 while unknown)."""
+        return next(f.rate for f in self._feeds if name in f.names)
+
+    def close(self) -> None:
+        for feed in self._feeds:
+            if feed.inlet is not None:
+                feed.inlet.close()
+                feed.inlet = None
+
+    def find_and_adopt(self, wait: float) -> list[LiveEvent]:
+        """Look for the missing feeds' streams and take them (both on this thread)."""
+        wanted = self.missing()
+        if not wanted:
+            return []
+        return self.adopt(self.open_missing(self.transport.find(wait), wanted))
+

@@ -1,0 +1,168 @@
+"""The time base stage: the inputs' samples, at their own rates, put on one clock as rows.
+
+The XDF reader's rule, applied as samples arrive (:func:`promp.rigs.streams.on_one_clock` does
+the work, on each stream's samples around the new rows): the rows are at the times of the
+slowest input (the lowest nominal rate, or the longest median step when a rate is not
+declared; chosen once, when every input has samples), the others interpolated linearly at
+them (angles through their unwrapped path), or on a regular grid at ``rate`` Hz. A row is
+given once every input has a sample at or after its time, so an input that lags holds the
+rows back rather than being extrapolated.
+
+A gap in an input (a step over :data:`promp.quality.GAP_FACTOR` times its own, and over
+:data:`GAP_MIN_S`) cannot be interpolated across: the rows inside it are never given, and
+:meth:`TimeBase.push` says so (the session ends the movement under way).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from promp.quality import GAP_FACTOR
+from promp.rigs.streams import Stream, on_one_clock
+
+GAP_MIN_S = 0.1
+KEEP_S = 1.0  # samples kept before the last row given (interpolation needs one)
+
+
+@dataclass(frozen=True, eq=False)
+class Rows:
+    """Samples of every input at common times.
+
+    ``times`` (n,) seconds on the session's clock; ``values`` (n, n_channels), the inputs'
+    channels side by side in the inputs' order."""
+
+    times: np.ndarray
+    values: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.times.shape[0])
+
+
+@dataclass(eq=False)
+class _Buffer:
+    times: np.ndarray
+    values: np.ndarray
+    units: tuple[str, ...] = ()
+
+    @property
+    def step(self) -> float:
+        return float(np.median(np.diff(self.times[-50:]))) if self.times.size > 1 else math.nan
+
+
+class TimeBase:
+    """Rows of several inputs on one clock (see the module docstring).
+
+    Parameters
+    ----------
+    names : sequence of str
+        The inputs, in the order of the rows' columns.
+    widths : sequence of int
+        Each input's number of channels.
+    rate : float, optional
+        A regular grid at this rate (Hz) instead of the slowest input's times.
+    """
+
+    def __init__(self, names: Sequence[str], widths: Sequence[int], rate: float | None = None):
+        if rate is not None and not (math.isfinite(rate) and rate > 0):
+            raise ValueError(f"the time base's rate must be a positive number of Hz, got {rate}")
+        self.names = tuple(names)
+        self.widths = tuple(int(w) for w in widths)
+        self.rate = rate
+        self.base: int | None = None
+        self._buffers = {n: _Buffer(np.zeros(0), np.zeros((0, w)))
+                         for n, w in zip(self.names, self.widths, strict=True)}  # fmt: skip
+        self._given = -math.inf  # the time of the last row given
+
+    def choose_base(self, rates: Mapping[str, float]) -> None:
+        """Fix the input whose times are the rows' (``rates``: the nominal rates, 0 unknown;
+        otherwise the longest median step). Called once every input has samples."""
+        if all(rates.get(n, 0.0) > 0 for n in self.names):
+            self.base = int(np.argmin([rates[n] for n in self.names]))
+        else:
+            self.base = int(np.argmax([self._buffers[n].step for n in self.names]))
+
+    def push(self, name: str, times: np.ndarray, values: np.ndarray,
+             units: tuple[str, ...]) -> str:  # fmt: skip
+        """Add input ``name``'s new samples (strictly after its earlier ones); returns a
+        message when they leave a gap after the earlier ones ('' otherwise)."""
+        buf = self._buffers[name]
+        times = np.asarray(times, dtype=float)
+        values = np.asarray(values, dtype=float).reshape(times.shape[0], -1)
+        buf.units = tuple(units)
+        gap = ""
+        old = buf.times[-50:]
+        joined = np.concatenate([old, times])
+        if joined.size > 2:
+            spans = np.diff(joined)
+            limit = max(GAP_FACTOR * float(np.median(spans)), GAP_MIN_S)
+            over = np.flatnonzero(spans[max(old.size - 1, 0):] > limit)
+            if over.size:
+                i = int(over[-1]) + max(old.size - 1, 0)  # spans[i]: joined[i] -> joined[i + 1]
+                gap = (f"input {name!r} paused {spans[i]:.3f} s (from {joined[i]:.3f} to "
+                       f"{joined[i + 1]:.3f} s on the session's clock)")  # fmt: skip
+                buf.times, buf.values = np.zeros(0), np.zeros((0, values.shape[1]))
+                times, values = times[i + 1 - old.size:], values[i + 1 - old.size:]
+        buf.times = np.concatenate([buf.times, times])
+        buf.values = np.concatenate([buf.values, values])
+        return gap
+
+    def restart(self, name: str) -> None:
+        """Forget input ``name``'s samples (it vanished, or its clock jumped): rows start
+        again after its next samples."""
+        buf = self._buffers[name]
+        buf.times, buf.values = np.zeros(0), np.zeros((0, buf.values.shape[1]))
+
+    def advance(self, rates: Mapping[str, float] | None = None) -> Rows | None:
+        """The rows that every input now covers and that were not given yet (None if none).
+
+        ``rates``: the inputs' nominal rates, to choose the base the first time."""
+        buffers = [self._buffers[n] for n in self.names]
+        if any(b.times.size == 0 for b in buffers):
+            return None
+        if self.base is None and self.rate is None:
+            if len(buffers) > 1 and any(b.times.size < 2 for b in buffers):
+                return None
+            self.choose_base(rates or {})
+        lo = max(max(b.times[0] for b in buffers), self._given)
+        hi = min(b.times[-1] for b in buffers)
+        if self.rate is None:
+            base = buffers[self.base].times
+            new = base[(base > self._given) & (base >= lo) & (base <= hi)]
+        else:
+            # grid times k / rate; the next k after the last row given (rounded: a grid time
+            # is computed as lo + j / rate, which may sit an ulp off k / rate)
+            first = math.ceil(lo * self.rate - 1e-6)
+            if math.isfinite(self._given):
+                first = max(first, round(self._given * self.rate) + 1)
+            last = math.floor(hi * self.rate + 1e-6)
+            new = np.arange(first, last + 1) / self.rate
+        if new.size == 0:
+            return None
+        # on_one_clock needs two rows: the span starts at the last row given (dropped after)
+        start = self._given if math.isfinite(self._given) and self._given >= lo - 1e-9 \
+            else float(new[0])  # fmt: skip
+        if start == float(new[-1]):
+            return None  # one first row: wait for the next
+        streams = []
+        for name, b in zip(self.names, buffers, strict=True):
+            a = max(int(np.searchsorted(b.times, start, side="right")) - 1, 0)
+            z = int(np.searchsorted(b.times, new[-1], side="left")) + 1
+            times, values = b.times[a:z], b.values[a:z]
+            if times.size == 1:  # one sample, exactly at the one new time: a step is needed
+                times, values = np.array([times[0], times[0] + 1.0]), np.vstack([values] * 2)
+            streams.append(Stream(name, times, values, b.units or ("",) * values.shape[1]))
+        times, values = on_one_clock(streams, start, float(new[-1]), self.rate,
+                                     "the live time base", base=self.base)  # fmt: skip
+        fresh = times > self._given
+        times, values = times[fresh], [v[fresh] for v in values]
+        self._given = float(times[-1])
+        for b in buffers:
+            keep = int(np.searchsorted(b.times, self._given - KEEP_S, side="left"))
+            keep = min(keep, max(b.times.size - 2, 0))
+            b.times, b.values = b.times[keep:], b.values[keep:]
+        return Rows(np.asarray(times, dtype=float), np.hstack(values))
+

@@ -1,0 +1,103 @@
+"""The headless live command, ``python -m promp.live``: every option documented, bad input
+refused with a message, and a run end to end on the loopback: a replayed movement predicted,
+published, recorded, and Ctrl-C ending it cleanly with its counts."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from promp.datasets import read_csv_demo
+from promp.io import save_model
+from promp.live.cli import main, parser
+from tests.conftest import REPO
+from tests.live_fakes import flt_dataset, hand_model, held
+
+pylsl = pytest.importorskip("pylsl")
+
+
+def test_help_documents_every_option(capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for action in parser()._actions:
+        assert action.help, action.dest
+        for option in action.option_strings:
+            assert option in text
+    assert "NAME-probabilities" in text and "docs/live.md" in text
+
+
+@pytest.mark.parametrize(("argv", "expected"), [
+    (["--in", "hand=S:0,1,2"], "model.json: cannot read"),
+    (["--in", "tail=S:0,1,2"], "unknown modality 'tail'"),
+    (["--in", "hand=S:0,1"], "maps 2 channel(s)"),
+    (["--in", "hand=S:0,1,2@deg"], "is in 'deg'"),
+    (["--in", "hand=0,1,2"], "names its stream"),
+    (["--in", "hand=S:0,1,2", "--start", "marker"], "--markers STREAM"),
+    (["--in", "hand=S:0,1,2", "--remainder", "tail"], "unknown modality 'tail'"),
+    (["--in", "hand=S:0,1,2", "--rate", "0"], "positive number of Hz"),
+])  # fmt: skip
+def test_bad_input_is_refused_with_a_message(tmp_path, capsys, argv, expected) -> None:
+    model = tmp_path / "model.json"
+    if "model.json: cannot read" not in expected:
+        save_model(model, hand_model())
+    code = main(["--model", str(model), "--out", "robot", "--wait", "0", *argv])
+    assert code == 2
+    assert expected in capsys.readouterr().err
+
+
+def test_the_command_predicts_publishes_records_and_stops_cleanly(tmp_path) -> None:
+    model = hand_model()
+    save_model(tmp_path / "model.json", model)
+    name, out = f"CliHand-{os.getpid()}", f"cli-{os.getpid()}"
+    info = pylsl.StreamInfo(name, "Mocap", 3, 100.0, pylsl.cf_double64, f"src-{name}")
+    outlet = pylsl.StreamOutlet(info)
+    command = [sys.executable, "-m", "promp.live", "--model", str(tmp_path / "model.json"),
+               "--in", f"hand={name}:0,1,2@mm", "--out", out, "--remainder", "hand",
+               "--record", str(tmp_path / "takes"), "--status-every", "0.2",
+               "--lsl-config", str(REPO / "tests" / "lsl_loopback.cfg")]  # fmt: skip
+    process = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE, text=True,
+                               env={**os.environ, "PYTHONPATH": str(REPO)})  # fmt: skip
+    try:
+        found = pylsl.resolve_byprop("name", f"{out}-timing", 1, 60.0)
+        assert found, "the command's outlets did not appear"
+        timing = pylsl.StreamInlet(found[0])
+        timing.open_stream(30.0)
+        assert outlet.wait_for_consumers(30.0)
+        demo = held(flt_dataset()["front"][0], 0.6, 0.9)
+        values = demo.select(["x", "y", "z"]) * 1000.0
+        start = pylsl.local_clock() + 0.05
+        for k in range(demo.n_samples):
+            time.sleep(max(0.0, start + demo.times[k] - pylsl.local_clock()))
+            outlet.push_sample(values[k].tolist(), start + demo.times[k])
+        lines = []
+        while not any("movement 1 ended" in line for line in lines):
+            line = process.stdout.readline()
+            assert line, "the command ended early"
+            lines.append(line)
+        rows, _ = timing.pull_chunk(timeout=1.0, max_samples=10000)
+        process.send_signal(signal.SIGINT)
+        rest, _ = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 0
+    summary = json.loads(rest.strip().splitlines()[-1])
+    assert summary["received"][name] == demo.n_samples and summary["movements"] == 1
+    assert summary["predictions"] == len(rows) > 10
+    assert any("movement 1 (" in line and "predictions/s" in line for line in lines)
+    seqs = [int(r[0]) for r in rows]
+    assert seqs == list(range(1, len(rows) + 1))
+    (take,) = (tmp_path / "takes" / "live").glob("*.csv")
+    recorded = read_csv_demo(take)
+    assert recorded.columns == ("x", "y", "z") and recorded.n_samples > 50
+    assert np.all(np.isin(np.round(recorded.values[:, 0] * 1000.0, 9),
+                          np.round(values[:, 0], 9)))  # fmt: skip
+    assert list((tmp_path / "takes" / ".journals").glob("*")) == []

@@ -1,0 +1,227 @@
+"""Faults of live streams: NaNs, the wrong channels, a clock that jumps, a stall, a stream that
+vanishes, comes back or restarts, a rate change, an ambiguous or a failing sink. Each is a
+clear status (which stream, what, since when) and an event; the session never stops, a
+movement is never observed across a break, and what is recorded stays a valid
+demonstration."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from promp.live.outlets import PredictionOutlets, outlet_specs
+from promp.live.recorder import Recorder, recover
+from promp.live.session import LiveOptions, LiveSession
+from promp.live.status import Condition
+from tests.live_fakes import FakeStream, FakeTransport, hand_model
+
+RATE = 100.0
+
+
+class Rig:
+    """A session observing a 100 Hz hand stream (a slow circle, in metres), in call mode,
+    recording every movement."""
+
+    def __init__(self, folder, labels=("x", "y", "z"), start="call", **stream):
+        self.transport = FakeTransport()
+        self.stream = self.transport.add(FakeStream("Hand", labels, rate=RATE, **stream))
+        self.recorder = Recorder(folder, ("x", "y", "z"))
+        self.session = LiveSession(hand_model(), ["hand=Hand:0,1,2"], self.transport,
+                                   LiveOptions(start=start), recorder=self.recorder)  # fmt: skip
+        self.session.connect()
+        self.session.step()
+        self.stamp = self.transport.now  # the sender's clock
+
+    def status(self):
+        return self.session.snapshot().statuses[0]
+
+    def texts(self):
+        return [e.text for e in self.session.snapshot().events]
+
+    def push(self, n, jump=0.0, values=None, step=1 / RATE, stream=None):
+        """``n`` samples in real time (the sender's stamps ``jump`` s off from here on)."""
+        self.stamp += jump
+        for k in range(n):
+            self.transport.now += 1 / RATE
+            self.stamp += step
+            t = self.stamp
+            row = np.array([[0.1 * np.cos(t), 0.1 * np.sin(t), 0.0]]) if values is None \
+                else values[k:k + 1]  # fmt: skip
+            (stream or self.stream).push([t], row)
+            if k % 3 == 2 or k == n - 1:
+                self.session.step()
+
+    def wait(self, seconds):
+        for _ in range(int(seconds * 60)):
+            self.transport.now += 1 / 60
+            self.session.step()
+
+
+def test_nan_samples_are_left_out_and_said(tmp_path) -> None:
+    rig = Rig(tmp_path)
+    rig.session.begin()
+    rig.push(50)
+    bad = np.zeros((20, 3))
+    bad[5:10, 1] = np.nan
+    rig.push(20, values=bad)
+    status = rig.status()
+    assert status.condition is Condition.BAD_VALUES and "5 sample(s)" in status.detail
+    assert status.healthy  # the other samples flow
+    rig.push(120)  # clean for over a second
+    assert rig.status().condition is Condition.OK
+    movement = rig.session.snapshot().movement
+    assert np.all(np.isfinite(movement.values)) and len(movement) >= 180
+    assert rig.session.snapshot().counts["Hand"] == (190, 5)
+
+
+def test_a_stream_without_the_mappings_channels_is_not_used(tmp_path) -> None:
+    rig = Rig(tmp_path, labels=("x", "y"))
+    status = rig.status()
+    assert status.condition is Condition.WRONG_CHANNELS and not status.healthy
+    assert "no field(s) ['2']" in status.detail
+    rig.stream.gone = True
+    rig.transport.add(FakeStream("Hand", ("x", "y", "z"), rate=RATE))
+    rig.session.connect()
+    rig.session.step()
+    assert rig.status().condition in (Condition.OK, Condition.RESTARTED)
+
+
+@pytest.mark.parametrize("jump", [5.0, -3.0])
+def test_a_clock_jump_is_re_anchored_and_ends_the_movement(tmp_path, jump) -> None:
+    rig = Rig(tmp_path)
+    rig.session.begin()
+    rig.push(60)
+    rig.push(60, jump=jump)
+    status = rig.status()
+    assert status.condition is Condition.CLOCK_JUMP and f"{jump:+.3f} s" in status.detail
+    snap = rig.session.snapshot()
+    (ended,) = snap.ended
+    assert "broke off" in ended.ended and len(ended) >= 55
+    assert np.all(np.diff(ended.times) > 0)
+    rig.session.begin()
+    rig.push(30)
+    movement = rig.session.snapshot().movement
+    assert np.all(np.diff(movement.times) > 0) and len(movement) >= 25
+    assert abs(movement.times[-1] - rig.transport.now) < 0.1  # back on the session's clock
+
+
+def test_a_stall_is_said_and_a_gap_ends_the_movement(tmp_path) -> None:
+    rig = Rig(tmp_path)
+    rig.session.begin()
+    rig.push(50)
+    last = rig.transport.now
+    rig.wait(1.0)
+    status = rig.status()
+    assert status.condition is Condition.STALLED and not status.healthy
+    assert status.since == pytest.approx(last, abs=0.02)
+    assert "stalled for 1.0 s" in status.message(rig.transport.now)
+    rig.stamp += 1.0  # the sender was silent: its stamps resume 1 s later
+    rig.push(40)
+    assert rig.status().condition is Condition.OK
+    assert any("paused" in t for t in rig.texts())
+    assert rig.session.snapshot().ended[0].ended.startswith("input 'hand' paused")
+
+
+def test_a_vanished_stream_comes_back_or_restarts(tmp_path) -> None:
+    rig = Rig(tmp_path, start="still")
+    rig.session.begin()
+    rig.push(40)
+    rig.stream.gone = True
+    rig.session.step()
+    assert rig.status().condition is Condition.VANISHED
+    assert rig.session.snapshot().ended[-1].ended == "input 'hand' broke off"
+    rig.stream.gone = False
+    rig.session.connect()
+    rig.session.step()
+    assert rig.status().condition is Condition.BACK
+    rig.stream.gone = True
+    rig.session.step()
+    restarted = rig.transport.add(FakeStream("Hand", ("x", "y", "z"), rate=RATE))
+    rig.session.connect()
+    rig.session.step()
+    assert rig.status().condition is Condition.RESTARTED
+    count = rig.session.snapshot().predictions
+    rig.session.begin()
+    rig.push(40, stream=restarted)
+    assert rig.session.snapshot().predictions > count  # observing again, a new movement
+    assert rig.session.snapshot().movement.number == 2
+
+
+def test_a_rate_change_is_said(tmp_path) -> None:
+    rig = Rig(tmp_path)
+    rig.push(250)
+    assert rig.status().condition is Condition.OK
+    rig.push(150, step=2 / RATE)
+    status = rig.status()
+    assert status.condition is Condition.RATE_CHANGED
+    assert status.detail == "from 100 Hz to 50 Hz" and status.healthy
+
+
+def test_what_is_recorded_across_faults_stays_a_valid_demonstration(tmp_path) -> None:
+    rig = Rig(tmp_path)
+    rig.session.begin()
+    rig.push(40)
+    rig.push(30, jump=2.0)  # ends the first; journal finished
+    rig.session.begin()
+    bad = np.full((5, 3), np.nan)  # a dropout shorter than a gap (promp.live.timebase)
+    rig.push(30)
+    rig.push(5, values=bad)
+    rig.push(20)
+    assert rig.recorder.acknowledged >= 45
+    rig.session.close()  # stopped here: the journals keep both (neither was saved elsewhere)
+    (first, ended), (second, going) = recover(tmp_path)
+    assert first.name.startswith("live-001") and second.name.startswith("live-002")
+    assert going.n_samples >= 45
+    (movement,) = rig.session.snapshot().ended
+    np.testing.assert_array_equal(ended.values, movement.values)
+    (recorded,) = rig.session.snapshot().recorded  # the take the studio would save
+    assert recorded.journal == first and recorded.number == 1
+    np.testing.assert_array_equal(recorded.demo.values, movement.values)
+    for demo in (ended, going):
+        assert np.all(np.isfinite(demo.values)) and np.all(np.diff(demo.times) > 0)
+
+
+def test_several_matching_streams_wait_for_a_choice_and_units_come_from_the_stream(
+    tmp_path,
+) -> None:
+    transport = FakeTransport()
+    for source in ("a", "b"):
+        transport.add(FakeStream("Hand", ("x", "y", "z"), ("mm",) * 3, source_id=source))
+    session = LiveSession(hand_model(), ["hand=Hand:x,y,z"], transport)
+    session.connect()
+    session.step()
+    status = session.snapshot().statuses[0]
+    assert status.condition is Condition.WAITING and "name one by source_id=" in status.detail
+    chosen = LiveSession(hand_model(), ["hand=source_id=b:x,y,z"], transport,
+                         LiveOptions(start="call"))  # fmt: skip
+    chosen.connect()
+    chosen.begin()
+    transport.now += 0.1
+    transport.streams[1].push(transport.now + np.arange(3) * 0.01, np.full((3, 3), 250.0))
+    transport.now += 0.1
+    chosen.step()
+    assert np.all(chosen.snapshot().movement.values == 0.25)  # mm, converted to metres
+
+
+def test_a_failing_sink_is_an_event_not_the_end(tmp_path) -> None:
+    transport = FakeTransport()
+    stream = transport.add(FakeStream("Hand", ("x", "y", "z"), rate=RATE))
+    outlets = PredictionOutlets(outlet_specs(hand_model(), "icub", None), transport.outlet)
+
+    def broken(rows, stamp):
+        raise OSError("the network is down")
+
+    transport.outlets["icub-timing"].push = broken
+    session = LiveSession(hand_model(), ["hand=Hand:0,1,2"], transport,
+                          LiveOptions(start="call"), outlets=outlets)  # fmt: skip
+    session.connect()
+    session.begin()
+    for _ in range(10):
+        transport.now += 0.05
+        stream.push(transport.now - np.arange(5)[::-1] * 0.01, np.random.default_rng(0)
+                    .normal(size=(5, 3)) * 0.01)  # fmt: skip
+        session.step()
+    snap = session.snapshot()
+    assert snap.predictions >= 5
+    assert any("a sink failed: OSError: the network is down" in e.text for e in snap.events)
+    assert len(transport.outlets["icub-probabilities"].pushed) == snap.predictions

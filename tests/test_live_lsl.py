@@ -1,0 +1,153 @@
+"""Live sessions over real LSL on the loopback (tests/lsl_loopback.cfg): an outlet replays a
+recorded demonstration of a shared set, at its real rate and faster, into a session on its own
+threads; the predictions equal promp.pipeline.infer on the samples pushed, and docs/live.md's
+robot-side reader reads them from the published streams. A stream that vanishes is found
+again. Where liblsl cannot load, the message says what to do."""
+
+from __future__ import annotations
+
+import ast
+import os
+import re
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from promp.inference import Observation
+from promp.live.status import Condition
+from promp.pipeline import infer
+from tests.conftest import REPO, wait_until
+from tests.live_fakes import flt_dataset, hand_model, held
+
+pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
+
+from promp.live.lsl import LslTransport  # noqa: E402
+from promp.live.outlets import PredictionOutlets, outlet_specs  # noqa: E402
+from promp.live.session import LiveOptions, LiveSession  # noqa: E402
+
+UNIQUE = f"{os.getpid()}-{time.monotonic_ns() % 10**9}"  # other runs on this machine
+
+
+def reader_code(name: str) -> str:
+    """docs/live.md's robot-side reader, for the outputs ``name``."""
+    text = (REPO / "docs" / "live.md").read_text()
+    code = re.search(r"<!-- robot-side reader -->\n```python\n(.*?)```", text, re.S).group(1)
+    assert code.count('NAME = "icub"') == 1
+    return code.replace('NAME = "icub"', f"NAME = {name!r}")
+
+
+def hand_outlet(name: str):
+    info = pylsl.StreamInfo(name, "Mocap", 3, 100.0, pylsl.cf_double64, f"src-{name}")
+    channels = info.desc().append_child("channels")
+    for label in ("hx", "hy", "hz"):
+        channel = channels.append_child("channel")
+        channel.append_child_value("label", label)
+        channel.append_child_value("unit", "mm")
+    return pylsl.StreamOutlet(info)
+
+
+@pytest.mark.parametrize("speed", [1.0, 2.5])
+def test_a_replayed_demonstration_is_predicted_live_and_published(speed) -> None:
+    model = hand_model()
+    demo = held(flt_dataset()["top"][0], 0.6 * speed, 0.8 * speed)  # rests of 0.6, 0.8 s
+    name, out = f"Hand-{UNIQUE}-{speed}", f"robot-{UNIQUE}-{speed}"
+    outlet = hand_outlet(name)
+    transport = LslTransport()
+    outlets = PredictionOutlets(outlet_specs(model, out, "hand"), transport.outlet)
+    predictions = []
+    session = LiveSession(model, [f"hand={name}:hx,hy,hz"], transport,
+                          LiveOptions(start="still", remainder="hand"), outlets=outlets,
+                          on_prediction=predictions.append)  # fmt: skip
+    reader = subprocess.Popen([sys.executable, "-c", reader_code(out)], stdout=subprocess.PIPE,
+                              text=True, env=dict(os.environ))  # fmt: skip
+    session.start()
+    try:
+        wait_until(lambda: session.snapshot().statuses[0].condition is Condition.OK,
+                   what="the session to find the replayed stream")  # fmt: skip
+        assert outlets.wait_for_readers(30.0, ("probabilities", "remainder"))
+        assert outlet.wait_for_consumers(30.0)
+        values_mm = demo.select(["x", "y", "z"]) * 1000.0
+        start = pylsl.local_clock() + 0.05
+        stamps = start + demo.times / speed  # faster: the partner moves 2.5 times as fast
+        for k in range(stamps.size):
+            time.sleep(max(0.0, stamps[k] - pylsl.local_clock()))
+            outlet.push_sample(values_mm[k].tolist(), stamps[k])
+        wait_until(lambda: session.snapshot().ended, what="the movement's end (stillness)")
+        assert len(session.snapshot().ended) == 1 and len(predictions) >= 10
+        lines = []
+        while len(lines) < len(predictions):
+            line = reader.stdout.readline()
+            assert line, "the robot-side reader stopped"
+            lines.append(line)
+    finally:
+        reader.kill()
+        session.close()
+    offset = None
+    for p in predictions:
+        i0 = int(np.argmin(np.abs(stamps - p.start)))
+        offset = p.start - stamps[i0] if offset is None else offset
+        assert abs(p.start - stamps[i0] - offset) < 1e-6  # one clock correction throughout
+        n = p.n_observed
+        assert_allclose(p.observation.times, stamps[i0:i0 + n] - stamps[i0], rtol=0, atol=1e-9)
+        assert_array_equal(p.observation.values, values_mm[i0:i0 + n] * 1e-3)
+        same = infer(model, Observation(stamps[i0:i0 + n] - stamps[i0],
+                                        values_mm[i0:i0 + n] * 1e-3, ("hand",)))  # fmt: skip
+        assert_allclose(p.probabilities, same.probabilities, rtol=0, atol=1e-9)
+        assert_allclose(p.duration.value, same.timing.duration.value, rtol=0, atol=1e-9)
+        assert_array_equal(p.probabilities, infer(model, p.observation).probabilities)
+    for line, p in zip(lines, predictions, strict=True):
+        seq, probabilities, left, goal = ast.literal_eval(line)
+        assert seq == p.seq
+        assert_array_equal(probabilities, p.probabilities)
+        assert left == p.remainder.after[-1]
+        assert_array_equal(goal, p.remainder.mean[-1])
+
+
+def test_a_vanished_stream_is_found_again_when_it_restarts() -> None:
+    name = f"Vanishing-{UNIQUE}"
+    outlet = hand_outlet(name)
+    session = LiveSession(hand_model(), [f"hand={name}:0,1,2@mm"], LslTransport(),
+                          LiveOptions(start="call"))  # fmt: skip
+    session.start()
+    try:
+        status = lambda: session.snapshot().statuses[0].condition  # noqa: E731
+        wait_until(lambda: status() is Condition.OK, what="the stream found")
+        del outlet
+        wait_until(lambda: status() is Condition.VANISHED, what="the stream vanished")
+        outlet = hand_outlet(name)
+        wait_until(lambda: status() is Condition.RESTARTED, what="the stream found again")
+        session.begin()
+        t0 = pylsl.local_clock()
+        for k in range(30):
+            outlet.push_sample([k, 0.0, 0.0], t0 + 0.01 * k)
+        wait_until(lambda: session.snapshot().predictions > 0, what="predictions again")
+    finally:
+        session.close()
+
+
+def test_where_liblsl_cannot_load_the_message_says_what_to_do(tmp_path, monkeypatch) -> None:
+    from promp.live import lsl_available
+
+    monkeypatch.setitem(sys.modules, "pylsl", None)  # pylsl not installed
+    monkeypatch.delitem(sys.modules, "promp.live.lsl")
+    available, message = lsl_available()
+    assert not available
+    assert "pip install 'icub-intention-studio[live]'" in message and "PYLSL_LIB" in message
+    fake = tmp_path / "pylsl"  # a pylsl whose liblsl does not load, as pylsl itself says it
+    fake.mkdir()
+    (fake / "__init__.py").write_text("raise RuntimeError('LSL binary library file was not "
+                                      "found. Please make sure that the binary file can be "
+                                      "found in the package lib folder')\n")  # fmt: skip
+    result = subprocess.run(
+        [sys.executable, "-c", "import promp.live.lsl"], capture_output=True, text=True,
+        env={**os.environ, "PYTHONPATH": f"{tmp_path}{os.pathsep}{REPO}"}, cwd=tmp_path,
+    )  # fmt: skip
+    assert result.returncode == 1
+    last = result.stderr.strip().splitlines()[-1]
+    assert last.startswith("promp.live.transport.LSLUnavailable: LSL is not available: pylsl "
+                           "cannot load liblsl (LSL binary library file was not found")
+    assert "glibc >= 2.35" in last and "PYLSL_LIB" in last

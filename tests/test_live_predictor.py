@@ -1,0 +1,121 @@
+"""The online predictor: each update is promp.pipeline.infer on the movement's samples so far
+(the same numbers, exactly), whether one stream or several at different rates feed it; the
+predicted remainder at a stated rate."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.testing import assert_allclose, assert_array_equal
+
+from promp.inference import Observation, trajectory_at
+from promp.learn import fit
+from promp.model import Settings
+from promp.pipeline import infer
+from promp.rigs.streams import Stream, on_one_clock
+from tests.live_fakes import (
+    FakeStream,
+    FakeTransport,
+    flt_dataset,
+    hand_model,
+    held,
+    replay,
+    session_with,
+)
+from tests.synthetic import LAYOUT, make_dataset
+
+
+def same_inference(online, offline) -> None:
+    """Every number the outlets publish, equal."""
+    assert online.index == offline.index
+    assert_array_equal(online.probabilities, offline.probabilities)
+    for a, b in ((online.timing.duration, offline.timing.duration),
+                 (online.timing.observed_fraction, offline.timing.observed_fraction)):
+        assert (a.value, a.low, a.high) == (b.value, b.low, b.high)
+    assert_array_equal(online.posterior.mean, offline.posterior.mean)
+    assert online.observed_until == offline.observed_until
+
+
+def test_each_update_is_the_offline_inference_on_the_samples_so_far() -> None:
+    model = hand_model()
+    demo = held(flt_dataset()["left"][0], 1.0, 1.0)
+    transport = FakeTransport()
+    stream = transport.add(FakeStream("MocapHand", ("hx", "hy", "hz"), rate=100.0))
+    session = session_with(model, ["hand=MocapHand:hx,hy,hz@mm"], transport, start="still")
+    values_mm = demo.select(["x", "y", "z"]) * 1000.0
+    stamps = replay(session, transport, stream, demo.times, values_mm)
+    predictions = session.predictions
+    assert len(predictions) > 30
+    assert [p.seq for p in predictions] == list(range(1, len(predictions) + 1))
+    for p in predictions:
+        i0 = int(np.flatnonzero(stamps == p.start)[0])
+        times = stamps[i0:i0 + p.n_observed]
+        assert p.last == times[-1]
+        obs = Observation(times - times[0], values_mm[i0:i0 + p.n_observed] * 1e-3, ("hand",))
+        same_inference(p.inference, infer(model, obs))
+    assert np.all(np.diff([p.n_observed for p in predictions]) > 0)
+    final = predictions[-1].probabilities
+    assert_allclose(final.sum(), 1.0) and final.argmax() == model.names.index("left")
+
+
+def test_streams_at_two_rates_are_observed_on_the_xdf_readers_clock() -> None:
+    dataset = make_dataset(seed=3, n_demos=5)
+    model = fit(dataset, LAYOUT, Settings(n_basis=7, width=1.0, noise_scale=1.5,
+                                          duration_temperature=1.0))  # fmt: skip
+    demo = dataset["right"][0]
+    t = demo.times - demo.times[0]
+    fine = np.arange(0.0, t[-1], 0.01)  # the hand at 100 Hz, the head at 25 Hz, in degrees
+    hand = np.column_stack([np.interp(fine, t, c) for c in demo.select(["x", "y", "z"]).T])
+    head = np.degrees(demo.select(["roll", "pitch", "yaw"]))[::2]
+    transport = FakeTransport()
+    mocap = transport.add(FakeStream("Mocap", ("x", "y", "z"), ("m",) * 3, rate=100.0))
+    tracker = transport.add(FakeStream("Head", ("r", "p", "y"), ("deg",) * 3, rate=25.0,
+                                       type="HeadTracker"))  # fmt: skip
+    session = session_with(model, ["hand=Mocap:x,y,z", "head=type=HeadTracker:0,1,2"],
+                           transport, start="call")  # fmt: skip
+    t0 = transport.now + 0.001
+    session.begin(time=t0)
+    stamps_hand, stamps_head = t0 + fine, t0 + t[::2]
+    k_hand = k_head = 0
+    while k_hand < fine.size:
+        transport.now += 1 / 60
+        a, b = k_hand, int(np.searchsorted(stamps_hand, transport.now, side="right"))
+        c, d = k_head, int(np.searchsorted(stamps_head, transport.now, side="right"))
+        if b > a:
+            mocap.push(stamps_hand[a:b], hand[a:b])
+        if d > c:
+            tracker.push(stamps_head[c:d], head[c:d])
+        k_hand, k_head = b, d
+        session.step()
+    streams = [Stream("hand", stamps_hand, hand, ("m",) * 3),
+               Stream("head", stamps_head, np.radians(head), ("rad",) * 3)]  # fmt: skip
+    end = min(stamps_hand[-1], stamps_head[-1])
+    times, (h, g) = on_one_clock(streams, t0, end, None, "offline")
+    assert session.predictions and times[0] == t0
+    for p in session.predictions:
+        n = p.n_observed
+        assert_array_equal(p.observation.times, times[:n] - times[0])
+        assert_allclose(p.observation.values, np.hstack([h[:n], np.unwrap(g[:n], axis=0)]),
+                        rtol=0, atol=1e-12)  # fmt: skip
+        same_inference(p.inference, infer(model, p.observation))
+    assert session.predictions[-1].n_observed >= times.size - 2
+
+
+def test_the_remainder_runs_at_its_rate_to_the_predicted_end() -> None:
+    model = hand_model()
+    demo = held(flt_dataset()["top"][0], 1.0, 0.0)
+    transport = FakeTransport()
+    stream = transport.add(FakeStream("MocapHand", ("x", "y", "z"), ("m",) * 3))
+    session = session_with(model, ["hand=MocapHand:0,1,2"], transport, start="still",
+                           remainder="hand", remainder_rate=50.0)  # fmt: skip
+    replay(session, transport, stream, demo.times, demo.select(["x", "y", "z"]))
+    for p in session.predictions[::10]:
+        r = p.remainder
+        inference = p.inference
+        left = max(inference.duration - inference.observed_until, 0.0)
+        assert r.after[-1] == left and np.all(np.diff(r.after[:-1]) > 0.0199)
+        assert_allclose(r.after[:-1], np.arange(1, r.after.size) / 50.0)
+        phases = np.clip((inference.observed_until + r.after) / inference.duration, 0, 1)
+        mean, std = trajectory_at(model, inference.posterior, inference.alpha, phases)
+        assert_array_equal(r.mean, mean) and assert_array_equal(r.std, std) is None
+        assert_allclose(r.mean[-1], inference.prediction.mean[-1], atol=1e-12)
+        assert_allclose(p.remaining.value, left, rtol=1e-12)

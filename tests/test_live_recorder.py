@@ -1,0 +1,104 @@
+"""The live recorder: a movement's samples journalled as they come, so that a kill (a real
+SIGKILL of the recording process) loses nothing acknowledged; the finished demonstration
+written atomically, never over another file."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+
+from promp.datasets import demo_to_csv
+from promp.live.journal import Journal, read_journal
+from promp.live.recorder import Recorder, recover
+from promp.live.segmenter import Movement
+from tests.conftest import REPO
+
+RNG = np.random.default_rng(4)
+TIMES = 5000.0 + np.cumsum(RNG.uniform(0.003, 0.005, 3000))
+VALUES = RNG.normal(size=(3000, 3)) * np.array([1.0, 1e-7, 1e7])
+
+
+def test_a_journal_reads_back_exactly_and_a_torn_last_line_is_left_out(tmp_path) -> None:
+    journal = Journal(tmp_path / "a.journal", ("x", "y", "z"), "take-1", "top", TIMES[0])
+    assert journal.append(TIMES[:10], VALUES[:10]) == 10
+    assert journal.append(TIMES[10:25], VALUES[10:25]) == 25
+    journal.close()
+    demo, header = read_journal(tmp_path / "a.journal")
+    assert header["label"] == "top" and demo.name == "take-1"
+    assert_array_equal(demo.times, TIMES[:25] - TIMES[0])
+    assert_array_equal(demo.values, VALUES[:25])
+    with open(tmp_path / "a.journal", "a") as handle:
+        handle.write("0.5,1.25,3")  # a row cut short: never acknowledged
+    assert read_journal(tmp_path / "a.journal")[0].n_samples == 25
+    with pytest.raises(ValueError, match="not a promp-live journal"):
+        (tmp_path / "b.journal").write_text("t,x\n0,1\n1,2\n")
+        read_journal(tmp_path / "b.journal")
+
+
+def test_a_finished_movement_is_written_atomically_and_its_journal_removed(tmp_path) -> None:
+    recorder = Recorder(tmp_path / "journals", ("x", "y", "z"), "session")
+    movement = Movement(7, "left", TIMES[:200], VALUES[:200])
+    recorder.append(Movement(7, "left", TIMES[:120], VALUES[:120]))
+    assert recorder.acknowledged == 120
+    target = tmp_path / "demos" / "left" / "session-007.csv"
+    recorded = recorder.finish(movement, target)
+    demo = recorded.demo
+    assert recorded.path == target and recorded.journal is None and recorded.label == "left"
+    assert target.read_text() == demo_to_csv(demo)
+    assert_array_equal(demo.values, VALUES[:200])
+    assert list((tmp_path / "journals").glob("*")) == []
+    # with an output folder: never over an existing file
+    out = Recorder(tmp_path / "journals", ("x", "y", "z"), "session", output=tmp_path / "demos")
+    again = out.finish(movement)
+    assert again.path == tmp_path / "demos" / "left" / "session-007-2.csv"
+    assert again.path.read_text() == demo_to_csv(demo)
+    assert target.read_text() == demo_to_csv(demo)
+
+
+def test_a_journal_never_replaces_another_file(tmp_path) -> None:
+    (tmp_path / "live-001.journal").write_text("someone else's")
+    recorder = Recorder(tmp_path, ("x", "y", "z"))
+    recorder.append(Movement(1, "", TIMES[:5], VALUES[:5]))
+    assert (tmp_path / "live-001.journal").read_text() == "someone else's"
+    assert recorder.journal_path(1).name == "live-001-1.journal"
+
+
+RECORDING = textwrap.dedent("""
+    import sys
+    import numpy as np
+    from promp.live.recorder import Recorder
+    from promp.live.segmenter import Movement
+    from tests.test_live_recorder import TIMES, VALUES
+
+    recorder = Recorder(sys.argv[1], ("x", "y", "z"))
+    for n in range(3, TIMES.size, 7):  # the movement grows as samples come
+        print(recorder.append(Movement(1, "top", TIMES[:n], VALUES[:n])), flush=True)
+    input()  # never reached: killed first
+""")
+
+
+def test_a_kill_during_a_recording_loses_nothing_acknowledged(tmp_path) -> None:
+    process = subprocess.Popen(
+        [sys.executable, "-c", RECORDING, str(tmp_path)], cwd=REPO, stdout=subprocess.PIPE,
+        stdin=subprocess.PIPE, text=True, env={**os.environ, "PYTHONPATH": str(REPO)},
+    )  # fmt: skip
+    acknowledged = 0
+    while acknowledged < 1000:
+        line = process.stdout.readline()
+        assert line, "the recording process ended early"
+        acknowledged = int(line)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait(timeout=30)
+    assert process.returncode == -signal.SIGKILL
+    ((path, demo),) = recover(tmp_path)
+    assert demo.n_samples >= acknowledged
+    n = demo.n_samples
+    assert_array_equal(demo.times, TIMES[:n] - TIMES[0])
+    assert_array_equal(demo.values, VALUES[:n])
