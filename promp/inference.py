@@ -37,7 +37,7 @@ from promp.timing import check_alpha, duration_from_alpha, n_samples_from_alpha
 
 __all__ = [
     "Gaussian", "Observation", "Posterior", "Prediction", "condition", "log_likelihoods",
-    "observation_basis", "predict"
+    "observation_basis", "predict", "trajectory_at"
 ]  # fmt: skip
 
 

@@ -32,7 +32,10 @@ TYPES = ("Demonstration", "Layout", "Modality", "Observation", "Settings", "ProM
          "Primitive", "Inference", "Recognition", "Posterior", "Prediction", "DatasetRead",
          "SweepResult")  # fmt: skip
 # Modules without ``__all__``, and why.
-WITHOUT_ALL = {"promp.evaluate.__main__": "a script: ``python -m promp.evaluate``"}
+WITHOUT_ALL = {
+    "promp.evaluate.__main__": "a script: ``python -m promp.evaluate``",
+    "promp.live.__main__": "a script: ``python -m promp.live``",
+}
 WITHOUT_ALL_PACKAGES: dict[str, str] = {}
 
 

@@ -24,6 +24,8 @@ optional extra ``live``); :func:`lsl_available` tells whether it can load, and w
 
 from __future__ import annotations
 
+__all__ = ["lsl_available"]
+
 
 def lsl_available() -> tuple[bool, str]:
     """Whether LSL can be used here, and if not, the message saying why and what to do."""

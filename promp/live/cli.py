@@ -22,6 +22,8 @@ import numpy as np
 from promp.live.predictor import REMAINDER_HZ
 from promp.live.segmenter import MAX_MOVEMENT_S
 
+__all__ = ["EXAMPLE", "main", "parser"]
+
 EXAMPLE = (
     "example: python -m promp.live --model model.json --in hand=MocapHand:0,1,2@mm "
     "--in head=type=HeadTracker:roll,pitch,yaw@deg --out icub --remainder hand --rate 50"

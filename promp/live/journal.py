@@ -25,6 +25,8 @@ import numpy as np
 from promp.data import Demonstration
 from promp.datasets import demo_from_csv
 
+__all__ = ["FSYNC_S", "Journal", "journals", "MAGIC", "read_journal", "SUFFIX"]
+
 MAGIC = "# promp-live journal 1 "
 SUFFIX = ".journal"
 FSYNC_S = 1.0

@@ -26,6 +26,21 @@ from promp.live.transport import (
     StreamLost,
 )
 
+__all__ = [
+    "CHANNEL_FORMATS",
+    "describe",
+    "FORGET_S",
+    "FORMATS",
+    "HOW_TO",
+    "local_clock",
+    "LslInlet",
+    "LslOutlet",
+    "LslTransport",
+    "MAX_BUFFER_S",
+    "OFFSET_STEP_S",
+    "OPEN_TIMEOUT_S",
+]
+
 HOW_TO = (
     "install the live extra (pip install 'icub-intention-studio[live]': pylsl, whose Linux "
     "x86-64 wheel ships liblsl and needs glibc >= 2.35), or install LSL's own liblsl and "

@@ -36,6 +36,16 @@ from promp.live.status import LiveEvent
 from promp.live.transport import Outlet, OutletSpec
 from promp.model import ProMPModel
 
+__all__ = [
+    "outlet_specs",
+    "PredictionOutlets",
+    "probabilities_row",
+    "remainder_rows",
+    "TIMING_LABELS",
+    "timing_row",
+    "TIMING_UNITS",
+]
+
 TIMING_LABELS = (
     "seq", "movement", "start", "elapsed", "phase", "phase_low", "phase_high", "duration",
     "duration_low", "duration_high", "remaining", "remaining_low", "remaining_high",

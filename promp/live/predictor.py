@@ -27,6 +27,8 @@ from promp.model import ProMPModel
 from promp.pipeline import Inference, infer
 from promp.recognition import ALPHA_METHODS
 
+__all__ = ["LivePrediction", "observed_columns", "OnlinePredictor", "Remainder", "REMAINDER_HZ"]
+
 REMAINDER_HZ = 50.0
 
 

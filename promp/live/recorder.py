@@ -24,6 +24,8 @@ from promp.datasets import write_csv_demo
 from promp.live.journal import SUFFIX, Journal, journals, read_journal
 from promp.live.segmenter import Movement
 
+__all__ = ["free_path", "movement_of", "Recorded", "Recorder", "recover"]
+
 
 @dataclass(frozen=True, eq=False)
 class Recorded:

@@ -33,6 +33,17 @@ from promp.live.timebase import Rows
 from promp.rigs.cutting import parse_marker
 from promp.stillness import MARGIN_S, MIN_STILL_S, idle_threshold, moving_spans, speed
 
+__all__ = [
+    "Boundary",
+    "END_WINDOW_S",
+    "HISTORY_S",
+    "MAX_MOVEMENT_S",
+    "Movement",
+    "Segmenter",
+    "SLACK_S",
+    "STARTS",
+]
+
 STARTS = ("still", "marker", "call")
 MAX_MOVEMENT_S = 30.0
 HISTORY_S = 3.0  # rows kept while nothing moves (a late marker, the stillness window)

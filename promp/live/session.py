@@ -30,6 +30,18 @@ from promp.live.timebase import TimeBase
 from promp.live.transport import Selector, StreamDescription, Transport
 from promp.model import ProMPModel
 
+__all__ = [
+    "check_inputs",
+    "ERROR_PAUSE_S",
+    "EVENTS_KEPT",
+    "FIND_EVERY_S",
+    "FIND_WAIT_S",
+    "IDLE_S",
+    "LiveOptions",
+    "LiveSession",
+    "LiveSnapshot",
+]
+
 IDLE_S = 0.002  # the loop's pause when nothing arrived
 ERROR_PAUSE_S = 0.5
 FIND_EVERY_S = 0.5  # how often the resolver looks (for the missing streams, and the list)

@@ -45,6 +45,21 @@ from promp.live.transport import Inlet, Selector, StreamDescription, StreamLost,
 from promp.rigs.mapping import SourcedModality, parse_sourced, si_unit
 from promp.rigs.streams import Recording
 
+__all__ = [
+    "BAD_DETAIL",
+    "Channels",
+    "channels_of",
+    "CLEAN_S",
+    "JUMP_S",
+    "LiveInput",
+    "RATE_TOLERANCE",
+    "RATE_WINDOW_S",
+    "Source",
+    "SourceBatch",
+    "STALL_MIN_S",
+    "STALL_STEPS",
+]
+
 JUMP_S = 0.25
 STALL_STEPS = 10.0
 STALL_MIN_S = 0.5

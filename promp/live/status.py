@@ -12,6 +12,8 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
+__all__ = ["Condition", "LiveEvent", "StreamStatus", "UNHEALTHY"]
+
 
 class Condition(enum.Enum):
     """A live input's condition; ``healthy`` ones deliver usable samples."""

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from promp.live.session import LiveSnapshot
 
+__all__ = ["status_line"]
+
 
 def status_line(snap: LiveSnapshot, predictions_per_s: float) -> str:
     """``movement 3 (1.24 s, 310 rows): top 0.91 · phase 0.62 [0.55-0.70] · ends in 0.48 s

@@ -8,7 +8,7 @@ them (angles through their unwrapped path), or on a regular grid at ``rate`` Hz.
 given once every input has a sample at or after its time, so an input that lags holds the
 rows back rather than being extrapolated.
 
-A gap in an input (a step over :data:`promp.quality.GAP_FACTOR` times its own, and over
+A gap in an input (a step over :data:`promp.gaps.GAP_FACTOR` times its own, and over
 :data:`GAP_MIN_S`) cannot be interpolated across: the rows inside it are never given, and
 :meth:`TimeBase.push` says so (the session ends the movement under way).
 """
@@ -21,8 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from promp.quality import GAP_FACTOR
+from promp.gaps import GAP_FACTOR
 from promp.rigs.streams import Stream, on_one_clock
+
+__all__ = ["GAP_MIN_S", "KEEP_S", "Rows", "TimeBase"]
 
 GAP_MIN_S = 0.1
 KEEP_S = 1.0  # samples kept before the last row given (interpolation needs one)

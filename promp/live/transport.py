@@ -18,6 +18,18 @@ from typing import Protocol
 
 import numpy as np
 
+__all__ = [
+    "Inlet",
+    "LSLUnavailable",
+    "Outlet",
+    "OutletSpec",
+    "Selector",
+    "SELECTOR_KEYS",
+    "StreamDescription",
+    "StreamLost",
+    "Transport",
+]
+
 SELECTOR_KEYS = ("name", "type", "source_id")
 
 
