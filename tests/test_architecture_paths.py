@@ -1,0 +1,136 @@
+"""docs/ARCHITECTURE.md's two user actions, checked against what a running studio really calls:
+one step of the Observed % slider (to the tube in 3D) and one take (from Stop to the redrawn
+prior). The studio runs with a call trace installed (tests/call_trace.py); each documented step
+must be a function the trace entered during that action, in the documented order, on the thread
+the document names (the loop, the save worker, the learner), and the counts the text states
+must be the list's."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from tests.call_trace import Call, CallTrace
+from tests.conftest import REPO, start_studio, wait_until
+
+STEP = re.compile(r"^\d+\. `(?P<path>[^`]+)` `(?P<name>[^`]+)` — (?P<text>.*)$")
+COUNTS = re.compile(r"(\d+) calls over (\d+) modules")
+# The threads a step may name ("on the learner's worker"): the thread's name in the studio.
+THREADS = {"the loop": "studio-loop", "the save worker": "save-take", "the learner": "learner"}
+THREAD_OF = re.compile(r"\[(the loop|the save worker|the learner)\]")
+
+
+def documented_path(title: str) -> tuple[list[tuple[str, str, str]], tuple[int, int]]:
+    """The numbered steps of the section ``title`` of docs/ARCHITECTURE.md, (file, qualified
+    name, thread), and the (calls, modules) its text states."""
+    text = (REPO / "docs" / "ARCHITECTURE.md").read_text(encoding="utf-8")
+    section = text.split(f"## {title}", 1)[1].split("\n## ", 1)[0]
+    steps = []
+    for line in section.splitlines():
+        if m := STEP.match(line):
+            thread = THREAD_OF.search(m["text"])
+            steps.append((m["path"], m["name"], THREADS[thread[1]] if thread else ""))
+    calls, modules = COUNTS.search(" ".join(section.split())).groups()
+    return steps, (int(calls), int(modules))
+
+
+def assert_path(title: str, calls: list[Call]) -> None:
+    """The documented steps of ``title`` are a subsequence of ``calls`` (in time order): each
+    step entered after the step before it, on the thread the document names; the counts the
+    text states are the list's."""
+    steps, stated = documented_path(title)
+    assert (len(steps), len({path for path, _, _ in steps})) == stated, (title, stated)
+    position = -1
+    for k, (path, name, thread) in enumerate(steps, start=1):
+        found = next((i for i in range(position + 1, len(calls))
+                      if (calls[i].path, calls[i].name) == (path, name)
+                      and calls[i].thread.startswith(thread)), None)  # fmt: skip
+        where = f" on {thread}" if thread else ""
+        assert found is not None, (
+            f"{title}, step {k}: {path} {name} was not called{where} after step {k - 1}; "
+            f"it was called on {sorted({c.thread for c in calls if c.name == name})}"
+        )
+        position = found
+
+
+@pytest.fixture(scope="module")
+def traced(tmp_path_factory):
+    """A studio on the default workspace, started with a call trace installed (idle until
+    switched on): every thread it starts is watched."""
+    trace = CallTrace()
+    trace.install()
+    try:
+        studio = start_studio(tmp_path_factory.mktemp("paths") / "ws")
+        try:
+            yield studio, trace
+        finally:
+            studio.stop()
+    finally:
+        trace.uninstall()
+
+
+def panel_of(studio, kind):
+    return next(p for p in studio.panels if type(p).__name__ == kind)
+
+
+def test_one_slider_step_calls_the_documented_path(traced) -> None:
+    studio, trace = traced
+    infer = panel_of(studio, "InferPanel")
+    controls = infer.controls
+
+    def shown_at(percent: int):
+        view = infer.view
+        if view is None or view.result is None or view.state.percent != percent:
+            return None
+        return view.result if studio.scene.inference.drawn.result is view.result else None
+
+    controls.percent.value = 30  # the held-out model fitted first: not part of a step
+    wait_until(lambda: shown_at(30), timeout=120, what="the first view drawn")
+    trace.on()
+    controls.percent.value = 60
+    wait_until(lambda: shown_at(60), timeout=60, what="the step at 60 % drawn")
+    calls = trace.off()
+    assert_path("The slider's path", calls)
+
+
+def test_one_take_calls_the_documented_path(traced) -> None:
+    studio, trace = traced
+    teach = panel_of(studio, "TeachPanel")
+    record, store = teach.record, studio.session.store
+    record.controls.countdown.value = 0.0
+    record.controls.trim.value = False
+    tubes = studio.scene.workspace.tubes
+    wait_until(lambda: "curved" in tubes and studio.session.snapshot().model is not None,
+               timeout=120, what="the priors drawn")  # fmt: skip
+    before = np.array(tubes["curved"].vertices)
+    n_before = len(store.state.demos["curved"])
+    record.press()  # Record
+    wait_until(lambda: record.take is not None and record.takes.recording() is not None
+               and record.takes.recording().n_samples > 5, what="a recording")  # fmt: skip
+    start = studio.arm.hand_position()
+    for k in range(1, 13):  # 6 cm up in 5 mm steps, a frame or more apart: a movement, no jump
+        target = start + [0.0, 0.0, 0.005 * k]
+        studio.loop.call(lambda t=target: studio.arm.move_hand_to(t))
+        wait_until(lambda t=target: np.linalg.norm(studio.arm.hand_position() - t) < 0.002,
+                   what="the hand moved up")  # fmt: skip
+    wait_until(lambda: record.takes.recording().duration > 3.0,  # as long as the others
+               what="three seconds of recording")  # fmt: skip
+    trace.on()
+    record.press()  # Stop
+    wait_until(lambda: len(store.state.demos["curved"]) == n_before + 1, what="the take saved")
+    def why() -> str:
+        state, learner = store.state, studio.session.learner.state
+        return (f"the prior of curved redrawn (left out: {dict(state.left_out)}; learned from "
+                f"version {learner.learn_version} of {state.learn_version}, {learner.n_demos} "
+                f"demonstrations; error {learner.error})")  # fmt: skip
+
+    wait_until(lambda: not np.allclose(np.array(tubes["curved"].vertices), before), timeout=120,
+               what=why)  # fmt: skip
+    name = store.state.demos["curved"][-1].name
+    wait_until(lambda: (("curved", name) in studio.session.snapshot().store.typicality),
+               timeout=120, what="the take's typicality")  # fmt: skip
+    wait_until(lambda: name in record.controls.status.content, what="the take's outcome shown")
+    calls = trace.off()
+    assert_path("The record path", calls)
