@@ -20,7 +20,8 @@ import pytest
 
 from app.io import exchange
 from app.io.workspace_index import FORMAT
-from app.panels.data.evaluation import EvaluationJob, evaluation_dataset, parse_percents
+from app.panels.data.evaluation import EvaluationJob, EvaluationOutcome, EvaluationProgress
+from app.panels.data.evaluation_plan import EvaluationPlan, evaluation_dataset, parse_percents
 from app.panels.data.failed_trials import failed_trials, trial_choices
 from app.panels.data.results import curves, results_table
 from app.panels.data.results_zip import results_filename, results_zip
@@ -140,16 +141,17 @@ def fake_job() -> EvaluationJob:
     """A finished job of the fake method on two synthetic primitives x 3 demonstrations,
     hand and hand + head at 30 and 60 % (ML): every "right" trial is recognised as "left"."""
     dataset = make_dataset(seed=0, n_demos=3)
-    job = EvaluationJob(
+    job = EvaluationJob(EvaluationPlan(
         dataset=dataset, skipped={}, percents=[30.0, 60.0],
         observe_sets=[["hand"], ["hand", "head"]], alpha_methods=["ml"], settings=Settings(),
-        layout=LAYOUT, source="/somewhere/my lab", total=6,
-    )  # fmt: skip
-    job.result = run_sweep(
-        FirstOrFails, dataset, LAYOUT, job.percents, job.alpha_methods, job.observe_sets,
+        layout=LAYOUT, source="/somewhere/my lab",
+    ))  # fmt: skip
+    plan = job.plan
+    result = run_sweep(
+        FirstOrFails, dataset, LAYOUT, plan.percents, plan.alpha_methods, plan.observe_sets,
         "ours", keep_trials=True,
     )  # fmt: skip
-    job.done, job.finished = 6, True
+    job.progress, job.outcome = EvaluationProgress(done=6, total=6), EvaluationOutcome(result)
     return job
 
 
@@ -159,27 +161,28 @@ def test_results_zip_holds_what_the_command_line_writes(tmp_path) -> None:
     assert report["primitives"] == ["left", "right"]
     assert report["settings"]["format"] == "workspace"
     assert report["settings"]["basis"]["n_basis"] == "auto"
-    with zipfile.ZipFile(io.BytesIO(results_zip(report, job.result, job.dataset, LAYOUT))) as z:
+    result, dataset = job.outcome.result, job.plan.dataset
+    with zipfile.ZipFile(io.BytesIO(results_zip(report, result, dataset, LAYOUT))) as z:
         names = z.namelist()
         assert z.read("results.json").decode() == report_json(report)
-        assert z.read("results.csv").decode() == results_csv(job.result.rows)
+        assert z.read("results.csv").decode() == results_csv(result.rows)
         pngs = {n: z.read(n) for n in names if n.startswith("figures/")}
-    written = write_figures(tmp_path, job.result, job.dataset, LAYOUT, "ours")  # as --plots
+    written = write_figures(tmp_path, result, dataset, LAYOUT, "ours")  # as --plots
     assert names[:2] == ["results.json", "results.csv"]
     assert sorted(pngs) == sorted(f"figures/{p.name}" for p in written)
     assert len(pngs) >= 4 and all(data.startswith(PNG_MAGIC) for data in pngs.values())
-    table = list(csv.DictReader(io.StringIO(results_csv(job.result.rows))))
-    assert list(table[0]) == list(CSV_COLUMNS) and len(table) == len(job.result.rows) == 4
+    table = list(csv.DictReader(io.StringIO(results_csv(result.rows))))
+    assert list(table[0]) == list(CSV_COLUMNS) and len(table) == len(result.rows) == 4
     late = next(r for r in table if r["observed"] == "hand+head" and r["percent"] == "60.0")
     assert late["failed"] == "right/right1" and late["recognition_errors"] == "3"
-    assert float(late["log_loss"]) == pytest.approx(job.result.rows[3]["log_loss"])
+    assert float(late["log_loss"]) == pytest.approx(result.rows[3]["log_loss"])
     assert re.fullmatch(r"evaluation-my_lab-\d{8}-\d{6}\.zip", results_filename("my lab"))
     assert results_filename("../").startswith("evaluation-workspace-")
 
 
 def test_failed_trials_list_every_misrecognised_trial() -> None:
     job = fake_job()
-    trials = failed_trials(job.result, job.dataset)
+    trials = failed_trials(job.outcome.result, job.plan.dataset)
     # Every "right" trial (3 demonstrations x 2 percents x 2 modality sets), in order.
     assert len(trials) == 12
     assert [(t.request.demo, t.request.percent) for t in trials[:4]] == [
@@ -232,7 +235,8 @@ def test_evaluation_section_without_a_browser() -> None:
         section = EvaluationSection(ctx, lambda client, *message: told.append(message))
         controls = section.controls
         assert controls.export_button.disabled and not controls.failed_dropdown.visible
-        assert section.export(None) is None and section.open_in_infer(None) is None
+        assert section.results.export(None) is None
+        assert section.failed_trials.open_in_infer(None) is None
         assert [(title, color) for title, _, color in told] == [
             ("No results to export", "yellow"), ("No failed trial", "yellow")
         ]  # fmt: skip
@@ -245,9 +249,9 @@ def test_evaluation_section_without_a_browser() -> None:
         assert len(section.controls.failed_dropdown.options) == 12
         assert section.controls.open_button.visible and not section.controls.open_button.disabled
         section.controls.failed_dropdown.value = section.controls.failed_dropdown.options[5]
-        trial = section.open_in_infer(None)
+        trial = section.failed_trials.open_in_infer(None)
         assert opened == [(trial.request, None)] and trial.request.demo == "right1"
-        content = section.export(None)
+        content = section.results.export(None)
         with zipfile.ZipFile(io.BytesIO(content)) as archive:
             assert json.loads(archive.read("results.json")) == json.loads(
                 report_json(job.report())
@@ -495,7 +499,7 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     run.click()
     job = until(lambda: panel._job, what="the evaluation to start")
     # Held after the first of 12 held-out demonstrations: the page shows a running job.
-    until(lambda: job.done == 1, what="the first held-out demonstration")
+    until(lambda: job.progress.done == 1, what="the first held-out demonstration")
     bar = page.locator("[role=progressbar]").first
     until(lambda: bar.get_attribute("aria-valuenow") == f"{100 / 12}", what="the bar at 1/12")
     cancel = page.get_by_role("button", name="Cancel evaluation")
@@ -504,7 +508,7 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     gate.set()
     until(lambda: bar.get_attribute("aria-valuenow") == "100", what="the bar at 100")
     until(run.is_enabled, what="the button to be enabled again")
-    assert job.finished and job.error is None and not job.cancelled
+    assert job.finished and job.outcome.error is None and not job.outcome.cancelled
 
     chart_title = page.get_by_text("Recognition errors (of 12)")
     chart_title.wait_for()
@@ -519,8 +523,8 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     assert {"hand, ML", "head, model", "hand + head, ML"} <= labels
     assert all(chart["x"] == [10, 30, 50, 70, 90] for chart in charts)
     header = "| errors (of 12) | hand, ML | hand, model | head, ML |"
-    assert panel._result_handles[0].content.startswith("**Results of ws** (")  # what they are
-    assert header in panel._result_handles[3].content
+    assert panel.results.handles[0].content.startswith("**Results of ws** (")  # what they are
+    assert header in panel.results.handles[3].content
     status = panel.controls.eval_status.content
     assert "Held out each of 12 demonstrations of curved, direct, second_bin" in status
     page.set_viewport_size({"width": 1200, "height": 1700})  # the whole tab in the picture
@@ -529,7 +533,7 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     page.set_viewport_size({"width": 1200, "height": 800})
 
     # The curves are the sweep's: recognition improves as more is observed (hand+head).
-    rows = [r for r in job.result.rows if r["observed"] == ["hand", "head"]]
+    rows = [r for r in job.outcome.result.rows if r["observed"] == ["hand", "head"]]
     errors = {r["percent"]: r["recognition_errors"] for r in rows if r["alpha_method"] == "ml"}
     assert errors[90.0] <= errors[10.0]
 
@@ -537,15 +541,16 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     gate = gate_sweep(monkeypatch)
     run.click()
     second = until(lambda: panel._job is not job and panel._job, what="a second run")
-    until(lambda: second.done == 1, what="the second run to start")
+    until(lambda: second.progress.done == 1, what="the second run to start")
     page.get_by_role("button", name="Cancel evaluation").click()
     until(second.cancel.is_set, what="the cancel click")
     gate.set()
     until(lambda: second.finished, what="the cancelled run to end")
-    assert second.cancelled and second.result.partial and 0 < second.done < 12
-    page.get_by_text(f"Cancelled after {second.done} of 12 held-out").first.wait_for()
+    done = second.progress.done
+    assert second.outcome.cancelled and second.outcome.result.partial and 0 < done < 12
+    page.get_by_text(f"Cancelled after {done} of 12 held-out").first.wait_for()
     until(run.is_enabled, what="the button after the cancel")
-    assert "**partial**" in panel._result_handles[0].content
+    assert "**partial**" in panel.results.handles[0].content
     assert panel.controls.results_folder.visible
 
 
@@ -563,7 +568,7 @@ def evaluated(page, studio):
     page.get_by_role("button", name="Run leave-one-out evaluation").click()
     job = until(lambda: panel._job is not previous and panel._job, what="the evaluation")
     until(lambda: job.finished, what="the evaluation to finish")
-    assert job.error is None and not job.cancelled
+    assert job.outcome.error is None and not job.outcome.cancelled
     until(page.get_by_role("button", name="Export results").is_enabled, what="Export enabled")
     return job
 
@@ -598,7 +603,7 @@ def test_a_failed_trial_opens_in_infer(browser, page, studio, evaluated, artifac
 
     panel = panel_of(studio).evaluation
     infer = next(p for p in studio.panels if isinstance(p, InferPanel))
-    expected = failed_trials(evaluated.result, evaluated.dataset)
+    expected = failed_trials(evaluated.outcome.result, evaluated.plan.dataset)
     assert expected, "the 10 % trials of this workspace include misrecognised ones"
     labels = list(trial_choices(expected))
     until(lambda: list(panel.controls.failed_dropdown.options) == labels, what="the failed trials")

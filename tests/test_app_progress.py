@@ -54,7 +54,7 @@ def test_progress_cancel_and_a_workspace_switch(browser, studio, monkeypatch, tm
         gate = gate_sweep(monkeypatch)
         click(page, "Run leave-one-out evaluation")
         job = until(lambda: section.job, what="the evaluation to start")
-        until(lambda: job.done == 1, what="the first held-out demonstration")
+        until(lambda: job.progress.done == 1, what="the first held-out demonstration")
 
         # Counts, the time elapsed and the time left, in words a person plans with.
         status = page.get_by_text("Running on lab-a: 1 / 12 held-out demonstrations")
@@ -73,18 +73,19 @@ def test_progress_cancel_and_a_workspace_switch(browser, studio, monkeypatch, tm
         until(job.cancel.is_set, what="the cancel click")
         gate.set()
         until(lambda: job.finished, what="the cancelled evaluation to end")
-        assert job.cancelled and job.result.partial and 0 < job.done < 12
-        page.get_by_text(f"Cancelled after {job.done} of 12 held-out").first.wait_for()
+        done, outcome = job.progress.done, job.outcome
+        assert outcome.cancelled and outcome.result.partial and 0 < done < 12
+        page.get_by_text(f"Cancelled after {done} of 12 held-out").first.wait_for()
         title = page.locator("p", has_text="Results of lab-a").first
         title.wait_for()
-        assert f"partial: cancelled after {job.done} of 12" in title.inner_text()
-        assert {r["trials"] for r in job.result.rows} == {job.done}
+        assert f"partial: cancelled after {done} of 12" in title.inner_text()
+        assert {r["trials"] for r in outcome.result.rows} == {done}
         failed = page.get_by_text("Failed trials (", exact=False).first
         until(lambda: controls.failed_dropdown.visible, what="the failed trials listed")
         page.screenshot(path="/tmp/progress_partial.png")
-        with zipfile.ZipFile(io.BytesIO(section.export(None))) as archive:  # said partial
+        with zipfile.ZipFile(io.BytesIO(section.results.export(None))) as archive:  # partial
             report = json.loads(archive.read("results.json"))
-        assert report["partial"] == {"held_out": job.done, "of": 12}
+        assert report["partial"] == {"held_out": done, "of": 12}
 
         # Another workspace: nothing of lab-a's evaluation stays.
         studio.session.store.switch(tmp_path / "lab-b", scenario(2, 3))

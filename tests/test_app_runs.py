@@ -69,7 +69,7 @@ def evaluate(page, panel, name: str, observed: str, methods: str = "ours"):
     click(page, "Run leave-one-out evaluation")
     job = until(lambda: evaluation.job is not previous and evaluation.job, what="the evaluation")
     until(lambda: job.finished, what="the evaluation to end")
-    assert job.error is None and not job.cancelled
+    assert job.outcome.error is None and not job.outcome.cancelled
     notification(page, "Run kept", name.replace(" ", "_"))
     until(lambda: len(runs._listed or {}) == kept + 1, what=f"run {name!r} listed")
     return job
@@ -105,7 +105,7 @@ def test_runs_are_kept_listed_opened_compared_deleted_and_restored(browser, stud
         pick(page, runs.controls.choice, labels[1])
         click(page, "Open run")
         page.get_by_text("Saved run:").first.wait_for()
-        assert "both seen" in panel.evaluation._result_handles[0].content
+        assert "both seen" in panel.evaluation.results.handles[0].content
         page.get_by_text("Recognition errors (of 6)").first.wait_for()
 
         # Export it: its folder as a zip.
@@ -172,20 +172,21 @@ def test_ours_beside_the_toolbox_and_both_baselines(browser, studio) -> None:
         page.get_by_text("Saved runs", exact=True).first.wait_for()
         evaluate(page, panel, "ours alone", "hand")
         job = evaluate(page, panel, "with baselines", "hand", "ours + toolbox + baselines")
-        assert job.methods == ["ours", "seed", "dtw", "prefix-nn"]
-        rows = job.result.rows
-        assert [r["method"] for r in rows] == job.methods and {r["trials"] for r in rows} == {6}
-        tested = {m: sorted((t.primitive, t.demo) for t in job.result.trials if t.method == m)
-                  for m in job.methods}  # fmt: skip
+        assert job.plan.methods == ["ours", "seed", "dtw", "prefix-nn"]
+        rows, trials = job.outcome.result.rows, job.outcome.result.trials
+        assert [r["method"] for r in rows] == job.plan.methods
+        assert {r["trials"] for r in rows} == {6}
+        tested = {m: sorted((t.primitive, t.demo) for t in trials if t.method == m)
+                  for m in job.plan.methods}  # fmt: skip
         assert all(trials == tested["ours"] for trials in tested.values())
         page.get_by_text("Recognition errors (of 6)").first.wait_for()
-        table = panel.evaluation._result_handles[3].content
+        table = panel.evaluation.results.handles[3].content
         assert table.splitlines()[0] == ("| errors (of 6) | ours: hand, ML | toolbox (2017): "
                                          "hand, ML | DTW 1-NN: hand, ML | prefix 1-NN: hand, ML |")
         position = table.splitlines()[-1]
         assert position.startswith("| 40 % |") and position.endswith("| n/a | n/a |")
         page.get_by_text("prefix 1-NN: hand, ML").first.wait_for()  # the table in the page
-        assert "methods ours, seed, dtw, prefix-nn" in panel.evaluation._result_handles[0].content
+        assert "methods ours, seed, dtw, prefix-nn" in panel.evaluation.results.handles[0].content
 
         errors = ", ".join(f"{label} {r['recognition_errors']}" for label, r in zip(
             ("ours", "toolbox (2017)", "DTW 1-NN", "prefix 1-NN"), rows, strict=True))

@@ -94,7 +94,7 @@ def test_no_face_in_blank_noise_and_tiny_faces(installed, astronaut):
         assert not sample.face_found, name
         assert (sample.roll, sample.pitch, sample.yaw, sample.confidence) == (0, 0, 0, 0)
         assert sample.landmarks is None
-        assert not estimator.tracking
+        assert not estimator.tracker.tracking
         assert draw_overlay(frame, sample).shape == frame.shape
 
 
@@ -112,17 +112,17 @@ def test_tracking_runs_the_detector_once_and_redetects_after_loss(installed, ast
         frame = frontal(astronaut, scale=1.5, centre=(300.0 + 3 * i, 240.0), roll_deg=0.5 * i)
         t += 1 / 30
         assert estimator.process(frame, t).face_found
-    assert estimator.n_detections == 1
-    assert estimator.tracking
+    assert estimator.tracker.n_detections == 1
+    assert estimator.tracker.tracking
     t += 1 / 30
     lost = estimator.process(blank, t)  # no stale angle once the face is gone
-    assert not lost.face_found and lost.landmarks is None and not estimator.tracking
+    assert not lost.face_found and lost.landmarks is None and not estimator.tracker.tracking
     with pytest.raises(RuntimeError, match="no face"):
         estimator.calibrate_neutral()
     t += 1 / 30
     again = estimator.process(frontal(astronaut, scale=1.5), t)
     assert again.face_found
-    assert estimator.n_detections == 3  # the blank frame and the frame after it
+    assert estimator.tracker.n_detections == 3  # the blank frame and the frame after it
 
 
 def test_smoothing_is_reset_when_the_face_is_lost(installed, astronaut):

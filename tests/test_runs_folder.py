@@ -9,6 +9,7 @@ import hashlib
 import io
 import json
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -89,7 +90,7 @@ def test_runs_are_saved_listed_newest_first_and_opened(tmp_path: Path, job) -> N
 
     run = open_run(ws.root, first.folder.name)
     assert run.report["results"] == json.loads(json.dumps(report["results"]))
-    assert run.report["used"] == {p: [d.name for d in ds] for p, ds in job.dataset.items()}
+    assert run.report["used"] == {p: [d.name for d in ds] for p, ds in job.plan.dataset.items()}
     # The demonstrations are what they were: runs/ is not read as demonstrations.
     after = ws.load()
     assert after.primitives == before.primitives and after.problems == []
@@ -254,18 +255,18 @@ def test_a_run_of_several_methods_is_listed_and_compared_method_by_method(
 
 
 def test_default_name_says_what_was_observed_and_how(job) -> None:
-    assert default_name(job) == "each ML"
-    job_one = type(job)(**{**job.__dict__, "observe_sets": [["hand", "head"]],
-                           "alpha_methods": ["ml", "model"]})  # fmt: skip
-    assert default_name(job_one) == "hand + head ML+model"
-    job_all = type(job)(**{**job.__dict__, "observe_sets": [["hand"]],
-                           "methods": ["ours", "seed", "dtw", "prefix-nn"]})  # fmt: skip
-    assert default_name(job_all) == "hand ML ours+seed+dtw+prefix-nn"
+    assert default_name(job.plan) == "each ML"
+    plan_one = replace(job.plan, observe_sets=[["hand", "head"]],
+                       alpha_methods=["ml", "model"])  # fmt: skip
+    assert default_name(plan_one) == "hand + head ML+model"
+    plan_all = replace(job.plan, observe_sets=[["hand"]],
+                       methods=["ours", "seed", "dtw", "prefix-nn"])  # fmt: skip
+    assert default_name(plan_all) == "hand ML ours+seed+dtw+prefix-nn"
 
 
 def test_the_results_export_holds_a_confusion_matrix_per_percentage(job) -> None:
-    with zipfile.ZipFile(io.BytesIO(results_zip(job.report(), job.result, job.dataset,
-                                                job.layout))) as archive:  # fmt: skip
+    content = results_zip(job.report(), job.outcome.result, job.plan.dataset, job.plan.layout)
+    with zipfile.ZipFile(io.BytesIO(content)) as archive:
         report = json.loads(archive.read("results.json"))
         figures = [n for n in archive.namelist() if n.startswith("figures/confusion_")]
     keys = [(tuple(m["observed"]), m["alpha"], m["percent"]) for m in report["confusion"]]
@@ -302,13 +303,15 @@ def test_the_section_keeps_an_ended_evaluation_and_a_cancelled_one_as_partial(tm
                 runs.saver.join(60)
 
         done = fake_job()
-        done.source = str(store.state.workspace.root)
+        done.plan = replace(done.plan, source=str(store.state.workspace.root))
         end(done, "")
         cancelled = fake_job()
-        cancelled.source, cancelled.cancelled = done.source, True
+        cancelled.plan = replace(cancelled.plan, source=done.plan.source)
+        cancelled.outcome = replace(cancelled.outcome, cancelled=True)
         end(cancelled, "stopped early")
         nothing = fake_job()
-        nothing.source, nothing.cancelled, nothing.result = done.source, True, None
+        nothing.plan = replace(nothing.plan, source=done.plan.source)
+        nothing.outcome = replace(nothing.outcome, cancelled=True, result=None)
         saver = runs.saver
         end(nothing, "nothing")
         assert runs.saver is saver  # nothing to keep
@@ -330,7 +333,7 @@ def test_the_section_keeps_an_ended_evaluation_and_a_cancelled_one_as_partial(tm
         assert runs.controls.other.value == runs.controls.choice.options[1]
         assert "**B:** each ML" in runs.compare(None)
         assert runs.open(None).name == "stopped early"
-        assert "stopped early" in evaluation._result_handles[0].content
+        assert "stopped early" in evaluation.results.handles[0].content
     finally:
         server.stop()
 

@@ -38,8 +38,11 @@ radians.
 API
 ---
 ``HeadPoseEstimator(smoothing=DEFAULT_SMOOTHING, intrinsics=None)``
-    Models loaded once; ``process(frame_bgr, t) -> HeadPoseSample`` frame after frame (tracking
-    state inside), ``calibrate_neutral()``, ``clear_neutral()``, ``reset()``.
+    Models loaded once; ``process(frame_bgr, t) -> HeadPoseSample`` frame after frame,
+    ``calibrate_neutral()``, ``clear_neutral()``, ``reset()``. Its parts: ``tracker``
+    (:class:`~app.headpose.tracker.FaceTracker`: the face searched for, then tracked;
+    ``tracking``, ``n_detections``), ``neutral`` (:class:`~app.headpose.neutral.NeutralPose`:
+    what zero means) and the smoothing (:class:`~app.headpose.smoothing.AngleSmoothing`).
 ``HeadPoseSample``
     ``t``, ``face_found``, ``roll``, ``pitch``, ``yaw`` (0.0 and not to be used when no face),
     ``confidence`` in [0, 1] (0 when no face), ``landmarks`` (468, 2) pixels or None.
@@ -58,7 +61,7 @@ API
     Landmarks, head axes and angles drawn on a copy of the frame.
 """
 
-from app.headpose.estimator import DEFAULT_SMOOTHING, HeadPoseEstimator, HeadPoseSample
+from app.headpose.estimator import HeadPoseEstimator, HeadPoseSample
 from app.headpose.filter import OneEuroConfig, OneEuroFilter
 from app.headpose.frames import (
     FrameSource,
@@ -75,6 +78,7 @@ from app.headpose.models import (
     models_available,
 )
 from app.headpose.overlay import draw_overlay
+from app.headpose.smoothing import DEFAULT_SMOOTHING
 from app.headpose.stream import CameraStream
 
 __all__ = [

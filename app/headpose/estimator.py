@@ -1,4 +1,7 @@
-"""The head-pose estimator: detection, landmark tracking, PnP and smoothing, frame by frame."""
+"""The head-pose estimator: frame after frame, the face found or tracked
+(:mod:`app.headpose.tracker`), its head pose fitted to the landmarks (:mod:`app.headpose.pose`)
+relative to the neutral pose (:mod:`app.headpose.neutral`), and smoothed
+(:mod:`app.headpose.smoothing`)."""
 
 from __future__ import annotations
 
@@ -8,30 +11,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.headpose.detector import FaceDetector
 from app.headpose.face_model import MODEL_LANDMARKS
-from app.headpose.filter import OneEuroConfig, OneEuroFilter
-from app.headpose.landmarks import (
-    FaceLandmarker,
-    FaceRoi,
-    LandmarkResult,
-    roi_from_detection,
-    roi_from_landmarks,
-)
-from app.headpose.models import ModelPaths, locate_models
-from app.headpose.pose import (
-    camera_matrix,
-    check_intrinsics,
-    euler_zyx,
-    neutral_frame,
-    rotation_zyx,
-    solve_head_pose,
-)
-
-#: Smoothing used when the caller does not choose: tuned for 30-60 fps, angles in radians.
-DEFAULT_SMOOTHING = OneEuroConfig(min_cutoff=1.0, beta=4.0, d_cutoff=1.0)
-#: Reprojection error, as a fraction of the face size, at which the confidence falls to 1/e.
-FIT_TOLERANCE = 0.06
+from app.headpose.filter import OneEuroConfig
+from app.headpose.landmarks import LandmarkResult
+from app.headpose.models import ModelPaths
+from app.headpose.neutral import NeutralPose
+from app.headpose.pose import camera_matrix, check_intrinsics, fit_confidence, solve_head_pose
+from app.headpose.smoothing import DEFAULT_SMOOTHING, AngleSmoothing
+from app.headpose.tracker import FaceTracker
 
 
 @dataclass(frozen=True)
@@ -97,10 +84,12 @@ def check_frame(frame: np.ndarray) -> np.ndarray:
 class HeadPoseEstimator:
     """Estimate the partner's head roll, pitch and yaw in a sequence of frames.
 
-    The models are loaded once. :meth:`process` takes frames in time order: after a face is
-    found, the next frame's landmark ROI comes from this frame's landmarks (tracking); the
-    detector runs only on the first frame and whenever the landmark model's face-presence score
-    drops below ``min_presence`` (the face was lost). The call is thread-safe.
+    The models are loaded once. :meth:`process` takes frames in time order: the
+    :class:`~app.headpose.tracker.FaceTracker` (``tracker``) searches for the face on the first
+    frame and whenever the face was lost, and tracks it otherwise; the head pose is fitted to
+    its landmarks, expressed relative to the :class:`~app.headpose.neutral.NeutralPose`
+    (``neutral``) and smoothed (:class:`~app.headpose.smoothing.AngleSmoothing`). The call is
+    thread-safe.
 
     Parameters
     ----------
@@ -127,6 +116,15 @@ class HeadPoseEstimator:
         runs, only while no face is tracked). See :meth:`FaceDetector.detect_tiled`.
     models : ModelPaths, optional
         Model files; default :func:`app.headpose.models.locate_models`.
+
+    Attributes
+    ----------
+    tracker : FaceTracker
+        Where the face is: ``tracking``, ``n_detections`` (frames the detector ran on).
+    neutral : NeutralPose
+        What zero means.
+    n_frames : int
+        Frames processed (for diagnostics and tests).
     """
 
     def __init__(
@@ -141,36 +139,21 @@ class HeadPoseEstimator:
         search_tiles: bool = True,
         models: ModelPaths | None = None,
     ) -> None:
-        if smoothing is not None and not isinstance(smoothing, OneEuroConfig):
-            raise ValueError(f"smoothing must be a OneEuroConfig or None, got {smoothing!r}")
-        if not 0.0 < min_presence < 1.0:
-            raise ValueError(f"min_presence must be in (0, 1), got {min_presence}")
-        if not (math.isfinite(min_face_size) and min_face_size >= 0):
-            raise ValueError(f"min_face_size must be >= 0 pixels, got {min_face_size}")
-        paths = locate_models() if models is None else models
-        self.detector = FaceDetector(paths.detector, min_score=min_detection_score)
-        self.landmarker = FaceLandmarker(paths.landmarks)
+        self.smoothing = AngleSmoothing(smoothing)
+        self.tracker = FaceTracker(
+            models,
+            min_presence=min_presence,
+            min_detection_score=min_detection_score,
+            min_face_size=min_face_size,
+            search_tiles=search_tiles,
+        )
         self.intrinsics = None if intrinsics is None else check_intrinsics(intrinsics)
-        self.min_presence = float(min_presence)
-        self.min_face_size = float(min_face_size)
-        self.line_of_sight = bool(line_of_sight)
-        self.search_tiles = bool(search_tiles)
-        self._filter = None if smoothing is None else OneEuroFilter(smoothing)
+        self.neutral = NeutralPose(line_of_sight)
         self._lock = threading.Lock()
-        self._roi: FaceRoi | None = None
-        self._last_t: float | None = None
-        self._neutral = np.eye(3)  # calibrated neutral, relative to the geometric neutral frame
         self._last_output: np.ndarray | None = None  # (roll, pitch, yaw) last returned
-        #: Frames on which the detector ran, and frames processed (for diagnostics and tests).
-        self.n_detections = 0
         self.n_frames = 0
 
     # -- state -------------------------------------------------------------------------------
-
-    @property
-    def tracking(self) -> bool:
-        """True when the next frame will be tracked from the last landmarks."""
-        return self._roi is not None
 
     def reset(self) -> None:
         """Forget tracking, smoothing and timing state (a new sequence starts).
@@ -179,7 +162,7 @@ class HeadPoseEstimator:
         """
         with self._lock:
             self._lose_face()
-            self._last_t = None
+            self.smoothing.restart()
 
     def calibrate_neutral(self) -> None:
         """Make the current head pose the zero of roll, pitch and yaw.
@@ -194,23 +177,20 @@ class HeadPoseEstimator:
         with self._lock:
             if self._last_output is None:
                 raise RuntimeError("cannot calibrate the neutral pose: no face in the last frame")
-            self._neutral = self._neutral @ rotation_zyx(*self._last_output)
+            self.neutral.calibrate(self._last_output)
             self._last_output = np.zeros(3)
-            if self._filter is not None:
-                self._filter.reset()
+            self.smoothing.forget()
 
     def clear_neutral(self) -> None:
         """Drop the neutral-pose calibration: zero is facing the camera again."""
         with self._lock:
-            self._neutral = np.eye(3)
-            if self._filter is not None:
-                self._filter.reset()
+            self.neutral.clear()
+            self.smoothing.forget()
 
     def _lose_face(self) -> None:
-        self._roi = None
+        self.tracker.lose()
         self._last_output = None
-        if self._filter is not None:
-            self._filter.reset()
+        self.smoothing.forget()
 
     # -- processing --------------------------------------------------------------------------
 
@@ -234,41 +214,13 @@ class HeadPoseEstimator:
         if not math.isfinite(t):
             raise ValueError(f"timestamp must be finite, got {t}")
         with self._lock:
-            if self._filter is not None and self._last_t is not None and t <= self._last_t:
-                raise ValueError(
-                    f"timestamps must increase when smoothing is on: got t={t} after "
-                    f"t={self._last_t} (call reset() to start a new sequence)"
-                )
-            self._last_t = t
+            self.smoothing.admit(t)
             self.n_frames += 1
-            result = self._find_landmarks(frame)
+            result = self.tracker.find(frame)
             if result is None:
                 self._lose_face()
                 return HeadPoseSample.no_face(t)
             return self._pose(frame, result, t)
-
-    def _find_landmarks(self, frame: np.ndarray) -> LandmarkResult | None:
-        if self._roi is not None:
-            result = self.landmarker.run(frame, self._roi)
-            if result.presence >= self.min_presence and self._large_enough(result):
-                return result
-            self._roi = None
-        self.n_detections += 1
-        detections = self.detector.detect(frame)
-        if not detections and self.search_tiles:
-            detections = self.detector.detect_tiled(frame)
-        for detection in detections:
-            if max(detection.box[2], detection.box[3]) < self.min_face_size:
-                continue
-            result = self.landmarker.run(frame, roi_from_detection(detection))
-            if result.presence >= self.min_presence and self._large_enough(result):
-                return result
-            break  # only the best detection gets a landmark pass: keep the cost bounded
-        return None
-
-    def _large_enough(self, result: LandmarkResult) -> bool:
-        extent = result.landmarks.max(axis=0) - result.landmarks.min(axis=0)
-        return float(np.max(extent)) >= self.min_face_size
 
     def _pose(self, frame: np.ndarray, result: LandmarkResult, t: float) -> HeadPoseSample:
         height, width = frame.shape[:2]
@@ -277,16 +229,9 @@ class HeadPoseEstimator:
             intrinsics = camera_matrix(width, height)
         landmarks = result.landmarks
         rotation, translation, rms = solve_head_pose(landmarks[MODEL_LANDMARKS], intrinsics)
-        neutral = neutral_frame(translation if self.line_of_sight else None)
-        relative = self._neutral.T @ neutral.T @ rotation
-        angles = np.array(euler_zyx(relative))
-        if self._filter is not None:
-            angles = self._filter(angles, t)
+        angles = self.smoothing(self.neutral.angles(rotation, translation), t)
         self._last_output = angles
-        self._roi = roi_from_landmarks(landmarks)
-        face_size = float(np.max(landmarks.max(axis=0) - landmarks.min(axis=0)))
-        fit = math.exp(-((rms / (FIT_TOLERANCE * face_size)) ** 2))
-        confidence = float(np.clip(result.presence * fit, 0.0, 1.0))
+        self.tracker.follow(landmarks)
         roll, pitch, yaw = (float(a) for a in angles)
         return HeadPoseSample(
             t=t,
@@ -294,6 +239,6 @@ class HeadPoseEstimator:
             roll=roll,
             pitch=pitch,
             yaw=yaw,
-            confidence=confidence,
+            confidence=fit_confidence(result.presence, rms, landmarks),
             landmarks=landmarks,
         )

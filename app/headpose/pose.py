@@ -16,6 +16,8 @@ neutral frame: ``R = R_camera_from_neutral.T @ R_camera_from_head``.
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
@@ -182,3 +184,25 @@ def solve_head_pose(
     rms = float(np.sqrt(np.mean(np.sum((projected - points) ** 2, axis=-1))))
     rotation, _ = cv2.Rodrigues(rvec)
     return rotation, tvec.reshape(3), rms
+
+
+#: Reprojection error, as a fraction of the face size, at which the fit's quality falls to 1/e.
+FIT_TOLERANCE = 0.06
+
+
+def fit_confidence(presence: float, rms_px: float, landmarks: np.ndarray) -> float:
+    """How much a head pose can be trusted, in [0, 1]: the landmark model's face-presence
+    probability times the quality of the PnP fit, ``exp(-(rms / (FIT_TOLERANCE * size))^2)``.
+
+    Parameters
+    ----------
+    presence : float
+        The landmark model's face-presence probability, in [0, 1].
+    rms_px : float
+        The fit's root-mean-square reprojection error (:func:`solve_head_pose`), pixels.
+    landmarks : array, shape (468, 2)
+        The face landmarks, pixels: their extent is the face's size.
+    """
+    face_size = float(np.max(landmarks.max(axis=0) - landmarks.min(axis=0)))
+    fit = math.exp(-((rms_px / (FIT_TOLERANCE * face_size)) ** 2))
+    return float(np.clip(presence * fit, 0.0, 1.0))

@@ -29,6 +29,7 @@ from app.io.exchange import format_size
 from app.io.runs_folder import RUNS_DIR, RunListing, RunsScanner, open_run, run_zip, save_run
 from app.io.trash import TrashEntry
 from app.panels.data.evaluation import EvaluationJob
+from app.panels.data.evaluation_plan import METHOD, EvaluationPlan
 from app.panels.data.evaluation_section import EvaluationSection
 from app.panels.data.results_zip import draw_figures
 from app.panels.data.runs_text import NO_RUN, comparison_markdown, describe, run_choices, runs_table
@@ -41,14 +42,14 @@ Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
 SCAN_SECONDS = 2.0  # how often runs/ is looked at for runs written by others
 
 
-def default_name(job: EvaluationJob) -> str:
+def default_name(plan: EvaluationPlan) -> str:
     """A run's name when none is typed: its observed modalities and alpha method, e.g.
     ``hand + head ML`` (``each`` when several modality sets are compared), and the methods
     when not ours alone (``hand ML ours+seed+dtw+prefix-nn``)."""
-    sets = job.observe_sets
+    sets = plan.observe_sets
     observed = observed_label(sets[0]) if len(sets) == 1 else "each"
-    methods = "" if job.methods == ["ours"] else " " + "+".join(job.methods)
-    return f"{observed} {'+'.join(ALPHA_LABELS.get(a, a) for a in job.alpha_methods)}{methods}"
+    methods = "" if plan.methods == [METHOD] else " " + "+".join(plan.methods)
+    return f"{observed} {'+'.join(ALPHA_LABELS.get(a, a) for a in plan.alpha_methods)}{methods}"
 
 
 def _workspace(ctx: PanelContext) -> Path:
@@ -136,13 +137,15 @@ class RunsSection:
             return
         if job is not self._watched:  # just started: the name typed for it
             self._watched = job
-            self._name = self.evaluation.controls.run_name_text.value.strip() or default_name(job)
+            typed = self.evaluation.controls.run_name_text.value.strip()
+            self._name = typed or default_name(job.plan)
             return
-        if job.finished and self._name:
+        outcome = job.outcome
+        if outcome is not None and self._name:
             name, self._name = self._name, ""
-            if job.result is not None and job.result.rows:  # done, or cancelled with results
+            if outcome.result is not None and outcome.result.rows:  # done, or cancelled with rows
                 # Into the workspace it evaluated, even if another is shown now.
-                where = Path(job.source) if job.source else root
+                where = Path(job.plan.source) if job.plan.source else root
                 self.saver = threading.Thread(target=self.save, args=(job, name, where),
                                               name="data-run-save", daemon=True)  # fmt: skip
                 self.saver.start()
@@ -152,19 +155,19 @@ class RunsSection:
 
         def figures(folder: Path) -> None:
             try:
-                draw_figures(folder, report, job.result, job.dataset, job.layout)
+                draw_figures(folder, report, job.outcome.result, job.plan.dataset, job.plan.layout)
             except Exception:  # a figure that cannot be drawn must not lose the run's tables
                 traceback.print_exc()
 
         try:
             report = job.report()
-            run = save_run(root, report, name, figures, partial=job.cancelled)
+            run = save_run(root, report, name, figures, partial=job.outcome.cancelled)
         except (ValueError, OSError) as exc:
             self.notify(None, "Run not kept", f"{exc}.", "red")
             return None
         finally:
             self._scanner.rescan()
-        partial = " (partial: the evaluation was cancelled)" if job.cancelled else ""
+        partial = " (partial: the evaluation was cancelled)" if job.outcome.cancelled else ""
         self.notify(None, "Run kept", f"{RUNS_DIR}/{run.folder.name}{partial}: Saved runs "
                     "lists it.", "blue")  # fmt: skip
         return run
@@ -229,8 +232,8 @@ class RunsSection:
         item = (self._listed or {}).get(run.folder.name, (0.0, None))[1]
         how = " · ".join(describe(item)) + " %" if isinstance(item, RunListing) else ""
         partial = " *(partial)*" if run.report.get("partial") else ""
-        self.evaluation.show_results(
-            run.report["results"], f"**Saved run:** {escape(run.label)}{partial}  \n{how}"
+        self.evaluation.results.show(
+            f"**Saved run:** {escape(run.label)}{partial}  \n{how}", run.report["results"]
         )
         self.notify(client, "Run opened", f"{run.label}: its results are shown.", "blue")
         return run
