@@ -58,7 +58,7 @@ def settled(studio: Studio, infer: InferPanel) -> bool:
     snapshot = studio.session.snapshot()
     version = snapshot.store.learn_version
     return (
-        not snapshot.store.unscored
+        not snapshot.scoring
         and not snapshot.refitting
         and any(key[0] == version for key in snapshot.learner.held_out)
         and infer.view is not None

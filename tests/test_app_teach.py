@@ -372,7 +372,7 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, page, artifacts) ->
     wait_until(lambda: row(page, "curved_020").count() == 1, what="the take listed")
 
     def listed() -> str | None:  # the label, once the learner has scored the take
-        score = store(studio).typicality.get(("curved", "curved_020"))
+        score = studio.session.snapshot().typicality.get(("curved", "curved_020"))
         if score is None:
             return None
         return f" · {'⚠ ' if score.label != 'typical' else ''}{score.label}"

@@ -1,7 +1,9 @@
-"""The shape of the code: no import cycle between our modules nor between the packages of
-``app`` and ``robots``, ``promp`` imports nothing of ``app`` or ``robots``, ``robots`` nothing of
-``app``, panels nothing of the studio, no file of ``app`` over 400 lines nor of ``robots`` or
-``promp`` over 500, and no class of ``app`` with more than 25 members (attributes and methods).
+"""The shape of the code: no import cycle between our modules nor between any two of our
+packages (promp's core, ``promp/*.py``, the bottom of promp), ``promp`` imports nothing of
+``app`` or ``robots``, ``robots`` nothing of ``app``, panels nothing of the studio, no file of
+``app`` over 400 lines nor of ``robots`` or ``promp`` over 500, and no class of ``app`` with more
+than 25 members (attributes and methods). docs/ARCHITECTURE.md's paths are checked against a
+trace of the running studio in tests/test_architecture_paths.py.
 
 The import graph is read from the source (every ``import`` statement, also inside functions and
 under ``TYPE_CHECKING``): an edge goes from a module to each module of ours it names.
@@ -10,7 +12,6 @@ under ``TYPE_CHECKING``): an edge goes from a module to each module of ours it n
 from __future__ import annotations
 
 import ast
-import re
 from pathlib import Path
 
 from tests.conftest import REPO
@@ -237,53 +238,3 @@ def test_no_class_of_app_has_more_than_25_members() -> None:
 
 
 # ---------------------------------------------------------------------- the documented paths
-
-STEP = re.compile(r"^\d+\. `(?P<path>[\w/.]+\.py)` `(?P<name>[\w.]+)` — (?P<text>.*)$")
-VIA = re.compile(r"via `(?P<path>[\w/.]+\.py)` `(?P<name>[\w.]+)`")
-COUNTS = re.compile(r"(\d+) calls over (\d+) modules of the")
-
-
-def documented_path(title: str) -> tuple[list[tuple[str, str, list]], tuple[int, int]]:
-    """The numbered steps of the section ``title`` of docs/ARCHITECTURE.md: (file, qualified
-    name, the functions it is reached through), and the counts its text states."""
-    text = (REPO / "docs" / "ARCHITECTURE.md").read_text(encoding="utf-8")
-    section = text.split(f"## {title}", 1)[1].split("\n## ", 1)[0]
-    steps = [
-        (m["path"], m["name"], [(v["path"], v["name"]) for v in VIA.finditer(m["text"])])
-        for line in section.splitlines()
-        if (m := STEP.match(line))
-    ]
-    calls, modules = COUNTS.search(" ".join(section.split())).groups()
-    return steps, (int(calls), int(modules))
-
-
-def body_of(path: str, qualname: str) -> str:
-    """The source of the function ``qualname`` (``Class.method`` or ``function``) of ``path``,
-    without its ``def`` line (AssertionError when there is none)."""
-    source = (REPO / path).read_text(encoding="utf-8")
-    nodes = ast.parse(source).body
-    node = None
-    for part in qualname.split("."):
-        node = next((n for n in nodes if getattr(n, "name", None) == part), None)
-        assert node is not None, f"{path} has no {qualname}"
-        nodes = node.body
-    lines = ast.get_source_segment(source, node).splitlines()
-    return "\n".join(lines[1:])
-
-
-def test_the_slider_and_record_paths_are_short_and_named_as_the_code_calls_them() -> None:
-    """docs/ARCHITECTURE.md's two user actions, step by step: at most 12 calls over at most
-    8 modules, the counts its text states; every step a function of its file, called (by name)
-    by an earlier step or through the functions the step names."""
-    for title in ("The slider's path", "The record path"):
-        steps, stated = documented_path(title)
-        counted = (len(steps), len({path for path, _, _ in steps}))
-        assert counted == stated, (title, counted, stated)
-        assert counted[0] <= 12 and counted[1] <= 8, (title, counted)
-        for k, (path, name, via) in enumerate(steps):
-            body_of(path, name)
-            if k == 0:
-                continue
-            callers = [body_of(p, n) for p, n, _ in steps[:k]] + [body_of(p, n) for p, n in via]
-            called = re.compile(rf"\b{re.escape(name.rsplit('.', 1)[-1])}\b")
-            assert any(called.search(c) for c in callers), f"{title}, step {k + 1}: {name}"

@@ -147,7 +147,7 @@ def test_the_controller_records_and_saves_a_take_into_the_store(tmp_path) -> Non
     assert outcome.root == store.state.workspace.root and takes.phase is Phase.IDLE
     (demo,) = store.state.demos["wave"]
     assert demo.n_samples >= 5 and outcome.text.startswith("Saved **wave_000**")
-    assert ("wave", "wave_000") in store.state.unscored  # the learner scores it
+    assert ("wave", "wave_000") in store.state.takes  # the learner scores it
     assert takes.discard().kind == "discarded" and store.state.demos["wave"] == ()
     with pytest.raises(ValueError, match="no take saved"):
         takes.discard()

@@ -53,8 +53,8 @@ def model(session: Session):
 def scored(session: Session, key: tuple[str, str]):
     """The typicality of the take ``key`` once the learner has scored it (None: too few
     others)."""
-    wait_until(lambda: key not in state(session).unscored, timeout=120, what=f"{key} scored")
-    return state(session).typicality.get(key)
+    wait_until(lambda: key not in session.snapshot().scoring, timeout=120, what=f"{key} scored")
+    return session.snapshot().typicality.get(key)
 
 
 def files(session: Session) -> dict[str, bytes]:
@@ -398,7 +398,7 @@ def test_a_flagged_demonstration_is_left_out_until_kept_and_the_choice_persists(
     reopened.close()
     store.rename_primitive("curved", "arc")
     assert state(session).checks.kept == {("arc", added.name)} and state(session).left_out == {}
-    assert ("arc", added.name) in state(session).typicality  # the score follows the rename
+    assert ("arc", added.name) in session.snapshot().typicality  # the score follows the rename
     store.set_kept("arc", added.name, False)
     assert list(state(session).left_out) == [("arc", added.name)]
     assert state(session).workspace.demo_path("arc", added.name).read_bytes() == before

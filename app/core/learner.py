@@ -3,7 +3,9 @@
 One :class:`Learner` per studio, with one worker thread, so that nothing slow runs on the
 studio's loop. It follows the store (:meth:`Learner.follow`, a listener of
 :class:`app.core.store.Store`): a change of what is learned from asks for a refit, a new take
-asks for its typicality. The worker takes the most urgent job first: the refit of the latest
+asks for its typicality. The scores are the learner's (:attr:`LearnerState.scores`, by the
+demonstration scored): nothing goes back into the store. The worker takes the most urgent job
+first: the refit of the latest
 change (a newer request supersedes one in flight, whose result is then dropped), then the
 takes' scores, then the held-out model the Infer tab inspects. Each outcome is published as a
 new :class:`LearnerState` (readers take :attr:`Learner.state`, lock-free), stamped with the
@@ -26,7 +28,7 @@ from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
 from app.core.fits import FitCache, Fitted, Training, held_out_training
-from app.core.store_state import Key, StoreState
+from app.core.store_state import StoreState
 from promp.data import Demonstration
 from promp.model import ProMPModel, Settings
 from promp.typicality import Typicality, typicality
@@ -34,8 +36,10 @@ from promp.typicality import Typicality, typicality
 REFIT_TIMEOUT_S = 120.0
 HELD_OUT_KEPT = 8  # held-out models kept in the state (the fit cache keeps more)
 
-Record = Callable[[str, Demonstration, Typicality | None], None]
 HeldOutKey = tuple  # (learn_version, primitive, demo, repr(settings))
+# A take's score, by the id of the demonstration scored (held: its id stays its own): the
+# demonstration and its typicality (None: too few others to score it).
+Scores = Mapping[int, tuple[Demonstration, Typicality | None]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,6 +63,9 @@ class LearnerState:
         The refit request it answers (:meth:`Learner.refit` waits for its own).
     held_out : mapping of HeldOutKey to Fitted
         Models learned without one demonstration, by :func:`held_out_key`.
+    scores : mapping of int to (Demonstration, Typicality or None)
+        The takes' typicality, by the id of the demonstration scored (a take of the same
+        name recorded again is another demonstration, scored anew).
     """
 
     model: ProMPModel | None = None
@@ -69,6 +76,7 @@ class LearnerState:
     n_demos: int = 0
     request: int = 0
     held_out: Mapping[HeldOutKey, Fitted] = field(default_factory=dict)
+    scores: Scores = field(default_factory=dict)
 
 
 def resolved_settings(store: StoreState, model: ProMPModel | None) -> Settings:
@@ -92,14 +100,10 @@ class Learner:
     ----------
     fits : FitCache
         Where fits are kept and reused.
-    record : callable
-        ``record(primitive, demo, score)``: a take's typicality (None: too few others to
-        score it), e.g. :meth:`app.core.store.Store.record_typicality`.
     """
 
-    def __init__(self, fits: FitCache, record: Record):
+    def __init__(self, fits: FitCache):
         self.fits = fits
-        self._record = record
         self._state = LearnerState()
         self._wake = threading.Condition()
         self._refit: tuple[int, int, Training, bool] | None = None  # (request, version, ...)
@@ -107,7 +111,7 @@ class Learner:
         self._held_out: tuple[HeldOutKey, Training] | None = None  # asked for
         self._fitting: HeldOutKey | None = None  # the held-out model being fitted
         self._asked = (-1, 0)  # (learn_version, request) of the latest refit asked for
-        self._queued: dict[Key, Demonstration] = {}  # takes whose score is asked for
+        self._queued: set[int] = set()  # ids of the takes whose score is asked for
         self._closed = False
         self._thread = threading.Thread(target=self._work, name="learner", daemon=True)
         self._thread.start()
@@ -132,11 +136,16 @@ class Learner:
                 if model is not None and model.layout != store.layout:
                     self._publish(model=None)  # another workspace's model: nothing meanwhile
                 self._refit = (request, store.learn_version, self._training(store), reuse)
-            for key in sorted(store.unscored):
+            takes = {}
+            for key in sorted(store.takes):
                 demo, scoring = self._scoring(store, *key)
-                if self._queued.get(key) is not demo:  # the same name may come back anew
-                    self._queued[key] = demo
+                takes[id(demo)] = demo
+                if id(demo) not in self._queued and id(demo) not in self._state.scores:
+                    self._queued.add(id(demo))  # the same name may come back anew: by id
                     self._scores.append((key[0], demo, scoring))
+            if set(self._state.scores) - set(takes):  # the scores of takes no longer there go
+                kept = {i: s for i, s in self._state.scores.items() if i in takes}
+                self._publish(scores=MappingProxyType(kept))
             self._wake.notify_all()
             return request
 
@@ -237,7 +246,12 @@ class Learner:
             )  # fmt: skip
 
     def _run_score(self, primitive: str, demo: Demonstration, score) -> None:
-        self._record(primitive, demo, score())
+        typicality = score()
+        with self._wake:
+            self._queued.discard(id(demo))
+            scores = dict(self._state.scores)
+            scores[id(demo)] = (demo, typicality)
+            self._publish(scores=MappingProxyType(scores))
 
     def _run_held_out(self, key: HeldOutKey, training: Training) -> None:
         fitted = self.fits.fit(training)

@@ -29,7 +29,7 @@ class Session:
 
     def __init__(self, store: Store, fits: FitCache | None = None):
         self.store = store
-        self.learner = Learner(fits if fits is not None else FitCache(), store.record_typicality)
+        self.learner = Learner(fits if fits is not None else FitCache())
         self.view = View()
         store.on_change(self.learner.follow)
         self.wait_for_model()

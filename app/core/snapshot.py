@@ -7,13 +7,17 @@ from the same state, and a test can compare what was drawn with the snapshot it 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
+from types import MappingProxyType
 
 from app.core.learner import LearnerState, resolved_settings
 from app.core.store_state import Key, StoreState
 from app.core.view_state import ImportedModel, ViewState
+from promp.data import Demonstration
 from promp.model import ProMPModel, Settings
+from promp.typicality import Typicality
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,6 +51,30 @@ class Snapshot:
         """The model inference uses: the imported one if any, else the learned one."""
         imported = self.imported
         return imported.model if imported is not None else self.model
+
+    @cached_property
+    def typicality(self) -> Mapping[Key, Typicality]:
+        """The scores of this run's takes that the learner has given (of these very
+        demonstrations: a take recorded again under a name is scored anew), by key."""
+        scores, out = self.learner.scores, {}
+        for primitive, name in self.store.takes:
+            demo = self._demo(primitive, name)
+            entry = scores.get(id(demo)) if demo is not None else None
+            if entry is not None and entry[0] is demo and entry[1] is not None:
+                out[(primitive, name)] = entry[1]
+        return MappingProxyType(out)
+
+    @cached_property
+    def scoring(self) -> frozenset[Key]:
+        """This run's takes the learner has not scored yet."""
+        scores = self.learner.scores
+        return frozenset(
+            (p, n) for p, n in self.store.takes
+            if (demo := self._demo(p, n)) is None or scores.get(id(demo), (None,))[0] is not demo
+        )  # fmt: skip
+
+    def _demo(self, primitive: str, name: str) -> Demonstration | None:
+        return next((d for d in self.store.demos.get(primitive, ()) if d.name == name), None)
 
     @cached_property
     def hidden(self) -> frozenset[Key]:

@@ -44,7 +44,6 @@ from app.io.workspace_index import PALETTE, PrimitiveEntry, check_color, check_n
 from promp.data import Demonstration
 from promp.gaps import repair_gaps
 from promp.model import FALLBACK, Settings
-from promp.typicality import Typicality
 
 KEEP = object()  # Store.set_learning: leave a setting as it is
 
@@ -142,8 +141,7 @@ class Store:
                                  for p in state.primitives),  # fmt: skip
                 demos=frozen_demos({new if n == old else n: d for n, d in state.demos.items()}),
                 checks=state.checks.renamed(old, new),
-                typicality=MappingProxyType(renamed(state.typicality)),
-                unscored=frozenset(renamed(dict.fromkeys(state.unscored))),
+                takes=frozenset(renamed(dict.fromkeys(state.takes))),
             )
             save_index(after)
             self._publish(after)
@@ -185,8 +183,8 @@ class Store:
         raw: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> Demonstration:
         """Store a new demonstration (times (n,), values (n, D) in the layout's column order):
-        written to disk before it joins the workspace, then scored by the learner (it is
-        :attr:`StoreState.unscored` until then). ``raw``, the (times, values) of the take it
+        written to disk before it joins the workspace, one of :attr:`StoreState.takes` (the
+        learner scores it). ``raw``, the (times, values) of the take it
         was trimmed from, is kept in the workspace's ``raw/`` folder (named after the
         demonstration and the time). Returns the demonstration (with its name)."""
         with self._lock:
@@ -207,25 +205,10 @@ class Store:
             after = replace(
                 state,
                 demos=frozen_demos({**state.demos, primitive: (*state.demos[primitive], demo)}),
-                unscored=state.unscored | {(primitive, name)},
+                takes=state.takes | {(primitive, name)},
             )
             self._publish(after)
             return demo
-
-    def record_typicality(self, primitive: str, demo: Demonstration, score: Typicality | None):
-        """The learner's score of ``demo`` (None: too few others to score it); dropped when
-        that demonstration is no longer in the workspace."""
-        with self._lock:
-            state, key = self._state, (primitive, demo.name)
-            if not any(d is demo for d in state.demos.get(primitive, ())):
-                return
-            typicality = dict(state.typicality)
-            if score is not None:
-                typicality[key] = score
-            after = replace(
-                state, typicality=MappingProxyType(typicality), unscored=state.unscored - {key}
-            )
-            self._publish(after, learn=False, recheck=False)
 
     def delete_demo(self, primitive: str, demo: str) -> TrashEntry:
         """Move a demonstration to the trash."""
@@ -375,10 +358,10 @@ class Store:
     def _reload(
         self, workspace: Workspace, deleted: tuple[TrashEntry, ...], fresh: bool = False
     ) -> None:
-        """Publish what ``workspace`` holds on disk; this run's scores carried over unless
+        """Publish what ``workspace`` holds on disk; this run's takes carried over unless
         ``fresh`` (another workspace's content)."""
         state = self._state
-        kept = {} if fresh else {"typicality": state.typicality, "unscored": state.unscored}
+        kept = {} if fresh else {"takes": state.takes}
         new = adopted(workspace, workspace.load(), state.version, state.learn_version,
                             deleted=deleted, **kept)  # fmt: skip
         self._publish(new, recheck=False)

@@ -5,7 +5,7 @@ state from another."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 from functools import cached_property
 from types import MappingProxyType
 
@@ -17,7 +17,6 @@ from app.io.workspace_index import PrimitiveEntry
 from promp.data import Demonstration, Layout
 from promp.model import Settings
 from promp.quality import Finding, split_flagged
-from promp.typicality import Typicality
 
 Key = tuple[str, str]  # (primitive, demonstration)
 
@@ -44,10 +43,9 @@ class StoreState:
         The user's Keep and the import's findings (``studio.json``).
     findings : tuple of Finding
         What the checks found in the demonstrations now.
-    typicality : mapping of (primitive, demo) to Typicality
-        The scores of this run's takes (:meth:`app.core.learner.Learner.follow`).
-    unscored : frozenset of (primitive, demo)
-        Takes of this run still to be scored.
+    takes : frozenset of (primitive, demo)
+        The takes recorded in this run: the learner scores each (their scores are the
+        learner's, :attr:`app.core.learner.LearnerState.scores`).
     deleted : tuple of TrashEntry
         This run's deletions, newest last ("Undo delete").
     trash : tuple of TrashEntry
@@ -68,8 +66,7 @@ class StoreState:
     settings: Mapping[str, object]
     checks: DemoChecks
     findings: tuple[Finding, ...]
-    typicality: Mapping[Key, Typicality] = field(default_factory=dict)
-    unscored: frozenset[Key] = frozenset()
+    takes: frozenset[Key] = frozenset()
     deleted: tuple[TrashEntry, ...] = ()
     trash: tuple[TrashEntry, ...] = ()
     problems: tuple[str, ...] = ()
@@ -122,12 +119,10 @@ def adopted(
     workspace: Workspace, data: WorkspaceData, version: int, learn_version: int, **kept
 ) -> StoreState:
     """The state of ``data``, read from (or just written to) ``workspace``; ``kept``: fields
-    carried over (typicality, unscored, deleted), pruned to the demonstrations ``data``
-    holds."""
+    carried over (takes, deleted), pruned to the demonstrations ``data`` holds."""
     demos = {p.name: list(data.demos.get(p.name, [])) for p in data.primitives}
     keys = {(p, d.name) for p, items in demos.items() for d in items}
-    typicality = {k: v for k, v in kept.pop("typicality", {}).items() if k in keys}
-    unscored = frozenset(kept.pop("unscored", frozenset())) & keys
+    takes = frozenset(kept.pop("takes", frozenset())) & keys
     return StoreState(
         version=version,
         learn_version=learn_version,
@@ -138,8 +133,7 @@ def adopted(
         settings=MappingProxyType(dict(data.settings)),
         checks=data.checks,
         findings=tuple(data.checks.findings(demos, data.layout)),
-        typicality=MappingProxyType(typicality),
-        unscored=unscored,
+        takes=takes,
         trash=tuple(workspace.trash.entries()),
         problems=tuple(data.problems),
         frame=data.frame,

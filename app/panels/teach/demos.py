@@ -63,7 +63,7 @@ class DemoList:
         self._pending_delete: tuple[str, str] | None = None
         self._rows: list[tuple[tuple[str, str], viser.GuiButtonGroupHandle]] = []
         self._signature: tuple | None = None
-        self._store, self._inputs = None, None  # what the list was last drawn from
+        self._store = self._scores = self._inputs = None  # what the list was last drawn from
         gui = ctx.gui
         self.folder = gui.add_folder("Demonstrations")
         with self.folder:
@@ -170,18 +170,18 @@ class DemoList:
     def show(self, snapshot: Snapshot, name: str | None) -> bool:
         """List the demonstrations of primitive ``name`` (rebuilt only when they change); True
         when it was drawn again."""
-        store = snapshot.store
+        store, scores = snapshot.store, snapshot.learner.scores
         inputs = (name, snapshot.hidden)
-        if store is self._store and inputs == self._inputs:
+        if store is self._store and scores is self._scores and inputs == self._inputs:
             return False
-        self._store, self._inputs = store, inputs
+        self._store, self._scores, self._inputs = store, scores, inputs
         demos = list(store.demos.get(name, ())) if name is not None else []
         rows = tuple(
             (
                 d.name,
                 duration_text(d.times),
                 (name, d.name) in snapshot.hidden,
-                store.typicality.get((name, d.name)),
+                snapshot.typicality.get((name, d.name)),
                 tuple((f.kind, f.message) for f in store.findings_of(name, d.name)),
                 (name, d.name) in store.checks.kept,
             )

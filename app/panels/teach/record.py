@@ -154,11 +154,11 @@ def outcome_text(outcome: Outcome | None, frame: Frame) -> str:
         return text
     if not any(d.name == outcome.saved[1] for d in store.demos.get(outcome.saved[0], ())):
         return text
-    score = store.typicality.get(outcome.saved)
+    score = frame.snapshot.typicality.get(outcome.saved)
     if score is not None:
         flag = "" if score.label == "typical" else "⚠ "
         text += ", " + colored(flag + typicality_text(score), TYPICALITY_COLORS[score.label], True)
-    elif outcome.saved in store.unscored:
+    elif outcome.saved in frame.snapshot.scoring:
         text += ", typicality: scoring..."
     else:
         text += ", typicality: needs 3 earlier demonstrations"
@@ -353,7 +353,7 @@ class RecordSection:
         if present and self._back_to_start is not None:  # the take is in this frame's state
             self._move_to_start(snapshot, self._back_to_start)
             self._back_to_start = None
-        score = snapshot.store.typicality.get(saved) if present else None
+        score = snapshot.typicality.get(saved) if present else None
         if score is not None and self._scored != saved:
             self._scored = saved
             if score.label != "typical":
