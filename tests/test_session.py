@@ -175,6 +175,23 @@ def test_typicality_needs_three_other_demonstrations(session) -> None:
     assert [name for name, score in scores.items() if score is not None] == ["new_003"]
 
 
+def test_a_deleted_take_leaves_the_takes_and_the_learner_goes_on(session) -> None:
+    """A take deleted (its primitive's, or the take alone) is no longer one of this run's
+    takes; the learner, told of the store after each, scores the others as before."""
+    demo = state(session).demos["curved"][0]
+    first = session.store.add_demo("curved", demo.times, demo.select(COLUMNS))
+    second = session.store.add_demo("curved", demo.times, demo.select(COLUMNS))
+    session.store.delete_demo("curved", first.name)
+    assert state(session).takes == {("curved", second.name)}
+    assert scored(session, ("curved", second.name)) is not None
+    session.store.create_primitive("new")
+    for _ in range(2):
+        session.store.add_demo("new", demo.times, demo.select(COLUMNS))
+    session.store.delete_primitive("new")
+    assert state(session).takes == {("curved", second.name)}
+    session.learner.follow(state(session))  # no take it cannot find
+
+
 def test_hiding_redraws_without_refitting_and_listeners_hear_every_change(session) -> None:
     heard = []
     session.store.on_change(lambda new: heard.append(new.version))

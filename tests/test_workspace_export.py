@@ -50,6 +50,7 @@ def exported(server, root: Path, learned: int = 0) -> tuple[Store, exchange.Work
         guard_upload=lambda *args: guard,
         wait_for_model=lambda: None,
         learner=learner,
+        open_in_infer=lambda request, client: None,
     )
     panel = DataPanel(ctx)
     try:
@@ -150,7 +151,7 @@ def panel_on(server, root: Path):
     ctx = SimpleNamespace(
         gui=server.gui, store=store, learner=learner, wait_for_model=lambda: None,
         notify=lambda title, body, color="blue", **_: told.append((title, body, color)),
-        guard_upload=lambda *args: guard,
+        guard_upload=lambda *args: guard, open_in_infer=lambda request, client: None,
     )  # fmt: skip
     return DataPanel(ctx), store, told
 

@@ -138,7 +138,9 @@ class Learner:
                 self._refit = (request, store.learn_version, self._training(store), reuse)
             takes = {}
             for key in sorted(store.takes):
-                demo, scoring = self._scoring(store, *key)
+                if (found := self._scoring(store, *key)) is None:
+                    continue  # gone from the workspace (a state that kept its key)
+                demo, scoring = found
                 takes[id(demo)] = demo
                 if id(demo) not in self._queued and id(demo) not in self._state.scores:
                     self._queued.add(id(demo))  # the same name may come back anew: by id
@@ -208,9 +210,12 @@ class Learner:
         return Training(trainable, store.layout, store.learning_settings(), previous)
 
     def _scoring(self, store: StoreState, primitive: str, name: str):
-        """(the take, its scoring): against its primitive's other demonstrations that
-        learning uses, with the current model's choice of settings."""
-        demo = next(d for d in store.demos[primitive] if d.name == name)
+        """(the take, its scoring), None if ``store`` no longer holds it: against its
+        primitive's other demonstrations that learning uses, with the current model's choice
+        of settings."""
+        demo = next((d for d in store.demos.get(primitive, ()) if d.name == name), None)
+        if demo is None:
+            return None
         others = [d for d in store.learned.get(primitive, []) if d.name != name]
         settings = resolved_settings(store, self._state.model)
         return demo, lambda: typicality(demo, others, store.layout, settings)

@@ -173,7 +173,12 @@ def save_index(state: StoreState) -> None:
 
 
 def after_trashing(state: StoreState, entry: TrashEntry) -> StoreState:
-    """``state`` after ``entry`` went to the trash (this run's deletions, the trash list)."""
+    """``state`` after ``entry`` went to the trash (this run's deletions, the trash list;
+    its takes those still in the workspace)."""
+    keys = {(p, d.name) for p, items in state.demos.items() for d in items}
     return replace(
-        state, deleted=(*state.deleted, entry), trash=tuple(state.workspace.trash.entries())
+        state,
+        deleted=(*state.deleted, entry),
+        trash=tuple(state.workspace.trash.entries()),
+        takes=state.takes & keys,
     )
