@@ -68,6 +68,7 @@ class View:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._state = ViewState()
+        self._next_id = 1  # the next via-point's id
 
     @property
     def state(self) -> ViewState:
@@ -117,8 +118,8 @@ class View:
         """A new via-point of ``primitive`` (checked: :func:`app.core.via_state.checked`);
         returns it, with its id."""
         with self._lock:
-            ids = [v.id for v in self._state.via_points]
-            point = checked(primitive, phase, position, std, id=max(ids, default=0) + 1)
+            point = checked(primitive, phase, position, std, id=self._next_id)
+            self._next_id += 1  # never reused: a handle dragged late moves no other point
             self._state = replace(self._state, via_points=(*self._state.via_points, point))
         return point
 

@@ -3,9 +3,10 @@
 A via-point is added at a phase (% of the movement), a position (cm, in the iCub's frame; filled
 in with the primitive's mean hand at that phase, to be changed by typing or by dragging the
 point's handle in 3D) and a precision (± cm, one standard deviation). The list names each one;
-one chosen in it can be retyped (Update) or removed, and "Remove all" gives the primitive its
-prior back. Teach shapes the primitive it shows, Infer the one it recognises
-(:mod:`app.core.via_state`: one set, in the view state, that both tabs show). Every change is one
+one chosen in the "Via-point" dropdown shows its values, to retype (Update), or is removed;
+"Remove all" gives the primitive its prior back. Teach shapes the primitive it shows, Infer
+the one it recognises (:mod:`app.core.via_state`: one set, in the view state, that both tabs
+show). Every change is one
 mutation of the view state, refused with a notification when a value is out of bounds
 (:func:`app.core.via_state.checked`).
 """
@@ -13,8 +14,10 @@ mutation of the view state, refused with a notification when a value is out of b
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
+import viser
 
 from app.core.snapshot import Snapshot
 from app.core.via_state import of_primitive
@@ -24,13 +27,27 @@ from app.ui.context import PanelContext
 from app.ui.text import escape_html
 from robots.icub.layout import HAND
 
-NONE = "(none)"
+NEW = "(a new point)"
 UPDATE, REMOVE, REMOVE_ALL = "Update", "Remove", "Remove all"
 HINT = (
     "Make the primitive's hand pass through a point at a phase of the movement: the prior (in "
     "Teach) or the prediction (in Infer) is conditioned on it (Eq. 8 of the paper). Drag a "
     "point's handle in 3D to move it."
 )
+
+
+@dataclass(frozen=True, eq=False)
+class ViaPointControls:
+    """The folder's controls."""
+
+    note: viser.GuiMarkdownHandle
+    phase: viser.GuiSliderHandle
+    position: viser.GuiVector3Handle
+    precision: viser.GuiNumberHandle
+    add: viser.GuiButtonHandle
+    choice: viser.GuiDropdownHandle
+    actions: viser.GuiButtonGroupHandle
+    list: viser.GuiMarkdownHandle
 
 
 class ViaPointSection:
@@ -43,33 +60,42 @@ class ViaPointSection:
         self.mean_at: Callable[[float], np.ndarray | None] = lambda _phase: None
         self._listed: tuple | None = None  # the via-points the list shows
         self._listed_for: str | None = None  # and their primitive
-        self.folder = gui.add_folder("Via-points", expand_by_default=expand)
-        with self.folder:
-            self.note = gui.add_markdown("")
-            self.phase = gui.add_slider("Phase %", min=0, max=100, step=1, initial_value=50,
-                                        hint="Where in the movement: 0 % its start, 100 % its end")
-            self.position = gui.add_vector3(
-                "Position (cm)", (0.0, 0.0, 0.0), step=0.1,
-                hint="x, y, z of the hand in the iCub's frame, centimetres",
+        self._filled = None  # the via-point whose values the fields show
+        with gui.add_folder("Via-points", expand_by_default=expand):
+            self.controls = ViaPointControls(
+                note=gui.add_markdown(""),
+                phase=gui.add_slider(
+                    "Phase %", min=0, max=100, step=1, initial_value=50,
+                    hint="Where in the movement: 0 % its start, 100 % its end",
+                ),
+                position=gui.add_vector3(
+                    "Position (cm)", (0.0, 0.0, 0.0), step=0.1,
+                    hint="x, y, z of the hand in the iCub's frame, centimetres",
+                ),
+                precision=gui.add_number(
+                    "± cm", 1.0, min=0.1, max=100.0, step=0.1,
+                    hint="How closely the hand must pass: one standard deviation, centimetres",
+                ),
+                add=gui.add_button("Add via-point", hint=HINT),
+                choice=gui.add_dropdown(
+                    "Via-point", (NEW,),
+                    hint="A via-point to retype (Update) or remove; a new point to add one",
+                ),
+                actions=gui.add_button_group("", (UPDATE, REMOVE, REMOVE_ALL)),
+                list=gui.add_markdown(""),
             )  # fmt: skip
-            self.precision = gui.add_number(
-                "± cm", 1.0, min=0.1, max=100.0, step=0.1,
-                hint="How closely the hand must pass: one standard deviation, centimetres",
-            )  # fmt: skip
-            self.add = gui.add_button("Add via-point", hint=HINT)
-            self.choice = gui.add_dropdown("Via-point", (NONE,))
-            self.actions = gui.add_button_group("", (UPDATE, REMOVE, REMOVE_ALL))
-            self.list = gui.add_markdown("")
-        self.add.on_click(self._add)
-        self.actions.on_click(self._act)
-        self.choice.on_update(self._chosen)
-        self.phase.on_update(self._phase_moved)
+        c = self.controls
+        c.add.on_click(self._add)
+        c.actions.on_click(self._act)
+        c.choice.on_update(self._chosen)
+        c.phase.on_update(self._phase_moved)
 
     # ------------------------------------------------------------------ callbacks (viser's threads)
 
     def _typed(self) -> tuple[float, tuple, float]:
-        position = tuple(float(v) / 100.0 for v in self.position.value)
-        return float(self.phase.value) / 100.0, position, float(self.precision.value) / 100.0
+        c = self.controls
+        position = tuple(float(v) / 100.0 for v in c.position.value)
+        return float(c.phase.value) / 100.0, position, float(c.precision.value) / 100.0
 
     def _add(self, event) -> None:
         primitive = self.primitive
@@ -83,9 +109,9 @@ class ViaPointSection:
     def _chosen_id(self) -> int | None:
         listed = self._listed or ()
         labels = [label for label, _ in listed]
-        if self.choice.value not in labels:
+        if self.controls.choice.value not in labels:
             return None
-        return listed[labels.index(self.choice.value)][1].id
+        return listed[labels.index(self.controls.choice.value)][1].id
 
     def _act(self, event) -> None:
         view, action = self.ctx.view, str(event.target.value)
@@ -104,13 +130,17 @@ class ViaPointSection:
                 id, phase=phase, position=position, std=std))  # fmt: skip
 
     def _chosen(self, _event) -> None:
-        """A via-point chosen in the list: the fields show its values, to retype."""
+        """A via-point chosen in the list (or dragged since): the fields show its values, to
+        retype."""
         id = self._chosen_id()
         point = next((v for v in self.ctx.view.state.via_points if v.id == id), None)
-        if point is not None:
-            self.phase.value = round(point.phase * 100.0)
-            self.position.value = tuple(round(v * 100.0, 1) for v in point.position)
-            self.precision.value = round(point.std * 100.0, 1)
+        if point is None:
+            self._filled = None
+        elif point != self._filled:
+            self._filled = point
+            self.controls.phase.value = round(point.phase * 100.0)
+            self.controls.position.value = tuple(round(v * 100.0, 1) for v in point.position)
+            self.controls.precision.value = round(point.std * 100.0, 1)
 
     def _phase_moved(self, event) -> None:
         """A phase chosen in a browser for a new point: the position follows the mean there."""
@@ -119,9 +149,9 @@ class ViaPointSection:
 
     def fill_position(self) -> None:
         """The position fields at the shaped primitive's mean hand at the chosen phase."""
-        mean = self.mean_at(float(self.phase.value) / 100.0)
+        mean = self.mean_at(float(self.controls.phase.value) / 100.0)
         if mean is not None:
-            self.position.value = tuple(round(float(v) * 100.0, 1) for v in mean)
+            self.controls.position.value = tuple(round(float(v) * 100.0, 1) for v in mean)
 
     # ------------------------------------------------------------------ the frame
 
@@ -147,23 +177,28 @@ class ViaPointSection:
         return ViaShown(self.panel, primitive if has_hand else None, color)
 
     def _show_list(self, listed: tuple, primitive: str | None, has_hand: bool) -> None:
-        labels = tuple(label for label, _ in listed) or (NONE,)
-        if tuple(self.choice.options) != labels:
-            keep = self.choice.value if self.choice.value in labels else labels[0]
-            self.choice.options = labels
-            self.choice.value = keep
+        labels = (NEW, *(label for label, _ in listed))
+        if tuple(self.controls.choice.options) != labels:
+            keep = self.controls.choice.value if self.controls.choice.value in labels else NEW
+            self.controls.choice.options = labels
+            self.controls.choice.value = keep
         enabled = has_hand and primitive is not None
-        for handle in (self.add, self.actions, self.choice):
-            handle.disabled = not enabled
+        # (viser's button groups cannot be disabled)
+        for handle in (self.controls.add, self.controls.choice):
+            if handle.disabled == enabled:
+                handle.disabled = not enabled
         if not has_hand:
-            self.note.content = "Via-points shape the hand: this workspace has no hand modality."
+            self.controls.note.content = (
+                "Via-points shape the hand: this workspace has no hand modality."
+            )
         elif primitive is None:
-            self.note.content = "No primitive to shape yet."
+            self.controls.note.content = "No primitive to shape yet."
         else:
-            self.note.content = (f"Shaping **{escape_html(primitive)}**: "
+            self.controls.note.content = (f"Shaping **{escape_html(primitive)}**: "
                                  + ("its prior." if not listed else
                                     f"through {len(listed)} point(s), drag a handle in 3D to "
                                     "move one."))  # fmt: skip
+        self._chosen(None)  # the chosen one's values, when it moved
         rows = [f"{label}: ({', '.join(f'{v * 100:.1f}' for v in p.position)}) cm "
                 f"± {p.std * 100:.1f} cm" for label, p in listed]  # fmt: skip
-        self.list.content = "  \n".join(rows)
+        self.controls.list.content = "  \n".join(rows)

@@ -1,5 +1,5 @@
-"""The Teach tab, top to bottom: Primitive, Record, Head source, Demonstrations, Learn, Prior,
-Via-points (:mod:`app.ui.via_points`, which Infer shares).
+"""The Teach tab, top to bottom: Primitive, Record, Head source, Demonstrations, Learn,
+Via-points (:mod:`app.ui.via_points`, which Infer shares), Prior.
 
 Each folder is a section of its own module; this one builds them and runs them in the studio's
 loop. Every change the user makes is either one mutation, made in the callback (the store's,
@@ -36,8 +36,8 @@ class TeachPanel:
         self.head = HeadSection(ctx, recording=lambda: self.record.take is not None)
         self.demos = DemoList(ctx)
         self.learn = LearnSection(ctx)
-        self.prior = PriorCharts(ctx)
         self.vias = ViaPointSection(ctx, TEACH)
+        self.prior = PriorCharts(ctx)
 
     def _plot_live(self, _primitive: str | None, recording: Recording | None) -> None:
         self._live = recording
