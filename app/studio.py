@@ -83,7 +83,8 @@ class Studio:
         self.arm = arm
         self.head = HeadInput(head_source)
         self.head.read(arm.hand_position())
-        self.scene = SceneView(server, robot=arm.robot)
+        self.scene = SceneView(server, robot=arm.robot, on_via_moved=lambda id, position: (
+            session.view.change_via_point(id, position=position)))
         self.panels: list[Panel] = []
         self.camera: ViewControls | None = None
         self.tabs: BrowserTabs | None = None

@@ -3,7 +3,8 @@
     .venv/bin/python docs/pictures.py ../shared/data/lab-records-heights docs/
 
 Reads the lab records into a new workspace (in a temporary folder), starts a studio on it and
-saves ``real_teach.png`` (the demonstrations and their tubes at ±1σ), ``real_infer.png`` (a
+saves ``real_teach.png`` (the demonstrations and their 90 % tubes, the panel on the line that
+says what the tubes are and the share of samples inside them), ``real_infer.png`` (a
 held-out recording at 40 % observed: the phase and the predicted end with their intervals) and
 ``real_data.png`` (two leave-one-out runs at 40 %, ML and model alpha, kept in the workspace and
 compared). Takes about five minutes on two cores; needs Debian's chromium.
@@ -18,7 +19,6 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from app.core.view_state import BANDS_1SD  # noqa: E402
 from app.io.dataset_import import read_folder  # noqa: E402
 from app.io.workspace import Workspace  # noqa: E402
 from tests.browser import choose, click, close_notifications, open_tab, settled_screenshot  # noqa: E402
@@ -50,7 +50,10 @@ def teach(page, studio, out: Path) -> None:
     open_tab(page, "Teach")
     page.get_by_text("demonstration(s) of").first.wait_for()
     until(lambda: studio.session.snapshot().model is not None, "the model")
-    studio.session.view.set_tube_style(BANDS_1SD)
+    note = page.get_by_text("Tubes: at each moment").first
+    note.wait_for()
+    page.get_by_text("measured:").first.wait_for()
+    note.evaluate("e => e.scrollIntoView({block: 'start'})")
     page.mouse.move(5, 450)
     settled_screenshot(page, out / "real_teach.png", timeout=300)
 

@@ -258,3 +258,33 @@ def camera_pixels(page, client, points) -> np.ndarray:
         ]
     )
     return pixels * page.evaluate(CANVAS_SCALE_JS)
+
+
+def drag_gizmo(page, client, gizmo, direction, pixels: float, steps: int = 4) -> None:
+    """Drag ``gizmo`` (a viser transform control) with the real mouse, in a few steps, by the
+    arrow of its frame's axis closest to the world ``direction`` (3,) among those seen side-on,
+    so that it moves along it. (Each mouse event waits for the page to render a frame, which
+    software WebGL makes slow, so the steps are few and large; the gizmo follows the pointer
+    anyway.)"""
+    centre = np.asarray(gizmo.position, dtype=float)
+    axes = vtf.SO3(np.asarray(gizmo.wxyz)).as_matrix()
+    alignment = np.asarray(direction, dtype=float) @ axes  # cosine with each axis
+    best = None
+    for k in np.argsort(-np.abs(alignment)):
+        axis = gizmo.scale * axes[:, k]
+        ends = np.stack([centre, centre + 0.85 * axis, centre + axis])
+        origin, grab, tip = camera_pixels(page, client, ends)
+        if np.linalg.norm(tip - origin) > 40.0:  # an arrow seen side-on, easy to grab
+            best = (k, grab, tip)
+            break
+    assert best is not None, "every arrow of the gizmo points at the camera"
+    k, grab, tip = best
+    screen = (tip - grab) / np.linalg.norm(tip - grab) * np.sign(alignment[k])
+    camera = np.array(client.camera.position)
+    page.mouse.move(*grab)
+    page.mouse.down()
+    for i in range(1, steps + 1):
+        page.mouse.move(*(grab + screen * pixels * i / steps))
+        time.sleep(0.05)
+    page.mouse.up()
+    np.testing.assert_allclose(client.camera.position, camera, err_msg="the drag orbited the view")

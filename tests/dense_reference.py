@@ -51,3 +51,41 @@ def condition(model: ProMPModel, prim: Primitive, obs: Observation, alpha: float
     mu = prim.mean_at(alpha)
     gain = prim.cov @ a.T @ np.linalg.inv(a @ prim.cov @ a.T + noise)
     return mu + gain @ (y - a @ mu), prim.cov - gain @ a @ prim.cov
+
+
+def via_rows(model: ProMPModel, vias, alpha: float | None):
+    """Explicit rows, targets and covariance blocks of via-points (one loop per column)."""
+    m = model.basis.n_basis
+    rows, targets, blocks = [], [], []
+    for point in vias:
+        if point.phase is not None:
+            phase = point.phase
+        else:
+            phase = point.time / duration_from_alpha(alpha, model.sample_period,
+                                                     model.settings.s_bar)  # fmt: skip
+        phi = model.basis(np.array([phase]))[0]
+        for j, column in enumerate(point.columns):
+            d = model.layout.columns.index(column)
+            row = np.zeros(model.n_dims * m)
+            row[d * m : (d + 1) * m] = phi
+            rows.append(row)
+            targets.append(point.values[j])
+        blocks.append(point.cov)
+    return np.array(rows), np.array(targets), block_diag(*blocks)
+
+
+def condition_on_everything(
+    model: ProMPModel, prim: Primitive, alpha: float, obs: Observation | None, vias
+):
+    """The textbook Eq. 8 on the observation's samples and the via-points stacked together."""
+    designs, targets, noises = [], [], []
+    if vias:
+        a, y, noise = via_rows(model, vias, alpha)
+        designs.append(a), targets.append(y), noises.append(noise)
+    if obs is not None:
+        a, noise, y = _parts(model, prim, obs, alpha)
+        designs.append(a), targets.append(y), noises.append(noise)
+    a, y, noise = np.vstack(designs), np.concatenate(targets), block_diag(*noises)
+    mu = prim.mean_at(alpha)
+    gain = prim.cov @ a.T @ np.linalg.inv(a @ prim.cov @ a.T + noise)
+    return mu + gain @ (y - a @ mu), prim.cov - gain @ a @ prim.cov

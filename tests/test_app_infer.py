@@ -362,10 +362,8 @@ def expected_tube(drawn) -> np.ndarray:
     from app.scene import tubes
 
     result = drawn.result
-    hand = hand_dims(result.model.layout)
-    post = result.inference.prediction
-    n_sigma = tubes.tube_look(drawn.style).n_sigma
-    return tubes.tube_vertices(post.mean[:, hand], post.std[:, hand], n_sigma=n_sigma)
+    hand = next(view for view in result.positions if view.modality == "hand")
+    return tubes.region_vertices(hand.region, tubes.tube_look(drawn.style).probability)
 
 
 BROWSER_TUBE_JS = """() => {

@@ -14,7 +14,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-import viser.transforms as vtf
 
 from app.core.session import Session
 from app.io.workspace import Workspace
@@ -27,8 +26,8 @@ from app.ui.charts import Band, Trace, band_chart, y_range
 from promp.datasets import read_csv_demo
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests.browser import (
-    camera_pixels,
     close_notifications,
+    drag_gizmo,
     server_caught_up,
     set_camera,
     settled_screenshot,
@@ -270,33 +269,9 @@ COUNTDOWN_OBSERVER = """() => {
 
 
 def drag_hand(page, client, studio, direction, pixels: float, steps: int = 4) -> None:
-    """Drag the gizmo with the real mouse, in a few steps, by the arrow of the hand-frame axis
-    closest to the world ``direction`` (3,) among those seen side-on, so that the hand moves
-    along it. (Each mouse event waits for the page to render a frame, which software WebGL
-    makes slow, so the steps are few and large; the gizmo follows the pointer anyway.)"""
-    gizmo = studio.arm.gizmo
-    centre = np.asarray(gizmo.position, dtype=float)
-    axes = vtf.SO3(np.asarray(gizmo.wxyz)).as_matrix()
-    alignment = np.asarray(direction, dtype=float) @ axes  # cosine with each axis
-    best = None
-    for k in np.argsort(-np.abs(alignment)):
-        axis = gizmo.scale * axes[:, k]
-        ends = np.stack([centre, centre + 0.85 * axis, centre + axis])
-        origin, grab, tip = camera_pixels(page, client, ends)
-        if np.linalg.norm(tip - origin) > 40.0:  # an arrow seen side-on, easy to grab
-            best = (k, grab, tip)
-            break
-    assert best is not None, "every arrow of the gizmo points at the camera"
-    k, grab, tip = best
-    screen = (tip - grab) / np.linalg.norm(tip - grab) * np.sign(alignment[k])
-    camera = np.array(client.camera.position)
-    page.mouse.move(*grab)
-    page.mouse.down()
-    for i in range(1, steps + 1):
-        page.mouse.move(*(grab + screen * pixels * i / steps))
-        time.sleep(0.05)
-    page.mouse.up()
-    np.testing.assert_allclose(client.camera.position, camera, err_msg="the drag orbited the view")
+    """Drag the hand's gizmo with the real mouse along the world ``direction``
+    (:func:`tests.browser.drag_gizmo`)."""
+    drag_gizmo(page, client, studio.arm.gizmo, direction, pixels, steps)
 
 
 UP = (0.0, 0.0, 1.0)

@@ -12,14 +12,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from numpy.testing import assert_allclose
 
-from app.core.view_state import BANDS_1SD, BANDS_2SD, NO_TUBES, OUTLINE
+from app.core.view_state import NO_TUBES, OUTLINE, REGION_50, REGION_90
 from app.panels.infer import InferPanel
 from app.panels.teach import TeachPanel
 from app.scene.camera import FRAME, PANEL_PX
 from app.scene.inference_layer import darker
-from app.scene.tubes import TUBE_SIDE, tube_vertices
+from app.scene.tubes import TUBE_SIDE, region_vertices
 from robots.icub.layout import hand_dims
 from tests.browser import camera_pixels, camera_reports, press, settled_screenshot
 from tests.conftest import PageSpec, open_page, wait_until
@@ -62,14 +61,18 @@ def test_the_tube_style_control_changes_what_is_drawn(browser, studio) -> None:
     teach, infer = panel(studio, TeachPanel), panel(studio, InferPanel)
     layer = studio.scene.workspace
     wait_until(lambda: len(layer.tubes) == 2 and all(drawn(studio)[0]), timeout=120,
-               what="the two prior tubes, as ±2σ bands")  # fmt: skip
+               what="the two prior tubes, as 90 % regions")  # fmt: skip
     assert not any(drawn(studio)[1])
     # Drawn from inside: the demonstration lines within stay above the translucent tubes.
     assert all(tube.side == TUBE_SIDE == "back" for tube in layer.tubes.values())
     page, _client = open_page(browser, studio, dpr=1.0)
     try:
         dropdown = teach.prior.tubes.dropdown
-        assert dropdown.value == BANDS_2SD
+        assert dropdown.value == REGION_90
+        # Beside it, what the tubes are and the share of samples measured inside them.
+        note = teach.prior.tube_note.content
+        assert note.startswith("Tubes: at each moment, 90 % of a primitive's movements")
+        assert re.search(r"measured: curved \d+ %, direct \d+ % of their demonstrations", note)
         pick(page, dropdown, NO_TUBES)
         wait_until(lambda: not any(drawn(studio)[0] + drawn(studio)[1]), timeout=120,
                    what="no tube node shown")  # fmt: skip
@@ -80,19 +83,23 @@ def test_the_tube_style_control_changes_what_is_drawn(browser, studio) -> None:
         pick(page, dropdown, OUTLINE)
         wait_until(lambda: drawn(studio) == ([False, False], [True, True]), timeout=120,
                    what="the outlines alone")  # fmt: skip
-        pick(page, dropdown, BANDS_1SD)
+        pick(page, dropdown, REGION_50)
         wait_until(lambda: drawn(studio) == ([True, True], [False, False]), timeout=120,
                    what="the bands again")  # fmt: skip
-        # At ±1σ: half the ±2σ radius about the same mean.
+        # The 50 % region: the same regions at the radius that holds half of them.
         model = studio.session.snapshot().model
         for name, tube in layer.tubes.items():
-            mean, std = layer.prior_tube(model, name)
-            assert_allclose(tube.vertices, tube_vertices(mean, std, n_sigma=1.0), atol=1e-6)
+            region = layer.prior_tube(model, name)
+            wait_until(lambda t=tube, r=region: np.allclose(t.vertices, region_vertices(r, 0.5),
+                                                            atol=1e-6),
+                       timeout=60, what=f"{name}'s 50 % tube")  # fmt: skip
+        wait_until(lambda: "50 %" in teach.prior.tube_note.content, timeout=60,
+                   what="the line saying 50 %")  # fmt: skip
         page.mouse.move(10, 10)  # no tooltip over the picture
-        settled_screenshot(page, Path("/tmp/tubes_1sigma.png"))
+        settled_screenshot(page, Path("/tmp/tubes_50.png"))
     finally:
         page.close()
-        studio.session.view.set_tube_style(BANDS_2SD)
+        studio.session.view.set_tube_style(REGION_90)
 
 
 @pytest.mark.browser

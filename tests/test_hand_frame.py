@@ -201,6 +201,26 @@ def test_a_placed_workspace_keeps_its_placement_and_exports_the_data_as_recorded
             assert_allclose(again.values, demo.values, atol=1e-9, rtol=0)
 
 
+def test_every_position_in_space_is_placed_with_the_hand_and_back(tmp_path) -> None:
+    """A partner's hand (hx, hy, hz: three columns ending in x, y, z) was recorded in the same
+    frame as the robot's: placed, it moves with the hand; the EMG stays as it was; exported, both
+    go back to the frame they were recorded in."""
+    far_dataset(tmp_path / "handover")
+    modalities = parse_modalities("hand=x,y,z; partner=hx,hy,hz; emg=e0,e1")
+    data, _ = read_folder(tmp_path / "handover", "csv", modalities)
+    frame = HandFrame(guess_placement(hand_points(data.demos, data.layout)))
+    moved = frame.placed(data.demos, data.layout)
+    for name, demos in data.demos.items():
+        for demo, there in zip(demos, moved[name], strict=True):
+            for columns in (("x", "y", "z"), ("hx", "hy", "hz")):
+                assert_allclose(there.select(columns), frame.placement.apply(demo.select(columns)))
+            assert_allclose(there.select(("e0", "e1")), demo.select(("e0", "e1")))
+    back = frame.as_recorded(moved, data.layout)
+    for name, demos in data.demos.items():
+        for demo, again in zip(demos, back[name], strict=True):
+            assert_allclose(again.values, demo.values, atol=1e-12)
+
+
 def test_a_workspace_in_its_own_frame_is_stored_and_exported_as_it_is(tmp_path) -> None:
     originals = far_dataset(tmp_path / "handover")
     data, _ = read_folder(tmp_path / "handover", "csv")

@@ -1,6 +1,7 @@
 """What the user chose to look at, shared by every browser tab: the demonstrations hidden in
-the 3D view, the primitive being taught, a model imported to infer with, and how the
-distribution tubes are drawn (:data:`TUBE_STYLES`, one choice that Teach and Infer both show).
+the 3D view, the primitive being taught, a model imported to infer with, how the
+distribution tubes are drawn (:data:`TUBE_STYLES`, one choice that Teach and Infer both show)
+and the via-points that shape the primitives (:mod:`app.core.via_state`).
 
 Not written to the workspace. :class:`View` holds the latest :class:`ViewState` (readers take
 :attr:`View.state`, lock-free); its setters publish a new one.
@@ -12,11 +13,14 @@ import threading
 from dataclasses import dataclass, replace
 
 from app.core.store_state import Key, StoreState
+from app.core.via_state import StudioViaPoint, checked
 from promp.model import ProMPModel
 
-# How the 3D view draws the prior and posterior tubes (what each draws: app.scene.tubes).
-BANDS_2SD, BANDS_1SD, OUTLINE, NO_TUBES = "±2σ bands", "±1σ bands", "outline only", "off"
-TUBE_STYLES = (BANDS_2SD, BANDS_1SD, OUTLINE, NO_TUBES)
+# How the 3D view draws the prior and posterior tubes (what each draws: app.scene.tubes): the
+# region that holds 90 % (or 50 %) of the movements at each moment, as a translucent band or
+# its outline.
+REGION_90, REGION_50, OUTLINE, NO_TUBES = "90 % region", "50 % region", "90 % outline", "off"
+TUBE_STYLES = (REGION_90, REGION_50, OUTLINE, NO_TUBES)
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,12 +50,16 @@ class ViewState:
     imported : ImportedModel or None
     tube_style : str
         One of :data:`TUBE_STYLES`: how the prior and posterior tubes are drawn.
+    via_points : tuple of StudioViaPoint
+        The via-points of every primitive, in the order they were added
+        (:mod:`app.core.via_state`).
     """
 
     hidden: frozenset[Key] = frozenset()
     primitive: str | None = None
     imported: ImportedModel | None = None
-    tube_style: str = BANDS_2SD
+    tube_style: str = REGION_90
+    via_points: tuple[StudioViaPoint, ...] = ()
 
 
 class View:
@@ -60,6 +68,7 @@ class View:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._state = ViewState()
+        self._next_id = 1  # the next via-point's id
 
     @property
     def state(self) -> ViewState:
@@ -77,11 +86,15 @@ class View:
             self._state = replace(self._state, hidden=keys)
 
     def renamed(self, old: str, new: str) -> None:
-        """Primitive ``old`` is now ``new``: what was hidden of it stays hidden."""
+        """Primitive ``old`` is now ``new``: what was hidden of it stays hidden, its
+        via-points stay its."""
         with self._lock:
-            hidden = frozenset((new if p == old else p, d) for p, d in self._state.hidden)
-            primitive = new if self._state.primitive == old else self._state.primitive
-            self._state = replace(self._state, hidden=hidden, primitive=primitive)
+            state = self._state
+            hidden = frozenset((new if p == old else p, d) for p, d in state.hidden)
+            primitive = new if state.primitive == old else state.primitive
+            vias = tuple(replace(v, primitive=new) if v.primitive == old else v
+                         for v in state.via_points)  # fmt: skip
+            self._state = replace(state, hidden=hidden, primitive=primitive, via_points=vias)
 
     def choose(self, primitive: str | None) -> None:
         """The primitive being taught."""
@@ -98,6 +111,43 @@ class View:
         if style not in TUBE_STYLES:
             raise ValueError(f"unknown tube style {style!r}; expected one of {TUBE_STYLES}")
         self._set(tube_style=TUBE_STYLES[TUBE_STYLES.index(style)])  # the constant itself
+
+    def add_via_point(
+        self, primitive: str, phase: float, position, std: float
+    ) -> StudioViaPoint:
+        """A new via-point of ``primitive`` (checked: :func:`app.core.via_state.checked`);
+        returns it, with its id."""
+        with self._lock:
+            point = checked(primitive, phase, position, std, id=self._next_id)
+            self._next_id += 1  # never reused: a handle dragged late moves no other point
+            self._state = replace(self._state, via_points=(*self._state.via_points, point))
+        return point
+
+    def change_via_point(self, id: int, **changes) -> StudioViaPoint:
+        """Via-point ``id`` with new ``phase``, ``position`` or ``std`` (checked).
+
+        Raises
+        ------
+        ValueError
+            No via-point ``id`` (removed meanwhile), or a value :func:`checked` refuses.
+        """
+        with self._lock:
+            points = self._state.via_points
+            old = next((v for v in points if v.id == id), None)
+            if old is None:
+                raise ValueError(f"there is no via-point {id} any more")
+            values = {"phase": old.phase, "position": old.position, "std": old.std, **changes}
+            new = checked(old.primitive, id=id, **values)
+            self._state = replace(self._state,
+                                  via_points=tuple(new if v.id == id else v for v in points))
+        return new
+
+    def remove_via_points(self, ids) -> None:
+        """Remove the via-points ``ids`` (those already gone are ignored)."""
+        gone = set(ids)
+        with self._lock:
+            kept = tuple(v for v in self._state.via_points if v.id not in gone)
+            self._state = replace(self._state, via_points=kept)
 
     def use_imported(self, model: ProMPModel | None, source: str, store: StoreState) -> None:
         """Infer with ``model`` (read from ``source``) until what ``store`` learns from

@@ -10,7 +10,8 @@ without the robot. ``studio.json`` keeps the choice::
 
 and no ``frame`` at all for the iCub's own recordings (every workspace written before).
 
-Inside the studio there is one frame: the workspace's demonstrations, on disk and in memory, are
+Inside the studio there is one frame: the workspace's demonstrations (the hand, and every other
+position in space of the layout: a partner's hand, a marker), on disk and in memory, are
 in the iCub's root frame once placed (what the 3D view, the arm and the tubes use; a take
 recorded later is in that frame too). Only a file that leaves the studio, an exported workspace,
 goes back to the data's own frame (:meth:`HandFrame.as_recorded`), and one that comes in is
@@ -26,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp.data import Demonstration, Layout
-from robots.icub.layout import HAND
+from robots.icub.layout import HAND, position_modalities
 from robots.icub.placement import Placement
 
 MAX_TRANSLATION_M = 10.0  # a placement further than this is a typing mistake
@@ -140,18 +141,21 @@ ICUB_FRAME = HandFrame()
 
 
 def move_hand(demos: Demos, layout: Layout, move) -> dict[str, list[Demonstration]]:
-    """``demos`` with the ``hand`` columns' points (n, 3) replaced by ``move(points)``, every
-    other column as it was (new demonstrations; the given ones are not changed)."""
+    """``demos`` with the points (n, 3) of the ``hand`` and of every other position in space
+    (:func:`robots.icub.layout.position_modalities`: a partner's hand, a marker, recorded in
+    the same frame) replaced by ``move(points)``, every other column as it was (new
+    demonstrations; the given ones are not changed)."""
     if HAND.name not in layout.names:
         return {name: list(items) for name, items in demos.items()}
-    hand = list(layout.modality(HAND.name).columns)
+    positions = [list(m.columns) for m in position_modalities(layout)]
     moved: dict[str, list[Demonstration]] = {}
     for name, items in demos.items():
         moved[name] = []
         for demo in items:
             values = np.array(demo.values, dtype=float)
-            where = [demo.columns.index(c) for c in hand]
-            values[:, where] = move(values[:, where])
+            for columns in positions:
+                where = [demo.columns.index(c) for c in columns]
+                values[:, where] = move(values[:, where])
             moved[name].append(Demonstration(demo.times, values, demo.columns, name=demo.name))
     return moved
 

@@ -15,13 +15,12 @@ the view says so) or an imported one (which cannot be refitted without it); for 
 stream, the model inference uses. Then the early observation (the first samples of the
 demonstration, or of the live stream's samples) and one inference (:func:`compute`).
 
-:func:`typical_prior` is what the Teach tab plots and the scene's tubes show: a primitive's
-prior at its typical speed.
+:func:`inferred` shapes the posterior with the recognised primitive's via-points and adds what
+the 3D view draws of every position (:mod:`app.live.regions`, where Teach's priors are too).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 
@@ -29,17 +28,18 @@ import numpy as np
 
 from app.core.learner import Learner
 from app.core.snapshot import Snapshot
+from app.core.via_state import StudioViaPoint, of_primitive
+from app.live.regions import PATH_POINTS, TUBE_POINTS, PositionView, positions, shaped
 from app.live.stream import StreamSamples
 from promp.data import Demonstration
-from promp.inference import Observation, Prediction, predict
+from promp.inference import Gaussian, Observation, Posterior, Prediction, predict
 from promp.model import ProMPModel
 from promp.pipeline import Inference, infer, relative_speed
 from promp.timing import n_observed_for
 from robots.icub.layout import hand_dims
 
-TUBE_POINTS = 100  # rings of the posterior tube (fixed mesh topology)
-PATH_POINTS = 60  # samples of the predicted future hand path
 TEST, LIVE = "Test demonstration", "Live stream"  # what is observed
+__all__ = ["PATH_POINTS", "TUBE_POINTS"]  # where the scene finds them (app.live.regions')
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,7 +74,18 @@ class Inferred:
     truth : Demonstration or None
         The whole test demonstration (None for the live stream).
     future : FuturePath or None
-        None when the layout has no hand.
+        The hand's predicted path (None when the layout has no hand).
+    via_points : tuple of StudioViaPoint
+        The recognised primitive's via-points the prediction passes through (none: the
+        method's posterior as it is).
+    weights : Gaussian or Posterior
+        The posterior, conditioned on ``via_points``.
+    prediction : Prediction
+        Every dimension over the predicted duration on ``TUBE_POINTS`` phases, from
+        ``weights`` (the method's ``inference.prediction`` without via-points).
+    positions : tuple of PositionView
+        Every position in space of the layout (the hand first): its region, predicted and
+        observed paths.
     """
 
     model: ProMPModel
@@ -82,6 +93,10 @@ class Inferred:
     inference: Inference
     truth: Demonstration | None
     future: FuturePath | None
+    via_points: tuple[StudioViaPoint, ...] = ()
+    weights: Gaussian | Posterior | None = None
+    prediction: Prediction | None = None
+    positions: tuple[PositionView, ...] = ()
 
     @property
     def relative_speed(self) -> float:
@@ -94,9 +109,12 @@ def inferred(
     observation: Observation,
     alpha_method: str,
     truth: Demonstration | None = None,
+    via_points: tuple[StudioViaPoint, ...] = (),
 ) -> Inferred:
     """Infer from ``observation`` (:func:`promp.pipeline.infer`, predictions on
-    ``TUBE_POINTS`` phases) and add the future hand path.
+    ``TUBE_POINTS`` phases), shape the posterior with the recognised primitive's via-points
+    (of ``via_points``, every primitive's) and add what the 3D view draws: the future hand path
+    and every position's region.
 
     Parameters
     ----------
@@ -114,20 +132,35 @@ def inferred(
         than every candidate duration.
     """
     inference = infer(model, observation, alpha_method, n_points=TUBE_POINTS, truth=truth)
-    return Inferred(model, observation, inference, truth, future_path(model, inference))
+    has_hand = hand_dims(model.layout) is not None
+    vias = of_primitive(via_points, inference.primitive) if has_hand else ()
+    weights = shaped(model, inference.posterior, vias, inference.alpha)
+    prediction = (
+        predict(model, weights, inference.alpha, TUBE_POINTS) if vias else inference.prediction
+    )
+    duration = inference.duration
+    observed_phase = min(inference.observed_until / duration, 1.0) if duration > 0 else 1.0
+    whole = model.layout.extract(truth) if truth is not None else None
+    return Inferred(
+        model, observation, inference, truth, future_path(model, inference, weights), vias,
+        weights, prediction, positions(model, weights, observation, observed_phase, whole),
+    )  # fmt: skip
 
 
-def future_path(model: ProMPModel, inference: Inference) -> FuturePath | None:
-    """The posterior mean hand from the observation point to the predicted end (None without
-    a hand)."""
+def future_path(
+    model: ProMPModel, inference: Inference, weights: Gaussian | Posterior | None = None
+) -> FuturePath | None:
+    """The mean hand of ``weights`` (default: the posterior) from the observation point to
+    the predicted end (None without a hand)."""
     hand = hand_dims(model.layout)
     if hand is None:
         return None
     duration = inference.duration
     z_start = min(inference.observed_until / duration, 1.0) if duration > 0 else 1.0
     phases = np.linspace(z_start, 1.0, PATH_POINTS)
-    weights = inference.posterior.mean.reshape(model.n_dims, -1)[hand]  # (3, M)
-    return FuturePath(phases * duration, model.basis(phases) @ weights.T)
+    mean = (weights if weights is not None else inference.posterior).mean
+    hand_weights = mean.reshape(model.n_dims, -1)[hand]  # (3, M)
+    return FuturePath(phases * duration, model.basis(phases) @ hand_weights.T)
 
 
 def demo_observation(
@@ -137,13 +170,6 @@ def demo_observation(
     return Observation.from_demo(
         model, demo, n_observed_for(percent, demo.n_samples), tuple(modalities)
     )
-
-
-def typical_prior(model: ProMPModel, name: str, n_points: int) -> Prediction:
-    """The prior of primitive ``name`` at its typical speed (alpha = exp of the mean training
-    log-alpha), on ``n_points`` phases."""
-    primitive = model.primitive(name)
-    return predict(model, primitive, float(math.exp(primitive.log_alpha_mean)), n_points)
 
 
 # ---------------------------------------------------------------------- the Infer tab
@@ -281,7 +307,7 @@ def compute(
     """The view of ``state`` (observing ``modalities``; None: not a choice of this layout)
     with the model ``choice``, on ``snapshot`` (a test demonstration) or the live stream's
     ``samples``."""
-    model = choice.model
+    model, vias = choice.model, snapshot.view.via_points
     if modalities is None:
         return InferView(state, None, "choose the observed modalities", choice, samples=samples)
     if model is None:
@@ -291,10 +317,8 @@ def compute(
             if samples is None:
                 raise ValueError("nothing observed yet: press Start observing and move the hand")
             observation = samples.observation(state.percent, modalities, model.layout)
-            return InferView(
-                state, inferred(model, observation, state.alpha_method), "", choice,
-                samples=samples,
-            )  # fmt: skip
+            result = inferred(model, observation, state.alpha_method, via_points=vias)
+            return InferView(state, result, "", choice, samples=samples)
         demo = next(d for d in snapshot.store.demos[state.primitive] if d.name == state.demo)
         curve = CurveRequest(
             key=(choice.origin, state.primitive, state.demo, modalities, state.alpha_method),
@@ -302,7 +326,7 @@ def compute(
             truth=state.primitive,
         )  # fmt: skip
         observation = demo_observation(model, demo, state.percent, modalities)
-        result = inferred(model, observation, state.alpha_method, truth=demo)
+        result = inferred(model, observation, state.alpha_method, truth=demo, via_points=vias)
         return InferView(state, result, "", choice, curve)
     except ValueError as exc:
         return InferView(state, None, str(exc), choice, samples=samples)

@@ -1,6 +1,8 @@
 """The Infer tab's objects in 3D: the observed hand path, the posterior tube of the recognised
-primitive, the predicted path to its end point, the point the prediction starts from, and the
-true remainder of a test demonstration.
+primitive (the region where 90 % of the movements that began like the observed one are, at
+each moment: :mod:`app.live.regions`), the predicted path to its end point, the point the
+prediction starts from, and the true remainder of a test demonstration; the same, labelled,
+for every other position in space of the layout (:mod:`app.scene.position_nodes`).
 
 :meth:`InferenceLayer.draw` shapes them from an inference (:class:`app.live.inference.Inferred`);
 whether they are shown is the scene's decision (:func:`app.scene.look.look`). The tube's mesh
@@ -20,9 +22,10 @@ from dataclasses import dataclass
 import numpy as np
 import viser
 
-from app.core.view_state import BANDS_2SD
+from app.core.view_state import REGION_90
 from app.live.inference import PATH_POINTS, TUBE_POINTS, Inferred
 from app.scene import tubes
+from app.scene.position_nodes import PositionNodes, shape_tube
 from robots.icub.layout import HAND, hand_dims
 
 POSTERIOR_OPACITY = 0.45
@@ -58,7 +61,8 @@ class InferenceLayer:
         scene = server.scene
         line = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]])
         straight = np.linspace([0.0, 0.0, 0.0], [0.1, 0.0, 0.0], TUBE_POINTS)
-        vertices = tubes.tube_vertices(straight, np.full((TUBE_POINTS, 3), 0.01))
+        vertices = tubes.tube_vertices(straight, np.broadcast_to(1e-4 * np.eye(3),
+                                                                  (TUBE_POINTS, 3, 3)), 1.0)
         self.tube = scene.add_mesh_simple(
             "/infer/posterior",
             vertices=vertices,
@@ -91,11 +95,19 @@ class InferenceLayer:
         self.now_point = scene.add_icosphere(
             "/infer/now", radius=0.012, color=(250, 250, 250), visible=False
         )
-        self.nodes = (
+        self.hand_label = scene.add_label("/infer/hand_label", text=HAND.name, visible=False)
+        self.hand_nodes = (
             self.tube, self.outline, self.future, self.observed_line, self.truth_line,
-            self.end_point, self.now_point,
+            self.end_point, self.now_point, self.hand_label,
         )  # fmt: skip
-        self.drawn = DrawnInference(None, DEFAULT_COLOR, BANDS_2SD)
+        self.server = server
+        self.others: dict[str, PositionNodes] = {}  # every other position, by modality
+        self.drawn = DrawnInference(None, DEFAULT_COLOR, REGION_90)
+
+    @property
+    def nodes(self) -> tuple:
+        """Every node of the layer: the hand's, then the other positions'."""
+        return self.hand_nodes + tuple(n for o in self.others.values() for n in o.nodes)
 
     @property
     def has_shape(self) -> bool:
@@ -103,7 +115,7 @@ class InferenceLayer:
         return bool(self.drawn.shaped)
 
     def draw(
-        self, result: Inferred | None, color: tuple[int, int, int], style: str = BANDS_2SD
+        self, result: Inferred | None, color: tuple[int, int, int], style: str = REGION_90
     ) -> None:
         """Shape the nodes from ``result`` (drawn in ``color``, its primitive's; the tube in
         tube ``style``); none without a result or a hand modality. :attr:`drawn` says so once
@@ -118,39 +130,36 @@ class InferenceLayer:
         hand = hand_dims(layout) if layout is not None else None
         if result is None or hand is None or result.future is None:
             return set()
-        post, future = result.inference.prediction, result.future.hand
         look = tubes.tube_look(style)
-        vertices = tubes.tube_vertices(post.mean[:, hand], post.std[:, hand], n_sigma=look.n_sigma)
+        views = {view.modality: view for view in result.positions}
+        labelled = len(views) > 1  # two positions or more: say which is which
+        drawn = self._shape_hand(result, views[HAND.name], color, look, labelled)
+        for name, view in views.items():
+            if name != HAND.name:
+                if name not in self.others:
+                    self.others[name] = PositionNodes(self.server, name, POSTERIOR_OPACITY)
+                drawn |= self.others[name].shape(view, color, look, labelled)
+        return drawn
+
+    def _shape_hand(self, result: Inferred, view, color, look, labelled: bool) -> set:
+        future = result.future.hand
         drawn = {id(n) for n in (self.future, self.end_point, self.now_point)}
-        if look.surface:
-            self.tube.vertices = vertices
-            self.tube.color = color
-            drawn.add(id(self.tube))
-        if look.outline:
-            segments = tubes.outline_segments(vertices)
-            self.outline.points = segments
-            self.outline.colors = np.broadcast_to(
-                np.array(color, dtype=np.uint8), segments.shape
-            ).copy()
-            drawn.add(id(self.outline))
+        drawn |= shape_tube(self.tube, self.outline, view.region, color, look)
         self.future.points = future.astype(np.float32)
         self.future.color = darker(color)
         self.end_point.position = future[-1]
         self.end_point.color = color
         self.now_point.position = future[0]
-        obs = result.observation
-        if HAND.name in obs.modalities and obs.n_observed >= 2:
-            cols = np.flatnonzero(np.isin(layout.dims(obs.modalities), hand))
-            points = tubes.resample(obs.values[:, cols], min(obs.n_observed, PATH_POINTS))
-            self.observed_line.points = points.astype(np.float32)
-            drawn.add(id(self.observed_line))
-        if result.truth is not None:
-            true_hand = layout.extract(result.truth)[:, hand]
-            rest = true_hand[max(obs.n_observed - 1, 0) :]
-            if rest.shape[0] >= 2:
-                points = tubes.resample(rest, min(rest.shape[0], PATH_POINTS))
-                self.truth_line.points = points.astype(np.float32)
-                drawn.add(id(self.truth_line))
+        if labelled:
+            observed = view.observed is not None
+            self.hand_label.text = f"{HAND.name}: {'observed, ' if observed else ''}predicted"
+            self.hand_label.position = future[-1] + np.array([0.0, 0.0, 0.04])
+            drawn.add(id(self.hand_label))
+        for node, points in ((self.observed_line, view.observed), (self.truth_line, view.truth)):
+            if points is not None and points.shape[0] >= 2:
+                resampled = tubes.resample(points, min(points.shape[0], PATH_POINTS))
+                node.points = resampled.astype(np.float32)
+                drawn.add(id(node))
         return drawn
 
     def show(self, visible: bool) -> None:

@@ -49,15 +49,32 @@ class StartShown:
     color: tuple[int, int, int]
 
 
+@dataclass(frozen=True)
+class ViaShown:
+    """The via-points a panel shows while it is in use: those of ``primitive`` (None: none),
+    in ``color``."""
+
+    panel: str
+    primitive: str | None
+    color: tuple[int, int, int]
+
+
 @dataclass(frozen=True, eq=False)
 class Shown:
-    """What a panel asks the 3D view to show in one frame (None: nothing of that kind)."""
+    """What a panel asks the 3D view to show in one frame (None: nothing of that kind);
+    ``vias``: each panel's via-points (the panel in use's are drawn)."""
 
     inference: InferenceShown | None = None
     start: StartShown | None = None
+    vias: tuple[ViaShown, ...] = ()
 
     def merged(self, other: Shown | None) -> Shown:
         """This, with what ``other`` asks for where it asks for something."""
         if other is None:
             return self
-        return Shown(other.inference or self.inference, other.start or self.start)
+        return Shown(other.inference or self.inference, other.start or self.start,
+                     self.vias + other.vias)  # fmt: skip
+
+    def vias_of(self, panel: str) -> ViaShown | None:
+        """The via-points ``panel`` shows, if it shows any."""
+        return next((v for v in self.vias if v.panel == panel), None)

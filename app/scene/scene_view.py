@@ -15,17 +15,20 @@ unless the workspace's hand stays in its own frame (:attr:`app.io.hand_frame.Han
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import viser
 
 from app.core.snapshot import Snapshot
+from app.core.via_state import of_primitive
 from app.scene.inference_layer import DEFAULT_COLOR, InferenceLayer
 from app.scene.look import INFER, PANELS, PRIOR_MODES, SHOWN, TEACH, InferenceShown, Shown
 from app.scene.partner import PartnerView
 from app.scene.robot import RobotView
 from app.scene.start_marker import StartMarker
+from app.scene.via_layer import ViaPointLayer
 from app.scene.workspace_layer import NO_COLOR, WorkspaceLayer
 from robots.icub.layout import HEAD
 
@@ -89,17 +92,25 @@ def look(panel: str, inference_shown: bool, priors: str = SHOWN) -> Look:
 class SceneView:
     """The studio's 3D objects and their look (see the module docstring)."""
 
-    def __init__(self, server: viser.ViserServer, robot: RobotView | None = None):
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        robot: RobotView | None = None,
+        on_via_moved: Callable[[int, np.ndarray], object] | None = None,
+    ):
+        """``on_via_moved(id, position)``: a via-point's handle was dragged (viser's thread)."""
         self.robot = robot  # shown or hidden with the workspace's frame
         self.partner = PartnerView(server)
         self.workspace = WorkspaceLayer(server)
         self.inference = InferenceLayer(server)
         self.start = StartMarker(server)
+        self.vias = ViaPointLayer(server, on_via_moved or (lambda _id, _position: None))
+        self._vias_from: tuple = ((), NO_COLOR)  # the via-points and the colour drawn
         self.panel = TEACH  # the panel in use: the first tab until another is shown or used
         self.look = look(TEACH, False)
         self._hidden: frozenset = frozenset()
         self.drawn_from: tuple = ()  # what the demonstration lines were drawn from
-        self._tubes_from: tuple = (None, None, None)  # model, primitives, tube style shown
+        self._tubes_from: tuple = (None,) * 4  # model, primitives, via-points, tube style shown
 
     def use_panel(self, panel: str) -> None:
         """``panel`` is shown or used in a browser: its look is drawn (from any thread)."""
@@ -124,9 +135,22 @@ class SceneView:
         self.look = look(self.panel, inference.in_3d and self.inference.has_shape,
                          inference.priors)  # fmt: skip
         self.workspace.apply(self.look.demos, self.look.priors, self._hidden, style)
+        self._draw_vias(snapshot, shown)
         self.inference.show(self.look.inference)
         self.start.show(self.look.start)
         return self.look
+
+    def _draw_vias(self, snapshot: Snapshot, shown: Shown) -> None:
+        """The handles of the via-points the panel in use shows (none elsewhere, nor while the
+        Infer panel's inference is not drawn)."""
+        vias = shown.vias_of(self.panel)
+        if vias is None or (self.panel == INFER and not self.look.inference):
+            points, color = (), NO_COLOR
+        else:
+            points, color = of_primitive(snapshot.view.via_points, vias.primitive), vias.color
+        if (points, tuple(color)) != self._vias_from:
+            self._vias_from = (points, tuple(color))
+            self.vias.draw(points, color)
 
     def _draw_workspace(self, snapshot: Snapshot) -> None:
         """The demonstration lines and the prior tubes, each when what it shows changed (the
@@ -141,12 +165,12 @@ class SceneView:
             self.drawn_from, self._hidden = lines, hidden
             self.partner.show(HEAD.name in store.layout.names)
             self.workspace.draw_lines(store.demos, colors, store.layout, set(store.left_out))
-        tubes = (model, store.primitives, snapshot.view.tube_style)
-        if any(a is not b for a, b in zip(tubes[:2], self._tubes_from[:2], strict=True)) or (
-            tubes[2] != self._tubes_from[2]
+        tubes = (model, store.primitives, snapshot.view.via_points, snapshot.view.tube_style)
+        if any(a is not b for a, b in zip(tubes[:3], self._tubes_from[:3], strict=True)) or (
+            tubes[3] != self._tubes_from[3]
         ):
             self._tubes_from = tubes
-            self.workspace.draw_tubes(model, colors, self.look.priors, tubes[2])
+            self.workspace.draw_tubes(model, colors, self.look.priors, tubes[3], tubes[2])
 
     # ------------------------------------------------------------------ what the camera frames
 

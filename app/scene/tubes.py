@@ -1,5 +1,12 @@
-"""Distribution tubes: a hand path's mean with a +-k sigma cross-section, as a triangle mesh,
-and how each tube style draws one (:func:`tube_look`, :func:`outline_segments`).
+"""Distribution tubes: the region where a share of the movements are at each moment, swept
+along their mean path, as a triangle mesh, and how each tube style draws one
+(:func:`tube_look`, :func:`outline_segments`).
+
+At each phase the region is the ellipsoid ``{y : (y - m)^T S^-1 (y - m) <= r^2}`` of a sample's
+Gaussian (mean ``m``, covariance ``S``: :mod:`promp.region`), ``r`` the radius that holds the
+stated probability. Swept along the path, its cross-section in the plane normal to the path is
+the ellipsoid's shadow on that plane: the ellipse of the projected covariance ``B^T S B``
+(``B``: the plane's two unit vectors) at the same radius. Each ring is that ellipse.
 
 The mesh has a fixed topology for a given number of path samples and ring vertices, so a
 tube's vertices can be replaced in place (``mesh.vertices = V``) at scrubbing rate; so has its
@@ -19,7 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.core.view_state import BANDS_1SD, BANDS_2SD, NO_TUBES, OUTLINE, TUBE_STYLES
+from app.core.view_state import NO_TUBES, OUTLINE, REGION_50, REGION_90, TUBE_STYLES
+from promp.region import SampleDistribution, region_radius
 
 RING = 12  # vertices per cross-section
 MIN_RADIUS = 0.001  # metres: a tube stays visible where the spread vanishes
@@ -81,28 +89,41 @@ def tube_faces(n_points: int, ring: int = RING) -> np.ndarray:
 
 
 def tube_vertices(
-    mean: np.ndarray, std: np.ndarray, n_sigma: float = 2.0, ring: int = RING
+    mean: np.ndarray, cov: np.ndarray, radius: float, ring: int = RING
 ) -> np.ndarray:
-    """Vertices of the tube around ``mean`` (n, 3) with per-axis spread ``std`` (n, 3).
+    """Vertices of the tube around ``mean`` (n, 3) of the regions of covariance ``cov``
+    (n, 3, 3) at Mahalanobis ``radius`` (see the module docstring).
 
-    Each ring lies in the plane normal to the path; its radius in a direction ``u`` of that
-    plane is ``n_sigma * sqrt(sum_k (u_k std_k)^2)``, the spread of the path along ``u``.
+    Each ring lies in the plane normal to the path (normal ``u``, binormal ``v``); its points
+    are ``m + radius * [u v] L (cos t, sin t)`` with ``L L^T = [u v]^T S [u v]``: the shadow of
+    the ellipsoid on that plane, never thinner than :data:`MIN_RADIUS`.
 
     Returns
     -------
     array, shape (n * ring, 3), float32
     """
     mean = np.asarray(mean, dtype=float)
-    std = np.asarray(std, dtype=float)
+    cov = np.asarray(cov, dtype=float)
     normal, binormal = _frames(mean)
+    plane = np.stack([normal, binormal], axis=2)  # (n, 3, 2)
+    projected = plane.transpose(0, 2, 1) @ cov @ plane  # (n, 2, 2)
+    # no axis thinner than MIN_RADIUS: eigenvalues floored, the matrix rebuilt (a Cholesky
+    # factor of it, not the eigenvectors, whose signs could flip from ring to ring and twist
+    # the mesh)
+    values, vectors = np.linalg.eigh(projected)
+    floor = (MIN_RADIUS / max(radius, 1e-12)) ** 2
+    floored = (vectors * np.maximum(values, floor)[:, None, :]) @ vectors.transpose(0, 2, 1)
+    chol = np.linalg.cholesky(floored)  # (n, 2, 2)
     theta = np.linspace(0.0, 2.0 * np.pi, ring, endpoint=False)
-    r_n = n_sigma * np.sqrt(((normal * std) ** 2).sum(axis=1))
-    r_b = n_sigma * np.sqrt(((binormal * std) ** 2).sum(axis=1))
-    r_n = np.maximum(r_n, MIN_RADIUS)[:, None, None]
-    r_b = np.maximum(r_b, MIN_RADIUS)[:, None, None]
-    offsets = r_n * np.cos(theta)[None, :, None] * normal[:, None, :]
-    offsets = offsets + r_b * np.sin(theta)[None, :, None] * binormal[:, None, :]
-    return (mean[:, None, :] + offsets).reshape(-1, 3).astype(np.float32)
+    circle = np.stack([np.cos(theta), np.sin(theta)])  # (2, ring)
+    offsets = radius * (plane @ chol @ circle)  # (n, 3, ring)
+    return (mean[:, :, None] + offsets).transpose(0, 2, 1).reshape(-1, 3).astype(np.float32)
+
+
+def region_vertices(region: SampleDistribution, probability: float, ring: int = RING) -> np.ndarray:
+    """:func:`tube_vertices` of a 3-D region (:class:`promp.region.SampleDistribution`) at the
+    radius that holds ``probability`` of it."""
+    return tube_vertices(region.mean, region.cov, region_radius(probability, 3), ring)
 
 
 # ---------------------------------------------------------------------- the tube styles
@@ -117,15 +138,15 @@ class TubeLook:
 
     Attributes
     ----------
-    n_sigma : float
-        The tube's radius in standard deviations of the path.
+    probability : float
+        The share of the movements inside the tube at each moment.
     surface : bool
         The translucent surface (a band).
     outline : bool
         Thin lines instead: :data:`OUTLINE_RINGS` rings and :data:`OUTLINE_RAILS` lines along.
     """
 
-    n_sigma: float
+    probability: float
     surface: bool
     outline: bool
 
@@ -135,10 +156,10 @@ class TubeLook:
 
 
 TUBE_LOOKS = {
-    BANDS_2SD: TubeLook(2.0, surface=True, outline=False),
-    BANDS_1SD: TubeLook(1.0, surface=True, outline=False),
-    OUTLINE: TubeLook(2.0, surface=False, outline=True),
-    NO_TUBES: TubeLook(2.0, surface=False, outline=False),
+    REGION_90: TubeLook(0.9, surface=True, outline=False),
+    REGION_50: TubeLook(0.5, surface=True, outline=False),
+    OUTLINE: TubeLook(0.9, surface=False, outline=True),
+    NO_TUBES: TubeLook(0.9, surface=False, outline=False),
 }
 
 

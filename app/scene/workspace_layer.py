@@ -2,9 +2,12 @@
 
 Both are the ``hand`` modality's (a workspace without one has none). Lines keep their node while
 their demonstration is the same object; tubes keep their mesh topology (``TUBE_POINTS`` rings of
-:data:`app.scene.tubes.RING` vertices), so a refit only replaces vertices. A tube is drawn as
-the view's tube style says (:func:`app.scene.tubes.tube_look`): a translucent band at +-2 or
-+-1 sigma, an outline (thin rings and lines, its own node), or nothing; lines stay above it.
+:data:`app.scene.tubes.RING` vertices), so a refit only replaces vertices. A tube is the region
+where 90 % (or 50 %) of the primitive's movements are at each moment
+(:func:`app.live.regions.prior_shape`), drawn as the view's tube style says
+(:func:`app.scene.tubes.tube_look`): a translucent band, an outline (thin rings and lines, its
+own node), or nothing; lines stay above it. A primitive shaped by via-points has its tube
+conditioned on them and its mean path drawn as a thicker line through them.
 """
 
 from __future__ import annotations
@@ -14,21 +17,22 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import viser
 
-from app.live.inference import typical_prior
+from app.core.via_state import StudioViaPoint, of_primitive
+from app.live.regions import TUBE_POINTS, prior_shape
 from app.scene.look import FADED, HIDDEN
 from app.scene.tubes import (
     TUBE_SIDE,
     outline_segments,
+    region_vertices,
     resample,
     tube_faces,
     tube_look,
-    tube_vertices,
 )
 from promp.data import Demonstration, Layout
 from promp.model import ProMPModel
-from robots.icub.layout import hand_dims
+from promp.region import SampleDistribution
+from robots.icub.layout import HAND, hand_dims
 
-TUBE_POINTS = 100
 LINE_POINTS = 60
 PRIOR_OPACITY = 0.25
 DIMMED_OPACITY = 0.07
@@ -65,6 +69,7 @@ class WorkspaceLayer:
         self._line_demo: dict[Key, Demonstration] = {}  # what each line shows
         self.tubes: dict[str, viser.MeshHandle] = {}
         self.outlines: dict[str, viser.LineSegmentsHandle] = {}
+        self.means: dict[str, viser.SceneNodeHandle] = {}  # a shaped primitive's mean path
         self._tones: dict[str, tuple] = {}  # each outline's colour and the tone it shows
         self.faces = tube_faces(TUBE_POINTS)
 
@@ -93,11 +98,13 @@ class WorkspaceLayer:
         colors: Mapping[str, tuple[int, int, int]],
         priors: str,
         style: str,
+        via_points: Sequence[StudioViaPoint] = (),
     ) -> None:
         """A prior tube per primitive both ``model`` and ``colors`` know (``priors`` as the look
-        shows them, at the radius of tube ``style``); none for a model without a hand."""
+        shows them, the region of tube ``style``'s probability), each conditioned on its
+        ``via_points``; none for a model without a hand."""
         self._draw_tubes(model if model is not None and hand_dims(model.layout) is not None
-                         else None, colors, priors, style)  # fmt: skip
+                         else None, colors, priors, style, tuple(via_points))  # fmt: skip
 
     def _draw_lines(self, demos, colors, layout: Layout) -> None:
         """``colors``: per (primitive, demo)."""
@@ -128,13 +135,16 @@ class WorkspaceLayer:
             else:
                 _set(self.lines[key], "color", tuple(colors[key]))
 
-    def prior_tube(self, model: ProMPModel, name: str) -> tuple[np.ndarray, np.ndarray]:
-        """Mean and std (TUBE_POINTS, 3) of the prior hand path of primitive ``name``."""
-        prediction = typical_prior(model, name, TUBE_POINTS)
-        cols = hand_dims(model.layout)
-        return prediction.mean[:, cols], prediction.std[:, cols]
+    def prior_tube(
+        self, model: ProMPModel, name: str, via_points: Sequence[StudioViaPoint] = ()
+    ) -> SampleDistribution:
+        """The region of primitive ``name``'s hand (TUBE_POINTS phases), shaped by its
+        ``via_points``."""
+        return prior_shape(model, name, via_points).region(model, HAND.name, TUBE_POINTS)
 
-    def _draw_tubes(self, model: ProMPModel | None, colors, priors: str, style: str) -> None:
+    def _draw_tubes(
+        self, model: ProMPModel | None, colors, priors: str, style: str, via_points: tuple
+    ) -> None:
         # A model still being replaced may know a primitive just deleted or renamed.
         names = [n for n in model.names if n in colors] if model is not None else []
         for name in list(self.tubes):
@@ -142,10 +152,16 @@ class WorkspaceLayer:
                 self.tubes.pop(name).remove()
                 self.outlines.pop(name).remove()
                 self._tones.pop(name, None)
+        for name in list(self.means):
+            if name not in names or not of_primitive(via_points, name):
+                self.means.pop(name).remove()
         look = tube_look(style)
         for name in names:
-            vertices = tube_vertices(*self.prior_tube(model, name), n_sigma=look.n_sigma)
+            region = self.prior_tube(model, name, via_points)
+            vertices = region_vertices(region, look.probability)
             color = tuple(colors.get(name, NO_COLOR))
+            if of_primitive(via_points, name):
+                self._draw_mean(name, region.mean, color)
             tube = self.tubes.get(name)
             if tube is None:
                 self.tubes[name] = self.server.scene.add_mesh_simple(
@@ -174,6 +190,19 @@ class WorkspaceLayer:
                 self._tones[name] = (color, OUTLINE_WHITE)
                 self._tone(name, OUTLINE_WHITE)
 
+    def _draw_mean(self, name: str, mean: np.ndarray, color) -> None:
+        """The mean path of a primitive shaped by via-points, darker than its tube."""
+        points = resample(mean, LINE_POINTS).astype(np.float32)
+        darker = tuple(int(round(0.6 * c)) for c in color)
+        if name in self.means:
+            self.means[name].points = points
+            _set(self.means[name], "color", darker)
+        else:
+            self.means[name] = self.server.scene.add_spline_catmull_rom(
+                f"/prior_means/{name}", points=points, color=darker, thickness=4.0,
+                thickness_units="screen", visible=False,
+            )  # fmt: skip
+
     def apply(self, demos: bool, priors: str, hidden: set[Key], style: str) -> None:
         """Show the lines (``demos``, but those the user hid: ``hidden``) and the tubes as
         ``priors`` says (shown, faded or hidden) in tube ``style``."""
@@ -184,6 +213,8 @@ class WorkspaceLayer:
         for tube in list(self.tubes.values()):
             _set(tube, "visible", priors != HIDDEN and look.surface)
             _set(tube, "opacity", opacity)
+        for mean in list(self.means.values()):
+            _set(mean, "visible", priors != HIDDEN)
         white = DIMMED_WHITE if priors == FADED else OUTLINE_WHITE
         for name, outline in list(self.outlines.items()):
             _set(outline, "visible", priors != HIDDEN and look.outline)

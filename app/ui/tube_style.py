@@ -2,19 +2,58 @@
 (:data:`app.core.view_state.TUBE_STYLES`). One choice, in the view state, that Teach's Prior
 folder and Infer's Display folder both show: choosing in one shows it in the other (and in
 every browser tab) at the next frame. Not written to the workspace.
+
+What a tube is, in one line beside it (:func:`tube_sentence`): at each moment, the stated share
+of the movements is inside it (a region in 3-D, :mod:`promp.region`); Teach adds the share of
+each primitive's demonstrations' samples measured inside (:func:`measured_sentence`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 from app.core.snapshot import Snapshot
 from app.core.view_state import TUBE_STYLES, View
+from app.scene.tubes import tube_look
 from app.ui.context import PanelGui
+from app.ui.text import escape_html
+from promp.region import Coverage
 
 HINT = (
-    "How the distribution tubes are drawn in 3D: a translucent band at ±2σ or ±1σ around the "
-    "mean hand path, only its outline (thin rings and lines at ±2σ), or off. Demonstration "
-    "lines stay visible above them."
+    "How the distribution tubes are drawn in 3D: the region where 90 % (or 50 %) of the "
+    "movements are at each moment, as a translucent band or only its outline (thin rings and "
+    "lines), or off. Each cross-section is the ellipse of the hand's 3-D spread (the model's, "
+    "with the sensor's noise), not a band per axis. Demonstration lines stay visible above them."
 )
+
+
+def percent(probability: float) -> str:
+    return f"{probability * 100:.0f} %"
+
+
+def tube_sentence(style: str, primitive: str | None = None, vias: int = 0) -> str:
+    """What the tubes of ``style`` are, in one line: Teach's (``primitive`` None: every
+    primitive's prior) or Infer's (the posterior of ``primitive``), ``vias`` via-points
+    shaping it."""
+    look = tube_look(style)
+    if not look.shown:
+        return "Tubes off."
+    p = percent(look.probability)
+    shaped = f"; shaped by {vias} via-point{'s' if vias != 1 else ''}" if vias else ""
+    if primitive is None:
+        return (f"Tubes: at each moment, {p} of a primitive's movements pass inside its tube "
+                f"(a 3-D region of the model{shaped}).")  # fmt: skip
+    return (f"Tube: at each moment, {p} of {escape_html(primitive)}'s movements that began "
+            f"like this one pass inside it (a 3-D region{shaped}).")  # fmt: skip
+
+
+def measured_sentence(shares: Mapping[str, Coverage]) -> str:
+    """The share of each primitive's demonstrations' samples measured inside its tube."""
+    if not shares:
+        return ""
+    p = percent(next(iter(shares.values())).probability)
+    parts = ", ".join(f"{escape_html(name)} {c.share * 100:.0f} %" for name, c in shares.items())
+    return f"Inside the {p} tubes, measured: {parts} of their demonstrations' samples."
 
 
 class TubeStyleControl:
@@ -40,3 +79,23 @@ class TubeStyleControl:
             self._shown = style
             if self.dropdown.value != style:
                 self.dropdown.value = style
+
+
+class TubeNote:
+    """An HTML line that says what Infer's tube is (:func:`tube_sentence`), written when it
+    changes."""
+
+    def __init__(self, handle):
+        self.handle = handle
+        self._shown: tuple | None = None
+
+    def show(self, style: str, primitive: str | None, vias: int) -> None:
+        key = (style, primitive, vias)
+        if key == self._shown:
+            return
+        self._shown = key
+        text = tube_sentence(style, primitive, vias) if primitive is not None else ""
+        self.handle.content = (
+            f'<div style="font-size:0.72em;color:#555;padding-right:14px">{text}</div>'
+            if text else ""
+        )  # fmt: skip

@@ -43,6 +43,7 @@ from app.panels.infer.readout import (
     status_html,
 )
 from app.panels.infer.recognition import LIVE_NOTE, TITLE, X_RANGE, RecognitionChart
+from app.panels.infer.shaping import InferShaping
 from app.scene.inference_layer import DEFAULT_COLOR
 from app.scene.look import INFER, InferenceShown, Shown
 from app.ui.context import Frame, InferRequest, PanelContext
@@ -89,6 +90,15 @@ def same_inputs(new: tuple, old: tuple) -> bool:
     )  # fmt: skip
 
 
+def in_background(inputs: tuple, old: tuple, frame: Frame, view: InferView | None) -> bool:
+    """Only the workspace, the model or the via-points changed (not the controls, not the
+    live samples), another tab is in use, and the view shown has a result."""
+    return (
+        frame.panel != INFER and bool(old) and inputs[0] == old[0] and inputs[5] is old[5]
+        and view is not None and view.result is not None
+    )  # fmt: skip
+
+
 class InferPanel:
     """The Infer tab (see the module docstring). Built inside its tab's container."""
 
@@ -111,6 +121,7 @@ class InferPanel:
         handles["replay_buttons"] = gui.add_button_group("Replay", ("Play", "Pause", "Reset"))
         handles["replay_bar"] = gui.add_progress_bar(0.0, color="gray")
         gui.add_html(LEGEND_HTML)
+        self.shaping = InferShaping(ctx)  # what the tube is; the via-points
         self.charts = InferCharts(ctx, gui.add_folder("Charts", expand_by_default=True), layout)
         self.controls = InferControls(**handles, **build_display(gui, ctx.view))
         c = self.controls
@@ -135,8 +146,10 @@ class InferPanel:
         # or of the model alone waits, while another tab is in use, until this one is (the
         # view it replaces had a result: it is not shown meanwhile).
         inputs = (state, choice.message, snapshot.store.demos, snapshot.store.primitives,
-                  choice.model, samples)  # fmt: skip
-        if not same_inputs(inputs, self._inputs) and not self._background(inputs, frame):
+                  choice.model, samples, snapshot.view.via_points)  # fmt: skip
+        if not same_inputs(inputs, self._inputs) and not in_background(
+            inputs, self._inputs, frame, self.view
+        ):
             self._inputs = inputs
             self._show(frame, state, choice, samples)
         if self.replay.phase is not Phase.IDLE and self.ctx.arm.dragging:
@@ -144,16 +157,8 @@ class InferPanel:
         if self.replay.step():
             self.controls.replay_bar.value = 100.0 * self.replay.progress
         self.recognition.show(state.percent)
-        return Shown(inference=self._shown)
-
-    def _background(self, inputs: tuple, frame: Frame) -> bool:
-        """Only the workspace or the model changed (not the controls, not the live samples),
-        another tab is in use, and the view shown has a result."""
-        old = self._inputs
-        return (
-            frame.panel != INFER and bool(old) and inputs[0] == old[0] and inputs[5] is old[5]
-            and self.view is not None and self.view.result is not None
-        )  # fmt: skip
+        vias = self.shaping.step(snapshot, self.view, self._shown.color)
+        return Shown(inference=self._shown, vias=(vias,))
 
     def _show(self, frame: Frame, state: InferState, choice: ModelChoice, samples) -> None:
         """Compute the view of ``state`` and write it; time it."""

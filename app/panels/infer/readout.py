@@ -226,7 +226,7 @@ class InferCharts:
         for i, (handle, q) in enumerate(zip(self.handles, self.quantities, strict=True)):
             bands = [
                 Band.from_prediction(result.inference.prior, q, "prior", PRIOR_COLOR),
-                Band.from_prediction(result.inference.prediction, q, "posterior", color),
+                Band.from_prediction(result.prediction, q, "posterior", color),
             ]
             traces = []
             if truth is not None:

@@ -1,4 +1,5 @@
-"""The Teach tab, top to bottom: Primitive, Record, Head source, Demonstrations, Learn, Prior.
+"""The Teach tab, top to bottom: Primitive, Record, Head source, Demonstrations, Learn,
+Via-points (:mod:`app.ui.via_points`, which Infer shares), Prior.
 
 Each folder is a section of its own module; this one builds them and runs them in the studio's
 loop. Every change the user makes is either one mutation, made in the callback (the store's,
@@ -10,6 +11,7 @@ the frame's snapshot, redrawing only what changed, so every browser tab shows th
 from __future__ import annotations
 
 from app.live.recorder import Recording
+from app.live.regions import mean_position, prior_shape
 from app.live.take_controller import COUNTDOWN_S, Phase
 from app.panels.teach.demos import DemoList
 from app.panels.teach.head import HeadSection
@@ -17,8 +19,10 @@ from app.panels.teach.learn import LearnSection
 from app.panels.teach.primitives import PrimitiveSection
 from app.panels.teach.prior import PriorCharts
 from app.panels.teach.record import RecordSection
-from app.scene.look import Shown
+from app.scene.look import TEACH, Shown
 from app.ui.context import Frame, PanelContext
+from app.ui.via_points import ViaPointSection
+from robots.icub.layout import HAND
 
 
 class TeachPanel:
@@ -32,6 +36,7 @@ class TeachPanel:
         self.head = HeadSection(ctx, recording=lambda: self.record.take is not None)
         self.demos = DemoList(ctx)
         self.learn = LearnSection(ctx)
+        self.vias = ViaPointSection(ctx, TEACH)
         self.prior = PriorCharts(ctx)
 
     def _plot_live(self, _primitive: str | None, recording: Recording | None) -> None:
@@ -46,13 +51,25 @@ class TeachPanel:
         listed = self.demos.step(snapshot)
         self.learn.step(frame)
         self.prior.tubes.step(snapshot)
+        self.prior.show_tubes(snapshot)
         take = self.record.take
         recording = take is not None and self.record.takes.phase is Phase.RECORDING
         if recording and self._live is not None:
             self.prior.draw(snapshot, take.primitive, live=self._live)
         elif not listed:  # the list and the charts in two frames: no frame does both
             self.prior.draw(snapshot, name)
-        return Shown(start=start)
+        model = snapshot.model
+        known = model is not None and name in model.names and HAND.name in model.layout.names
+
+        def mean_at(phase: float):
+            if not known:
+                return None
+            shape = prior_shape(model, name, snapshot.view.via_points)
+            return mean_position(model, shape.weights, HAND.name, phase)
+
+        color = snapshot.store.color(name) if name in snapshot.store.names else (128, 128, 128)
+        vias = self.vias.step(snapshot, name if known else None, color, mean_at)
+        return Shown(start=start, vias=(vias,))
 
     def close(self) -> None:
         self.record.close()

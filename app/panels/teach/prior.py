@@ -1,12 +1,14 @@
 """The Teach tab's Prior folder: the selected primitive's prior, one chart per dimension.
 
-Each chart shows the prior at the primitive's typical speed
-(:func:`app.live.inference.typical_prior`,
-mean +- 2 sd, in the display units of :mod:`app.ui.display`) with the newest demonstration over
-it, or, while recording, the demonstration being recorded. Drawn from the frame's snapshot,
-again only when what they show changed. The folder also holds the 3D view's tube style
-(:class:`app.ui.tube_style.TubeStyleControl`, shared with Infer's Display folder); the charts
-keep their ±2σ bands whatever the tubes show.
+Each chart shows the prior of a new movement of the primitive at its typical speed, shaped by
+its via-points (:func:`app.live.regions.prior_shape`; mean +- 2 sd, in the display units of
+:mod:`app.ui.display`) with the newest demonstration over it, or, while recording, the
+demonstration being recorded. Drawn from the frame's snapshot, again only when what they show
+changed. The folder also holds the 3D view's tube style
+(:class:`app.ui.tube_style.TubeStyleControl`, shared with Infer's Display folder), a line that
+says what the tubes are and the share of each primitive's demonstrations measured inside them
+(:func:`app.live.regions.measured_shares`); the charts keep their ±2σ bands whatever the tubes
+show.
 """
 
 from __future__ import annotations
@@ -14,12 +16,13 @@ from __future__ import annotations
 import numpy as np
 
 from app.core.snapshot import Snapshot
-from app.live.inference import typical_prior
 from app.live.recorder import Recording
+from app.live.regions import measured_shares, prior_shape
+from app.scene.tubes import tube_look
 from app.ui.charts import Band, Trace, add_band_chart, band_chart, update_band_chart
 from app.ui.context import PanelContext
 from app.ui.display import quantities
-from app.ui.tube_style import TubeStyleControl
+from app.ui.tube_style import TubeStyleControl, measured_sentence, tube_sentence
 from promp.data import Layout
 from robots.icub.layout import HAND, HEAD
 
@@ -38,9 +41,11 @@ class PriorCharts:
         self.plots: list = []
         self.layout: Layout | None = None
         self._drawn: tuple = ()  # what the charts show
+        self._measured: tuple = ()  # what the tube note was measured on
         self.folder = ctx.gui.add_folder("Prior")
         with self.folder:
             self.tubes = TubeStyleControl(ctx.gui, ctx.view)
+            self.tube_note = ctx.gui.add_markdown("")
             self.note = ctx.gui.add_markdown("")
         self.build(ctx.store.state.layout)
 
@@ -56,21 +61,41 @@ class PriorCharts:
             ]
         self.layout = layout
 
+    def show_tubes(self, snapshot: Snapshot) -> None:
+        """What the tubes are, and each primitive's share of samples inside them (measured
+        again when the model or the tubes' probability changed)."""
+        model, style = snapshot.model, snapshot.view.tube_style
+        store = snapshot.store
+        key = (style, model, store.demos, store.findings, store.checks)
+        if self._measured and key[0] == self._measured[0] and all(
+            a is b for a, b in zip(key[1:], self._measured[1:], strict=True)
+        ):
+            return
+        self._measured = key
+        text = tube_sentence(style)
+        look = tube_look(style)
+        if model is not None and look.shown and HAND.name in model.layout.names:
+            learned = store.learned
+            text += " " + measured_sentence(measured_shares(model, learned, look.probability))
+        self.tube_note.content = text
+
     def draw(self, snapshot: Snapshot, name: str | None, live: Recording | None = None) -> None:
         """The prior of ``name`` per dimension, with its newest demonstration (or ``live``)."""
         store, model = snapshot.store, snapshot.model
         layout = store.layout
         demos = store.demos.get(name, ()) if name is not None else ()
         color = store.color(name) if name in store.names else NO_COLOR
-        drawn = (name, color, model, demos, layout, live)  # two values, then objects
+        vias = snapshot.view.via_points
+        drawn = (name, color, model, demos, layout, live, vias)  # two values, then objects
         if self._drawn and drawn[:2] == self._drawn[:2] and all(
             a is b for a, b in zip(drawn[2:], self._drawn[2:], strict=True)
         ):
             return
         self._drawn = drawn
-        prediction = None
+        prediction, shape = None, None
         if model is not None and name in model.names and model.layout == layout:
-            prediction = typical_prior(model, name, PLOT_POINTS)
+            shape = prior_shape(model, name, vias)
+            prediction = shape.prediction(model, PLOT_POINTS)
         if layout != self.layout:
             self.build(layout)
         traces: list[tuple[str, np.ndarray, np.ndarray, tuple[int, int, int]]] = []
@@ -88,12 +113,16 @@ class PriorCharts:
                 plot.visible = False
             return
         self.folder.label = f"Prior of {name}: mean ± 2σ"
+        shaped = ""
+        if shape is not None and shape.via_points:
+            n = len(shape.via_points)
+            shaped = f" (through {n} via-point{'s' if n != 1 else ''})"
         if prediction is None:
             self.note.content = NEEDS_TWO
         elif traces:
-            self.note.content = f"Band: the prior. Line: {traces[0][0]}."
+            self.note.content = f"Band: the prior{shaped}. Line: {traces[0][0]}."
         else:
-            self.note.content = "Band: the prior."
+            self.note.content = f"Band: the prior{shaped}."
         for q, plot in zip(quantities(layout), self.plots, strict=True):
             bands = [] if prediction is None else [Band.from_prediction(prediction, q, name, color)]
             lines = []
