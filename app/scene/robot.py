@@ -32,7 +32,7 @@ BIN_COLOR = (150, 152, 158)
 # Lighting: viser's directional lights without shadows, plus an even ambient light, instead of
 # its image-based environment map. The picture is nearly the same, but a browser without a GPU
 # (software WebGL) draws a frame of this scene with a third of the CPU: measured in headless
-# Chromium, 1.85 cores with the environment map and shadows, 1.0 without (README, Speed).
+# Chromium, 1.85 cores with the environment map and shadows, 1.0 without (docs/speed.md).
 AMBIENT_INTENSITY = 1.5
 
 
