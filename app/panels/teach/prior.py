@@ -112,7 +112,7 @@ class PriorCharts:
             for plot in self.plots:
                 plot.visible = False
             return
-        self.folder.label = f"Prior of {name}: mean ± 2σ"
+        self.folder.label = f"Prior of {name}"
         shaped = ""
         if shape is not None and shape.via_points:
             n = len(shape.via_points)
@@ -120,9 +120,9 @@ class PriorCharts:
         if prediction is None:
             self.note.content = NEEDS_TWO
         elif traces:
-            self.note.content = f"Band: the prior{shaped}. Line: {traces[0][0]}."
+            self.note.content = f"Band: the prior{shaped}, mean ± 2σ. Line: {traces[0][0]}."
         else:
-            self.note.content = f"Band: the prior{shaped}."
+            self.note.content = f"Band: the prior{shaped}, mean ± 2σ."
         for q, plot in zip(quantities(layout), self.plots, strict=True):
             bands = [] if prediction is None else [Band.from_prediction(prediction, q, name, color)]
             lines = []
