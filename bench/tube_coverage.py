@@ -34,10 +34,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from promp.data import sample_period_of  # noqa: E402
 from promp.datasets import read_dataset  # noqa: E402
+from promp.fitting import fit_with  # noqa: E402
 from promp.inference import Gaussian  # noqa: E402
 from promp.learn import fit  # noqa: E402
-from promp.model import fit_with, sample_period_of  # noqa: E402
 from promp.quality import winsorized  # noqa: E402
 from promp.region import (  # noqa: E402
     new_movement,
