@@ -178,7 +178,7 @@ def replay(plan: Plan, outlet, markers) -> Pushed:
 
 
 def _read(name: str, into: dict, kind: str, stop: threading.Event, ready: threading.Event):
-    info = pylsl.resolve_byprop("name", name, 1, 30.0)
+    info = pylsl.resolve_byprop("name", name, 1, 180.0)  # a busy machine starts it slowly
     if not info:
         raise RuntimeError(f"the predictor's stream {name} did not appear")
     inlet = pylsl.StreamInlet(info[0], max_buflen=360, recover=False)
@@ -224,7 +224,7 @@ def headless(model_path: Path, log: Path) -> Iterator[dict]:
             thread.start()
             readers.append((thread, ready))
         for _, ready in readers:
-            if not ready.wait(60.0):
+            if not ready.wait(240.0):
                 raise RuntimeError(f"the predictor's streams did not appear; see {log}")
         yield collected
         time.sleep(1.0)  # the last predictions on their way
