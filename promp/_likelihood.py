@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp import _weight_space
+from promp.incremental import IncrementalStatistics, whitened_sums
 from promp.model import Primitive, ProMPModel
 from promp.noise import noise_groups, whiten  # noqa: F401  (re-exported)
 from promp.observation import Observation, check_observation
@@ -65,54 +66,6 @@ def logsumexp_rows(values: np.ndarray) -> np.ndarray:
 def per_dimension(vector: np.ndarray, n_dims: int) -> np.ndarray:
     """A dimension-major weight vector (n_dims * M,) as rows, shape (n_dims, M)."""
     return vector.reshape(n_dims, -1)
-
-
-def group_statistics(
-    primitive: Primitive, obs: Observation, dims: np.ndarray, psi: np.ndarray, mu: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Whitened sufficient statistics of the observation's residual, per noise group.
-
-    Parameters
-    ----------
-    psi : array, shape (A, n, M)
-        Basis at the observed phases for each candidate alpha.
-    mu : array, shape (A, Do, M)
-        The prior mean of the observed weights at each candidate.
-
-    Returns
-    -------
-    eigval : array, shape (A, n_groups, M)
-    eigvec : array, shape (A, n_groups, M, M)
-        Eigendecomposition of ``Psi^T K^-1 Psi`` per candidate and noise group.
-    group : array, shape (Do,)
-        Noise group of each observed dimension.
-    proj : array, shape (A, Do, M)
-        ``Psi^T K^-1 r`` per dimension, ``r = y - Psi mu``.
-    rr : array, shape (A, Do)
-        ``r^T K^-1 r``. (From the residual itself: expanded as ``y^T K^-1 y - 2 mu^T Psi^T
-        K^-1 y + ...``, the terms cancel to a few digits and the likelihood loses them.)
-    logdet_k : array, shape (Do,)
-        ``log det K``.
-    """
-    groups = noise_groups(primitive, dims)
-    n_cand, _, m = psi.shape
-    n_do = dims.shape[0]
-    eigval = np.empty((n_cand, len(groups), m))
-    eigvec = np.empty((n_cand, len(groups), m, m))
-    group = np.empty(n_do, dtype=int)
-    proj = np.empty((n_cand, n_do, m))
-    rr = np.empty((n_cand, n_do))
-    logdet_k = np.empty(n_do)
-    for index, (tau, cols) in enumerate(groups.items()):
-        psi_w, logdet = whiten(obs.elapsed, tau, psi)
-        y_w, _ = whiten(obs.elapsed, tau, obs.values[:, cols])
-        resid = y_w[None] - psi_w @ mu[:, cols].transpose(0, 2, 1)  # (A, n, Dg)
-        eigval[:, index], eigvec[:, index] = np.linalg.eigh(psi_w.transpose(0, 2, 1) @ psi_w)
-        group[cols] = index
-        proj[:, cols] = (psi_w.transpose(0, 2, 1) @ resid).transpose(0, 2, 1)
-        rr[:, cols] = (resid**2).sum(axis=1)
-        logdet_k[cols] = logdet
-    return np.maximum(eigval, 0.0), eigvec, group, proj, rr, logdet_k
 
 
 @dataclass(frozen=True)
@@ -168,23 +121,27 @@ def rotate(
     alphas: np.ndarray,
     durations: np.ndarray,
     compress: bool = True,
+    statistics: IncrementalStatistics | None = None,
 ) -> Rotated:
-    """The terms of :class:`Rotated` (basis, whitening, eigendecompositions, rotations).
+    """The terms of :class:`Rotated`: the whitened sums (:mod:`promp._statistics`, extended
+    from ``statistics`` when given), the eigendecomposition of each noise group's
+    ``Psi^T K^-1 Psi``, and the rotations into its eigenbasis.
 
     ``compress``: use the observed rows of ``U`` with at most as many columns as rows
     (:meth:`promp.model.Primitive.observed_factor`; enough for the likelihood); off, the
     columns of ``U`` itself (the posterior of the unobserved weights needs them).
     """
     m = model.basis.n_basis
-    psi = model.phase_basis(obs.elapsed, durations)  # (A, n, M)
-    mu = primitive.mean_at(alphas).reshape(-1, model.n_dims, m)[:, dims]  # (A, Do, M)
     t = per_dimension(primitive.cov_diag, model.n_dims)[dims, 0]  # (Do,)
     if compress:
         u = primitive.observed_factor(dims)  # (Do, M, r)
     else:
         u = primitive.cov_factor.reshape(model.n_dims, m, -1)[dims]
-    eigval, eigvec, group, proj, rr, logdet_k = group_statistics(primitive, obs, dims, psi, mu)
-    n_cand, r = psi.shape[0], u.shape[-1]
+    sums = whitened_sums(model, primitive, obs, dims, alphas, durations, statistics)
+    eigval, eigvec = np.linalg.eigh(sums.gram)  # (A, n_groups, M), (A, n_groups, M, M)
+    eigval = np.maximum(eigval, 0.0)
+    group, proj, rr, logdet_k = sums.group, sums.proj, sums.rr, sums.logdet_k
+    n_cand, r = alphas.shape[0], u.shape[-1]
     vt_proj = np.empty_like(proj)
     u_hat = np.empty((n_cand, dims.shape[0], m, r))
     for index in range(eigvec.shape[1]):
@@ -253,6 +210,7 @@ def log_likelihoods_scaled(
     obs: Observation,
     alphas: np.ndarray,
     noise_factors: np.ndarray,
+    statistics: IncrementalStatistics | None = None,
 ) -> np.ndarray:
     """Log marginal likelihood of ``obs`` for each alpha and each noise level (Eq. 6).
 
@@ -261,6 +219,10 @@ def log_likelihoods_scaled(
     alphas : array, shape (n_candidates,)
     noise_factors : array, shape (n_levels, n_dims)
         Each row multiplies the primitive's noise variance of every model dimension.
+    statistics : IncrementalStatistics, optional
+        What the likelihood kept of the observation's first samples, for an observation
+        that grows (:class:`promp.incremental.IncrementalStatistics`): only the new samples'
+        terms are computed. The same numbers to round-off.
 
     Returns
     -------
@@ -283,10 +245,11 @@ def log_likelihoods_scaled(
     factor = primitive.observed_factor(dims)
     if _weight_space.cheaper_than_woodbury(factor.shape[0] * factor.shape[1], factor.shape[2]):
         out[:, valid] = _weight_space.log_likelihoods(
-            model, primitive, obs, dims, alphas[valid], durations[valid], noise_var
+            model, primitive, obs, dims, alphas[valid], durations[valid], noise_var, statistics
         )
         return out
-    rot = rotate(model, primitive, obs, dims, alphas[valid], durations[valid])
+    rot = rotate(model, primitive, obs, dims, alphas[valid], durations[valid],
+                 statistics=statistics)  # fmt: skip
     for level in range(noise_var.shape[0]):  # (one level at a time: smaller batches run faster)
         w = woodbury(rot, noise_var[level : level + 1])
         out[level, valid] = _log_likelihood(w, obs.values.size)[0]
@@ -294,7 +257,11 @@ def log_likelihoods_scaled(
 
 
 def log_likelihoods(
-    model: ProMPModel, primitive: Primitive, obs: Observation, alphas: np.ndarray
+    model: ProMPModel,
+    primitive: Primitive,
+    obs: Observation,
+    alphas: np.ndarray,
+    statistics: IncrementalStatistics | None = None,
 ) -> np.ndarray:
     """Log marginal likelihood of ``obs`` under ``primitive`` for each alpha (Eq. 6).
 
@@ -306,10 +273,12 @@ def log_likelihoods(
     Parameters
     ----------
     alphas : array, shape (n_candidates,)
+    statistics : IncrementalStatistics, optional
+        For an observation that grows: see :func:`log_likelihoods_scaled`.
 
     Returns
     -------
     array, shape (n_candidates,)
     """
     ones = np.ones((1, model.n_dims))
-    return log_likelihoods_scaled(model, primitive, obs, alphas, ones)[0]
+    return log_likelihoods_scaled(model, primitive, obs, alphas, ones, statistics)[0]

@@ -25,8 +25,8 @@ import numpy as np
 from scipy.linalg import lapack
 
 from promp._recent import cached_on
+from promp.incremental import IncrementalStatistics, whitened_sums
 from promp.model import Primitive, ProMPModel
-from promp.noise import noise_groups, whiten
 from promp.observation import Observation
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -122,6 +122,7 @@ def log_likelihoods(
     alphas: np.ndarray,
     durations: np.ndarray,
     noise_var: np.ndarray,
+    statistics: IncrementalStatistics | None = None,
 ) -> np.ndarray:
     """``log N(y | A mu, A Sigma_o A^T + R)`` per noise level and candidate, shape (L, A).
 
@@ -133,24 +134,15 @@ def log_likelihoods(
         Candidate time modulations and their durations (each at least as long as ``obs``).
     noise_var : array, shape (L, Do)
         The noise variance of every observed dimension at each noise level.
+    statistics : IncrementalStatistics, optional
+        The sums of the samples seen before (:func:`promp.incremental.whitened_sums`).
     """
     m = model.basis.n_basis
     n_do, n_cand, n_levels = dims.shape[0], alphas.shape[0], noise_var.shape[0]
     p = n_do * m
-    psi = model.phase_basis(obs.elapsed, durations)  # (A, n, M)
-    mu = primitive.mean_at(alphas).reshape(n_cand, model.n_dims, m)[:, dims]  # (A, Do, M)
-    gram = np.empty((n_cand, n_do, m, m))  # Psi^T K^-1 Psi of each dimension's noise group
-    proj = np.empty((n_cand, n_do, m))  # Psi^T K^-1 (y - Psi mu)
-    rr = np.empty((n_cand, n_do))  # (y - Psi mu)^T K^-1 (y - Psi mu)
-    logdet_k = np.empty(n_do)
-    for tau, cols in noise_groups(primitive, dims).items():
-        psi_w, logdet = whiten(obs.elapsed, tau, psi)
-        y_w, _ = whiten(obs.elapsed, tau, obs.values[:, cols])
-        resid = y_w[None] - psi_w @ mu[:, cols].transpose(0, 2, 1)  # (A, n, Dg)
-        gram[:, cols] = (psi_w.transpose(0, 2, 1) @ psi_w)[:, None]
-        proj[:, cols] = (psi_w.transpose(0, 2, 1) @ resid).transpose(0, 2, 1)
-        rr[:, cols] = (resid**2).sum(axis=1)
-        logdet_k[cols] = logdet
+    sums = whitened_sums(model, primitive, obs, dims, alphas, durations, statistics)
+    gram = sums.gram[:, sums.group]  # Psi^T K^-1 Psi of each dimension's noise group
+    proj, rr = sums.proj, sums.rr  # Psi^T K^-1 (y - Psi mu), (y - Psi mu)^T K^-1 (y - Psi mu)
     precision, logdet_sigma = observed_precision(primitive, dims)
     inv_s2 = 1.0 / noise_var  # (L, Do)
     # One noise level at a time, and one buffer serves every level.
@@ -170,5 +162,5 @@ def log_likelihoods(
         diag = cholesky_diagonals(bordered)
         quad[level] = diag[:, p] ** 2 - 1.0
         logdet[level] = 2.0 * np.log(diag[:, :p]).sum(-1) + logdet_sigma
-    logdet_r = (obs.n_observed * np.log(noise_var) + logdet_k).sum(-1)  # (L,)
+    logdet_r = (obs.n_observed * np.log(noise_var) + sums.logdet_k).sum(-1)  # (L,)
     return -0.5 * (quad + logdet + logdet_r[:, None] + obs.values.size * LOG_2PI)

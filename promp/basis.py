@@ -53,7 +53,20 @@ class RBFBasis:
     def __call__(self, z: np.ndarray) -> np.ndarray:
         """Basis values at phases ``z``, array of shape (len(z), n_basis); rows sum to 1."""
         z = np.asarray(z, dtype=float).reshape(-1, 1)
-        values = (z - self._centres[None, :]) / self.sigma
+        return self._normalised(z, self._centres[None, :], axis=1)
+
+    def columns(self, z: np.ndarray) -> np.ndarray:
+        """Basis values at phases ``z`` of shape (..., n), the basis functions along a new
+        axis -2: shape (..., n_basis, n), each column summing to 1. The numbers of
+        :meth:`__call__`, laid out so that the samples are the contiguous axis (the
+        incremental likelihood's sums over samples, :mod:`promp._statistics`)."""
+        z = np.asarray(z, dtype=float)[..., None, :]
+        return self._normalised(z, self._centres[:, None], axis=-2)
+
+    def _normalised(self, z: np.ndarray, centres: np.ndarray, axis: int) -> np.ndarray:
+        """The normalised Gaussians of phases ``z`` around ``centres`` (shapes that broadcast,
+        the centres along ``axis``)."""
+        values = (z - centres) / self.sigma
         np.square(values, out=values)
         outside = (z < 0.0) | (z > 1.0)
         if outside.any():
@@ -65,7 +78,7 @@ class RBFBasis:
             values -= nearest**2
         np.multiply(values, -0.5, out=values)
         np.exp(values, out=values)
-        values /= values.sum(axis=1, keepdims=True)
+        values /= values.sum(axis=axis, keepdims=True)
         return values
 
 

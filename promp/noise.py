@@ -24,7 +24,9 @@ from promp.model import Primitive, Settings
 from promp.scale import RELATIVE_FLOOR
 from promp.weights import WeightFits
 
-__all__ = ["estimate_noise", "noise_groups", "whiten"]
+__all__ = [
+    "correlation_steps", "estimate_noise", "log_det_correlation", "noise_groups", "whiten"
+]  # fmt: skip
 
 
 def whiten(elapsed: np.ndarray, tau: float, x: np.ndarray) -> tuple[np.ndarray, float]:
@@ -46,11 +48,36 @@ def whiten(elapsed: np.ndarray, tau: float, x: np.ndarray) -> tuple[np.ndarray, 
     """
     if tau <= 0 or x.shape[-2] < 2:
         return x, 0.0
-    rho = np.exp(-np.diff(elapsed) / tau)
-    scale = np.sqrt(1.0 - rho**2)
+    rho, scale = _steps(elapsed, tau)
     out = np.array(x, dtype=float, copy=True)
     out[..., 1:, :] = (x[..., 1:, :] - rho[:, None] * x[..., :-1, :]) / scale[:, None]
     return out, float(2.0 * np.log(scale).sum())
+
+
+def log_det_correlation(elapsed: np.ndarray, tau: float) -> float:
+    """``log det K`` of the noise correlation at the samples ``elapsed`` (n,) (:func:`whiten`'s
+    second value)."""
+    if tau <= 0 or elapsed.shape[0] < 2:
+        return 0.0
+    return float(2.0 * np.log(_steps(elapsed, tau)[1]).sum())
+
+
+def correlation_steps(elapsed: np.ndarray, taus: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``rho_i`` and ``sqrt(1 - rho_i^2)`` of each step between the samples ``elapsed`` (n,)
+    for each correlation time of ``taus`` (G,) (:func:`whiten`; 0 and 1 for white noise,
+    ``tau = 0``, which leaves a sample as it is): arrays of shape (G, n - 1)."""
+    rho = np.zeros((taus.shape[0], elapsed.shape[0] - 1))
+    scale = np.ones_like(rho)
+    for index, tau in enumerate(taus.tolist()):
+        if tau > 0:
+            rho[index], scale[index] = _steps(elapsed, tau)
+    return rho, scale
+
+
+def _steps(elapsed: np.ndarray, tau: float) -> tuple[np.ndarray, np.ndarray]:
+    """``rho_i`` and ``sqrt(1 - rho_i^2)`` of each step, shape (n - 1,), for ``tau > 0``."""
+    rho = np.exp(-np.diff(elapsed) / tau)
+    return rho, np.sqrt(1.0 - rho**2)
 
 
 def noise_groups(primitive: Primitive, dims: np.ndarray) -> dict[float, np.ndarray]:

@@ -20,6 +20,7 @@ import numpy as np
 from promp import metrics
 from promp.data import Demonstration
 from promp.duration import Timing, timing
+from promp.incremental import IncrementalStatistics
 from promp.inference import Observation, Posterior, Prediction, condition, predict
 from promp.model import ProMPModel
 from promp.recognition import AlphaMethod, Recognition, recognise
@@ -106,6 +107,7 @@ def infer(
     n_points: int | None = None,
     truth: Demonstration | None = None,
     duration: float | None = None,
+    statistics: IncrementalStatistics | None = None,
 ) -> Inference:
     """Recognise the primitive and its speed, condition on the observation, predict; with
     ``truth`` (the whole movement ``obs`` is the start of), measure the errors.
@@ -131,6 +133,11 @@ def infer(
         The whole movement: the errors are measured against it.
     duration : float, optional
         The movement's duration when it is known (s): every primitive scored at that speed.
+    statistics : IncrementalStatistics, optional
+        For an observation that grows (a live movement inferred on at each update), what the
+        likelihood kept of its first samples (:mod:`promp.incremental`): the same inference
+        to round-off (within 1e-9), at a cost that grows with the samples new since the last
+        update rather than with all of them.
 
     Returns
     -------
@@ -146,7 +153,8 @@ def infer(
         An unknown modality or alpha method, an empty or non-finite observation, a truth
         without the model's columns.
     """
-    recognition = recognise(model, obs, alpha_method=alpha_method, duration=duration)
+    recognition = recognise(model, obs, alpha_method=alpha_method, duration=duration,
+                            statistics=statistics)  # fmt: skip
     primitive = model.primitives[recognition.index]
     elapsed = float(obs.elapsed[-1])
     settings = model.settings

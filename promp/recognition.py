@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from scipy import special
@@ -51,6 +51,9 @@ from promp.model import Primitive, ProMPModel
 from promp.observation import Observation, check_observation
 from promp.quality import winsorized
 from promp.timing import alpha_from_duration
+
+if TYPE_CHECKING:
+    from promp.incremental import IncrementalStatistics
 
 __all__ = [
     "ALPHA_METHODS", "AlphaMethod", "AlphaPrior", "MAX_SPAN", "N_NODES", "N_REFINE", "Recognition",
@@ -328,19 +331,23 @@ def quadrature_weights(
 
 
 def _integrate(
-    model: ProMPModel, primitive: Primitive, obs: Observation, prior: AlphaPrior
+    model: ProMPModel,
+    primitive: Primitive,
+    obs: Observation,
+    prior: AlphaPrior,
+    statistics: IncrementalStatistics | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Nodes (log alpha), their log-likelihoods and log prior densities, and the evidence."""
     nodes, lp, log_mass = quadrature(model, obs, prior)
     lo, hi = nodes[0], nodes[-1]
-    ll = log_likelihoods(model, primitive, obs, np.exp(nodes))
+    ll = log_likelihoods(model, primitive, obs, np.exp(nodes), statistics)
     best = int(np.argmax(ll + lp))
     step = nodes[1] - nodes[0]
     fine = np.linspace(nodes[best] - step, nodes[best] + step, N_REFINE + 2)[1:-1]
     fine = fine[(fine > lo) & (fine < hi) & ~np.isclose(fine, nodes[best], rtol=0, atol=1e-9)]
     if fine.size:
         nodes = np.concatenate([nodes, fine])
-        ll = np.concatenate([ll, log_likelihoods(model, primitive, obs, np.exp(fine))])
+        ll = np.concatenate([ll, log_likelihoods(model, primitive, obs, np.exp(fine), statistics)])
         lp = np.concatenate([lp, prior.logpdf(fine)])
         order = np.argsort(nodes)
         nodes, ll, lp = nodes[order], ll[order], lp[order]
@@ -353,6 +360,7 @@ def recognise(
     obs: Observation,
     alpha_method: AlphaMethod = "ml",
     duration: float | None = None,
+    statistics: IncrementalStatistics | None = None,
 ) -> Recognition:
     """Recognise the primitive and its time modulation from an early observation.
 
@@ -372,6 +380,10 @@ def recognise(
         When the whole movement's duration is known (s; the evaluation's oracle row: how far
         a perfect estimate of the speed would take the method): every primitive is scored at
         the speed of that duration alone, and ``alpha_method`` is not used.
+    statistics : IncrementalStatistics, optional
+        For an observation that grows, what the likelihood kept of its first samples
+        (:mod:`promp.incremental`): the same recognition to round-off, at a cost that does not
+        grow with the observation's length.
 
     Returns
     -------
@@ -390,12 +402,12 @@ def recognise(
     if alpha_method not in ALPHA_METHODS:
         raise ValueError(f"alpha_method must be one of {ALPHA_METHODS}, got {alpha_method!r}")
     if duration is not None:
-        return _recognise_at(model, obs, float(duration))
+        return _recognise_at(model, obs, float(duration), statistics)
     nodes, tables, priors = [], [], []
     evidence = np.empty(len(model.primitives))
     for k, prim in enumerate(model.primitives):
         x, ll, lp, evidence[k] = _integrate(
-            model, prim, obs, alpha_prior(model, prim, obs, alpha_method)
+            model, prim, obs, alpha_prior(model, prim, obs, alpha_method), statistics
         )
         nodes.append(x)
         tables.append(ll)
@@ -429,7 +441,12 @@ def _recognition(
     )
 
 
-def _recognise_at(model: ProMPModel, obs: Observation, duration: float) -> Recognition:
+def _recognise_at(
+    model: ProMPModel,
+    obs: Observation,
+    duration: float,
+    statistics: IncrementalStatistics | None = None,
+) -> Recognition:
     """Every primitive scored at the speed of a known ``duration`` (seconds)."""
     if not math.isfinite(duration) or duration < obs.elapsed[-1] * (1.0 - 1e-9):
         raise ValueError(
@@ -439,7 +456,8 @@ def _recognise_at(model: ProMPModel, obs: Observation, duration: float) -> Recog
     alpha = alpha_from_duration(max(duration, float(obs.elapsed[-1])), model.sample_period,
                                 model.settings.s_bar)  # fmt: skip
     node = np.array([math.log(alpha)])
-    tables = [log_likelihoods(model, prim, obs, np.exp(node)) for prim in model.primitives]
+    tables = [log_likelihoods(model, prim, obs, np.exp(node), statistics)
+              for prim in model.primitives]  # fmt: skip
     evidence = np.array([float(t[0]) for t in tables])
     zeros = [np.zeros(1) for _ in model.primitives]
     return _recognition(model, [node] * len(tables), tables, zeros, evidence, "duration given")

@@ -1,0 +1,120 @@
+"""promp.incremental: a growing observation inferred on with its IncrementalStatistics gives
+what promp.pipeline.infer gives on the same samples from scratch, within 1e-9, on the three
+shared sets (and a faulty copy) at many prefixes."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from promp.datasets import RECORD_COLUMNS, guess_layout, load_records_dataset
+from promp.incremental import IncrementalStatistics
+from promp.inference import Observation
+from promp.learn import fit
+from promp.pipeline import infer
+from tests.conftest import SHARED_DATA
+from tests.faults import inject
+
+CLOSE = {"rtol": 0.0, "atol": 1e-9}
+LAYOUT = guess_layout(RECORD_COLUMNS[1:])
+
+
+def same(online, offline) -> None:
+    """The published numbers within 1e-9; the log-likelihoods (up to ~1e4 nats, sums of
+    thousands of terms in another order) to 1e-11 of their size."""
+    assert online.recognition.index == offline.recognition.index
+    assert_allclose(online.probabilities, offline.probabilities, **CLOSE)
+    assert_allclose(online.recognition.log_evidence, offline.recognition.log_evidence,
+                    rtol=1e-11, atol=1e-9)  # fmt: skip
+    for a, b in zip(online.recognition.log_likelihoods, offline.recognition.log_likelihoods,
+                    strict=True):  # fmt: skip
+        assert_allclose(a, b, rtol=1e-11, atol=1e-9)
+    assert_allclose(online.alpha, offline.alpha, **CLOSE)
+    assert_allclose(online.posterior.mean, offline.posterior.mean, **CLOSE)
+
+
+def grow(model, demo, step: int, statistics: IncrementalStatistics) -> int:
+    """Infer on every ``step``-th prefix of ``demo`` with ``statistics``; compare each with
+    the inference from scratch. Returns the number of prefixes."""
+    times, values = demo.times - demo.times[0], LAYOUT.extract(demo)
+    lengths = list(range(3, times.shape[0], step)) + [times.shape[0]]
+    for n in lengths:
+        obs = Observation(times[:n], values[:n], LAYOUT.names)
+        same(infer(model, obs, statistics=statistics), infer(model, obs))
+    return len(lengths)
+
+
+@pytest.fixture(scope="module", params=["lab-records-heights", "lab-records-flt",
+                                        "lab-records-flt-shapes"])  # fmt: skip
+def shared(request):
+    dataset = load_records_dataset(SHARED_DATA / request.param)
+    return dataset, fit(dataset, LAYOUT)
+
+
+def test_a_growing_movement_is_inferred_as_from_scratch(shared) -> None:
+    dataset, model = shared
+    for klass in list(dataset)[:2]:
+        demo = dataset[klass][len(dataset[klass]) // 2]
+        statistics = IncrementalStatistics()
+        step = max(demo.times.shape[0] // 25, 1)
+        assert grow(model, demo, step, statistics) > 20
+        assert statistics.n_observed == demo.times.shape[0]
+        assert len(statistics) > 0  # it kept sums: the path under test is the incremental one
+
+
+def test_a_faulty_copy_is_inferred_as_from_scratch() -> None:
+    """The faulty demonstrations (still 22 s, a 20 s timestamp gap, 3x slower than any):
+    long observations, out of the speed prior, where recognition's nodes move each update."""
+    clean = load_records_dataset(SHARED_DATA / "lab-records-flt")
+    dataset, _ = inject(clean, LAYOUT, seed=0)
+    model = fit(clean, LAYOUT)
+    for demo in dataset[next(iter(dataset))][-3:]:  # the three added (inject's order)
+        grow(model, demo, max(demo.times.shape[0] // 12, 1), IncrementalStatistics())
+
+
+def test_another_observation_starts_again(shared) -> None:
+    """Statistics given an observation that does not extend the one they saw forget it: the
+    inference is still the one from scratch (a wrong one costs time, never a wrong number)."""
+    dataset, model = shared
+    first, second = (d for ds in list(dataset.values())[:2] for d in ds[:1])
+    statistics = IncrementalStatistics()
+    for demo in (first, second, first):
+        times, values = demo.times - demo.times[0], LAYOUT.extract(demo)
+        n = times.shape[0] // 2
+        obs = Observation(times[:n], values[:n], LAYOUT.names)
+        same(infer(model, obs, statistics=statistics), infer(model, obs))
+        assert statistics.n_observed == n
+    # a shorter prefix of the one seen: its first samples, the sums kept of them reused or not
+    obs = Observation(times[:n - 5], values[:n - 5], LAYOUT.names)
+    same(infer(model, obs, statistics=statistics), infer(model, obs))
+
+
+def test_threads_sharing_one_statistics_get_the_numbers_from_scratch(shared) -> None:
+    dataset, model = shared
+    demo = next(iter(dataset.values()))[0]
+    times, values = demo.times - demo.times[0], LAYOUT.extract(demo)
+    lengths = np.linspace(5, times.shape[0], 8).astype(int).tolist()
+    expected = {n: infer(model, Observation(times[:n], values[:n], LAYOUT.names))
+                for n in lengths}  # fmt: skip
+    statistics = IncrementalStatistics()
+    failures: list[BaseException] = []
+
+    def worker(order: list[int]) -> None:
+        try:
+            for n in order:
+                obs = Observation(times[:n], values[:n], LAYOUT.names)
+                same(infer(model, obs, statistics=statistics), expected[n])
+        except BaseException as error:  # noqa: BLE001 - reported by the main thread
+            failures.append(error)
+
+    threads = [threading.Thread(target=worker, args=(order,))
+               for order in (lengths, lengths[::-1], lengths[1::2] + lengths[::2])]  # fmt: skip
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=600)
+    assert not any(thread.is_alive() for thread in threads)
+    assert not failures, failures[0]
