@@ -436,6 +436,7 @@ def test_scrub_from_python_and_bad_replay(studio, monkeypatch) -> None:
         panel.ctx, notify=lambda title, body, color="blue": notes.append(title)
     )
     monkeypatch.setattr(panel, "ctx", quiet)
+    monkeypatch.setattr(panel.playback, "ctx", quiet)  # the replay's section says it
     panel.controls.source.value = LIVE
     wait_until(lambda: panel.view.result is None and "nothing observed" in panel.view.message,
                timeout=30)  # fmt: skip
