@@ -174,6 +174,7 @@ class Studio:
             guard_upload=guard_upload,
             open_in_infer=self.open_in_infer,
             wait_for_model=session.wait_for_model,
+            inference_layer=self.scene.inference if panel == INFER else None,
         )
 
     def _build_panels(self) -> list[Panel]:

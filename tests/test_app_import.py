@@ -184,10 +184,10 @@ def test_the_lab_recordings_on_the_icub(browser, page, studio, heights_dir, arti
     controls.session_mode.value = "faded"
     screenshot(page, artifacts / "infer_lab_records.png")
     click(page, "Play")
-    wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
+    wait_until(lambda: panel.playback.replay.finished, timeout=60, what="the end of the replay")
     # The path replayed is the scrubbed prediction (the latest scrub's, should the loop have
     # scrubbed again meanwhile), and the arm reached its end through IK.
-    played = panel.replay.positions
+    played = panel.playback.replay.positions
     assert_allclose(played, panel.view.result.future.hand)
     assert np.linalg.norm(studio.arm.hand_position() - played[-1]) < 0.005
 

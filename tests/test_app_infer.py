@@ -436,6 +436,7 @@ def test_scrub_from_python_and_bad_replay(studio, monkeypatch) -> None:
         panel.ctx, notify=lambda title, body, color="blue": notes.append(title)
     )
     monkeypatch.setattr(panel, "ctx", quiet)
+    monkeypatch.setattr(panel.playback, "ctx", quiet)  # the replay's section says it
     panel.controls.source.value = LIVE
     wait_until(lambda: panel.view.result is None and "nothing observed" in panel.view.message,
                timeout=30)  # fmt: skip
@@ -660,7 +661,7 @@ class ArmSampler:
 
         def run() -> None:
             while not self._stop.is_set():
-                replay = panel.replay
+                replay = panel.playback.replay
                 self.samples.append(
                     (time.monotonic(), studio.arm.q.copy(), replay.progress, replay.playing)
                 )
@@ -690,34 +691,35 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
     # Pause and resume, on a clock the test moves: how far the replay gets between two clicks
     # must not depend on how busy the machine is.
     clock = ManualClock()
-    panel.replay.clock = clock
+    panel.playback.replay.clock = clock
     try:
         button("Play")
-        wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to start")
+        wait_until(lambda: panel.playback.replay.playing, timeout=30, what="the replay to start")
         clock.now += 0.3 * result.inference.remaining
-        wait_until(lambda: panel.replay.progress > 0.0, timeout=30, what="the replay to advance")
+        wait_until(lambda: panel.playback.replay.progress > 0.0, timeout=30,
+                   what="the replay to advance")
         button("Pause")
-        wait_until(lambda: not panel.replay.playing, timeout=30, what="the pause")
-        assert 0.25 <= panel.replay.progress <= 0.35, "paused where the clock was"
+        wait_until(lambda: not panel.playback.replay.playing, timeout=30, what="the pause")
+        assert 0.25 <= panel.playback.replay.progress <= 0.35, "paused where the clock was"
         q_paused = studio.arm.q.copy()
         clock.now += result.inference.remaining  # time passes while paused: the arm stays
         wait_frames(studio, 5)  # the loop steps the replay every frame: a paused one moves not
         assert_allclose(studio.arm.q, q_paused)
-        assert panel.replay.progress <= 0.35
+        assert panel.playback.replay.progress <= 0.35
         button("Play")
-        wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to resume")
+        wait_until(lambda: panel.playback.replay.playing, timeout=30, what="the replay to resume")
         clock.now += result.inference.remaining
-        wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
+        wait_until(lambda: panel.playback.replay.finished, timeout=60, what="the end of the replay")
     finally:
-        panel.replay.clock = time.monotonic
+        panel.playback.replay.clock = time.monotonic
     # Then in real time, from the start.
     button("Reset")
-    wait_until(lambda: panel.replay.progress == 0.0, timeout=30, what="the rewind")
+    wait_until(lambda: panel.playback.replay.progress == 0.0, timeout=30, what="the rewind")
     sampler = ArmSampler(studio, panel)
     try:
         button("Play")
-        wait_until(lambda: panel.replay.playing, timeout=30, what="the replay to start")
-        wait_until(lambda: panel.replay.finished, timeout=60, what="the end of the replay")
+        wait_until(lambda: panel.playback.replay.playing, timeout=30, what="the replay to start")
+        wait_until(lambda: panel.playback.replay.finished, timeout=60, what="the end of the replay")
     finally:
         sampler.stop()
     playing = [s for s in sampler.samples if s[3]]
@@ -739,7 +741,7 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
         lambda: np.linalg.norm(studio.arm.hand_position() - result.future.hand[0]) < 0.01,
         timeout=30, what="the hand back at the observation point",
     )  # fmt: skip
-    assert panel.replay.progress == 0.0 and not panel.replay.playing
+    assert panel.playback.replay.progress == 0.0 and not panel.playback.replay.playing
 
 
 @pytest.mark.browser
@@ -756,7 +758,8 @@ def test_infer_view_screenshot(browser, studio, page, artifacts) -> None:
     wait_until(lambda: 42 <= controls.percent.value <= 48, timeout=30, what="the slider at 45 %")
     result = wait_scrubbed(panel)
     assert result.truth.name == "curved_002"
-    studio.loop.call(lambda: panel.replay.reset())  # the robot's hand at the observation point
+    # the robot's hand at the observation point
+    studio.loop.call(lambda: panel.playback.replay.reset())
     camera = dict(position=[-0.9, -0.45, 0.9], look_at=[-0.22, -0.15, 0.05], fov_deg=42.0)
     set_camera(client, **camera)
     with_tube = settled_render(client)

@@ -200,14 +200,14 @@ def test_scrubbing_after_a_replay_moves_the_arm_with_the_prediction(studio, page
     controls.percent.value = 20
     early = wait_until(lambda: shown_at(20), timeout=120, what="the inference at 20 %")
     clock = ManualClock()
-    infer.replay.clock = clock
+    infer.playback.replay.clock = clock
     try:
         press(page, page.get_by_role("button", name="Play", exact=True))
-        wait_until(lambda: infer.replay.playing, what="the replay to start")
+        wait_until(lambda: infer.playback.replay.playing, what="the replay to start")
         clock.now += 2 * early.inference.remaining
-        wait_until(lambda: infer.replay.finished, timeout=60, what="the end of the replay")
+        wait_until(lambda: infer.playback.replay.finished, timeout=60, what="the end of the replay")
     finally:
-        infer.replay.clock = time.monotonic
+        infer.playback.replay.clock = time.monotonic
     assert np.linalg.norm(studio.arm.hand_position() - early.future.hand[-1]) < 0.01
     # The slider moves the prediction: the arm, held by the replay, goes to its new start.
     slider = page.locator(f"[id='{controls.percent._impl.uuid}']")

@@ -58,7 +58,7 @@ def test_the_checks_give_both_spans() -> None:
 def test_the_teach_list_gives_both_spans(tmp_path) -> None:
     import viser
 
-    from app.core.learner import LearnerState
+    from app.core.learner_state import LearnerState
     from app.core.snapshot import Snapshot
     from app.core.store import Store
     from app.core.view_state import ViewState

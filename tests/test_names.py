@@ -109,7 +109,7 @@ def test_the_teach_list_is_in_order_newest_first(tmp_path: Path) -> None:
     (the list is newest first), never record9 ... record2, record13, ..., record1, record0."""
     import viser
 
-    from app.core.learner import LearnerState
+    from app.core.learner_state import LearnerState
     from app.core.snapshot import Snapshot
     from app.core.store import Store
     from app.core.view_state import ViewState

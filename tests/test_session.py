@@ -385,6 +385,43 @@ def test_refits_run_in_the_background_and_only_the_latest_is_adopted(session, mo
     session.close()
 
 
+def test_a_held_out_model_is_fitted_with_the_settings_its_refit_resolved(session, monkeypatch):
+    """The automatic settings are resolved once per refit (the learner's state holds them, the
+    snapshot hands them on); a held-out model asked for while the refit of the latest change
+    runs waits for it, then is fitted with the settings that refit resolved."""
+    learned = session.wait_for_model()
+    resolved = session.learner.state.settings
+    assert not resolved.automatic and resolved.n_basis == learned.settings.n_basis
+    assert session.snapshot().resolved_settings() is resolved  # not resolved again
+    fits, store = session.learner.fits, session.store
+    real, trained = fits.fit, []
+    started, release = threading.Event(), threading.Event()
+
+    def gated(training, reuse=True):
+        if not started.is_set():  # the refit of the change below, held until released
+            started.set()
+            release.wait(60)
+        trained.append(training.settings)
+        return real(training, reuse)
+
+    monkeypatch.setattr(fits, "fit", gated)
+    store.set_learning(9, 1.2)
+    assert started.wait(60), "the refit did not start"
+    snapshot = session.snapshot()
+    assert snapshot.refitting and snapshot.learner.settings is resolved
+    assert snapshot.resolved_settings().n_basis == 9  # the store's, while the refit runs
+    assert session.learner.held_out(store.state, "curved", "curved_003") is None  # it waits
+    release.set()
+    session.wait_for_model()
+    assert session.learner.state.settings.n_basis == 9
+    fitted = wait_until(lambda: session.learner.held_out(store.state, "curved", "curved_003"),
+                        timeout=120, what="the held-out model")  # fmt: skip
+    assert fitted.model is not None and fitted.model.basis.n_basis == 9
+    assert [s.n_basis for s in trained] == [9, 9]  # the refit, then the held-out model
+    assert trained[1] is session.learner.state.settings
+    np.testing.assert_allclose(fitted.model.basis.width, 1.2)
+
+
 def _with_a_gap(demo, name: str):
     """``demo`` with a 20 s pause of the timestamps after its middle sample."""
     from promp.data import Demonstration

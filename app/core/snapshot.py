@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from types import MappingProxyType
 
-from app.core.learner import LearnerState, resolved_settings
+from app.core.learner_state import LearnerState, resolved_settings
 from app.core.store_state import Key, StoreState
 from app.core.view_state import ImportedModel, ViewState
 from promp.data import Demonstration
@@ -91,5 +91,10 @@ class Snapshot:
 
     def resolved_settings(self) -> Settings:
         """The learning settings with every automatic one at the value the model chose
-        (:func:`app.core.learner.resolved_settings`)."""
-        return resolved_settings(self.store, self.learner.model)
+        (:func:`app.core.learner_state.resolved_settings`): the learner's, resolved once per refit
+        (:attr:`LearnerState.settings`), resolved here only while the model does not yet
+        answer the latest change."""
+        settings, store = self.learner.settings, self.store
+        if settings is None or self.refitting:
+            settings = resolved_settings(store.learning_settings(), store.layout, self.model)
+        return settings

@@ -290,7 +290,8 @@ def choose_model(state: InferState, snapshot: Snapshot, learner: Learner) -> Mod
         return ModelChoice(None, message=f"learning a model without {state.demo} (held out)...")
     if fitted.model is None:
         return ModelChoice(None, message=fitted.error or "no model")
-    origin = ("held out", snapshot.store.learn_version, repr(snapshot.resolved_settings()))
+    # the settings the learner resolved once for this version (held_out waited for them)
+    origin = ("held out", snapshot.store.learn_version, repr(snapshot.learner.settings))
     return ModelChoice(
         fitted.model, f"learned without {state.demo} (held out)", origin,
         0.0 if fitted.reused else fitted.ms,

@@ -8,7 +8,9 @@ inference (:mod:`app.scene.inference_layer`) and Teach's start pose
 for (:class:`app.scene.look.Shown`), redraws what changed since the frame it drew last (the
 inputs are immutable: compared by identity) and applies the look of the panel in use
 (:func:`look`, pure; the panels and options are named in :mod:`app.scene.look`) once. Panels
-never touch the nodes. Everything runs on the studio's loop thread except
+never touch the nodes; the Infer panel alone hands its result to the Infer layer
+(:meth:`app.scene.inference_layer.InferenceLayer.draw`, which says what it draws), which the
+look then shows or hides. Everything runs on the studio's loop thread except
 :meth:`SceneView.use_panel`, which only records. The robot (:mod:`app.scene.robot`) is drawn
 unless the workspace's hand stays in its own frame (:attr:`app.io.hand_frame.HandFrame.own`).
 """
@@ -120,15 +122,14 @@ class SceneView:
 
     def draw(self, snapshot: Snapshot, head: np.ndarray | None, shown: Shown) -> Look:
         """Draw one frame: ``snapshot``'s workspace, the partner's ``head`` angles and what
-        the panels asked for; returns the look applied."""
+        the panels asked for; returns the look applied. The Infer layer's shape is the Infer
+        panel's to give (it draws its result there, :meth:`InferenceLayer.draw`): here it is
+        only shown or hidden."""
         self._draw_workspace(snapshot)
         if self.robot is not None:
             self.robot.show(snapshot.store.frame.robot_shown)
         self.partner.orient(head)
         inference, style = shown.inference or NOTHING_INFERRED, snapshot.view.tube_style
-        wanted = inference.result if inference.in_3d else None
-        if not self.inference.drawn.shows(wanted, inference.color, style):
-            self.inference.draw(wanted, inference.color, style)
         start = shown.start
         self.start.place(None if start is None else start.position,
                          NO_COLOR if start is None else start.color)  # fmt: skip

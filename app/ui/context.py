@@ -27,6 +27,7 @@ from app.core.store import Store
 from app.core.view_state import View
 from app.live.head import HeadInput
 from app.scene.arm import ArmController
+from app.scene.inference_layer import InferenceLayer
 from app.scene.look import TEACH, Shown
 from app.ui.callback_guard import HOOKS, GuardedGui
 from app.ui.upload_guard import Refused, UploadGuard
@@ -161,6 +162,10 @@ class PanelContext:
     wait_for_model : callable
         ``wait_for_model()``: the model of the workspace as it is now, once learned
         (:meth:`app.core.session.Session.wait_for_model`; e.g. the exports).
+    inference_layer : InferenceLayer or None
+        The 3D view's Infer layer, where the Infer panel draws its result (its
+        :attr:`~app.scene.inference_layer.InferenceLayer.drawn` says what is drawn; the scene
+        shows or hides it); None for every other panel.
     """
 
     gui: PanelGui
@@ -174,6 +179,7 @@ class PanelContext:
     guard_upload: Callable[[viser.GuiUploadButtonHandle, int, Refused], UploadGuard]
     open_in_infer: Callable[[InferRequest, viser.ClientHandle | None], None]
     wait_for_model: Callable[[], ProMPModel | None]
+    inference_layer: InferenceLayer | None = None
 
     def hand_and_head(self, t: float) -> tuple[np.ndarray, np.ndarray | None]:
         """The hand position (3,) and the head angles (3,) or None at monotonic time ``t``

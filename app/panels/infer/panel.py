@@ -6,14 +6,16 @@ alpha method, and scrubs the observed percentage. Everything follows the slider:
 tube, the predicted future path and its end point (drawn by the scene), the probability of each
 primitive, the predicted and true durations, the errors (:mod:`app.panels.infer.readout`), and
 the per-dimension charts. "Play" then lets the robot finish the
-movement (:mod:`app.live.replay`).
+movement (:mod:`app.panels.infer.replay_section`).
 
 The panel is a view: at every frame :meth:`InferPanel.step` reads its controls into an
 :class:`~app.panels.infer.controls.InferState`, and when that state, the workspace, the model
 or the live samples changed since the view it shows, computes the new one
 (:func:`app.live.inference.compute`, pure), writes it to its controls and measures that
-server-side time (shown in the tab); it returns the inference for the scene to draw. Button
-callbacks only record the press.
+server-side time (shown in the tab). It hands the inference to the scene's Infer layer
+(:class:`app.scene.inference_layer.InferenceLayer`, which says what it draws) itself, and
+returns only its display options (:class:`app.scene.look.InferenceShown`) and via-points for
+the scene's look. Button callbacks only record the press.
 
 The Data tab's "Open in Infer" comes through the studio as :meth:`InferPanel.open`: a test
 demonstration at one percentage, modalities and alpha method (an evaluation's failed trial).
@@ -32,7 +34,6 @@ from dataclasses import dataclass, field
 
 from app.core.snapshot import Snapshot
 from app.live.inference import InferState, InferView, ModelChoice, choose_model, compute
-from app.live.replay import Phase, Replay
 from app.live.stream import LiveStream, StreamSamples
 from app.panels.infer.controls import InferControls, build_display, build_observation
 from app.panels.infer.readout import (
@@ -43,6 +44,7 @@ from app.panels.infer.readout import (
     status_html,
 )
 from app.panels.infer.recognition import LIVE_NOTE, TITLE, X_RANGE, RecognitionChart
+from app.panels.infer.replay_section import ReplaySection
 from app.panels.infer.shaping import InferShaping
 from app.scene.inference_layer import DEFAULT_COLOR
 from app.scene.look import INFER, InferenceShown, Shown
@@ -105,7 +107,6 @@ class InferPanel:
     def __init__(self, ctx: PanelContext) -> None:
         self.ctx = ctx
         self.live = LiveStream()
-        self.replay = Replay(ctx.arm.move_hand_to)
         self.view: InferView | None = None
         self.steps = StepTimes()
         self._inputs: tuple = ()  # what the shown view was computed from
@@ -125,6 +126,7 @@ class InferPanel:
         self.charts = InferCharts(ctx, gui.add_folder("Charts", expand_by_default=True), layout)
         self.controls = InferControls(**handles, **build_display(gui, ctx.view))
         c = self.controls
+        self.playback = ReplaySection(ctx, c.replay_bar)
         c.live_button.on_click(lambda _: self._pressed.append("live"))
         c.live_clear.on_click(lambda _: self._pressed.append("clear"))
         c.replay_buttons.on_click(lambda event: self._pressed.append(str(event.target.value)))
@@ -152,13 +154,15 @@ class InferPanel:
         ):
             self._inputs = inputs
             self._show(frame, state, choice, samples)
-        if self.replay.phase is not Phase.IDLE and self.ctx.arm.dragging:
-            self.replay.release()  # the user took the hand
-        if self.replay.step():
-            self.controls.replay_bar.value = 100.0 * self.replay.progress
+        self.playback.step()
         self.recognition.show(state.percent)
-        vias = self.shaping.step(snapshot, self.view, self._shown.color)
-        return Shown(inference=self._shown, vias=(vias,))
+        shown, style = self._shown, snapshot.view.tube_style
+        drawn = shown.result if shown.in_3d else None
+        layer = self.ctx.inference_layer  # the one that says what it draws (.drawn)
+        if not layer.drawn.shows(drawn, shown.color, style):
+            layer.draw(drawn, shown.color, style)
+        vias = self.shaping.step(snapshot, self.view, shown.color)
+        return Shown(inference=shown, vias=(vias,))
 
     def _show(self, frame: Frame, state: InferState, choice: ModelChoice, samples) -> None:
         """Compute the view of ``state`` and write it; time it."""
@@ -181,7 +185,7 @@ class InferPanel:
                 self.charts.draw(result, view.movement, color)
             else:
                 c.probabilities.content = ""
-            self._load_replay(result)
+            self.playback.load(result)
             self.steps.add(1e3 * (time.perf_counter() - start))
             timing = self.steps.text(view.model.fit_ms)
             truth = None if state.live else state.primitive
@@ -191,7 +195,7 @@ class InferPanel:
             )  # fmt: skip
         self._shown = InferenceShown(result, color, state.show_3d, state.priors)
 
-    # ------------------------------------------------------------------ live stream, replay
+    # ------------------------------------------------------------------ buttons, live stream
 
     def _run_pressed(self, state: InferState) -> None:
         pressed, self._pressed = self._pressed, []
@@ -201,12 +205,14 @@ class InferPanel:
             elif button == "clear":
                 self.live.clear()
             else:
-                self._replay(button)
+                if button == "Play" and self.live.observing:
+                    self.set_observing(False)  # the replay moves the hand: stop recording it
+                self.playback.press(button)
 
     def set_observing(self, on: bool) -> None:
         """Start (from an empty buffer) or stop observing the live stream."""
         if on:
-            self.replay.release()
+            self.playback.replay.release()
             self.live.start()
         else:
             self.live.stop()
@@ -221,28 +227,6 @@ class InferPanel:
                             f"The live buffer is full ({self.live.max_seconds:.0f} s).",
                             color="yellow")  # fmt: skip
         return self.live.shown(time.monotonic()) if state.live else None
-
-    def _replay(self, command: str) -> None:
-        try:
-            if command == "Play":
-                if self.live.observing:
-                    self.set_observing(False)  # the replay moves the hand: stop recording it
-                self.replay.play()
-            elif command == "Pause":
-                self.replay.pause()
-            elif command == "Reset":
-                self.replay.reset()
-        except ValueError as exc:
-            self.ctx.notify("Nothing to replay", str(exc), color="yellow")
-        self.controls.replay_bar.value = 100.0 * self.replay.progress
-
-    def _load_replay(self, result) -> None:
-        future = result.future if result is not None else None
-        if future is None or result.inference.remaining < 1e-3:
-            self.replay.clear()
-        else:
-            self.replay.load(future.times - future.times[0], future.hand)
-        self.controls.replay_bar.value = 100.0 * self.replay.progress
 
     # ------------------------------------------------------------------ between panels
 
