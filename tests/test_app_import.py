@@ -147,7 +147,7 @@ def test_the_lab_recordings_on_the_icub(browser, page, studio, heights_dir, arti
     # The priors are around the iCub's hand: their means start within a few cm of it.
     hand = studio.arm.hand_position()
     for name in view.workspace.tubes:
-        start = view.workspace.prior_tube(studio.session.snapshot().model, name)[0][0]
+        start = view.workspace.prior_tube(studio.session.snapshot().model, name).mean[0]
         assert np.linalg.norm(start - hand) < 0.08, (name, start, hand)
 
     open_tab(page, "Teach")
