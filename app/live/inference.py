@@ -40,6 +40,7 @@ from robots.icub.layout import hand_dims
 TUBE_POINTS = 100  # rings of the posterior tube (fixed mesh topology)
 PATH_POINTS = 60  # samples of the predicted future hand path
 TEST, LIVE = "Test demonstration", "Live stream"  # what is observed
+LSL = "Live streams (LSL)"  # a lab's sensors (app.live.lsl_source)
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,6 +115,18 @@ def inferred(
         than every candidate duration.
     """
     inference = infer(model, observation, alpha_method, n_points=TUBE_POINTS, truth=truth)
+    return completed(model, observation, inference, truth)
+
+
+def completed(
+    model: ProMPModel,
+    observation: Observation,
+    inference: Inference,
+    truth: Demonstration | None = None,
+) -> Inferred:
+    """What only the studio draws, added to ``inference`` of ``observation`` (on
+    ``TUBE_POINTS`` phases): :func:`inferred`'s, and a live session's
+    (:mod:`app.live.lsl_view`)."""
     return Inferred(model, observation, inference, truth, future_path(model, inference))
 
 
@@ -165,7 +178,12 @@ class InferState:
 
     @property
     def live(self) -> bool:
-        return self.source == LIVE
+        """Observed as it happens (the dragged hand, or the LSL streams)."""
+        return self.source in (LIVE, LSL)
+
+    @property
+    def lsl(self) -> bool:
+        return self.source == LSL
 
 
 @dataclass(frozen=True)
@@ -218,8 +236,9 @@ class InferView:
     model : ModelChoice
     curve : CurveRequest or None
         The recognition over the whole test demonstration (None for the live stream).
-    samples : StreamSamples or None
-        The live stream's samples it observed.
+    samples : StreamSamples, LslObserved or None
+        The live stream's samples it observed (the LSL source's latest prediction:
+        :class:`app.live.lsl_view.LslObserved`).
     """
 
     state: InferState
@@ -233,6 +252,8 @@ class InferView:
     def movement(self) -> tuple:
         """What is inspected: a test demonstration, or the live stream since its last clear
         (the charts' ranges grow while it stays the same)."""
+        if self.state.lsl:
+            return ("lsl", getattr(self.samples, "movement", None))
         if self.state.live:
             return ("live", self.samples.epoch if self.samples is not None else -1)
         return ("test", self.state.primitive, self.state.demo)
