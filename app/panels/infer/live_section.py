@@ -109,6 +109,7 @@ class LiveSection:
         self._pressed: list[str] = []
         self._edited = False  # the user typed a mapping: no guess over it
         self._found: tuple = ()
+        self._outputs: tuple[str, ...] = ()  # the studio's own streams, as listed
         self._refused = ""
         self._published: tuple[bool, str] | None = None  # what the outlets were set to
         self._observed = LslObserved(None, None)
@@ -219,11 +220,14 @@ class LiveSection:
 
     def _show_found(self) -> None:
         found = self.source.found()
-        if found == self._found and self.controls.streams.content:
+        if found == self._found and self.controls.streams.content and \
+                self._outputs == self.source.outlets.names:  # fmt: skip
             return
+        self._outputs = self.source.outlets.names
         self._found = found
         c = self.controls
-        html = streams_html(self.source.unavailable, found, self.source.available)
+        html = streams_html(self.source.unavailable, found, self.source.available,
+                            self.source.outlets.names)  # fmt: skip
         if c.streams.content != html:
             c.streams.content = html
         markers = tuple(selector_text(s, found) for s in found if s.is_markers) or (NONE,)

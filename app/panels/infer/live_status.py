@@ -24,21 +24,28 @@ CONDITION_COLORS = {
 EVENTS_SHOWN = 6
 
 
-def streams_html(unavailable: str, found: Sequence[StreamDescription], watching: bool) -> str:
-    """The streams on the network (name, type, rate, channels, host), or why LSL cannot be
-    used here and what to do."""
+def streams_html(unavailable: str, found: Sequence[StreamDescription], watching: bool,
+                 ours: Sequence[str] = ()) -> str:  # fmt: skip
+    """The streams on the network (name, type, rate, channel count; their labels and host on
+    hover; ``ours``, the studio's own outputs, greyed), or why LSL cannot be used here and
+    what to do."""
     if unavailable:
         return (f'<div style="{SMALL};color:{RED}"><b>The live source cannot be used here.</b> '
                 f"{escape_html(unavailable)}</div>")  # fmt: skip
     if not found:
         what = "Looking for LSL streams on the network..." if watching else ""
         return f'<div style="{SMALL};color:{GREY}">{what or "No stream found."}</div>'
-    cells = "".join(
-        "<tr>" + "".join(f'<td style="padding:0 6px 0 0">{escape_html(v)}</td>' for v in row)
-        + "</tr>" for row in stream_table(found)
-    )  # fmt: skip
+    rows = []
+    for name, kind, rate, channels, host in stream_table(found):
+        count, _, labels = channels.partition(" (")
+        title = escape_html(f"{name} on {host}" + (f": {labels.rstrip(')')}" if labels else ""))
+        style = f"color:{GREY}" if name in ours else ""
+        cells = "".join(f'<td style="padding:0 6px 0 0;word-break:break-all">{escape_html(v)}'
+                        "</td>" for v in (name, kind, rate, count))  # fmt: skip
+        rows.append(f'<tr title="{title}" style="{style}">{cells}</tr>')
+    cells = "".join(rows)
     head = "".join(f'<th style="text-align:left;padding:0 6px 0 0">{h}</th>'
-                   for h in ("stream", "type", "rate", "channels", "host"))  # fmt: skip
+                   for h in ("stream", "type", "rate", "channels"))  # fmt: skip
     return (f'<div style="{SMALL}"><b>{len(found)} stream(s) on the network</b>'
             f'<table data-streams="{len(found)}" style="border-collapse:collapse;width:100%">'
             f"<tr>{head}</tr>{cells}</table></div>")  # fmt: skip
