@@ -193,3 +193,13 @@ def flt_workspace(root, per_class: int = 6, modalities: str = "hand=x,y,z", sett
                          {"n_basis": 7, "width": 1.0, "noise_scale": 1.5})  # fmt: skip
     Workspace.create(root, data)
     return root
+
+
+def offset_in(values: np.ndarray, run: np.ndarray) -> int:
+    """Where ``run`` (n, k) lies in ``values`` (m, k): the offset of the best match (a take's
+    rows among those pushed; still stretches match anywhere within themselves)."""
+    n = run.shape[0]
+    if n > values.shape[0]:
+        raise ValueError(f"a run of {n} rows cannot lie in {values.shape[0]}")
+    errors = [np.abs(values[i:i + n] - run).max() for i in range(values.shape[0] - n + 1)]
+    return int(np.argmin(errors))
