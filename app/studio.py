@@ -28,6 +28,7 @@ from app.io.workspace import FolderKind, WorkspaceData, inspect_folder
 from app.io.workspace_index import PALETTE, PrimitiveEntry
 from app.live.frame_loop import FrameLoop
 from app.live.head import HeadInput, HeadSource, SimulatedPartner, StreamHeadSource
+from app.live.lsl_source import LslSource
 from app.panels.data import DataPanel
 from app.panels.infer import InferPanel
 from app.panels.teach import TeachPanel
@@ -91,6 +92,7 @@ class Studio:
         # The latest notifications (title, body, color), newest last: what the studio said.
         self.notices: collections.deque[tuple[str, str, str]] = collections.deque(maxlen=256)
         self.loop = FrameLoop(self._frame, self._frame_failed)
+        self.live = LslSource()  # the live source over LSL, shared by Infer and Teach
 
     @property
     def port(self) -> int:
@@ -175,6 +177,7 @@ class Studio:
             open_in_infer=self.open_in_infer,
             wait_for_model=session.wait_for_model,
             inference_layer=self.scene.inference if panel == INFER else None,
+            live=self.live,
         )
 
     def _build_panels(self) -> list[Panel]:
@@ -277,6 +280,7 @@ class Studio:
 
     def stop(self) -> None:
         self.loop.stop()
+        self.live.close()
         for panel in self.panels:
             panel.close()
         self.head.close()

@@ -7,9 +7,11 @@ goals), resampled at 250 Hz, one after the other (shuffled, seed 0) with 0.3 s o
 sample held between them, for ``--seconds``. The stream ``BenchMocap`` carries 15 channels: the
 hand in millimetres (converted by the predictor's mapping ``@mm``), the haptic device's
 position (m), the force (N), the moment (N m), and three channels the model does not use (a
-second marker: the hand 5 cm aside, m). The model is learned over the four modalities (12
-dimensions) from the same set. The marker stream ``BenchMarkers`` says ``start CLASS`` and
-``end CLASS`` at each movement's first and last sample (``--start marker``).
+second marker: the hand 5 cm aside, m; its name ends with this run's id, as do the others',
+so that benches running beside each other do not feed each other). The model is learned over
+the four modalities (12 dimensions) from the same set. The marker stream ``BenchMarkers``
+says ``start CLASS`` and ``end CLASS`` at each movement's first and last sample (``--start
+marker``).
 
 Measured, from this process's pushes and what its inlets receive (one machine, one
 ``local_clock``):
@@ -33,9 +35,9 @@ another matter: its likely speeds move with every sample).
 Targets on this 2-core machine: p99 <= 50 ms, >= 30 predictions/s, 0 dropped, agreement 1.0.
 Every LSL stream stays on the loopback (``LSLAPICFG`` is ``tests/lsl_loopback.cfg``).
 
-The studio half: :func:`figures` takes what was pushed and the :class:`Published` predictions,
-wherever they came out; :func:`headless` is the headless predictor's source of them, and a
-function reading the studio's snapshots the same way would measure the studio.
+The studio half is ``bench/live_studio.py``: the same replay into the headless predictor and
+into the studio's live source in one run (:func:`figures` takes what was pushed and the
+:class:`Published` predictions, wherever they came out).
 
 Run: ``.venv/bin/python bench/live.py [--seconds 60] [--slow 7]``. The last line is one JSON object.
 """
@@ -85,10 +87,14 @@ LAYOUT = Layout((
 LABELS = ("hand_x", "hand_y", "hand_z", "device_x", "device_y", "device_z", "fx", "fy", "fz",
           "mx", "my", "mz", "second_x", "second_y", "second_z")  # fmt: skip
 UNITS = ("mm",) * 3 + ("m",) * 3 + ("N",) * 3 + ("Nm",) * 3 + ("m",) * 3
-INPUTS = ("hand=BenchMocap:hand_x,hand_y,hand_z@mm", "device=BenchMocap:3,4,5",
-          "force=BenchMocap:fx,fy,fz", "moment=BenchMocap:mx,my,mz")  # fmt: skip
+# Names of this run: a bench running beside (another worktree's) must not feed this one.
+RUN = os.environ.setdefault("BENCH_LIVE_RUN", str(os.getpid()))  # its children share it
+MOCAP, MARKERS = f"BenchMocap-{RUN}", f"BenchMarkers-{RUN}"
+INPUTS = (f"hand={MOCAP}:hand_x,hand_y,hand_z@mm", f"device={MOCAP}:3,4,5",
+          f"force={MOCAP}:fx,fy,fz", f"moment={MOCAP}:mx,my,mz")  # fmt: skip
 SCALE = np.array([1e-3] * 3 + [1.0] * 9)  # what the mapping converts the 12 used channels by
-OUT = "bench"
+OUT = f"bench-{RUN}"
+STARTUP_S = 180.0  # a predictor starting on a loaded 2-core machine (imports, the model)
 
 
 @dataclass(eq=False)
@@ -178,7 +184,7 @@ def replay(plan: Plan, outlet, markers) -> Pushed:
 
 
 def _read(name: str, into: dict, kind: str, stop: threading.Event, ready: threading.Event):
-    info = pylsl.resolve_byprop("name", name, 1, 180.0)  # a busy machine starts it slowly
+    info = pylsl.resolve_byprop("name", name, 1, STARTUP_S)  # a busy machine starts it slowly
     if not info:
         raise RuntimeError(f"the predictor's stream {name} did not appear")
     inlet = pylsl.StreamInlet(info[0], max_buflen=360, recover=False)
@@ -210,9 +216,18 @@ def headless(model_path: Path, log: Path) -> Iterator[dict]:
     command = [sys.executable, "-m", "promp.live", "--model", str(model_path),
                *(a for spec in INPUTS for a in ("--in", spec)), "--out", OUT,
                "--remainder", "hand", "--rate", "50", "--start", "marker", "--markers",
-               "BenchMarkers", "--lsl-config", str(LSL_CONFIG), "--status-every", "5"]  # fmt: skip
+               MARKERS, "--lsl-config", str(LSL_CONFIG), "--status-every", "5"]  # fmt: skip
     with open(log, "w") as out:
         process = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, cwd=REPO)
+    with predicting(process, OUT, log) as collected:
+        yield collected
+
+
+@contextmanager
+def predicting(process: subprocess.Popen, out: str, log: Path) -> Iterator[dict]:
+    """Read a predictor's streams ``out``-timing, -probabilities, -remainder; yields the dict
+    its predictions are collected into (by seq), then stops ``process`` with Ctrl-C; the last
+    JSON line of its ``log`` (its counts) is in ``collected['summary']`` afterwards."""
     collected: dict = {}
     stop = threading.Event()
     readers = []
@@ -220,11 +235,11 @@ def headless(model_path: Path, log: Path) -> Iterator[dict]:
         for kind in ("timing", "probabilities", "remainder"):
             ready = threading.Event()
             thread = threading.Thread(target=_read, daemon=True,
-                                      args=(f"{OUT}-{kind}", collected, kind, stop, ready))
+                                      args=(f"{out}-{kind}", collected, kind, stop, ready))
             thread.start()
             readers.append((thread, ready))
         for _, ready in readers:
-            if not ready.wait(240.0):
+            if not ready.wait(STARTUP_S + 30.0):
                 raise RuntimeError(f"the predictor's streams did not appear; see {log}")
         yield collected
         time.sleep(1.0)  # the last predictions on their way
@@ -232,13 +247,13 @@ def headless(model_path: Path, log: Path) -> Iterator[dict]:
         stop.set()
         process.send_signal(signal.SIGINT)
         try:
-            process.wait(timeout=60)
+            process.wait(timeout=120)
         except subprocess.TimeoutExpired:
             process.kill()  # its counts are then unknown: samples_dropped is null
             process.wait()
         lines = log.read_text().strip().splitlines()
-        collected["summary"] = json.loads(lines[-1]) if lines and lines[-1].startswith("{") \
-            else {}  # fmt: skip
+        collected["summary"] = next((json.loads(line) for line in reversed(lines)
+                                     if line.startswith("{")), {})  # fmt: skip
 
 
 def offline(model, pushed: Pushed, plan: Plan, p: Published) -> tuple[np.ndarray, np.ndarray]:
@@ -299,8 +314,8 @@ def figures(model, plan: Plan, pushed: Pushed, published: dict, summary: dict,
     for p in checked:
         got, expected = offline(model, pushed, plan, p)
         agree += got.shape == expected.shape and bool(np.all(np.abs(got - expected) <= TOLERANCE))
-    received = summary.get("received", {}).get("BenchMocap", 0)  # not the marker stream's
-    left_out = summary.get("left_out", {}).get("BenchMocap", 0)
+    received = summary.get("received", {}).get(MOCAP, 0)  # not the marker stream's
+    left_out = summary.get("left_out", {}).get(MOCAP, 0)
     return {
         "samples": int(pushed.stamps.size),
         "movements": len(plan.movements),
@@ -316,6 +331,20 @@ def figures(model, plan: Plan, pushed: Pushed, published: dict, summary: dict,
     }
 
 
+def bench_outlets():
+    """The outlets ``BenchMocap`` (15 labelled channels with their units) and
+    ``BenchMarkers``."""
+    info = pylsl.StreamInfo(MOCAP, "Mocap", len(LABELS), RATE_HZ, pylsl.cf_double64,
+                            MOCAP)  # fmt: skip
+    channels = info.desc().append_child("channels")
+    for label, unit in zip(LABELS, UNITS, strict=True):
+        c = channels.append_child("channel")
+        c.append_child_value("label", label)
+        c.append_child_value("unit", unit)
+    markers = pylsl.StreamInfo(MARKERS, "Markers", 1, 0, pylsl.cf_string, MARKERS)
+    return pylsl.StreamOutlet(info), pylsl.StreamOutlet(markers)
+
+
 def main(seconds: float = 60.0, check_every: int = 1, slow: float = 1.0) -> dict:
     if not slow >= 1.0:
         raise ValueError(f"--slow must be at least 1 (a stretch factor), got {slow}")
@@ -325,16 +354,7 @@ def main(seconds: float = 60.0, check_every: int = 1, slow: float = 1.0) -> dict
     with tempfile.TemporaryDirectory() as tmp:
         model_path = Path(tmp) / "model.json"
         save_model(model_path, model)
-        info = pylsl.StreamInfo("BenchMocap", "Mocap", len(LABELS), RATE_HZ, pylsl.cf_double64,
-                                "bench-mocap")  # fmt: skip
-        channels = info.desc().append_child("channels")
-        for label, unit in zip(LABELS, UNITS, strict=True):
-            c = channels.append_child("channel")
-            c.append_child_value("label", label)
-            c.append_child_value("unit", unit)
-        outlet = pylsl.StreamOutlet(info)
-        markers = pylsl.StreamOutlet(pylsl.StreamInfo("BenchMarkers", "Markers", 1, 0,
-                                                      pylsl.cf_string, "bench-markers"))
+        outlet, markers = bench_outlets()
         with headless(model_path, Path(tmp) / "predictor.log") as published:
             if not (outlet.wait_for_consumers(60.0) and markers.wait_for_consumers(60.0)):
                 raise RuntimeError("the predictor did not connect to the bench's streams")

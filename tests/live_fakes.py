@@ -175,3 +175,31 @@ def session_with(model, inputs, transport, **options):
     session.step()
     session.predictions = predictions
     return session
+
+
+def flt_workspace(root, per_class: int = 6, modalities: str = "hand=x,y,z", settings=None):
+    """A studio workspace at ``root`` of lab-records-flt's ``modalities``: each class's
+    demonstrations but its first (the one the tests replay), at most ``per_class``; learning
+    ``settings`` given (default: hand_model's, fast and deterministic)."""
+    from app.io.dataset_import import read_folder
+    from app.io.workspace import Workspace
+    from promp.datasets import parse_modalities
+    from tests.conftest import SHARED_DATA
+
+    flt_dataset()  # skips when absent
+    data, _ = read_folder(SHARED_DATA / "lab-records-flt", "records", parse_modalities(modalities))
+    data.demos = {name: demos[1:per_class + 1] for name, demos in data.demos.items()}
+    data.settings = dict(settings if settings is not None else
+                         {"n_basis": 7, "width": 1.0, "noise_scale": 1.5})  # fmt: skip
+    Workspace.create(root, data)
+    return root
+
+
+def offset_in(values: np.ndarray, run: np.ndarray) -> int:
+    """Where ``run`` (n, k) lies in ``values`` (m, k): the offset of the best match (a take's
+    rows among those pushed; still stretches match anywhere within themselves)."""
+    n = run.shape[0]
+    if n > values.shape[0]:
+        raise ValueError(f"a run of {n} rows cannot lie in {values.shape[0]}")
+    errors = [np.abs(values[i:i + n] - run).max() for i in range(values.shape[0] - n + 1)]
+    return int(np.argmin(errors))

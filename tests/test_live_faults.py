@@ -74,6 +74,19 @@ def test_nan_samples_are_left_out_and_said(tmp_path) -> None:
     assert rig.session.snapshot().counts["Hand"] == (190, 5)
 
 
+def test_a_stream_sending_only_nans_is_bad_values_not_stalled(tmp_path) -> None:
+    """Samples that all arrive bad for a second: one status and one event, never a stall in
+    between (the stream is heard, its values are left out)."""
+    rig = Rig(tmp_path)
+    rig.push(50)
+    events = rig.session.snapshot().n_events
+    rig.push(100, values=np.full((100, 3), np.nan))
+    assert rig.status().condition is Condition.BAD_VALUES and "100 sample(s)" in rig.status().detail
+    assert rig.session.snapshot().n_events == events + 1
+    rig.wait(1.0)  # nothing at all for a second: that is a stall
+    assert rig.status().condition is Condition.STALLED
+
+
 def test_a_stream_without_the_mappings_channels_is_not_used(tmp_path) -> None:
     rig = Rig(tmp_path, labels=("x", "y"))
     status = rig.status()
@@ -166,6 +179,22 @@ def test_a_vanished_stream_comes_back_or_restarts(tmp_path) -> None:
     rig.push(40, stream=restarted)
     assert rig.session.snapshot().predictions > count  # observing again, a new movement
     assert rig.session.snapshot().movement.number == 2
+
+
+def test_a_vanished_stream_the_network_still_lists_stays_vanished(tmp_path, monkeypatch) -> None:
+    """LSL lists an outlet for seconds after it is gone: opening it fails, and the status
+    says vanished (what happened), not waiting (as if it had never been found)."""
+    rig = Rig(tmp_path)
+    rig.push(40)
+    listed = rig.transport.find(0.0)
+    rig.stream.gone = True
+    rig.session.step()
+    assert rig.status().condition is Condition.VANISHED
+    monkeypatch.setattr(rig.transport, "find", lambda wait: listed)
+    rig.session.connect()
+    rig.session.step()
+    assert rig.status().condition is Condition.VANISHED
+    assert "looking for it again" in rig.status().detail
 
 
 def test_a_rate_change_is_said(tmp_path) -> None:

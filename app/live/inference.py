@@ -39,6 +39,7 @@ from promp.timing import n_observed_for
 from robots.icub.layout import hand_dims
 
 TEST, LIVE = "Test demonstration", "Live stream"  # what is observed
+LSL = "Live streams (LSL)"  # a lab's sensors (app.live.lsl_source)
 __all__ = ["PATH_POINTS", "TUBE_POINTS"]  # where the scene finds them (app.live.regions')
 
 
@@ -132,6 +133,20 @@ def inferred(
         than every candidate duration.
     """
     inference = infer(model, observation, alpha_method, n_points=TUBE_POINTS, truth=truth)
+    return completed(model, observation, inference, truth, via_points)
+
+
+def completed(
+    model: ProMPModel,
+    observation: Observation,
+    inference: Inference,
+    truth: Demonstration | None = None,
+    via_points: tuple[StudioViaPoint, ...] = (),
+) -> Inferred:
+    """What only the studio draws, added to ``inference`` of ``observation`` (on
+    ``TUBE_POINTS`` phases): the posterior shaped by the recognised primitive's via-points,
+    the future hand path and every position's region; :func:`inferred`'s, and a live
+    session's (:mod:`app.live.lsl_view`)."""
     has_hand = hand_dims(model.layout) is not None
     vias = of_primitive(via_points, inference.primitive) if has_hand else ()
     weights = shaped(model, inference.posterior, vias, inference.alpha)
@@ -191,7 +206,12 @@ class InferState:
 
     @property
     def live(self) -> bool:
-        return self.source == LIVE
+        """Observed as it happens (the dragged hand, or the LSL streams)."""
+        return self.source in (LIVE, LSL)
+
+    @property
+    def lsl(self) -> bool:
+        return self.source == LSL
 
 
 @dataclass(frozen=True)
@@ -244,8 +264,9 @@ class InferView:
     model : ModelChoice
     curve : CurveRequest or None
         The recognition over the whole test demonstration (None for the live stream).
-    samples : StreamSamples or None
-        The live stream's samples it observed.
+    samples : StreamSamples, LslObserved or None
+        The live stream's samples it observed (the LSL source's latest prediction:
+        :class:`app.live.lsl_view.LslObserved`).
     """
 
     state: InferState
@@ -259,6 +280,8 @@ class InferView:
     def movement(self) -> tuple:
         """What is inspected: a test demonstration, or the live stream since its last clear
         (the charts' ranges grow while it stays the same)."""
+        if self.state.lsl:
+            return ("lsl", getattr(self.samples, "movement", None))
         if self.state.live:
             return ("live", self.samples.epoch if self.samples is not None else -1)
         return ("test", self.state.primitive, self.state.demo)

@@ -26,6 +26,7 @@ from app.core.snapshot import Snapshot
 from app.core.store import Store
 from app.core.view_state import View
 from app.live.head import HeadInput
+from app.live.lsl_source import LslSource
 from app.scene.arm import ArmController
 from app.scene.inference_layer import InferenceLayer
 from app.scene.look import TEACH, Shown
@@ -162,6 +163,9 @@ class PanelContext:
     wait_for_model : callable
         ``wait_for_model()``: the model of the workspace as it is now, once learned
         (:meth:`app.core.session.Session.wait_for_model`; e.g. the exports).
+    live : LslSource
+        The live source over LSL (one per studio): Infer starts it and shows its
+        predictions, Teach records its movements as takes.
     inference_layer : InferenceLayer or None
         The 3D view's Infer layer, where the Infer panel draws its result (its
         :attr:`~app.scene.inference_layer.InferenceLayer.drawn` says what is drawn; the scene
@@ -179,6 +183,7 @@ class PanelContext:
     guard_upload: Callable[[viser.GuiUploadButtonHandle, int, Refused], UploadGuard]
     open_in_infer: Callable[[InferRequest, viser.ClientHandle | None], None]
     wait_for_model: Callable[[], ProMPModel | None]
+    live: LslSource
     inference_layer: InferenceLayer | None = None
 
     def hand_and_head(self, t: float) -> tuple[np.ndarray, np.ndarray | None]:

@@ -317,7 +317,8 @@ class LiveSession:
             self._events.append(event)
             self._n_events += 1
             self._sink(lambda e=event: self.outlets and self.outlets.event(e), events)
-        changed = bool(events or boundaries or rows is not None or predicted)
+        changed = bool(events or boundaries or rows is not None or predicted
+                       or self.source.statuses() != self._snapshot.statuses)  # a count said
         if changed or len(self._found) != len(self._snapshot.found):
             self._snapshot = self._take()
         return bool(batch.samples or batch.markers or events or predicted)

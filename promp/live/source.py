@@ -175,6 +175,7 @@ class _Feed:
     shift: float = 0.0  # re-anchoring after clock jumps
     arrival: float = -math.inf  # when the last sample arrived here
     lateness: float = math.inf  # the least a batch's newest sample was ever late by here
+    heard: float = -math.inf  # when the last sample, usable or not, arrived (stalls)
     rate: float = 0.0  # the rate the stream is believed to run at (Hz; 0 unknown)
     recent: deque = field(default_factory=deque)  # recent times, for the rate
     received: int = 0
@@ -279,8 +280,9 @@ class Source:
                 if inlet is not None:
                     inlet.close()
                 continue
-            if inlet is None:
-                events += self._set(feed, Condition.WAITING, now, problem)
+            if inlet is None:  # a vanished stream still listed a while stays vanished
+                if feed.status is None or feed.status.condition is not Condition.VANISHED:
+                    events += self._set(feed, Condition.WAITING, now, problem)
                 continue
             assert stream is not None
             if feed.inputs:
@@ -335,6 +337,7 @@ class Source:
     def _samples(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
                  batch: SourceBatch) -> None:  # fmt: skip
         feed.received += times.shape[0]
+        feed.heard = now  # a stream that sends bad values is not stalled
         width = feed.inlet.description.n_channels if feed.inlet is not None else 0
         if values.ndim != 2 or values.shape[1] != width or times.ndim != 1 \
                 or values.shape[0] != times.shape[0]:  # fmt: skip
@@ -438,9 +441,10 @@ class Source:
         if not feed.inputs or not math.isfinite(feed.last):
             return []
         limit = max(STALL_MIN_S, STALL_STEPS * feed.step)
-        if now - feed.arrival < limit or feed.status.condition is Condition.STALLED:
+        heard = max(feed.arrival, feed.heard)
+        if now - heard < limit or feed.status.condition is Condition.STALLED:
             return []
-        return self._set(feed, Condition.STALLED, feed.arrival,
+        return self._set(feed, Condition.STALLED, heard,
                          f"no sample for over {limit:.2g} s")  # fmt: skip
 
     @staticmethod

@@ -11,7 +11,7 @@ import viser
 
 from app.core.store_state import StoreState
 from app.core.view_state import View
-from app.live.inference import LIVE, TEST
+from app.live.inference import LIVE, LSL, TEST
 from app.scene.look import FADED, PRIOR_MODES
 from app.ui.context import InferRequest, PanelGui
 from app.ui.display import ALPHA_HINT, INFER_ALPHAS, observed_choices
@@ -21,7 +21,7 @@ from app.ui.tube_style import TubeStyleControl
 NONE = "(none)"
 PRIMITIVE_HINT = "The primitive of the test demonstration."
 DEMO_HINT = "Inferred with a model learned without it."
-SOURCES = (TEST, LIVE)
+SOURCES = (TEST, LIVE, LSL)
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,9 +63,10 @@ class InferControls:
         changed = tuple(self.observed.options) != observed
         if changed:
             self.observed.options = observed
-        live = self.source.value == LIVE
-        for handle, wanted in ((self.primitive, not live), (self.demo, not live),
-                               (self.live_button, live), (self.live_clear, live)):  # fmt: skip
+        test, live, lsl = (self.source.value == s for s in SOURCES)
+        for handle, wanted in ((self.primitive, test), (self.demo, test),
+                               (self.live_button, live), (self.live_clear, live),
+                               (self.observed, not lsl), (self.percent, not lsl)):  # fmt: skip
             if handle.visible != wanted:
                 handle.visible = wanted
         return changed
@@ -111,7 +112,8 @@ def build_observation(gui: PanelGui, observed: tuple[str, ...]) -> dict:
         handles = dict(
             source=gui.add_dropdown(
                 "Source", SOURCES, initial_value=TEST,
-                hint="A demonstration held out from the model, or the live hand and head",
+                hint="A demonstration held out from the model, the live hand and head, or a "
+                "lab's sensors streamed over LSL (motion capture, EMG, the robot's state)",
             ),
             primitive=gui.add_dropdown("Primitive", (NONE,), hint=PRIMITIVE_HINT),
             demo=gui.add_dropdown("Test demo", (NONE,), hint=DEMO_HINT),

@@ -34,8 +34,10 @@ from dataclasses import dataclass, field
 
 from app.core.snapshot import Snapshot
 from app.live.inference import InferState, InferView, ModelChoice, choose_model, compute
+from app.live.lsl_view import lsl_view
 from app.live.stream import LiveStream, StreamSamples
 from app.panels.infer.controls import InferControls, build_display, build_observation
+from app.panels.infer.live_section import LiveSection
 from app.panels.infer.readout import (
     LEGEND_HTML,
     InferCharts,
@@ -84,20 +86,21 @@ def read_state(c: InferControls) -> InferState:
     )  # fmt: skip
 
 
+def in_background(inputs: tuple, old: tuple, panel: str, view: InferView | None) -> bool:
+    """Only the workspace, the model or the via-points changed (not the controls, not the
+    live samples), another tab is in use, and the view shown has a result; or, another tab in
+    use, the LSL source's new predictions wait for the tab to be (each would redraw the
+    charts)."""
+    if panel == INFER or not old or view is None or inputs[0] != old[0]:
+        return False
+    return inputs[0].lsl or (inputs[5] is old[5] and view.result is not None)
+
+
 def same_inputs(new: tuple, old: tuple) -> bool:
     """The same two values first (equal), then the same objects."""
     return (
         len(new) == len(old) and new[:2] == old[:2]
         and all(a is b for a, b in zip(new[2:], old[2:], strict=True))
-    )  # fmt: skip
-
-
-def in_background(inputs: tuple, old: tuple, frame: Frame, view: InferView | None) -> bool:
-    """Only the workspace, the model or the via-points changed (not the controls, not the
-    live samples), another tab is in use, and the view shown has a result."""
-    return (
-        frame.panel != INFER and bool(old) and inputs[0] == old[0] and inputs[5] is old[5]
-        and view is not None and view.result is not None
     )  # fmt: skip
 
 
@@ -116,6 +119,7 @@ class InferPanel:
         layout = ctx.store.state.layout
         gui = ctx.gui
         handles = build_observation(gui, tuple(observed_choices(layout)))
+        self.lsl = LiveSection(ctx, layout)
         handles["probabilities"] = gui.add_html("")
         self.recognition = RecognitionChart(ctx, self._color)
         handles["status"] = gui.add_html("")
@@ -141,7 +145,8 @@ class InferPanel:
         self.controls.tubes.step(snapshot)
         state = read_state(self.controls)
         self._run_pressed(state)
-        samples = self._observe(frame, state)
+        observed = self.lsl.step(frame, state)
+        samples = observed if state.lsl else self._observe(frame, state)
         choice = choose_model(state, snapshot, self.ctx.learner)
         # The view is computed again when one of its inputs changed: the state and the
         # model's message by value, the immutable rest by identity. A change of the workspace
@@ -150,7 +155,7 @@ class InferPanel:
         inputs = (state, choice.message, snapshot.store.demos, snapshot.store.primitives,
                   choice.model, samples, snapshot.view.via_points)  # fmt: skip
         if not same_inputs(inputs, self._inputs) and not in_background(
-            inputs, self._inputs, frame, self.view
+            inputs, self._inputs, frame.panel, self.view
         ):
             self._inputs = inputs
             self._show(frame, state, choice, samples)
@@ -168,7 +173,8 @@ class InferPanel:
         """Compute the view of ``state`` and write it; time it."""
         start = time.perf_counter()
         modalities = observed_choices(frame.snapshot.store.layout).get(state.observed)
-        view = compute(state, frame.snapshot, modalities, choice, samples)
+        view = (lsl_view(state, samples) if state.lsl
+                else compute(state, frame.snapshot, modalities, choice, samples))  # fmt: skip
         self.recognition.worker.busy()  # the curve's worker gives way while the slider moves
         previous, self.view = self.view, view
         if view.result is None and view.message and not state.live and (

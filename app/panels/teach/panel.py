@@ -1,5 +1,5 @@
-"""The Teach tab, top to bottom: Primitive, Record, Head source, Demonstrations, Learn,
-Via-points (:mod:`app.ui.via_points`, which Infer shares), Prior.
+"""The Teach tab, top to bottom: Primitive, Record, Live takes (LSL), Head source,
+Demonstrations, Learn, Via-points (:mod:`app.ui.via_points`, which Infer shares), Prior.
 
 Each folder is a section of its own module; this one builds them and runs them in the studio's
 loop. Every change the user makes is either one mutation, made in the callback (the store's,
@@ -16,6 +16,7 @@ from app.live.take_controller import COUNTDOWN_S, Phase
 from app.panels.teach.demos import DemoList
 from app.panels.teach.head import HeadSection
 from app.panels.teach.learn import LearnSection
+from app.panels.teach.live_record import LiveTakes
 from app.panels.teach.primitives import PrimitiveSection
 from app.panels.teach.prior import PriorCharts
 from app.panels.teach.record import RecordSection
@@ -33,6 +34,7 @@ class TeachPanel:
         self._live: Recording | None = None  # the take being recorded, as last plotted
         self.primitives = PrimitiveSection(ctx)
         self.record = RecordSection(ctx, self._plot_live, countdown_s)
+        self.live_takes = LiveTakes(ctx)
         self.head = HeadSection(ctx, recording=lambda: self.record.take is not None)
         self.demos = DemoList(ctx)
         self.learn = LearnSection(ctx)
@@ -47,6 +49,7 @@ class TeachPanel:
         snapshot = frame.snapshot
         name = self.primitives.step(snapshot)
         start = self.record.step(frame)
+        self.live_takes.step(frame)
         self.head.step(frame)
         listed = self.demos.step(snapshot)
         self.learn.step(frame)
@@ -73,4 +76,5 @@ class TeachPanel:
 
     def close(self) -> None:
         self.record.close()
+        self.live_takes.close()
         self.head.close()

@@ -1,0 +1,330 @@
+"""The studio's live source over LSL: one :class:`promp.live.session.LiveSession` at a time,
+shared by the Infer tab (which starts it, and shows its predictions) and the Teach tab (which
+records its movements as takes: :mod:`app.live.live_takes`).
+
+:class:`LslSource` lists the streams on the network before a session runs (a look every
+:data:`SCAN_EVERY_S` on a thread of its own, started the first time the Live source is chosen),
+starts a session with a mapping checked against the model and the streams found
+(:mod:`app.live.lsl_mapping`), the workspace's hand placement applied to a live hand
+(:mod:`app.live.lsl_placement`), publishes its predictions as the headless command does
+(:mod:`promp.live.outlets`, switched on and off while it runs: :class:`SwitchedOutlets`), and
+stops it. LSL's resolver tells a stream's name, type, rate and channel count, not its channels'
+labels and units (its description comes with an inlet): the look opens an inlet of each new
+stream once, reads its description and closes it, so that the list and the guessed mapping
+can name channels as the stream labels them. Where liblsl cannot load,
+:attr:`LslSource.unavailable` says so and what to do, and nothing starts. The session has its
+own threads; the studio's loop reads its immutable :class:`promp.live.session.LiveSnapshot`
+(:meth:`LslSource.snapshot`) without a lock.
+"""
+
+from __future__ import annotations
+
+import itertools
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from app.live.inference import TUBE_POINTS
+from app.live.live_takes import JOURNALS_DIR, TakeRecorder
+from app.live.lsl_mapping import MappingCheck, parse_mapping, safe_out_name
+from app.live.lsl_placement import PlacedTransport
+from promp.live.predictor import LivePrediction
+from promp.live.session import LiveOptions, LiveSession, LiveSnapshot
+from promp.live.status import LiveEvent
+from promp.live.transport import Selector, StreamDescription, Transport
+from promp.model import ProMPModel
+from robots.icub.layout import HAND
+from robots.icub.placement import Placement
+
+__all__ = ["LiveConfig", "LslSource", "Running", "SCAN_EVERY_S", "STARTS", "SwitchedOutlets"]
+
+SCAN_EVERY_S = 0.5
+STARTS = {"stillness": "still", "marker stream": "marker", "Begin / End buttons": "call"}
+
+
+@dataclass(frozen=True)
+class LiveConfig:
+    """What a session is started with, as the Live source's controls say it.
+
+    Attributes
+    ----------
+    mapping : str
+        One modality a line (``hand=MocapHand:0,1,2@mm``).
+    start : {"still", "marker", "call"}
+        How movements start and end (:mod:`promp.live.segmenter`).
+    markers : str
+        The marker stream for ``"marker"``.
+    alpha_method : {"ml", "model"}
+    publish : bool
+        Publish the predictions (LSL outlets ``out``-probabilities, ...).
+    out : str
+    remainder : str or None
+        The modality whose predicted remainder is published.
+    rate : float
+        Its rate, Hz.
+    """
+
+    mapping: str
+    start: str = "still"
+    markers: str = ""
+    alpha_method: str = "ml"
+    publish: bool = False
+    out: str = "studio"
+    remainder: str | None = None
+    rate: float = 50.0
+
+
+@dataclass(frozen=True, eq=False)
+class Running:
+    """A session started: with which model and configuration, its checked mapping, its
+    number (counts the studio's sessions) and start time (monotonic)."""
+
+    session: LiveSession
+    model: ProMPModel
+    config: LiveConfig
+    check: MappingCheck
+    number: int
+    started: float
+    recorder: TakeRecorder | None
+
+
+class SwitchedOutlets:
+    """The session's outlets sink, switched on and off while it runs (another thread may be
+    publishing meanwhile: a lock keeps each push whole)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._outlets = None
+        self.names: tuple[str, ...] = ()
+
+    def set(self, outlets) -> None:
+        """Publish through ``outlets`` (a :class:`promp.live.outlets.PredictionOutlets`), or
+        nothing (None); the previous ones are closed (their streams vanish)."""
+        with self._lock:
+            old, self._outlets = self._outlets, outlets
+            self.names = tuple(s.name for s in outlets.specs.values()) if outlets else ()
+        if old is not None:
+            old.close()
+
+    def publish(self, prediction: LivePrediction) -> None:
+        with self._lock:
+            if self._outlets is not None:
+                self._outlets.publish(prediction)
+
+    def event(self, event: LiveEvent) -> None:
+        with self._lock:
+            if self._outlets is not None:
+                self._outlets.event(event)
+
+    def close(self) -> None:
+        self.set(None)
+
+
+class LslSource:
+    """The studio's live source (see the module docstring).
+
+    Parameters
+    ----------
+    transport : callable, optional
+        Makes the transport (default: :class:`promp.live.lsl.LslTransport`, when liblsl
+        loads); tests give a fake one.
+    """
+
+    def __init__(self, transport: Callable[[], Transport] | None = None):
+        if transport is None:
+            from promp.live import lsl_available
+
+            available, self.unavailable = lsl_available()
+            transport = _lsl_transport if available else None
+        else:
+            self.unavailable = ""
+        self._make = transport
+        self._transport: Transport | None = None
+        self._found: tuple[StreamDescription, ...] = ()
+        self._described: dict[str, StreamDescription] = {}  # by uid: with labels and units
+        self._stop = threading.Event()
+        self._scanner: threading.Thread | None = None
+        self._lock = threading.Lock()  # start, stop and publish, from the loop or a test
+        self._numbers = itertools.count(1)
+        self.outlets = SwitchedOutlets()
+        self.running: Running | None = None
+
+    @property
+    def available(self) -> bool:
+        return not self.unavailable
+
+    def transport(self) -> Transport:
+        if not self.available:
+            raise ValueError(self.unavailable)
+        if self._transport is None:
+            self._transport = self._make()
+        return self._transport
+
+    def watch(self) -> None:
+        """Look for streams from now on (idempotent; nothing where LSL is unavailable)."""
+        if self._scanner is not None or not self.available:
+            return
+        self._scanner = threading.Thread(target=self._scan, name="lsl-scan", daemon=True)
+        self._scanner.start()
+
+    def _scan(self) -> None:
+        transport = self.transport()
+        while not self._stop.is_set():
+            running = self.running
+            try:
+                found = (running.session.snapshot().found if running is not None
+                         else tuple(transport.find(SCAN_EVERY_S)))  # fmt: skip
+                for stream in found:
+                    if stream.uid not in self._described:
+                        self._described[stream.uid] = _described(transport, stream)
+                if running is None:
+                    self._found = found
+            except Exception:  # noqa: BLE001 (the network, not us: look again)
+                self._found = ()
+            self._stop.wait(SCAN_EVERY_S)
+
+    def found(self) -> tuple[StreamDescription, ...]:
+        """The streams on the network at the latest look (the session's, while it runs),
+        with their channels' labels and units once read."""
+        running = self.running
+        found = running.session.snapshot().found if running is not None else self._found
+        return tuple(self._described.get(s.uid, s) for s in found)
+
+    def snapshot(self) -> LiveSnapshot | None:
+        running = self.running
+        return running.session.snapshot() if running is not None else None
+
+    # ------------------------------------------------------------------ start, stop
+
+    def start(
+        self,
+        model: ProMPModel,
+        config: LiveConfig,
+        placement: Placement | None = None,
+        workspace: Path | None = None,
+        names: Callable[[], Sequence[str]] = tuple,
+    ) -> Running:
+        """Start a session of ``model`` as ``config`` says; ``placement``: the workspace's, for
+        a live hand; ``workspace``: where takes are journalled (``live-journals/``; None: no
+        recording), ``names``: its primitives now.
+
+        Raises
+        ------
+        ValueError
+            LSL is unavailable, a session runs already, or the configuration is refused (the
+            mapping, the marker stream, the outputs' name): nothing starts.
+        """
+        with self._lock:
+            transport = self.transport()
+            if self.running is not None:
+                raise ValueError("the live source is running already: Stop it first")
+            check = parse_mapping(config.mapping, model, self.found())
+            if config.start not in STARTS.values():
+                raise ValueError(f"unknown movement start {config.start!r}")
+            if config.start == "marker":
+                if not config.markers.strip():
+                    raise ValueError("choose the marker stream the movements start and end by")
+                Selector.parse(config.markers)
+            specs = _specs(model, config) if config.publish else None
+            hand = next((i for i in check.inputs if i.name == HAND.name), None)
+            if placement is not None and not placement.is_identity and hand is not None:
+                transport = PlacedTransport(transport, hand, placement)
+            options = LiveOptions(start=config.start, markers=config.markers.strip(),
+                                  alpha_method=config.alpha_method, remainder=config.remainder,
+                                  remainder_rate=config.rate, n_points=TUBE_POINTS)  # fmt: skip
+            session = LiveSession(model, check.inputs, transport, options, outlets=self.outlets)
+            number = next(self._numbers)
+            recorder = None
+            if workspace is not None:
+                prefix = time.strftime(f"live-%Y%m%d-%H%M%S-{number}")
+                recorder = TakeRecorder(Path(workspace) / JOURNALS_DIR, session.columns, names,
+                                        prefix)  # fmt: skip
+                session.recorder = recorder
+            if specs is not None:
+                self.outlets.set(_outlets(specs, self.transport()))
+            session.start()
+            self.running = Running(session, model, config, check, number, time.monotonic(),
+                                   recorder)  # fmt: skip
+            return self.running
+
+    def stop(self) -> None:
+        """Stop the session (its outlets vanish; a take under way stays in its journal)."""
+        with self._lock:
+            running, self.running = self.running, None
+            if running is not None:
+                running.session.close()
+                self._found = running.session.snapshot().found
+
+    def publish(self, on: bool, out: str) -> tuple[str, ...]:
+        """Publish the running session's predictions as ``out``-probabilities, ... (or stop
+        publishing); the streams' names.
+
+        Raises
+        ------
+        ValueError
+            Nothing runs, or the name is refused.
+        """
+        with self._lock:
+            running = self.running
+            if running is None:
+                raise ValueError("start the live source first")
+            if not on:
+                self.outlets.set(None)
+                return ()
+            config = running.config
+            specs = _specs(running.model, LiveConfig(config.mapping, out=out,
+                                                     remainder=config.remainder))  # fmt: skip
+            self.outlets.set(_outlets(specs, self.transport()))
+            return self.outlets.names
+
+    def begin(self) -> None:
+        """A movement starts now (a button)."""
+        if self.running is not None:
+            self.running.session.begin()
+
+    def end(self) -> None:
+        """The movement going on ends now."""
+        if self.running is not None:
+            self.running.session.end()
+
+    def close(self) -> None:
+        """Stop the session and the look for streams (the studio is stopping)."""
+        self.stop()
+        self._stop.set()
+        if self._scanner is not None:
+            self._scanner.join(timeout=5.0)
+
+
+def _described(transport: Transport, stream: StreamDescription) -> StreamDescription:
+    """``stream`` with its channels' labels and units, read from an inlet opened for that
+    (as found when the stream vanished or does not answer)."""
+    if stream.is_markers or any(stream.labels):
+        return stream
+    try:
+        inlet = transport.open(stream)
+    except Exception:  # noqa: BLE001 (gone, or not answering: listed as found)
+        return stream
+    try:
+        return inlet.description
+    finally:
+        inlet.close()
+
+
+def _specs(model: ProMPModel, config: LiveConfig):
+    from promp.live.outlets import outlet_specs
+
+    return outlet_specs(model, safe_out_name(config.out), config.remainder)
+
+
+def _outlets(specs, transport: Transport):
+    from promp.live.outlets import PredictionOutlets
+
+    return PredictionOutlets(specs, transport.outlet)
+
+
+def _lsl_transport() -> Transport:
+    from promp.live.lsl import LslTransport
+
+    return LslTransport()

@@ -1,0 +1,365 @@
+"""The Live streams (LSL) source in the studio, in Chromium, over real LSL on the loopback
+(tests/lsl_loopback.cfg): an outlet replaying a demonstration of lab-records-flt (in mm, at
+its real rate and 2.5 times faster) is listed, its mapping guessed, a wrong one refused, the
+right one started; each movement's prediction reaches the bars and the 3D view and equals
+promp.pipeline.infer on the samples pushed, and the studio's published streams carry the
+same numbers; injected faults show their status in the page; a movement recorded in Teach's
+Live takes lands in the workspace."""
+
+from __future__ import annotations
+
+import itertools
+import os
+import threading
+import time
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from app.live.inference import LSL, TUBE_POINTS
+from app.panels.infer import InferPanel
+from promp.inference import Observation
+from promp.pipeline import infer
+from tests.browser import (
+    choose,
+    click,
+    close_notifications,
+    notification,
+    open_tab,
+    screenshot,
+)
+from tests.conftest import PageSpec, StudioSpec, wait_frames, wait_until
+from tests.live_fakes import flt_dataset, flt_workspace, held, offset_in
+
+pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
+
+pytestmark = pytest.mark.browser
+
+_COUNT = itertools.count(1)
+LABELS = ("hand_x", "hand_y", "hand_z")
+
+
+def unique(stem: str) -> str:
+    """A stream name no other test (another worker, another run) uses."""
+    return f"{stem}-{os.getpid()}-{next(_COUNT)}"
+
+
+STUDIO = StudioSpec(make=lambda root, _: flt_workspace(root, per_class=6),
+                    ready=lambda s: s.session.snapshot().model is not None)  # fmt: skip
+PAGE = PageSpec(tab="Infer")
+
+
+def infer_panel(studio) -> InferPanel:
+    return next(p for p in studio.panels if isinstance(p, InferPanel))
+
+
+def store(studio):
+    """The studio's store, as its loop sees it now."""
+    return studio.session.snapshot().store
+
+
+def row(page, label: str):
+    return page.locator("label", has_text=label).first.locator(
+        "xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]"
+    )
+
+
+class Replayer:
+    """An LSL outlet of the hand in millimetres at 100 Hz, labelled, whose samples a test
+    pushes at their times (stamps on this machine's clock)."""
+
+    def __init__(self, name: str, n_channels: int = 3):
+        self.name = name
+        info = pylsl.StreamInfo(name, "Mocap", n_channels, 100.0, pylsl.cf_double64,
+                                f"src-{name}")  # fmt: skip
+        channels = info.desc().append_child("channels")
+        for label in (LABELS + ("extra_1", "extra_2"))[:n_channels]:
+            channel = channels.append_child("channel")
+            channel.append_child_value("label", label)
+            channel.append_child_value("unit", "mm")
+        self.outlet = pylsl.StreamOutlet(info)
+        self.last = pylsl.local_clock()
+        self.sent: list[tuple[np.ndarray, np.ndarray]] = []  # (stamps, values in m) pushed
+
+    def history(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every sample pushed: stamps (n,) and values (n, 3) in metres (a movement's
+        observation may start with still rows of the push before)."""
+        return (np.concatenate([t for t, _ in self.sent]),
+                np.concatenate([v for _, v in self.sent]))  # fmt: skip
+
+    def push(self, values_mm: np.ndarray, step: float = 0.01, jump: float = 0.0) -> np.ndarray:
+        """Push ``values_mm`` (n, k) one every ``step`` seconds of real time, stamped as
+        pushed (plus ``jump``); their stamps."""
+        start = max(pylsl.local_clock(), self.last) + 0.02
+        stamps = start + step * np.arange(values_mm.shape[0])
+        for k in range(stamps.size):
+            time.sleep(max(0.0, stamps[k] - pylsl.local_clock()))
+            self.outlet.push_sample(values_mm[k].tolist(), stamps[k] + jump)
+        self.last = stamps[-1] + jump
+        self.sent.append((stamps + jump, values_mm / 1000.0))
+        return stamps + jump
+
+
+def top_demo(speed: float):
+    return held(flt_dataset()["top"][0], 0.6 * speed, 0.8 * speed)
+
+
+def expected(model, stamps: np.ndarray, values_m: np.ndarray, start: float, n: int):
+    """promp.pipeline.infer on the ``n`` samples pushed from the one stamped ``start``."""
+    i0 = int(np.argmin(np.abs(stamps - start)))
+    obs = Observation(stamps[i0:i0 + n] - stamps[i0], values_m[i0:i0 + n], ("hand",))
+    return obs, infer(model, obs, n_points=TUBE_POINTS)
+
+
+def read_published(name: str, into: list, stop: threading.Event) -> threading.Event:
+    """Read the studio's ``name``-timing and -probabilities into ``into`` (pairs by seq)."""
+    ready = threading.Event()
+
+    def run() -> None:
+        inlets = {}
+        for kind in ("timing", "probabilities"):
+            (info,) = pylsl.resolve_byprop("name", f"{name}-{kind}", 1, 60.0)
+            inlets[kind] = pylsl.StreamInlet(info, max_buflen=60, recover=False)
+            inlets[kind].open_stream(30.0)
+        ready.set()
+        rows: dict = {}
+        while not stop.is_set():
+            for kind, inlet in inlets.items():
+                samples, _ = inlet.pull_chunk(timeout=0.05)
+                for sample in samples:
+                    rows.setdefault(int(sample[0]), {})[kind] = np.array(sample)
+            for seq in sorted(s for s, r in rows.items() if len(r) == 2):
+                into.append(rows.pop(seq))
+
+    threading.Thread(target=run, daemon=True).start()
+    return ready
+
+
+def shown_movement(page, studio, hand: Replayer, speed: float, movement: int):
+    """Replay the demonstration at ``speed``: a new movement, whose last prediction shown in
+    the bars and in 3D equals the engine's on the samples pushed. The samples' stamps and
+    values (m). (A pusher the loaded machine starves for over 0.5 s pauses the stream, which
+    ends a movement: the rest is then one more, predicted and compared as well.)"""
+    panel, model = infer_panel(studio), studio.live.running.model
+    demo = top_demo(speed)
+    values_m = demo.select(["x", "y", "z"])
+    session = studio.live.running.session
+    ended = len(session.snapshot().ended)
+    stamps = hand.push(values_m * 1000.0, step=0.01 / speed)
+    wait_until(lambda: len(session.snapshot().ended) > ended and
+               session.snapshot().movement is None, what="the movement's end (stillness)")
+    prediction = session.snapshot().prediction
+    assert prediction.movement >= movement and prediction.n_observed > 20
+    view = wait_until(lambda: panel.view if panel.view is not None and
+                      panel.view.samples.prediction is prediction else None,
+                      what="the last prediction shown")  # fmt: skip
+    result = view.result
+    wait_until(lambda: studio.scene.inference.drawn.result is result,
+               what="the prediction drawn in 3D")  # fmt: skip
+    assert studio.scene.inference.has_shape
+    # The rows observed are rows pushed, in order, on the pushes' steps; a movement's first
+    # rows may be still ones of the push before, the pause between re-anchored by the time
+    # base: the rows are found by value, the steps checked within this push.
+    every_stamp, every_value = hand.history()
+    n, observed = prediction.n_observed, result.observation
+    base = max(0, every_stamp.size - stamps.size - 100)  # this push, a second before it
+    i0 = base + offset_in(every_value[base:], observed.values)
+    assert_allclose(observed.values, every_value[i0:i0 + n], rtol=0, atol=1e-12)
+    k = min(n, i0 + n - (every_stamp.size - stamps.size)) - 1  # steps within this push
+    assert_allclose(np.diff(observed.times)[-k:], np.diff(every_stamp[i0:i0 + n])[-k:],
+                    rtol=0, atol=1e-6)  # fmt: skip
+    same = infer(model, observed, n_points=TUBE_POINTS)  # the engine on the same samples
+    assert_allclose(result.inference.probabilities, same.probabilities, rtol=0, atol=1e-9)
+    assert_allclose(result.inference.prediction.mean, same.prediction.mean, rtol=0, atol=1e-9)
+    assert_allclose(result.inference.duration, same.duration, rtol=0, atol=1e-9)
+    for name, p in zip(model.names, same.probabilities, strict=True):
+        page.locator(f'[data-primitive="{name}"][data-p="{p:.6f}"]').wait_for()
+    page.get_by_text(f"Observed: {prediction.n_observed} samples").wait_for()
+    return stamps, values_m
+
+
+def test_a_replayed_demonstration_is_listed_mapped_started_and_predicted_in_the_page(
+    page, studio, artifacts
+) -> None:
+    panel = infer_panel(studio)
+    c, live = panel.controls, panel.lsl.controls
+    hand = Replayer(unique("StudioHand"))
+    choose(page, c.source, LSL)
+    page.get_by_text(hand.name, exact=True).wait_for()  # listed, with its rate and channels
+    guessed = f"hand={hand.name}:hand_x,hand_y,hand_z"
+    wait_until(lambda: live.mapping.value == guessed, what="the mapping guessed from the labels")
+    # A wrong mapping is refused, saying why; nothing starts.
+    row(page, "Mapping").locator("textarea").fill(f"hand={hand.name}:hand_x,hand_y")
+    wait_until(lambda: live.mapping.value.endswith("hand_y"), what="the mapping typed")
+    click(page, "Start")
+    notification(page, "Cannot start the live source", "maps 2 channel(s)")
+    assert studio.live.running is None
+    close_notifications(page)
+    row(page, "Mapping").locator("textarea").fill(guessed)
+    wait_until(lambda: live.mapping.value == guessed, what="the mapping typed")
+    out = unique("studio-out")
+    page.get_by_text("Predictions out (LSL)", exact=True).first.dispatch_event("click")
+    row(page, "Streams' name").locator("input").first.fill(out)
+    wait_until(lambda: live.out.value == out, what="the outputs' name typed")
+    row(page, "Publish predictions").locator("input").first.dispatch_event("click")
+    wait_until(lambda: live.publish.value, what="publishing on")
+    click(page, "Start")
+    page.locator(f'[data-stream="{hand.name}"][data-condition="ok"]').wait_for()
+    page.get_by_text(f"Publishing {out}-probabilities").wait_for()
+    published: list = []
+    stop = threading.Event()
+    assert read_published(out, published, stop).wait(60.0)
+    model = studio.live.running.model
+    pushed = []
+    try:
+        for speed, movement in ((1.0, 1), (2.5, 2)):
+            pushed.append(shown_movement(page, studio, hand, speed, movement))
+            if movement == 1:
+                screenshot(page, artifacts / "infer_live_source.png")
+        last = studio.live.running.session.snapshot().prediction
+        wait_until(lambda: published and int(published[-1]["timing"][0]) >= last.seq,
+                   what="the last prediction published")  # fmt: skip
+    finally:
+        stop.set()
+    # The predictions published equal the engine's on the samples each observed: those
+    # whose start is a pushed sample's stamp (a movement after a pause is on the time base's
+    # re-anchored clock: it was compared in the page above).
+    assert len(published) >= 10  # two movements; fewer a second on a loaded machine
+    every_stamp, every_value = hand.history()
+    checked = 0
+    for row_ in published[:: max(1, len(published) // 40)] + published[-1:]:
+        timing, probabilities = row_["timing"], row_["probabilities"]
+        start, n = timing[2], int(timing[14])
+        if np.min(np.abs(every_stamp - start)) > 1e-3:  # a step is 4 ms or more
+            continue
+        _, same = expected(model, every_stamp, every_value, start, n)
+        assert_allclose(probabilities[2:], same.probabilities, rtol=0, atol=1e-9)
+        assert_allclose(timing[7:10], [same.timing.duration.value, same.timing.duration.low,
+                                       same.timing.duration.high], rtol=0, atol=1e-9)
+        checked += 1
+    assert checked >= 5
+    studio.live.stop()
+    wait_until(lambda: live.run.label == "Start", what="stopped")
+
+
+class Pusher(threading.Thread):
+    """Pushes a slow circle (mm) into ``outlet`` at ``rate`` Hz, NaNs while ``nan``, nothing
+    while ``paused``, its stamps ``jump`` seconds off from when it is set."""
+
+    def __init__(self, outlet, rate: float = 100.0):
+        super().__init__(daemon=True)
+        self.outlet, self.rate = outlet, rate
+        self.nan = self.paused = False
+        self.jump = 0.0
+        self.stop = threading.Event()
+
+    def run(self) -> None:
+        next_at = pylsl.local_clock()
+        while not self.stop.is_set():
+            next_at += 1.0 / self.rate
+            time.sleep(max(0.0, next_at - pylsl.local_clock()))
+            if self.paused:
+                continue
+            t = next_at
+            row = [np.nan] * 3 if self.nan else [100 * np.cos(t), 100 * np.sin(t), 0.0]
+            self.outlet.push_sample(row, t + self.jump)
+
+
+def start_mapped(page, studio, hand: Replayer) -> None:
+    """The Live source (re)started on ``hand``, its three labelled channels mapped."""
+    panel = infer_panel(studio)
+    c, live = panel.controls, panel.lsl.controls
+    choose(page, c.source, LSL)
+    if studio.live.running is not None:
+        click(page, "Stop")
+        wait_until(lambda: studio.live.running is None, what="the source stopped")
+    page.get_by_text(hand.name, exact=True).wait_for()
+    mapping = f"hand={hand.name}:hand_x,hand_y,hand_z"
+    row(page, "Mapping").locator("textarea").fill(mapping)
+    wait_until(lambda: live.mapping.value == mapping, what="the mapping typed")
+    click(page, "Start")
+    page.locator(f'[data-stream="{hand.name}"][data-condition="ok"]').wait_for()
+
+
+def test_faults_of_a_stream_show_their_status_and_nothing_breaks(page, studio, artifacts):
+    faulty = Replayer(unique("FaultyHand"))
+    start_mapped(page, studio, faulty)
+    pusher = Pusher(faulty.outlet)
+    pusher.start()
+
+    def shows(condition: str, detail: str = "") -> None:
+        """The status, or (when the next fault came before the page showed it: a loaded
+        machine) its line in the session's news."""
+        status = page.locator(f'[data-stream="{faulty.name}"][data-condition="{condition}"]')
+        news = page.get_by_text(f"stream '{faulty.name}': {condition}")
+        (status.filter(has_text=detail) if detail else status).or_(news).first.wait_for()
+
+    try:
+        shows("ok")
+        pusher.nan = True
+        shows("bad values", "NaN")
+        screenshot(page, artifacts / "infer_live_fault.png")
+        pusher.nan = False
+        pusher.jump = 5.0
+        shows("clock jumped")
+        pusher.paused = True
+        shows("stalled", "no sample")
+        pusher.rate, pusher.paused = 40.0, False
+        shows("rate changed")
+    finally:
+        pusher.stop.set()
+        pusher.join()
+    del faulty.outlet, pusher.outlet
+    shows("vanished")
+    two = Replayer(faulty.name, n_channels=2)  # the same name, without the mapping's channels
+    shows("wrong channels", "hand_z")
+    del two
+    back = Replayer(faulty.name)
+    shows("restarted")
+    start = len(studio.live.running.session.snapshot().ended)
+    back.push(np.tile([[0.0, 0.0, 0.0]], (10, 1)))
+    wait_frames(studio)
+    assert studio.live.running is not None and studio.loop.frames_done > 0
+    assert not [n for n in studio.notices if n[0] == "Internal error"]
+    assert len(studio.live.running.session.snapshot().ended) >= start
+    click(page, "Stop")
+    wait_until(lambda: studio.live.running is None, what="the source stopped")
+
+
+def test_a_live_movement_recorded_in_teach_lands_in_the_workspace(page, studio, artifacts):
+    """With Record live movements on, the movement stillness finds is journalled as it comes
+    (the rows acknowledged shown) and saved as a take of the chosen primitive: every sample
+    pushed between its start and its end, in metres, on its own times."""
+    hand = Replayer(unique("TakeHand"))
+    start_mapped(page, studio, hand)
+    primitive = studio.session.snapshot().primitive
+    before = [d.name for d in store(studio).demos[primitive]]
+    open_tab(page, "Teach")
+    try:
+        page.get_by_text("Live takes (LSL)", exact=True).first.dispatch_event("click")
+        row(page, "Record live movements").locator("input").first.dispatch_event("click")
+        page.get_by_text("Recording each live movement into").wait_for()
+        ended = len(studio.live.running.session.snapshot().ended)
+        demo = top_demo(1.0)
+        values_m = demo.select(["x", "y", "z"])
+        stamps = hand.push(values_m * 1000.0)
+        notification(page, "Live take saved", f"into {primitive} from live movement")
+        screenshot(page, artifacts / "teach_live_take.png")
+    finally:
+        open_tab(page, "Infer")
+    session = studio.live.running.session
+    assert len(session.snapshot().ended) == ended + 1
+    wait_until(lambda: len(store(studio).demos[primitive]) == len(before) + 1,
+               what="the take in the store")  # fmt: skip
+    (take,) = [d for d in store(studio).demos[primitive] if d.name not in before]
+    assert (studio.workspace / "demos" / primitive / f"{take.name}.csv").is_file()
+    taken = take.select(["x", "y", "z"])
+    assert take.n_samples > 50
+    i0 = offset_in(values_m, taken)
+    assert_allclose(taken, values_m[i0:i0 + take.n_samples], rtol=0, atol=1e-9)
+    assert_allclose(np.diff(take.times), np.diff(stamps[i0:i0 + take.n_samples]), atol=1e-6)
+    journals = studio.workspace / "live-journals"
+    assert journals.is_dir() and not [p for p in journals.rglob("*") if p.is_file()]  # released
+    click(page, "Stop")
+    wait_until(lambda: studio.live.running is None, what="the source stopped")
