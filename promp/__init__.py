@@ -14,6 +14,8 @@ fit(dataset, layout)            a ProMPModel from {primitive name: [Demonstratio
                                 basis, its width and the noise are chosen from the data
 infer(model, observation)       an Inference: recognition, timing, posterior, prediction
 recognise, condition, predict   the three steps of infer, one at a time
+condition_on_via_points         a primitive (or a posterior) made to pass through points,
+                                ViaPoint by phase or time, each with its precision (Eq. 8)
 save_model, load_model          the model as versioned JSON (the studio's Export model)
 read_dataset(folder, format)    demonstrations from files (lab records, CSV, rig recordings)
 leave_one_out(dataset, layout,  the evaluation: every demonstration held out in turn
@@ -68,6 +70,8 @@ _HOMES = {
     "recognise": "promp.recognition",
     "condition": "promp.inference",
     "predict": "promp.inference",
+    "condition_on_via_points": "promp.via_points",
+    "ViaPoint": "promp.via_points",
     "save_model": "promp.io",
     "load_model": "promp.io",
     "read_dataset": "promp.datasets",

@@ -44,6 +44,19 @@ from promp.model import Primitive, ProMPModel
 from promp.quality import winsorized
 from promp.timing import demo_phases
 
+__all__ = [
+    "DEFAULT_PROBABILITY",
+    "Coverage",
+    "SampleDistribution",
+    "check_probability",
+    "coverage",
+    "new_movement",
+    "region_radius",
+    "sample_distribution",
+    "sample_noise_var",
+    "speed_variance",
+]
+
 DEFAULT_PROBABILITY = 0.9
 
 

@@ -34,6 +34,8 @@ from promp.inference import Gaussian, Posterior
 from promp.model import Primitive, ProMPModel
 from promp.timing import check_alpha, duration_from_alpha
 
+__all__ = ["ViaPoint", "condition_on_via_points", "via_point_design"]
+
 
 @dataclass(frozen=True, eq=False)
 class ViaPoint:

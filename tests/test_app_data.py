@@ -528,7 +528,7 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     status = panel.controls.eval_status.content
     assert "Held out each of 12 demonstrations of curved, direct, second_bin" in status
     page.set_viewport_size({"width": 1200, "height": 1700})  # the whole tab in the picture
-    page.get_by_text("position (cm)").wait_for()
+    page.get_by_role("columnheader", name="position (cm)").first.wait_for()
     settled_screenshot(page, artifacts / "data_evaluation.png")
     page.set_viewport_size({"width": 1200, "height": 800})
 
