@@ -11,7 +11,7 @@ from promp.data import Demonstration, Layout, Modality
 from promp.io import model_from_json, model_to_json
 from promp.learn import fit
 from promp.model import FALLBACK, Settings
-from promp.selection import batches, candidates, search
+from promp.selection import batches, candidates, loo, search
 from tests.synthetic import LAYOUT, make_dataset
 
 HAND = Layout((Modality("hand", ("x", "y", "z")),))
@@ -183,15 +183,17 @@ def test_the_inner_folds_keep_two_demonstrations_and_ignore_the_primitives_order
     assert key == [(back[t.primitive], t.demo, t.fold, t.percent, t.modalities) for t in again]
 
 
+@pytest.mark.parametrize("one_at_a_time", [False, True])
 @pytest.mark.parametrize("shrinkage", [None, 0.3])
 def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(
-    monkeypatch, shrinkage
+    monkeypatch, shrinkage, one_at_a_time
 ) -> None:
     """:func:`promp.selection.loo_score` (every trial of a modality set at once, padded,
     whitened, every primitive at every node) against the engine's own Eq. 6
     (:func:`promp._likelihood.log_likelihoods_scaled`) on a model whose true primitive is
     the downdated one, with the same nodes and quadrature weights, and those weights against
-    :func:`promp.recognition.quadrature_weights` over :meth:`AlphaPrior.span`."""
+    :func:`promp.recognition.quadrature_weights` over :meth:`AlphaPrior.span`. Both ways of
+    factorising the bordered matrices: as one stack, and one at a time (many weights)."""
     import dataclasses as dc
     import math
 
@@ -203,6 +205,7 @@ def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(
     from promp.timing import n_observed_for
 
     monkeypatch.setattr(batches, "LOO_ROWS", 10_000)  # every sample: the engine's input
+    monkeypatch.setattr(loo, "LOOP_WEIGHTS", 1 if one_at_a_time else 10_000)
     dataset = make_dataset(seed=7, n_demos=5)
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
     settings = Settings(n_basis=6, width=1.0, noise_scale=1.0, shrinkage=shrinkage)

@@ -11,9 +11,10 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.linalg import lapack
 
 from promp._likelihood import logsumexp_rows
-from promp._weight_space import equilibrated_precision
+from promp._weight_space import cholesky_diagonals, equilibrated_precision
 from promp.fitting import FitParts
 from promp.model import ProMPModel
 from promp.recognition import label_noise, with_label_noise
@@ -108,17 +109,10 @@ class LooScorer:
             n_do = dims.shape[0]
             p = n_do * m
             inv_s2 = 1.0 / (noise_var[dims][None, :] * factors[:, dims])  # (L, Do)
-            bordered = np.empty((n_t, n_prims, n_a, p + 1, p + 1))
             for level in range(n_scales):
-                bordered[..., :p, :p] = precision[:, :, None]
-                for d in range(n_do):
-                    block = slice(d * m, (d + 1) * m)
-                    bordered[..., block, block] += inv_s2[level, d] * gram[:, None, :, d]
                 b = (inv_s2[level, :, None] * proj).reshape(n_t, n_prims, n_a, p)
-                bordered[..., :p, p] = b
-                bordered[..., p, :p] = b
-                bordered[..., p, p] = rr @ inv_s2[level] + 1.0
-                diag = np.diagonal(np.linalg.cholesky(bordered), axis1=-2, axis2=-1)
+                corner = rr @ inv_s2[level] + 1.0
+                diag = _bordered_diagonals(precision, inv_s2[level], gram, b, corner)
                 log_lik = -0.5 * (
                     diag[..., p] ** 2
                     - 1.0
@@ -226,6 +220,67 @@ class LooScorer:
             + np.einsum("tkadm,tadmn,tkadn->tkad", means, gram, means)
         )
         return precision, logdet_sigma, gram, proj, rr
+
+
+# From this many observed weights on, the bordered matrices are filled and factorised one at a
+# time (each stays in the processor's cache; a stack of them is ~100 MB at D_o M ~ 200).
+LOOP_WEIGHTS = 64
+
+
+def _bordered_diagonals(
+    precision: np.ndarray,
+    inv_s2: np.ndarray,
+    gram: np.ndarray,
+    b: np.ndarray,
+    corner: np.ndarray,
+) -> np.ndarray:
+    """The diagonal of the Cholesky factor of every bordered matrix
+    ``[[Sigma_o^-1 + A^T R^-1 A, b], [b^T, r^T R^-1 r + 1]]`` of a batch (the module
+    docstring of :mod:`promp._weight_space`), shape (T, K, A, P + 1).
+
+    Parameters
+    ----------
+    precision : array, shape (T, K, P, P)
+    inv_s2 : array, shape (Do,)
+        Each observed dimension's inverse noise variance.
+    gram : array, shape (T, A, Do, M, M)
+        The whitened Gram matrix of each dimension (``A^T R^-1 A`` is block-diagonal).
+    b : array, shape (T, K, A, P)
+    corner : array, shape (T, K, A)
+    """
+    n_t, n_prims, n_a, p = b.shape
+    n_do, m = gram.shape[2], gram.shape[3]
+    scaled = inv_s2[:, None, None] * gram  # (T, A, Do, M, M)
+    if p < LOOP_WEIGHTS:  # small: one stack, numpy's loops
+        bordered = np.empty((n_t, n_prims, n_a, p + 1, p + 1))
+        bordered[..., :p, :p] = precision[:, :, None]
+        for d in range(n_do):
+            block = slice(d * m, (d + 1) * m)
+            bordered[..., block, block] += scaled[:, None, :, d]
+        bordered[..., :p, p] = b
+        bordered[..., p, :p] = b
+        bordered[..., p, p] = corner
+        return cholesky_diagonals(bordered.reshape(-1, p + 1, p + 1)).reshape(
+            n_t, n_prims, n_a, p + 1
+        )
+    buffer = np.empty((p + 1, p + 1))
+    flat = buffer.reshape(-1)
+    start = np.arange(n_do)[:, None, None] * m
+    rows, cols = start + np.arange(m)[:, None], start + np.arange(m)[None, :]
+    blocks = rows * (p + 1) + cols  # (Do, M, M) flat positions of the diagonal blocks
+    out = np.empty((n_t, n_prims, n_a, p + 1))
+    for t in range(n_t):
+        for k in range(n_prims):
+            for a in range(n_a):
+                buffer[:p, :p] = precision[t, k]
+                flat[blocks] += scaled[t, a]
+                buffer[:p, p] = b[t, k, a]  # (LAPACK reads the C array's upper triangle)
+                buffer[p, p] = corner[t, k, a]
+                factor, info = lapack.dpotrf(buffer.T, lower=1, clean=0, overwrite_a=1)
+                if info != 0:
+                    raise np.linalg.LinAlgError("Matrix is not positive definite")
+                out[t, k, a] = flat[:: p + 2]
+    return out
 
 
 @dataclasses.dataclass(frozen=True)
