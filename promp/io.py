@@ -176,7 +176,7 @@ def model_from_dict(data: Any) -> ProMPModel:
     """Rebuild a model from :func:`model_to_dict` output, validating everything.
 
     Every version this code reads (:data:`READABLE_VERSIONS`) loads as its writer meant it
-    (``tests/test_model_format.py`` loads a file of each writer and compares the prior it
+    (``tests/test_promp_model_format.py`` loads a file of each writer and compares the prior it
     predicts with the one that writer's code predicted):
 
     * version 2 adds ``report``; its later writers add the settings ``select`` and

@@ -154,7 +154,7 @@ def scenario_workspace(
 
 # Learning settings given rather than automatic: a leave-one-out run from the GUI then fits each
 # fold once instead of choosing the settings in every fold (the choice inside the folds is
-# tests/test_evaluate.py's; in a browser test it cost a minute of a 2-core run).
+# tests/test_promp_evaluate.py's; in a browser test it cost a minute of a 2-core run).
 GIVEN_SETTINGS = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
 
 

@@ -1,6 +1,6 @@
 """The phase estimate as the Infer tab shows it (issue 25, item 4): the believed share of the
 movement and its end, with their intervals, beside the truth, as text and as chart series; and
-names shown whole on hover (issue 28, item 5). No browser: tests/test_app_tube_style.py shows
+names shown whole on hover (issue 28, item 5). No browser: tests/test_tube_style_in_studio.py shows
 them in the studio."""
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from promp.duration import Estimate
 
 
 def result(elapsed: float, truth_duration: float | None) -> SimpleNamespace:
-    """What the phase readout reads of an ``Inferred``."""
+    """What the phase readout reads of an ``InferResult``."""
     timing = SimpleNamespace(
         duration=Estimate(3.0, 2.5, 3.6), observed_fraction=Estimate(0.38, 0.31, 0.47)
     )

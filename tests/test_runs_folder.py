@@ -37,7 +37,7 @@ from app.panels.data.runs_text import comparison_markdown, run_choices, runs_tab
 from promp.evaluate.runs import RUN_FILE, compare_runs, write_run
 from tests.conftest import wait_until
 from tests.synthetic import make_dataset
-from tests.test_app_data import fake_job
+from tests.test_data_tab import fake_job
 
 WHEN = dt.datetime(2026, 11, 26, 1, 23, 45, tzinfo=dt.UTC)
 

@@ -1,7 +1,7 @@
 """The tube styles: what each draws (a region of stated probability), the tube's cross-section
 (the shadow of each 3-D ellipsoid on the plane normal to the path), the outline's geometry, the
 view state that holds the one choice, the line that says what a tube is. No browser:
-tests/test_app_tube_style.py drives the studio."""
+tests/test_tube_style_in_studio.py drives the studio."""
 
 from __future__ import annotations
 

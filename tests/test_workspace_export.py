@@ -170,7 +170,7 @@ def test_the_saved_runs_travel_with_the_workspace_and_none_is_overwritten(
     import datetime as dt
 
     from app.io.runs_folder import RUNS_DIR, list_runs, save_run
-    from tests.test_app_data import fake_job
+    from tests.test_data_tab import fake_job
 
     when = dt.datetime(2026, 11, 26, 1, 23, 45, tzinfo=dt.UTC)
     report = fake_job().report()

@@ -60,7 +60,7 @@ class FuturePath:
 
 
 @dataclass(frozen=True, eq=False)
-class Inferred:
+class InferResult:
     """Everything the Infer tab shows of one observation.
 
     Attributes
@@ -111,7 +111,7 @@ def inferred(
     alpha_method: str,
     truth: Demonstration | None = None,
     via_points: tuple[StudioViaPoint, ...] = (),
-) -> Inferred:
+) -> InferResult:
     """Infer from ``observation`` (:func:`promp.pipeline.infer`, predictions on
     ``TUBE_POINTS`` phases), shape the posterior with the recognised primitive's via-points
     (of ``via_points``, every primitive's) and add what the 3D view draws: the future hand path
@@ -142,7 +142,7 @@ def completed(
     inference: Inference,
     truth: Demonstration | None = None,
     via_points: tuple[StudioViaPoint, ...] = (),
-) -> Inferred:
+) -> InferResult:
     """What only the studio draws, added to ``inference`` of ``observation`` (on
     ``TUBE_POINTS`` phases): the posterior shaped by the recognised primitive's via-points,
     the future hand path and every position's region; :func:`inferred`'s, and a live
@@ -156,7 +156,7 @@ def completed(
     duration = inference.duration
     observed_phase = min(inference.observed_until / duration, 1.0) if duration > 0 else 1.0
     whole = model.layout.extract(truth) if truth is not None else None
-    return Inferred(
+    return InferResult(
         model, observation, inference, truth, future_path(model, inference, weights), vias,
         weights, prediction, positions(model, weights, observation, observed_phase, whole),
     )  # fmt: skip
@@ -257,7 +257,7 @@ class InferView:
     ----------
     state : InferState
         The controls it was computed from.
-    result : Inferred or None
+    result : InferResult or None
         The inference (None: ``message`` says why); its ``inference.timing`` holds the
         duration and the observed share with their intervals.
     message : str
@@ -270,7 +270,7 @@ class InferView:
     """
 
     state: InferState
-    result: Inferred | None
+    result: InferResult | None
     message: str = ""
     model: ModelChoice = ModelChoice(None)
     curve: CurveRequest | None = None

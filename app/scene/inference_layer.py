@@ -4,7 +4,7 @@ each moment: :mod:`app.live.regions`), the predicted path to its end point, the 
 prediction starts from, and the true remainder of a test demonstration; the same, labelled,
 for every other position in space of the layout (:mod:`app.scene.position_nodes`).
 
-:meth:`InferenceLayer.draw` shapes them from an inference (:class:`app.live.inference.Inferred`);
+:meth:`InferenceLayer.draw` shapes them from an inference (:class:`app.live.inference.InferResult`);
 whether they are shown is the scene's decision (:func:`app.scene.look.look`). The tube's mesh
 has a fixed topology, so a new inference only replaces its vertices; it is drawn as the view's
 tube style says (:func:`app.scene.tubes.tube_look`: a band, its outline, or nothing).
@@ -23,7 +23,7 @@ import numpy as np
 import viser
 
 from app.core.view_state import REGION_90
-from app.live.inference import PATH_POINTS, TUBE_POINTS, Inferred
+from app.live.inference import PATH_POINTS, TUBE_POINTS, InferResult
 from app.scene import tubes
 from app.scene.position_nodes import PositionNodes, shape_tube
 from robots.icub.layout import HAND, hand_dims
@@ -44,12 +44,12 @@ class DrawnInference:
     ``style``; ``shaped``: the nodes it gave a shape to (the others keep an older shape and
     stay hidden)."""
 
-    result: Inferred | None
+    result: InferResult | None
     color: tuple[int, int, int]
     style: str
     shaped: frozenset[int] = frozenset()
 
-    def shows(self, result: Inferred | None, color, style: str) -> bool:
+    def shows(self, result: InferResult | None, color, style: str) -> bool:
         """Whether this is what drawing ``result`` in ``color`` and ``style`` would give."""
         return result is self.result and tuple(color) == self.color and style == self.style
 
@@ -115,7 +115,7 @@ class InferenceLayer:
         return bool(self.drawn.shaped)
 
     def draw(
-        self, result: Inferred | None, color: tuple[int, int, int], style: str = REGION_90
+        self, result: InferResult | None, color: tuple[int, int, int], style: str = REGION_90
     ) -> None:
         """Shape the nodes from ``result`` (drawn in ``color``, its primitive's; the tube in
         tube ``style``); none without a result or a hand modality. :attr:`drawn` says so once
@@ -124,7 +124,7 @@ class InferenceLayer:
         shaped = self._shape(result, color, style)
         self.drawn = DrawnInference(result, color, style, frozenset(shaped))
 
-    def _shape(self, result: Inferred | None, color: tuple[int, int, int], style: str) -> set:
+    def _shape(self, result: InferResult | None, color: tuple[int, int, int], style: str) -> set:
         """Write the nodes ``result`` shapes; their ids."""
         layout = result.model.layout if result is not None else None
         hand = hand_dims(layout) if layout is not None else None
@@ -141,7 +141,7 @@ class InferenceLayer:
                 drawn |= self.others[name].shape(view, color, look, labelled)
         return drawn
 
-    def _shape_hand(self, result: Inferred, view, color, look, labelled: bool) -> set:
+    def _shape_hand(self, result: InferResult, view, color, look, labelled: bool) -> set:
         future = result.future.hand
         drawn = {id(n) for n in (self.future, self.end_point, self.now_point)}
         drawn |= shape_tube(self.tube, self.outline, view.region, color, look)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.live.inference import Inferred
+from app.live.inference import InferResult
 
 TEACH, INFER, DATA = "teach", "infer", "data"
 PANELS = (TEACH, INFER, DATA)
@@ -35,7 +35,7 @@ class InferenceShown:
     """The Infer panel's inference (``result``, drawn in ``color``; None: nothing to draw) and
     its display options: ``in_3d`` ("Show in 3D") and ``priors`` ("Session priors")."""
 
-    result: Inferred | None
+    result: InferResult | None
     color: tuple[int, int, int]
     in_3d: bool = True
     priors: str = SHOWN

@@ -36,7 +36,7 @@ from promp.baselines.nearest import nearest_primitive
 from promp.baselines.prefix import prefix_search
 from promp.baselines.relative import column_spread, relative_to_start
 from promp.data import Demonstration, Layout
-from promp.evaluate.methods import Inferred
+from promp.evaluate.methods import TrialAnswer
 
 __all__ = [
     "DTWBaseline",
@@ -70,7 +70,7 @@ class NearestNeighbourBaseline:
         self.labels: list[int] = []
         self.n_primitives = 0
         self.scale = np.ones(layout.n_dims)
-        self._last: tuple | None = None  # (demo, n_observed, observed) -> Inferred
+        self._last: tuple | None = None  # (demo, n_observed, observed) -> TrialAnswer
 
     def fit(self, dataset: Mapping[str, Sequence[Demonstration]], sample_period: float) -> None:
         """Keep the training demonstrations, relative to their start and scaled.
@@ -100,7 +100,7 @@ class NearestNeighbourBaseline:
 
     def infer(
         self, demo: Demonstration, n_observed: int, observe: Sequence[str], alpha_method: str
-    ) -> Inferred:
+    ) -> TrialAnswer:
         """The nearest primitive given the first ``n_observed`` samples of ``observe``.
 
         Raises
@@ -119,7 +119,7 @@ class NearestNeighbourBaseline:
         distances = self._distances(query, demo, dims)
         index, probabilities, _ = nearest_primitive(distances, self.labels, self.n_primitives)
         nothing = np.full((2, self.layout.n_dims), np.nan)
-        inferred = Inferred(
+        inferred = TrialAnswer(
             index=index,
             probabilities=probabilities,
             alpha=float("nan"),

@@ -18,7 +18,7 @@ from promp.learn import fit
 from promp.model import ProMPModel, Settings
 from promp.pipeline import infer
 
-__all__ = ["ALPHA_ROWS", "Inferred", "ProMPEngine", "TRUE_DURATION"]
+__all__ = ["ALPHA_ROWS", "TrialAnswer", "ProMPEngine", "TRUE_DURATION"]
 
 # The evaluation's oracle row: the speed told, from the test movement's true duration (how far
 # a perfect estimate of the duration would take the method).
@@ -27,7 +27,7 @@ ALPHA_ROWS = ("ml", "model", TRUE_DURATION)
 
 
 @dataclass(frozen=True, eq=False)
-class Inferred:
+class TrialAnswer:
     """One inference, as the metrics need it.
 
     Attributes
@@ -71,7 +71,7 @@ class ProMPEngine:
 
     def infer(
         self, demo: Demonstration, n_observed: int, observe: Sequence[str], alpha_method: str
-    ) -> Inferred:
+    ) -> TrialAnswer:
         model = self.model
         assert model is not None, "fit() first"
         obs = Observation.from_demo(model, demo, n_observed, observe)
@@ -80,7 +80,7 @@ class ProMPEngine:
         else:
             result = infer(model, obs, alpha_method=alpha_method)
         interval = result.timing.duration
-        return Inferred(
+        return TrialAnswer(
             index=result.index,
             probabilities=result.probabilities,
             alpha=result.alpha,

@@ -28,7 +28,7 @@ import numpy as np
 
 from promp.basis import SeedBasis
 from promp.data import Demonstration, Layout
-from promp.evaluate.methods import TRUE_DURATION, Inferred
+from promp.evaluate.methods import TRUE_DURATION, TrialAnswer
 
 __all__ = ["NOISE", "N_BASIS", "RIDGE", "S_BAR", "ToolboxBaseline"]
 
@@ -127,7 +127,7 @@ class ToolboxBaseline:
 
     def infer(
         self, demo: Demonstration, n_observed: int, observe: Sequence[str], alpha_method: str
-    ) -> Inferred:
+    ) -> TrialAnswer:
         dims = self.layout.dims(observe)
         y = self.layout.extract(demo)[:n_observed, dims]
         best = (-np.inf, 0, 1.0)
@@ -183,7 +183,7 @@ class ToolboxBaseline:
         post_mean, post_std = trajectory(mean, cov)
         probabilities = np.exp(evidence - np.max(evidence))
         probabilities /= probabilities.sum()
-        return Inferred(
+        return TrialAnswer(
             index=index,
             probabilities=probabilities,
             alpha=float(alpha),

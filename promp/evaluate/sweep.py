@@ -39,7 +39,7 @@ import numpy as np
 
 from promp import metrics
 from promp.data import Demonstration, Layout, sample_period_of
-from promp.evaluate.methods import ALPHA_ROWS, Inferred, ProMPEngine
+from promp.evaluate.methods import ALPHA_ROWS, ProMPEngine, TrialAnswer
 from promp.metrics import position_modality  # (also re-exported)
 from promp.model import Settings
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
@@ -65,7 +65,7 @@ class Trial:
     percent: float
     alpha_method: str
     observed: tuple[str, ...]
-    inferred: Inferred | None
+    inferred: TrialAnswer | None
     position_error_m: float = math.nan
     goal_error_m: float = math.nan
     duration_error_s: float = math.nan
@@ -433,7 +433,7 @@ def leave_one_out(
 
 def _measure(
     trial: Trial,
-    inferred: Inferred,
+    inferred: TrialAnswer,
     truth: np.ndarray,
     true_duration: float,
     n_observed: int,

@@ -14,7 +14,7 @@ the folder of every later dump of the same port (``state:o``, then ``state:o_000
   (``reach/00003``, the same demonstration as ``reach/00003/<port>/`` in the take folders).
 
 A dump in the numbered-port layout reads the same demonstrations as the same dump rearranged
-into take folders (``tests/test_yarp_layouts.py``). Refused, with the layouts expected and what
+into take folders (``tests/test_promp_yarp_layout.py``). Refused, with the layouts expected and what
 was found: a folder that holds numbered takes of several ports, or both take folders and
 numbered port folders, or its own ``data.log`` beside port folders; a class whose port folders
 do not hold the same numbers (a port lacks a take another one has: the pairing by number would

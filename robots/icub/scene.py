@@ -7,8 +7,8 @@ Scene: a table in front of the robot, its top a little below the waist; an objec
 pick position; two open bins at the drop positions, the first on the robot's left, the second
 just right of its midline (reached across the body). Every position the hand has to reach (the
 grasp, above the bins) is inside the workspace of the left arm with the torso kept still, with a
-margin of 3 cm (checked in ``tests/test_scene.py``): the iCub's arm is short, so everything sits
-in the first 20 cm of the table. The partner sits across the table, about 1 m in front of the
+margin of 3 cm (checked in ``tests/test_icub_scene.py``): the iCub's arm is short, so everything
+sits in the first 20 cm of the table. The partner sits across the table, about 1 m in front of the
 robot, facing it; the centre of their head is 1.14 m above the floor (a seated adult).
 
 Head orientation convention (shared with the camera head-pose estimator)

@@ -20,7 +20,7 @@ from app.ui.tube_style import TubeStyleControl
 
 NONE = "(none)"
 PRIMITIVE_HINT = "The primitive of the test demonstration."
-DEMO_HINT = "Inferred with a model learned without it."
+DEMO_HINT = "InferResult with a model learned without it."
 SOURCES = (TEST, LIVE, LSL)
 
 

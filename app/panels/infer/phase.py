@@ -1,7 +1,7 @@
 """The phase estimate as the Infer tab shows it: how much of the movement the method believes it
 has seen, and when it believes the movement ends (:class:`promp.duration.Timing`, posterior
 medians and central intervals), beside the truth of a test demonstration (its whole duration
-is known). Pure functions of an :class:`app.live.inference.Inferred`.
+is known). Pure functions of an :class:`app.live.inference.InferResult`.
 
 - :func:`phase_html`: "Phase: observed ≈ 38 % (90 %: 31–47 %) · true 40 %, inside".
 - :func:`duration_html`: the predicted duration with its interval, and the true one.
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from app.live.inference import Inferred
+from app.live.inference import InferResult
 from app.scene.inference_layer import darker
 from app.ui.charts import TimeInterval
 from promp.duration import Estimate
@@ -30,7 +30,7 @@ def level_text(estimate: Estimate) -> str:
     return f"{100 * estimate.level:.0f} %"
 
 
-def true_fraction(result: Inferred) -> float | None:
+def true_fraction(result: InferResult) -> float | None:
     """The share of the test demonstration observed, in time (None for the live stream)."""
     truth = result.truth
     if truth is None or not truth.duration > 0:
@@ -44,7 +44,7 @@ def _verdict(estimate: Estimate, true: float) -> str:
     return f'<span style="color:{color}">{word}</span>'
 
 
-def phase_html(result: Inferred) -> str:
+def phase_html(result: InferResult) -> str:
     """The observed share of the movement as the method believes it, with its interval, and
     the true share of a test demonstration (inside the interval or not)."""
     share = result.inference.timing.observed_fraction
@@ -58,7 +58,7 @@ def phase_html(result: Inferred) -> str:
     return text
 
 
-def duration_html(result: Inferred) -> str:
+def duration_html(result: InferResult) -> str:
     """The predicted duration with its interval, and the true one (with a truth)."""
     duration = result.inference.timing.duration
     text = (
@@ -71,7 +71,7 @@ def duration_html(result: Inferred) -> str:
     return text
 
 
-def end_interval(result: Inferred, color: tuple[int, int, int]) -> TimeInterval:
+def end_interval(result: InferResult, color: tuple[int, int, int]) -> TimeInterval:
     """The predicted end of the movement and its interval, in the posterior's ``color``
     (darker, as the predicted path in 3D), seconds from its start."""
     duration = result.inference.timing.duration

@@ -1,5 +1,6 @@
 """What the Infer tab shows of an inference: the probability bars and the status lines, as HTML
-(pure functions of an :class:`app.live.inference.Inferred`), and the charts (:class:`InferCharts`).
+(pure functions of an :class:`app.live.inference.InferResult`), and the charts
+(:class:`InferCharts`).
 Lengths and angles in the display units of :mod:`app.ui.display`, user text escaped by
 :mod:`app.ui.text`.
 
@@ -22,7 +23,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from app.live.inference import Inferred
+from app.live.inference import InferResult
 from app.panels.infer.phase import duration_html, end_interval, phase_html
 from app.scene.inference_layer import OBSERVED_COLOR, TRUTH_COLOR
 from app.ui.charts import Band, BandChart, Trace, add_band_chart, band_chart, update_band_chart
@@ -50,7 +51,7 @@ def seconds(value: float, digits: int = 2) -> str:
 
 
 def probabilities_html(
-    result: Inferred, color_of: Callable[[str], tuple[int, int, int]]
+    result: InferResult, color_of: Callable[[str], tuple[int, int, int]]
 ) -> str:
     """One bar per primitive (its probability, in its colour); the recognised one in bold, a
     name cut to the column's width given whole on hover. Each row carries ``data-primitive``
@@ -94,7 +95,7 @@ def failure_html(message: str, timing: str) -> str:
     )
 
 
-def alpha_html(result: Inferred) -> str:
+def alpha_html(result: InferResult) -> str:
     """``α = 0.688 (0.97 × typical)``, explained on hover."""
     relative = result.relative_speed
     typical = f" ({relative:.2f} × typical)" if math.isfinite(relative) else ""
@@ -105,7 +106,7 @@ def alpha_html(result: Inferred) -> str:
 
 
 def status_html(
-    result: Inferred, truth_primitive: str | None, model_note: str, timing: str
+    result: InferResult, truth_primitive: str | None, model_note: str, timing: str
 ) -> str:
     """What was recognised, how much was observed (and which share of the movement the method
     believes that is), with which model, the predicted and true durations and the errors
@@ -139,7 +140,7 @@ def status_html(
     )
 
 
-def errors_line(result: Inferred) -> str:
+def errors_line(result: InferResult) -> str:
     """The errors against the truth, in the unit of the modality they are measured on
     (``—`` without a truth)."""
     errors = result.inference.errors
@@ -209,7 +210,7 @@ class InferCharts:
         self.layout = layout
         self._range_key = None
 
-    def draw(self, result: Inferred, movement: tuple, color: tuple[int, int, int]) -> None:
+    def draw(self, result: InferResult, movement: tuple, color: tuple[int, int, int]) -> None:
         """Draw ``result`` (posterior in ``color``); ranges grow while ``movement`` (what is
         inspected) stays the same."""
         if movement != self._range_key:

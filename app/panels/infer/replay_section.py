@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import viser
 
-from app.live.inference import Inferred
+from app.live.inference import InferResult
 from app.live.replay import Phase, Replay
 from app.ui.context import PanelContext
 
@@ -48,7 +48,7 @@ class ReplaySection:
             self.ctx.notify("Nothing to replay", str(exc), color="yellow")
         self._show_progress()
 
-    def load(self, result: Inferred | None) -> None:
+    def load(self, result: InferResult | None) -> None:
         """The path of ``result``'s prediction (none without a result, a hand path or a
         remaining movement)."""
         future = result.future if result is not None else None

@@ -75,7 +75,7 @@ RECORDING = textwrap.dedent("""
     import numpy as np
     from promp.live.recorder import Recorder
     from promp.live.segmenter import Movement
-    from tests.test_live_recorder import TIMES, VALUES
+    from tests.test_promp_live_recorder import TIMES, VALUES
 
     recorder = Recorder(sys.argv[1], ("x", "y", "z"))
     for n in range(3, TIMES.size, 7):  # the movement grows as samples come

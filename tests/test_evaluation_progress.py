@@ -15,7 +15,7 @@ from app.io.workspace import Workspace, WorkspaceData
 from app.io.workspace_index import PALETTE, PrimitiveEntry
 from tests.browser import click, open_tab, press
 from tests.conftest import StudioSpec, open_page, wait_until
-from tests.test_app_data import gate_sweep  # the next sweep waits after its first fold
+from tests.test_data_tab import gate_sweep  # the next sweep waits after its first fold
 
 SETTINGS = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}  # no choice in every fold: quick
 

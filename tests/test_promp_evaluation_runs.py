@@ -15,7 +15,7 @@ from promp.data import Layout, Modality
 from promp.datasets import write_csv_dataset
 from promp.evaluate.cli import main
 from promp.evaluate.compare import main as compare_main
-from promp.evaluate.methods import Inferred
+from promp.evaluate.methods import TrialAnswer
 from promp.evaluate.plots import display_unit, example
 from promp.evaluate.report import confusion_matrices
 from promp.evaluate.runs import RUN_FILE, compare_runs, read_run, write_run
@@ -171,7 +171,7 @@ def test_an_example_of_many_dimensions_is_a_grid_in_the_studios_units(tmp_path: 
     t = np.linspace(0.0, 1.0, 50)
     demo = Demonstration(t, np.tile(t[:, None], (1, 14)), layout.columns, name="d")
     curve = np.tile(np.linspace(0, 1, 40)[:, None], (1, 14))
-    inferred = Inferred(0, np.array([1.0]), 1.0, 1.0, curve, 0 * curve + 0.1, curve,
+    inferred = TrialAnswer(0, np.array([1.0]), 1.0, 1.0, curve, 0 * curve + 0.1, curve,
                         0 * curve + 0.05, 0.9, 1.1)  # fmt: skip
     trial = Trial(0, "d", 40.0, "ml", ("hand",), inferred)
     path = tmp_path / "example.png"

@@ -1,6 +1,6 @@
 """A take before it becomes a demonstration (no browser): the still time at both ends trimmed by
 hand and head speed, and where a primitive's demonstrations start. The recording in a real
-browser is in tests/test_app_teach.py."""
+browser is in tests/test_teach_tab.py."""
 
 from __future__ import annotations
 

@@ -17,7 +17,7 @@ from promp import metrics
 from promp.data import Layout, Modality
 from promp.datasets import write_csv_dataset
 from promp.evaluate.cli import main
-from promp.evaluate.methods import Inferred, ProMPEngine
+from promp.evaluate.methods import ProMPEngine, TrialAnswer
 from promp.evaluate.report import CSV_COLUMNS
 from promp.evaluate.sweep import n_observed_for, run_sweep, spread_subset
 from promp.model import Settings
@@ -78,9 +78,9 @@ class Oracle:
     def fit(self, train, sample_period):
         self.names = list(train)
 
-    def infer(self, demo, n_observed, observe, alpha_method) -> Inferred:
+    def infer(self, demo, n_observed, observe, alpha_method) -> TrialAnswer:
         values = LAYOUT.extract(demo)
-        return Inferred(
+        return TrialAnswer(
             index=0,
             probabilities=np.array([1.0, 0.0]),
             alpha=1.0,
@@ -123,7 +123,7 @@ class FailsOnOne(Oracle):
     """The oracle, except that it cannot explain one demonstration (as the engine once could
     not explain an observation longer than every training demonstration)."""
 
-    def infer(self, demo, n_observed, observe, alpha_method) -> Inferred:
+    def infer(self, demo, n_observed, observe, alpha_method) -> TrialAnswer:
         if demo.name == self.dataset["right"][1].name and n_observed > 10:
             raise ValueError("the observation lasts longer than every candidate duration")
         return super().infer(demo, n_observed, observe, alpha_method)
@@ -479,7 +479,7 @@ def test_log_loss_of_known_probabilities() -> None:
     dataset = {k: v[:3] for k, v in make_dataset(seed=0, n_demos=3).items()}
 
     class Fixed(Oracle):
-        def infer(self, demo, n_observed, observe, alpha_method) -> Inferred:
+        def infer(self, demo, n_observed, observe, alpha_method) -> TrialAnswer:
             inferred = super().infer(demo, n_observed, observe, alpha_method)
             k = next(i for i, (_, ds) in enumerate(self.dataset.items()) if demo in ds)
             p_true = 0.8 if demo is self.dataset[list(self.dataset)[k]][0] else 0.5

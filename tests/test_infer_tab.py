@@ -54,7 +54,7 @@ def chosen(scenario) -> Settings:
     """The settings the studio's Infer tab fits its held-out models with: the automatic ones
     at the values the workspace's model chose (``Session.resolved_settings``), not chosen
     again for every held-out demonstration (that is the evaluation's rule, tested in
-    tests/test_evaluate.py; here it cost 40 choices, 70 s)."""
+    tests/test_promp_evaluate.py; here it cost 40 choices, 70 s)."""
     model = fit(scenario, LAYOUT, SETTINGS)
     return dataclasses.replace(
         SETTINGS, **{name: getattr(model.settings, name) for name in SETTINGS.automatic}

@@ -20,9 +20,9 @@ from tests.conftest import (
     StudioSpec,
     wait_until,
 )
-from tests.test_app_import import importer
 from tests.test_dataset_import import zip_of
 from tests.test_hand_frame import FAR, far_csv
+from tests.test_import_in_data_tab import importer
 
 SCREENSHOT = Path("/tmp/placement.png")
 

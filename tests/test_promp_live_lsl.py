@@ -35,7 +35,7 @@ UNIQUE = f"{os.getpid()}-{time.monotonic_ns() % 10**9}"  # other runs on this ma
 def reader_code(name: str) -> str:
     """docs/live.md's robot-side reader, for the outputs ``name``."""
     text = (REPO / "docs" / "live.md").read_text()
-    mark = r"<!-- run by tests/test_live_lsl.py: the robot-side reader[^\n]*-->"
+    mark = r"<!-- run by tests/test_promp_live_lsl.py: the robot-side reader[^\n]*-->"
     code = re.search(mark + r"\n```python\n(.*?)```", text, re.S).group(1)
     assert code.count('NAME = "icub"') == 1
     return code.replace('NAME = "icub"', f"NAME = {name!r}")

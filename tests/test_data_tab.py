@@ -26,7 +26,7 @@ from app.panels.data.failed_trials import failed_trials, trial_choices
 from app.panels.data.results import curves, results_table
 from app.panels.data.results_zip import results_filename, results_zip
 from app.ui.text import display_name
-from promp.evaluate.methods import Inferred
+from promp.evaluate.methods import TrialAnswer
 from promp.evaluate.plots import write_figures
 from promp.evaluate.report import CSV_COLUMNS, report_json, results_csv
 from promp.evaluate.sweep import run_sweep
@@ -127,12 +127,12 @@ class FirstOrFails:
     def fit(self, train, sample_period) -> None:
         pass
 
-    def infer(self, demo, n_observed, observe, alpha_method) -> Inferred:
+    def infer(self, demo, n_observed, observe, alpha_method) -> TrialAnswer:
         if demo.name == "right1" and n_observed > demo.n_samples // 2:
             raise ValueError("no candidate duration explains it")
         values = LAYOUT.extract(demo)
         spread = np.full_like(values, 0.01)
-        return Inferred(
+        return TrialAnswer(
             0, np.array([0.9, 0.1]), 1.0, demo.duration, values + 0.1, spread, values, spread
         )
 
