@@ -205,7 +205,7 @@ def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(
     from promp.timing import n_observed_for
 
     monkeypatch.setattr(batches, "LOO_ROWS", 10_000)  # every sample: the engine's input
-    monkeypatch.setattr(loo, "LOOP_WEIGHTS", 1 if one_at_a_time else 10_000)
+    monkeypatch.setattr(loo, "_LOOP_WEIGHTS", 1 if one_at_a_time else 10_000)
     dataset = make_dataset(seed=7, n_demos=5)
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
     settings = Settings(n_basis=6, width=1.0, noise_scale=1.0, shrinkage=shrinkage)

@@ -15,12 +15,12 @@ input's :class:`StreamStatus`. What it does with faults, never raising:
 * **NaN or infinite values** (or beyond :data:`promp.data.MAX_MAGNITUDE`): the sample is left
   out (``bad values``); samples not of the stream's channel count too (``wrong channels``);
 * **a stamp that goes back** a little (under :data:`JUMP_S`): left out;
-* **a clock jump**: stamps that go back by :data:`JUMP_S` or more, or that leap ahead (a
-  batch's newest sample arrives :data:`JUMP_S` sooner after its stamp than the stream's
-  samples ever did: a delivery can be late, on a busy machine, but never early) are
-  re-anchored: the stream's later stamps are shifted so that the first sample after the
-  jump follows the last one by the stream's step (``clock jumped``); the movement under way
-  is ended (:class:`SourceBatch` ``broken``);
+* **a clock jump**: stamps that go back by :data:`JUMP_S` or more, or that leap ahead by
+  :data:`JUMP_S` more than the time that passed here and beyond this machine's clock (a
+  delivery can be late, on a busy machine, but never before its stamp), are re-anchored: the
+  stream's later stamps are shifted so that the first sample after the jump follows the last
+  one by the stream's step (``clock jumped``); the movement under way is ended
+  (:class:`SourceBatch` ``broken``);
 * **a stall**: no sample for :data:`STALL_STEPS` steps (at least :data:`STALL_MIN_S`):
   ``stalled`` until samples come again;
 * **a rate change** of over :data:`RATE_TOLERANCE` over the last :data:`RATE_WINDOW_S`:
@@ -174,7 +174,6 @@ class _Feed:
     last: float = -math.inf  # the last accepted time
     shift: float = 0.0  # re-anchoring after clock jumps
     arrival: float = -math.inf  # when the last sample arrived here
-    lateness: float = math.inf  # the least a batch's newest sample was ever late by here
     heard: float = -math.inf  # when the last sample, usable or not, arrived (stalls)
     rate: float = 0.0  # the rate the stream is believed to run at (Hz; 0 unknown)
     recent: deque = field(default_factory=deque)  # recent times, for the rate
@@ -390,10 +389,11 @@ class Source:
         if math.isfinite(feed.last):
             diffs = np.diff(np.concatenate([[feed.last], times]))
             back = np.flatnonzero(diffs <= -JUMP_S)
-            # A delivery can come late (a busy machine, a thread that waited), never early:
-            # only a clock that leapt ahead brings a sample in sooner than the least lateness
-            # the stream ever had.
-            leap = now - times[-1] < feed.lateness - JUMP_S
+            # Stamps that ran JUMP_S further than the time that passed here, and a newest one
+            # ahead of this machine's clock: a delivery can be late (a busy machine, a sender
+            # catching up), never before its stamp (LSL puts the stamps on this clock).
+            ran = (times[-1] - feed.last) - (now - feed.arrival)
+            leap = ran > JUMP_S and times[-1] > now
             if back.size or leap:
                 i = int(back[0]) if back.size else int(np.argmax(diffs))
                 previous = feed.last if i == 0 else float(times[i - 1])
@@ -406,8 +406,6 @@ class Source:
                     feed, Condition.CLOCK_JUMP, now,
                     f"its time stamps jumped by {-delta:+.3f} s; re-anchored",
                 )  # fmt: skip
-        if times.shape[0]:
-            feed.lateness = min(feed.lateness, now - float(times[-1]))
         keep = times > np.maximum.accumulate(np.concatenate([[feed.last], times]))[:-1]
         if not keep.all():
             feed.left_out += int((~keep).sum())

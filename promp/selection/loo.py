@@ -224,7 +224,7 @@ class LooScorer:
 
 # From this many observed weights on, the bordered matrices are filled and factorised one at a
 # time (each stays in the processor's cache; a stack of them is ~100 MB at D_o M ~ 200).
-LOOP_WEIGHTS = 64
+_LOOP_WEIGHTS = 64
 
 
 def _bordered_diagonals(
@@ -251,7 +251,7 @@ def _bordered_diagonals(
     n_t, n_prims, n_a, p = b.shape
     n_do, m = gram.shape[2], gram.shape[3]
     scaled = inv_s2[:, None, None] * gram  # (T, A, Do, M, M)
-    if p < LOOP_WEIGHTS:  # small: one stack, numpy's loops
+    if p < _LOOP_WEIGHTS:  # small: one stack, numpy's loops
         bordered = np.empty((n_t, n_prims, n_a, p + 1, p + 1))
         bordered[..., :p, :p] = precision[:, :, None]
         for d in range(n_do):
