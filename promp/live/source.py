@@ -16,11 +16,10 @@ input's :class:`StreamStatus`. What it does with faults, never raising:
   out (``bad values``); samples not of the stream's channel count too (``wrong channels``);
 * **a stamp that goes back** a little (under :data:`JUMP_S`): left out;
 * **a clock jump**: stamps that go back by :data:`JUMP_S` or more, or that leap ahead by
-  :data:`JUMP_S` more than the time that passed here and beyond this machine's clock (a
-  delivery can be late, on a busy machine, but never before its stamp), are re-anchored: the
-  stream's later stamps are shifted so that the first sample after the jump follows the last
-  one by the stream's step (``clock jumped``); the movement under way is ended
-  (:class:`SourceBatch` ``broken``);
+  :data:`JUMP_S` more than the time that passed here, are re-anchored: the stream's later
+  stamps are shifted so that the first sample after the jump follows the last one by the
+  stream's step (``clock jumped``); the movement under way is ended (:class:`SourceBatch`
+  ``broken``);
 * **a stall**: no sample for :data:`STALL_STEPS` steps (at least :data:`STALL_MIN_S`):
   ``stalled`` until samples come again;
 * **a rate change** of over :data:`RATE_TOLERANCE` over the last :data:`RATE_WINDOW_S`:
@@ -313,7 +312,6 @@ class Source:
                 continue
             try:
                 times, values = feed.inlet.pull()
-                now = self.transport.clock()  # after the pull: its samples were here by then
             except StreamLost:
                 feed.inlet.close()
                 feed.inlet = None
@@ -389,11 +387,7 @@ class Source:
         if math.isfinite(feed.last):
             diffs = np.diff(np.concatenate([[feed.last], times]))
             back = np.flatnonzero(diffs <= -JUMP_S)
-            # Stamps that ran JUMP_S further than the time that passed here, and a newest one
-            # ahead of this machine's clock: a delivery can be late (a busy machine, a sender
-            # catching up), never before its stamp (LSL puts the stamps on this clock).
-            ran = (times[-1] - feed.last) - (now - feed.arrival)
-            leap = ran > JUMP_S and times[-1] > now
+            leap = (times[-1] - feed.last) - (now - feed.arrival) > JUMP_S
             if back.size or leap:
                 i = int(back[0]) if back.size else int(np.argmax(diffs))
                 previous = feed.last if i == 0 else float(times[i - 1])
