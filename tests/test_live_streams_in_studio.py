@@ -283,8 +283,19 @@ def start_mapped(page, studio, hand: Replayer) -> None:
 
 
 def test_faults_of_a_stream_show_their_status_and_nothing_breaks(page, studio, artifacts):
+    # A marker stream on the network fills the (hidden) marker dropdown; movements start by
+    # stillness, so the session opens no marker stream (it once read the studio's own events
+    # back, each event the next marker, until the memory ran out).
+    cues_name = unique("Cues")
+    cues = pylsl.StreamOutlet(pylsl.StreamInfo(cues_name, "Markers", 1, 0, pylsl.cf_string,
+                                               f"src-{cues_name}"))  # fmt: skip
+    markers = infer_panel(studio).lsl.controls.markers
+    wait_until(lambda: any(cues_name in o for o in markers.options), what="the cues listed")
     faulty = Replayer(unique("FaultyHand"))
     start_mapped(page, studio, faulty)
+    assert studio.live.running.config.markers == ""
+    assert len(studio.live.running.session.snapshot().statuses) == 1  # the hand's alone
+    cues.push_sample(["start top"])
     pusher = Pusher(faulty.outlet)
     pusher.start()
 
@@ -322,6 +333,8 @@ def test_faults_of_a_stream_show_their_status_and_nothing_breaks(page, studio, a
     wait_frames(studio)
     assert studio.live.running is not None and studio.loop.frames_done > 0
     assert not [n for n in studio.notices if n[0] == "Internal error"]
+    assert not [e for e in studio.live.running.session.snapshot().events if "marker" in e.text]
+    del cues
     assert len(studio.live.running.session.snapshot().ended) >= start
     click(page, "Stop")
     wait_until(lambda: studio.live.running is None, what="the source stopped")

@@ -254,3 +254,57 @@ def test_a_failing_sink_is_an_event_not_the_end(tmp_path) -> None:
     assert snap.predictions >= 5
     assert any("a sink failed: OSError: the network is down" in e.text for e in snap.events)
     assert len(transport.outlets["icub-probabilities"].pushed) == snap.predictions
+
+
+class EchoTransport(FakeTransport):
+    """A network where what the session publishes is listed as any other stream (as on LSL)."""
+
+    def outlet(self, spec):
+        outlet = super().outlet(spec)
+        stream = self.add(FakeStream(spec.name, spec.labels, rate=0.0, type=spec.type,
+                                     source_id=spec.source_id, markers=spec.format == "string"))
+        pushed = outlet.push
+
+        def push(rows, stamp):
+            pushed(rows, stamp)
+            stream.push([stamp] * len(rows), list(rows))
+
+        outlet.push = push
+        return outlet
+
+
+def test_a_session_never_reads_its_own_events_back_as_markers(tmp_path) -> None:
+    """``--markers type=Markers`` would match the session's own ``-events`` stream: each event
+    about a marker left out, read back, became the next marker (a loop that filled the memory
+    of a studio in minutes). Its own streams are not opened; another marker stream is."""
+    transport = EchoTransport()
+    hand = transport.add(FakeStream("Hand", ("x", "y", "z"), rate=RATE))
+    outlets = PredictionOutlets(outlet_specs(hand_model(), "icub", None), transport.outlet)
+    session = LiveSession(hand_model(), ["hand=Hand:0,1,2"], transport,
+                          LiveOptions(start="marker", markers="type=Markers"),
+                          outlets=outlets)  # fmt: skip
+    session.connect()
+    session.step()
+    markers = session.snapshot().statuses[-1]
+    assert markers.condition is Condition.WAITING
+    assert "icub-events is this session's own output, not read back" in markers.detail
+    cue = transport.add(FakeStream("Cues", ("label",), rate=0.0, type="Markers", markers=True))
+    session.connect()
+    session.step()
+    assert session.snapshot().statuses[-1].condition is Condition.OK
+    cue.push([transport.now], ["hello " * 40])  # not start/end CLASS: an event, cut short
+    for _ in range(200):
+        transport.now += 0.01
+        hand.push([transport.now], [[0.1, 0.0, 0.0]])
+        session.step()
+    snap = session.snapshot()
+    left_out = [e.text for e in snap.events if "left out" in e.text]
+    assert len(left_out) == 1 and len(left_out[0]) < 120
+    assert snap.n_events < 10
+    assert session.source.counts()["type=Markers"] == (1, 0)
+
+
+def test_a_marker_stream_is_refused_unless_markers_start_movements() -> None:
+    with pytest.raises(ValueError, match="only with --start marker, not --start still"):
+        LiveSession(hand_model(), ["hand=Hand:0,1,2"], FakeTransport(),
+                    LiveOptions(start="still", markers="Cues"))  # fmt: skip

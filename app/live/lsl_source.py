@@ -98,6 +98,7 @@ class SwitchedOutlets:
         self._lock = threading.Lock()
         self._outlets = None
         self.names: tuple[str, ...] = ()
+        self.source_ids: tuple[str, ...] = ()
 
     def set(self, outlets) -> None:
         """Publish through ``outlets`` (a :class:`promp.live.outlets.PredictionOutlets`), or
@@ -105,6 +106,7 @@ class SwitchedOutlets:
         with self._lock:
             old, self._outlets = self._outlets, outlets
             self.names = tuple(s.name for s in outlets.specs.values()) if outlets else ()
+            self.source_ids = outlets.source_ids if outlets else ()
         if old is not None:
             old.close()
 

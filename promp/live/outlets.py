@@ -112,6 +112,11 @@ class PredictionOutlets:
         self.specs = specs
         self._outlets = {kind: open_outlet(spec) for kind, spec in specs.items()}
 
+    @property
+    def source_ids(self) -> tuple[str, ...]:
+        """The outlets' source ids (a session does not read its own streams)."""
+        return tuple(s.source_id for s in self.specs.values())
+
     def publish(self, p: LivePrediction) -> None:
         self._outlets["probabilities"].push(probabilities_row(p)[None], p.last)
         self._outlets["timing"].push(timing_row(p)[None], p.last)

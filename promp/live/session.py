@@ -163,13 +163,16 @@ class LiveSession:
         check_inputs(model, inputs)
         if options.start == "marker" and not options.markers:
             raise ValueError("--start marker needs the marker stream: --markers STREAM")
+        if options.markers and options.start != "marker":
+            raise ValueError(f"a marker stream ({options.markers!r}) starts and ends movements "
+                             f"only with --start marker, not --start {options.start}")
         self.model, self.options, self.transport = model, options, transport
         names = [i.name for i in inputs]
         widths = [len(i.modality.fields) for i in inputs]
         columns = observed_columns(names, widths)
         units = [model.layout.modality(i.name).unit for i in inputs]
         markers = Selector.parse(options.markers) if options.markers else None
-        self.source = Source(inputs, transport, markers)
+        self.source = Source(inputs, transport, markers, own=self._own_streams)
         self.timebase = TimeBase(names, widths, options.rate)
         self.segmenter = Segmenter(
             options.start, sum(widths), [(columns[n], u) for n, u in zip(names, units,
@@ -262,6 +265,11 @@ class LiveSession:
                                  f"looking for streams failed: {type(exc).__name__}: {exc}"))
             self._stop.wait(FIND_EVERY_S)
 
+    def _own_streams(self) -> frozenset[str]:
+        """The source ids of the streams this session publishes (never read back as its
+        inputs or markers: its events would come back as markers, each saying the last)."""
+        return frozenset(self.outlets.source_ids) if self.outlets is not None else frozenset()
+
     def connect(self, wait: float = FIND_WAIT_S) -> None:
         """Look for the missing streams once, here (a session stepped by hand)."""
         found = self.transport.find(wait)
@@ -297,8 +305,8 @@ class LiveSession:
                 boundaries += self.segmenter.abort(gap)
         self.segmenter.markers(batch.markers)
         for time, label in self.segmenter.unknown:
-            events.append(LiveEvent(time, f"marker {label!r} left out (not start/end CLASS, or "
-                                          "not --start marker)"))  # fmt: skip
+            events.append(LiveEvent(time, f"marker {_shown(label)} left out (not start/end "
+                                          "CLASS)"))  # fmt: skip
         self.segmenter.unknown.clear()
         rows = self.timebase.advance({n: self.source.nominal_rate(n)
                                       for n in self.timebase.names})  # fmt: skip
@@ -376,6 +384,11 @@ class LiveSession:
             tuple(self._ended), tuple(self._recorded),
             self._count, self.source.counts(),
         )  # fmt: skip
+
+
+def _shown(label: str, limit: int = 60) -> str:
+    """A marker's label as an event quotes it (cut to ``limit`` characters)."""
+    return repr(label if len(label) <= limit else label[:limit] + "...")
 
 
 def check_inputs(model: ProMPModel, inputs: Sequence[LiveInput]) -> None:

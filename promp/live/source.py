@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -202,6 +202,10 @@ class Source:
     transport : Transport
     markers : Selector, optional
         The marker stream (``start CLASS`` / ``end CLASS``).
+    own : callable, optional
+        The source ids of the streams the session itself publishes, now: never opened (a
+        selector such as ``type=Markers`` would otherwise read the session's own events back,
+        each event about a marker becoming the next marker).
     """
 
     def __init__(
@@ -209,6 +213,7 @@ class Source:
         inputs: Sequence[LiveInput],
         transport: Transport,
         markers: Selector | None = None,
+        own: Callable[[], frozenset[str]] = frozenset,
     ):
         names = [i.name for i in inputs]
         if not inputs:
@@ -217,6 +222,7 @@ class Source:
             raise ValueError(f"a modality is given twice among the inputs {names}")
         self.inputs = tuple(inputs)
         self.transport = transport
+        self._own = own
         now = transport.clock()
         # inputs of one stream share its inlet
         selectors = list(dict.fromkeys(i.selector for i in inputs))
@@ -243,12 +249,17 @@ class Source:
         another thread: it reads only what does not change (the inputs); :meth:`adopt` hands
         the inlets to the feeds."""
         out = []
+        own = self._own()
         for k in wanted:
             feed = self._feeds[k]
             markers = not feed.inputs
-            matching = [s for s in streams
+            selected = [s for s in streams
                         if feed.selector.matches(s) and s.is_markers == markers]  # fmt: skip
+            matching = [s for s in selected if s.source_id not in own]
             if not matching:
+                if selected:
+                    out.append((k, None, None, f"{selected[0].name} is this session's own "
+                                               "output, not read back"))  # fmt: skip
                 continue
             uids = {s.uid for s in matching}
             if len(uids) > 1:

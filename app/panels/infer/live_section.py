@@ -180,9 +180,11 @@ class LiveSection:
     def config(self, state: InferState) -> LiveConfig:
         """What the controls say a session is started with."""
         c = self.controls
-        markers = c.markers.value if c.markers.value != NONE else ""
+        start = STARTS[c.start.value]
+        # the dropdown (hidden unless movements start by markers) holds a stream all the same
+        markers = c.markers.value if start == "marker" and c.markers.value != NONE else ""
         remainder = c.remainder.value if c.remainder.value != NONE else None
-        return LiveConfig(c.mapping.value, STARTS[c.start.value], markers, state.alpha_method,
+        return LiveConfig(c.mapping.value, start, markers, state.alpha_method,
                           bool(c.publish.value), c.out.value, remainder,
                           float(c.rate.value))  # fmt: skip
 
