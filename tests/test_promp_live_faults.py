@@ -99,7 +99,28 @@ def test_a_stream_without_the_mappings_channels_is_not_used(tmp_path) -> None:
     assert rig.status().condition in (Condition.OK, Condition.RESTARTED)
 
 
-@pytest.mark.parametrize("jump", [5.0, -3.0])
+def test_samples_delivered_late_are_not_a_clock_jump(tmp_path) -> None:
+    """On a busy machine the sender may fall behind and push its backlog at once, the
+    session polling in the middle of it: a batch 0.4 s stale, then one on time, is no clock
+    jump (the stamps never came sooner than they could)."""
+    rig = Rig(tmp_path)
+    rig.session.begin()
+    rig.push(50)
+    rig.transport.now += 0.8  # the sender stalled 0.8 s, then pushes what it owes
+    backlog = rig.stamp + np.arange(1, 81) / RATE
+    for k, t in enumerate(backlog):
+        rig.stream.push([t], np.array([[0.1 * np.cos(t), 0.1 * np.sin(t), 0.0]]))
+        if k == 39:
+            rig.session.step()  # half of it: its newest sample 0.4 s old
+    rig.stamp = float(backlog[-1])
+    rig.session.step()  # the rest: on time again
+    rig.push(30)
+    assert rig.status().condition is Condition.OK, rig.texts()
+    movement = rig.session.snapshot().movement
+    assert movement is not None and len(movement) == 160  # one movement, nothing left out
+
+
+@pytest.mark.parametrize("jump", [5.0, -3.0, 0.6])
 def test_a_clock_jump_is_re_anchored_and_ends_the_movement(tmp_path, jump) -> None:
     rig = Rig(tmp_path)
     rig.session.begin()

@@ -16,7 +16,9 @@ input's :class:`StreamStatus`. What it does with faults, never raising:
   out (``bad values``); samples not of the stream's channel count too (``wrong channels``);
 * **a stamp that goes back** a little (under :data:`JUMP_S`): left out;
 * **a clock jump**: stamps that go back by :data:`JUMP_S` or more, or that leap ahead by
-  :data:`JUMP_S` more than the time that passed here, are re-anchored: the stream's later
+  :data:`JUMP_S` more than the time that passed here and the lateness of the last delivery
+  (how far its newest stamp lay behind this machine's clock: a sender catching up its
+  backlog is no jump) together, are re-anchored: the stream's later
   stamps are shifted so that the first sample after the jump follows the last one by the
   stream's step (``clock jumped``); the movement under way is ended (:class:`SourceBatch`
   ``broken``);
@@ -398,7 +400,10 @@ class Source:
         if math.isfinite(feed.last):
             diffs = np.diff(np.concatenate([[feed.last], times]))
             back = np.flatnonzero(diffs <= -JUMP_S)
-            leap = (times[-1] - feed.last) - (now - feed.arrival) > JUMP_S
+            # ahead of the time that passed here, beyond catching up how late the last
+            # delivery was (a sender pushing its backlog on a busy machine is no jump)
+            late = max(feed.arrival - feed.last, 0.0)
+            leap = (times[-1] - feed.last) - (now - feed.arrival) - late > JUMP_S
             if back.size or leap:
                 i = int(back[0]) if back.size else int(np.argmax(diffs))
                 previous = feed.last if i == 0 else float(times[i - 1])
