@@ -109,10 +109,14 @@ def test_sigkill_during_a_live_take_loses_nothing_acknowledged(browser, tmp_path
 
     def push() -> None:
         """The demonstration at its rate, then a slow circle from its end until told to stop:
-        the movement never ends by itself, whatever the start mode."""
-        k = 0
+        the movement never ends by itself, whatever the start mode. Stamped at 100 Hz as a
+        device stamps its samples: a thread the loaded machine starves pushes what it owes
+        when it wakes, on their stamps (pushing late rows at their push time left holes the
+        session rightly took for a gap, which ended the take before the kill)."""
+        k, t0 = 0, pylsl.local_clock()
         while not stop.is_set():
-            t = pylsl.local_clock()
+            t = t0 + 0.01 * k
+            time.sleep(max(0.0, t - pylsl.local_clock()))
             extra = max(k - len(values_m) + 1, 0) * 0.01
             row = values_m[min(k, len(values_m) - 1)] + 0.05 * np.array(
                 [np.cos(extra) - 1.0, np.sin(extra), 0.0])  # fmt: skip
@@ -120,7 +124,6 @@ def test_sigkill_during_a_live_take_loses_nothing_acknowledged(browser, tmp_path
             sent.append(row)
             stamps.append(t)
             k += 1
-            time.sleep(max(0.0, t + 0.01 - pylsl.local_clock()))
 
     proc, port = serve(workspace)
     page = browser.new_page(viewport={"width": 1400, "height": 900})

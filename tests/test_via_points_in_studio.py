@@ -48,6 +48,14 @@ def add_button(page):
     return button.first
 
 
+def add(page) -> None:
+    """Press "Add via-point" (a click event on the button itself: the panel is laid out
+    again as its charts come, and a mouse click at a box measured before lands beside it)."""
+    button = add_button(page)
+    button.wait_for(state="visible")
+    button.dispatch_event("click")
+
+
 def tube_centre(studio, name: str, phase: float) -> tuple[np.ndarray, float]:
     """The drawn tube of ``name`` at ``phase``: its centre (the mean of a ring's vertices,
     interpolated between the two rings around the phase) and its mean radius there."""
@@ -81,7 +89,7 @@ def test_a_typed_via_point_is_passed_through_and_removing_it_gives_the_prior_bac
     section.controls.phase.value = 60  # what typing in the fields does
     section.controls.position.value = tuple(target * 100.0)
     section.controls.precision.value = 0.2
-    press(page, add_button(page))
+    add(page)
     wait_until(lambda: len(view.state.via_points) == 1, timeout=60, what="the via-point added")
     (point,) = view.state.via_points
     assert point.primitive == name and point.phase == 0.6 and point.std == pytest.approx(0.002)
@@ -115,7 +123,7 @@ def test_a_via_point_out_of_bounds_is_refused(studio, page) -> None:
     taught(studio)
     section, view = teach(studio).vias, studio.session.view
     section.controls.position.value = (5000.0, 0.0, 0.0)  # 50 m: a typing mistake
-    press(page, add_button(page))
+    add(page)
     text = notification(page, "Cannot add the via-point", "at most 1000 cm")
     assert "5000" in text
     assert view.state.via_points == ()
@@ -128,7 +136,7 @@ def test_a_via_point_dragged_in_3d_is_passed_through(studio, page) -> None:
     section.controls.phase.value = 50
     section.fill_position()  # the mean at 50 %, as moving the slider in a browser does
     section.controls.precision.value = 0.1  # tight beside the prior's own spread there (~0.5 cm)
-    press(page, add_button(page))
+    add(page)
     wait_until(lambda: len(view.state.via_points) == 1, timeout=60, what="the via-point added")
     (point,) = view.state.via_points
     handles = studio.scene.vias.handles
@@ -234,7 +242,7 @@ def test_in_the_infer_tab_a_via_point_shapes_the_recognised_primitive(studio, pa
     section.controls.phase.value = 90
     section.controls.position.value = tuple(there * 100.0)
     section.controls.precision.value = 0.1
-    press(page, add_button(page))
+    add(page)
     wait_until(lambda: len(view.state.via_points) == 1, timeout=60, what="the via-point added")
     (point,) = view.state.via_points
     assert point.primitive == name
