@@ -18,10 +18,11 @@ input's :class:`StreamStatus`. What it does with faults, never raising:
 * **a clock jump**: stamps that go back by :data:`JUMP_S` or more, or that leap ahead by
   :data:`JUMP_S` more than the time that passed here and the lateness of the last delivery
   (how far its newest stamp lay behind this machine's clock: a sender catching up its
-  backlog is no jump) together, are re-anchored: the stream's later
-  stamps are shifted so that the first sample after the jump follows the last one by the
-  stream's step (``clock jumped``); the movement under way is ended (:class:`SourceBatch`
-  ``broken``);
+  backlog is no jump; so a stream whose stamps always lag by L seconds is not said to jump
+  forward by less than L, the time base then seeing a gap) together, are re-anchored: the
+  stream's later stamps are shifted so that the first sample after the jump follows the last
+  one by the stream's step (``clock jumped``); the movement under way is ended
+  (:class:`SourceBatch` ``broken``);
 * **a stall**: no sample for :data:`STALL_STEPS` steps (at least :data:`STALL_MIN_S`):
   ``stalled`` until samples come again;
 * **a rate change** of over :data:`RATE_TOLERANCE` over the last :data:`RATE_WINDOW_S`:
