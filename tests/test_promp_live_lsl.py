@@ -127,10 +127,15 @@ def test_a_vanished_stream_is_found_again_when_it_restarts() -> None:
         outlet = hand_outlet(name)
         wait_until(lambda: status() is Condition.RESTARTED, what="the stream found again")
         session.begin()
-        t0 = pylsl.local_clock()
+        # 0.3 s of samples, stamped when taken (after the begin, none in the future) and pushed
+        # at once, as a sender catching up does (stamped up to 0.3 s ahead of this machine's
+        # clock instead, a loaded run read them as a clock jump that ended the movement)
+        time.sleep(0.35)
+        t0 = pylsl.local_clock() - 0.3
         for k in range(30):
             outlet.push_sample([k, 0.0, 0.0], t0 + 0.01 * k)
-        wait_until(lambda: session.snapshot().predictions > 0, what="predictions again")
+        wait_until(lambda: session.snapshot().predictions > 0, what=lambda: (
+            f"predictions again (events: {[e.text for e in session.snapshot().events]})"))
     finally:
         session.close()
 
