@@ -150,8 +150,8 @@ class SceneView:
         else:
             points, color = of_primitive(snapshot.view.via_points, vias.primitive), vias.color
         if (points, tuple(color)) != self._vias_from:
-            self._vias_from = (points, tuple(color))
             self.vias.draw(points, color)
+            self._vias_from = (points, tuple(color))  # said once drawn (tests wait on it)
 
     def _draw_workspace(self, snapshot: Snapshot) -> None:
         """The demonstration lines and the prior tubes, each when what it shows changed (the
@@ -163,15 +163,16 @@ class SceneView:
         if not drawn or hidden != drawn[0] or any(
             a is not b for a, b in zip(lines[1:], drawn[1:], strict=True)
         ):
-            self.drawn_from, self._hidden = lines, hidden
+            self._hidden = hidden
             self.partner.show(HEAD.name in store.layout.names)
             self.workspace.draw_lines(store.demos, colors, store.layout, set(store.left_out))
+            self.drawn_from = lines  # said once drawn (tests wait on it)
         tubes = (model, store.primitives, snapshot.view.via_points, snapshot.view.tube_style)
         if any(a is not b for a, b in zip(tubes[:3], self._tubes_from[:3], strict=True)) or (
             tubes[3] != self._tubes_from[3]
         ):
-            self._tubes_from = tubes
             self.workspace.draw_tubes(model, colors, self.look.priors, tubes[3], tubes[2])
+            self._tubes_from = tubes  # said once every tube is written (tests wait on it)
 
     # ------------------------------------------------------------------ what the camera frames
 
