@@ -14,7 +14,8 @@ below the bound enters the evidence, so an observation longer than every demonst
 gets a recognition (the primitive that most plausibly lasts that long) and a prediction.
 
 The integral is a quadrature on :data:`N_NODES` equally spaced nodes in log alpha spanning the
-prior's central 99.6 % (truncated), refined by :data:`N_REFINE` nodes around the best one; the
+prior's central 99.6 % (truncated: the nodes past the bound dropped and the bound added,
+:func:`anchored_nodes`), refined by :data:`N_REFINE` nodes around the best one; the
 reported alpha is the posterior mode on those nodes. ``alpha_method="model"`` centres half of
 the prior's mass on the Eq. 7 regression from the early displacement (a Student-t of the
 regression's cross-validated error) and keeps the other half on the training prior, so a wrong
@@ -57,9 +58,9 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ALPHA_METHODS", "AlphaMethod", "AlphaPrior", "MAX_SPAN", "N_NODES", "N_REFINE", "Recognition",
-    "TAIL", "alpha_prior", "central_range", "label_noise", "longest_alpha", "modality_columns",
-    "model_alpha", "quadrature", "quadrature_weights", "recognise", "speed_prior", "t_logpdf",
-    "with_label_noise"
+    "TAIL", "alpha_prior", "anchored_nodes", "central_range", "label_noise", "longest_alpha",
+    "modality_columns", "model_alpha", "quadrature", "quadrature_weights", "recognise",
+    "speed_prior", "t_logpdf", "with_label_noise"
 ]  # fmt: skip
 
 AlphaMethod = Literal["ml", "model"]
@@ -297,13 +298,42 @@ def alpha_prior(
 def quadrature(
     model: ProMPModel, obs: Observation, prior: AlphaPrior
 ) -> tuple[np.ndarray, np.ndarray, float]:
-    """The coarse quadrature in log alpha: :data:`N_NODES` nodes over the prior's central mass
-    truncated at the longest possible alpha, their log prior densities, and the log of the
-    prior mass below that bound."""
+    """The coarse quadrature in log alpha: :data:`N_NODES` nodes over the prior's central mass,
+    truncated at the longest possible alpha (:func:`anchored_nodes`), their log prior
+    densities, and the log of the prior mass below that bound."""
     bound = math.log(longest_alpha(model, obs))
-    lo, hi = prior.span(bound)
-    nodes = np.linspace(lo, hi, N_NODES)
+    nodes = anchored_nodes(prior, bound)
     return nodes, prior.logpdf(nodes), prior.logcdf(bound)
+
+
+def anchored_nodes(prior: AlphaPrior, bound: float) -> np.ndarray:
+    """The coarse nodes (log alpha) of ``prior`` truncated at ``bound``: :data:`N_NODES` equally
+    spaced over its central mass while the bound lies beyond it; past that, the nodes of the
+    same lattice below the bound (more than half a step below it), and the bound itself.
+
+    The lattice does not move with the bound (nodes are dropped, never shifted), so as an
+    observation grows only the node at the bound is new: the likelihood's sums of the others
+    are kept from one update to the next (:mod:`promp.incremental`), where spreading the
+    nodes over the truncated range made every node new at every sample. When every plausible
+    speed ends too early (the bound below the central mass), the nodes are those of a lattice
+    of the same origin and half the step below it, within ``4 max(scale)`` of the bound.
+    """
+    lo, hi = prior.span(math.inf)
+    lattice = np.linspace(lo, hi, N_NODES)
+    if bound >= hi:
+        return lattice
+    step = (hi - lo) / (N_NODES - 1)
+    if bound <= lo:  # every plausible speed ends too early: the tail just below the bound
+        step *= 0.5  # half the lattice's: as fine as the tail was
+        floor = bound - 4.0 * max(prior.scales)
+        k = np.arange(math.ceil((floor - lo) / step), 1)
+        lattice = lo + k * step
+        lattice = lattice[lattice >= floor]
+    # the last gap between half a step and one and a half: the bound's weight steady
+    below = lattice[lattice < bound - 0.5 * step]
+    if below.size == 0:
+        below = lattice[:1]
+    return np.append(below, bound)
 
 
 def quadrature_weights(

@@ -15,6 +15,7 @@ from promp.incremental import IncrementalStatistics
 from promp.inference import Observation
 from promp.learn import fit
 from promp.pipeline import infer
+from promp.recognition import N_NODES, N_REFINE, AlphaPrior, anchored_nodes, recognise
 from tests.conftest import SHARED_DATA
 from tests.faults import inject
 
@@ -73,6 +74,65 @@ def test_a_faulty_copy_is_inferred_as_from_scratch() -> None:
     model = fit(clean, LAYOUT)
     for demo in dataset[next(iter(dataset))][-3:]:  # the three added (inject's order)
         grow(model, demo, max(demo.times.shape[0] // 12, 1), IncrementalStatistics())
+
+
+def test_the_truncated_nodes_stay_where_they_were() -> None:
+    """Once the observation outlasts a primitive's fastest plausible speeds, its speed nodes
+    past the bound are dropped, never moved: each node of a later (shorter) bound, but the
+    bound itself, is a node of the earlier one bit for bit, so its sums are kept."""
+    for prior in (AlphaPrior((0.1,), (0.3,), (9.0,), (1.0,)),
+                  AlphaPrior((0.0, 0.4), (0.2, 0.1), (4.0, 4.0), (0.5, 0.5))):  # fmt: skip
+        lo, hi = prior.span(np.inf)
+        assert_allclose(anchored_nodes(prior, hi + 1.0), np.linspace(lo, hi, N_NODES), rtol=0)
+        bounds = np.linspace(hi + 0.2, lo - 2.0, 400)  # the bound falls as the movement grows
+        before = anchored_nodes(prior, bounds[0])
+        for bound in bounds[1:]:
+            nodes = anchored_nodes(prior, bound)
+            assert nodes[-1] == min(bound, hi) or nodes[-1] == bound
+            assert np.all(np.diff(nodes) > 0) and nodes.size >= 2
+            if bound > lo:
+                assert np.isin(nodes[:-1], before).all()
+                lattice, step = np.linspace(lo, hi, N_NODES), (hi - lo) / (N_NODES - 1)
+                kept = lattice[lattice < bound - 0.5 * step]  # the last gap over half a step
+                if bound >= hi:
+                    assert_allclose(nodes, lattice, rtol=0)
+                else:
+                    assert_allclose(nodes[:-1], kept if kept.size else lattice[:1], rtol=0)
+            else:  # the tail below the bound: a lattice of half the step, within 4 scales
+                assert nodes[0] >= bound - 4.0 * max(prior.scales) - 1e-12
+                assert np.isin(nodes[1:-1], before).all() or before[-2] >= lo  # one may enter
+                step = 0.5 * (hi - lo) / (N_NODES - 1)
+                assert_allclose(np.diff(nodes[:-1]), step, rtol=1e-9)
+            before = nodes
+
+
+def test_a_long_movement_scores_few_new_speeds_an_update() -> None:
+    """flt's longest demonstration as it is and stretched 3x (slower than any plausible
+    speed), one sample an update: past the fastest plausible speed each primitive scores anew
+    only the node at the bound, a lattice node entering below (the 3x case) and the refined
+    nodes, but once, when the bound leaves the prior's central mass (the lattice continued
+    below it); before, every node moved with every sample and each cost every sample again."""
+    dataset = load_records_dataset(SHARED_DATA / "lab-records-flt")
+    model = fit(dataset, LAYOUT)
+    demo = max((d for ds in dataset.values() for d in ds), key=lambda d: d.times[-1])
+    for stretch in (1.0, 3.0):
+        times, values = stretch * (demo.times - demo.times[0]), LAYOUT.extract(demo)
+        previous, cut, scored, new_total = None, 0, 0, 0
+        switched = np.zeros(len(model.primitives), dtype=int)
+        for n in range(times.shape[0] // 2, times.shape[0]):
+            rec = recognise(model, Observation(times[:n], values[:n], LAYOUT.names))
+            if previous is not None:
+                for k, (now, then) in enumerate(zip(rec.candidates, previous.candidates,
+                                                    strict=True)):  # fmt: skip
+                    new = np.setdiff1d(now, then)
+                    # once a movement, the bound leaves the prior's central mass: the tail
+                    switched[k] += new.size > 2 + N_REFINE
+                    cut += now.max() < then.max()  # the top node is the bound, falling
+                    scored, new_total = scored + now.size, new_total + new.size
+            previous = rec
+        assert cut > 0  # the bound cut into some primitive's nodes: the case under test
+        assert switched.max() <= 1, (stretch, switched)
+        assert new_total < 0.25 * scored, (stretch, new_total, scored)
 
 
 def test_another_observation_starts_again(shared) -> None:
