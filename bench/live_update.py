@@ -99,7 +99,9 @@ def measure(model, rows: np.ndarray, repeats: int, rate: float) -> dict:
         def rows_of(name, args, kwargs):
             if name == "folded_sums":
                 base = kwargs.get("base", args[7] if len(args) > 7 else None)
-                return (args[2].shape[0] - (base.n if base is not None else 0)) * args[5].shape[0]
+                n = args[2].shape[0]
+                held = min(getattr(base, "seen", base.n), n) if base is not None else 0
+                return (n - held) * args[5].shape[0]
             if name == "row_sums":
                 return (args[2].shape[0] - args[7]) * args[5].shape[0]
             return args[2].n_observed * args[4].shape[0]

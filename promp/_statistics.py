@@ -130,12 +130,21 @@ def noise_terms(
 @dataclass(frozen=True)
 class Folded:
     """The sums of A candidates over the complete blocks of the first ``n`` samples (``n`` a
-    multiple of :data:`BLOCK`): what a growing observation's next sums extend."""
+    multiple of :data:`BLOCK`): what a growing observation's next sums extend; and the
+    whitened rows of the samples after them that were seen (the partial block, fewer than
+    :data:`BLOCK`), so that an extension whitens only the samples new since."""
 
     n: int
     gram: np.ndarray  # (A, n_groups, M, M)
     proj: np.ndarray  # (A, Do, M)
     rr: np.ndarray  # (A, Do)
+    psi_tail: np.ndarray | None = None  # (A, n_groups, M, r): the whitened basis
+    y_tail: np.ndarray | None = None  # (Do, r): the whitened values
+
+    @property
+    def seen(self) -> int:
+        """The samples whose whitened rows it holds or summed."""
+        return self.n + (0 if self.y_tail is None else self.y_tail.shape[-1])
 
 
 def folded_sums(
@@ -181,38 +190,48 @@ def folded_sums(
         rr = np.zeros((n_cand, n_do))
     else:
         gram, proj, rr = base.gram.copy(), base.proj.copy(), base.rr.copy()
-    if start < n:
-        first = max(start - 1, 0)  # the sample before the part, for its whitening
+    if start == n:  # every sample in the complete blocks: no rows after them
+        folded = Folded(start, gram.copy(), proj.copy(), rr.copy(),
+                        np.empty((n_cand, n_groups, m, 0)), np.empty((n_do, 0)))  # fmt: skip
+        return WhitenedSums(gram, group, proj, rr, logdet_k), folded
+    # the whitened rows of the samples start..n-1: those the base holds, then the new ones
+    have = start if base is None or base.y_tail is None else min(base.seen, n)
+    if have > start:
+        psi_w, y_w = base.psi_tail[..., : have - start], base.y_tail[:, : have - start]
+    if have < n:
+        first = max(have - 1, 0)  # the sample before the new ones, for their whitening
         times = elapsed[first:]
-        if start == 0:  # the basis rows of the whole observation: cached while scrubbing
+        if have == 0:  # the basis rows of the whole observation: cached while scrubbing
             rows = model.phase_basis(times, durations)
-        else:  # the same function on the rows after the blocks kept (the cache's miss path)
+        else:  # the same function on the rows after those kept (the cache's miss path)
             z = (times[None, :] / durations[:, None]).reshape(-1)
             rows = model.basis(z).reshape(n_cand, times.shape[0], m)
-        psi = rows.swapaxes(-1, -2)  # (A, M, k)
-        mu = primitive.mean_at(alphas).reshape(n_cand, model.n_dims, m)[:, dims]  # (A, Do, M)
         rho, scale = correlation_steps(times, taus)  # (G, k - 1)
-        psi_w = _whitened(psi[:, None], rho[:, None], scale[:, None], start == 0)
-        y_w = _whitened(values[first:].T, rho[group], scale[group], start == 0)  # (Do, k')
-        complete = end - start
-        if complete:  # the blocks added in turn (a cumulative sum is one in order)
-            g, p, r = _block_terms(psi_w[..., :complete], y_w[:, :complete], mu, groups, BLOCK)
-            if base is not None:
-                g = np.concatenate([gram[:, :, None], g], axis=2)
-                p = np.concatenate([proj[:, None], p], axis=1)
-                r = np.concatenate([rr[:, None], r], axis=1)
-            gram = np.cumsum(g, axis=2)[:, :, -1]
-            proj = np.cumsum(p, axis=1)[:, -1]
-            rr = np.cumsum(r, axis=1)[:, -1]
-        folded = Folded(end, gram.copy(), proj.copy(), rr.copy())
-        if end < n:  # the partial block, last
-            width = n - end
-            g, p, r = _block_terms(psi_w[..., complete:], y_w[:, complete:], mu, groups, width)
-            gram += g[:, :, 0]
-            proj += p[:, 0]
-            rr += r[:, 0]
-    else:
-        folded = Folded(start, gram.copy(), proj.copy(), rr.copy())
+        new_psi = _whitened(rows.swapaxes(-1, -2)[:, None], rho[:, None], scale[:, None],
+                            have == 0)  # (A, G, M, n - have)  # fmt: skip
+        new_y = _whitened(values[first:].T, rho[group], scale[group], have == 0)  # (Do, ...)
+        if have > start:
+            new_psi = np.concatenate([psi_w, new_psi], axis=-1)
+            new_y = np.concatenate([y_w, new_y], axis=-1)
+        psi_w, y_w = new_psi, new_y
+    mu = primitive.mean_at(alphas).reshape(n_cand, model.n_dims, m)[:, dims]  # (A, Do, M)
+    complete = end - start
+    if complete:  # the blocks added in turn (a cumulative sum is one in order)
+        g, p, r = _block_terms(psi_w[..., :complete], y_w[:, :complete], mu, groups, BLOCK)
+        if base is not None:
+            g = np.concatenate([gram[:, :, None], g], axis=2)
+            p = np.concatenate([proj[:, None], p], axis=1)
+            r = np.concatenate([rr[:, None], r], axis=1)
+        gram = np.cumsum(g, axis=2)[:, :, -1]
+        proj = np.cumsum(p, axis=1)[:, -1]
+        rr = np.cumsum(r, axis=1)[:, -1]
+    tail_psi, tail_y = psi_w[..., complete:], y_w[:, complete:]
+    folded = Folded(end, gram.copy(), proj.copy(), rr.copy(), tail_psi.copy(), tail_y.copy())
+    if end < n:  # the partial block, last
+        g, p, r = _block_terms(tail_psi, tail_y, mu, groups, n - end)
+        gram += g[:, :, 0]
+        proj += p[:, 0]
+        rr += r[:, 0]
     return WhitenedSums(gram, group, proj, rr, logdet_k), folded
 
 

@@ -115,17 +115,21 @@ class IncrementalStatistics:
             generation = self._adopt(elapsed, values)
             kept = [self._entries.get((*key, a, d))
                     for a, d in zip(alphas.tolist(), durations.tolist(), strict=True)]  # fmt: skip
-        starts = np.array([e.n if e is not None and e.n <= n else 0 for e in kept], dtype=int)
+        # the kept sums that the observation extends, grouped by what they hold
+        usable = [e if e is not None and e.n <= n else None for e in kept]
+        bases = [(e.n, min(e.seen, n)) if e is not None else (0, 0) for e in usable]
         n_cand, n_do, m = alphas.shape[0], dims.shape[0], model.basis.n_basis
         gram = proj = rr = group = logdet_k = None
         folded: list[Folded | None] = [None] * n_cand
-        for start in np.unique(starts).tolist():
-            which = np.flatnonzero(starts == start)
+        for start, seen in sorted(set(bases)):
+            which = [i for i, b in enumerate(bases) if b == (start, seen)]
             base = None
-            if start > 0:  # the folded sums of the complete blocks before
-                base = Folded(start, np.stack([kept[i].gram for i in which]),
-                              np.stack([kept[i].proj for i in which]),
-                              np.stack([kept[i].rr for i in which]))  # fmt: skip
+            if start > 0 or seen > 0:  # the folded sums and the rows after them kept
+                held = [usable[i] for i in which]
+                base = Folded(start, np.stack([e.gram for e in held]),
+                              np.stack([e.proj for e in held]), np.stack([e.rr for e in held]),
+                              np.stack([e.psi_tail[..., : seen - start] for e in held]),
+                              held[0].y_tail[:, : seen - start])  # fmt: skip
             part, done = folded_sums(model, primitive, elapsed, values, dims, alphas[which],
                                      durations[which], base)  # fmt: skip
             if gram is None:
@@ -133,8 +137,9 @@ class IncrementalStatistics:
                 proj, rr = np.empty((n_cand, n_do, m)), np.empty((n_cand, n_do))
                 group, logdet_k = part.group, part.logdet_k
             gram[which], proj[which], rr[which] = part.gram, part.proj, part.rr
-            for j, i in enumerate(which.tolist()):
-                folded[i] = Folded(done.n, done.gram[j], done.proj[j], done.rr[j])
+            for j, i in enumerate(which):
+                folded[i] = Folded(done.n, done.gram[j], done.proj[j], done.rr[j],
+                                   done.psi_tail[j], done.y_tail)  # fmt: skip
         self._store(generation, n, key, alphas, durations, folded)
         return WhitenedSums(gram, group, proj, rr, logdet_k)
 
@@ -173,18 +178,19 @@ class IncrementalStatistics:
             if n > self._latest:
                 self._previous, self._latest = self._latest, n
                 self._entries = {k: e for k, e in self._entries.items()
-                                 if e.seen >= self._previous}  # fmt: skip
+                                 if e.kept_at >= self._previous}  # fmt: skip
             for a, d, f in zip(alphas.tolist(), durations.tolist(), folded, strict=True):
-                for array in (f.gram, f.proj, f.rr):
+                for array in (f.gram, f.proj, f.rr, f.psi_tail, f.y_tail):
                     array.setflags(write=False)  # read, never written
-                self._entries[(*key, a, d)] = _Kept(f.n, f.gram, f.proj, f.rr, n)
+                self._entries[(*key, a, d)] = _Kept(f.n, f.gram, f.proj, f.rr, f.psi_tail,
+                                                    f.y_tail, n)  # fmt: skip
 
 
 @dataclass(frozen=True)
 class _Kept(Folded):
     """A candidate's folded sums, and the length of the observation they were kept at."""
 
-    seen: int = 0
+    kept_at: int = 0
 
 
 def whitened_sums(

@@ -76,10 +76,11 @@ def test_a_faulty_copy_is_inferred_as_from_scratch() -> None:
 
 
 def test_folded_sums_extend_bit_for_bit_and_equal_the_dense_formula(shared) -> None:
-    """The sums of n samples extended from the folded sums of any complete blocks before are
-    those computed at once, bit for bit (partial block or none, fewer samples than a block),
-    and both are the one-product formula's to round-off."""
-    from promp._statistics import BLOCK, dense_sums, folded_sums
+    """The sums of n samples extended from the folded sums of any complete blocks before
+    (with the whitened rows kept after them, however many, or without) are those computed at
+    once, bit for bit (partial block or none, fewer samples than a block), and both are the
+    one-product formula's to round-off."""
+    from promp._statistics import BLOCK, Folded, dense_sums, folded_sums
     from promp.timing import duration_from_alpha
 
     dataset, model = shared
@@ -100,13 +101,23 @@ def test_folded_sums_extend_bit_for_bit_and_equal_the_dense_formula(shared) -> N
         for name in ("gram", "proj", "rr"):
             got, want = getattr(whole, name), getattr(reference, name)
             assert_allclose(got, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
-        for m in range(0, n + 1, BLOCK):  # every base of complete blocks
+        # every base of complete blocks, with the whitened rows after them or without, and
+        # bases kept at other lengths (their rows after the blocks: fewer, as many, or more
+        # than the observation extended has: a shorter one inferred on again)
+        ends = set(range(0, n + 1, BLOCK)) | {m for m in (1, 5, BLOCK + 3, n - 1, n, n + 9)
+                                               if 0 < m <= times.shape[0]}  # fmt: skip
+        for m in sorted(ends):
             _, base = folded_sums(model, primitive, times[:m], values[:m], dims, alphas,
                                   durations) if m else (None, None)  # fmt: skip
-            again, _ = folded_sums(model, primitive, times[:n], values[:n], dims, alphas,
-                                   durations, base)  # fmt: skip
-            for name in ("gram", "proj", "rr", "logdet_k", "group"):
-                assert_array_equal(getattr(again, name), getattr(whole, name))
+            bases = [base] if base is None else [base, Folded(base.n, base.gram, base.proj,
+                                                              base.rr)]  # fmt: skip
+            for held in bases:
+                if held is not None and held.n > n:
+                    continue
+                again, _ = folded_sums(model, primitive, times[:n], values[:n], dims, alphas,
+                                       durations, held)  # fmt: skip
+                for name in ("gram", "proj", "rr", "logdet_k", "group"):
+                    assert_array_equal(getattr(again, name), getattr(whole, name))
 
 
 def test_the_truncated_nodes_stay_where_they_were() -> None:
