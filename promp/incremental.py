@@ -23,7 +23,8 @@ sample instead of ~100 (``bench/live_update.py``).
 (:func:`promp._statistics.folded_sums`: blocks of :data:`promp._statistics.BLOCK` samples from
 the first, in turn, the partial last block last): what is kept of a candidate is the sum
 over its complete blocks and the whitened rows of the partial one; an update whitens the
-samples new since, adds the blocks they complete and sums the partial block again. So :func:`promp.pipeline.infer` given one returns exactly what it returns without (the
+samples new since, adds the blocks they complete and sums the partial block again. So
+:func:`promp.pipeline.infer` given one returns exactly what it returns without (the
 likelihood is a small difference of large whitened sums, and another order of the additions
 moved it by 1e-8 nats on flt with some settings: enough to move the estimated speed and the
 posterior in their ninth digit).
