@@ -83,6 +83,7 @@ def measure(model, rows: np.ndarray, repeats: int, rate: float) -> dict:
             infer(model, observation(rows, k, rate), statistics=statistics_)
         spent, rows_whitened = [0.0], [0]
         original = incremental.whitened_sums
+        row_sums = incremental.row_sums
 
         def timed(*args, original=original, spent=spent, **kwargs):
             began = time.perf_counter()
@@ -91,31 +92,19 @@ def measure(model, rows: np.ndarray, repeats: int, rate: float) -> dict:
             finally:
                 spent[0] += time.perf_counter() - began
 
-        # the rows whitened: the folded sums' (this tree), or the row and dense sums' (before)
-        names = ["folded_sums"] if hasattr(incremental, "folded_sums") else \
-            ["row_sums", "dense_sums"]  # fmt: skip
-        saved = {name: getattr(incremental, name) for name in names}
+        def counted(*args, row_sums=row_sums, rows_whitened=rows_whitened):
+            elapsed, alphas, start = args[2], args[5], args[7]
+            rows_whitened[0] += (elapsed.shape[0] - start) * alphas.shape[0]
+            return row_sums(*args)
 
-        def rows_of(name, args, kwargs):
-            if name == "folded_sums":
-                base = kwargs.get("base", args[7] if len(args) > 7 else None)
-                n = args[2].shape[0]
-                held = min(getattr(base, "seen", base.n), n) if base is not None else 0
-                return (n - held) * args[5].shape[0]
-            if name == "row_sums":
-                return (args[2].shape[0] - args[7]) * args[5].shape[0]
-            return args[2].n_observed * args[4].shape[0]
+        dense_sums = incremental.dense_sums
 
-        def counting(name, saved=saved, rows_whitened=rows_whitened):
-            def counted(*args, **kwargs):
-                rows_whitened[0] += rows_of(name, args, kwargs)
-                return saved[name](*args, **kwargs)
+        def counted_dense(*args, dense_sums=dense_sums, rows_whitened=rows_whitened):
+            rows_whitened[0] += args[2].n_observed * args[4].shape[0]
+            return dense_sums(*args)
 
-            return counted
-
-        incremental.whitened_sums = timed
-        for name in names:
-            setattr(incremental, name, counting(name))
+        incremental.whitened_sums, incremental.row_sums = timed, counted
+        incremental.dense_sums = counted_dense
         import promp._likelihood as likelihood
         import promp._weight_space as weight_space
 
@@ -127,9 +116,8 @@ def measure(model, rows: np.ndarray, repeats: int, rate: float) -> dict:
             result = infer(model, observation(rows, n, rate), statistics=statistics_)
             update.append(time.perf_counter() - began)
         finally:
-            incremental.whitened_sums = original
-            for name in names:
-                setattr(incremental, name, saved[name])
+            incremental.whitened_sums, incremental.row_sums = original, row_sums
+            incremental.dense_sums = dense_sums
             for module in patched:
                 module.whitened_sums = original
         sums.append(spent[0])

@@ -7,7 +7,8 @@ candidate speed the terms of the samples already observed do not change as more 
 basis at their phases, their whitening, their residual). :class:`IncrementalStatistics` keeps
 each candidate's sums and adds only the new samples' terms: the work of an update grows with
 the samples that arrived since the last one, not with the movement's length. The numbers are
-the computation from scratch's, bit for bit (below).
+the dense computation's to round-off (only the order of the additions differs):
+:func:`promp.pipeline.infer` given one returns what it returns without, within 1e-9.
 
 Which candidates come back from one update to the next: recognition's quadrature nodes
 (:mod:`promp.recognition`) stay where they are while the movement is shorter than the
@@ -15,19 +16,10 @@ durations of a primitive's fastest plausible speeds, and so do the refined nodes
 best node does. Past that, the nodes beyond the fastest speed that still contains the
 observation are dropped, never moved (:func:`promp.recognition.anchored_nodes`): only the
 node at that bound, which moves with each sample, and the refined nodes around a best node
-that moved are new candidates, whose sums are computed from every sample (a few operations
-per sample and candidate). An update of a 10 s movement at 250 Hz whitens ~10 rows per
-sample instead of ~100 (``bench/live_update.py``).
-
-**The same numbers, bit for bit.** Both paths add the samples' terms in one order
-(:func:`promp._statistics.folded_sums`: blocks of :data:`promp._statistics.BLOCK` samples from
-the first, in turn, the partial last block last): what is kept of a candidate is the sum
-over its complete blocks and the whitened rows of the partial one; an update whitens the
-samples new since, adds the blocks they complete and sums the partial block again. So
-:func:`promp.pipeline.infer` given one returns exactly what it returns without (the
-likelihood is a small difference of large whitened sums, and another order of the additions
-moved it by 1e-8 nats on flt with some settings: enough to move the estimated speed and the
-posterior in their ninth digit).
+that moved are new candidates, whose sums are computed from every sample
+(:func:`promp._statistics.row_sums`, a few operations per sample and candidate), as are the
+conditioning's at the estimated speed when it changes. An update of a 10 s movement at
+250 Hz whitens ~10 rows per sample instead of ~100 (``bench/live_update.py``).
 
 The caller owns one per movement: no global cache. Given an observation that does not extend
 the one it saw last (a new movement, or another one altogether), it forgets everything and
@@ -44,11 +36,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from promp._statistics import Folded, WhitenedSums, folded_sums
+from promp._statistics import WhitenedSums, dense_sums, noise_terms, row_sums
 from promp.model import Primitive, ProMPModel
 from promp.observation import Observation
 
 __all__ = ["IncrementalStatistics", "whitened_sums"]
+
+
+@dataclass(frozen=True)
+class _Sums:
+    """One candidate's sums over the first ``n`` samples (:class:`WhitenedSums`' rows)."""
+
+    n: int
+    gram: np.ndarray  # (n_groups, M, M)
+    proj: np.ndarray  # (Do, M)
+    rr: np.ndarray  # (Do,)
 
 
 class IncrementalStatistics:
@@ -72,7 +74,7 @@ class IncrementalStatistics:
         self._elapsed = np.zeros(0)
         self._values = np.zeros((0, 0))
         self._generation = 0  # counts the observations it started again from
-        self._entries: dict[tuple, _Kept] = {}
+        self._entries: dict[tuple, _Sums] = {}
         self._latest = 0  # the length of the observation the latest sums were stored for
         self._previous = 0  # and of the one before
 
@@ -116,32 +118,27 @@ class IncrementalStatistics:
             generation = self._adopt(elapsed, values)
             kept = [self._entries.get((*key, a, d))
                     for a, d in zip(alphas.tolist(), durations.tolist(), strict=True)]  # fmt: skip
-        # the kept sums that the observation extends, grouped by what they hold
-        usable = [e if e is not None and e.n <= n else None for e in kept]
-        bases = [(e.n, min(e.seen, n)) if e is not None else (0, 0) for e in usable]
+        starts = np.array([e.n if e is not None and e.n <= n else 0 for e in kept], dtype=int)
         n_cand, n_do, m = alphas.shape[0], dims.shape[0], model.basis.n_basis
-        gram = proj = rr = group = logdet_k = None
-        folded: list[Folded | None] = [None] * n_cand
-        for start, seen in sorted(set(bases)):
-            which = [i for i, b in enumerate(bases) if b == (start, seen)]
-            base = None
-            if start > 0 or seen > 0:  # the folded sums and the rows after them kept
-                held = [usable[i] for i in which]
-                base = Folded(start, np.stack([e.gram for e in held]),
-                              np.stack([e.proj for e in held]), np.stack([e.rr for e in held]),
-                              np.stack([e.psi_tail[..., : seen - start] for e in held]),
-                              held[0].y_tail[:, : seen - start])  # fmt: skip
-            part, done = folded_sums(model, primitive, elapsed, values, dims, alphas[which],
-                                     durations[which], base)  # fmt: skip
-            if gram is None:
-                gram = np.empty((n_cand,) + part.gram.shape[1:])
-                proj, rr = np.empty((n_cand, n_do, m)), np.empty((n_cand, n_do))
-                group, logdet_k = part.group, part.logdet_k
-            gram[which], proj[which], rr[which] = part.gram, part.proj, part.rr
-            for j, i in enumerate(which):
-                folded[i] = Folded(done.n, done.gram[j], done.proj[j], done.rr[j],
-                                   done.psi_tail[j], done.y_tail)  # fmt: skip
-        self._store(generation, n, key, alphas, durations, folded)
+        group, logdet_k = noise_terms(primitive, dims, elapsed)
+        gram = np.empty((n_cand, int(group.max()) + 1, m, m))
+        proj = np.empty((n_cand, n_do, m))
+        rr = np.empty((n_cand, n_do))
+        for start in np.unique(starts).tolist():
+            which = np.flatnonzero(starts == start)
+            if start < n:
+                part = row_sums(model, primitive, elapsed, values, dims, alphas[which],
+                                durations[which], start)  # fmt: skip
+                gram[which], proj[which], rr[which] = part.gram, part.proj, part.rr
+            else:
+                gram[which], proj[which], rr[which] = 0.0, 0.0, 0.0
+            if start > 0:  # the sums of the samples before
+                gram[which] += np.stack([kept[i].gram for i in which])
+                proj[which] += np.stack([kept[i].proj for i in which])
+                rr[which] += np.stack([kept[i].rr for i in which])
+        for kept_array in (gram, proj, rr):
+            kept_array.setflags(write=False)  # rows of it are kept: read, never written
+        self._store(generation, n, key, alphas, durations, gram, proj, rr)
         return WhitenedSums(gram, group, proj, rr, logdet_k)
 
     def _adopt(self, elapsed: np.ndarray, values: np.ndarray) -> int:
@@ -169,29 +166,21 @@ class IncrementalStatistics:
         key: tuple,
         alphas: np.ndarray,
         durations: np.ndarray,
-        folded: list[Folded],
+        gram: np.ndarray,
+        proj: np.ndarray,
+        rr: np.ndarray,
     ) -> None:
-        """Keep the candidates' folded sums of an ``n``-sample observation, unless it was
-        replaced meanwhile or a longer one was seen; forget those of two updates ago."""
+        """Keep the candidates' sums over ``n`` samples, unless the observation was replaced
+        meanwhile or a longer one was seen; forget those of two updates ago."""
         with self._lock:
             if generation != self._generation or n < self._latest:
                 return
             if n > self._latest:
                 self._previous, self._latest = self._latest, n
                 self._entries = {k: e for k, e in self._entries.items()
-                                 if e.kept_at >= self._previous}  # fmt: skip
-            for a, d, f in zip(alphas.tolist(), durations.tolist(), folded, strict=True):
-                for array in (f.gram, f.proj, f.rr, f.psi_tail, f.y_tail):
-                    array.setflags(write=False)  # read, never written
-                self._entries[(*key, a, d)] = _Kept(f.n, f.gram, f.proj, f.rr, f.psi_tail,
-                                                    f.y_tail, n)  # fmt: skip
-
-
-@dataclass(frozen=True)
-class _Kept(Folded):
-    """A candidate's folded sums, and the length of the observation they were kept at."""
-
-    kept_at: int = 0
+                                 if e.n >= self._previous}  # fmt: skip
+            for i, (a, d) in enumerate(zip(alphas.tolist(), durations.tolist(), strict=True)):
+                self._entries[(*key, a, d)] = _Sums(n, gram[i], proj[i], rr[i])
 
 
 def whitened_sums(
@@ -205,9 +194,8 @@ def whitened_sums(
 ) -> WhitenedSums:
     """:class:`WhitenedSums` of ``obs``: extended from the sums ``statistics`` kept of its
     first samples when given (:class:`IncrementalStatistics`), otherwise
-    from every sample, in the same order of the additions
-    (:func:`promp._statistics.folded_sums`: the numbers are the same bit for bit). Parameters
-    as :func:`promp._statistics.dense_sums`."""
+    from every sample (:func:`promp._statistics.dense_sums`). Parameters as
+    :func:`promp._statistics.dense_sums`."""
     if statistics is not None:
         return statistics.sums(model, primitive, obs, dims, alphas, durations)
-    return folded_sums(model, primitive, obs.elapsed, obs.values, dims, alphas, durations)[0]
+    return dense_sums(model, primitive, obs, dims, alphas, durations)

@@ -135,9 +135,9 @@ def infer(
         The movement's duration when it is known (s): every primitive scored at that speed.
     statistics : IncrementalStatistics, optional
         For an observation that grows (a live movement inferred on at each update), what the
-        likelihood kept of its first samples (:mod:`promp.incremental`): the same inference,
-        bit for bit, at a cost that grows with the samples new since the last update rather
-        than with all of them.
+        likelihood kept of its first samples (:mod:`promp.incremental`): the same inference
+        to round-off (within 1e-9), at a cost that grows with the samples new since the last
+        update rather than with all of them.
 
     Returns
     -------

