@@ -24,7 +24,7 @@ from promp.learn import fit
 from robots.icub.layout import HAND, HEAD, is_position, position_modalities
 from robots.icub.scenario import generate_scenario
 from tests.browser import choose, settled_screenshot
-from tests.conftest import PageSpec, StudioSpec, wait_until
+from tests.conftest import PageSpec, StudioSpec, wait_frames, wait_until
 
 PARTNER = Modality("partner", ("px", "py", "pz"), unit="m")
 LAYOUT = Layout((HAND, HEAD, PARTNER))
@@ -104,6 +104,9 @@ def test_observing_the_partners_hand_draws_both_hands_labelled(studio, page) -> 
                 and drawn.result is view.result and studio.scene.look.inference and drawn)
 
     drawn = wait_until(shown, timeout=180, what="the partner's hand observed and drawn")
+    # the frame that drew it shows the nodes it shaped only after: a whole frame later, what
+    # the previous result showed (the robot's hand observed) is hidden
+    wait_frames(studio, 1)
     layer, result = studio.scene.inference, drawn.result
     nodes = layer.others["partner"]
     for node in (nodes.tube, nodes.future, nodes.observed, nodes.end, nodes.label):
