@@ -238,10 +238,22 @@ def test_the_start_view_separates_the_paths_and_the_buttons_move_the_camera(
         wait_until(start_view_ok, timeout=60, what=lambda: (
             "the paths apart in the start view, beside the panel: "
             f"{camera_pixels(page, client, mid_points(scenario))}"))  # fmt: skip
+        # The Partner view looks from the partner's eye at the paths' centre. Its position and
+        # its direction are both waited for: the browser can report the new position while
+        # the direction is still the Side view's, and Frame paths keeps the direction it sees.
+        partner = view_pose(PARTNER, studio.scene.paths(inference=False), 1600, 1000)
+        along = partner.look_at - partner.position
+        along /= np.linalg.norm(along)
+
+        def partner_view() -> bool:
+            seen = client.camera.look_at - client.camera.position
+            return bool(np.linalg.norm(client.camera.position - partner_eye()) < 0.2
+                        and np.allclose(seen / np.linalg.norm(seen), along, atol=1e-3))
+
         for view, check in (
             (TOP, lambda: client.camera.position[2] > 1.0),
             (SIDE, lambda: client.camera.position[1] < -1.0),
-            (PARTNER, lambda: np.linalg.norm(client.camera.position - partner_eye()) < 0.2),
+            (PARTNER, partner_view),
         ):
             press(page, page.get_by_role("button", name=view, exact=True))
             wait_until(check, timeout=60, what=f"the camera of {view}")
