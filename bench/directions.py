@@ -87,12 +87,10 @@ class Variant(ProMPEngine):
         self.name = name
         kind, _, value = name.partition(":")
         self.kind, self.value = kind, float(value) if value else None
-        self.parts: list = []
 
     def fit(self, dataset, sample_period: float) -> None:
-        self.model, self.parts = _fitted(self, dataset, sample_period)
-        self.demo_weights = {p.name: self.parts[k].weights for k, p in
-                             enumerate(self.model.primitives)}  # fmt: skip
+        self.model, parts = _fitted(self, dataset, sample_period)
+        self.parts = {p.name: part for p, part in zip(self.model.primitives, parts, strict=True)}
         self._components: dict = {}
         self._ensembles: dict = {}
 
@@ -124,7 +122,7 @@ class Variant(ProMPEngine):
         h = self.value
         share = math.sqrt(max(1.0 - h * h, 0.0))
         if prim.name not in self._components:
-            residuals = self.parts[[p.name for p in model.primitives].index(prim.name)].residuals
+            residuals = self.parts[prim.name].residuals
             self._components[prim.name] = [
                 replace(prim, mean=prim.mean + share * e, cov_diag=h * h * prim.cov_diag,
                         cov_factor=h * prim.cov_factor)
@@ -149,11 +147,7 @@ class Variant(ProMPEngine):
             return recognition.quadrature_weights(x[None, :], density, mass)  # (J, A)
 
         ll, weights = table(nodes), kernels(nodes)
-        best = int(np.argmax(logsumexp_rows(ll + weights.T)))
-        step = nodes[1] - nodes[0] if nodes.size > 1 else 0.1
-        fine = np.linspace(nodes[best] - step, nodes[best] + step, recognition.N_REFINE + 2)[1:-1]
-        fine = fine[(fine > nodes[0]) & (fine < nodes[-1])
-                    & ~np.isclose(fine, nodes[best], rtol=0, atol=1e-9)]  # fmt: skip
+        fine = recognition.refined_nodes(nodes, int(np.argmax(logsumexp_rows(ll + weights.T))))
         if fine.size:
             nodes = np.concatenate([nodes, fine])
             ll = np.concatenate([ll, table(fine)])
@@ -174,7 +168,7 @@ class Variant(ProMPEngine):
         if key not in self._ensembles:
             rng = np.random.default_rng(0)
             m = model.basis.n_basis
-            weights = self.demo_weights[prim.name]
+            weights = self.parts[prim.name].weights
             n = weights.shape[0]
             pick = np.arange(ENSEMBLE) % n
             jitter = (rng.standard_normal((ENSEMBLE, prim.cov_factor.shape[1])) @ prim.cov_factor.T
@@ -231,12 +225,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--variant", nargs="+", default=["promp", "mixture:0.5", "ebip:1"])
     parser.add_argument("--jobs", type=int, default=1)
     args = parser.parse_args(argv)
+    for name in args.variant:
+        kind, _, value = name.partition(":")
+        try:
+            number = float(value) if value else None
+        except ValueError:
+            number = math.nan
+        if not ((kind == "promp" and number is None)
+                or (kind == "mixture" and number is not None and 0.0 < number <= 1.0)
+                or (kind == "ebip" and number is not None and 0.0 <= number < math.inf)):
+            parser.error(f"unknown variant {name!r}: promp, mixture:H (0 < H <= 1) or ebip:Q "
+                         "(Q >= 0)")  # fmt: skip
     folder = Path(args.set) if Path(args.set).is_dir() else SHARED / f"lab-records-{args.set}"
     read = read_dataset(folder, args.format)
-    for name in args.variant:
-        kind = name.partition(":")[0]
-        if kind not in ("promp", "mixture", "ebip"):
-            parser.error(f"unknown variant {name!r}")
     factories = {name: (lambda name=name: Variant(read.layout, name)) for name in args.variant}
     start = time.perf_counter()
     observed = [position_modality(read.layout)]

@@ -60,7 +60,7 @@ __all__ = [
     "ALPHA_METHODS", "AlphaMethod", "AlphaPrior", "MAX_SPAN", "N_NODES", "N_REFINE", "Recognition",
     "TAIL", "alpha_prior", "anchored_nodes", "central_range", "label_noise", "longest_alpha",
     "modality_columns", "model_alpha", "quadrature", "quadrature_weights", "recognise",
-    "speed_prior", "t_logpdf", "with_label_noise"
+    "refined_nodes", "speed_prior", "t_logpdf", "with_label_noise"
 ]  # fmt: skip
 
 AlphaMethod = Literal["ml", "model"]
@@ -360,6 +360,15 @@ def quadrature_weights(
     return log_w + np.asarray(log_mass)[..., None] - logsumexp_rows(log_w)[..., None]
 
 
+def refined_nodes(nodes: np.ndarray, best: int) -> np.ndarray:
+    """The :data:`N_REFINE` nodes that refine the coarse quadrature ``nodes`` (increasing, at
+    least two: :func:`quadrature`) around ``nodes[best]``: equally spaced within one coarse
+    step either side, strictly inside the coarse range, ``nodes[best]`` itself left out."""
+    step = nodes[1] - nodes[0]
+    fine = np.linspace(nodes[best] - step, nodes[best] + step, N_REFINE + 2)[1:-1]
+    keep = (fine > nodes[0]) & (fine < nodes[-1])
+    return fine[keep & ~np.isclose(fine, nodes[best], rtol=0, atol=1e-9)]
+
 def _integrate(
     model: ProMPModel,
     primitive: Primitive,
@@ -369,12 +378,8 @@ def _integrate(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Nodes (log alpha), their log-likelihoods and log prior densities, and the evidence."""
     nodes, lp, log_mass = quadrature(model, obs, prior)
-    lo, hi = nodes[0], nodes[-1]
     ll = log_likelihoods(model, primitive, obs, np.exp(nodes), statistics)
-    best = int(np.argmax(ll + lp))
-    step = nodes[1] - nodes[0]
-    fine = np.linspace(nodes[best] - step, nodes[best] + step, N_REFINE + 2)[1:-1]
-    fine = fine[(fine > lo) & (fine < hi) & ~np.isclose(fine, nodes[best], rtol=0, atol=1e-9)]
+    fine = refined_nodes(nodes, int(np.argmax(ll + lp)))
     if fine.size:
         nodes = np.concatenate([nodes, fine])
         ll = np.concatenate([ll, log_likelihoods(model, primitive, obs, np.exp(fine), statistics)])
