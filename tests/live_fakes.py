@@ -9,6 +9,7 @@ import numpy as np
 
 from promp.data import Demonstration
 from promp.live.transport import OutletSpec, StreamDescription, StreamLost
+from tests.conftest import shared_set, uses_shared_data
 
 _UIDS = itertools.count(1)
 
@@ -133,21 +134,18 @@ def replay(session, transport: FakeTransport, stream: FakeStream, times, values,
 _CACHE: dict = {}
 
 
+@uses_shared_data
 def flt_dataset():
     """The shared set lab-records-flt (the test is skipped when it is absent)."""
-    import pytest
-
     from promp.datasets import load_records_dataset
-    from tests.conftest import SHARED_DATA
 
-    root = SHARED_DATA / "lab-records-flt"
-    if not root.is_dir():
-        pytest.skip(f"shared lab recordings not found at {root}")
+    root = shared_set("lab-records-flt")
     if "flt" not in _CACHE:
         _CACHE["flt"] = load_records_dataset(root)
     return _CACHE["flt"]
 
 
+@uses_shared_data
 def hand_model():
     """A hand model of lab-records-flt learned without each class's first demonstration (the
     replayed ones), fixed settings (fast and deterministic)."""
@@ -177,6 +175,7 @@ def session_with(model, inputs, transport, **options):
     return session
 
 
+@uses_shared_data
 def flt_workspace(root, per_class: int = 6, modalities: str = "hand=x,y,z", settings=None):
     """A studio workspace at ``root`` of lab-records-flt's ``modalities``: each class's
     demonstrations but its first (the one the tests replay), at most ``per_class``; learning
@@ -184,10 +183,9 @@ def flt_workspace(root, per_class: int = 6, modalities: str = "hand=x,y,z", sett
     from app.io.dataset_import import read_folder
     from app.io.workspace import Workspace
     from promp.datasets import parse_modalities
-    from tests.conftest import SHARED_DATA
 
     flt_dataset()  # skips when absent
-    data, _ = read_folder(SHARED_DATA / "lab-records-flt", "records", parse_modalities(modalities))
+    data, _ = read_folder(shared_set("lab-records-flt"), "records", parse_modalities(modalities))
     data.demos = {name: demos[1:per_class + 1] for name, demos in data.demos.items()}
     data.settings = dict(settings if settings is not None else
                          {"n_basis": 7, "width": 1.0, "noise_scale": 1.5})  # fmt: skip

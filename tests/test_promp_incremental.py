@@ -16,7 +16,7 @@ from promp.inference import Observation
 from promp.learn import fit
 from promp.pipeline import infer
 from promp.recognition import N_NODES, N_REFINE, AlphaPrior, anchored_nodes, recognise
-from tests.conftest import SHARED_DATA
+from tests.conftest import shared_set
 from tests.faults import inject
 
 CLOSE = {"rtol": 0.0, "atol": 1e-9}
@@ -51,7 +51,7 @@ def grow(model, demo, step: int, statistics: IncrementalStatistics) -> int:
 @pytest.fixture(scope="module", params=["lab-records-heights", "lab-records-flt",
                                         "lab-records-flt-shapes"])  # fmt: skip
 def shared(request):
-    dataset = load_records_dataset(SHARED_DATA / request.param)
+    dataset = load_records_dataset(shared_set(request.param))
     return dataset, fit(dataset, LAYOUT)
 
 
@@ -69,7 +69,7 @@ def test_a_growing_movement_is_inferred_as_from_scratch(shared) -> None:
 def test_a_faulty_copy_is_inferred_as_from_scratch() -> None:
     """The faulty demonstrations (still 22 s, a 20 s timestamp gap, 3x slower than any):
     long observations, out of the speed prior, where recognition's nodes move each update."""
-    clean = load_records_dataset(SHARED_DATA / "lab-records-flt")
+    clean = load_records_dataset(shared_set("lab-records-flt"))
     dataset, _ = inject(clean, LAYOUT, seed=0)
     model = fit(clean, LAYOUT)
     for demo in dataset[next(iter(dataset))][-3:]:  # the three added (inject's order)
@@ -112,7 +112,7 @@ def test_a_long_movement_scores_few_new_speeds_an_update() -> None:
     only the node at the bound, a lattice node entering below (the 3x case) and the refined
     nodes, but once, when the bound leaves the prior's central mass (the lattice continued
     below it); before, every node moved with every sample and each cost every sample again."""
-    dataset = load_records_dataset(SHARED_DATA / "lab-records-flt")
+    dataset = load_records_dataset(shared_set("lab-records-flt"))
     model = fit(dataset, LAYOUT)
     demo = max((d for ds in dataset.values() for d in ds), key=lambda d: d.times[-1])
     for stretch in (1.0, 3.0):

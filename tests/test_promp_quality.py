@@ -21,7 +21,7 @@ from promp.pipeline import infer
 from promp.quality import Finding, dataset_findings, demo_findings, split_flagged
 from promp.timing import n_observed_for
 from promp.weights import fit_all_weights
-from tests.conftest import SHARED_DATA
+from tests.conftest import shared_set
 from tests.faults import inject, write_faulty_records
 from tests.synthetic import LAYOUT, make_dataset
 
@@ -29,10 +29,7 @@ SETS = ("heights", "flt", "flt-shapes")
 
 
 def shared(name: str):
-    folder = SHARED_DATA / f"lab-records-{name}"
-    if not folder.is_dir():
-        pytest.skip(f"shared lab recordings not found at {folder}")
-    return folder
+    return shared_set(f"lab-records-{name}")
 
 
 @pytest.mark.data

@@ -22,6 +22,7 @@ from promp.region import (
     sample_noise_var,
     speed_variance,
 )
+from tests.conftest import shared_set
 from tests.synthetic import COLUMNS, LAYOUT, make_dataset
 
 SMALL = Settings(n_basis=6, width=1.0, noise_scale=1.5)
@@ -121,10 +122,10 @@ def test_bad_input_is_a_clear_error(model) -> None:
 @pytest.mark.parametrize(
     "name", ["lab-records-heights", "lab-records-flt", "lab-records-flt-shapes"]
 )
-def test_the_region_holds_near_its_probability_of_real_demonstrations(name, heights_dir) -> None:
+def test_the_region_holds_near_its_probability_of_real_demonstrations(name) -> None:
     """Each primitive's 90 % region holds between 85 and 100 % of its demonstrations' samples
     (bench/tube_coverage.py prints every figure, held out too)."""
-    folder = heights_dir.parent / name
+    folder = shared_set(name)
     read = read_dataset(folder, "records")
     model = fit(read.dataset, read.layout)
     shares = {k: coverage(model, k, demos, "hand", 0.9).share for k, demos in read.dataset.items()}

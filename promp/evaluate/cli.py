@@ -332,6 +332,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.run is not None and (args.run.exists() or args.run.is_symlink()):
             raise ValueError(f"--run {args.run} already exists: a run is kept in a new folder, "
                              "nothing is overwritten")  # fmt: skip
+        if args.plots is not None or args.run is not None:  # said before the sweep, not after
+            from promp.evaluate.plots import figures_unavailable
+
+            if figures_unavailable():
+                raise ValueError(f"--plots and --run draw figures: {figures_unavailable()}")
         loaded = load(args)
         dataset, layout, observe = loaded.dataset, loaded.layout, loaded.observe
         print_findings(loaded, args.include_flagged)

@@ -16,12 +16,28 @@ from promp.evaluate.report import confusion_matrices, trial_rows
 from promp.evaluate.sweep import SweepResult, Trial
 
 __all__ = [
-    "MAX_COLUMNS", "column_units", "confusion_figure", "curves", "display_unit", "example", "grid",
-    "group_series", "methods_of", "reliability_diagram", "series_label", "write_figures"
+    "MAX_COLUMNS", "column_units", "confusion_figure", "curves", "display_unit", "example",
+    "figures_unavailable", "grid", "group_series", "methods_of", "reliability_diagram",
+    "series_label", "write_figures"
 ]  # fmt: skip
+
+PLOTS_EXTRA = "pip install 'icub-intention-studio[plots]'"
+
+
+def figures_unavailable() -> str:
+    """Why the figures cannot be drawn here ('' when they can): matplotlib is the ``plots``
+    extra of the package (``make run`` installs it), not a dependency of ``promp``."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        return f"the figures need matplotlib, which is not installed here ({PLOTS_EXTRA})"
+    return ""
 
 
 def _pyplot():
+    reason = figures_unavailable()
+    if reason:
+        raise ValueError(reason)
     import matplotlib
 
     matplotlib.use("Agg")

@@ -15,6 +15,7 @@ from app.io.exchange import format_size
 from app.panels.data.evaluation import EvaluationJob
 from app.panels.data.results import add_results
 from app.panels.data.results_zip import results_filename, results_zip
+from promp.evaluate.plots import figures_unavailable
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
 
@@ -94,11 +95,12 @@ class ResultsArea:
         filename = results_filename(Path(job.plan.source).name)
         if client is not None:
             client.send_file_download(filename, content, save_immediately=True)
+        missing = figures_unavailable()
         self.notify(
             client,
             "Results exported",
-            f"{filename} ({format_size(len(content))}): results.json, results.csv and the "
-            "figures.",
-            "blue",
+            f"{filename} ({format_size(len(content))}): results.json, results.csv and "
+            + (f"no figures: {missing}." if missing else "the figures."),
+            "yellow" if missing else "blue",
         )
         return content

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from app.io.exchange import export_filename
 from promp.data import Demonstration, Layout
-from promp.evaluate.plots import write_figures
+from promp.evaluate.plots import figures_unavailable, write_figures
 from promp.evaluate.report import report_json, results_csv, trials_csv
 from promp.evaluate.sweep import SweepResult
 
@@ -59,9 +59,11 @@ def results_zip(
         archive.writestr(JSON_NAME, report_json(report))
         archive.writestr(CSV_NAME, results_csv(report["results"]))
         archive.writestr(TRIALS_NAME, trials_csv(report["trials"]))
-        with tempfile.TemporaryDirectory(prefix="evaluation-figures-") as folder:
-            for path in draw_figures(Path(folder), report, result, dataset, layout):
-                archive.write(path, f"{FIGURES}/{path.name}", compress_type=zipfile.ZIP_STORED)
+        if not figures_unavailable():  # else the tables go alone: the export says why
+            with tempfile.TemporaryDirectory(prefix="evaluation-figures-") as folder:
+                for path in draw_figures(Path(folder), report, result, dataset, layout):
+                    archive.write(path, f"{FIGURES}/{path.name}",
+                                  compress_type=zipfile.ZIP_STORED)  # fmt: skip
     return buffer.getvalue()
 
 

@@ -36,6 +36,7 @@ from app.panels.data.runs_text import NO_RUN, comparison_markdown, describe, run
 from app.ui.context import PanelContext
 from app.ui.display import ALPHA_LABELS, observed_label
 from app.ui.text import escape
+from promp.evaluate.plots import figures_unavailable
 from promp.evaluate.runs import Run, compare_runs
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
@@ -154,6 +155,10 @@ class RunsSection:
         """Write the ended ``job`` as a run of the workspace at ``root`` (blocking)."""
 
         def figures(folder: Path) -> None:
+            if figures_unavailable():
+                self.notify(None, "Run kept without figures", f"{figures_unavailable()}.",
+                            "yellow")  # fmt: skip
+                return
             try:
                 draw_figures(folder, report, job.outcome.result, job.plan.dataset, job.plan.layout)
             except Exception:  # a figure that cannot be drawn must not lose the run's tables
