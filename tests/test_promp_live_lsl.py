@@ -162,3 +162,21 @@ def test_where_liblsl_cannot_load_the_message_says_what_to_do(tmp_path, monkeypa
     assert last.startswith("promp.live.transport.LSLUnavailable: LSL is not available: pylsl "
                            "cannot load liblsl (LSL binary library file was not found")
     assert "glibc >= 2.35" in last and "PYLSL_LIB" in last
+
+
+def test_the_robot_side_reader_waits_for_a_predictor_that_is_not_there_yet() -> None:
+    """No stream within a resolve's wait is said and waited for, never an IndexError."""
+    reader = subprocess.Popen([sys.executable, "-c", reader_code(f"absent-{UNIQUE}")],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              env=dict(os.environ))  # fmt: skip
+    lines = []
+    try:
+        while len(lines) < 2:  # two resolves' waits gone by, each said
+            line = reader.stdout.readline()
+            assert line, f"the reader ended: {reader.stderr.read()}"
+            lines.append(line)
+    finally:
+        reader.kill()
+        _, err = reader.communicate(timeout=30)
+    assert lines == [f"waiting for the stream absent-{UNIQUE}-probabilities\n"] * 2
+    assert "Traceback" not in err
