@@ -14,7 +14,9 @@ modalities) compare trial for trial.
 Folds are independent: ``jobs`` runs them on several processes (joblib; ``-1`` = every core)
 and ``scheduler`` on a Dask cluster (``dask.distributed``, the ``cluster`` extra), with results
 identical to one process: every fold is computed the same way wherever it runs, and the rows
-are assembled in the folds' order.
+are assembled in the folds' order. A worker process ends within :data:`PARENT_WATCH_S` of the
+process that started it, however that one ended (``kill -9`` included): a killed evaluation
+leaves no worker behind.
 
 ``held_out`` restricts the sweep to some demonstrations (:func:`spread_subset`: a few per
 primitive, evenly spread over its list, the same for every method): each is still tested by a
@@ -32,6 +34,8 @@ from __future__ import annotations
 import functools
 import math
 import os
+import threading
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -214,7 +218,8 @@ def _folds(
     else:
         client = None
         workers = jobs if jobs > 0 else (os.cpu_count() or 1)
-        config = joblib.parallel_config(backend="loky", n_jobs=jobs)
+        config = joblib.parallel_config(backend="loky", n_jobs=jobs, initializer=exit_with_parent,
+                                        initargs=(os.getpid(),))  # fmt: skip
     n_chunks = min(len(held_out), 4 * workers)
     chunks = [list(c) for c in np.array_split(np.arange(len(held_out)), n_chunks) if c.size]
     try:
@@ -233,6 +238,22 @@ def _folds(
     finally:
         if client is not None:
             client.close()
+
+
+PARENT_WATCH_S = 0.5  # how often a worker looks whether the evaluation that started it is alive
+
+
+def exit_with_parent(parent: int) -> None:
+    """A worker's initializer: the worker ends once the process ``parent`` (its parent) has
+    ended. joblib's workers outlive a parent killed by a signal otherwise (until their idle
+    timeout, minutes later), still computing the folds of a sweep nobody waits for."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_WATCH_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
 
 
 def run_sweep(
