@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV ?= .venv
 HOST ?= 127.0.0.1
 PORT ?= 8080
-WORKSPACE ?= workspace
+WORKSPACE ?=  # default: the studio's own (app/cli.py: workspaces/default)
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip --disable-pip-version-check -q
 
@@ -28,7 +28,7 @@ $(VENV)/.test-installed: pyproject.toml Makefile | $(PY)
 	touch $@ $(VENV)/.run-installed
 
 run: $(VENV)/.run-installed
-	$(PY) -m app --host $(HOST) --port $(PORT) --workspace $(WORKSPACE)
+	$(PY) -m app --host $(HOST) --port $(PORT) $(if $(WORKSPACE),--workspace $(WORKSPACE))
 
 lint: $(VENV)/.test-installed
 	$(PY) -m ruff check .

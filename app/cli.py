@@ -17,7 +17,9 @@ from robots.icub.model import DEFAULT_ROBOT
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
-DEFAULT_WORKSPACE = Path("workspace")
+# In a folder of workspaces of its own (git ignores it in a clone): the workspaces a Data-tab
+# import creates go beside the one served, so they land there too, never among the code.
+DEFAULT_WORKSPACE = Path("workspaces/default")
 HAND_FRAMES = ("recorded", "place", "own")  # --hand-frame: see placed_as_asked
 
 

@@ -117,3 +117,23 @@ def test_an_export_without_matplotlib_keeps_the_tables_and_says_why() -> None:
     (title, text, color), = out["said"]
     assert title == "Results exported" and color == "yellow"
     assert "no figures: the figures need matplotlib" in text
+
+
+def test_the_workspaces_make_run_creates_stay_out_of_the_clone() -> None:
+    """The default workspace, and those a Data-tab import creates beside it, are in a folder
+    git ignores, never untracked folders among the code."""
+    import shutil
+
+    from app.cli import DEFAULT_WORKSPACE
+    from app.panels.data.import_dataset import sibling_folder
+
+    made = subprocess.run(["make", "-n", "run"], cwd=REPO, capture_output=True, text=True)
+    assert made.returncode == 0 and "--workspace" not in made.stdout  # the CLI's default
+    imported = sibling_folder(REPO / DEFAULT_WORKSPACE, "lab-records-heights")
+    assert imported.parent == (REPO / DEFAULT_WORKSPACE).parent != REPO
+    if shutil.which("git") is None or not (REPO / ".git").exists():
+        return  # not a clone: nothing to be untracked in
+    for folder in (REPO / DEFAULT_WORKSPACE, imported):
+        index = str(folder.relative_to(REPO) / "studio.json")
+        ignored = subprocess.run(["git", "check-ignore", "-q", "--no-index", index], cwd=REPO)
+        assert ignored.returncode == 0, f"{folder} would be an untracked folder of the clone"
