@@ -261,6 +261,46 @@ def test_evaluation_section_without_a_browser() -> None:
         server.stop()
 
 
+def test_a_quick_evaluation_holds_out_a_few_demonstrations_per_primitive() -> None:
+    """The Held out choice: a few per primitive, evenly spread (as --subset N), each tested
+    by a model fitted on every other demonstration; said in the status, kept in the report."""
+    import viser
+
+    from app.io.net import free_port
+    from app.panels.data.evaluation_plan import SUBSET_CHOICES, plan_evaluation
+    from app.panels.data.evaluation_section import EvaluationSection, summary
+    from promp.evaluate.sweep import spread_subset
+
+    dataset = make_dataset(seed=0, n_demos=7)
+    store = SimpleNamespace(
+        layout=LAYOUT, workspace=SimpleNamespace(root=Path("/somewhere/lab")), names=tuple(dataset),
+        learned=dataset, findings=(), left_out={},
+        learning_settings=lambda: Settings(**GIVEN_SETTINGS),
+    )  # fmt: skip
+    with pytest.raises(ValueError, match="held out: expected one of"):
+        plan_evaluation(store, [["hand"]], "ML", "50", "ours", "half of them")
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    ctx = SimpleNamespace(gui=server.gui, store=SimpleNamespace(state=store),
+                          open_in_infer=lambda *_: None)  # fmt: skip
+    try:
+        section = EvaluationSection(ctx, lambda *_: None)
+        controls = section.controls
+        assert tuple(controls.subset_dropdown.options) == tuple(SUBSET_CHOICES)
+        assert controls.subset_dropdown.value == "every demonstration"
+        controls.subset_dropdown.value = "3 per primitive"
+        controls.percents_text.value = "50"
+        job = section.start(None)
+        job.join(timeout=600)
+        assert job.outcome.error is None and job.progress.total == 3 * len(dataset)
+        names = [[d.name for d in demos] for demos in dataset.values()]
+        held = {(t.primitive, t.demo) for t in job.outcome.result.trials}
+        assert held == {(k, names[k][j]) for k, j in spread_subset(dataset, 3)}
+        assert job.report()["settings"]["subset"] == 3
+        assert "Held out 3 per primitive, evenly spread: 6 demonstrations" in summary(job)
+    finally:
+        server.stop()
+
+
 # ---------------------------------------------------------------------------- browser
 
 

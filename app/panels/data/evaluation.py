@@ -134,6 +134,7 @@ class EvaluationJob:
                 progress=progress,
                 keep_trials=True,
                 stop=self.cancel.is_set,
+                held_out=plan.held_out,
             )
             if result.partial:  # the folds done are what it holds
                 done = len({(t.primitive, t.demo) for t in result.trials})
@@ -171,6 +172,7 @@ class EvaluationJob:
             "demonstrations"
             if outcome.cancelled
             else f"{progress.total} held-out demonstrations"
+            + ("" if plan.subset is None else f" ({plan.subset} per primitive)")
         )
         methods = f"methods {', '.join(plan.methods)}; " if plan.methods != [METHOD] else ""
         return (
@@ -205,6 +207,7 @@ class EvaluationJob:
             percents=plan.percents,
             alpha_methods=plan.alpha_methods,
             basis=basis_settings(plan.settings),
+            subset=plan.subset,
             findings=plan.findings,
             excluded=plan.left_out,
         )

@@ -20,6 +20,7 @@ import numpy as np
 from app.ui.display import ALPHA_LABELS, observed_choices
 from promp.data import Demonstration, Layout
 from promp.evaluate.registry import METHODS
+from promp.evaluate.sweep import spread_subset
 from promp.model import Settings
 from promp.quality import Finding
 
@@ -37,6 +38,15 @@ ALPHA_CHOICES: dict[str, list[str]] = {
     **{label: [method] for method, label in ALPHA_LABELS.items()},
     "both": list(ALPHA_LABELS),
 }
+# The Held out dropdown: every demonstration, or a few per primitive evenly spread over its
+# list (``--subset N``); each still tested by a model fitted on every other demonstration.
+SUBSET_CHOICES: dict[str, int | None] = {"every demonstration": None, "10 per primitive": 10,
+                                         "5 per primitive": 5, "3 per primitive": 3}  # fmt: skip
+SUBSET_HINT = (
+    "A quick run: only this many demonstrations of each primitive are held out (the first, the "
+    "last and evenly between, as python -m promp.evaluate --subset N), each still tested by a "
+    "model fitted on every other demonstration; the same trials for every method"
+)
 
 
 def observe_choices(layout: Layout) -> dict[str, list[list[str]]]:
@@ -108,6 +118,8 @@ class EvaluationPlan:
         The flagged demonstrations not swept, by (primitive, demonstration).
     methods : list of str
         The methods compared (:mod:`promp.evaluate.registry`).
+    subset : int or None
+        Held out per primitive (:func:`promp.evaluate.sweep.spread_subset`); None: all.
     """
 
     dataset: dict[str, list[Demonstration]]
@@ -121,11 +133,18 @@ class EvaluationPlan:
     findings: tuple[Finding, ...] = ()
     left_out: dict[tuple[str, str], list[Finding]] = field(default_factory=dict)
     methods: list[str] = field(default_factory=lambda: [METHOD])
+    subset: int | None = None
+
+    @property
+    def held_out(self) -> list[tuple[int, int]] | None:
+        """The (primitive, demonstration) indices held out; None: every demonstration."""
+        return None if self.subset is None else spread_subset(self.dataset, self.subset)
 
     @property
     def n_held_out(self) -> int:
         """How many demonstrations are held out, one at a time."""
-        return sum(len(demos) for demos in self.dataset.values())
+        held_out = self.held_out
+        return sum(map(len, self.dataset.values())) if held_out is None else len(held_out)
 
 
 def plan_evaluation(
@@ -134,6 +153,7 @@ def plan_evaluation(
     alpha: str,
     percents: str,
     methods: str,
+    subset: str = "every demonstration",
 ) -> EvaluationPlan:
     """The plan of the choices of the evaluation's folder on the workspace ``store``.
 
@@ -149,13 +169,17 @@ def plan_evaluation(
         The percentages as typed (:func:`parse_percents`).
     methods : str
         A key of :data:`METHOD_CHOICES` (anything else: ours alone).
+    subset : str
+        A key of :data:`SUBSET_CHOICES`.
 
     Raises
     ------
     ValueError
-        The percentages are not valid, the observed modalities are not the workspace's, or no
-        primitive has :data:`MIN_DEMOS` demonstrations.
+        The percentages are not valid, the observed modalities are not the workspace's, no
+        primitive has :data:`MIN_DEMOS` demonstrations, or ``subset`` is not a choice.
     """
+    if subset not in SUBSET_CHOICES:
+        raise ValueError(f"held out: expected one of {list(SUBSET_CHOICES)}, got {subset!r}")
     percent_values = parse_percents(percents)
     dataset, skipped = evaluation_dataset(store.names, store.learned)
     layout = store.layout
@@ -178,4 +202,5 @@ def plan_evaluation(
         findings=store.findings,
         left_out=store.left_out,
         methods=list(METHOD_CHOICES.get(methods, [METHOD])),
+        subset=SUBSET_CHOICES[subset],
     )

@@ -28,6 +28,8 @@ from app.panels.data.evaluation_plan import (
     ALPHA_CHOICES,
     METHOD_CHOICES,
     MIN_DEMOS,
+    SUBSET_CHOICES,
+    SUBSET_HINT,
     observe_choices,
     plan_evaluation,
 )
@@ -66,6 +68,7 @@ class EvaluationControls:
     results_folder: viser.GuiFolderHandle
     run_name_text: viser.GuiTextHandle  # the name the run is saved under (runs_section)
     methods_dropdown: viser.GuiDropdownHandle
+    subset_dropdown: viser.GuiDropdownHandle
 
 
 class EvaluationSection:
@@ -103,6 +106,8 @@ class EvaluationSection:
                 "(seed) and two baselines on the same trials: open-end DTW and prefix nearest "
                 "neighbour (dtw, prefix-nn), which only recognise (their position errors n/a)",
             )  # fmt: skip
+            subset_dropdown = gui.add_dropdown("Held out", tuple(SUBSET_CHOICES),
+                                               hint=SUBSET_HINT)  # fmt: skip
             run_name_text = gui.add_text(
                 "Run name", "", hint="The name the evaluation is kept under in the workspace's "
                 "runs/ (Saved runs); empty: the observed modalities and the alpha method",
@@ -134,7 +139,7 @@ class EvaluationSection:
         self.controls = EvaluationControls(
             observe_dropdown, alpha_dropdown, percents_text, run_button, cancel_button,
             progress_bar, eval_status, export_button, failed_dropdown, open_button, results_folder,
-            run_name_text, methods_dropdown,
+            run_name_text, methods_dropdown, subset_dropdown,
         )  # fmt: skip
         self.results = ResultsArea(gui, results_folder, export_button, notify)
         self.failed_trials = FailedTrialPicker(
@@ -155,6 +160,7 @@ class EvaluationSection:
                 c.alpha_dropdown.value,
                 c.percents_text.value,
                 c.methods_dropdown.value,
+                c.subset_dropdown.value,
             )
         except ValueError as exc:
             self.notify(client, "Cannot evaluate", f"{exc}.", "red")
@@ -285,7 +291,9 @@ def summary(job: EvaluationJob) -> str:
         if settings.automatic
         else f"n_basis {settings.n_basis}, width {settings.width:g}"
     )
+    held = ("each of" if plan.subset is None
+            else f"{plan.subset} per primitive, evenly spread:")  # fmt: skip
     return (
-        f"Held out each of {job.progress.total} demonstrations of {', '.join(plan.dataset)} in "
+        f"Held out {held} {job.progress.total} demonstrations of {', '.join(plan.dataset)} in "
         f"{outcome.elapsed_s:.1f} s ({how}).{skipped}{left_out}{failed}"
     )
