@@ -30,10 +30,17 @@ from __future__ import annotations
 
 import argparse
 
-from promp.rigs.dataset import CUTS, RIG_FORMATS, RigOptions, RigRead, read_rig_dataset
+from promp.rigs.dataset import (
+    CUTS,
+    RIG_FORMATS,
+    RigOptions,
+    RigRead,
+    guessed_rig_mapping,
+    read_rig_dataset,
+)
 
-__all__ = ["CUTS", "MAPPING_HELP", "RIG_FORMATS", "RigOptions", "RigRead", "read_rig_dataset",
-           "add_rig_arguments", "rig_options"]  # fmt: skip
+__all__ = ["CUTS", "MAPPING_HELP", "RIG_FORMATS", "RigOptions", "RigRead", "guessed_rig_mapping",
+           "read_rig_dataset", "add_rig_arguments", "rig_options"]  # fmt: skip
 
 MAPPING_HELP = (
     "for recordings (yarp, rosbag, xdf, c3d): NAME=STREAM:FIELD,FIELD,...[@UNIT], the stream "
