@@ -15,7 +15,13 @@ takes it whole otherwise. A demonstration cut from a recording is named ``<recor
 
 Without a mapping, one is guessed from the first recording (:func:`guess`): each numeric stream
 (each field group of a ROS message) a modality named after it, at most :data:`MAX_GUESSED`;
-the preview says what it left out.
+the preview says what it left out (:func:`guessed_rig_mapping`: the guess alone).
+
+Each demonstration is put on one clock over the span its streams all cover
+(:func:`promp.rigs.streams.common_span`, up to :data:`promp.rigs.streams.CUT_SHARE` of it
+cut): the span between its markers, or the whole recording when it is taken whole or cut at
+its still periods (cut before the still periods are found). Each cut is said in the notes,
+at most :data:`MAX_CUTS_SAID` of them one by one.
 """
 
 from __future__ import annotations
@@ -224,8 +230,9 @@ def read_rig_dataset(
     ValueError
         Naming the file and the reason: no recording, an unreadable or truncated file, a
         stream or field the mapping names that a recording lacks, a clock that goes back, a
-        stream that stops mid-demonstration, a bad or unknown marker, or a recording without
-        a class (neither in a class folder nor cut by markers naming classes).
+        stream that starts or stops more than ``CUT_SHARE`` of the demonstration away from the
+        others or pauses inside it, a bad or unknown marker, or a recording without a class
+        (neither in a class folder nor cut by markers naming classes).
     """
     if format not in READERS:
         raise ValueError(f"unknown recording format {format!r}; expected one of {RIG_FORMATS}")

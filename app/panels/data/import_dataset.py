@@ -18,7 +18,9 @@ iCub's frame or keeps it in its own (:mod:`app.panels.data.import_frame`). Then 
 
 A refused upload or mapping is a notification naming the file and the problem, and changes
 nothing (the notifications of refused files go when a later file is accepted); the preview
-always shows the latest upload: a refused one is not previewed, nor is the one before it.
+always shows the latest upload: a refused one is not previewed, nor is the one before it. A
+dataset refused with guessed modalities gets the guess in the modalities' field all the same,
+to edit.
 """
 
 from __future__ import annotations
