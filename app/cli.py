@@ -69,7 +69,8 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=COL,COL,...",
         help="with --import-dataset, a modality and its columns (repeatable), e.g. "
         "hand=x,y,z head=roll,pitch,yaw; default: guessed from the columns (hand = x,y,z, "
-        f"head = roll,pitch,yaw) or the streams; {MAPPING_HELP}",
+        "head = roll,pitch,yaw) or the streams, and printed as --modality options to edit and "
+        f"pass back; {MAPPING_HELP}",
     )
     add_rig_arguments(parser)
     parser.add_argument(

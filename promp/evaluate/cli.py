@@ -103,7 +103,8 @@ def add_dataset_arguments(parser: argparse.ArgumentParser) -> None:
         default=[],
         metavar="NAME=COL,COL,...",
         help="a modality: a name and its columns (repeatable); e.g. hand=x,y,z "
-        f"head=roll,pitch,yaw, or for lab records wrench=fx,fy,fz,mx,my,mz; {MAPPING_HELP}",
+        f"head=roll,pitch,yaw, or for lab records wrench=fx,fy,fz,mx,my,mz; default: guessed, "
+        f"and printed as --modality options to edit and pass back; {MAPPING_HELP}",
     )
     add_rig_arguments(parser)
 
