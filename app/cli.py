@@ -71,7 +71,8 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=COL,COL,...",
         help="with --import-dataset, a modality and its columns (repeatable), e.g. "
         "hand=x,y,z head=roll,pitch,yaw; default: guessed from the columns (hand = x,y,z, "
-        f"head = roll,pitch,yaw) or the streams; {MAPPING_HELP}",
+        "head = roll,pitch,yaw) or the streams, and printed as --modality options to edit and "
+        f"pass back; {MAPPING_HELP}",
     )
     add_rig_arguments(parser)
     parser.add_argument(
@@ -116,7 +117,12 @@ def prepare_workspace(args: argparse.Namespace) -> None:
     """
     from app.io.dataset_import import detect_format, read_folder
     from app.io.workspace import FolderKind, Workspace, inspect_folder
-    from promp.datasets import command_line_modalities
+    from promp.datasets import (
+        command_line_modalities,
+        format_modalities,
+        modality_options,
+        refused_with_guess,
+    )
     from promp.rigs import rig_options
 
     kind, message = inspect_folder(args.workspace)
@@ -152,7 +158,10 @@ def prepare_workspace(args: argparse.Namespace) -> None:
     files = [source] if source.is_file() else [p for p in source.rglob("*") if p.is_file()]
     stage(f"Reading {source} ({format}, {len(files)} files) and checking its demonstrations...")
     start = time.monotonic()
-    data, summary = read_folder(source, format, modalities, rig_options(args))
+    try:
+        data, summary = read_folder(source, format, modalities, rig_options(args))
+    except ValueError as exc:  # the guess to edit, when the modalities were guessed
+        raise exc if modalities else refused_with_guess(exc, source, format) from None
     stage(f"Read and checked {summary.n_demos} demonstrations of {len(summary.counts)} classes "
           f"in {clock(time.monotonic() - start)}.")  # fmt: skip
     data = placed_as_asked(data, args.hand_frame)
@@ -163,6 +172,10 @@ def prepare_workspace(args: argparse.Namespace) -> None:
         lines = (f"Mapping: {summary.mapping}", *summary.notes,
                  *summary.demonstrations_lines(limit=50))  # fmt: skip
         print("\n".join(f"  {line}" for line in lines), flush=True)
+    if not modalities:
+        guess = modality_options(summary.mapping or format_modalities(summary.layout))
+        print(f"  The modalities were guessed; to change them, edit and pass: {guess}",
+              flush=True)  # fmt: skip
     headline, *details = summary.findings_lines(limit=50)
     print("\n  ".join([headline, *details]), flush=True)
 

@@ -327,3 +327,70 @@ def write_yarp_dump(root: Path, takes, numbered: bool) -> Path:
                 write_yarp_port(folder, name, start + np.asarray(times), rows, nested=nested)
             start += 10.0
     return Path(root)
+
+
+# ------------------------------------------------------------------------------ an iCub's dump
+# An iCub's dataDumper folders as they come: the arm's Cartesian state (x, y, z and the
+# axis-angle of the hand, 7 values) and the end effector's wrench (6 values), both at 100 Hz,
+# the wrench's dumper connected WRENCH_DELAY later than the state's. In each take the hand
+# rests, moves at 20 cm/s during ICUB_MOVES, and rests again; the wrench follows the hand (a
+# spring's force), so it moves when the hand moves.
+ICUB_PORTS = {
+    "state": "/icub/cartesianController/left_arm/state:o",
+    "cartesianEndEffectorWrench": "/wholeBodyDynamics/left_arm/cartesianEndEffectorWrench:o",
+}
+ICUB_TAKE_S = 9.0
+ICUB_MOVES = ((1.0, 2.0), (4.0, 5.5), (7.0, 8.0))
+ICUB_DIRECTIONS = {"reach": (1.0, 0.0, 0.0), "wave": (0.0, 0.6, 0.8)}
+WRENCH_DELAY = 0.037
+ICUB_MARKERS = ((0.0, "start reach"), (2.5, "end reach"), (3.5, "start wave"),
+                (6.0, "end wave"), (6.5, "start reach"), (8.6, "end reach"))  # fmt: skip
+
+
+def icub_hand(t: np.ndarray, klass: str) -> np.ndarray:
+    """The hand at ``t`` (s from the take's start) in a take of ``klass``: (n, 3) metres,
+    piecewise linear (20 cm/s along the class's direction during each of ICUB_MOVES)."""
+    t = np.asarray(t, dtype=float)
+    travelled = sum(np.clip(t - a, 0.0, b - a) for a, b in ICUB_MOVES) * 0.2
+    return np.array([0.3, -0.1, 0.1]) + np.outer(travelled, ICUB_DIRECTIONS[klass])
+
+
+def icub_wrench(t: np.ndarray, klass: str) -> np.ndarray:
+    """The wrench at ``t``: (n, 6), forces in N and moments in N m following the hand."""
+    moved = icub_hand(t, klass) - icub_hand(np.zeros(1), klass)
+    return np.hstack([2.0 + 40.0 * moved, 0.1 + 4.0 * moved])
+
+
+def icub_take(klass: str, delay: float = WRENCH_DELAY) -> dict[str, tuple[np.ndarray, list]]:
+    """One take's ports: {port: (times in s from the take's start, rows)}; the wrench starts
+    ``delay`` s after the state and both stop at once."""
+    state_t = np.arange(round(ICUB_TAKE_S * HAND_HZ)) / HAND_HZ
+    wrench_t = state_t[state_t + delay <= state_t[-1]] + delay
+    pose = np.hstack([icub_hand(state_t, klass), np.tile([0.0, 0.0, 1.0, 0.5], (state_t.size, 1))])
+    return {"state": (state_t, pose.tolist()),
+            "cartesianEndEffectorWrench": (wrench_t, icub_wrench(wrench_t, klass).tolist())}
+
+
+def write_icub_dump(root: Path, takes: dict[str, int], delay: float = WRENCH_DELAY) -> Path:
+    """A dump in numbered port folders, as the iCub's dumpers leave it:
+    ``<class>/<port>/<port>[_NNNNN]/{data,info}.log``, ``takes[class]`` takes per class
+    (the first unnumbered), each starting 20 s after the previous one on YARP's clock."""
+    start = YARP_START
+    for klass, n in takes.items():
+        for k in range(n):
+            for port, (times, rows) in icub_take(klass, delay).items():
+                folder = Path(root) / klass / port / (port + (f"_{k:05d}" if k else ""))
+                write_yarp_port(folder, ICUB_PORTS[port], start + times, rows)
+            start += 20.0
+    return Path(root)
+
+
+def write_icub_session(folder: Path, delay: float = WRENCH_DELAY) -> Path:
+    """One take folder of both ports and an ``events`` port of ICUB_MARKERS (a session cut by
+    its markers; each demonstration's hand moves along its class's direction... as a reach:
+    the markers give the classes, the movement is the reach take's)."""
+    for port, (times, rows) in icub_take("reach", delay).items():
+        write_yarp_port(folder / port, ICUB_PORTS[port], YARP_START + times, rows)
+    write_yarp_port(folder / "events", "/events:o", [YARP_START + s for s, _ in ICUB_MARKERS],
+                    [[label] for _, label in ICUB_MARKERS])  # fmt: skip
+    return Path(folder)

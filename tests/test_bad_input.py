@@ -229,7 +229,8 @@ def test_lab_records(tmp_path, heights_record) -> None:
 def test_rig_recordings(tmp_path) -> None:
     """Each rig format's session spoilt (truncated, random bytes), and recordings that read
     but cannot be used (a wrong topic, a clock that goes back, an unknown marker, a stream that
-    stops): refused with the file named, and nothing written next to them."""
+    stops, an iCub dump's port that starts too late): refused with the file named, and nothing
+    written next to them."""
     for library in ("rosbags", "pyxdf", "ezc3d"):
         pytest.importorskip(library)
     from promp.datasets import parse_modalities, read_dataset
@@ -279,6 +280,7 @@ def test_rig_recordings(tmp_path) -> None:
     rf.write_xdf(made / "marker.xdf", markers=[*rf.MARKERS, (10.4, "applause")])
     rf.write_ros2_bag(made / "stops", head_duration=5.0)
     stops = {"session.mcap": next((made / "stops").glob("*.mcap")).read_bytes()}
+    late = files(rf.write_icub_dump(made / "late", {"reach": 2}, delay=0.15 * rf.ICUB_TAKE_S))
     cases = [
         *bad_inputs.rig_cases(recordings),
         ("rosbag: a wrong topic", ("rosbag", recordings["rosbag"][0],
@@ -288,6 +290,8 @@ def test_rig_recordings(tmp_path) -> None:
                                     ""), "unknown marker 'applause'"),
         ("rosbag: a stream that stops", ("rosbag", stops, f"{hand}; head=/head:pose.position.x"),
          "stream '/head' stops"),
+        ("yarp: a port 15 % of the take late", ("yarp", late, ""),
+         "stream 'cartesianendeffectorwrench' starts at 1.350 s"),
     ]  # fmt: skip
     run_corpus("rig recording", cases, read)
 

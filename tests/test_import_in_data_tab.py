@@ -268,3 +268,75 @@ def test_an_xdf_session_through_the_page(page, studio, tmp_path) -> None:
     assert store.state.layout.names == ("hand", "head")
     assert [m.unit for m in store.state.layout.modalities] == ["m", "rad"]
     assert tree_hash(old_root) == old
+
+
+# An iCub's dataDumper folders as they come (tests/rig_files.py): numbered port folders, the
+# wrench's port connected 37 ms after the hand's state port; and the same with it 15 % late.
+DUMP_GUESS = ("cartesianEndEffectorWrench=cartesianEndEffectorWrench:0,1,2,3,4,5\n"
+              "state=state:0,1,2,3,4,5,6")  # fmt: skip
+
+
+def icub_dump_zip(folder: Path, delay: float) -> bytes:
+    from tests import rig_files as rf
+
+    return zip_folder(rf.write_icub_dump(folder, {"reach": 2, "wave": 2}, delay), prefix="dump/")
+
+
+def test_the_preview_puts_the_guessed_mapping_to_edit(studio, tmp_path) -> None:
+    """Without a browser (setting a handle's value runs its callbacks): a dump refused for a
+    port too late still gets its guessed mapping in Modalities, and editing it (the late port
+    left out) reads the dump; a dump as it comes is read with the guess, the cut said."""
+    from tests import rig_files as rf
+
+    section = importer(studio)
+    inputs, before = section.inputs, tree_hash(studio.workspace)
+    assert section.receive(None, "late.zip", icub_dump_zip(tmp_path / "late", 1.5)) is None
+    assert inputs.modalities.value == DUMP_GUESS and inputs.modalities.visible
+    text = section.preview.content
+    assert text.startswith("**Cannot import:** reach/00000: stream "
+                           "'cartesianEndEffectorWrench' starts at 1.500 s")  # fmt: skip
+    assert "The modalities guessed are in **Modalities**" in text
+    assert not section.actions.visible
+    inputs.modalities.value = "hand=state:0,1,2@m"  # what typing in the field does
+    assert "2 primitives, 4 demonstrations: reach (2), wave (2)" in section.preview.content
+    assert section.actions.visible and section.pending.data.layout.names == ("hand",)
+    # As it comes: read with the guess, shown to edit, the 37 ms cut said.
+    summary = section.receive(None, "dump.zip", icub_dump_zip(tmp_path / "dump",
+                                                               rf.WRENCH_DELAY))  # fmt: skip
+    assert summary is not None and summary.n_demos == 4
+    assert inputs.modalities.value == DUMP_GUESS
+    assert ("reach/00000: stream 'cartesianEndEffectorWrench' starts at 0.037 s, 0.037 s into "
+            "the recording") in section.preview.content  # fmt: skip
+    section._discard()
+    assert tree_hash(studio.workspace) == before  # the previews wrote nothing
+
+
+@pytest.mark.browser
+def test_an_icub_dump_through_the_page(page, studio, tmp_path, artifacts) -> None:
+    """The dump uploaded in the page: refused for a late port with the guess in the field,
+    edited there, then read; a screenshot of each preview (artifacts/)."""
+    section = importer(studio)
+    open_tab(page, "Data")  # the test before it may end in another tab
+    upload_file(page, section.upload_button, "late.zip", icub_dump_zip(tmp_path / "late", 1.5))
+    notification(page, "Cannot import late.zip", "starts at 1.500 s")
+    page.get_by_text("The modalities guessed are in").wait_for()
+    field = page.locator("label", has_text="Modalities").first.locator(
+        "xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]").locator("textarea")
+    wait_until(lambda: field.input_value() == DUMP_GUESS, what="the guess in the page's field")
+    page.get_by_text("The modalities guessed are in").scroll_into_view_if_needed()
+    screenshot(page, artifacts / "import_dump_refused.png")
+    field.fill("hand=state:0,1,2@m")
+    page.get_by_text("2 primitives, 4 demonstrations: reach (2), wave (2)").wait_for()
+    page.get_by_text("Demonstrations found:").scroll_into_view_if_needed()
+    screenshot(page, artifacts / "import_dump_edited.png")
+    wait_until(lambda: section.actions.visible, what="the import's buttons")
+    # As it comes (the wrench 37 ms late): read with the guess, the cut said.
+    from tests import rig_files as rf
+
+    upload_file(page, section.upload_button, "dump.zip",
+                icub_dump_zip(tmp_path / "dump", rf.WRENCH_DELAY))  # fmt: skip
+    said = page.get_by_text("One clock: 4 span(s) cut")
+    said.wait_for()
+    wait_until(lambda: field.input_value() == DUMP_GUESS, what="the guess in the page's field")
+    said.scroll_into_view_if_needed()
+    screenshot(page, artifacts / "import_dump_as_it_comes.png")

@@ -38,15 +38,17 @@ from promp.datasets.csv_folder import (
     write_csv_dataset,
     write_csv_demo,
 )
-from promp.datasets.folders import Dataset, check_columns
+from promp.datasets.folders import Dataset, check_columns, class_folders, sorted_files
 from promp.datasets.modalities import (
     GUESSED,
     KNOWN_COLUMNS,
     MODALITY_NAME,
     command_line_modalities,
     format_modalities,
+    given_modalities,
     guess_layout,
     modality_from_columns,
+    modality_options,
     modality_specs,
     parse_modalities,
     parse_modality,
@@ -59,15 +61,16 @@ from promp.datasets.records import (
     read_record,
 )
 from promp.quality import Finding, dataset_findings
-from promp.rigs import RIG_FORMATS, RigOptions, read_rig_dataset
+from promp.rigs import RIG_FORMATS, RigOptions, guessed_rig_mapping, read_rig_dataset
 from promp.rigs.mapping import SourcedModality
 
 __all__ = [
     "FORMATS", "GUESSED", "KNOWN_COLUMNS", "MODALITY_NAME", "RECORD_COLUMNS", "WRENCH_COLUMNS",
     "Dataset", "DatasetRead", "check_columns", "command_line_modalities", "dataset_columns",
-    "demo_from_csv", "demo_to_csv", "format_modalities", "guess_layout", "load_csv_dataset",
-    "load_records_dataset", "modality_from_columns", "modality_specs", "parse_modalities",
-    "parse_modality", "read_csv_demo", "read_dataset", "read_mapping_file", "read_record",
+    "demo_from_csv", "demo_to_csv", "format_modalities", "given_modalities", "guess_layout",
+    "guessed_mapping", "load_csv_dataset", "load_records_dataset", "modality_from_columns",
+    "modality_options", "modality_specs", "parse_modalities", "parse_modality",
+    "read_csv_demo", "read_dataset", "read_mapping_file", "read_record", "refused_with_guess",
     "write_csv_dataset", "write_csv_demo",
 ]  # fmt: skip
 
@@ -116,7 +119,7 @@ class DatasetRead:
 def read_dataset(
     root: Path,
     format: str,
-    modalities: Sequence[Modality] | None = None,
+    modalities: Sequence[Modality | str] | str | None = None,
     rig: RigOptions | None = None,
 ) -> DatasetRead:
     """Read a dataset folder, the layout of modalities it is used with, and its findings.
@@ -134,11 +137,14 @@ def read_dataset(
         ``xdf``, ``c3d``: recordings of a rig, in ``<class>/`` folders or sessions cut by
         their markers (:mod:`promp.rigs`; ``root`` may be a session file).
     format : {"records", "csv", "yarp", "rosbag", "xdf", "c3d"}
-    modalities : sequence of Modality, optional
+    modalities : sequence of Modality or str, or str, optional
         Which columns form which modality (for recordings, which stream's fields:
-        ``NAME=STREAM:FIELD,...``, :mod:`promp.rigs.mapping`). Default: guessed from the
-        columns (:func:`guess_layout`; for records, ``hand`` = x, y, z, the hand in the
-        robot's root frame) or from the first recording's streams.
+        ``NAME=STREAM:FIELD,...``, :mod:`promp.rigs.mapping`): :class:`Modality` objects or
+        mapping strings (``"hand=x,y,z"``, ``["hand=/pose:pose.position.{x,y,z}@mm"]``,
+        parsed by :func:`given_modalities`). Default: guessed from the columns
+        (:func:`guess_layout`; for records, ``hand`` = x, y, z, the hand in the robot's root
+        frame) or from the first recording's streams (:func:`guessed_mapping` gives the
+        guess alone).
     rig : RigOptions, optional
         For recordings: how sessions are cut and the time base (default: cut by markers when
         a recording has some, the slowest stream's times).
@@ -151,11 +157,13 @@ def read_dataset(
     Raises
     ------
     ValueError
-        Unknown format, no demonstrations, an unreadable file (named), or a modality naming a
-        column (a stream, a field) that a demonstration (a recording) lacks (named).
+        Unknown format, no demonstrations, an unreadable file (named), modalities that are
+        neither :class:`Modality` objects nor mapping strings, or a modality naming a column
+        (a stream, a field) that a demonstration (a recording) lacks (named).
     """
     if format not in FORMATS:
         raise ValueError(f"unknown dataset format {format!r}; expected one of {FORMATS}")
+    modalities = given_modalities(modalities)
     root = Path(root)
     read_findings: list[Finding] = []
     mapping, notes = "", ()
@@ -181,6 +189,37 @@ def read_dataset(
     order = {key: i for i, key in enumerate(files)}
     findings.sort(key=lambda f: order[f.key])  # stable: by demonstration, in reading order
     return DatasetRead(dataset, layout, tuple(findings), files, mapping, notes)
+
+
+def guessed_mapping(root: Path, format: str) -> str:
+    """The modalities :func:`read_dataset` guesses for ``root`` when none is given, in the
+    mapping syntax (``;`` between modalities): from the first recording's streams, the first
+    CSV file's header, or the lab records' columns. '' when nothing can be guessed (no file,
+    or the first one unreadable), so that a refusal can still show the guess to edit."""
+    try:
+        if format in RIG_FORMATS:
+            return guessed_rig_mapping(Path(root), format)
+        if format == "records":
+            return format_modalities(guess_layout(RECORD_COLUMNS[1:]))
+        if format == "csv":
+            first = next(p for f in class_folders(Path(root)) for p in sorted_files(f, "*.csv"))
+            return format_modalities(guess_layout(read_csv_demo(first).columns))
+    except (ValueError, OSError, StopIteration):
+        pass
+    return ""
+
+
+def refused_with_guess(exc: ValueError, root: Path, format: str) -> ValueError:
+    """The refusal ``exc`` of reading ``root`` with guessed modalities, followed by the guess
+    as ``--modality`` options to edit and paste (:func:`modality_options`); ``exc`` itself when
+    nothing can be guessed."""
+    guess = guessed_mapping(root, format)
+    if not guess:
+        return exc
+    return ValueError(
+        f"{exc}\nThe modalities guessed (edit them, then pass them back): "
+        f"{modality_options(guess)}"
+    )
 
 
 def _read_table_dataset(

@@ -5,7 +5,8 @@ suggests."""
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+import shlex
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from promp.data import Kind, Layout, Modality
@@ -13,8 +14,8 @@ from promp.rigs.mapping import parse_sourced
 
 __all__ = [
     "GUESSED", "KNOWN_COLUMNS", "MODALITY_NAME", "command_line_modalities", "format_modalities",
-    "guess_layout", "modality_from_columns", "modality_specs", "parse_modalities",
-    "parse_modality", "read_mapping_file",
+    "given_modalities", "guess_layout", "modality_from_columns", "modality_options",
+    "modality_specs", "parse_modalities", "parse_modality", "read_mapping_file",
 ]  # fmt: skip
 
 # Unit and kind of the column names the readers know; any other column is a dimensionless
@@ -106,6 +107,49 @@ def command_line_modalities(
     if mapping_file:
         modalities += read_mapping_file(Path(mapping_file))
     return modalities or None
+
+
+def modality_options(text: str) -> str:
+    """A mapping (``"hand=x,y,z; head=roll,pitch,yaw"``) as ``--modality`` options to paste
+    on a command line, each quoted for the shell where it needs it: the inverse of
+    :func:`command_line_modalities`."""
+    return " ".join(f"--modality {shlex.quote(spec)}" for spec in modality_specs(text))
+
+
+_EXPECTED = (
+    "Modality objects or mapping strings, e.g. 'hand=x,y,z' (columns) or "
+    "'hand=/pose:pose.position.{x,y,z}@mm' (a recording's stream and fields)"
+)
+
+
+def given_modalities(modalities: object) -> tuple[Modality, ...] | None:
+    """The modalities a caller gave, as :class:`Modality` objects: a mapping string (one
+    modality, or several separated by ``;`` or new lines) is parsed (:func:`parse_modalities`),
+    a :class:`Modality` kept; None, or nothing, is None (guess them).
+
+    Raises
+    ------
+    ValueError
+        A mapping string that does not parse, or anything else than modalities and strings
+        (saying what is expected).
+    """
+    if modalities is None:
+        return None
+    if isinstance(modalities, (str, Modality)):
+        modalities = [modalities]
+    if not isinstance(modalities, Iterable) or isinstance(modalities, (bytes, dict)):
+        raise ValueError(f"modalities: expected {_EXPECTED}; got {type(modalities).__name__}")
+    given: list[Modality] = []
+    for item in modalities:
+        if isinstance(item, Modality):
+            given.append(item)
+        elif isinstance(item, str):
+            given += parse_modalities(item) if item.strip() else ()
+        else:
+            raise ValueError(
+                f"modalities: expected {_EXPECTED}; got {type(item).__name__} {item!r}"
+            )
+    return tuple(given) or None
 
 
 def format_modalities(layout: Layout) -> str:

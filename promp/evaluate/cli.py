@@ -50,7 +50,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from promp.data import Layout
-from promp.datasets import FORMATS, Dataset, command_line_modalities, read_dataset
+from promp.datasets import (
+    FORMATS,
+    Dataset,
+    command_line_modalities,
+    modality_options,
+    read_dataset,
+    refused_with_guess,
+)
 from promp.evaluate.baselines import SCALINGS
 from promp.evaluate.methods import ALPHA_ROWS
 from promp.evaluate.registry import METHODS, method_factories
@@ -96,7 +103,8 @@ def add_dataset_arguments(parser: argparse.ArgumentParser) -> None:
         default=[],
         metavar="NAME=COL,COL,...",
         help="a modality: a name and its columns (repeatable); e.g. hand=x,y,z "
-        f"head=roll,pitch,yaw, or for lab records wrench=fx,fy,fz,mx,my,mz; {MAPPING_HELP}",
+        f"head=roll,pitch,yaw, or for lab records wrench=fx,fy,fz,mx,my,mz; default: guessed, "
+        f"and printed as --modality options to edit and pass back; {MAPPING_HELP}",
     )
     add_rig_arguments(parser)
 
@@ -272,6 +280,7 @@ class Loaded:
     excluded: dict[tuple[str, str], list[Finding]]
     mapping: str = ""  # recordings: the mapping of streams to modalities used
     notes: tuple[str, ...] = ()  # recordings: streams, what was left out, the clock
+    guessed: bool = False  # the modalities were guessed (no --modality nor --mapping)
 
 
 def load(args: argparse.Namespace) -> Loaded:
@@ -280,7 +289,10 @@ def load(args: argparse.Namespace) -> Loaded:
         [name.strip() for name in spec.split(",") if name.strip()] for spec in (args.observe or [])
     ]
     modalities = command_line_modalities(args.modality, args.mapping)
-    read = read_dataset(args.dataset, args.format, modalities, rig_options(args))
+    try:
+        read = read_dataset(args.dataset, args.format, modalities, rig_options(args))
+    except ValueError as exc:  # the guess to edit, when the modalities were guessed
+        raise exc if modalities else refused_with_guess(exc, args.dataset, args.format) from None
     dataset, layout, findings = read.dataset, read.layout, read.findings
     if args.repair_gaps is not None:
         dataset = {
@@ -294,7 +306,8 @@ def load(args: argparse.Namespace) -> Loaded:
         layout.dims(names)  # unknown names are an error before any work
     everyone = {(p, d.name) for p, demos in dataset.items() for d in demos}
     dataset, excluded = split_flagged(dataset, findings, everyone if args.include_flagged else ())
-    return Loaded(dataset, layout, observe, tuple(findings), excluded, read.mapping, read.notes)
+    return Loaded(dataset, layout, observe, tuple(findings), excluded, read.mapping, read.notes,
+                  guessed=not modalities)  # fmt: skip
 
 
 def print_findings(loaded: Loaded, include_flagged: bool) -> None:
@@ -304,6 +317,9 @@ def print_findings(loaded: Loaded, include_flagged: bool) -> None:
         print(f"mapping: {loaded.mapping}", file=sys.stderr)
         for note in loaded.notes:
             print(f"  {note}", file=sys.stderr)
+        if loaded.guessed:
+            print(f"  guessed; to change it, edit and pass: {modality_options(loaded.mapping)}",
+                  file=sys.stderr)  # fmt: skip
     if not loaded.findings:
         print("checks: nothing found in any demonstration", file=sys.stderr)
         return

@@ -15,11 +15,13 @@ YARP's text logs need none). A missing library is a ValueError naming its extra.
 ``hand=/icub/left_hand/pose:pose.position.{x,y,z}``,
 ``head=/tf:head.rotation.{roll,pitch,yaw}``, ``hand=Subject1:LHAND:x,y,z``,
 ``arm=left_arm_state:0,1,2@deg``. Without one, a mapping is guessed from the first recording
-and shown, with what it left out.
+and shown, with what it left out (:func:`guessed_rig_mapping` gives the guess alone, for a
+refusal to show it too).
 
 **One clock** (:mod:`promp.rigs.streams`): the streams are put on one time base by their
-time stamps (the slowest stream's, or a chosen rate), never by sample index; a stream that
-stops mid-demonstration is an error naming it.
+time stamps (the slowest stream's, or a chosen rate), never by sample index, over the span
+they all cover: a stream that starts or stops up to 10 % of the demonstration away from the
+others is cut (said in the notes), further it is an error naming it, as is one that pauses.
 
 **Demonstrations** (:mod:`promp.rigs.dataset`, :mod:`promp.rigs.cutting`): one recording per
 demonstration in ``<class>/`` folders, or a session cut by its markers (``start CLASS`` ...
@@ -30,10 +32,17 @@ from __future__ import annotations
 
 import argparse
 
-from promp.rigs.dataset import CUTS, RIG_FORMATS, RigOptions, RigRead, read_rig_dataset
+from promp.rigs.dataset import (
+    CUTS,
+    RIG_FORMATS,
+    RigOptions,
+    RigRead,
+    guessed_rig_mapping,
+    read_rig_dataset,
+)
 
-__all__ = ["CUTS", "MAPPING_HELP", "RIG_FORMATS", "RigOptions", "RigRead", "read_rig_dataset",
-           "add_rig_arguments", "rig_options"]  # fmt: skip
+__all__ = ["CUTS", "MAPPING_HELP", "RIG_FORMATS", "RigOptions", "RigRead", "guessed_rig_mapping",
+           "read_rig_dataset", "add_rig_arguments", "rig_options"]  # fmt: skip
 
 MAPPING_HELP = (
     "for recordings (yarp, rosbag, xdf, c3d): NAME=STREAM:FIELD,FIELD,...[@UNIT], the stream "

@@ -15,7 +15,13 @@ takes it whole otherwise. A demonstration cut from a recording is named ``<recor
 
 Without a mapping, one is guessed from the first recording (:func:`guess`): each numeric stream
 (each field group of a ROS message) a modality named after it, at most :data:`MAX_GUESSED`;
-the preview says what it left out.
+the preview says what it left out (:func:`guessed_rig_mapping`: the guess alone).
+
+Each demonstration is put on one clock over the span its streams all cover
+(:func:`promp.rigs.streams.common_span`, up to :data:`promp.rigs.streams.CUT_SHARE` of it
+cut): the span between its markers, or the whole recording when it is taken whole or cut at
+its still periods (cut before the still periods are found). Each cut is said in the notes,
+at most :data:`MAX_CUTS_SAID` of them one by one.
 """
 
 from __future__ import annotations
@@ -38,13 +44,22 @@ from promp.rigs.mapping import (
     modality_name,
     sourced,
 )
-from promp.rigs.streams import Recording, Stream, on_one_clock, read_stream
+from promp.rigs.streams import (
+    CUT_SHARE,
+    Recording,
+    Stream,
+    common_span,
+    on_one_clock,
+    read_stream,
+)
 from promp.rigs.yarp_layout import NumberedTake, layout_notes
 
 __all__ = [
     "CUTS",
     "find_recordings",
     "guess",
+    "guessed_rig_mapping",
+    "MAX_CUTS_SAID",
     "MAX_GUESSED",
     "read_rig_dataset",
     "READERS",
@@ -58,6 +73,7 @@ READERS = {"yarp": yarp, "rosbag": rosbag, "xdf": xdf, "c3d": c3d}
 RIG_FORMATS = tuple(READERS)
 CUTS = ("auto", "markers", "still", "files")
 MAX_GUESSED = 8
+MAX_CUTS_SAID = 12
 WHAT = {
     "yarp": "YARP dumps (<class>/<take>/<port>/data.log or <class>/<port>/<port>_NNNNN/"
             "data.log)",
@@ -152,6 +168,25 @@ def guess(recording: Recording) -> tuple[list[SourcedModality], list[str]]:
     return chosen, left
 
 
+def guessed_rig_mapping(root: Path, format: str) -> str:
+    """The mapping :func:`read_rig_dataset` guesses for ``root`` (:func:`guess`, from its
+    first recording), in the mapping syntax.
+
+    Raises
+    ------
+    ValueError
+        No recording, or the first one unreadable or without a numeric stream.
+    """
+    root = Path(root)
+    if format not in READERS:
+        raise ValueError(f"unknown recording format {format!r}; expected one of {RIG_FORMATS}")
+    units = find_recordings(root, format) if root.exists() else []
+    if not units:
+        raise ValueError(f"{root}: no {WHAT[format]} found")
+    label = _place(root, units[0])[0]
+    return mapping_text(guess(READERS[format].open_recording(units[0], label))[0])
+
+
 def _marker_stream(recording: Recording, wanted: str) -> str:
     streams = recording.marker_streams
     if wanted:
@@ -195,8 +230,9 @@ def read_rig_dataset(
     ValueError
         Naming the file and the reason: no recording, an unreadable or truncated file, a
         stream or field the mapping names that a recording lacks, a clock that goes back, a
-        stream that stops mid-demonstration, a bad or unknown marker, or a recording without
-        a class (neither in a class folder nor cut by markers naming classes).
+        stream that starts or stops more than ``CUT_SHARE`` of the demonstration away from the
+        others or pauses inside it, a bad or unknown marker, or a recording without a class
+        (neither in a class folder nor cut by markers naming classes).
     """
     if format not in READERS:
         raise ValueError(f"unknown recording format {format!r}; expected one of {RIG_FORMATS}")
@@ -212,6 +248,7 @@ def read_rig_dataset(
     dataset: dict[str, list[Demonstration]] = {}
     files: dict[tuple[str, str], str] = {}
     units_seen: list[tuple[str, ...]] = []
+    cuts: list[str] = []  # the spans cut to what every stream covers, said
     for unit in units:
         label, klass, name = _place(root, unit)
         recording = READERS[format].open_recording(unit, label)
@@ -238,7 +275,7 @@ def read_rig_dataset(
         if cut == "auto":
             cut = "markers" if recording.marker_streams else "files"
         for klass_, demo_name, times, values, source in _demonstrations(
-            recording, streams, cut, options, klass, name, label
+            recording, streams, cut, options, klass, name, label, cuts
         ):
             demo = Demonstration(times, np.hstack(values), _flat_columns(mapping), demo_name)
             dataset.setdefault(klass_, []).append(demo)
@@ -254,8 +291,40 @@ def read_rig_dataset(
         tuple(_modality(m, c, u) for m, c, u in zip(mapping, columns, units_seen, strict=True)),
         files,
         mapping_text(mapping),
-        (found, *notes),
+        (found, *notes, *_cut_notes(cuts)),
     )
+
+
+def _cut_notes(cuts: Sequence[str], limit: int = MAX_CUTS_SAID) -> list[str]:
+    """The notes of the spans cut to what every stream covers: a headline, then each (at
+    most ``limit``, then how many more)."""
+    if not cuts:
+        return []
+    return [
+        f"One clock: {len(cuts)} span(s) cut to what every stream covers (a stream started "
+        f"or stopped later than the others; up to {100 * CUT_SHARE:.0f} % of a demonstration "
+        "is cut, more is refused); the demonstrations are learned from as cut:",
+        *cuts[:limit],
+        *([f"... and {len(cuts) - limit} more"] if len(cuts) > limit else []),
+    ]
+
+
+def _on_one_clock(
+    streams: Sequence[Stream],
+    start: float,
+    end: float,
+    rate: float | None,
+    label: str,
+    cuts: list[str],
+    what: str = "demonstration",
+) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The streams on one clock over the part of ``[start, end]`` they all cover
+    (:func:`promp.rigs.streams.common_span`: refused beyond :data:`CUT_SHARE`), the cut said
+    in ``cuts``."""
+    span = common_span(streams, start, end, label, rate, CUT_SHARE, what)
+    if span.cut:
+        cuts.append(f"{label}: {span.describe()}")
+    return on_one_clock(streams, span.lo, span.hi, rate, label)
 
 
 def _flat_columns(mapping: Sequence[SourcedModality]) -> tuple[str, ...]:
@@ -270,15 +339,16 @@ def _demonstrations(
     klass: str | None,
     name: str,
     label: str,
+    cuts: list[str],
 ):
     """``(class, name, times, values per stream, source)`` of each demonstration of a
-    recording."""
+    recording; a span cut to what every stream covers is said in ``cuts``."""
     if cut == "markers":
         stream = _marker_stream(recording, options.markers)
         spans = marker_spans(recording.markers(stream), klass, f"{label}: marker stream {stream!r}")
         for k, (class_, start, end) in enumerate(spans, start=1):
             source = f"{label} [{start:.3f}-{end:.3f} s]"
-            times, values = on_one_clock(streams, start, end, options.rate, source)
+            times, values = _on_one_clock(streams, start, end, options.rate, source, cuts)
             yield class_, f"{name}-{k}", times, values, source
         return
     if klass is None:
@@ -289,7 +359,7 @@ def _demonstrations(
             + "; or put one recording per demonstration in <class>/ folders"
         )
     start, end = _whole(streams)
-    times, values = on_one_clock(streams, start, end, options.rate, label)
+    times, values = _on_one_clock(streams, start, end, options.rate, label, cuts, "recording")
     if cut == "files":
         yield klass, name, times, values, label
         return

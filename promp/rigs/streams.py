@@ -7,9 +7,18 @@ them, timed in seconds from the recording's start on the recording's own clock.
 :func:`read_stream` takes the fields of one modality from it (units converted,
 :mod:`promp.rigs.mapping`), and :func:`on_one_clock` puts several such streams on one time base:
 by default the times of the slowest stream (the others interpolated linearly at them; angles
-across +-pi unwrapped first), or a regular grid at a chosen rate. A stream that starts late,
-stops early or pauses (:data:`promp.gaps.GAP_FACTOR` times its own step, and over the
-tolerance) inside a demonstration cannot be interpolated there: that is an error naming it.
+across +-pi unwrapped first), or a regular grid at a chosen rate.
+
+The streams of a recording start and stop one after the other, so a demonstration is put on
+one clock over the span every stream covers (:func:`common_span`): a stream that starts after
+the demonstration's start or stops before its end by a few steps (:data:`STOP_STEPS`) is cut
+unsaid; further, the cut is said (:meth:`Span.describe`) while it leaves out at most
+:data:`CUT_SHARE` of the demonstration, and beyond that the demonstration is refused naming
+the stream. "The demonstration" is the span the reader asks for: the span between a start
+and an end marker, or, for a recording taken whole or cut at its still periods, the whole
+recording (from its mapped streams' first sample to their last). A stream that pauses
+(:data:`promp.gaps.GAP_FACTOR` times its own step, and over the tolerance) inside a
+demonstration cannot be interpolated there: that is an error naming it.
 """
 
 from __future__ import annotations
@@ -24,11 +33,16 @@ from promp.gaps import GAP_FACTOR
 from promp.quality import Finding, increasing_samples, timestamp_finding
 from promp.rigs.mapping import SourcedModality, si_unit
 
-__all__ = ["on_one_clock", "read_stream", "Recording", "STOP_STEPS", "Stream", "unreadable"]
+__all__ = ["common_span", "CUT_SHARE", "on_one_clock", "read_stream", "Recording", "Span",
+           "STOP_STEPS", "Stream", "unreadable"]  # fmt: skip
 
 # A stream may begin or end this many steps of the slowest stream away from the others (the
 # streams of a recording are started and stopped one after the other, not at one instant).
 STOP_STEPS = 3.0
+# Further away, the demonstration is cut to the span every stream covers when that leaves out
+# at most this share of it (a dumper's second port connected 37 ms after the first); beyond,
+# the stream is taken to stop mid-demonstration and the demonstration is refused.
+CUT_SHARE = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -251,6 +265,136 @@ def _interpolate(stream: Stream, times: np.ndarray) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True)
+class Span:
+    """The part of a demonstration that every stream covers (:func:`common_span`).
+
+    Attributes
+    ----------
+    start, end : float
+        The demonstration asked for, in seconds from the recording's start.
+    lo, hi : float
+        The span every stream covers inside it.
+    late : tuple of (str, float)
+        The stream that starts last and its first time, when it starts more than the
+        tolerance after ``start`` (empty otherwise).
+    early : tuple of (str, float)
+        The stream that stops first and its last time, when it stops more than the
+        tolerance before ``end`` (empty otherwise).
+    what : str
+        What ``[start, end]`` is, in messages: ``"demonstration"`` (a marker span) or
+        ``"recording"`` (a recording taken whole).
+    """
+
+    start: float
+    end: float
+    lo: float
+    hi: float
+    late: tuple = ()
+    early: tuple = ()
+    what: str = "demonstration"
+
+    @property
+    def cut(self) -> bool:
+        """Whether a stream starts or stops beyond the tolerance (the cut is said)."""
+        return bool(self.late or self.early)
+
+    @property
+    def share(self) -> float:
+        """The part of ``[start, end]`` left out, a fraction of ``end - start``."""
+        length = self.end - self.start
+        return ((self.lo - self.start) + (self.end - self.hi)) / length if length > 0 else 0.0
+
+    def streams_said(self) -> str:
+        """Which stream starts late and which stops early, with the span asked for."""
+        said = []
+        if self.late:
+            said.append(f"stream {self.late[0]!r} starts at {self.late[1]:.3f} s, "
+                        f"{self.late[1] - self.start:.3f} s into the {self.what}")  # fmt: skip
+        if self.early:
+            said.append(f"stream {self.early[0]!r} stops at {self.early[1]:.3f} s, "
+                        f"mid-{self.what}, {self.end - self.early[1]:.3f} s before its "
+                        "end")  # fmt: skip
+        return f"{' and '.join(said)} ({self.start:.3f}-{self.end:.3f} s)"
+
+    def describe(self) -> str:
+        """The cut in words: which stream, the span kept and the share left out."""
+        return (
+            f"{self.streams_said()}: cut to the span every stream covers, "
+            f"{self.lo:.3f}-{self.hi:.3f} s ({100 * self.share:.1f} % of the {self.what} left "
+            "out)"
+        )
+
+
+def _tolerance(streams: Sequence[Stream], rate: float | None) -> float:
+    """How far a stream may start or stop from the others unsaid, in seconds:
+    :data:`STOP_STEPS` steps of the slowest stream (or of the time base's grid)."""
+    return STOP_STEPS * max(max(s.step for s in streams), 1.0 / rate if rate else 0.0)
+
+
+def common_span(
+    streams: Sequence[Stream],
+    start: float,
+    end: float,
+    label: str,
+    rate: float | None = None,
+    share: float = CUT_SHARE,
+    what: str = "demonstration",
+) -> Span:
+    """The part of ``[start, end]`` (seconds from the recording's start) that every stream
+    covers.
+
+    The streams of one recording start and stop one after the other (a YARP dumper connects
+    its ports in turn). Within :data:`STOP_STEPS` steps of the slowest stream that is
+    ordinary, and the span is cut unsaid; beyond, it is cut when that leaves out at most
+    ``share`` of ``[start, end]``, and the :class:`Span` says it (:attr:`Span.cut`,
+    :meth:`Span.describe`).
+
+    Parameters
+    ----------
+    streams : sequence of Stream
+    start, end : float
+        The demonstration: a span between markers, or a whole recording (from its streams'
+        first sample to their last).
+    label : str
+        The demonstration as messages name it.
+    rate : float, optional
+        The time base's rate in Hz (its step widens the tolerance).
+    share : float
+        The largest part of ``[start, end]`` that may be left out (0: nothing beyond the
+        tolerance, as :func:`on_one_clock` and the live time base ask).
+    what : str
+        What ``[start, end]`` is, in messages (:attr:`Span.what`).
+
+    Raises
+    ------
+    ValueError
+        Naming ``label`` and the stream: one that starts after ``start`` or stops before
+        ``end`` by more than the tolerance, when the span every stream covers leaves out more
+        than ``share`` of ``[start, end]``.
+    """
+    tolerance = _tolerance(streams, rate)
+    lo = max(start, *(s.times[0] for s in streams))
+    hi = min(end, *(s.times[-1] for s in streams))
+    first = max(streams, key=lambda s: s.times[0])
+    last = min(streams, key=lambda s: s.times[-1])
+    span = Span(
+        start, end, lo, hi,
+        (first.name, float(first.times[0])) if first.times[0] > start + tolerance else (),
+        (last.name, float(last.times[-1])) if last.times[-1] < end - tolerance else (),
+        what,
+    )  # fmt: skip
+    if span.cut and (hi <= lo or span.share > share):
+        if share <= 0:
+            raise ValueError(f"{label}: {span.streams_said()}")
+        raise ValueError(
+            f"{label}: {span.streams_said()}: the span every stream covers would leave out "
+            f"{100 * min(span.share, 1.0):.1f} % of the {what}, over the {100 * share:.0f} % "
+            "that may be cut (map the streams recorded all along, or cut by markers)"
+        )
+    return span
+
+
 def on_one_clock(
     streams: Sequence[Stream],
     start: float,
@@ -264,7 +408,9 @@ def on_one_clock(
     ``rate`` Hz from the first time every stream has a sample. ``base``: the index of the
     stream whose times are the time base when ``rate`` is None (default: the slowest; a live
     time base fixes it once, :mod:`promp.live.timebase`, as a short slice of each stream may
-    not tell which is the slowest).
+    not tell which is the slowest). Every stream must cover ``[start, end]`` within the
+    tolerance (:func:`common_span` with no share: a reader cuts the demonstration to its
+    :func:`common_span` first).
 
     Returns
     -------
@@ -280,20 +426,9 @@ def on_one_clock(
     """
     steps = [s.step for s in streams]
     slowest = int(np.argmax(steps)) if base is None else int(base)
-    tolerance = STOP_STEPS * max(max(steps), 1.0 / rate if rate else 0.0)
-    for s in streams:
-        if s.times[0] > start + tolerance:
-            raise ValueError(
-                f"{label}: stream {s.name!r} starts at {s.times[0]:.3f} s, "
-                f"{s.times[0] - start:.3f} s into the demonstration ({start:.3f}-{end:.3f} s)"
-            )
-        if s.times[-1] < end - tolerance:
-            raise ValueError(
-                f"{label}: stream {s.name!r} stops at {s.times[-1]:.3f} s, mid-demonstration "
-                f"({start:.3f}-{end:.3f} s)"
-            )
-    lo = max(start, *(s.times[0] for s in streams))
-    hi = min(end, *(s.times[-1] for s in streams))
+    tolerance = _tolerance(streams, rate)
+    span = common_span(streams, start, end, label, rate, share=0.0)
+    lo, hi = span.lo, span.hi
     if rate is None:
         base = streams[slowest].times
         times = base[(base >= lo) & (base <= hi)]

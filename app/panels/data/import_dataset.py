@@ -18,7 +18,9 @@ iCub's frame or keeps it in its own (:mod:`app.panels.data.import_frame`). Then 
 
 A refused upload or mapping is a notification naming the file and the problem, and changes
 nothing (the notifications of refused files go when a later file is accepted); the preview
-always shows the latest upload: a refused one is not previewed, nor is the one before it.
+always shows the latest upload: a refused one is not previewed, nor is the one before it. A
+dataset refused with guessed modalities gets the guess in the modalities' field all the same,
+to edit.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ from app.ui.context import PanelContext
 from app.ui.dialogs import confirm
 from app.ui.text import display_name, escape
 from app.ui.upload_guard import UploadRefusals
-from promp.datasets import format_modalities
+from promp.datasets import format_modalities, guessed_mapping
 from promp.progress import clock
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
@@ -175,7 +177,9 @@ class DatasetImport:
                 self.pending = Pending(upload)
                 self.actions.visible = False
                 self.frame.hide()
-                self.preview.content = f"**Cannot import:** {escape(str(exc))}"
+                self.preview.content = f"**Cannot import:** {escape(str(exc))}" + (
+                    self._show_guess(upload)
+                )
                 self.refusals.refuse(client, f"Cannot import {upload.filename}", str(exc))
                 return None
             except Exception as exc:  # an unforeseen reader failure is still a refusal
@@ -196,6 +200,21 @@ class DatasetImport:
             self.frame.reset(hand_points(data.demos, data.layout))
             self.actions.visible = True
             return summary
+
+    def _show_guess(self, upload: DatasetUpload) -> str:
+        """After a refusal with guessed modalities: the guess put in the Modalities field to
+        edit (a change reads the dataset again), and a line of the preview saying so (markdown;
+        '' when the modalities were given, or nothing can be guessed). Lock held."""
+        if self.inputs.modalities.value.strip():
+            return ""
+        guess = guessed_mapping(upload.root, self.inputs.format.value)
+        if not guess:
+            return ""
+        self.inputs.set(self.inputs.format.value, one_per_line(guess))
+        return (
+            "  \nThe modalities guessed are in **Modalities**, one a line: edit them (a stream "
+            "or field to leave out, a unit such as `@m`) and the dataset is read again."
+        )
 
     def reframe(self, client) -> None:
         """The hand's frame or placement changed: the preview says where it is now."""
