@@ -41,10 +41,11 @@ from promp.model import Primitive, ProMPModel, Settings
 from promp.noise import estimate_noise
 from promp.quality import winsorized
 from promp.scale import RELATIVE_FLOOR
+from promp.stillness import inner_pause
 from promp.timing import alpha_from_duration
 from promp.weights import WeightFits, fit_all_weights
 
-__all__ = ["FitParts", "fit_parts", "fit_with"]
+__all__ = ["FitParts", "fit_parts", "fit_with", "learned_pauses"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,6 +169,20 @@ class FitParts:
         return inflate * c / (c + dof), inflate / (c + dof)
 
 
+def learned_pauses(demos: Sequence[Demonstration], layout: Layout) -> dict[str, np.ndarray]:
+    """Per modality of ``layout`` in metres or radians, the longest pause inside each of
+    ``demos`` (s, shape (n_demos,)): :func:`promp.stillness.inner_pause`, the rule the live
+    segmenter ends a movement by."""
+    out = {}
+    for modality in layout.modalities:
+        if modality.unit in ("m", "rad"):
+            dims = layout.dims([modality.name])
+            out[modality.name] = np.array([
+                inner_pause(d.times, [(layout.extract(d)[:, dims], modality.unit)]) for d in demos
+            ])  # fmt: skip
+    return out
+
+
 def fit_with(
     dataset: Mapping[str, Sequence[Demonstration]],
     layout: Layout,
@@ -215,6 +230,7 @@ def fit_parts(
             shrinkage=np.clip(share, MIN_SHRINKAGE, 1.0),
             log_alpha_mean=m.log_alpha_mean,
             alpha_slope=m.slope,
+            pauses=learned_pauses(demos, layout),
         )
         for (name, demos), m, (cov_diag, cov_factor), share in zip(
             dataset.items(), moments, covariances, shares, strict=True

@@ -1,11 +1,11 @@
 """File formats: versioned JSON for models, NPZ (or CSV, see :mod:`promp.datasets`) for
 demonstrations. No pickle anywhere: NPZ files are read with ``allow_pickle=False``.
 
-Model JSON, schema version 2 (version 1 files still load: see :func:`model_from_dict`)::
+Model JSON, schema version 3 (versions 1 and 2 still load: see :func:`model_from_dict`)::
 
     {
       "format": "icub-intention-studio/promp-model",
-      "version": 2,
+      "version": 3,
       "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"},
                  ...],
       "settings": {"n_basis": 7, "width": 1.0, "ridge": 1e-06, "s_bar": 100.0,
@@ -27,7 +27,9 @@ Model JSON, schema version 2 (version 1 files still load: see :func:`model_from_
           "log_alpha_mean": -0.1,                  # mean log(alpha) of the training demos
           "alpha_slope": [...],                    # (n_dims * n_basis,): d mean / d log(alpha)
           "alpha_models": {"hand": {"n_observed": [...], "lo": [[...]], "hi": [[...]],
-                                    "weights": [[...]], "residual_var": [...]}, ...}
+                                    "weights": [[...]], "residual_var": [...]}, ...},
+          "pauses": {"hand": [...], ...}           # per modality in m or rad: (n_demos,) the
+                                                   # longest pause inside each demonstration, s
       }, ...]
     }
 
@@ -58,8 +60,8 @@ __all__ = [
 ]  # fmt: skip
 
 MODEL_FORMAT = "icub-intention-studio/promp-model"
-MODEL_VERSION = 2
-READABLE_VERSIONS = (1, 2)
+MODEL_VERSION = 3
+READABLE_VERSIONS = (1, 2, 3)
 
 
 def _has_bool(value: Any) -> bool:
@@ -121,6 +123,24 @@ def _block_diagonal(
     return least, np.hstack([factor, columns])
 
 
+def _pauses(raw: Any, layout: Layout, n_demos: int, what: str) -> dict[str, np.ndarray]:
+    """A primitive's ``pauses``: per modality of ``layout`` in m or rad, ``n_demos``
+    non-negative seconds."""
+    if not isinstance(raw, Mapping):
+        raise ValueError(f"{what} pauses: expected an object")
+    units = {m.name: m.unit for m in layout.modalities}
+    out = {}
+    for name, value in raw.items():
+        if units.get(name) not in ("m", "rad"):
+            raise ValueError(f"{what} pauses: {name!r} is not a modality in m or rad of the "
+                             f"layout")  # fmt: skip
+        arr = _array(value, f"{what} pauses {name!r}", (n_demos,))
+        if np.any(arr < 0):
+            raise ValueError(f"{what} pauses {name!r}: must be >= 0 s")
+        out[str(name)] = arr
+    return out
+
+
 def model_to_dict(model: ProMPModel) -> dict[str, Any]:
     """The JSON-ready description of ``model`` (schema in the module docstring)."""
     s = model.settings
@@ -162,6 +182,8 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
                     name: {key: value.tolist() for key, value in am.to_arrays().items()}
                     for name, am in p.alpha_models.items()
                 },
+                "pauses": {name: np.asarray(v, dtype=float).tolist()
+                           for name, v in p.pauses.items()},
             }
             for p in model.primitives
         ],
@@ -179,6 +201,8 @@ def model_from_dict(data: Any) -> ProMPModel:
     (``tests/test_promp_model_format.py`` loads a file of each writer and compares the prior it
     predicts with the one that writer's code predicted):
 
+    * version 3 adds each primitive's ``pauses`` (absent: none learned, the primitive is
+      taken never to pause: the live segmenter ends its movements as before);
     * version 2 adds ``report``; its later writers add the settings ``select`` and
       ``duration_temperature`` (absent: ``"loo"``, and 1, the plain posterior);
     * version 1 has no ``report``; its first writers had white observation noise (no
@@ -303,6 +327,7 @@ def model_from_dict(data: Any) -> ProMPModel:
         shrinkage = _array(shrinkage, f"{what} shrinkage", (n_dims,))
         if np.any((shrinkage <= 0) | (shrinkage > 1)):
             raise ValueError(f"{what} shrinkage: intensities must be in (0, 1]")
+        pauses = _pauses(p.get("pauses", {}) if version >= 3 else {}, layout, alphas.size, what)
         log_alpha_mean = _number(p, "log_alpha_mean", what)
         alpha_slope = _array(_field(p, "alpha_slope", what), f"{what} alpha_slope", (n_weights,))
         primitives.append(
@@ -318,6 +343,7 @@ def model_from_dict(data: Any) -> ProMPModel:
                 shrinkage=shrinkage,
                 log_alpha_mean=log_alpha_mean,
                 alpha_slope=alpha_slope,
+                pauses=pauses,
             )
         )
     return ProMPModel(

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,6 +28,7 @@ from promp.alpha_model import AlphaModel
 from promp.basis import PhaseBasisCache, RBFBasis
 from promp.covariance import compress_factor
 from promp.data import Layout
+from promp.stillness import pause_bound
 
 __all__ = ["FALLBACK", "SELECT_RULES", "Primitive", "ProMPModel", "Settings"]
 
@@ -178,6 +179,10 @@ class Primitive:
         ``mean + alpha_slope * (log(alpha) - log_alpha_mean)`` and ``Sigma_w`` is the covariance
         of the regression residuals, i.e. the joint Gaussian of (w, log alpha) conditioned on
         alpha. Zero when the coupling is off.
+    pauses : mapping of str to array, shape (n_demos,)
+        Per modality in metres or radians, the longest pause inside each training
+        demonstration (s; 0 for one that never stops: :func:`promp.stillness.inner_pause`).
+        Empty for a model whose file predates them: it is taken never to pause.
     """
 
     name: str
@@ -191,6 +196,7 @@ class Primitive:
     log_alpha_mean: float = 0.0
     alpha_slope: np.ndarray | None = None
     noise_tau: np.ndarray | None = None
+    pauses: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         blocks = np.asarray(self.cov_diag).reshape(np.asarray(self.noise_var).shape[0], -1)
@@ -203,6 +209,16 @@ class Primitive:
             object.__setattr__(self, "alpha_slope", np.zeros_like(self.mean))
         if self.noise_tau is None:
             object.__setattr__(self, "noise_tau", np.zeros_like(self.noise_var))
+
+    def pause(self, modalities: Sequence[str]) -> float:
+        """The longest pause this primitive is taken to make when ``modalities`` are watched
+        (s): per demonstration the shortest of their pauses (the inputs are still together only
+        while each is still: an upper bound of that demonstration's pause), their robust upper
+        bound (:func:`promp.stillness.pause_bound`); 0 when none of them was learned."""
+        learned = [np.asarray(self.pauses[m], dtype=float) for m in modalities if m in self.pauses]
+        if not learned:
+            return 0.0
+        return pause_bound(np.min(np.vstack(learned), axis=0).tolist())
 
     def mean_at(self, alpha: float | np.ndarray) -> np.ndarray:
         """Prior mean of the weights at time modulation ``alpha``.
