@@ -300,7 +300,8 @@ class LiveSession:
             self.timebase.restart(name)
             boundaries += self.segmenter.abort(f"input {name!r} broke off")
         for name, (times, values, units) in batch.samples.items():
-            gap = self.timebase.push(name, times, values, units)
+            gap = self.timebase.push(name, times, values, units, self.source.nominal_rate(name),
+                                     self.source.lateness(name))  # fmt: skip
             if gap:
                 events.append(LiveEvent(now, gap))
                 boundaries += self.segmenter.abort(gap)

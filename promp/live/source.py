@@ -25,8 +25,14 @@ input's :class:`StreamStatus`. What it does with faults, never raising:
   (:class:`SourceBatch` ``broken``);
 * **a stall**: no sample for :data:`STALL_STEPS` steps (at least :data:`STALL_MIN_S`):
   ``stalled`` until samples come again;
-* **a rate change** of over :data:`RATE_TOLERANCE` over the last :data:`RATE_WINDOW_S`:
-  ``rate changed`` (the time base works from the stamps, whatever the rate);
+* **a rate change** of over :data:`RATE_TOLERANCE` over the last :data:`RATE_WINDOW_S`
+  (its median step): ``rate changed``, said once per change (the time base works from the
+  stamps, whatever the rate);
+* **a late sender** (a stream with a declared rate whose stamps pause, then come in a burst
+  microseconds apart: the backlog of a sender that pushed late on a busy machine): the burst
+  is re-spread at the stream's rate (:mod:`promp.live.restamp`), and how late it was is the
+  stream's recent lateness (:meth:`Source.lateness`), against which the time base judges a
+  pause in its stamps;
 * **vanished**: the outlet is gone; the stream is looked for again (:meth:`Source.open_missing`,
   on the session's resolver thread) and, found, is ``back`` (the same outlet) or
   ``restarted`` (a new one), or ``wrong channels`` when it no longer has the mapping's channels
@@ -43,6 +49,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from promp.data import MAX_MAGNITUDE
+from promp.live.restamp import Respread
 from promp.live.status import Condition, LiveEvent, StreamStatus
 from promp.live.transport import Inlet, Selector, StreamDescription, StreamLost, Transport
 from promp.rigs.mapping import SourcedModality, parse_sourced, si_unit
@@ -173,12 +180,14 @@ class _Feed:
     uid: str = ""
     rejected: str = ""  # the uid of a stream without the mapping's channels
     status: StreamStatus | None = None
-    last: float = -math.inf  # the last accepted time
+    last: float = -math.inf  # the last time given
+    stamp: float = -math.inf  # the last accepted stamp (a burst held may follow the last given)
     shift: float = 0.0  # re-anchoring after clock jumps
     arrival: float = -math.inf  # when the last sample arrived here
     heard: float = -math.inf  # when the last sample, usable or not, arrived (stalls)
     rate: float = 0.0  # the rate the stream is believed to run at (Hz; 0 unknown)
     recent: deque = field(default_factory=deque)  # recent times, for the rate
+    spread: Respread = field(default_factory=lambda: Respread(0.0))  # a late sender's bursts
     received: int = 0
     left_out: int = 0
     clean_since: float = math.inf
@@ -311,7 +320,8 @@ class Source:
                 condition = Condition.BACK if stream.uid == feed.uid else Condition.RESTARTED
             feed.inlet, feed.uid, feed.arrival = inlet, stream.uid, now
             feed.rate, feed.recent = max(stream.rate, 0.0), deque()
-            feed.last, feed.shift = -math.inf, 0.0
+            feed.spread = Respread(feed.rate)  # a declared rate only: an irregular one is not
+            feed.last, feed.stamp, feed.shift = -math.inf, -math.inf, 0.0
             events += self._set(feed, condition, now, stream.summary())
         return events
 
@@ -335,6 +345,8 @@ class Source:
                 continue
             if len(times) == 0:
                 batch.events += self._check_stall(feed, now)
+                if feed.inputs:
+                    self._given(feed, *feed.spread.release(now), now, batch)
                 continue
             if not feed.inputs:
                 feed.received += len(times)
@@ -386,7 +398,15 @@ class Source:
         times, values = self._clock(feed, times, values, now, batch)
         if times.shape[0] == 0:
             return
-        feed.last, feed.arrival = float(times[-1]), now
+        feed.arrival = now
+        self._given(feed, *feed.spread.add(times, values, now), now, batch)
+
+    def _given(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
+               batch: SourceBatch) -> None:  # fmt: skip
+        """Samples given to the inputs (their late bursts re-spread: :mod:`promp.live.restamp`)."""
+        if times.shape[0] == 0:
+            return
+        feed.last = float(times[-1])
         batch.events += self._check_rate(feed, times, now)
         start = 0
         for live_input, channels in zip(feed.inputs, feed.channels, strict=True):
@@ -398,16 +418,16 @@ class Source:
     def _clock(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
                batch: SourceBatch) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """Jumps re-anchored, stamps that go back a little left out (module docstring)."""
-        if math.isfinite(feed.last):
-            diffs = np.diff(np.concatenate([[feed.last], times]))
+        if math.isfinite(feed.stamp):
+            diffs = np.diff(np.concatenate([[feed.stamp], times]))
             back = np.flatnonzero(diffs <= -JUMP_S)
             # ahead of the time that passed here, beyond catching up how late the last
             # delivery was (a sender pushing its backlog on a busy machine is no jump)
-            late = max(feed.arrival - feed.last, 0.0)
-            leap = (times[-1] - feed.last) - (now - feed.arrival) - late > JUMP_S
+            late = max(feed.arrival - feed.stamp, 0.0)
+            leap = (times[-1] - feed.stamp) - (now - feed.arrival) - late > JUMP_S
             if back.size or leap:
                 i = int(back[0]) if back.size else int(np.argmax(diffs))
-                previous = feed.last if i == 0 else float(times[i - 1])
+                previous = feed.stamp if i == 0 else float(times[i - 1])
                 delta = previous + (feed.step or float(np.median(np.abs(diffs)))) - times[i]
                 feed.shift += delta
                 times = times.copy()
@@ -417,16 +437,19 @@ class Source:
                     feed, Condition.CLOCK_JUMP, now,
                     f"its time stamps jumped by {-delta:+.3f} s; re-anchored",
                 )  # fmt: skip
-        keep = times > np.maximum.accumulate(np.concatenate([[feed.last], times]))[:-1]
+        keep = times > np.maximum.accumulate(np.concatenate([[feed.stamp], times]))[:-1]
         if not keep.all():
             feed.left_out += int((~keep).sum())
             times, values = times[keep], values[keep]
+        if times.shape[0]:
+            feed.stamp = float(times[-1])
         return times, values
 
     def _check_rate(self, feed: _Feed, times: np.ndarray, now: float) -> list[LiveEvent]:
         """The rate from the median step of the last :data:`RATE_WINDOW_S` (a pause is not
         a rate: the window starts again after one; the median follows a new rate once it
-        holds half the window)."""
+        holds half the window). After a change is said the window starts again: one change,
+        one event (a restarted outlet's backlog, a late sender's bursts re-spread)."""
         recent = feed.recent
         if recent and times[0] - recent[-1] > max(STALL_MIN_S, STALL_STEPS * feed.step):
             recent.clear()
@@ -443,6 +466,9 @@ class Source:
         if abs(measured / feed.rate - 1.0) <= RATE_TOLERANCE:
             return []
         before, feed.rate = feed.rate, measured
+        if feed.spread.rate > 0:
+            feed.spread.rate = measured  # the declared rate was wrong: spread at the real one
+        recent.clear()
         return self._set(feed, Condition.RATE_CHANGED, now,
                          f"from {before:.4g} Hz to {measured:.4g} Hz")  # fmt: skip
 
@@ -474,6 +500,11 @@ class Source:
         """Per stream (as selected): samples received, and left out (bad values, stamps
         going back)."""
         return {f.label: (f.received, f.left_out) for f in self._feeds}
+
+    def lateness(self, name: str) -> float:
+        """How far input ``name``'s late samples were moved back lately (s; 0: on time)."""
+        feed = next(f for f in self._feeds if name in f.names)
+        return feed.spread.lateness(self.transport.clock())
 
     def nominal_rate(self, name: str) -> float:
         """The rate input ``name``'s stream is believed to run at (Hz; 0 while unknown)."""
