@@ -147,6 +147,9 @@ class Settings:
         return RBFBasis(self.n_basis, self.width)
 
 
+STILL_PARTS = ("lead", "pause", "trail")  # how a demonstration is still (Primitive.stillness)
+
+
 @dataclass(frozen=True, eq=False)
 class Primitive:
     """The learned distribution of one movement primitive.
@@ -179,10 +182,11 @@ class Primitive:
         ``mean + alpha_slope * (log(alpha) - log_alpha_mean)`` and ``Sigma_w`` is the covariance
         of the regression residuals, i.e. the joint Gaussian of (w, log alpha) conditioned on
         alpha. Zero when the coupling is off.
-    pauses : mapping of str to array, shape (n_demos,)
-        Per modality in metres or radians, the longest pause inside each training
-        demonstration (s; 0 for one that never stops: :func:`promp.stillness.inner_pause`).
-        Empty for a model whose file predates them: it is taken never to pause.
+    stillness : mapping of str to mapping of str to array, shape (n_demos,)
+        Per modality in metres or radians, how each training demonstration is still (s):
+        ``lead`` before its first moving sample, the longest ``pause`` inside it, ``trail``
+        after its last moving sample (:func:`promp.stillness.still_parts`). Empty for a model
+        whose file predates them: it is taken never to pause, its still ends unknown.
     """
 
     name: str
@@ -196,7 +200,7 @@ class Primitive:
     log_alpha_mean: float = 0.0
     alpha_slope: np.ndarray | None = None
     noise_tau: np.ndarray | None = None
-    pauses: Mapping[str, np.ndarray] = field(default_factory=dict)
+    stillness: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         blocks = np.asarray(self.cov_diag).reshape(np.asarray(self.noise_var).shape[0], -1)
@@ -210,15 +214,21 @@ class Primitive:
         if self.noise_tau is None:
             object.__setattr__(self, "noise_tau", np.zeros_like(self.noise_var))
 
+    def still(self, part: str, modalities: Sequence[str]) -> np.ndarray | None:
+        """``part`` ("lead", "pause" or "trail") of each training demonstration when
+        ``modalities`` are watched (s, shape (n_demos,)): the shortest of theirs (the inputs
+        are still together only while each is: an upper bound of that demonstration's); None
+        when none of them was learned."""
+        learned = [np.asarray(self.stillness[m][part], dtype=float) for m in modalities
+                   if m in self.stillness]  # fmt: skip
+        return np.min(np.vstack(learned), axis=0) if learned else None
+
     def pause(self, modalities: Sequence[str]) -> float:
         """The longest pause this primitive is taken to make when ``modalities`` are watched
-        (s): per demonstration the shortest of their pauses (the inputs are still together only
-        while each is still: an upper bound of that demonstration's pause), their robust upper
-        bound (:func:`promp.stillness.pause_bound`); 0 when none of them was learned."""
-        learned = [np.asarray(self.pauses[m], dtype=float) for m in modalities if m in self.pauses]
-        if not learned:
-            return 0.0
-        return pause_bound(np.min(np.vstack(learned), axis=0).tolist())
+        (s): the robust upper bound (:func:`promp.stillness.pause_bound`) of its demonstrations'
+        (:meth:`still`); 0 when none was learned."""
+        pauses = self.still("pause", modalities)
+        return 0.0 if pauses is None else pause_bound(pauses.tolist())
 
     def mean_at(self, alpha: float | np.ndarray) -> np.ndarray:
         """Prior mean of the weights at time modulation ``alpha``.

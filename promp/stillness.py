@@ -3,10 +3,11 @@ pauses inside a demonstration, and the same spans found as the samples come.
 
 One rule for every place that needs it: the studio trims the still ends of a take
 (``app.live.takes.active_span``), a session recorded without markers is cut into
-demonstrations at its still periods (:mod:`promp.rigs`), a model learns the pauses inside its
-demonstrations (:func:`inner_pause`, :func:`pause_bound`) and a live session finds its
-movements (:class:`MovingSpans`, the streaming form of :func:`moving_spans`: the same spans,
-whatever the chunks the samples come in).
+demonstrations at its still periods (:mod:`promp.rigs`), a model learns how its
+demonstrations are still (:func:`still_parts`: before, inside and after the motion;
+:func:`pause_bound`) and a live session finds its movements (:class:`MovingSpans`, the
+streaming form of :func:`moving_spans`: the same spans, whatever the chunks the samples come
+in).
 
 A signal moves while its speed exceeds its idle threshold: :data:`HAND_IDLE_M_S` for positions
 in metres, :data:`HEAD_IDLE_RAD_S` for angles in radians, and for a signal of another unit
@@ -30,7 +31,7 @@ import numpy as np
 __all__ = [
     "HAND_IDLE_M_S", "HEAD_IDLE_RAD_S", "IDLE_QUANTILE", "IDLE_SHARE", "MARGIN_S", "MIN_MOVE_S",
     "MIN_STILL_S", "MovingSpans", "SMOOTH_S", "SpanEvent", "idle_threshold", "inner_pause",
-    "moving", "moving_spans", "pause_bound", "speed"
+    "moving", "moving_spans", "pause_bound", "speed", "still_parts"
 ]  # fmt: skip
 
 HAND_IDLE_M_S = 0.02  # below 2 cm/s the hand is still
@@ -116,16 +117,19 @@ def moving_spans(
     min_still_s: float = MIN_STILL_S,
     min_move_s: float = MIN_MOVE_S,
     margin_s: float = MARGIN_S,
+    margin_after_s: float | None = None,
 ) -> list[tuple[int, int]]:
     """The movements of a long recording: sample ranges ``[start, stop)`` where any of
     ``blocks`` (values (n, d) and their unit) moves, pauses shorter than ``min_still_s``
     (from a moving sample to the next) bridged, bursts shorter than ``min_move_s`` dropped,
-    ``margin_s`` of stillness kept on each side. Empty when nothing moves."""
+    ``margin_s`` of stillness kept before (and ``margin_after_s``, default the same, after).
+    Empty when nothing moves."""
     times = np.asarray(times, dtype=float)
+    after = margin_s if margin_after_s is None else margin_after_s
     spans = []
     for first, last in _runs(times, moving(times, blocks), min_still_s, min_move_s):
         start = int(np.searchsorted(times, times[first] - margin_s, side="left"))
-        end = int(np.searchsorted(times, times[last] + margin_s, side="right"))
+        end = int(np.searchsorted(times, times[last] + after, side="right"))
         spans.append((start, end))
     return spans
 
@@ -143,14 +147,42 @@ def _runs(times: np.ndarray, flags: np.ndarray, min_still_s: float,
             if times[b] - times[a] >= min_move_s]  # fmt: skip
 
 
-def inner_pause(times: np.ndarray, blocks: Sequence[tuple[np.ndarray, str]]) -> float:
-    """The longest pause inside a demonstration, seconds: from a moving sample to the next
-    across still samples, between its first and last moving sample (the still ends before
-    and after the movement are not pauses); 0 when it never stops."""
+def still_parts(times: np.ndarray, blocks: Sequence[tuple[np.ndarray, str]]
+                ) -> tuple[float, float, float]:  # fmt: skip
+    """How a demonstration is still, seconds: the ``lead`` from its first sample to its first
+    moving one, the longest ``pause`` inside it (from a moving sample to the next across still
+    samples; 0 when it never stops) and the ``trail`` from its last moving sample to its last.
+    All 0 when nothing moves.
+
+    A demonstration is a piece of a longer recording, held still around it (a take trimmed
+    of its still ends, a session cut at its pauses): its speeds are measured with its first
+    and last sample held for half a window before and after it, as they are in a live stream,
+    and not over a window cut at its ends (which, with nothing before a movement's first
+    sample, finds motion sooner). A lead or trail inside the hold counts as 0."""
     times = np.asarray(times, dtype=float)
-    index = np.flatnonzero(moving(times, blocks))
+    n = times.shape[0]
+    if n < 2:
+        return 0.0, 0.0, 0.0
+    step = float(np.median(np.diff(times)))
+    k = int(math.ceil(0.5 * SMOOTH_S / step)) if step > 0 else 0
+    padded = np.concatenate([times[0] - step * np.arange(k, 0, -1), times,
+                             times[-1] + step * np.arange(1, k + 1)])  # fmt: skip
+    held = []
+    for values, unit in blocks:
+        values = np.asarray(values, dtype=float).reshape(n, -1)
+        held.append((np.vstack([np.repeat(values[:1], k, axis=0), values,
+                                np.repeat(values[-1:], k, axis=0)]), unit))  # fmt: skip
+    index = np.flatnonzero(moving(padded, held)[k:k + n])
+    if not index.size:
+        return 0.0, 0.0, 0.0
     across = np.flatnonzero(np.diff(index) > 1)  # still samples in between
-    return float(np.max(times[index[across + 1]] - times[index[across]])) if across.size else 0.0
+    pause = float(np.max(times[index[across + 1]] - times[index[across]])) if across.size else 0.0
+    return float(times[index[0]] - times[0]), pause, float(times[-1] - times[index[-1]])
+
+
+def inner_pause(times: np.ndarray, blocks: Sequence[tuple[np.ndarray, str]]) -> float:
+    """The longest pause inside a demonstration (:func:`still_parts`), seconds."""
+    return still_parts(times, blocks)[1]
 
 
 def pause_bound(pauses: Sequence[float]) -> float:
@@ -202,18 +234,17 @@ class MovingSpans:
         The unit of each block ("m" or "rad": a fixed idle speed).
     widths : sequence of int
         Each block's number of columns.
-    min_move_s, margin_s : float
+    min_move_s : float
     """
 
     def __init__(self, units: Sequence[str], widths: Sequence[int],
-                 min_move_s: float = MIN_MOVE_S, margin_s: float = MARGIN_S):  # fmt: skip
+                 min_move_s: float = MIN_MOVE_S):  # fmt: skip
         if any(u not in ("m", "rad") for u in units):
             raise ValueError(f"the stillness seen as samples come has a fixed idle speed only "
                              f"in m or rad, got units {list(units)}")  # fmt: skip
         self.units = tuple(units)
         self.widths = tuple(int(w) for w in widths)
         self.min_move_s = float(min_move_s)
-        self.margin_s = float(margin_s)
         self.reset()
 
     def reset(self) -> None:

@@ -53,9 +53,11 @@ def test_model_round_trip_is_exact(model, tmp_path: Path) -> None:
             "alpha_slope",
         ):
             assert_array_equal(getattr(a, field), getattr(b, field))
-        assert sorted(a.pauses) == sorted(b.pauses) == ["hand", "head"]
-        for name, pauses in a.pauses.items():
-            assert_array_equal(pauses, b.pauses[name])
+        assert sorted(a.stillness) == sorted(b.stillness) == ["hand", "head"]
+        for name, parts in a.stillness.items():
+            assert sorted(parts) == ["lead", "pause", "trail"]
+            for part, value in parts.items():
+                assert_array_equal(value, b.stillness[name][part])
         assert a.log_alpha_mean == b.log_alpha_mean
         for name, am in a.alpha_models.items():
             for key, value in am.to_arrays().items():
@@ -71,7 +73,7 @@ def test_model_round_trip_is_exact(model, tmp_path: Path) -> None:
     assert_allclose(p1.mean, p2.mean, rtol=1e-9, atol=1e-15)
 
 
-def test_pauses_learned_inside_the_demonstrations_are_kept_in_the_file(tmp_path: Path) -> None:
+def test_how_the_demonstrations_are_still_is_kept_in_the_file(tmp_path: Path) -> None:
     """A demonstration that holds still for 0.8 s halfway: its primitive's pause, per modality
     in m or rad (the hold less what the speed's window smears into it: at most SMOOTH_S);
     saved and loaded as learned."""
@@ -90,13 +92,13 @@ def test_pauses_learned_inside_the_demonstrations_are_kept_in_the_file(tmp_path:
     data["left"][0] = Demonstration(times, values, demo.columns, demo.name)
     model = fit(data, LAYOUT, Settings(n_basis=7, noise_std={"head": 0.1}))
     left, right = model.primitives
-    assert 0.8 - SMOOTH_S <= left.pauses["hand"][0] <= 0.8
-    assert np.all(left.pauses["hand"][1:] < 0.5)
-    assert left.pause(["hand", "head"]) == pytest.approx(left.pauses["hand"][0], abs=0.3)
+    pauses = left.stillness["hand"]["pause"]
+    assert 0.8 - SMOOTH_S <= pauses[0] <= 0.8 and np.all(pauses[1:] < 0.5)
+    assert left.pause(["hand", "head"]) == pytest.approx(pauses[0], abs=0.3)
     assert right.pause(["hand"]) < 0.5
     path = tmp_path / "model.json"
     save_model(path, model)
-    assert_array_equal(load_model(path).primitives[0].pauses["hand"], left.pauses["hand"])
+    assert_array_equal(load_model(path).primitives[0].stillness["hand"]["pause"], pauses)
 
 
 def _mutated(model, change) -> dict:
@@ -109,10 +111,13 @@ def _mutated(model, change) -> dict:
     "change, message",
     [
         (lambda d: d.update(version=4), "unsupported model version 4"),
-        (lambda d: d["primitives"][0]["pauses"].update(hand=[0.1]), r"pauses 'hand'.*shape"),
-        (lambda d: d["primitives"][0]["pauses"]["hand"].__setitem__(0, -1.0), "must be >= 0"),
-        (lambda d: d["primitives"][0]["pauses"].update(emg=[0.0] * 5), "not a modality in m"),
-        (lambda d: d["primitives"][0].update(pauses=[1]), "pauses: expected an object"),
+        (lambda d: d["primitives"][0]["stillness"]["hand"].update(pause=[0.1]),
+         r"stillness 'hand' pause.*shape"),
+        (lambda d: d["primitives"][0]["stillness"]["hand"]["lead"].__setitem__(0, -1.0),
+         "must be >= 0"),
+        (lambda d: d["primitives"][0]["stillness"]["hand"].pop("trail"), "missing field 'trail'"),
+        (lambda d: d["primitives"][0]["stillness"].update(emg={}), "not a modality in m"),
+        (lambda d: d["primitives"][0].update(stillness=[1]), "stillness: expected an object"),
         (lambda d: d.update(report=[1]), "'report' must be a JSON object"),
         (lambda d: d.update(format="something"), "not a model file"),
         (lambda d: d.pop("layout"), "missing field 'layout'"),

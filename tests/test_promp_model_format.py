@@ -73,16 +73,19 @@ def test_a_model_of_any_version_infers_and_is_written_in_the_current_version(
 def test_a_file_before_version_3_learned_no_pause_and_its_movements_end_as_before(
     path: Path,
 ) -> None:
-    """Version 3 keeps each primitive's pauses; an older file has none, and a live session on
-    it ends a movement after MIN_STILL_S of stillness, as before pauses were learned."""
-    from promp.live.segmenter import Segmenter
-    from promp.stillness import MIN_STILL_S
+    """Version 3 keeps how each primitive's demonstrations are still; an older file has
+    nothing of it, and a live session on it cuts movements as before this was learned (ended
+    after MIN_STILL_S of stillness, MARGIN_S kept on each side)."""
+    from promp.live.segmenter import Segmenter, StillRule
+    from promp.stillness import MARGIN_S, MIN_STILL_S
 
     model = load_model(path)
     version = json.loads(path.read_text())["version"]
     for primitive in model.primitives:
-        assert (primitive.pauses == {}) == (version < 3)
+        assert (primitive.stillness == {}) == (version < 3)
         assert primitive.pause(["hand"]) == 0.0
-    segmenter = Segmenter("still", 3, [(slice(0, 3), "m")],
-                          pauses={p.name: p.pause(["hand"]) for p in model.primitives})
+    rule = StillRule.of(model, ["hand"])
+    segmenter = Segmenter("still", 3, [(slice(0, 3), "m")], rule=rule)
     assert segmenter.allowed_pause() == MIN_STILL_S
+    if version < 3:
+        assert (rule.before, rule.after) == (MARGIN_S, MARGIN_S)

@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from promp.live.segmenter import Segmenter
+from promp.live.segmenter import Segmenter, StillRule
 from promp.live.timebase import Rows
 from promp.stillness import (
     MARGIN_S,
@@ -157,7 +157,8 @@ def test_the_segmenter_cuts_the_rows_the_offline_spans_hold(recording) -> None:
         column += width
     offline = moving_spans(times, blocks, still)
     pause = float(np.nextafter(still, 0)) if still > MIN_STILL_S else 0.0  # ends at >= still
-    seg = Segmenter("still", values.shape[1], cols, max_movement_s=1e9, pauses={"p": pause})
+    seg = Segmenter("still", values.shape[1], cols, max_movement_s=1e9,
+                    rule=StillRule({"p": pause}))  # fmt: skip
     ended = []
     for a, b in zip(cuts[:-1], cuts[1:], strict=True):
         ended += [x.movement for x in seg.feed(Rows(times[a:b], values[a:b]))

@@ -5,10 +5,12 @@ Three ways, one at a time (``start``):
 * ``"still"``: the stillness rule of :mod:`promp.stillness`, as the rows come
   (:class:`promp.stillness.MovingSpans`): the same movements as
   :func:`promp.stillness.moving_spans` finds in the whole recording, whatever the chunks the
-  rows come in. A movement starts :data:`promp.stillness.MARGIN_S` before the first sample of
-  a run of motion that has lasted :data:`promp.stillness.MIN_MOVE_S` (a shorter burst is a
-  twitch) and ends :data:`promp.stillness.MARGIN_S` after its last moving sample once the
-  inputs have been still for the pause allowed (:meth:`Segmenter.allowed_pause`): never less
+  rows come in. A movement starts before the first sample of a run of motion that has lasted
+  :data:`promp.stillness.MIN_MOVE_S` (a shorter burst is a twitch) and ends after its last
+  moving sample, by the stillness the model's demonstrations had before and after their
+  motion (:class:`StillRule`: their median; :data:`promp.stillness.MARGIN_S` for a model
+  that learned none), once the inputs have been still for the pause allowed
+  (:meth:`Segmenter.allowed_pause`): never less
   than :data:`promp.stillness.MIN_STILL_S`, and never less than the pauses the model learned
   inside its demonstrations (:meth:`promp.model.Primitive.pause`): the recognised
   primitive's while the latest prediction's phase may have reached its end, every
@@ -32,11 +34,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from promp.live.timebase import Rows
+from promp.model import ProMPModel
 from promp.rigs.cutting import parse_marker
 from promp.stillness import MARGIN_S, MIN_MOVE_S, MIN_STILL_S, SMOOTH_S, MovingSpans, SpanEvent
 
@@ -49,6 +52,7 @@ __all__ = [
     "Segmenter",
     "SLACK_S",
     "STARTS",
+    "StillRule",
 ]
 
 STARTS = ("still", "marker", "call")
@@ -103,6 +107,37 @@ class Boundary:
 
 
 @dataclass(frozen=True)
+class StillRule:
+    """What the stillness rule takes from the model: per primitive the longest pause it is
+    taken to make (s, :meth:`promp.model.Primitive.pause`), and the stillness kept
+    ``before`` a movement's first moving sample and ``after`` its last (s: the median of the
+    training demonstrations', so that a live movement starts and ends as they did)."""
+
+    pauses: Mapping[str, float] = field(default_factory=dict)
+    before: float = MARGIN_S
+    after: float = MARGIN_S
+
+    def __post_init__(self) -> None:
+        for name, value in [*self.pauses.items(), ("before", self.before),
+                            ("after", self.after)]:  # fmt: skip
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name!r}: a stillness must be a finite number of seconds "
+                                 f">= 0, got {value}")  # fmt: skip
+
+    @classmethod
+    def of(cls, model: ProMPModel, modalities: Sequence[str]) -> StillRule:
+        """The rule ``model`` learned, with ``modalities`` watched (a model that learned none:
+        no pause, :data:`promp.stillness.MARGIN_S` on each side)."""
+        pauses = {p.name: p.pause(modalities) for p in model.primitives}
+        ends = []
+        for part in ("lead", "trail"):
+            learned = [p.still(part, modalities) for p in model.primitives]
+            learned = [x for x in learned if x is not None]
+            ends.append(float(np.median(np.concatenate(learned))) if learned else MARGIN_S)
+        return cls(pauses, *ends)
+
+
+@dataclass(frozen=True)
 class Belief:
     """What the latest prediction says of a movement: its ``movement`` number, the
     ``primitive`` recognised and ``phase_high``, the upper end of the interval of the share of
@@ -125,10 +160,9 @@ class Segmenter:
     still_blocks : sequence of (slice, unit)
         The columns of each input the stillness detection watches, and its unit.
     max_movement_s : float
-    pauses : mapping of str to float, optional
-        Per primitive, the longest pause it is taken to make with these inputs watched (s,
-        :meth:`promp.model.Primitive.pause`); empty: none learned, a pause of
-        :data:`promp.stillness.MIN_STILL_S` ends a movement.
+    rule : StillRule, optional
+        What the model learned (:meth:`StillRule.of`); default: no pause learned (a pause of
+        :data:`promp.stillness.MIN_STILL_S` ends a movement), :data:`MARGIN_S` each side.
     """
 
     def __init__(
@@ -137,7 +171,7 @@ class Segmenter:
         width: int,
         still_blocks: Sequence[tuple[slice, str]] = (),
         max_movement_s: float = MAX_MOVEMENT_S,
-        pauses: Mapping[str, float] | None = None,
+        rule: StillRule | None = None,
     ):
         if start not in STARTS:
             raise ValueError(f"unknown movement start {start!r}; expected one of {STARTS}")
@@ -147,17 +181,15 @@ class Segmenter:
                 "the stillness detection watches inputs in metres or radians (a position, "
                 "angles), and none is given: use --start marker (a marker stream) instead"
             )
-        pauses = dict(pauses or {})
-        for name, pause in pauses.items():
-            if not (math.isfinite(pause) and pause >= 0):
-                raise ValueError(f"primitive {name!r}: a pause must be a finite number of "
-                                 f"seconds >= 0, got {pause}")  # fmt: skip
+        rule = rule or StillRule()
+        pauses = dict(rule.pauses)
+        self.rule = rule
         self.start = start
         self.blocks = blocks
         self.max_movement_s = float(max_movement_s)
         self.pauses = pauses
         self.longest_pause = self._allowed(max(pauses.values(), default=0.0))
-        self.history_s = max(HISTORY_S, self.longest_pause + MIN_MOVE_S + SMOOTH_S + MARGIN_S)
+        self.history_s = max(HISTORY_S, self.longest_pause + MIN_MOVE_S + SMOOTH_S + rule.before)
         self._columns = np.concatenate(
             [np.arange(width)[cols] for cols, _ in blocks]).astype(int) if blocks \
             else np.zeros(0, dtype=int)  # fmt: skip
@@ -282,12 +314,13 @@ class Segmenter:
         if event.kind == "start":
             if self._open is not None:  # a call's movement goes on: the call overrides
                 return []
-            first = int(np.searchsorted(self._times, event.first - MARGIN_S, side="left"))
+            first = int(np.searchsorted(self._times, event.first - self.rule.before,
+                                        side="left"))  # fmt: skip
             return self._open_at(first, "", float(self._times[first]))
         if self._open is None:
             return []  # ended by a call or a break already
-        stop = int(np.searchsorted(self._times, event.last + MARGIN_S, side="right"))
-        return self._close(event.last + MARGIN_S, "still", stop)
+        stop = int(np.searchsorted(self._times, event.last + self.rule.after, side="right"))
+        return self._close(event.last + self.rule.after, "still", stop)
 
     def _open_at(self, first: int, label: str, time: float) -> list[Boundary]:
         self._count += 1

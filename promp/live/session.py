@@ -23,7 +23,14 @@ from pathlib import Path
 from promp.live.outlets import PredictionOutlets
 from promp.live.predictor import LivePrediction, OnlinePredictor, observed_columns
 from promp.live.recorder import Recorded, Recorder
-from promp.live.segmenter import MAX_MOVEMENT_S, Belief, Boundary, Movement, Segmenter
+from promp.live.segmenter import (
+    MAX_MOVEMENT_S,
+    Belief,
+    Boundary,
+    Movement,
+    Segmenter,
+    StillRule,
+)
 from promp.live.source import LiveInput, Source
 from promp.live.status import LiveEvent, StreamStatus
 from promp.live.timebase import TimeBase
@@ -178,7 +185,7 @@ class LiveSession:
         self.segmenter = Segmenter(
             options.start, sum(widths), [(columns[n], u) for n, u in zip(names, units,
                                                                       strict=True)],
-            options.max_movement_s, {p.name: p.pause(watched) for p in model.primitives},
+            options.max_movement_s, StillRule.of(model, watched),
         )  # fmt: skip
         self.predictor = OnlinePredictor(model, columns, options.alpha_method, options.remainder,
                                          options.remainder_rate, options.n_points)  # fmt: skip
