@@ -41,7 +41,7 @@ IDLE_QUANTILE = 0.95
 SMOOTH_S = 0.2
 MARGIN_S = 0.1
 MIN_STILL_S = 0.5  # a pause this long separates two movements of a session
-MIN_MOVE_S = 0.2  # a shorter burst of motion is a twitch, not a demonstration
+MIN_MOVE_S = 0.2  # a shorter burst of motion is a twitch, not a demonstration (see _runs)
 FENCE_IQR = 3.0  # a pause beyond Q3 + 3 IQR of its primitive's is a hesitation (Tukey's far fence)
 
 
@@ -121,7 +121,8 @@ def moving_spans(
 ) -> list[tuple[int, int]]:
     """The movements of a long recording: sample ranges ``[start, stop)`` where any of
     ``blocks`` (values (n, d) and their unit) moves, pauses shorter than ``min_still_s``
-    (from a moving sample to the next) bridged, bursts shorter than ``min_move_s`` dropped,
+    (from a moving sample to the next) bridged, bursts of motion shorter than ``min_move_s``
+    dropped (moving for less than ``min_move_s + SMOOTH_S``: :func:`_runs`),
     ``margin_s`` of stillness kept before (and ``margin_after_s``, default the same, after).
     Empty when nothing moves."""
     times = np.asarray(times, dtype=float)
@@ -136,7 +137,9 @@ def moving_spans(
 
 def _runs(times: np.ndarray, flags: np.ndarray, min_still_s: float,
           min_move_s: float) -> list[tuple[int, int]]:  # fmt: skip
-    """The first and last moving sample of each movement (:func:`moving_spans`)."""
+    """The first and last moving sample of each movement (:func:`moving_spans`). The window
+    of the speed widens a burst of motion by up to :data:`SMOOTH_S` (an instant jump is
+    moving for a whole window): a burst is a twitch unless moving for ``min_move_s`` more."""
     index = np.flatnonzero(flags)
     if not index.size:
         return []
@@ -144,7 +147,7 @@ def _runs(times: np.ndarray, flags: np.ndarray, min_still_s: float,
     firsts = index[np.concatenate([[0], breaks + 1])]
     lasts = index[np.concatenate([breaks, [index.size - 1]])]
     return [(int(a), int(b)) for a, b in zip(firsts, lasts, strict=True)
-            if times[b] - times[a] >= min_move_s]  # fmt: skip
+            if times[b] - times[a] >= min_move_s + SMOOTH_S]  # fmt: skip
 
 
 def still_parts(times: np.ndarray, blocks: Sequence[tuple[np.ndarray, str]]
@@ -224,7 +227,8 @@ class SpanEvent:
 
 class MovingSpans:
     """:func:`moving_spans` as the samples come: fed a recording in any chunks, it finds the
-    same movements, each start decided once the run of motion has lasted ``min_move_s`` and
+    same movements, each start decided once the run of motion has lasted ``min_move_s`` (and
+    the window's width) and
     each end once the inputs have been still for the pause allowed, both when the samples
     of the window after the deciding one (``SMOOTH_S / 2``) have come.
 
@@ -317,7 +321,7 @@ class MovingSpans:
             if self._first is None:
                 self._first = t
             self._last = t
-            if not self._started and self._last - self._first >= self.min_move_s:
+            if not self._started and self._last - self._first >= self.min_move_s + SMOOTH_S:
                 self._started = True
                 out.append(SpanEvent("start", self._first, self._last, decided))
         self._next = stop

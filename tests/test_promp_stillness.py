@@ -14,7 +14,6 @@ from promp.live.segmenter import Segmenter, StillRule
 from promp.live.timebase import Rows
 from promp.stillness import (
     MARGIN_S,
-    MIN_MOVE_S,
     MIN_STILL_S,
     SMOOTH_S,
     MovingSpans,
@@ -223,14 +222,14 @@ def test_no_take_of_the_shared_sets_pauses_for_the_rule(name: str) -> None:
 
 
 def test_a_twitch_shorter_than_the_minimum_is_never_started() -> None:
-    """8 mm in 0.03 s: over the idle speed for less than MIN_MOVE_S (the window's distance
-    over 4 mm for 0.19 s); 2 cm is a movement."""
+    """A jump (a tracking glitch: 3 cm in one step) and 8 mm in 0.03 s are moving for about a
+    window (the window's width of a burst): twitches; 5 cm in 0.3 s is a movement."""
     times = np.arange(300) * 0.01
-    for size, found in ((0.008, 0), (0.02, 1)):
-        x = np.concatenate([np.zeros(100), np.linspace(0, size, 4), np.full(196, size)])
+    for size, steps, found in ((0.03, 1, 0), (0.008, 4, 0), (0.05, 31, 1)):
+        x = np.concatenate([np.zeros(100), np.linspace(0, size, steps + 1)[1:],
+                            np.full(200 - steps, size)])  # fmt: skip
         values = np.column_stack([x, 0 * x, 0 * x])
         events, tail = streamed(times, values, ("m",), (3,), [0, 150, 300])
         assert len(moving_spans(times, [(values, "m")])) == found
         assert [e.kind for e, _, _ in events] + [e.kind for e in tail] == \
             ["start", "end"] * found  # fmt: skip
-    assert MIN_MOVE_S == SMOOTH_S  # a window's worth of motion at least

@@ -10,11 +10,14 @@ step apart, so each sample of a burst (samples closer than :data:`BURST_SHARE` o
 a pause of more than :data:`PAUSE_STEPS` steps) is placed one step before the next one (the
 burst's last keeps its stamp), and never at or before the stream's previous sample (a burst
 longer than its pause explains is spread evenly after it). A stream that only runs faster than
-it declares pauses nowhere, and is left as it is. A burst is held until it is over (no sample for a
-step, or :data:`HOLD_STEPS` steps at most) so that it is re-spread whole, whatever the chunks
-it arrives in. How far samples were moved back in the last :data:`LATE_WINDOW_S` is the
-stream's recent lateness (:meth:`Respread.lateness`): the time base judges a pause in the
-stamps against the stream's rate and this lateness (:mod:`promp.live.timebase`).
+it declares pauses nowhere, and is left as it is.
+
+A burst is held until it is whole (as many samples as were due during its pause), so that it
+is re-spread whole whatever the chunks it arrives in; one that stays short of that is given
+once nothing came for :data:`QUIET_S` (or two steps), or after as long as its pause. How far
+samples were moved back in the last :data:`LATE_WINDOW_S` is the stream's recent lateness
+(:meth:`Respread.lateness`): the time base judges a pause in the stamps against the stream's
+rate and this lateness (:mod:`promp.live.timebase`).
 
 On-time samples (a step apart or more) are given as they come, unchanged.
 """
@@ -26,10 +29,10 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["BURST_SHARE", "HOLD_STEPS", "LATE_WINDOW_S", "PAUSE_STEPS", "Respread"]
+__all__ = ["BURST_SHARE", "QUIET_S", "LATE_WINDOW_S", "PAUSE_STEPS", "Respread"]
 
 BURST_SHARE = 0.5  # samples closer than half a step are a burst
-HOLD_STEPS = 10.0  # a burst is held at most this many steps
+QUIET_S = 0.05  # a burst short of its backlog is given once nothing came for this long
 PAUSE_STEPS = 2.0  # a burst follows a pause longer than this many steps
 LATE_WINDOW_S = 10.0
 
@@ -106,12 +109,15 @@ class Respread:
         paused = np.isfinite(gaps) & (gaps > PAUSE_STEPS * step)  # not the stream's first
         starts = [j for j in np.flatnonzero(paused).tolist()
                   if j + 1 == times.size or close[j + 1]]  # fmt: skip (alone: more may come)
-        over = now - self._heard >= step or now - self._since >= HOLD_STEPS * step
         held = times.size
-        if starts and not over:
+        if starts and close[starts[-1] + 1:].all():  # the last burst may go on
             tail = starts[-1]
-            if close[tail + 1:].all():  # the last burst may go on: it waits, whole
-                held = tail
+            owed = gaps[tail] / step  # the samples due during its pause: the whole backlog
+            quiet = max(2.0 * step, QUIET_S)
+            whole = times.size - tail >= owed - 0.5
+            given_up = now - self._heard >= quiet or now - self._since >= gaps[tail] + quiet
+            if not (whole or given_up):
+                held = tail  # it waits, to be re-spread whole
         out = times[:held].copy()
         for j in starts:
             if j >= held:
