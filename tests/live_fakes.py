@@ -268,7 +268,7 @@ def guided_split(dataset: dict, n_replayed: int, seed: int, slow=(0.5, 1.0), rep
     return train, replayed
 
 
-def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.0, 2.0), rate=100.0,
+def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5), rate=100.0,
                     on_prediction=None):  # fmt: skip
     """Push ``takes`` [(class, demo)] one after the other through an LSL outlet named ``name``
     (the hand in mm, ``rate`` Hz declared), each held still ``rest_s`` before and after (the
