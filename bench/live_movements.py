@@ -17,7 +17,9 @@ its own threads (the pipeline of ``python -m promp.live``). Two variants:
 Printed per set and variant: ``takes``, ``movements`` (all the session found), ``one_each``
 (takes that gave exactly one movement), ``split_offline`` (replayed takes the stillness rule
 alone, with no pause learned, cuts in two or more: :func:`promp.stillness.moving_spans`),
-``right`` / ``wrong`` (each movement's last prediction against the take's class),
+``right`` / ``wrong`` (each movement's last prediction within its rows, against the take's
+class: the predictions made while the stillness that ended it went on observed still rows it
+does not keep),
 ``as_offline`` (its primitive equals :func:`promp.pipeline.infer` on the take as the same rule
 cuts it offline from the held take: the live movement's rows, on the stamps as sent),
 ``as_whole`` and ``whole_right`` (the offline answer on the whole take, as the learning saw
@@ -75,7 +77,10 @@ def run(name: str, variant: str, seed: int = 0) -> dict:
     stream = f"BenchMovements-{os.getpid()}-{name}-{variant.replace('+', '-')}"
     ended, predictions, spans = replay_over_lsl(model, replayed, stream,
                                                 np.random.default_rng(seed + 1), late)  # fmt: skip
-    final = {p.movement: p for p in predictions}
+    ends = {m.number: float(m.times[-1]) for m in ended}
+    # the latest prediction inside the movement as it was cut (those made while the stillness
+    # that ended it went on observed still rows the movement does not keep)
+    final = {p.movement: p for p in predictions if p.last <= ends.get(p.movement, np.inf) + 1e-9}
     counts = {"takes": len(replayed), "movements": len(ended), "one_each": 0, "split_offline": 0,
               "right": 0, "wrong": 0, "as_offline": 0, "as_whole": 0, "whole_right": 0,
               "unpredicted": 0}  # fmt: skip
