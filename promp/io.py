@@ -334,7 +334,7 @@ def model_from_dict(data: Any) -> ProMPModel:
         shrinkage = _array(shrinkage, f"{what} shrinkage", (n_dims,))
         if np.any((shrinkage <= 0) | (shrinkage > 1)):
             raise ValueError(f"{what} shrinkage: intensities must be in (0, 1]")
-        stillness = _stillness(p.get("stillness", {}) if version >= 3 else {}, layout,
+        stillness = _stillness(_field(p, "stillness", what) if version >= 3 else {}, layout,
                                alphas.size, what)  # fmt: skip
         log_alpha_mean = _number(p, "log_alpha_mean", what)
         alpha_slope = _array(_field(p, "alpha_slope", what), f"{what} alpha_slope", (n_weights,))

@@ -30,7 +30,7 @@ from promp.covariance import compress_factor
 from promp.data import Layout
 from promp.stillness import pause_bound
 
-__all__ = ["FALLBACK", "SELECT_RULES", "Primitive", "ProMPModel", "Settings"]
+__all__ = ["FALLBACK", "SELECT_RULES", "Primitive", "ProMPModel", "Settings", "STILL_PARTS"]
 
 # The reference settings: what a fit uses when it cannot choose (see promp.selection).
 FALLBACK = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}

@@ -189,7 +189,7 @@ class Segmenter:
         self.max_movement_s = float(max_movement_s)
         self.pauses = pauses
         self.longest_pause = self._allowed(max(pauses.values(), default=0.0))
-        reach = self.longest_pause + MIN_MOVE_S + 2 * SMOOTH_S + rule.before  # a start's
+        reach = self.longest_pause + MIN_MOVE_S + SMOOTH_S + rule.before  # a start's
         self.history_s = max(HISTORY_S, reach)
         self._columns = np.concatenate(
             [np.arange(width)[cols] for cols, _ in blocks]).astype(int) if blocks \
