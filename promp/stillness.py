@@ -30,8 +30,8 @@ import numpy as np
 
 __all__ = [
     "FENCE_IQR", "HAND_IDLE_M_S", "HEAD_IDLE_RAD_S", "IDLE_QUANTILE", "IDLE_SHARE", "MARGIN_S",
-    "MIN_MOVE_S", "MIN_STILL_S", "MovingSpans", "SMOOTH_S", "SpanEvent", "idle_threshold", "inner_pause",
-    "moving", "moving_spans", "pause_bound", "speed", "still_parts"
+    "MIN_MOVE_S", "MIN_STILL_S", "MovingSpans", "SMOOTH_S", "SpanEvent", "idle_threshold",
+    "inner_pause", "moving", "moving_spans", "pause_bound", "speed", "still_parts"
 ]  # fmt: skip
 
 HAND_IDLE_M_S = 0.02  # below 2 cm/s the hand is still
