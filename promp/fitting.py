@@ -37,14 +37,15 @@ from promp.covariance import (
     pooled_covariances,
 )
 from promp.data import Demonstration, Layout
-from promp.model import Primitive, ProMPModel, Settings
+from promp.model import STILL_PARTS, Primitive, ProMPModel, Settings
 from promp.noise import estimate_noise
 from promp.quality import winsorized
 from promp.scale import RELATIVE_FLOOR
+from promp.stillness import still_parts
 from promp.timing import alpha_from_duration
 from promp.weights import WeightFits, fit_all_weights
 
-__all__ = ["FitParts", "fit_parts", "fit_with"]
+__all__ = ["FitParts", "fit_parts", "fit_with", "learned_stillness"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,6 +169,21 @@ class FitParts:
         return inflate * c / (c + dof), inflate / (c + dof)
 
 
+def learned_stillness(demos: Sequence[Demonstration], layout: Layout
+                      ) -> dict[str, dict[str, np.ndarray]]:  # fmt: skip
+    """Per modality of ``layout`` in metres or radians, how each of ``demos`` is still (s,
+    each shape (n_demos,)): ``lead``, ``pause`` and ``trail`` of
+    :func:`promp.stillness.still_parts`, the rule the live segmenter cuts movements by."""
+    out = {}
+    for modality in layout.modalities:
+        if modality.unit in ("m", "rad"):
+            dims = layout.dims([modality.name])
+            parts = np.array([still_parts(d.times, [(layout.extract(d)[:, dims], modality.unit)])
+                              for d in demos]).reshape(len(demos), 3)  # fmt: skip
+            out[modality.name] = dict(zip(STILL_PARTS, parts.T, strict=True))
+    return out
+
+
 def fit_with(
     dataset: Mapping[str, Sequence[Demonstration]],
     layout: Layout,
@@ -215,6 +231,7 @@ def fit_parts(
             shrinkage=np.clip(share, MIN_SHRINKAGE, 1.0),
             log_alpha_mean=m.log_alpha_mean,
             alpha_slope=m.slope,
+            stillness=learned_stillness(demos, layout),
         )
         for (name, demos), m, (cov_diag, cov_factor), share in zip(
             dataset.items(), moments, covariances, shares, strict=True

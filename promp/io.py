@@ -1,11 +1,11 @@
 """File formats: versioned JSON for models, NPZ (or CSV, see :mod:`promp.datasets`) for
 demonstrations. No pickle anywhere: NPZ files are read with ``allow_pickle=False``.
 
-Model JSON, schema version 2 (version 1 files still load: see :func:`model_from_dict`)::
+Model JSON, schema version 3 (versions 1 and 2 still load: see :func:`model_from_dict`)::
 
     {
       "format": "icub-intention-studio/promp-model",
-      "version": 2,
+      "version": 3,
       "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"},
                  ...],
       "settings": {"n_basis": 7, "width": 1.0, "ridge": 1e-06, "s_bar": 100.0,
@@ -27,7 +27,10 @@ Model JSON, schema version 2 (version 1 files still load: see :func:`model_from_
           "log_alpha_mean": -0.1,                  # mean log(alpha) of the training demos
           "alpha_slope": [...],                    # (n_dims * n_basis,): d mean / d log(alpha)
           "alpha_models": {"hand": {"n_observed": [...], "lo": [[...]], "hi": [[...]],
-                                    "weights": [[...]], "residual_var": [...]}, ...}
+                                    "weights": [[...]], "residual_var": [...]}, ...},
+          "stillness": {"hand": {"lead": [...], "pause": [...], "trail": [...]}, ...}
+                    # per modality in m or rad, each (n_demos,): how each demonstration is
+                    # still, s: before its motion, the longest pause inside, after
       }, ...]
     }
 
@@ -49,7 +52,7 @@ import numpy as np
 from promp.alpha_model import N_RBF, AlphaModel
 from promp.data import Demonstration, Layout, Modality
 from promp.files import atomic_write_text
-from promp.model import Primitive, ProMPModel, Settings
+from promp.model import STILL_PARTS, Primitive, ProMPModel, Settings
 
 __all__ = [
     "MODEL_FORMAT", "MODEL_VERSION", "READABLE_VERSIONS", "demo_from_npz_bytes",
@@ -58,8 +61,8 @@ __all__ = [
 ]  # fmt: skip
 
 MODEL_FORMAT = "icub-intention-studio/promp-model"
-MODEL_VERSION = 2
-READABLE_VERSIONS = (1, 2)
+MODEL_VERSION = 3
+READABLE_VERSIONS = (1, 2, 3)
 
 
 def _has_bool(value: Any) -> bool:
@@ -121,6 +124,28 @@ def _block_diagonal(
     return least, np.hstack([factor, columns])
 
 
+def _stillness(raw: Any, layout: Layout, n_demos: int, what: str
+               ) -> dict[str, dict[str, np.ndarray]]:  # fmt: skip
+    """A primitive's ``stillness``: per modality of ``layout`` in m or rad, each part of
+    :data:`promp.model.STILL_PARTS` as ``n_demos`` non-negative seconds."""
+    if not isinstance(raw, Mapping):
+        raise ValueError(f"{what} stillness: expected an object")
+    units = {m.name: m.unit for m in layout.modalities}
+    out = {}
+    for name, parts in raw.items():
+        if units.get(name) not in ("m", "rad"):
+            raise ValueError(f"{what} stillness: {name!r} is not a modality in m or rad of the "
+                             f"layout")  # fmt: skip
+        out[str(name)] = {}
+        for part in STILL_PARTS:
+            label = f"{what} stillness {name!r} {part}"
+            arr = _array(_field(parts, part, f"{what} stillness {name!r}"), label, (n_demos,))
+            if np.any(arr < 0):
+                raise ValueError(f"{label}: must be >= 0 s")
+            out[str(name)][part] = arr
+    return out
+
+
 def model_to_dict(model: ProMPModel) -> dict[str, Any]:
     """The JSON-ready description of ``model`` (schema in the module docstring)."""
     s = model.settings
@@ -162,6 +187,9 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
                     name: {key: value.tolist() for key, value in am.to_arrays().items()}
                     for name, am in p.alpha_models.items()
                 },
+                "stillness": {name: {part: np.asarray(v, dtype=float).tolist()
+                                     for part, v in parts.items()}
+                              for name, parts in p.stillness.items()},
             }
             for p in model.primitives
         ],
@@ -179,6 +207,9 @@ def model_from_dict(data: Any) -> ProMPModel:
     (``tests/test_promp_model_format.py`` loads a file of each writer and compares the prior it
     predicts with the one that writer's code predicted):
 
+    * version 3 adds each primitive's ``stillness`` (absent: none learned, the primitive is
+      taken never to pause, its still ends unknown: the live segmenter cuts its movements as
+      before);
     * version 2 adds ``report``; its later writers add the settings ``select`` and
       ``duration_temperature`` (absent: ``"loo"``, and 1, the plain posterior);
     * version 1 has no ``report``; its first writers had white observation noise (no
@@ -303,6 +334,8 @@ def model_from_dict(data: Any) -> ProMPModel:
         shrinkage = _array(shrinkage, f"{what} shrinkage", (n_dims,))
         if np.any((shrinkage <= 0) | (shrinkage > 1)):
             raise ValueError(f"{what} shrinkage: intensities must be in (0, 1]")
+        stillness = _stillness(_field(p, "stillness", what) if version >= 3 else {}, layout,
+                               alphas.size, what)  # fmt: skip
         log_alpha_mean = _number(p, "log_alpha_mean", what)
         alpha_slope = _array(_field(p, "alpha_slope", what), f"{what} alpha_slope", (n_weights,))
         primitives.append(
@@ -318,6 +351,7 @@ def model_from_dict(data: Any) -> ProMPModel:
                 shrinkage=shrinkage,
                 log_alpha_mean=log_alpha_mean,
                 alpha_slope=alpha_slope,
+                stillness=stillness,
             )
         )
     return ProMPModel(

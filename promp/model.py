@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,8 +28,9 @@ from promp.alpha_model import AlphaModel
 from promp.basis import PhaseBasisCache, RBFBasis
 from promp.covariance import compress_factor
 from promp.data import Layout
+from promp.stillness import pause_bound
 
-__all__ = ["FALLBACK", "SELECT_RULES", "Primitive", "ProMPModel", "Settings"]
+__all__ = ["FALLBACK", "SELECT_RULES", "Primitive", "ProMPModel", "Settings", "STILL_PARTS"]
 
 # The reference settings: what a fit uses when it cannot choose (see promp.selection).
 FALLBACK = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
@@ -146,6 +147,9 @@ class Settings:
         return RBFBasis(self.n_basis, self.width)
 
 
+STILL_PARTS = ("lead", "pause", "trail")  # how a demonstration is still (Primitive.stillness)
+
+
 @dataclass(frozen=True, eq=False)
 class Primitive:
     """The learned distribution of one movement primitive.
@@ -178,6 +182,11 @@ class Primitive:
         ``mean + alpha_slope * (log(alpha) - log_alpha_mean)`` and ``Sigma_w`` is the covariance
         of the regression residuals, i.e. the joint Gaussian of (w, log alpha) conditioned on
         alpha. Zero when the coupling is off.
+    stillness : mapping of str to mapping of str to array, shape (n_demos,)
+        Per modality in metres or radians, how each training demonstration is still (s):
+        ``lead`` before its first moving sample, the longest ``pause`` inside it, ``trail``
+        after its last moving sample (:func:`promp.stillness.still_parts`). Empty for a model
+        whose file predates them: it is taken never to pause, its still ends unknown.
     """
 
     name: str
@@ -191,6 +200,7 @@ class Primitive:
     log_alpha_mean: float = 0.0
     alpha_slope: np.ndarray | None = None
     noise_tau: np.ndarray | None = None
+    stillness: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         blocks = np.asarray(self.cov_diag).reshape(np.asarray(self.noise_var).shape[0], -1)
@@ -203,6 +213,22 @@ class Primitive:
             object.__setattr__(self, "alpha_slope", np.zeros_like(self.mean))
         if self.noise_tau is None:
             object.__setattr__(self, "noise_tau", np.zeros_like(self.noise_var))
+
+    def still(self, part: str, modalities: Sequence[str]) -> np.ndarray | None:
+        """``part`` ("lead", "pause" or "trail") of each training demonstration when
+        ``modalities`` are watched (s, shape (n_demos,)): the shortest of theirs (the inputs
+        are still together only while each is: an upper bound of that demonstration's); None
+        when none of them was learned."""
+        learned = [np.asarray(self.stillness[m][part], dtype=float) for m in modalities
+                   if m in self.stillness]  # fmt: skip
+        return np.min(np.vstack(learned), axis=0) if learned else None
+
+    def pause(self, modalities: Sequence[str]) -> float:
+        """The longest pause this primitive is taken to make when ``modalities`` are watched
+        (s): the robust upper bound (:func:`promp.stillness.pause_bound`) of its demonstrations'
+        (:meth:`still`); 0 when none was learned."""
+        pauses = self.still("pause", modalities)
+        return 0.0 if pauses is None else pause_bound(pauses.tolist())
 
     def mean_at(self, alpha: float | np.ndarray) -> np.ndarray:
         """Prior mean of the weights at time modulation ``alpha``.

@@ -201,3 +201,135 @@ def offset_in(values: np.ndarray, run: np.ndarray) -> int:
         raise ValueError(f"a run of {n} rows cannot lie in {values.shape[0]}")
     errors = [np.abs(values[i:i + n] - run).max() for i in range(values.shape[0] - n + 1)]
     return int(np.argmin(errors))
+
+
+# ------------------------------------------------------------ a guided arm, a busy machine
+
+SLOW_M_S = 0.01  # a slow phase: 1 cm/s, below the idle speed (promp.stillness.HAND_IDLE_M_S)
+
+
+def slowed_middle(demo: Demonstration, seconds: float, hand=("x", "y", "z")) -> Demonstration:
+    """``demo`` with a slow phase in its middle, as a guided arm slows near a waypoint: the
+    hand covers the ``SLOW_M_S * seconds`` of its path around the path's midpoint at
+    ``SLOW_M_S`` (below the idle speed for ``seconds``), the rest as it was; resampled at its
+    own step (every column interpolated on the new times)."""
+    t = demo.times - demo.times[0]
+    xyz = demo.select(list(hand))
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xyz, axis=0), axis=1))])
+    slow = SLOW_M_S * seconds
+    lo, hi = 0.5 * (arc[-1] - slow), 0.5 * (arc[-1] + slow)
+    if lo <= 0:
+        raise ValueError(f"{demo.name}: a path of {arc[-1]:.3f} m is too short to slow "
+                         f"{slow:.3f} m of it")  # fmt: skip
+    # the times at which the path reaches lo and hi, and the new clock between them
+    t_lo, t_hi = np.interp([lo, hi], arc, t)
+    new = np.where(t <= t_lo, t, np.where(t >= t_hi, t + seconds - (t_hi - t_lo),
+                                          t_lo + (arc - lo) / SLOW_M_S))  # fmt: skip
+    new = np.maximum.accumulate(new + 1e-12 * np.arange(t.size))
+    step = demo.sample_period
+    grid = np.arange(0.0, new[-1] + 1e-9, step)
+    values = np.column_stack([np.interp(grid, new, c) for c in demo.values.T])
+    return Demonstration(grid, values, demo.columns, demo.name)
+
+
+def late_pushes(times: np.ndarray, rng, every_s=(0.4, 1.2), pause_s=(0.1, 0.35)) -> np.ndarray:
+    """When a sender on a busy machine pushes samples due at ``times`` (s, increasing): now and
+    then (every ``every_s`` s) it sleeps for ``pause_s`` s, then pushes what it owes at once.
+    Returns the push times (a sample is never pushed before it is due)."""
+    due = np.asarray(times, dtype=float).copy()
+    t = float(due[0]) + rng.uniform(*every_s)
+    while t < due[-1]:
+        length = rng.uniform(*pause_s)
+        late = (due >= t) & (due < t + length)
+        due[late] = t + length
+        t += length + rng.uniform(*every_s)
+    return due
+
+
+def guided_split(dataset: dict, n_replayed: int, seed: int, slow=(0.5, 1.0), replayed_slow=None):
+    """``dataset`` split by content-independent position: each class's first ``n_replayed``
+    takes replayed, the rest learned from. With ``slow`` (s, a range), every take gets a slow
+    phase in its middle (:func:`slowed_middle`) of a length drawn in it (the replayed ones in
+    ``replayed_slow``, default ``slow``); None: the takes as they are."""
+    rng = np.random.default_rng(seed)
+    train, replayed = {}, []
+    for klass in sorted(dataset):
+        demos = sorted(dataset[klass], key=lambda d: d.name)
+        out = []
+        for k, demo in enumerate(demos):
+            span = (replayed_slow or slow) if k < n_replayed else slow
+            if slow is not None:
+                demo = slowed_middle(demo, float(rng.uniform(*span)))
+            out.append(demo)
+        train[klass] = out[n_replayed:]
+        replayed += [(klass, d) for d in out[:n_replayed]]
+    return train, replayed
+
+
+def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5), rate=100.0,
+                    on_prediction=None):  # fmt: skip
+    """Push ``takes`` [(class, demo)] one after the other through an LSL outlet named ``name``
+    (the hand in mm, ``rate`` Hz declared), each held still ``rest_s`` before and after (the
+    hand jumps, in one step, from one take's end to the next one's start), into a
+    :class:`LiveSession` on ``start="still"`` running on its threads. Each sample is pushed
+    when due, stamped at its push (LSL's default), by a sender that with ``late`` sleeps
+    0.1-0.35 s now and then and pushes its backlog at once (:func:`late_pushes`). Returns the
+    session's ended movements, the predictions and, per take, the push times and due times of
+    its samples (session clock)."""
+    import time
+
+    import pylsl
+
+    from promp.live.lsl import LslTransport
+    from promp.live.session import LiveOptions, LiveSession
+    from promp.live.status import Condition
+    from tests.conftest import wait_until
+
+    rows, spans = [], []
+    n = 0
+    for _, demo in takes:  # each take held still before and after (the hand jumps between)
+        step = demo.sample_period
+        held_demo = held(demo, rest_s[0], rest_s[1])
+        xyz = held_demo.select(["x", "y", "z"])
+        rows.append(xyz)
+        first = n + int(round(rest_s[0] / step))
+        spans.append((first, first + demo.n_samples))
+        n += xyz.shape[0]
+    table = np.vstack(rows) * 1000.0
+    info = pylsl.StreamInfo(name, "Mocap", 3, rate, pylsl.cf_double64, f"src-{name}")
+    channels = info.desc().append_child("channels")
+    for label in ("hx", "hy", "hz"):
+        channel = channels.append_child("channel")
+        channel.append_child_value("label", label)
+        channel.append_child_value("unit", "mm")
+    outlet = pylsl.StreamOutlet(info)
+    predictions = []
+
+    def predicted(p):
+        predictions.append(p)
+        if on_prediction is not None:
+            on_prediction(p)
+
+    session = LiveSession(model, [f"hand={name}:hx,hy,hz"], LslTransport(),
+                          LiveOptions(start="still"), on_prediction=predicted)  # fmt: skip
+    session.start()
+    try:
+        wait_until(lambda: session.snapshot().statuses[0].condition is Condition.OK,
+                   timeout=60.0, what="the session to find the replayed stream")  # fmt: skip
+        assert outlet.wait_for_consumers(30.0)
+        due = np.arange(table.shape[0]) / rate
+        pushes = late_pushes(due, rng) if late else due
+        start = pylsl.local_clock() + 0.1
+        pushed = np.empty(table.shape[0])
+        for k in range(table.shape[0]):
+            delay = start + pushes[k] - pylsl.local_clock()
+            if delay > 0:
+                time.sleep(delay)
+            outlet.push_sample(table[k].tolist())
+            pushed[k] = pylsl.local_clock()
+        wait_until(lambda: session.snapshot().movement is None, timeout=60.0,
+                   what="the last movement's end")  # fmt: skip
+        ended = list(session.snapshot().ended)
+    finally:
+        session.close()
+    return ended, predictions, [(pushed[a:b], start + due[a:b]) for a, b in spans]

@@ -32,6 +32,7 @@ from tests.live_fakes import (
     flt_dataset,
     flt_workspace,
     hand_model,
+    offset_in,
     replay,
     session_with,
 )
@@ -271,3 +272,47 @@ def test_a_journal_that_cannot_be_a_take_stays_where_it_is(tmp_path) -> None:
         "An interrupted live take cannot be read": "red",
     }
     assert gone.exists() and other.exists() and torn.exists()
+
+
+def test_a_guided_take_from_a_busy_sender_is_one_live_take(tmp_path) -> None:
+    """Teach's live takes follow the session's rule: a take slowed in its middle as a guided
+    arm slows (the model learned from takes slowed alike), pushed by a sender that sleeps
+    0.12-0.32 s now and then and stamps at the push, is one take, of every sample of its
+    motion; the pauses in the stamps end nothing."""
+    from promp.data import Layout, Modality
+    from promp.learn import fit
+    from promp.model import Settings
+    from tests.live_fakes import guided_split, held, late_pushes
+
+    train, replayed = guided_split(flt_dataset(), 1, seed=4, slow=(0.5, 1.0),
+                                   replayed_slow=(0.6, 0.9))  # fmt: skip
+    model = fit(train, Layout((Modality("hand", ("x", "y", "z"), unit="m"),)),
+                Settings(n_basis=7, width=1.0, noise_scale=1.5, duration_temperature=1.0))
+    fake = FakeTransport()
+    stream = fake.add(FakeStream("Vicon", LABELS, rate=100.0))
+    session = LiveSession(model, ["hand=Vicon:0,1,2"], fake, LiveOptions(start="still"))
+    recorder = TakeRecorder(tmp_path / JOURNALS_DIR, session.columns, lambda: NAMES, "live-g")
+    session.recorder = recorder
+    session.connect()
+    session.step()
+    recorder.arm("top")
+    klass, demo = next((k, d) for k, d in replayed if k == "top")
+    take = held(demo, 1.0, 1.5)
+    values = take.select(["x", "y", "z"])
+    due = take.times - take.times[0]
+    pushes = late_pushes(due, np.random.default_rng(7), pause_s=(0.12, 0.32))
+    t0, i = fake.now, 0
+    while i < due.size:
+        fake.now += 0.004
+        while i < due.size and t0 + pushes[i] <= fake.now:
+            stream.push([fake.now + 1e-6 * i], values[i:i + 1])  # stamped at the push
+            i += 1
+        session.step()
+    (recorded,) = session.snapshot().recorded
+    assert recorded.number == 1 and recorder.primitive_of(recorded) == "top"
+    taken = recorded.demo.select(["x", "y", "z"])
+    first = int(round(1.0 / demo.sample_period))  # the take's motion, inside what was kept
+    i0 = offset_in(values, taken)
+    assert i0 <= first + 20 and i0 + taken.shape[0] >= first + demo.n_samples - 20
+    assert_allclose(taken, values[i0:i0 + taken.shape[0]], rtol=0, atol=1e-12)
+    assert [e.text for e in session.snapshot().events if "paused" in e.text] == []

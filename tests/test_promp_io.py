@@ -53,6 +53,11 @@ def test_model_round_trip_is_exact(model, tmp_path: Path) -> None:
             "alpha_slope",
         ):
             assert_array_equal(getattr(a, field), getattr(b, field))
+        assert sorted(a.stillness) == sorted(b.stillness) == ["hand", "head"]
+        for name, parts in a.stillness.items():
+            assert sorted(parts) == ["lead", "pause", "trail"]
+            for part, value in parts.items():
+                assert_array_equal(value, b.stillness[name][part])
         assert a.log_alpha_mean == b.log_alpha_mean
         for name, am in a.alpha_models.items():
             for key, value in am.to_arrays().items():
@@ -68,6 +73,34 @@ def test_model_round_trip_is_exact(model, tmp_path: Path) -> None:
     assert_allclose(p1.mean, p2.mean, rtol=1e-9, atol=1e-15)
 
 
+def test_how_the_demonstrations_are_still_is_kept_in_the_file(tmp_path: Path) -> None:
+    """A demonstration that holds still for 0.8 s halfway: its primitive's pause, per modality
+    in m or rad (the hold less what the speed's window smears into it: at most SMOOTH_S);
+    saved and loaded as learned."""
+    from promp.data import Demonstration
+    from promp.stillness import SMOOTH_S
+
+    data = make_dataset(seed=8, n_demos=4)
+    demo = data["left"][0]
+    k = demo.n_samples // 2
+    step = float(np.median(np.diff(demo.times)))
+    hold = int(round(0.8 / step))
+    times = np.concatenate([demo.times[:k], demo.times[k - 1] + step * np.arange(1, hold + 1),
+                            demo.times[k:] + hold * step])  # fmt: skip
+    values = np.vstack([demo.values[:k], np.repeat(demo.values[k - 1:k], hold, axis=0),
+                        demo.values[k:]])  # fmt: skip
+    data["left"][0] = Demonstration(times, values, demo.columns, demo.name)
+    model = fit(data, LAYOUT, Settings(n_basis=7, noise_std={"head": 0.1}))
+    left, right = model.primitives
+    pauses = left.stillness["hand"]["pause"]
+    assert 0.8 - SMOOTH_S <= pauses[0] <= 0.8 and np.all(pauses[1:] < 0.5)
+    assert left.pause(["hand", "head"]) == pytest.approx(pauses[0], abs=0.3)
+    assert right.pause(["hand"]) < 0.5
+    path = tmp_path / "model.json"
+    save_model(path, model)
+    assert_array_equal(load_model(path).primitives[0].stillness["hand"]["pause"], pauses)
+
+
 def _mutated(model, change) -> dict:
     data = json.loads(json.dumps(model_to_dict(model)))
     change(data)
@@ -77,7 +110,14 @@ def _mutated(model, change) -> dict:
 @pytest.mark.parametrize(
     "change, message",
     [
-        (lambda d: d.update(version=3), "unsupported model version 3"),
+        (lambda d: d.update(version=4), "unsupported model version 4"),
+        (lambda d: d["primitives"][0]["stillness"]["hand"].update(pause=[0.1]),
+         r"stillness 'hand' pause.*shape"),
+        (lambda d: d["primitives"][0]["stillness"]["hand"]["lead"].__setitem__(0, -1.0),
+         "must be >= 0"),
+        (lambda d: d["primitives"][0]["stillness"]["hand"].pop("trail"), "missing field 'trail'"),
+        (lambda d: d["primitives"][0]["stillness"].update(emg={}), "not a modality in m"),
+        (lambda d: d["primitives"][0].update(stillness=[1]), "stillness: expected an object"),
         (lambda d: d.update(report=[1]), "'report' must be a JSON object"),
         (lambda d: d.update(format="something"), "not a model file"),
         (lambda d: d.pop("layout"), "missing field 'layout'"),

@@ -120,6 +120,57 @@ def test_samples_delivered_late_are_not_a_clock_jump(tmp_path) -> None:
     assert movement is not None and len(movement) == 160  # one movement, nothing left out
 
 
+def push_late(rig, stream, seconds, pauses, rng):
+    """``seconds`` of 100 Hz samples from ``stream``, each stamped when it is pushed (the
+    default stamp): during each pause ``(from, length)`` (s from now) the sender sleeps, then
+    pushes what it owes at once; the session steps every 2-5 ms."""
+    t0 = rig.transport.now
+    true = t0 + np.arange(1, int(seconds * RATE) + 1) / RATE
+    due = true.copy()
+    for start, length in pauses:
+        late = (true >= t0 + start) & (true < t0 + start + length)
+        due[late] = t0 + start + length
+    i = 0
+    while i < true.size:
+        rig.transport.now += rng.uniform(0.002, 0.005)
+        while i < true.size and due[i] <= rig.transport.now:
+            stamp = rig.transport.now + 1e-6 * i  # pushed one after the other
+            stream.push([stamp], np.array([[0.1 * np.cos(true[i]), 0.1 * np.sin(true[i]), 0.0]]))
+            i += 1
+        rig.session.step()
+    rig.stamp = rig.transport.now
+    return true
+
+
+def test_a_late_sender_neither_breaks_the_movement_nor_changes_the_rate(tmp_path) -> None:
+    """A busy machine: the sender sleeps 0.1-0.35 s now and then and pushes its backlog at
+    once, stamped at the push. No gap, no rate change, one movement whose samples are back
+    at their times; a restart of the outlet is one event, then the same."""
+    rng = np.random.default_rng(5)
+    rig = Rig(tmp_path)
+    rig.session.begin()
+    before = rig.session.snapshot().n_events
+    pauses = [(0.3, 0.12), (0.9, 0.32), (1.6, 0.2), (2.2, 0.35), (2.9, 0.1), (3.5, 0.25)]
+    true = push_late(rig, rig.stream, 4.0, pauses, rng)
+    movement = rig.session.snapshot().movement
+    assert rig.session.snapshot().n_events == before + 1, rig.texts()  # "movement 1 started"
+    assert movement is not None
+    assert len(movement) == true.size
+    assert np.abs(movement.times - true).max() < 0.006  # a poll: when a sample is pushed
+    count = rig.session.snapshot().n_events
+    rig.stream.gone = True
+    rig.session.step()
+    restarted = rig.transport.add(FakeStream("Hand", ("x", "y", "z"), rate=RATE))
+    rig.session.connect()
+    rig.session.step()
+    rig.session.begin()
+    push_late(rig, restarted, 4.0, [(0.0, 0.3), *pauses], rng)  # its backlog first
+    texts = [e.text for e in rig.session.snapshot().events][count:]
+    assert [t.split(": ")[1].split(" (")[0] for t in texts if "stream" in t] == \
+        ["vanished", "restarted"], texts  # fmt: skip
+    assert len(rig.session.snapshot().movement) == 400
+
+
 @pytest.mark.parametrize("jump", [5.0, -3.0, 0.6])
 def test_a_clock_jump_is_re_anchored_and_ends_the_movement(tmp_path, jump) -> None:
     rig = Rig(tmp_path)
@@ -205,6 +256,25 @@ def test_a_rate_change_is_said(tmp_path) -> None:
     status = rig.status()
     assert status.condition is Condition.RATE_CHANGED
     assert status.detail == "from 100 Hz to 50 Hz" and status.healthy
+
+
+def test_a_rate_that_wavers_is_said_at_most_once_a_half_window(tmp_path) -> None:
+    """Steps of 6 or 14 ms at random (10 ms on average): the median step of the window flips
+    from one to the other as the window slides. Each change said restarts the window, so the
+    status changes at most once per half window, not at every poll."""
+    from promp.live.source import RATE_WINDOW_S
+
+    rig = Rig(tmp_path)
+    rng = np.random.default_rng(3)
+    steps = rng.choice([0.006, 0.014], size=600)
+    for k in range(0, 600, 3):
+        stamps = rig.stamp + np.cumsum(steps[k:k + 3])
+        rig.stamp = float(stamps[-1])
+        rig.transport.now = rig.stamp
+        rig.stream.push(stamps, np.zeros((3, 3)))
+        rig.session.step()
+    said = [t for t in rig.texts() if "rate changed" in t]
+    assert 1 <= len(said) <= steps.sum() / (0.5 * RATE_WINDOW_S)
 
 
 def test_what_is_recorded_across_faults_stays_a_valid_demonstration(tmp_path) -> None:

@@ -27,7 +27,7 @@ def test_there_is_a_file_of_every_readable_version_and_of_the_current_writer() -
     versions = {json.loads(p.read_text())["version"] for p in FILES}
     assert versions == set(READABLE_VERSIONS)
     assert MODEL_VERSION == max(READABLE_VERSIONS)
-    assert len(FILES) == 6  # the six writers of the README: none may go missing
+    assert len(FILES) == 7  # the seven writers of the README: none may go missing
 
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.stem)
@@ -67,3 +67,25 @@ def test_a_model_of_any_version_infers_and_is_written_in_the_current_version(
     reloaded = load_model(again)
     for a, b in zip(model.primitives, reloaded.primitives, strict=True):
         assert_allclose(b.cov, a.cov, rtol=1e-15, atol=0)
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.stem)
+def test_a_file_before_version_3_learned_no_pause_and_its_movements_end_as_before(
+    path: Path,
+) -> None:
+    """Version 3 keeps how each primitive's demonstrations are still; an older file has
+    nothing of it, and a live session on it cuts movements as before this was learned (ended
+    after MIN_STILL_S of stillness, MARGIN_S kept on each side)."""
+    from promp.live.segmenter import Segmenter, StillRule
+    from promp.stillness import MARGIN_S, MIN_STILL_S
+
+    model = load_model(path)
+    version = json.loads(path.read_text())["version"]
+    for primitive in model.primitives:
+        assert (primitive.stillness == {}) == (version < 3)
+        assert primitive.pause(["hand"]) == 0.0
+    rule = StillRule.of(model, ["hand"])
+    segmenter = Segmenter("still", 3, [(slice(0, 3), "m")], rule=rule)
+    assert segmenter.allowed_pause() == MIN_STILL_S
+    if version < 3:
+        assert (rule.before, rule.after) == (MARGIN_S, MARGIN_S)

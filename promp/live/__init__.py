@@ -5,12 +5,13 @@ A pipeline of small stages on one clock (the session's LSL ``local_clock``), eac
 with a fake upstream and a recorded stream, only the transport knowing LSL:
 
 * :mod:`promp.live.source`: the inputs' streams (chosen by name, type or source id, channels
-  and units in the rig formats' mapping syntax, ``hand=MocapHand:0,1,2@mm``), their samples
-  on the session's clock, their faults (:mod:`promp.live.status`);
+  and units in the rig formats' mapping syntax, ``hand=MocapHand:0,1,2@mm``:
+  :mod:`promp.live.inputs`), their samples on the session's clock, a late sender's bursts put
+  back at their rate (:mod:`promp.live.restamp`), their faults (:mod:`promp.live.status`);
 * :mod:`promp.live.timebase`: the inputs, at their own rates, on one time base (the XDF
   reader's :func:`promp.rigs.streams.on_one_clock`);
-* :mod:`promp.live.segmenter`: where each movement starts and ends (stillness, a marker
-  stream, or calls);
+* :mod:`promp.live.segmenter`: where each movement starts and ends (stillness, by the rule
+  the model learned its demonstrations with, a marker stream, or calls);
 * :mod:`promp.live.predictor`: the movement so far through :func:`promp.pipeline.infer`;
 * sinks: :mod:`promp.live.outlets` (the prediction as LSL streams) and
   :mod:`promp.live.recorder` (each movement a demonstration; a journal a kill cannot undo).

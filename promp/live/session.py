@@ -23,7 +23,14 @@ from pathlib import Path
 from promp.live.outlets import PredictionOutlets
 from promp.live.predictor import LivePrediction, OnlinePredictor, observed_columns
 from promp.live.recorder import Recorded, Recorder
-from promp.live.segmenter import MAX_MOVEMENT_S, Boundary, Movement, Segmenter
+from promp.live.segmenter import (
+    MAX_MOVEMENT_S,
+    Belief,
+    Boundary,
+    Movement,
+    Segmenter,
+    StillRule,
+)
 from promp.live.source import LiveInput, Source
 from promp.live.status import LiveEvent, StreamStatus
 from promp.live.timebase import TimeBase
@@ -174,10 +181,11 @@ class LiveSession:
         markers = Selector.parse(options.markers) if options.markers else None
         self.source = Source(inputs, transport, markers, own=self._own_streams)
         self.timebase = TimeBase(names, widths, options.rate)
+        watched = [n for n, u in zip(names, units, strict=True) if u in ("m", "rad")]
         self.segmenter = Segmenter(
             options.start, sum(widths), [(columns[n], u) for n, u in zip(names, units,
                                                                       strict=True)],
-            options.max_movement_s,
+            options.max_movement_s, StillRule.of(model, watched),
         )  # fmt: skip
         self.predictor = OnlinePredictor(model, columns, options.alpha_method, options.remainder,
                                          options.remainder_rate, options.n_points)  # fmt: skip
@@ -299,7 +307,8 @@ class LiveSession:
             self.timebase.restart(name)
             boundaries += self.segmenter.abort(f"input {name!r} broke off")
         for name, (times, values, units) in batch.samples.items():
-            gap = self.timebase.push(name, times, values, units)
+            gap = self.timebase.push(name, times, values, units, self.source.nominal_rate(name),
+                                     self.source.lateness(name))  # fmt: skip
             if gap:
                 events.append(LiveEvent(now, gap))
                 boundaries += self.segmenter.abort(gap)
@@ -310,7 +319,7 @@ class LiveSession:
         self.segmenter.unknown.clear()
         rows = self.timebase.advance({n: self.source.nominal_rate(n)
                                       for n in self.timebase.names})  # fmt: skip
-        boundaries += self.segmenter.feed(rows)
+        boundaries += self.segmenter.feed(rows, self._belief())
         predicted = False
         for b in boundaries:
             if b.movement is not None:  # its last rows, if they came with its end
@@ -330,6 +339,11 @@ class LiveSession:
         if changed or len(self._found) != len(self._snapshot.found):
             self._snapshot = self._take()
         return bool(batch.samples or batch.markers or events or predicted)
+
+    def _belief(self) -> Belief | None:
+        """What the latest prediction says of its movement (the segmenter's pause allowed)."""
+        p = self._prediction
+        return None if p is None else Belief(p.movement, p.primitive, p.phase.high)
 
     def _boundary(self, b: Boundary) -> list[LiveEvent]:
         if b.kind == "start":

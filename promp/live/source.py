@@ -1,12 +1,8 @@
 """The source stage: live streams in, as timed samples of modalities, with the faults seen.
 
-Each :class:`LiveInput` is one modality in the rig formats' mapping syntax
-(:mod:`promp.rigs.mapping`): ``hand=MocapHand:0,1,2@mm`` takes channels 0, 1, 2 of the stream
-named ``MocapHand`` (or ``type=Mocap``, ``source_id=vicon-1``: :class:`Selector`), in
-millimetres, converted to metres; channels are named by their labels or their indices, and a
-channel's own unit (its ``unit`` in the stream's description) is converted the same way when
-the mapping states none. The channels are looked up with the XDF reader's own code
-(:class:`promp.rigs.streams.Recording`).
+Each input is a :class:`promp.live.inputs.LiveInput`: one modality in the rig formats'
+mapping syntax (``hand=MocapHand:0,1,2@mm``), its channels found in its stream's samples and
+converted to SI units (:func:`promp.live.inputs.channels_of`).
 
 :meth:`Source.poll` returns what arrived since the last poll, on the session's clock (the
 transport's time correction applied), strictly increasing per stream, and updates each
@@ -25,8 +21,14 @@ input's :class:`StreamStatus`. What it does with faults, never raising:
   (:class:`SourceBatch` ``broken``);
 * **a stall**: no sample for :data:`STALL_STEPS` steps (at least :data:`STALL_MIN_S`):
   ``stalled`` until samples come again;
-* **a rate change** of over :data:`RATE_TOLERANCE` over the last :data:`RATE_WINDOW_S`:
-  ``rate changed`` (the time base works from the stamps, whatever the rate);
+* **a rate change** of over :data:`RATE_TOLERANCE` over the last :data:`RATE_WINDOW_S`
+  (its median step): ``rate changed``, said once per change (the time base works from the
+  stamps, whatever the rate);
+* **a late sender** (a stream with a declared rate whose stamps pause, then come in a burst
+  microseconds apart: the backlog of a sender that pushed late on a busy machine): the burst
+  is re-spread at the stream's rate (:mod:`promp.live.restamp`), and how late it was is the
+  stream's recent lateness (:meth:`Source.lateness`), against which the time base judges a
+  pause in its stamps;
 * **vanished**: the outlet is gone; the stream is looked for again (:meth:`Source.open_missing`,
   on the session's resolver thread) and, found, is ``back`` (the same outlet) or
   ``restarted`` (a new one), or ``wrong channels`` when it no longer has the mapping's channels
@@ -43,10 +45,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from promp.data import MAX_MAGNITUDE
+from promp.live.inputs import Channels, LiveInput, channels_of
+from promp.live.restamp import Respread
 from promp.live.status import Condition, LiveEvent, StreamStatus
 from promp.live.transport import Inlet, Selector, StreamDescription, StreamLost, Transport
-from promp.rigs.mapping import SourcedModality, parse_sourced, si_unit
-from promp.rigs.streams import Recording
 
 __all__ = [
     "BAD_DETAIL",
@@ -70,74 +72,6 @@ RATE_TOLERANCE = 0.25
 RATE_WINDOW_S = 2.0
 CLEAN_S = 1.0  # NaNs are said until the samples have been clean this long
 BAD_DETAIL = f"sample(s) with NaN, infinite or beyond {MAX_MAGNITUDE:.0e} values left out"
-
-
-@dataclass(frozen=True)
-class LiveInput:
-    """One modality of a live session: its mapping and the stream it comes from."""
-
-    modality: SourcedModality
-    selector: Selector
-
-    @classmethod
-    def parse(cls, spec: str) -> LiveInput:
-        """``"hand=MocapHand:0,1,2@mm"`` as an input.
-
-        Raises
-        ------
-        ValueError
-            The mapping syntax's errors, or no stream named (``hand=0,1,2``).
-        """
-        modality = parse_sourced(spec)
-        if not modality.stream:
-            raise ValueError(
-                f"a live input names its stream: NAME=STREAM:CHANNEL,...[@UNIT], e.g. "
-                f"{modality.name}=MocapHand:0,1,2@mm; got {spec!r}"
-            )
-        return cls(modality, Selector.parse(modality.stream))
-
-    @property
-    def name(self) -> str:
-        return self.modality.name
-
-    @property
-    def stream(self) -> str:
-        return str(self.selector)
-
-
-@dataclass(frozen=True)
-class Channels:
-    """Where an input's values are in its stream's samples, and how they are converted.
-
-    ``index`` (k,) the channels, ``scale`` (k,) the factor to SI, ``units`` the SI units."""
-
-    index: np.ndarray
-    scale: np.ndarray
-    units: tuple[str, ...]
-
-
-def channels_of(live_input: LiveInput, stream: StreamDescription) -> Channels:
-    """The channels of ``live_input`` in ``stream``.
-
-    Raises
-    ------
-    ValueError
-        ``stream`` is a marker stream, or lacks a channel the mapping names.
-    """
-    if stream.is_markers:
-        raise ValueError(f"stream {stream.name!r} is a marker stream, not {live_input.name!r}'s")
-    labels = stream.labels
-    if not all(labels) or len(set(labels)) != len(labels):
-        labels = tuple(str(i) for i in range(stream.n_channels))
-    recording = Recording(f"LSL stream {stream.name!r}", {stream.name: labels},
-                          {stream.name: stream.units})  # fmt: skip
-    fields = live_input.modality.fields
-    recording.require_fields(stream.name, fields)
-    index = np.array([recording.field_index(stream.name, f) for f in fields], dtype=int)
-    stated = live_input.modality.stated_unit
-    raw = (stated,) * len(fields) if stated else recording.field_units(stream.name, fields)
-    units, scales = zip(*(si_unit(u) for u in raw), strict=True)
-    return Channels(index, np.array(scales, dtype=float), tuple(units))
 
 
 @dataclass(eq=False)
@@ -173,12 +107,14 @@ class _Feed:
     uid: str = ""
     rejected: str = ""  # the uid of a stream without the mapping's channels
     status: StreamStatus | None = None
-    last: float = -math.inf  # the last accepted time
+    last: float = -math.inf  # the last time given
+    stamp: float = -math.inf  # the last accepted stamp (a burst held may follow the last given)
     shift: float = 0.0  # re-anchoring after clock jumps
     arrival: float = -math.inf  # when the last sample arrived here
     heard: float = -math.inf  # when the last sample, usable or not, arrived (stalls)
     rate: float = 0.0  # the rate the stream is believed to run at (Hz; 0 unknown)
     recent: deque = field(default_factory=deque)  # recent times, for the rate
+    spread: Respread = field(default_factory=lambda: Respread(0.0))  # a late sender's bursts
     received: int = 0
     left_out: int = 0
     clean_since: float = math.inf
@@ -311,7 +247,8 @@ class Source:
                 condition = Condition.BACK if stream.uid == feed.uid else Condition.RESTARTED
             feed.inlet, feed.uid, feed.arrival = inlet, stream.uid, now
             feed.rate, feed.recent = max(stream.rate, 0.0), deque()
-            feed.last, feed.shift = -math.inf, 0.0
+            feed.spread = Respread(feed.rate)  # a declared rate only: an irregular one is not
+            feed.last, feed.stamp, feed.shift = -math.inf, -math.inf, 0.0
             events += self._set(feed, condition, now, stream.summary())
         return events
 
@@ -335,6 +272,8 @@ class Source:
                 continue
             if len(times) == 0:
                 batch.events += self._check_stall(feed, now)
+                if feed.inputs:
+                    self._given(feed, *feed.spread.release(now), now, batch)
                 continue
             if not feed.inputs:
                 feed.received += len(times)
@@ -386,7 +325,15 @@ class Source:
         times, values = self._clock(feed, times, values, now, batch)
         if times.shape[0] == 0:
             return
-        feed.last, feed.arrival = float(times[-1]), now
+        feed.arrival = now
+        self._given(feed, *feed.spread.add(times, values, now), now, batch)
+
+    def _given(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
+               batch: SourceBatch) -> None:  # fmt: skip
+        """Samples given to the inputs (their late bursts re-spread: :mod:`promp.live.restamp`)."""
+        if times.shape[0] == 0:
+            return
+        feed.last = float(times[-1])
         batch.events += self._check_rate(feed, times, now)
         start = 0
         for live_input, channels in zip(feed.inputs, feed.channels, strict=True):
@@ -398,16 +345,16 @@ class Source:
     def _clock(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
                batch: SourceBatch) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """Jumps re-anchored, stamps that go back a little left out (module docstring)."""
-        if math.isfinite(feed.last):
-            diffs = np.diff(np.concatenate([[feed.last], times]))
+        if math.isfinite(feed.stamp):
+            diffs = np.diff(np.concatenate([[feed.stamp], times]))
             back = np.flatnonzero(diffs <= -JUMP_S)
             # ahead of the time that passed here, beyond catching up how late the last
             # delivery was (a sender pushing its backlog on a busy machine is no jump)
-            late = max(feed.arrival - feed.last, 0.0)
-            leap = (times[-1] - feed.last) - (now - feed.arrival) - late > JUMP_S
+            late = max(feed.arrival - feed.stamp, 0.0)
+            leap = (times[-1] - feed.stamp) - (now - feed.arrival) - late > JUMP_S
             if back.size or leap:
                 i = int(back[0]) if back.size else int(np.argmax(diffs))
-                previous = feed.last if i == 0 else float(times[i - 1])
+                previous = feed.stamp if i == 0 else float(times[i - 1])
                 delta = previous + (feed.step or float(np.median(np.abs(diffs)))) - times[i]
                 feed.shift += delta
                 times = times.copy()
@@ -417,16 +364,19 @@ class Source:
                     feed, Condition.CLOCK_JUMP, now,
                     f"its time stamps jumped by {-delta:+.3f} s; re-anchored",
                 )  # fmt: skip
-        keep = times > np.maximum.accumulate(np.concatenate([[feed.last], times]))[:-1]
+        keep = times > np.maximum.accumulate(np.concatenate([[feed.stamp], times]))[:-1]
         if not keep.all():
             feed.left_out += int((~keep).sum())
             times, values = times[keep], values[keep]
+        if times.shape[0]:
+            feed.stamp = float(times[-1])
         return times, values
 
     def _check_rate(self, feed: _Feed, times: np.ndarray, now: float) -> list[LiveEvent]:
         """The rate from the median step of the last :data:`RATE_WINDOW_S` (a pause is not
         a rate: the window starts again after one; the median follows a new rate once it
-        holds half the window)."""
+        holds half the window). After a change is said the window starts again: one change,
+        one event (a restarted outlet's backlog, a late sender's bursts re-spread)."""
         recent = feed.recent
         if recent and times[0] - recent[-1] > max(STALL_MIN_S, STALL_STEPS * feed.step):
             recent.clear()
@@ -443,6 +393,9 @@ class Source:
         if abs(measured / feed.rate - 1.0) <= RATE_TOLERANCE:
             return []
         before, feed.rate = feed.rate, measured
+        if feed.spread.rate > 0:
+            feed.spread.rate = measured  # the declared rate was wrong: spread at the real one
+        recent.clear()
         return self._set(feed, Condition.RATE_CHANGED, now,
                          f"from {before:.4g} Hz to {measured:.4g} Hz")  # fmt: skip
 
@@ -474,6 +427,11 @@ class Source:
         """Per stream (as selected): samples received, and left out (bad values, stamps
         going back)."""
         return {f.label: (f.received, f.left_out) for f in self._feeds}
+
+    def lateness(self, name: str) -> float:
+        """How far input ``name``'s late samples were moved back lately (s; 0: on time)."""
+        feed = next(f for f in self._feeds if name in f.names)
+        return feed.spread.lateness(self.transport.clock())
 
     def nominal_rate(self, name: str) -> float:
         """The rate input ``name``'s stream is believed to run at (Hz; 0 while unknown)."""

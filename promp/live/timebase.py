@@ -8,9 +8,12 @@ them (angles through their unwrapped path), or on a regular grid at ``rate`` Hz.
 given once every input has a sample at or after its time, so an input that lags holds the
 rows back rather than being extrapolated.
 
-A gap in an input (a step over :data:`promp.gaps.GAP_FACTOR` times its own, and over
-:data:`GAP_MIN_S`) cannot be interpolated across: the rows inside it are never given, and
-:meth:`TimeBase.push` says so (the session ends the movement under way).
+A gap in an input cannot be interpolated across: the rows inside it are never given, and
+:meth:`TimeBase.push` says so (the session ends the movement under way). A gap is a step
+longer than :data:`promp.gaps.GAP_FACTOR` of the input's steps (at its rate, or its median
+step when it declares none) beyond its recent lateness (how far a late sender's samples were
+moved back lately, :mod:`promp.live.restamp`): a sender that was late and caught up lost
+nothing, and a pause it may still be catching up is not a gap.
 """
 
 from __future__ import annotations
@@ -24,9 +27,8 @@ import numpy as np
 from promp.gaps import GAP_FACTOR
 from promp.rigs.streams import Stream, on_one_clock
 
-__all__ = ["GAP_MIN_S", "KEEP_S", "Rows", "TimeBase"]
+__all__ = ["KEEP_S", "Rows", "TimeBase"]
 
-GAP_MIN_S = 0.1
 KEEP_S = 1.0  # samples kept before the last row given (interpolation needs one)
 
 
@@ -87,10 +89,11 @@ class TimeBase:
         else:
             self.base = int(np.argmax([self._buffers[n].step for n in self.names]))
 
-    def push(self, name: str, times: np.ndarray, values: np.ndarray,
-             units: tuple[str, ...]) -> str:  # fmt: skip
+    def push(self, name: str, times: np.ndarray, values: np.ndarray, units: tuple[str, ...],
+             rate: float = 0.0, late: float = 0.0) -> str:  # fmt: skip
         """Add input ``name``'s new samples (strictly after its earlier ones); returns a
-        message when they leave a gap after the earlier ones ('' otherwise)."""
+        message when they leave a gap after the earlier ones ('' otherwise). ``rate``: the
+        input's (Hz; 0: irregular), ``late``: its recent lateness (s)."""
         buf = self._buffers[name]
         times = np.asarray(times, dtype=float)
         values = np.asarray(values, dtype=float).reshape(times.shape[0], -1)
@@ -100,7 +103,8 @@ class TimeBase:
         joined = np.concatenate([old, times])
         if joined.size > 2:
             spans = np.diff(joined)
-            limit = max(GAP_FACTOR * float(np.median(spans)), GAP_MIN_S)
+            step = 1.0 / rate if rate > 0 else float(np.median(spans))
+            limit = GAP_FACTOR * step + max(late, 0.0)
             over = np.flatnonzero(spans[max(old.size - 1, 0):] > limit)
             if over.size:
                 i = int(over[-1]) + max(old.size - 1, 0)  # spans[i]: joined[i] -> joined[i + 1]

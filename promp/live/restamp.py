@@ -1,0 +1,154 @@
+"""A late sender's samples put back at their rate: the stamps of a regular stream, re-spread.
+
+An outlet that stamps its samples when it pushes them (``pylsl``'s default, which
+``docs/live.md`` advises) stamps them late when its machine is busy: the sender sleeps past its
+time, then pushes its backlog at once, and the stamps show a pause (0.1-0.35 s on a loaded
+machine) followed by a burst of samples microseconds apart. The samples were taken at the
+stream's rate all along. For a stream that declares a rate, :class:`Respread` puts such a burst
+back: a stamp is when the sample was pushed, never before it was taken, and samples are one
+step apart, so each sample of a burst (samples closer than :data:`BURST_SHARE` of a step after
+a pause of more than :data:`PAUSE_STEPS` steps) is placed one step before the next one (the
+burst's last keeps its stamp), and never at or before the stream's previous sample (a burst
+longer than its pause explains is spread evenly after it). A stream that only runs faster than
+it declares pauses nowhere, and is left as it is.
+
+A burst is held until it is whole (as many samples as were due during its pause), so that it
+is re-spread whole whatever the chunks it arrives in; one that stays short of that is given
+once nothing came for :data:`QUIET_S` (or two steps), or after as long as its pause. How far
+samples were moved back in the last :data:`LATE_WINDOW_S` is the stream's recent lateness
+(:meth:`Respread.lateness`): the time base judges a pause in the stamps against the stream's
+rate and this lateness (:mod:`promp.live.timebase`).
+
+On-time samples (a step apart or more) are given as they come, unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+
+__all__ = ["BURST_SHARE", "QUIET_S", "LATE_WINDOW_S", "PAUSE_STEPS", "Respread"]
+
+BURST_SHARE = 0.5  # samples closer than half a step are a burst
+QUIET_S = 0.05  # a burst short of its backlog is given once nothing came for this long
+PAUSE_STEPS = 2.0  # a burst follows a pause longer than this many steps
+LATE_WINDOW_S = 10.0
+
+
+class Respread:
+    """One regular stream's samples, its late bursts re-spread (see the module docstring).
+
+    Parameters
+    ----------
+    rate : float
+        The stream's rate (Hz); 0 or less: irregular, nothing is re-spread.
+    """
+
+    def __init__(self, rate: float):
+        self.rate = float(rate)
+        self.reset()
+
+    def reset(self) -> None:
+        """A new stream (or the same one after a break): nothing held, no lateness."""
+        self._times = np.zeros(0)
+        self._values: np.ndarray | None = None
+        self._since = math.inf  # when the samples held began to be held
+        self._heard = -math.inf  # when the latest samples arrived
+        self._last = -math.inf  # the latest time given
+        self._late: deque[tuple[float, float]] = deque()  # (when, seconds moved back)
+
+    @property
+    def step(self) -> float:
+        return 1.0 / self.rate if self.rate > 0 else 0.0
+
+    def add(self, times: np.ndarray, values: np.ndarray, now: float
+            ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """Samples (times (k,) strictly increasing after the earlier ones, values (k, d))
+        arrived at ``now``; the samples given now (a burst under way is held)."""
+        times = np.asarray(times, dtype=float)
+        values = np.asarray(values, dtype=float)
+        if self.step <= 0:
+            if times.size:
+                self._last = float(times[-1])
+            return times, values
+        if times.size:
+            self._heard = now
+            if self._values is None or not self._times.size:
+                self._values = values[:0]
+                self._since = now
+            self._times = np.concatenate([self._times, times])
+            self._values = np.concatenate([self._values, values])
+        return self._given(now)
+
+    def release(self, now: float) -> tuple[np.ndarray, np.ndarray]:
+        """The samples held whose burst is over by ``now`` (nothing new arrived)."""
+        if self._values is None or not self._times.size:
+            return np.zeros(0), np.zeros((0, self._width()))
+        return self._given(now)
+
+    def lateness(self, now: float) -> float:
+        """The most samples were moved back in the last :data:`LATE_WINDOW_S`, seconds."""
+        while self._late and self._late[0][0] < now - LATE_WINDOW_S:
+            self._late.popleft()
+        return max((s for _, s in self._late), default=0.0)
+
+    def _width(self) -> int:
+        return self._values.shape[1] if self._values is not None else 0
+
+    def _given(self, now: float) -> tuple[np.ndarray, np.ndarray]:
+        times, values = self._times, self._values
+        if values is None or not times.size:
+            return np.zeros(0), np.zeros((0, self._width()))
+        step = self.step
+        gaps = np.diff(np.concatenate([[self._last], times]))
+        close = gaps < BURST_SHARE * step
+        # a burst: samples close together after a pause of more than PAUSE_STEPS steps (a
+        # stream that is only faster than it declares pauses nowhere: it is left as it is)
+        paused = np.isfinite(gaps) & (gaps > PAUSE_STEPS * step)  # not the stream's first
+        starts = [j for j in np.flatnonzero(paused).tolist()
+                  if j + 1 == times.size or close[j + 1]]  # fmt: skip (alone: more may come)
+        held = times.size
+        if starts and close[starts[-1] + 1:].all():  # the last burst may go on
+            tail = starts[-1]
+            owed = gaps[tail] / step  # the samples due during its pause: the whole backlog
+            quiet = max(2.0 * step, QUIET_S)
+            whole = times.size - tail >= owed - 0.5
+            given_up = now - self._heard >= quiet or now - self._since >= gaps[tail] + quiet
+            if not (whole or given_up):
+                held = tail  # it waits, to be re-spread whole
+        out = times[:held].copy()
+        for j in starts:
+            if j >= held:
+                break
+            k = j + 1
+            while k < held and close[k]:
+                k += 1
+            previous = out[j - 1] if j else self._last
+            out[j:k] = self._spread(times[j:k], previous)
+        if held:
+            self._last = float(out[held - 1])
+        given = (out, values[:held])
+        self._times, self._values = times[held:], values[held:]
+        if held == times.size:
+            self._since = math.inf  # nothing held
+        elif held:
+            self._since = now  # a new burst held (one held already stays from its start)
+        return given
+
+    def _spread(self, stamps: np.ndarray, previous: float) -> np.ndarray:
+        """A burst's ``stamps`` (push times) as sample times: one step before the next at
+        most, after ``previous`` (spread evenly after it when they cannot be a step apart)."""
+        step = self.step
+        times = stamps.copy()
+        for k in range(times.size - 2, -1, -1):
+            times[k] = min(times[k], times[k + 1] - step)
+        if math.isfinite(previous) and times[0] <= previous:
+            even = previous + (stamps[-1] - previous) * np.arange(1, times.size + 1) \
+                / times.size  # fmt: skip
+            times = np.maximum(times, even)
+        moved = float(np.max(stamps - times))
+        if moved > 0:
+            self._late.append((float(stamps[-1]), moved))
+        return times
