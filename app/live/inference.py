@@ -34,7 +34,7 @@ from app.live.stream import StreamSamples
 from promp.data import Demonstration
 from promp.inference import Gaussian, Observation, Posterior, Prediction, predict
 from promp.model import ProMPModel
-from promp.pipeline import Inference, infer, relative_speed
+from promp.pipeline import Errors, Inference, infer, measure, relative_speed
 from promp.timing import n_observed_for
 from robots.icub.layout import hand_dims
 
@@ -87,6 +87,9 @@ class InferResult:
     positions : tuple of PositionView
         Every position in space of the layout (the hand first): its region, predicted and
         observed paths.
+    errors : Errors or None
+        Against ``truth`` (None without one): of ``prediction``, the one shown, so through
+        ``via_points`` when there are some (the method's ``inference.errors`` otherwise).
     """
 
     model: ProMPModel
@@ -98,6 +101,7 @@ class InferResult:
     weights: Gaussian | Posterior | None = None
     prediction: Prediction | None = None
     positions: tuple[PositionView, ...] = ()
+    errors: Errors | None = None
 
     @property
     def relative_speed(self) -> float:
@@ -156,9 +160,14 @@ def completed(
     duration = inference.duration
     observed_phase = min(inference.observed_until / duration, 1.0) if duration > 0 else 1.0
     whole = model.layout.extract(truth) if truth is not None else None
+    errors = inference.errors
+    if vias and truth is not None:  # measured as the method's are, on the natural samples
+        natural = predict(model, weights, inference.alpha)
+        errors = measure(model, natural, inference.timing, truth, observation.n_observed)
     return InferResult(
         model, observation, inference, truth, future_path(model, inference, weights), vias,
         weights, prediction, positions(model, weights, observation, observed_phase, whole),
+        errors,
     )  # fmt: skip
 
 
