@@ -81,6 +81,40 @@ def test_n_observed_follows_the_evaluation_rule() -> None:
         n_observed_for(50, 0)
 
 
+def test_infer_offers_every_set_of_modalities_the_command_line_accepts(tmp_path) -> None:
+    """A handover set (the human's hand x, y, z; 8 EMG channels; the robot's hand): every set
+    ``python -m promp.evaluate --observe`` takes, in any order, is a choice of Infer's
+    Observed dropdown, and no other."""
+    from itertools import permutations
+
+    from promp.datasets import write_csv_dataset
+    from promp.evaluate.cli import build_parser, load
+
+    rng = np.random.default_rng(0)
+    emg = tuple(f"emg{i}" for i in range(8))
+    columns = ("hx", "hy", "hz", *emg, "rx", "ry", "rz")
+    times = np.arange(60) / 50.0
+    dataset = {
+        name: [Demonstration(times, np.cumsum(rng.normal(0, 0.01, (60, 14)), axis=0), columns,
+                             name=f"{name}{i}") for i in range(3)]
+        for name in ("give", "take")
+    }  # fmt: skip
+    write_csv_dataset(tmp_path / "handover", dataset)
+    names = ("human", "emg", "robot")
+    command = [str(tmp_path / "handover"), "--format", "csv", "--modality", "human=hx,hy,hz",
+               "--modality", f"emg={','.join(emg)}", "--modality", "robot=rx,ry,rz"]  # fmt: skip
+    given = [",".join(c) for k in (1, 2, 3) for c in permutations(names, k)]  # 15
+    loaded = load(build_parser().parse_args([*command, *(a for g in given for a in
+                                                         ("--observe", g))]))  # fmt: skip
+    choices = observed_choices(loaded.layout)
+    assert choices["human + emg"] == ("human", "emg")
+    assert list(choices)[:4] == ["human + emg + robot", "human", "emg", "robot"]
+    assert {frozenset(s) for s in loaded.observe} == {frozenset(c) for c in choices.values()}
+    assert len(choices) == 7
+    with pytest.raises(ValueError, match="unknown modality 'gaze'"):
+        load(build_parser().parse_args([*command, "--observe", "human,gaze"]))
+
+
 def held_out(fits: FitCache, demos, primitive: str, demo: str):
     """The model learned from ``demos`` without ``demo`` (as the learner fits it)."""
     return fits.fit(Training(held_out_training(demos, primitive, demo), LAYOUT, SETTINGS)).model

@@ -88,7 +88,7 @@ class InferControls:
                 "(deleted since the evaluation?)"
             )
         observed = next((label for label, modalities in observed_choices(store.layout).items()
-                         if tuple(modalities) == tuple(request.observed)), None)  # fmt: skip
+                         if set(modalities) == set(request.observed)), None)  # fmt: skip
         alpha = next((k for k, v in INFER_ALPHAS.items() if v == request.alpha_method), None)
         if observed is None or alpha is None:
             raise ValueError(
