@@ -115,6 +115,28 @@ def test_infer_offers_every_set_of_modalities_the_command_line_accepts(tmp_path)
         load(build_parser().parse_args([*command, "--observe", "human,gaze"]))
 
 
+def test_infer_names_its_sources_apart_and_the_help_names_them_so() -> None:
+    """Source's choices: no name holds another, the two live ones share no word but "live";
+    the tab's help and Teach's Live takes name them as the dropdown does."""
+    import re
+    from itertools import permutations
+
+    from app.live.inference import LIVE, LSL, TEST
+    from app.panels.infer.controls import SOURCES
+    from app.panels.teach.live_record import OFF
+    from app.ui.help import help_text
+
+    assert SOURCES == (TEST, LIVE, LSL)
+    for a, b in permutations(SOURCES, 2):
+        assert a.lower() not in b.lower()
+    live, lsl = ({w.lower() for w in re.findall(r"\w+", name)} for name in (LIVE, LSL))
+    assert live & lsl == {"live"}
+    assert "LSL" in LSL and "hand" in LIVE and "head" in LIVE  # each says what it is
+    text = help_text("infer")
+    assert all(name in text for name in SOURCES)
+    assert LSL in OFF
+
+
 def held_out(fits: FitCache, demos, primitive: str, demo: str):
     """The model learned from ``demos`` without ``demo`` (as the learner fits it)."""
     return fits.fit(Training(held_out_training(demos, primitive, demo), LAYOUT, SETTINGS)).model

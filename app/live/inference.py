@@ -38,8 +38,10 @@ from promp.pipeline import Errors, Inference, infer, measure, relative_speed
 from promp.timing import n_observed_for
 from robots.icub.layout import hand_dims
 
-TEST, LIVE = "Test demonstration", "Live stream"  # what is observed
-LSL = "Live streams (LSL)"  # a lab's sensors (app.live.lsl_source)
+# What is observed, as Infer's Source names it: a held-out demonstration; the studio's own
+# iCub hand (dragged) and partner's head (Teach's head source), sampled at every frame
+# (app.live.stream); a lab's sensors streamed over LSL (app.live.lsl_source).
+TEST, LIVE, LSL = "Test demonstration", "Studio's hand + head (live)", "LSL streams (live)"
 __all__ = ["PATH_POINTS", "TUBE_POINTS"]  # where the scene finds them (app.live.regions')
 
 

@@ -112,8 +112,9 @@ def build_observation(gui: PanelGui, observed: tuple[str, ...]) -> dict:
         handles = dict(
             source=gui.add_dropdown(
                 "Source", SOURCES, initial_value=TEST,
-                hint="A demonstration held out from the model, the live hand and head, or a "
-                "lab's sensors streamed over LSL (motion capture, EMG, the robot's state)",
+                hint="A demonstration held out from the model; the studio's hand as you drag it "
+                "and the partner's head from Teach's head source, as they happen; or a lab's "
+                "sensors streamed over LSL (motion capture, EMG, the robot's state)",
             ),
             primitive=gui.add_dropdown("Primitive", (NONE,), hint=PRIMITIVE_HINT),
             demo=gui.add_dropdown("Test demo", (NONE,), hint=DEMO_HINT),
