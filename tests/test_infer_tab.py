@@ -238,6 +238,34 @@ def test_inference_geometry_and_errors(scenario, chosen) -> None:
     assert live.inference.errors is None and live.truth is None
 
 
+def test_the_speed_readout_says_what_each_number_is(scenario, chosen) -> None:
+    """The status line's speed: α with the number of samples it stands for (s̄ / α: the
+    predicted duration's, at the model's sample period), then the same speed over the
+    recognised primitive's typical one, named, in the line itself."""
+    import html
+    import re
+
+    from app.panels.infer.readout import alpha_text, status_html
+
+    demo = scenario["curved"][3]
+    model = held_out_model(scenario, "curved", demo.name, chosen)
+    result = inferred(model, demo_observation(model, demo, 40, ("hand", "head")), "ml", truth=demo)
+    inference, s_bar = result.inference, model.settings.s_bar
+    text = alpha_text(result)
+    found = re.fullmatch(r"speed α = ([0-9.]+) \(([0-9.]+) / ([0-9]+) samples\): ([0-9.]+) × "
+                         r"(\w+)'s typical speed", text)  # fmt: skip
+    assert found, text
+    alpha, reference, samples, relative, name = found.groups()
+    assert float(alpha) == pytest.approx(inference.alpha, rel=5e-3)
+    assert float(reference) == s_bar and name == inference.primitive
+    # the samples are the predicted duration's, at the model's sample period
+    duration = (int(samples) - 1) * model.sample_period
+    assert duration == pytest.approx(inference.duration, abs=model.sample_period)
+    typical = math.exp(model.primitive(name).log_alpha_mean)
+    assert float(relative) == pytest.approx(inference.alpha / typical, abs=5e-3)
+    assert text in html.unescape(status_html(result, "curved", "held out", ""))
+
+
 def test_live_stream_observation(scenario) -> None:
     demo = scenario["curved"][0]
     values = demo.select(COLUMNS)

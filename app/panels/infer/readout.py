@@ -34,12 +34,14 @@ from app.ui.display import quantities, shown
 from app.ui.text import escape_html
 from app.ui.via_points import via_marks
 from promp.data import Layout
+from promp.timing import n_samples_from_alpha
 
 # Right padding: viser's panel scrollbar lies over the last pixels of a full-width element.
 PAD = "padding-right:14px;box-sizing:border-box"
 ALPHA_HELP = (
-    "α, the time modulation: 100 / the number of samples of the whole movement (higher is "
-    "faster). × typical: relative to the primitive's usual speed (1 = typical, > 1 faster)."
+    "α, the time modulation of the paper: s̄ / the number of samples of the whole movement "
+    "(s̄ = {s_bar:g}; higher is faster). Then the same speed over the recognised primitive's "
+    "typical one (that of its demonstrations: 1 = typical, > 1 faster)."
 )
 LEGEND_HTML = (
     f'<div style="font-size:0.72em;color:#555;margin-top:4px;{PAD}">'
@@ -98,13 +100,24 @@ def failure_html(message: str, timing: str) -> str:
     )
 
 
-def alpha_html(result: InferResult) -> str:
-    """``α = 0.688 (0.97 × typical)``, explained on hover."""
+def alpha_text(result: InferResult) -> str:
+    """The speed, each number saying what it is: ``speed α = 0.688 (100 / 145 samples): 0.97
+    × curved's typical speed``."""
+    alpha, s_bar = result.inference.alpha, result.model.settings.s_bar
+    samples = float(n_samples_from_alpha(alpha, s_bar))
+    text = f"speed α = {alpha:.3g} ({s_bar:g} / {samples:.0f} samples)"
     relative = result.relative_speed
-    typical = f" ({relative:.2f} × typical)" if math.isfinite(relative) else ""
+    if math.isfinite(relative):
+        text += f": {relative:.2f} × {result.inference.primitive}'s typical speed"
+    return text
+
+
+def alpha_html(result: InferResult) -> str:
+    """:func:`alpha_text`, explained on hover."""
+    help = ALPHA_HELP.format(s_bar=result.model.settings.s_bar)
     return (
-        f'<span title="{escape_html(ALPHA_HELP)}" style="text-decoration:underline dotted">'
-        f"α = {result.inference.alpha:.3f}{typical}</span>"
+        f'<span title="{escape_html(help)}" style="text-decoration:underline dotted">'
+        f"{escape_html(alpha_text(result))}</span>"
     )
 
 
