@@ -28,6 +28,7 @@ from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests.browser import (
     close_notifications,
     drag_gizmo,
+    screenshot,
     server_caught_up,
     set_camera,
     settled_screenshot,
@@ -620,7 +621,7 @@ def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, 
 
 @pytest.mark.browser
 def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
-    installed, studio, page, tmp_path
+    installed, studio, page, tmp_path, artifacts
 ) -> None:
     from app.live.head import StreamHeadSource, TrackHeadSource
 
@@ -662,6 +663,15 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     assert isinstance(studio.head.source, TrackHeadSource)
     # The loop hides the preview at its next step, after the upload's worker said it is ready.
     wait_until(lambda: not preview.first.is_visible(), what="the preview hidden")
+    # The page's Source says what is in use, and the line below names the video.
+    source = page.locator(f"[id='{teach.head.controls.source._impl.uuid}']")
+    wait_until(lambda: source.input_value() == "Uploaded video", what="Source in the page")
+    wait_text(page, "uploaded video face.avi: tracking")
+    close_notifications(page)
+    head = page.get_by_text("Head source", exact=True).first
+    head.evaluate("e => e.scrollIntoView({block: 'start'})")
+    page.mouse.move(5, 450)
+    screenshot(page, artifacts / "teach_head_source.png")  # (its angles change: never still)
     choose(page, "Source", "Simulated partner")
     wait_text(page, "simulated partner: tracking")
     close_notifications(page)  # the refusal's notification; the red line must go by itself

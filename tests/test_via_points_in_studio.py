@@ -433,3 +433,85 @@ def test_a_via_point_on_a_chart_is_a_ring_on_its_bar_at_its_phases_time() -> Non
         PointMark("via", 1.0, np.nan, 0.1, (0, 0, 0))
     with pytest.raises(ValueError, match="finite time, value and spread >= 0"):
         PointMark("via", 1.0, 0.0, -0.1, (0, 0, 0))
+
+
+RING_IN_PAGE_JS = """([uuid, label]) => {
+    const entry = window.__viserTestpoints?.uplots?.[uuid];
+    if (!entry) return null;
+    const c = entry.chart;
+    const i = c.series.findIndex((s) => s.label === label);
+    if (i < 0) return null;
+    const d = c.data[i];
+    for (let k = 0; k < d.length; k++) {
+        if (Number.isFinite(d[k])) {
+            return {t: c.data[0][k], v: d[k], x: c.valToPos(c.data[0][k], "x"),
+                    y: c.valToPos(d[k], "y"), w: c.over.clientWidth, h: c.over.clientHeight};
+        }
+    }
+    return null;
+}"""
+
+
+SCROLL_TO_CHART_JS = """(uuid) => window.__viserTestpoints.uplots[uuid].chart.root
+    .scrollIntoView({block: "start"})"""
+
+
+@pytest.mark.browser
+def test_the_infer_tab_marks_the_via_points_and_says_what_it_shows(studio, page, artifacts):
+    """In Chromium: each hand chart draws the via-point's ring where the server put it, inside
+    its plot; the status says the speed and the errors through the via-point in words; Source
+    names its three choices apart. Screenshots: artifacts/infer_via_points.png (the charts),
+    artifacts/infer_labels.png (the status), artifacts/infer_sources.png (Source opened)."""
+    from app.live.inference import LIVE, LSL, TEST
+    from app.panels.infer import InferPanel
+    from app.panels.infer.readout import errors_line
+    from tests.browser import open_tab
+
+    infer = next(p for p in studio.panels if isinstance(p, InferPanel))
+    view = studio.session.view
+    open_tab(page, "Infer")
+
+    def shown(points):
+        v = infer.view
+        r = v.result if v is not None else None
+        ok = r is not None and r.via_points == tuple(points)
+        return r if ok and errors_line(r) in infer.controls.status.content else None
+
+    first = wait_until(lambda: shown(()), timeout=180, what="an inference shown")
+    name = first.inference.primitive
+    there = mean_position(first.model, first.weights, HAND.name, 0.7) + np.array([0, 0.04, 0.02])
+    point = view.add_via_point(name, 0.7, tuple(there), 0.004)
+    try:
+        shaped = wait_until(lambda: shown((point,)), timeout=120, what="the shaped inference")
+        body = lambda: page.inner_text("body")  # noqa: E731
+        wait_until(lambda: "Errors (through 1 via-point): remainder" in body(), timeout=60,
+                   what="the errors through the via-point in the page")  # fmt: skip
+        speed = f"× {name}'s typical speed"
+        assert "speed α = " in body() and speed in body() and " samples): " in body()
+        press(page, page.get_by_text("Observation", exact=True).first)  # folded: the status up
+        page.mouse.move(5, 450)
+        settled_screenshot(page, artifacts / "infer_labels.png")
+        label = "via 1 · 70 %"
+        hand = [h for h, q in zip(infer.charts.handles, infer.charts.quantities, strict=True)
+                if q.modality == HAND.name]  # fmt: skip
+        for axis, handle in enumerate(hand):
+            def ring(h=handle):
+                return page.evaluate(RING_IN_PAGE_JS, [h._impl.uuid, label])
+
+            drawn = wait_until(ring, timeout=60, what="the via-point's ring in the page")
+            assert drawn["t"] == pytest.approx(0.7 * shaped.prediction.duration, abs=1e-9)
+            assert drawn["v"] == pytest.approx(100 * point.position[axis], abs=1e-9)
+            assert 0 <= drawn["x"] <= drawn["w"] and 0 <= drawn["y"] <= drawn["h"]  # in the plot
+        page.evaluate(SCROLL_TO_CHART_JS, hand[0]._impl.uuid)
+        settled_screenshot(page, artifacts / "infer_via_points.png")
+        press(page, page.get_by_text("Observation", exact=True).first)  # unfolded again
+        press(page, page.locator(f"[id='{infer.controls.source._impl.uuid}']"))
+        options = page.get_by_role("option")
+        wait_until(lambda: options.count() == 3, timeout=60, what="Source's options")
+        assert [options.nth(i).inner_text() for i in range(3)] == [TEST, LIVE, LSL]
+        box = options.nth(2).bounding_box()  # the pointer off Source: no hint over the list
+        page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        settled_screenshot(page, artifacts / "infer_sources.png")
+        page.keyboard.press("Escape")
+    finally:
+        view.remove_via_points([point.id])
