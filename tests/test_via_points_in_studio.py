@@ -474,9 +474,10 @@ def test_the_infer_tab_marks_the_via_points_and_says_what_it_shows(studio, page,
     def shown(points):
         v = infer.view
         r = v.result if v is not None else None
-        ok = r is not None and r.via_points == tuple(points)
+        ok = r is not None and r.via_points == tuple(points) and v.state.percent == 40
         return r if ok and errors_line(r) in infer.controls.status.content else None
 
+    infer.controls.percent.value = 40  # the via-point ahead of the observation
     first = wait_until(lambda: shown(()), timeout=180, what="an inference shown")
     name = first.inference.primitive
     there = mean_position(first.model, first.weights, HAND.name, 0.7) + np.array([0, 0.04, 0.02])
