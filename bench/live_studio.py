@@ -5,7 +5,7 @@ and ``studio_``.
 
 The studio runs in its own process (``Studio.start`` on a workspace of the same set and the
 same four modalities, its settings chosen from the data as the headless model's are; no page
-is connected, so nothing is drawn) and starts its Live source as *Live streams (LSL)* does, with
+is connected, so nothing is drawn) and starts its Live source as *LSL streams (live)* does, with
 *Predictions out* on: the mapping of ``bench/live.py``, movements by the marker stream, the
 hand's remainder at 50 Hz. Its published streams are read back as the headless predictor's
 are: the latency is from a sample's push to the receipt of the first prediction the studio

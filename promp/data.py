@@ -10,6 +10,7 @@ from __future__ import annotations
 import weakref
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from itertools import combinations
 from typing import Literal
 
 import numpy as np
@@ -201,13 +202,33 @@ class Layout:
                 return m
         raise ValueError(f"unknown modality {name!r}; the layout has {list(self.names)}")
 
-    def dims(self, names: Iterable[str]) -> np.ndarray:
-        """Model dimensions (column indices) of the modalities ``names``, in layout order."""
+    def observed(self, names: Iterable[str]) -> tuple[str, ...]:
+        """The modalities ``names`` as an observation may hold them: any non-empty set of the
+        layout's, in layout order (a name given twice counts once). What ``--observe`` of the
+        command lines accepts, and what :meth:`observable` lists.
+
+        Raises
+        ------
+        ValueError
+            An unknown name, or none.
+        """
         wanted = list(names)
         for name in wanted:
             self.modality(name)  # raises on unknown names
         if not wanted:
             raise ValueError("no modality selected")
+        return tuple(name for name in self.names if name in wanted)
+
+    def observable(self) -> tuple[tuple[str, ...], ...]:
+        """Every set of modalities an observation may hold (:meth:`observed`): all of them
+        first, then each alone, then every combination of two, three, ... (in layout order);
+        ``2 ** n - 1`` sets of ``n`` modalities."""
+        names, sizes = self.names, range(1, len(self.names))
+        return (names, *(self.observed(c) for k in sizes for c in combinations(names, k)))
+
+    def dims(self, names: Iterable[str]) -> np.ndarray:
+        """Model dimensions (column indices) of the modalities ``names``, in layout order."""
+        wanted = self.observed(names)
         out: list[int] = []
         start = 0
         for m in self.modalities:

@@ -123,3 +123,26 @@ def test_observing_the_partners_hand_draws_both_hands_labelled(studio, page) -> 
     assert_allclose(nodes.observed.points[0], partner.observed[0], atol=1e-6)
     page.mouse.move(5, 450)
     settled_screenshot(page, SCREENSHOT, timeout=120)
+
+
+def test_the_observed_choices_are_every_set_of_modalities(studio) -> None:
+    """GUI logic without a browser: with three modalities, Infer offers all seven sets (the
+    command line's, :meth:`promp.data.Layout.observable`); one chosen is what is observed."""
+    from app.scene.look import INFER
+
+    infer = next(p for p in studio.panels if isinstance(p, InferPanel))
+    studio.scene.use_panel(INFER)
+    wait_until(lambda: "head + partner" in infer.controls.observed.options, timeout=60,
+               what="the layout's choices offered")  # fmt: skip
+    assert tuple(infer.controls.observed.options) == (
+        "hand + head + partner", "hand", "head", "partner", "hand + head", "hand + partner",
+        "head + partner",
+    )  # fmt: skip
+    infer.controls.observed.value = "head + partner"
+
+    def observed():
+        view = infer.view
+        result = view.result if view is not None else None
+        return result is not None and result.observation.modalities == ("head", "partner")
+
+    wait_until(observed, timeout=180, what="an inference observing the head and the partner")

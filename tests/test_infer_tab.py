@@ -81,6 +81,62 @@ def test_n_observed_follows_the_evaluation_rule() -> None:
         n_observed_for(50, 0)
 
 
+def test_infer_offers_every_set_of_modalities_the_command_line_accepts(tmp_path) -> None:
+    """A handover set (the human's hand x, y, z; 8 EMG channels; the robot's hand): every set
+    ``python -m promp.evaluate --observe`` takes, in any order, is a choice of Infer's
+    Observed dropdown, and no other."""
+    from itertools import permutations
+
+    from promp.datasets import write_csv_dataset
+    from promp.evaluate.cli import build_parser, load
+
+    rng = np.random.default_rng(0)
+    emg = tuple(f"emg{i}" for i in range(8))
+    columns = ("hx", "hy", "hz", *emg, "rx", "ry", "rz")
+    times = np.arange(60) / 50.0
+    dataset = {
+        name: [Demonstration(times, np.cumsum(rng.normal(0, 0.01, (60, 14)), axis=0), columns,
+                             name=f"{name}{i}") for i in range(3)]
+        for name in ("give", "take")
+    }  # fmt: skip
+    write_csv_dataset(tmp_path / "handover", dataset)
+    names = ("human", "emg", "robot")
+    command = [str(tmp_path / "handover"), "--format", "csv", "--modality", "human=hx,hy,hz",
+               "--modality", f"emg={','.join(emg)}", "--modality", "robot=rx,ry,rz"]  # fmt: skip
+    given = [",".join(c) for k in (1, 2, 3) for c in permutations(names, k)]  # 15
+    loaded = load(build_parser().parse_args([*command, *(a for g in given for a in
+                                                         ("--observe", g))]))  # fmt: skip
+    choices = observed_choices(loaded.layout)
+    assert choices["human + emg"] == ("human", "emg")
+    assert list(choices)[:4] == ["human + emg + robot", "human", "emg", "robot"]
+    assert {frozenset(s) for s in loaded.observe} == {frozenset(c) for c in choices.values()}
+    assert len(choices) == 7
+    with pytest.raises(ValueError, match="unknown modality 'gaze'"):
+        load(build_parser().parse_args([*command, "--observe", "human,gaze"]))
+
+
+def test_infer_names_its_sources_apart_and_the_help_names_them_so() -> None:
+    """Source's choices: no name holds another, the two live ones share no word but "live";
+    the tab's help and Teach's Live takes name them as the dropdown does."""
+    import re
+    from itertools import permutations
+
+    from app.live.inference import LIVE, LSL, TEST
+    from app.panels.infer.controls import SOURCES
+    from app.panels.teach.live_record import OFF
+    from app.ui.help import help_text
+
+    assert SOURCES == (TEST, LIVE, LSL)
+    for a, b in permutations(SOURCES, 2):
+        assert a.lower() not in b.lower()
+    live, lsl = ({w.lower() for w in re.findall(r"\w+", name)} for name in (LIVE, LSL))
+    assert live & lsl == {"live"}
+    assert "LSL" in LSL and "hand" in LIVE and "head" in LIVE  # each says what it is
+    text = help_text("infer")
+    assert all(name in text for name in SOURCES)
+    assert LSL in OFF
+
+
 def held_out(fits: FitCache, demos, primitive: str, demo: str):
     """The model learned from ``demos`` without ``demo`` (as the learner fits it)."""
     return fits.fit(Training(held_out_training(demos, primitive, demo), LAYOUT, SETTINGS)).model
@@ -180,6 +236,34 @@ def test_inference_geometry_and_errors(scenario, chosen) -> None:
     assert math.isfinite(full.inference.errors.goal)
     live = inferred(model, obs, "model")
     assert live.inference.errors is None and live.truth is None
+
+
+def test_the_speed_readout_says_what_each_number_is(scenario, chosen) -> None:
+    """The status line's speed: α with the number of samples it stands for (s̄ / α: the
+    predicted duration's, at the model's sample period), then the same speed over the
+    recognised primitive's typical one, named, in the line itself."""
+    import html
+    import re
+
+    from app.panels.infer.readout import alpha_text, status_html
+
+    demo = scenario["curved"][3]
+    model = held_out_model(scenario, "curved", demo.name, chosen)
+    result = inferred(model, demo_observation(model, demo, 40, ("hand", "head")), "ml", truth=demo)
+    inference, s_bar = result.inference, model.settings.s_bar
+    text = alpha_text(result)
+    found = re.fullmatch(r"speed α = ([0-9.]+) \(([0-9.]+) / ([0-9]+) samples\): ([0-9.]+) × "
+                         r"(\w+)'s typical speed", text)  # fmt: skip
+    assert found, text
+    alpha, reference, samples, relative, name = found.groups()
+    assert float(alpha) == pytest.approx(inference.alpha, rel=5e-3)
+    assert float(reference) == s_bar and name == inference.primitive
+    # the samples are the predicted duration's, at the model's sample period
+    duration = (int(samples) - 1) * model.sample_period
+    assert duration == pytest.approx(inference.duration, abs=model.sample_period)
+    typical = math.exp(model.primitive(name).log_alpha_mean)
+    assert float(relative) == pytest.approx(inference.alpha / typical, abs=5e-3)
+    assert text in html.unescape(status_html(result, "curved", "held out", ""))
 
 
 def test_live_stream_observation(scenario) -> None:

@@ -20,6 +20,7 @@ from numpy.testing import assert_allclose
 
 from app.io.net import free_port
 from app.io.workspace import Workspace
+from app.live.inference import LSL
 from promp.live.recorder import recover
 from tests.browser import open_tab, press
 from tests.conftest import REPO, wait_until
@@ -67,7 +68,7 @@ def start_recording(page) -> str:
     primitive the takes go into."""
     open_tab(page, "Infer")
     press(page, row(page, "Source").locator("input").first)
-    press(page, page.get_by_role("option", name="Live streams (LSL)", exact=True))
+    press(page, page.get_by_role("option", name=LSL, exact=True))
     page.get_by_text(NAME, exact=True).wait_for()
     guessed = f"hand={NAME}:hand_x,hand_y,hand_z"  # the page shows what the studio guessed
     wait_until(lambda: row(page, "Mapping").locator("textarea").input_value() == guessed,

@@ -28,6 +28,7 @@ from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests.browser import (
     close_notifications,
     drag_gizmo,
+    screenshot,
     server_caught_up,
     set_camera,
     settled_screenshot,
@@ -302,6 +303,55 @@ def test_the_head_source_stays_during_a_recording(studio) -> None:
     assert "Recording cancelled." in teach.record.controls.status.content
 
 
+def face_video(path: Path, seconds: float = 4.0) -> Path:
+    """A video of a face rolling from -10 to 10 degrees (15 frames/s) at ``path``."""
+    from skimage.data import astronaut
+
+    from app.headpose.synthetic import ASTRONAUT_FACE_CENTRE, place_face
+
+    face = np.ascontiguousarray(astronaut()[:, :, ::-1])
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 15.0, (640, 480))
+    for roll in np.linspace(-10, 10, round(15 * seconds)):
+        writer.write(place_face(face, ASTRONAUT_FACE_CENTRE, (640, 480), roll_deg=roll, scale=1.5))
+    writer.release()
+    return path
+
+
+def test_the_source_shown_is_the_head_source_in_use(installed, studio, tmp_path) -> None:
+    """GUI logic, driven from Python: a video uploaded while Source says Simulated partner
+    (viser's page shows the upload button whatever the Source chosen), a video file or a
+    camera put in use (as the command line's --video and --camera do): Source, the camera
+    index or the video's path, and the status line say which."""
+    from app.live.head import SimulatedPartner, StreamHeadSource, TrackHeadSource
+    from app.ui.text import escape
+
+    head = panel(studio).head
+    c = head.controls
+    assert c.source.value == "Simulated partner"
+    path = face_video(tmp_path / "face.avi", seconds=2.0)
+    try:
+        head.process("face.avi", path.read_bytes())  # what the upload button's callback does
+        wait_until(lambda: isinstance(studio.head.source, TrackHeadSource), timeout=120,
+                   what="the uploaded video in use")  # fmt: skip
+        wait_until(lambda: c.source.value == "Uploaded video", what="Source: Uploaded video")
+        assert not c.upload.disabled
+        wait_until(lambda: "uploaded video face.avi" in c.status.content,
+                   what="the status naming the uploaded video")  # fmt: skip
+        studio.head.use(StreamHeadSource(str(path)))
+        wait_until(lambda: c.source.value == "Video file", what="Source: Video file")
+        assert c.video_path.value == str(path) and c.video_path.visible
+        assert c.upload.disabled  # (viser's page shows it whatever its visible)
+        wait_until(lambda: escape(f"video {path}") in c.status.content,
+                   what="the status naming it")  # fmt: skip
+        studio.head.use(StreamHeadSource(7))  # no such camera: in use, failing
+        wait_until(lambda: c.source.value == "Camera", what="Source: Camera")
+        assert c.camera_index.value == 7 and c.camera_index.visible
+        wait_until(lambda: "camera 7" in c.status.content, what="the status naming it")
+    finally:
+        studio.head.use(SimulatedPartner())
+        wait_until(lambda: c.source.value == "Simulated partner", what="Source: simulated")
+
+
 @pytest.mark.browser
 def test_panel_lists_primitives_demonstrations_and_prior_plots(studio, page) -> None:
     # the page may still be building its panel when the test starts (a loaded machine)
@@ -571,20 +621,11 @@ def test_a_missing_camera_is_a_clear_message_and_the_rest_keeps_working(studio, 
 
 @pytest.mark.browser
 def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
-    installed, studio, page, tmp_path
+    installed, studio, page, tmp_path, artifacts
 ) -> None:
-    from skimage.data import astronaut
-
-    from app.headpose.synthetic import ASTRONAUT_FACE_CENTRE, place_face
     from app.live.head import StreamHeadSource, TrackHeadSource
 
-
-    face = np.ascontiguousarray(astronaut()[:, :, ::-1])
-    path = tmp_path / "face.avi"
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 15.0, (640, 480))
-    for roll in np.linspace(-10, 10, 60):  # 4 s
-        writer.write(place_face(face, ASTRONAUT_FACE_CENTRE, (640, 480), roll_deg=roll, scale=1.5))
-    writer.release()
+    path = face_video(tmp_path / "face.avi")
     choose(page, "Source", "Video file")
     row(page, "Video file").locator("input").first.fill(str(path))
     wait_until(lambda: panel(studio).head.controls.video_path.value == str(path),
@@ -600,6 +641,7 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     # An uploaded video over the size limit is refused before it is buffered; nothing changes.
     choose(page, "Source", "Uploaded video")
     teach, source = panel(studio), studio.head.source
+    job = teach.head.tracks.job  # (an earlier test's upload, if any)
     assert teach.head.video_guard.active
     teach.head.video_guard.max_bytes = 1024
     try:
@@ -610,7 +652,7 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
         wait_text(page, "Cannot use the video big.avi")
         assert "over the 1.0 KB limit for an uploaded video" in text(page)
         wait_until(lambda: teach.head.video_guard.refusals == 1, what="the guard's refusal")
-        assert studio.head.source is source and teach.head.tracks.job is None
+        assert studio.head.source is source and teach.head.tracks.job is job  # none started
     finally:
         teach.head.video_guard.max_bytes = MAX_VIDEO_BYTES
     close_notifications(page)
@@ -622,6 +664,15 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     assert isinstance(studio.head.source, TrackHeadSource)
     # The loop hides the preview at its next step, after the upload's worker said it is ready.
     wait_until(lambda: not preview.first.is_visible(), what="the preview hidden")
+    # The page's Source says what is in use, and the line below names the video.
+    source = page.locator(f"[id='{teach.head.controls.source._impl.uuid}']")
+    wait_until(lambda: source.input_value() == "Uploaded video", what="Source in the page")
+    wait_text(page, "uploaded video face.avi: tracking")
+    close_notifications(page)
+    head = page.get_by_text("Head source", exact=True).first
+    head.evaluate("e => e.scrollIntoView({block: 'start'})")
+    page.mouse.move(5, 450)
+    screenshot(page, artifacts / "teach_head_source.png")  # (its angles change: never still)
     choose(page, "Source", "Simulated partner")
     wait_text(page, "simulated partner: tracking")
     close_notifications(page)  # the refusal's notification; the red line must go by itself

@@ -164,12 +164,19 @@ def test_a_via_point_dragged_in_3d_is_passed_through(studio, page) -> None:
     wait_until(lambda: not handles, timeout=60, what="the handle removed")
 
 
-def test_in_infer_via_points_combine_with_the_observation() -> None:
+def held_out_at_40():
+    """A model without the first "curved" demonstration of the scenario, that demonstration,
+    its first 40 % (hand and head) and the inference from it, without via-points."""
     dataset = generate_scenario(seed=4, n_demos=6)
     model = fit({k: v[1:] for k, v in dataset.items()}, STUDIO_LAYOUT)
     demo = dataset["curved"][0]
     obs = Observation.from_demo(model, demo, demo.n_samples * 4 // 10, ["hand", "head"])
     plain = inferred(model, obs, "ml", truth=demo)
+    return model, demo, obs, plain
+
+
+def test_in_infer_via_points_combine_with_the_observation() -> None:
+    model, demo, obs, plain = held_out_at_40()
     name = plain.inference.primitive
     phase = 0.8
     there = mean_position(model, plain.weights, HAND.name, phase) + np.array([0.0, 0.0, 0.02])
@@ -260,3 +267,252 @@ def test_in_the_infer_tab_a_via_point_shapes_the_recognised_primitive(studio, pa
     view.remove_via_points([point.id])
     wait_until(lambda: (r := result()) and r.via_points == (), timeout=120,
                what="the method's prediction again")  # fmt: skip
+
+
+def test_in_infer_the_errors_are_those_of_the_prediction_through_the_via_points() -> None:
+    from app.panels.infer.readout import errors_line
+    from app.ui.display import shown
+    from promp.inference import predict
+    from promp.pipeline import measure
+
+    model, demo, obs, plain = held_out_at_40()
+    assert plain.errors is plain.inference.errors  # no via-point: the method's own
+    assert errors_line(plain).startswith("Errors: remainder ")
+    name, alpha = plain.inference.primitive, plain.inference.alpha
+    there = mean_position(model, plain.weights, HAND.name, 0.8) + np.array([0.0, 0.03, 0.0])
+    point = checked(name, 0.8, there, 0.002, id=1)
+    shaped = inferred(model, obs, "ml", truth=demo, via_points=(point,))
+    natural = predict(model, shaped.weights, alpha)  # on the natural samples, as the method's
+    assert shaped.errors == measure(model, natural, shaped.inference.timing, demo, obs.n_observed)
+    assert shaped.errors.goal != plain.errors.goal
+    assert shaped.errors.position != plain.errors.position
+    hand = model.layout.modality(HAND.name)
+    assert errors_line(shaped) == (
+        f"Errors (through 1 via-point): remainder {shown(shaped.errors.position, hand)} · goal "
+        f"{shown(shaped.errors.goal, hand)} · duration {shaped.errors.duration:.2f} s"
+    )
+    # A via-point moved (dragged): other errors.
+    moved = checked(name, 0.8, there + np.array([0.0, 0.0, 0.04]), 0.002, id=1)
+    dragged = inferred(model, obs, "ml", truth=demo, via_points=(moved,))
+    assert dragged.errors.goal != shaped.errors.goal
+
+
+def via_mark(handle, label: str) -> tuple[float, float] | None:
+    """(time, value) of the via-point mark ``label`` on a chart (its ring), None without."""
+    for index, series in enumerate(handle.series):
+        if series.get("label") == label:
+            ring = np.asarray(handle.data[index], dtype=float)
+            (at,) = np.flatnonzero(np.isfinite(ring))
+            return float(handle.data[0][at]), float(ring[at])
+    return None
+
+
+def test_in_the_infer_tab_the_errors_line_and_the_charts_follow_the_via_points(studio) -> None:
+    """GUI logic without a browser: via-points added, dragged and removed through the view
+    state (what the folder and the 3D handles do), the observation changed by the slider."""
+    from app.panels.infer import InferPanel
+    from app.panels.infer.readout import errors_line
+    from app.scene.look import INFER
+
+    infer = next(p for p in studio.panels if isinstance(p, InferPanel))
+    view = studio.session.view
+    studio.scene.use_panel(INFER)  # as a browser showing the tab says
+
+    def shown_with(points, percent=None):
+        """The result shown through ``points``, once its errors line is in the status."""
+
+        def done():
+            v = infer.view
+            r = v.result if v is not None else None
+            if r is None or r.via_points != tuple(points):
+                return None
+            if percent is not None and v.state.percent != percent:
+                return None
+            return r if errors_line(r) in infer.controls.status.content else None
+
+        return wait_until(done, timeout=120, what=f"the result through {len(points)} point(s)")
+
+    first = shown_with(())
+    name = first.inference.primitive
+    assert errors_line(first).startswith("Errors: remainder ")
+    there = mean_position(first.model, first.weights, HAND.name, 0.9) + np.array([0, 0.03, 0])
+    point = view.add_via_point(name, 0.9, tuple(there), 0.002)
+    shaped = shown_with((point,))
+    assert "Errors (through 1 via-point): remainder" in infer.controls.status.content
+    assert shaped.errors != first.errors
+
+    def assert_marked(result, point) -> None:
+        """Each hand chart marks the via-point at its phase's time, at its coordinate."""
+        duration = result.prediction.duration
+        hand = [h for h, q in zip(infer.charts.handles, infer.charts.quantities, strict=True)
+                if q.modality == HAND.name]  # fmt: skip
+        assert len(hand) == 3
+        for axis, handle in enumerate(hand):
+            time, value = via_mark(handle, "via 1 · 90 %")
+            assert time == pytest.approx(point.phase * duration, abs=1e-9)
+            assert value == pytest.approx(100.0 * point.position[axis], abs=1e-9)  # cm
+            lo, hi = handle.scales["y"]["range"]
+            assert lo <= value <= hi
+        others = [h for h, q in zip(infer.charts.handles, infer.charts.quantities, strict=True)
+                  if q.modality != HAND.name]  # fmt: skip
+        assert others and all(via_mark(h, "via 1 · 90 %") is None for h in others)
+
+    assert_marked(shaped, point)
+    # Dragged in 3D: the errors and the marks follow.
+    moved = view.change_via_point(point.id, position=tuple(there + np.array([0, 0, 0.04])))
+    dragged = shown_with((moved,))
+    assert dragged.errors.goal != shaped.errors.goal
+    assert_marked(dragged, moved)
+    # The observation changed: the errors through the same point are measured again.
+    percent = 70 if infer.controls.percent.value != 70 else 60
+    infer.controls.percent.value = percent
+    later = shown_with((moved,), percent)
+    assert later.errors != dragged.errors
+    assert_marked(later, moved)
+    # Removed: the method's errors, no mark.
+    view.remove_via_points([moved.id])
+    plain = shown_with((), percent)
+    assert plain.errors is plain.inference.errors
+    assert "via-point" not in errors_line(plain)
+    assert all(via_mark(h, "via 1 · 90 %") is None for h in infer.charts.handles)
+
+
+def test_teachs_prior_charts_mark_the_via_points(studio) -> None:
+    name = taught(studio)
+    view, prior = studio.session.view, teach(studio).prior
+    model = studio.session.snapshot().model
+    shape = prior_shape(model, name)
+    there = mean_position(model, shape.weights, HAND.name, 0.5) + np.array([0.02, 0, 0])
+    point = view.add_via_point(name, 0.5, tuple(there), 0.005)
+    try:
+        duration = prior_shape(model, name, (point,)).prediction(model, 100).duration
+        x = prior.plots[0]  # hand x
+        wait_until(lambda: via_mark(x, "via 1 · 50 %") is not None, timeout=60,
+                   what="the via-point marked on the prior's chart")  # fmt: skip
+        time, value = via_mark(x, "via 1 · 50 %")
+        assert time == pytest.approx(0.5 * duration) and value == pytest.approx(100 * there[0])
+    finally:
+        view.remove_via_points([point.id])
+    wait_until(lambda: via_mark(x, "via 1 · 50 %") is None, timeout=60, what="the mark gone")
+
+
+def test_a_via_point_on_a_chart_is_a_ring_on_its_bar_at_its_phases_time() -> None:
+    from app.ui.chart_marks import PointMark
+    from app.ui.charts import Band, band_chart
+    from app.ui.display import quantities
+    from app.ui.via_points import via_marks
+
+    hand_y, head_roll = quantities(STUDIO_LAYOUT)[1], quantities(STUDIO_LAYOUT)[3]
+    points = (checked("curved", 0.25, (0.1, 0.4, 0.2), 0.01, id=3),
+              checked("curved", 0.5, (0.1, -0.2, 0.2), 0.002, id=5))  # fmt: skip
+    marks = via_marks(points, hand_y, STUDIO_LAYOUT, 4.0, (10, 20, 30))
+    assert [(m.label, m.time, m.value, m.spread) for m in marks] == [
+        ("via 1 · 25 %", 1.0, pytest.approx(40.0), pytest.approx(2.0)),  # cm, ±2σ
+        ("via 2 · 50 %", 2.0, pytest.approx(-20.0), pytest.approx(0.4)),
+    ]
+    assert via_marks(points, head_roll, STUDIO_LAYOUT, 4.0, (10, 20, 30)) == ()
+    times = np.linspace(0.0, 4.0, 9)
+    band = Band("posterior", times, np.zeros(9), np.full(9, 1.0), (200, 100, 0))
+    chart = band_chart([band], points=marks)
+    lo, hi = chart.y_range
+    assert lo < -20.0 and hi > 40.0  # the values are inside (the band alone is ±2 cm)
+    labels = [s["label"] for s in chart.series]
+    grid = chart.grid
+    for mark in marks:
+        ring = chart.data[labels.index(mark.label)]
+        (at,) = np.flatnonzero(np.isfinite(ring))
+        assert grid[at] == mark.time and ring[at] == mark.value
+        bar = chart.data[labels.index(f"{mark.label} ±")]
+        drawn = np.flatnonzero(np.isfinite(bar))
+        assert_allclose(grid[drawn], mark.time, atol=1e-5)  # vertical
+        assert_allclose(bar[drawn], [mark.value - mark.spread, mark.value + mark.spread])
+        assert chart.series[labels.index(mark.label)]["points"]["show"]
+    # The hand charts of one inference share their grid: the same times, the same array.
+    assert marks[0].times is via_marks(points, hand_y, STUDIO_LAYOUT, 4.0, (0, 0, 0))[0].times
+    with pytest.raises(ValueError, match="finite time, value and spread >= 0"):
+        PointMark("via", 1.0, np.nan, 0.1, (0, 0, 0))
+    with pytest.raises(ValueError, match="finite time, value and spread >= 0"):
+        PointMark("via", 1.0, 0.0, -0.1, (0, 0, 0))
+
+
+RING_IN_PAGE_JS = """([uuid, label]) => {
+    const entry = window.__viserTestpoints?.uplots?.[uuid];
+    if (!entry) return null;
+    const c = entry.chart;
+    const i = c.series.findIndex((s) => s.label === label);
+    if (i < 0) return null;
+    const d = c.data[i];
+    for (let k = 0; k < d.length; k++) {
+        if (Number.isFinite(d[k])) {
+            return {t: c.data[0][k], v: d[k], x: c.valToPos(c.data[0][k], "x"),
+                    y: c.valToPos(d[k], "y"), w: c.over.clientWidth, h: c.over.clientHeight};
+        }
+    }
+    return null;
+}"""
+
+
+SCROLL_TO_CHART_JS = """(uuid) => window.__viserTestpoints.uplots[uuid].chart.root
+    .scrollIntoView({block: "start"})"""
+
+
+@pytest.mark.browser
+def test_the_infer_tab_marks_the_via_points_and_says_what_it_shows(studio, page, artifacts):
+    """In Chromium: each hand chart draws the via-point's ring where the server put it, inside
+    its plot; the status says the speed and the errors through the via-point in words; Source
+    names its three choices apart. Screenshots: artifacts/infer_via_points.png (the charts),
+    artifacts/infer_labels.png (the status), artifacts/infer_sources.png (Source opened)."""
+    from app.live.inference import LIVE, LSL, TEST
+    from app.panels.infer import InferPanel
+    from app.panels.infer.readout import errors_line
+    from tests.browser import open_tab
+
+    infer = next(p for p in studio.panels if isinstance(p, InferPanel))
+    view = studio.session.view
+    open_tab(page, "Infer")
+
+    def shown(points):
+        v = infer.view
+        r = v.result if v is not None else None
+        ok = r is not None and r.via_points == tuple(points) and v.state.percent == 40
+        return r if ok and errors_line(r) in infer.controls.status.content else None
+
+    infer.controls.percent.value = 40  # the via-point ahead of the observation
+    first = wait_until(lambda: shown(()), timeout=180, what="an inference shown")
+    name = first.inference.primitive
+    there = mean_position(first.model, first.weights, HAND.name, 0.7) + np.array([0, 0.04, 0.02])
+    point = view.add_via_point(name, 0.7, tuple(there), 0.004)
+    try:
+        shaped = wait_until(lambda: shown((point,)), timeout=120, what="the shaped inference")
+        body = lambda: page.inner_text("body")  # noqa: E731
+        wait_until(lambda: "Errors (through 1 via-point): remainder" in body(), timeout=60,
+                   what="the errors through the via-point in the page")  # fmt: skip
+        speed = f"× {name}'s typical speed"
+        assert "speed α = " in body() and speed in body() and " samples): " in body()
+        press(page, page.get_by_text("Observation", exact=True).first)  # folded: the status up
+        page.mouse.move(5, 450)
+        settled_screenshot(page, artifacts / "infer_labels.png")
+        label = "via 1 · 70 %"
+        hand = [h for h, q in zip(infer.charts.handles, infer.charts.quantities, strict=True)
+                if q.modality == HAND.name]  # fmt: skip
+        for axis, handle in enumerate(hand):
+            def ring(h=handle):
+                return page.evaluate(RING_IN_PAGE_JS, [h._impl.uuid, label])
+
+            drawn = wait_until(ring, timeout=60, what="the via-point's ring in the page")
+            assert drawn["t"] == pytest.approx(0.7 * shaped.prediction.duration, abs=1e-9)
+            assert drawn["v"] == pytest.approx(100 * point.position[axis], abs=1e-9)
+            assert 0 <= drawn["x"] <= drawn["w"] and 0 <= drawn["y"] <= drawn["h"]  # in the plot
+        page.evaluate(SCROLL_TO_CHART_JS, hand[0]._impl.uuid)
+        settled_screenshot(page, artifacts / "infer_via_points.png")
+        press(page, page.get_by_text("Observation", exact=True).first)  # unfolded again
+        press(page, page.locator(f"[id='{infer.controls.source._impl.uuid}']"))
+        options = page.get_by_role("option")
+        wait_until(lambda: options.count() == 3, timeout=60, what="Source's options")
+        assert [options.nth(i).inner_text() for i in range(3)] == [TEST, LIVE, LSL]
+        box = options.nth(2).bounding_box()  # the pointer off Source: no hint over the list
+        page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        settled_screenshot(page, artifacts / "infer_sources.png")
+        page.keyboard.press("Escape")
+    finally:
+        view.remove_via_points([point.id])

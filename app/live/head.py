@@ -149,7 +149,7 @@ class TrackHeadSource(HeadSource):
     def __init__(self, times: np.ndarray, angles: np.ndarray, valid: np.ndarray, name: str):
         if times.shape[0] < 2:
             raise ValueError("a head-pose track needs at least two samples")
-        self.name = f"track {name}"
+        self.name = f"uploaded video {name}"
         self.times = np.asarray(times, dtype=float) - float(times[0])
         self.angles = np.asarray(angles, dtype=float)
         self.valid = np.asarray(valid, dtype=bool)

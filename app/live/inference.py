@@ -34,12 +34,14 @@ from app.live.stream import StreamSamples
 from promp.data import Demonstration
 from promp.inference import Gaussian, Observation, Posterior, Prediction, predict
 from promp.model import ProMPModel
-from promp.pipeline import Inference, infer, relative_speed
+from promp.pipeline import Errors, Inference, infer, measure, relative_speed
 from promp.timing import n_observed_for
 from robots.icub.layout import hand_dims
 
-TEST, LIVE = "Test demonstration", "Live stream"  # what is observed
-LSL = "Live streams (LSL)"  # a lab's sensors (app.live.lsl_source)
+# What is observed, as Infer's Source names it: a held-out demonstration; the studio's own
+# iCub hand (dragged) and partner's head (Teach's head source), sampled at every frame
+# (app.live.stream); a lab's sensors streamed over LSL (app.live.lsl_source).
+TEST, LIVE, LSL = "Test demonstration", "Studio's hand + head (live)", "LSL streams (live)"
 __all__ = ["PATH_POINTS", "TUBE_POINTS"]  # where the scene finds them (app.live.regions')
 
 
@@ -87,6 +89,9 @@ class InferResult:
     positions : tuple of PositionView
         Every position in space of the layout (the hand first): its region, predicted and
         observed paths.
+    errors : Errors or None
+        Against ``truth`` (None without one): of ``prediction``, the one shown, so through
+        ``via_points`` when there are some (the method's ``inference.errors`` otherwise).
     """
 
     model: ProMPModel
@@ -98,6 +103,7 @@ class InferResult:
     weights: Gaussian | Posterior | None = None
     prediction: Prediction | None = None
     positions: tuple[PositionView, ...] = ()
+    errors: Errors | None = None
 
     @property
     def relative_speed(self) -> float:
@@ -156,9 +162,14 @@ def completed(
     duration = inference.duration
     observed_phase = min(inference.observed_until / duration, 1.0) if duration > 0 else 1.0
     whole = model.layout.extract(truth) if truth is not None else None
+    errors = inference.errors
+    if vias and truth is not None:  # measured as the method's are, on the natural samples
+        natural = predict(model, weights, inference.alpha)
+        errors = measure(model, natural, inference.timing, truth, observation.n_observed)
     return InferResult(
         model, observation, inference, truth, future_path(model, inference, weights), vias,
         weights, prediction, positions(model, weights, observation, observed_phase, whole),
+        errors,
     )  # fmt: skip
 
 

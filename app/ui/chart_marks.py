@@ -1,11 +1,16 @@
-"""Vertical marks on the per-dimension charts of :mod:`app.ui.charts`: a time and its interval
-(:class:`TimeInterval`, e.g. the predicted end of a movement and its 90 % interval), drawn across
-the plot's whole height as a solid vertical line at the time, dashed ones at the interval's
-ends and a light fill between them.
+"""Marks on the per-dimension charts of :mod:`app.ui.charts`.
 
-Their series use a scale of their own, :data:`MARK_SCALE` (0 at the bottom, 1 at the top of the
-plot), so that they never move the y range; each vertical is two samples a hair apart in time
-(:data:`VERTICAL_S`) on the chart's grid, which holds their times (:attr:`TimeInterval.times`).
+- A time and its interval (:class:`TimeInterval`, e.g. the predicted end of a movement and its
+  90 % interval), drawn across the plot's whole height as a solid vertical line at the time,
+  dashed ones at the interval's ends and a light fill between them. Their series use a scale of
+  their own, :data:`MARK_SCALE` (0 at the bottom, 1 at the top of the plot), so that they never
+  move the y range.
+- A value at a time with its spread (:class:`PointMark`, e.g. a via-point on one dimension: the
+  time of its phase, its position and its precision), drawn on the chart's own axes as a ring
+  at (time, value) on a vertical bar over value ± spread; the y range holds the value.
+
+Each vertical is two samples a hair apart in time (:data:`VERTICAL_S`) on the chart's grid,
+which holds their times (:attr:`TimeInterval.times`, :attr:`PointMark.times`).
 """
 
 from __future__ import annotations
@@ -60,6 +65,70 @@ class TimeInterval:
         )
         times.setflags(write=False)
         return times
+
+
+@dataclass(frozen=True)
+class PointMark:
+    """A value at a time (a ring) and its spread (a vertical bar over ``value ± spread``), in
+    the chart's units: seconds on the time axis, the dimension's display unit on the other.
+
+    Parameters
+    ----------
+    label : str
+    time, value : float
+        Finite.
+    spread : float
+        Finite, >= 0 (0: the ring alone).
+    color : (int, int, int)
+    """
+
+    label: str
+    time: float
+    value: float
+    spread: float
+    color: RGB
+
+    def __post_init__(self) -> None:
+        values = (self.time, self.value, self.spread)
+        if not all(np.isfinite(values)) or self.spread < 0:
+            raise ValueError(
+                f"mark {self.label!r}: need a finite time, value and spread >= 0, got {values}"
+            )
+        object.__setattr__(self, "color", check_color(f"mark {self.label!r}", self.color))
+
+    @property
+    def times(self) -> np.ndarray:
+        """The grid times its bar needs: a hair before, then at, its time (the same array for
+        the same time: the charts of one inference share their grid by the identity of the
+        times they are drawn on)."""
+        return _point_times(float(self.time))
+
+
+@functools.lru_cache(maxsize=64)
+def _point_times(time: float) -> np.ndarray:
+    times = np.array([time - VERTICAL_S, time])
+    times.setflags(write=False)
+    return times
+
+
+def point_series(
+    grid: np.ndarray, mark: PointMark
+) -> tuple[list[np.ndarray], list[uplot.Series]]:
+    """The data and series of ``mark`` on the chart's y scale: its bar, from ``value -
+    spread`` a hair before its time to ``value + spread`` at it, then its ring (the grid
+    holds both times)."""
+    bar, ring = np.full(grid.shape, np.nan), np.full(grid.shape, np.nan)
+    before, at = np.searchsorted(grid, mark.times)
+    bar[before], bar[at] = mark.value - mark.spread, mark.value + mark.spread
+    ring[at] = mark.value
+    series: list[uplot.Series] = [
+        {"label": f"{mark.label} ±", "stroke": css(mark.color, 0.9), "width": 1.5,
+         "points": {"show": False}},
+        {"label": mark.label, "stroke": css(mark.color, 0.0), "width": 1.0,
+         "points": {"show": True, "size": 10.0, "width": 2.0, "stroke": css(mark.color),
+                    "fill": "#ffffff"}},
+    ]  # fmt: skip
+    return [bar, ring], series
 
 
 def _vertical(grid: np.ndarray, time: float) -> np.ndarray:

@@ -25,7 +25,9 @@ Three uPlot behaviours with NaN, seen in headless Chromium, shape this module:
   fill and the mean line are drawn), so nothing shows there.
 
 A time and its interval (:class:`app.ui.chart_marks.TimeInterval`: the predicted end of a
-movement and its 90 % interval) is drawn across the whole height, on a scale of its own.
+movement and its 90 % interval) is drawn across the whole height, on a scale of its own; a
+value at a time with its spread (:class:`app.ui.chart_marks.PointMark`: a via-point) as a ring
+on a vertical bar.
 
 Usage::
 
@@ -46,10 +48,12 @@ import numpy as np
 import viser
 import viser.uplot as uplot
 
-from app.ui.chart_marks import MARK_SCALE, TimeInterval, interval_series
+from app.ui.chart_marks import MARK_SCALE, PointMark, TimeInterval, interval_series, point_series
 from app.ui.colors import RGB, check_color, css
 from app.ui.display import Quantity
 from promp.inference import Prediction
+
+N_SIGMA = 2.0  # the bands' half-width, in standard deviations (and a via-point's bar's)
 
 
 def _check_curve(what: str, times: np.ndarray, *columns: np.ndarray) -> None:
@@ -217,18 +221,19 @@ def y_range(values: Sequence[np.ndarray], pad: float = 0.08) -> tuple[float, flo
 def band_chart(
     bands: Sequence[Band],
     traces: Sequence[Trace] = (),
-    n_sigma: float = 2.0,
+    n_sigma: float = N_SIGMA,
     x_label: str = "t (s)",
     intervals: Sequence[TimeInterval] = (),
     grids: dict | None = None,
+    points: Sequence[PointMark] = (),
 ) -> BandChart:
-    """Series and bands of a chart showing ``bands``, ``traces`` and ``intervals`` on a
-    shared time grid.
+    """Series and bands of a chart showing ``bands``, ``traces``, ``intervals`` and
+    ``points`` on a shared time grid.
 
     Per band, three series: upper edge, lower edge (thin, translucent, the band filled between
     them) and mean (solid); then one series per trace, in the order given; then per interval
     five on the mark scale: the fill's top and bottom, the line at its time, the lines at its
-    low and high ends (see the module docstring).
+    low and high ends (see the module docstring); then per point two: its bar and its ring.
 
     Parameters
     ----------
@@ -236,6 +241,8 @@ def band_chart(
     traces : sequence of Trace
     intervals : sequence of TimeInterval
         They do not count for the y range.
+    points : sequence of PointMark
+        Their values count for the y range (not their spreads).
     n_sigma : float
         Half-width of the bands in standard deviations (positive).
     x_label : str
@@ -260,6 +267,7 @@ def band_chart(
     if not np.isfinite(n_sigma) or n_sigma <= 0:
         raise ValueError(f"n_sigma must be positive, got {n_sigma}")
     times = [b.times for b in bands] + [t.times for t in traces] + [i.times for i in intervals]
+    times += [p.times for p in points]
     key = tuple(id(t) for t in times)
     grid = None if grids is None else grids.get(key, (None, None))[1]
     if grid is None:
@@ -296,12 +304,16 @@ def band_chart(
         if trace.dash is not None:
             style["dash"] = tuple(float(d) for d in trace.dash)
         series.append(style)
-    y = y_range(data[1:])
+    y = y_range([*data[1:], np.array([p.value for p in points])])
     for interval in intervals:
         more, styles, fill = interval_series(grid, interval, len(data))
         data += more
         series += styles
         fills.append(fill)
+    for point in points:
+        more, styles = point_series(grid, point)
+        data += more
+        series += styles
     return BandChart(tuple(data), tuple(series), tuple(fills), y)
 
 

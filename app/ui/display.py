@@ -98,10 +98,8 @@ def series_title(observed, alpha_method: str) -> str:
 
 
 def observed_choices(layout: Layout) -> dict[str, tuple[str, ...]]:
-    """The observed-modality choices the studio offers, by label: all modalities together
-    first ("hand + head"), then each alone."""
-    names = layout.names
-    choices = {observed_label(names): names}
-    if len(names) > 1:
-        choices.update({name: (name,) for name in names})
-    return choices
+    """The observed-modality choices the studio offers, by label: every set the command
+    lines' ``--observe`` accepts (:meth:`promp.data.Layout.observable`), all modalities
+    together first ("hand + head"), then each alone, then the other combinations
+    ("human + emg")."""
+    return {observed_label(names): names for names in layout.observable()}

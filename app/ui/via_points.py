@@ -13,18 +13,22 @@ mutation of the view state, refused with a notification when a value is out of b
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import viser
 
 from app.core.snapshot import Snapshot
-from app.core.via_state import of_primitive
+from app.core.via_state import StudioViaPoint, of_primitive
 from app.scene.look import ViaShown
 from app.scene.via_layer import via_label
+from app.ui.chart_marks import PointMark
+from app.ui.charts import N_SIGMA
 from app.ui.context import PanelContext
+from app.ui.display import Quantity
 from app.ui.text import escape_html
+from promp.data import Layout
 from robots.icub.layout import HAND
 
 NEW = "(a new point)"
@@ -34,6 +38,28 @@ HINT = (
     "Teach) or the prediction (in Infer) is conditioned on it (Eq. 8 of the paper). Drag a "
     "point's handle in 3D to move it."
 )
+
+
+def via_marks(
+    points: Sequence[StudioViaPoint],
+    quantity: Quantity,
+    layout: Layout,
+    duration: float,
+    color: tuple[int, int, int],
+) -> tuple[PointMark, ...]:
+    """The via-points ``points`` (one primitive's, numbered in their order as the list names
+    them) on the chart of ``quantity``: each at the time of its phase in a movement of
+    ``duration`` seconds, at its position's coordinate in the quantity's display unit, its bar
+    ± :data:`~app.ui.charts.N_SIGMA` of its precision (the bands' width). None on a chart of
+    another modality than the hand."""
+    if quantity.modality != HAND.name:
+        return ()
+    axis = layout.modality(HAND.name).columns.index(quantity.name)
+    return tuple(
+        PointMark(via_label(i, p), p.phase * duration, quantity.scale * p.position[axis],
+                  quantity.scale * N_SIGMA * p.std, color)
+        for i, p in enumerate(points, start=1)
+    )  # fmt: skip
 
 
 @dataclass(frozen=True, eq=False)

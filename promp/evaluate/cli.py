@@ -303,7 +303,7 @@ def load(args: argparse.Namespace) -> Loaded:
         findings = tuple(kept + dataset_findings(dataset, layout, read.files))
     observe = observe or [[position_modality(layout)]]
     for names in observe:
-        layout.dims(names)  # unknown names are an error before any work
+        layout.observed(names)  # unknown names are an error before any work
     everyone = {(p, d.name) for p, demos in dataset.items() for d in demos}
     dataset, excluded = split_flagged(dataset, findings, everyone if args.include_flagged else ())
     return Loaded(dataset, layout, observe, tuple(findings), excluded, read.mapping, read.notes,

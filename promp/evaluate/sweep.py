@@ -434,7 +434,7 @@ def leave_one_out(
                          f"{list(alpha_methods)}")  # fmt: skip
     observe = [list(names) for names in observe] if observe else [[position_modality(layout)]]
     for names in observe:
-        layout.dims(names)  # an unknown modality is a ValueError before any work
+        layout.observed(names)  # an unknown modality is a ValueError before any work
     if jobs == 0 or jobs < -1:
         raise ValueError(f"jobs must be a positive number or -1, got {jobs}")
     settings = settings if settings is not None else Settings()

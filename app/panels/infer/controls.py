@@ -88,7 +88,7 @@ class InferControls:
                 "(deleted since the evaluation?)"
             )
         observed = next((label for label, modalities in observed_choices(store.layout).items()
-                         if tuple(modalities) == tuple(request.observed)), None)  # fmt: skip
+                         if set(modalities) == set(request.observed)), None)  # fmt: skip
         alpha = next((k for k, v in INFER_ALPHAS.items() if v == request.alpha_method), None)
         if observed is None or alpha is None:
             raise ValueError(
@@ -112,8 +112,9 @@ def build_observation(gui: PanelGui, observed: tuple[str, ...]) -> dict:
         handles = dict(
             source=gui.add_dropdown(
                 "Source", SOURCES, initial_value=TEST,
-                hint="A demonstration held out from the model, the live hand and head, or a "
-                "lab's sensors streamed over LSL (motion capture, EMG, the robot's state)",
+                hint="A demonstration held out from the model; the studio's hand as you drag it "
+                "and the partner's head from Teach's head source, as they happen; or a lab's "
+                "sensors streamed over LSL (motion capture, EMG, the robot's state)",
             ),
             primitive=gui.add_dropdown("Primitive", (NONE,), hint=PRIMITIVE_HINT),
             demo=gui.add_dropdown("Test demo", (NONE,), hint=DEMO_HINT),

@@ -1,6 +1,7 @@
-"""The Infer tab's Live streams (LSL) folder: a lab's sensors as the observation.
+"""The Infer tab's LSL streams folder: a lab's sensors as the observation.
 
-Shown when the Source is *Live streams (LSL)*: the streams found on the network (name, type,
+Shown when the Source is *LSL streams (live)* (:data:`app.live.inference.LSL`, the folder's
+title too): the streams found on the network (name, type,
 rate, channels, host), the mapping from the workspace's modalities to streams and channels in
 the rig syntax (``hand=MocapHand:0,1,2@mm``, one a line; guessed from the streams found until
 the user edits it, *Guess* guesses again), how a movement starts (stillness, a marker stream
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 import viser
 
 from app.core.snapshot import Snapshot
-from app.live.inference import InferState
+from app.live.inference import LSL, InferState
 from app.live.lsl_mapping import guess_mapping, selector_text
 from app.live.lsl_source import STARTS, LiveConfig, LslSource
 from app.live.lsl_view import LslObserved
@@ -48,7 +49,7 @@ MAPPING_HINT = (
 
 @dataclass(frozen=True, eq=False)
 class LiveControls:
-    """The handles of the Live streams folder."""
+    """The handles of the LSL streams folder."""
 
     folder: viser.GuiFolderHandle
     streams: viser.GuiHtmlHandle
@@ -68,7 +69,7 @@ class LiveControls:
 
 def build_controls(gui: PanelGui, layout: Layout) -> LiveControls:
     remainders = (NONE, *layout.names)
-    with gui.add_folder("Live streams (LSL)", visible=False) as folder:
+    with gui.add_folder(LSL, visible=False) as folder:
         streams = gui.add_html("")
         mapping = gui.add_text("Mapping", "", multiline=True, hint=MAPPING_HINT)
         guess = gui.add_button("Guess the mapping", color="gray",
@@ -99,7 +100,7 @@ def build_controls(gui: PanelGui, layout: Layout) -> LiveControls:
 
 
 class LiveSection:
-    """The Live streams folder (see the module docstring)."""
+    """The LSL streams folder (see the module docstring)."""
 
     def __init__(self, ctx: PanelContext, layout: Layout):
         self.ctx = ctx

@@ -20,9 +20,10 @@ the scene's look. Button callbacks only record the press.
 The Data tab's "Open in Infer" comes through the studio as :meth:`InferPanel.open`: a test
 demonstration at one percentage, modalities and alpha method (an evaluation's failed trial).
 
-Live stream: "Start observing" starts :class:`app.live.stream.LiveStream`, which samples the
-hand and the head at every frame (~60 Hz); the observation is the first p % of its samples
-(100 %: all of it, as it happens), taken at most 20 times a second while observing.
+Studio's hand + head (live): "Start observing" starts :class:`app.live.stream.LiveStream`,
+which samples the hand and the head at every frame (~60 Hz); the observation is the first p %
+of its samples (100 %: all of it, as it happens), taken at most 20 times a second while
+observing.
 """
 
 from __future__ import annotations

@@ -6,8 +6,10 @@ Lengths and angles in the display units of :mod:`app.ui.display`, user text esca
 
 The charts: one chart tab per modality, one chart per dimension, each with the prior and
 posterior bands of the recognised primitive, the observed samples and the truth (the paper's
-Figs. 4, 7 and 9), and the predicted end of the movement with its 90 % interval (a vertical
-line in a shaded band: :mod:`app.panels.infer.phase`, which also words the phase estimate).
+Figs. 4, 7 and 9), the predicted end of the movement with its 90 % interval (a vertical
+line in a shaded band: :mod:`app.panels.infer.phase`, which also words the phase estimate)
+and, on the hand's charts, the via-points the prediction passes through (a ring at the time of
+each one's phase and its position, on a bar of ±2σ of its precision).
 While the same movement is inspected, each chart's x and y ranges only grow: scrubbing neither
 rescales (and so rebuilds) a chart at every step nor leaves uPlot's automatic x range to the
 browser (viser rescales it relative to the previous data, which a rebuild can leave undefined:
@@ -30,19 +32,22 @@ from app.ui.charts import Band, BandChart, Trace, add_band_chart, band_chart, up
 from app.ui.context import PanelContext
 from app.ui.display import quantities, shown
 from app.ui.text import escape_html
+from app.ui.via_points import via_marks
 from promp.data import Layout
+from promp.timing import n_samples_from_alpha
 
 # Right padding: viser's panel scrollbar lies over the last pixels of a full-width element.
 PAD = "padding-right:14px;box-sizing:border-box"
 ALPHA_HELP = (
-    "α, the time modulation: 100 / the number of samples of the whole movement (higher is "
-    "faster). × typical: relative to the primitive's usual speed (1 = typical, > 1 faster)."
+    "α, the time modulation of the paper: s̄ / the number of samples of the whole movement "
+    "(s̄ = {s_bar:g}; higher is faster). Then the same speed over the recognised primitive's "
+    "typical one (that of its demonstrations: 1 = typical, > 1 faster)."
 )
 LEGEND_HTML = (
     f'<div style="font-size:0.72em;color:#555;margin-top:4px;{PAD}">'
     'Charts: bands ±2σ: <b style="color:#7d7d7d">prior</b> · <b>posterior</b> (recognised '
     "primitive's colour) · ● observed · ╌ truth · │ predicted end, shaded: its 90 % "
-    "interval</div>"
+    "interval · ◯ via-point, its bar ±2σ of its precision</div>"
 )
 
 
@@ -95,13 +100,24 @@ def failure_html(message: str, timing: str) -> str:
     )
 
 
-def alpha_html(result: InferResult) -> str:
-    """``α = 0.688 (0.97 × typical)``, explained on hover."""
+def alpha_text(result: InferResult) -> str:
+    """The speed, each number saying what it is: ``speed α = 0.688 (100 / 145 samples): 0.97
+    × curved's typical speed``."""
+    alpha, s_bar = result.inference.alpha, result.model.settings.s_bar
+    samples = float(n_samples_from_alpha(alpha, s_bar))
+    text = f"speed α = {alpha:.3g} ({s_bar:g} / {samples:.0f} samples)"
     relative = result.relative_speed
-    typical = f" ({relative:.2f} × typical)" if math.isfinite(relative) else ""
+    if math.isfinite(relative):
+        text += f": {relative:.2f} × {result.inference.primitive}'s typical speed"
+    return text
+
+
+def alpha_html(result: InferResult) -> str:
+    """:func:`alpha_text`, explained on hover."""
+    help = ALPHA_HELP.format(s_bar=result.model.settings.s_bar)
     return (
-        f'<span title="{escape_html(ALPHA_HELP)}" style="text-decoration:underline dotted">'
-        f"α = {result.inference.alpha:.3f}{typical}</span>"
+        f'<span title="{escape_html(help)}" style="text-decoration:underline dotted">'
+        f"{escape_html(alpha_text(result))}</span>"
     )
 
 
@@ -141,14 +157,16 @@ def status_html(
 
 
 def errors_line(result: InferResult) -> str:
-    """The errors against the truth, in the unit of the modality they are measured on
-    (``—`` without a truth)."""
-    errors = result.inference.errors
+    """The errors of the prediction shown (through its via-points, when it has some)
+    against the truth, in the unit of the modality they are measured on (``—`` without a
+    truth)."""
+    errors, n = result.errors, len(result.via_points)
+    title = f"Errors (through {n} via-point{'s' if n != 1 else ''})" if n else "Errors"
     if errors is None:
-        return "Errors: remainder — · goal — · duration —"
+        return f"{title}: remainder — · goal — · duration —"
     measured = result.model.layout.modality(errors.modality)
     return (
-        f"Errors: remainder {shown(errors.position, measured)} · goal "
+        f"{title}: remainder {shown(errors.position, measured)} · goal "
         f"{shown(errors.goal, measured)} · duration {seconds(errors.duration)}"
     )
 
@@ -224,6 +242,7 @@ class InferCharts:
         end = end_interval(result, color)
         grids: dict = {}  # the charts' time grids, shared (see band_chart)
         elapsed = obs.elapsed  # (computed on each access: one array for every chart)
+        duration = result.prediction.duration  # the via-points' times: their phases in it
         for i, (handle, q) in enumerate(zip(self.handles, self.quantities, strict=True)):
             bands = [
                 Band.from_prediction(result.inference.prior, q, "prior", PRIOR_COLOR),
@@ -240,7 +259,9 @@ class InferCharts:
                 traces.append(
                     Trace("observed", elapsed, q.scale * column, OBSERVED_COLOR, points=True)
                 )
-            chart = self._sticky(i, band_chart(bands, traces, intervals=[end], grids=grids))
+            marks = via_marks(result.via_points, q, layout, duration, end.color)
+            chart = band_chart(bands, traces, intervals=[end], grids=grids, points=marks)
+            chart = self._sticky(i, chart)
             update_band_chart(handle, chart, self.ctx.atomic)
 
     def _sticky(self, index: int, chart: BandChart) -> BandChart:

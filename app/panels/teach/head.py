@@ -3,10 +3,13 @@
 A simulated partner, a camera (by index), a video file on the server, or a video uploaded from
 the browser (processed in the background into a head-pose track by
 :func:`app.headpose.track_video`). Choosing one makes it the studio's head source
-(:meth:`app.live.head.HeadInput.use`), except during a recording, whose source stays. A source
-that fails is a red message and a notification; the rest of the studio keeps working. Cameras
-and videos get a live preview and *Calibrate neutral*. The folder is shown only when the
-workspace has a ``head`` modality.
+(:meth:`app.live.head.HeadInput.use`), except during a recording, whose source stays. The
+Source shown is the one in use whichever way it came (a video uploaded, a camera or a video
+given on the command line): :meth:`HeadSection.step` sets the dropdown, the camera index or
+the video's path to it whenever the source in use changes, and the status line names it. A
+source that fails is a red message and a notification; the rest of the studio keeps working.
+Cameras and videos get a live preview and *Calibrate neutral*. The folder is shown only when
+the workspace has a ``head`` modality.
 """
 
 from __future__ import annotations
@@ -67,20 +70,29 @@ class HeadControls:
     preview: viser.GuiImageHandle
 
     def show_inputs(self) -> None:
-        """The inputs of the source kind chosen."""
+        """The inputs of the source kind chosen. (viser's page shows an upload button whatever
+        its ``visible``: it is disabled too.)"""
         kind = self.source.value
         self.camera_index.visible = kind == CAMERA
         self.video_path.visible = kind == VIDEO
         self.connect.visible = kind in (CAMERA, VIDEO)
         self.upload.visible = kind == UPLOAD
+        self.upload.disabled = kind != UPLOAD
+
+    def follow(self, source: HeadSource) -> None:
+        """Show ``source``, the one now in use: its kind, its camera's index or its video's
+        path."""
+        kind = source_kind(source)
+        if kind == CAMERA:
+            self.camera_index.value = int(source.name.removeprefix("camera "))
+        elif kind == VIDEO:
+            self.video_path.value = source.name.removeprefix("video ")
+        if self.source.value != kind:
+            self.source.value = kind  # its callback shows the kind's inputs
 
 
 def build_controls(gui: PanelGui, source: HeadSource) -> HeadControls:
-    initial, index, path = source_kind(source), 0, ""
-    if initial == CAMERA:
-        index = int(source.name.removeprefix("camera "))
-    elif initial == VIDEO:
-        path = source.name.removeprefix("video ")
+    initial = source_kind(source)
     folder = gui.add_folder("Head source")
     with folder:
         controls = HeadControls(
@@ -89,8 +101,8 @@ def build_controls(gui: PanelGui, source: HeadSource) -> HeadControls:
                 "Source", SOURCES, initial_value=initial,
                 hint="Where the partner's head pose comes from while recording.",
             ),
-            camera_index=gui.add_number("Camera index", index, min=0, max=63, step=1),
-            video_path=gui.add_text("Video file", path, hint="Path on the server."),
+            camera_index=gui.add_number("Camera index", 0, min=0, max=63, step=1),
+            video_path=gui.add_text("Video file", "", hint="Path on the server."),
             connect=gui.add_button("Connect", icon=viser.Icon.PLUG),
             upload=gui.add_upload_button(
                 "Upload a video", icon=viser.Icon.UPLOAD, mime_type="video/*",
@@ -106,6 +118,7 @@ def build_controls(gui: PanelGui, source: HeadSource) -> HeadControls:
                 visible=False,
             ),
         )  # fmt: skip
+    controls.follow(source)
     controls.show_inputs()
     return controls
 
@@ -146,6 +159,7 @@ class HeadSection:
         self.recording = recording
         self.tracks = VideoTracks()
         self._shown_error: tuple[int, str] | None = None
+        self._followed: HeadSource = ctx.head.source  # the source the controls show
         self._next = (0.0, 0.0)  # when the status line and the preview are due
         self.controls = c = build_controls(ctx.gui, ctx.head.source)
         self.video_guard = ctx.guard_upload(c.upload, MAX_VIDEO_BYTES, self._refused)
@@ -252,6 +266,9 @@ class HeadSection:
 
     def step(self, frame: Frame) -> None:
         c, source, error = self.controls, self.ctx.head.source, frame.head_error
+        if source is not self._followed:  # a new source in use, whoever chose it
+            self._followed = source
+            c.follow(source)
         visible = HEAD.name in frame.snapshot.store.layout.names  # a workspace with a head
         if c.folder.visible != visible:
             c.folder.visible = visible

@@ -1,6 +1,6 @@
-"""The Teach tab's Live takes folder: takes recorded from the live streams (LSL).
+"""The Teach tab's Live takes folder: takes recorded from the LSL streams (live).
 
-The live source (started in Infer's *Live streams (LSL)*, which maps the streams and says how a
+The live source (started in Infer's *LSL streams (live)*, which maps the streams and says how a
 movement starts: stillness, a marker stream, or the Begin / End buttons) finds the movements;
 with *Record live movements* on, each one is a take of the primitive chosen above (or of the
 primitive its start marker names): journalled row by row as it comes, saved through the store
@@ -24,6 +24,7 @@ from pathlib import Path
 import viser
 
 from app.core.snapshot import Snapshot
+from app.live.inference import LSL
 from app.live.live_takes import TakeRecorder, recover_takes, save_recorded
 from app.live.lsl_source import Running
 from app.live.take_controller import NO_PRIMITIVE
@@ -36,7 +37,7 @@ __all__ = ["LiveTakeControls", "LiveTakes", "refusal"]
 STATUS_PERIOD_S = 0.2
 KEPT = 4  # the latest outcomes shown
 COLORS = {"green": GREEN, "yellow": ORANGE, "red": RED, "gray": GREY}
-OFF = ("The live source is off: start it in Infer › Live streams (LSL), where its streams, "
+OFF = (f"The live source is off: start it in Infer › Source › {LSL}, where its streams, "
        "their mapping and how movements start are set.")  # fmt: skip
 SMALL = "font-size:0.8em;line-height:1.5;padding-right:14px;box-sizing:border-box"
 
@@ -64,7 +65,7 @@ def refusal(running: Running | None, snapshot: Snapshot) -> str | None:
     missing = [m for m in store.layout.names if m not in running.check.modalities]
     if missing:
         return (f"A take holds every modality of the workspace, and the live source maps no "
-                f"{', '.join(missing)}: map it in Infer › Live streams, then Stop and Start.")
+                f"{', '.join(missing)}: map it in Infer › {LSL}, then Stop and Start.")
     return None
 
 

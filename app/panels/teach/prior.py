@@ -2,7 +2,8 @@
 
 Each chart shows the prior of a new movement of the primitive at its typical speed, shaped by
 its via-points (:func:`app.live.regions.prior_shape`; mean +- 2 sd, in the display units of
-:mod:`app.ui.display`) with the newest demonstration over it, or, while recording, the
+:mod:`app.ui.display`; each via-point marked, :func:`app.ui.via_points.via_marks`) with the
+newest demonstration over it, or, while recording, the
 demonstration being recorded. Drawn from the frame's snapshot, again only when what they show
 changed. The folder also holds the 3D view's tube style
 (:class:`app.ui.tube_style.TubeStyleControl`, shared with Infer's Display folder), a line that
@@ -18,11 +19,13 @@ import numpy as np
 from app.core.snapshot import Snapshot
 from app.live.recorder import Recording
 from app.live.regions import measured_shares, prior_shape
+from app.scene.inference_layer import darker
 from app.scene.tubes import tube_look
 from app.ui.charts import Band, Trace, add_band_chart, band_chart, update_band_chart
 from app.ui.context import PanelContext
 from app.ui.display import quantities
 from app.ui.tube_style import TubeStyleControl, measured_sentence, tube_sentence
+from app.ui.via_points import via_marks
 from promp.data import Layout
 from robots.icub.layout import HAND, HEAD
 
@@ -125,6 +128,8 @@ class PriorCharts:
             self.note.content = f"Band: the prior{shaped}, mean ± 2σ."
         for q, plot in zip(quantities(layout), self.plots, strict=True):
             bands = [] if prediction is None else [Band.from_prediction(prediction, q, name, color)]
+            marks = () if prediction is None else via_marks(
+                shape.via_points, q, layout, prediction.duration, darker(color))  # fmt: skip
             lines = []
             for label, times, columns, line_color in traces:
                 if q.column >= columns.shape[1]:
@@ -136,5 +141,5 @@ class PriorCharts:
             if not bands and not lines:
                 plot.visible = False
                 continue
-            update_band_chart(plot, band_chart(bands, lines), self.ctx.atomic)
+            update_band_chart(plot, band_chart(bands, lines, points=marks), self.ctx.atomic)
             plot.visible = True
