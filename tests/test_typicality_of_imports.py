@@ -29,6 +29,19 @@ def scored(session: Session, timeout: float = 240.0) -> dict:
     return dict(session.snapshot().typicality)
 
 
+def imported(tmp_path: Path) -> Session:
+    """A session that has imported the bad takes as the Data tab does, into
+    ``tmp_path / "imported"``."""
+    upload = extract_dataset_zip(zip_folder(write_bad_takes(tmp_path / "recordings")), "r.zip")
+    try:
+        data, _ = upload.read()
+    finally:
+        upload.close()
+    session = Session.open(tmp_path / "ws", fits=FITS)
+    session.store.switch(tmp_path / "imported", data)
+    return session
+
+
 def every_key(session: Session) -> set:
     return {(p, d.name) for p, items in session.store.state.demos.items() for d in items}
 
@@ -91,14 +104,7 @@ def test_a_dataset_imported_in_the_data_tab_is_scored(tmp_path) -> None:
 
 
 def test_a_takes_score_stays_and_a_new_take_under_a_deleted_name_is_scored_anew(tmp_path):
-    source = write_bad_takes(tmp_path / "recordings")
-    upload = extract_dataset_zip(zip_folder(source), "recordings.zip")
-    try:
-        data, _ = upload.read()
-    finally:
-        upload.close()
-    session = Session.open(tmp_path / "ws", fits=FITS)
-    session.store.switch(tmp_path / "imported", data)
+    session = imported(tmp_path)
     before = scored(session)
     store = session.store
     top = store.state.demos["base_to_top_goal"]
@@ -136,14 +142,7 @@ def test_a_workspace_index_with_malformed_scores_is_refused(tmp_path, entry) -> 
 
 
 def test_the_scores_follow_a_renamed_primitive(tmp_path: Path) -> None:
-    source = write_bad_takes(tmp_path / "recordings")
-    upload = extract_dataset_zip(zip_folder(source), "recordings.zip")
-    try:
-        data, _ = upload.read()
-    finally:
-        upload.close()
-    session = Session.open(tmp_path / "ws", fits=FITS)
-    session.store.switch(tmp_path / "imported", data)
+    session = imported(tmp_path)
     before = scored(session)
     session.store.rename_primitive("base_to_top_goal", "reach_up")
     renamed = {("reach_up" if p == "base_to_top_goal" else p, d): s
