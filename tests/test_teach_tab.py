@@ -760,6 +760,11 @@ def test_sigkill_loses_nothing_recorded_and_restart_restores_the_workspace(
         time.sleep(0.5)
         click(page, "Stop")
         wait_text(page, "Saved curved_020")
+        # the take's typicality kept in studio.json once the learner has given it
+        index = workspace / "studio.json"
+        wait_until(lambda: '"curved_020"' in index.read_text()
+                   and not json.loads(index.read_text())["checks"]["typicality"]["pending"],
+                   timeout=120, what="the take's score kept in studio.json")  # fmt: skip
         saved = _snapshot(workspace)
         assert "demos/curved/curved_020.csv" in saved and len(saved) == 42
         # Killed in the middle of the next recording: nothing half-written appears.
