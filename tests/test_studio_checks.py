@@ -185,3 +185,22 @@ def test_round_trips_and_a_far_start_are_said_in_units_and_left_out_undoably(
         page.get_by_text("record1 · ⚠ left out").wait_for()
     finally:
         page.close()
+
+
+def test_a_rows_label_says_left_out_or_kept_its_score_or_scoring() -> None:
+    """Teach's demonstration rows (GUI logic): a flagged take left out, then kept; an imported
+    one scored, or still being scored."""
+    from app.panels.teach.demos import row_label
+    from promp.typicality import Typicality
+
+    trip = (("round_trip", "hand goes 28.8 cm out and comes 59% of the way back: ..."),)
+    outlier, typical = Typicality(-3.1, 0.0), Typicality(-0.2, 0.64)
+    assert row_label(("record1", "2.1 s", False, outlier, trip, False, False)) == (
+        "record1 · ⚠ left out · ⚠ outlier (0th pct)")  # fmt: skip
+    assert row_label(("record1", "2.1 s", True, outlier, trip, True, False)) == (
+        "record1 · ⚠ kept despite findings · ⚠ outlier (0th pct) · hidden")  # fmt: skip
+    assert row_label(("record5", "2.0 s", False, typical, (), False, False)) == (
+        "record5 · typical (64th pct)")  # fmt: skip
+    assert row_label(("record5", "2.0 s", False, None, (), False, True)) == (
+        "record5 · typicality: scoring...")  # fmt: skip
+    assert row_label(("record5", "2.0 s", False, None, (), False, False)) == "record5"
