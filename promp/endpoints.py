@@ -118,85 +118,90 @@ def endpoint_findings(
     in (:func:`promp.quality.dataset_findings`): those are neither checked nor compared with.
     """
     files = files or {}
-    out: list[Finding] = []
-    positions = [(m, modality) for m, modality in enumerate(layout.modalities)
-                 if is_position(modality)]  # fmt: skip
-    ends = {
-        m: [take_ends(layout.extract(d)[:, layout.dims([modality.name])]) for d in demos]
-        for m, modality in positions
-    }
-    for j, demo in enumerate(demos):
-        file = files.get((primitive, demo.name), "")
-        for m, modality in positions:
-            others = [i for i in range(len(demos)) if i != j and not still[i, m]]
-            if still[j, m] or len(others) < MIN_OTHERS:
-                continue
-            mine, theirs = ends[m][j], [ends[m][i] for i in others]
-            found = [
-                _round_trip(primitive, demo, modality, mine, theirs),
-                _place(primitive, demo, modality, "start", mine, theirs),
-                _place(primitive, demo, modality, "end", mine, theirs),
-            ]
-            out.extend(
-                Finding(primitive, demo.name, kind, time, size, modality.unit, message, file)
-                for kind, time, size, message in (f for f in found if f is not None)
-            )
-    return out
+    found: dict[int, list[Finding]] = {}
+    for m, modality in enumerate(layout.modalities):
+        moving = np.flatnonzero(~np.asarray(still, dtype=bool)[:, m])
+        if not is_position(modality) or moving.size - 1 < MIN_OTHERS:
+            continue
+        dims = layout.dims([modality.name])
+        ends = [take_ends(layout.extract(demos[i])[:, dims]) for i in moving]
+        # every take against the others, all at once: row k holds the others of take k
+        others = np.array([np.delete(np.arange(moving.size), k) for k in range(moving.size)])
+        checks = (_round_trips(ends, others), _places(ends, others, "start"),
+                  _places(ends, others, "end"))  # fmt: skip
+        for k, i in enumerate(moving):
+            demo = demos[i]
+            for check in checks:
+                if (said := check(k, demo, primitive, modality)) is not None:
+                    kind, time, size, message = said
+                    file = files.get((primitive, demo.name), "")
+                    found.setdefault(int(i), []).append(
+                        Finding(primitive, demo.name, kind, time, size, modality.unit, message,
+                                file)  # fmt: skip
+                    )
+    return [f for i in sorted(found) for f in found[i]]
 
 
-def _far_bound(values: np.ndarray) -> float:
-    """Above this, a value is far out among ``values``: :data:`OUTLIER_Z` robust deviations
-    above their median."""
-    return float(np.median(values)) + OUTLIER_Z * float(robust_deviation(values)[0])
+def _far_bounds(values: np.ndarray) -> np.ndarray:
+    """Above these, a value of each row of ``values`` (n, n_others) is far out among that
+    row: :data:`OUTLIER_Z` robust deviations above its median, shape (n,)."""
+    return np.median(values, axis=1) + OUTLIER_Z * robust_deviation(values, axis=1)[:, 0]
 
 
-def _round_trip(
-    primitive: str, demo: Demonstration, modality: Modality, mine: Ends, theirs: list[Ends]
-) -> tuple | None:
-    returned = np.array([e.returned for e in theirs])
-    if not (
-        mine.returned > RETURN_SHARE
-        and float(np.median(returned)) < RETURN_SHARE
-        and mine.returned > _far_bound(returned)
-    ):
-        return None
-    reaches = np.array([e.back for e in theirs if e.returned <= RETURN_SHARE])
-    unit = modality.unit
-    return (
-        "round_trip",
-        float(demo.times[mine.turn] - demo.times[0]),
-        mine.back,
-        f"{modality.name} goes {amount(mine.excursion, unit)} out and comes "
-        f"{mine.returned:.0%} of the way back: it ends {amount(mine.back, unit)} from where it "
-        f"started (a round trip); {primitive}'s other takes end "
-        f"{amount(float(reaches.min()), unit)} to {amount(float(reaches.max()), unit)} from "
-        "their start",
+def _round_trips(ends: list[Ends], others: np.ndarray):
+    """The round trip check of each take against ``others`` (row k: the others of take k): a
+    function of (k, demo, primitive, modality) giving (kind, time, size, message) or None."""
+    returned = np.array([e.returned for e in ends])
+    theirs = returned[others]
+    flagged = (
+        (returned > RETURN_SHARE)
+        & (np.median(theirs, axis=1) < RETURN_SHARE)
+        & (returned > _far_bounds(theirs))
     )
 
+    def said(k: int, demo: Demonstration, primitive: str, modality: Modality) -> tuple | None:
+        if not flagged[k]:
+            return None
+        mine, unit = ends[k], modality.unit
+        reaches = [ends[i].back for i in others[k] if ends[i].returned <= RETURN_SHARE]
+        return (
+            "round_trip",
+            float(demo.times[mine.turn] - demo.times[0]),
+            mine.back,
+            f"{modality.name} goes {amount(mine.excursion, unit)} out and comes "
+            f"{mine.returned:.0%} of the way back: it ends {amount(mine.back, unit)} from where "
+            f"it started (a round trip); {primitive}'s other takes end "
+            f"{amount(min(reaches), unit)} to {amount(max(reaches), unit)} from their start",
+        )
 
-def _place(
-    primitive: str,
-    demo: Demonstration,
-    modality: Modality,
-    which: str,
-    mine: Ends,
-    theirs: list[Ends],
-) -> tuple | None:
-    points = np.array([getattr(e, which) for e in theirs])  # (n_others, k)
-    centre = np.median(points, axis=0)
-    spread = np.linalg.norm(points - centre, axis=1)
-    ordinary = spread[spread <= _far_bound(spread)]  # two far takes cannot hide each other
-    distance = float(np.linalg.norm(getattr(mine, which) - centre))
-    floor = PLACE_SHARE * float(np.median([e.excursion for e in theirs]))
-    if distance <= max(PLACE_FACTOR * float(ordinary.max()), floor):
-        return None
-    unit, verb = modality.unit, "starts" if which == "start" else "ends"
-    time = 0.0 if which == "start" else float(demo.times[-1] - demo.times[0])
-    return (
-        which,
-        time,
-        distance,
-        f"{modality.name} {verb} {amount(distance, unit)} from where {primitive}'s other takes "
-        f"{verb[:-1]} (the median of their {which}s; theirs lie "
-        f"{amount(float(ordinary.min()), unit)} to {amount(float(ordinary.max()), unit)} from it)",
-    )
+    return said
+
+
+def _places(ends: list[Ends], others: np.ndarray, which: str):
+    """The ``which`` ("start" or "end") check of each take against ``others`` (as
+    :func:`_round_trips`)."""
+    points = np.array([getattr(e, which) for e in ends])  # (n, k)
+    theirs = points[others]  # (n, n - 1, k)
+    centre = np.median(theirs, axis=1)  # coordinate by coordinate
+    spread = np.linalg.norm(theirs - centre[:, None], axis=2)  # (n, n - 1)
+    # the others that are not far out themselves: two far takes cannot hide each other
+    ordinary = np.where(spread <= _far_bounds(spread)[:, None], spread, np.nan)
+    distance = np.linalg.norm(points - centre, axis=1)
+    floor = PLACE_SHARE * np.median(np.array([e.excursion for e in ends])[others], axis=1)
+    flagged = distance > np.maximum(PLACE_FACTOR * np.nanmax(ordinary, axis=1), floor)
+
+    def said(k: int, demo: Demonstration, primitive: str, modality: Modality) -> tuple | None:
+        if not flagged[k]:
+            return None
+        unit, verb = modality.unit, "starts" if which == "start" else "ends"
+        low, high = float(np.nanmin(ordinary[k])), float(np.nanmax(ordinary[k]))
+        return (
+            which,
+            0.0 if which == "start" else float(demo.times[-1] - demo.times[0]),
+            float(distance[k]),
+            f"{modality.name} {verb} {amount(float(distance[k]), unit)} from where "
+            f"{primitive}'s other takes {verb[:-1]} (the median of their {which}s; theirs lie "
+            f"{amount(low, unit)} to {amount(high, unit)} from it)",
+        )
+
+    return said
