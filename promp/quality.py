@@ -30,15 +30,19 @@ Checks against the other demonstrations (:func:`dataset_findings`):
 * ``duration``: a duration (without its gaps) more than :data:`DURATION_FACTOR` times beyond
   the longest (or shortest) of its primitive's other demonstrations that are not far out
   themselves: people move at different speeds (3-6x within a class of the lab recordings),
-  a 98 s take among 4 s ones is something else.
+  a 98 s take among 4 s ones is something else;
+* ``round_trip``, ``start``, ``end``: where a take starts and ends in a position modality,
+  against its primitive's other takes (:mod:`promp.endpoints`: a take that comes back to where
+  it started, or starts or ends far from where the others do), in the modalities it moves in.
 
 Sizes and times are written by :mod:`promp.units` (``2.07 mm``, ``24.4 cm``, ``12°``,
 ``0.4 s``), as the studio writes them.
 
 Every threshold is a ratio of the data's own quantities (no unit, no absolute time), so the
 same rule holds for a hand in metres, a head in radians or an EMG in volts. On the three shared
-lab sets and the simulated experiment none of them fires (``tests/test_promp_quality.py``);
-the nearest clean values are given beside each constant.
+lab sets and the simulated experiment none of them fires (``tests/test_promp_quality.py``)
+but three takes that end elsewhere than their class's others (:mod:`promp.endpoints`); the
+nearest clean values are given beside each constant.
 
 Excluding is the caller's choice (:func:`split_flagged`): the evaluation and the studio leave
 flagged demonstrations out of learning by default and say so; the files are never touched.
