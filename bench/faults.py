@@ -174,7 +174,13 @@ def main() -> int:
                     )
                     summary[name]["time_ratio"] = ratio
             clean_findings = results.get("clean", {}).get("findings", [])
-            verdicts.append((f"{name}: nothing flagged in the clean set", not clean_findings))
+            # where a take starts and ends (promp.endpoints) is no fault of the rig: a clean
+            # set may hold a take that ends elsewhere; listed, not a failure
+            placed = [f for f in clean_findings if f["kind"] in ("round_trip", "start", "end")]
+            for f in placed:
+                print(f"{name}, clean: {f['primitive']}/{f['demo']}: {f['message']}")
+            faults = [f for f in clean_findings if f not in placed]
+            verdicts.append((f"{name}: no fault flagged in the clean set", not faults))
             for run in ("faulty", "faulty-included"):
                 if run in results:
                     missed = found_every_fault(results[run], injected)

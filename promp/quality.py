@@ -30,15 +30,19 @@ Checks against the other demonstrations (:func:`dataset_findings`):
 * ``duration``: a duration (without its gaps) more than :data:`DURATION_FACTOR` times beyond
   the longest (or shortest) of its primitive's other demonstrations that are not far out
   themselves: people move at different speeds (3-6x within a class of the lab recordings),
-  a 98 s take among 4 s ones is something else.
+  a 98 s take among 4 s ones is something else;
+* ``round_trip``, ``start``, ``end``: where a take starts and ends in a position modality,
+  against its primitive's other takes (:mod:`promp.endpoints`: a take that comes back to where
+  it started, or starts or ends far from where the others do), in the modalities it moves in.
 
 Sizes and times are written by :mod:`promp.units` (``2.07 mm``, ``24.4 cm``, ``12°``,
 ``0.4 s``), as the studio writes them.
 
 Every threshold is a ratio of the data's own quantities (no unit, no absolute time), so the
 same rule holds for a hand in metres, a head in radians or an EMG in volts. On the three shared
-lab sets and the simulated experiment none of them fires (``tests/test_promp_quality.py``);
-the nearest clean values are given beside each constant.
+lab sets and the simulated experiment none of them fires (``tests/test_promp_quality.py``)
+but three takes that end elsewhere than their class's others (:mod:`promp.endpoints`); the
+nearest clean values are given beside each constant.
 
 Excluding is the caller's choice (:func:`split_flagged`): the evaluation and the studio leave
 flagged demonstrations out of learning by default and say so; the files are never touched.
@@ -50,12 +54,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Iterable, Mapping, Sequence
-from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from promp.data import Demonstration, Layout
+from promp.endpoints import endpoint_findings
+from promp.finding import KINDS, Finding
 from promp.gaps import active_duration, duration_text, gap_steps
+from promp.outliers import MIN_OTHERS, OUTLIER_Z, robust_deviation
 from promp.units import amount, seconds
 
 __all__ = [
@@ -84,79 +90,6 @@ RATE_FACTOR = 3.0
 # Duration: over 2x the longest (or under half the shortest) of the others that are not far
 # out themselves (clean sets: the longest is at most 1.3x the next one).
 DURATION_FACTOR = 2.0
-OUTLIER_Z = 3.5  # robust deviations: Iglewicz and Hoaglin's cut-off for outliers
-MIN_OTHERS = 3  # comparisons with the class need this many other demonstrations
-
-KINDS = ("timestamps", "gap", "jump", "still", "rate", "duration")
-
-
-@dataclass(frozen=True)
-class Finding:
-    """One fault of one demonstration.
-
-    Attributes
-    ----------
-    primitive, demo : str
-        The demonstration (its primitive, and its name there).
-    kind : str
-        One of :data:`KINDS`.
-    time : float or None
-        Seconds after the demonstration's first sample where the fault is; None for the
-        whole demonstration (``still``, ``rate``, ``duration``).
-    size : float
-        How big it is, in ``unit`` (the gap's length, the jump, the extent, the period...).
-    unit : str
-    message : str
-        The finding in words, with its numbers.
-    file : str
-        The file it was read from (relative to the dataset), when known.
-    """
-
-    primitive: str
-    demo: str
-    kind: str
-    time: float | None
-    size: float
-    unit: str
-    message: str
-    file: str = ""
-
-    @property
-    def key(self) -> tuple[str, str]:
-        return (self.primitive, self.demo)
-
-    @property
-    def where(self) -> str:
-        return self.file or f"{self.primitive}/{self.demo}"
-
-    def describe(self) -> str:
-        """One line: the file (or primitive/demo) and the message."""
-        return f"{self.where}: {self.message}"
-
-    def to_json(self) -> dict:
-        return asdict(self)
-
-    @classmethod
-    def from_json(cls, data: Mapping) -> Finding:
-        """The inverse of :meth:`to_json`; ValueError on a malformed entry."""
-        try:
-            time = data["time"]
-            finding = cls(
-                primitive=str(data["primitive"]),
-                demo=str(data["demo"]),
-                kind=str(data["kind"]),
-                time=None if time is None else float(time),
-                size=float(data["size"]),
-                unit=str(data["unit"]),
-                message=str(data["message"]),
-                file=str(data.get("file", "")),
-            )
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ValueError(f"not a finding: {data!r} ({exc})") from None
-        if finding.kind not in KINDS:
-            raise ValueError(f"unknown kind of finding {finding.kind!r}; expected one of {KINDS}")
-        return finding
-
 
 # ------------------------------------------------------------------------------ readers
 
@@ -311,6 +244,8 @@ def dataset_findings(
             ]
         ).reshape(len(demos), len(layout.modalities))
         durations = np.array([active_duration(d) for d in demos])
+        still = _still(extents)
+        placed = by_demo(endpoint_findings(primitive, demos, layout, still, files))
         for j, demo in enumerate(demos):
             file = files.get((primitive, demo.name), "")
             out.extend(demo_findings(demo, layout, primitive, file))
@@ -334,7 +269,7 @@ def dataset_findings(
                 continue
             for m, modality in enumerate(layout.modalities):
                 typical = float(np.median(extents[others, m]))
-                if typical > 0 and extents[j, m] < STILL_SHARE * typical:
+                if still[j, m]:
                     out.append(
                         Finding(
                             primitive,
@@ -355,7 +290,21 @@ def dataset_findings(
             )
             if finding is not None:
                 out.append(finding)
+            out.extend(placed.get((primitive, demo.name), []))
     return out
+
+
+def _still(extents: np.ndarray) -> np.ndarray:
+    """Which takes do not move in which modality, bool of the shape of ``extents`` (n_demos,
+    n_modalities): under :data:`STILL_SHARE` of the median extent of the primitive's other
+    takes (none with fewer than :data:`MIN_OTHERS` others)."""
+    still = np.zeros(extents.shape, dtype=bool)
+    if extents.shape[0] <= MIN_OTHERS:
+        return still
+    for j in range(extents.shape[0]):
+        typical = np.median(np.delete(extents, j, axis=0), axis=0)
+        still[j] = (typical > 0) & (extents[j] < STILL_SHARE * typical)
+    return still
 
 
 def ordinary(logs: np.ndarray) -> np.ndarray:
@@ -366,8 +315,7 @@ def ordinary(logs: np.ndarray) -> np.ndarray:
     deviation). Two far-out takes then cannot hide each other."""
     logs = np.asarray(logs, dtype=float)
     centre = np.median(logs, axis=-1, keepdims=True)
-    spread = np.median(np.abs(logs - centre), axis=-1, keepdims=True) / 0.6745
-    bound = np.maximum(OUTLIER_Z * spread, math.log(DURATION_FACTOR))
+    bound = np.maximum(OUTLIER_Z * robust_deviation(logs), math.log(DURATION_FACTOR))
     return np.abs(logs - centre) <= bound
 
 

@@ -17,11 +17,19 @@ the first ``f`` of the phase for every ``f`` of :data:`COVERAGES` and the best r
 The score ``-d2`` is ranked among the other demonstrations' scores, each computed by a model
 learned without it; ``percentile`` is the share of them that score lower: near 0 means unlike
 all the others.
+
+A new take is scored on its own (:func:`typicality`: its primitive's other demonstrations are
+the references). A whole primitive's demonstrations, imported together, are scored at once
+(:func:`typicalities`): each by the model learned without it, ranked among the others' same
+scores, one fit per demonstration rather than one per pair; a demonstration learning leaves
+out (a flagged one) is scored by the model of all the others and is no one's reference. The
+single form is the batch of the others and the take, the take left out of learning: one piece
+of maths.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,7 +39,10 @@ from promp.fitting import fit_with
 from promp.model import ProMPModel, Settings
 from promp.timing import demo_phases
 
-__all__ = ["COVERAGES", "GRID", "MIN_OTHERS", "Typicality", "distance", "phase_grid", "typicality"]
+__all__ = [
+    "COVERAGES", "GRID", "MIN_OTHERS", "Typicality", "distance", "phase_grid", "typicalities",
+    "typicality",
+]  # fmt: skip
 
 GRID = 50  # points per unit of phase
 COVERAGES = tuple(np.round(np.linspace(0.2, 1.0, 9), 3))  # the share of the movement a take covers
@@ -65,6 +76,29 @@ class Typicality:
         if self.percentile < 0.2:
             return "unusual"
         return "typical"
+
+    def to_json(self) -> dict:
+        return {"score": self.score, "percentile": self.percentile, "coverage": self.coverage}
+
+    @classmethod
+    def from_json(cls, data: Mapping) -> Typicality:
+        """The inverse of :meth:`to_json`; ValueError on a malformed entry."""
+        try:
+            typicality = cls(
+                float(data["score"]), float(data["percentile"]), float(data.get("coverage", 1))
+            )
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise ValueError(f"not a typicality: {data!r} ({exc})") from None
+        if not (
+            np.isfinite(typicality.score)
+            and 0.0 <= typicality.percentile <= 1.0
+            and 0.0 < typicality.coverage <= 1.0
+        ):
+            raise ValueError(
+                f"not a typicality: {data!r} (a finite score, a percentile in [0, 1] and a "
+                "coverage in (0, 1] expected)"
+            )
+        return typicality
 
 
 def phase_grid(
@@ -128,19 +162,49 @@ def typicality(
     demonstrations; ``settings`` fully given, nothing is chosen), ranked among the others each
     scored by a model learned without it; None with fewer than :data:`MIN_OTHERS` others."""
     others = list(others)
-    if len(others) < MIN_OTHERS:
-        return None
+    return typicalities([*others, demo], layout, settings, [True] * len(others) + [False])[-1]
+
+
+def typicalities(
+    demos: Sequence[Demonstration],
+    layout: Layout,
+    settings: Settings,
+    learned: Sequence[bool] | None = None,
+) -> list[Typicality | None]:
+    """The typicality of each of ``demos``, one primitive's demonstrations, in their order
+    (module docstring): each scored by the model learned from the ``learned`` others
+    (``learned``: which of ``demos`` learning uses, all by default), ranked among the learned
+    others' scores by a model learned without each; None where there are fewer than
+    :data:`MIN_OTHERS` such others or the model cannot be learned. ``settings`` fully given,
+    nothing is chosen."""
+    demos = list(demos)
+    learned = [True] * len(demos) if learned is None else [bool(k) for k in learned]
+    if len(learned) != len(demos):
+        raise ValueError(f"{len(learned)} learned flags for {len(demos)} demonstrations")
+    taught = [i for i, k in enumerate(learned) if k]
+    if len(taught) < MIN_OTHERS or (all(learned) and len(taught) <= MIN_OTHERS):
+        return [None] * len(demos)
     settings = settings.with_fallback()
-    dt = sample_period_of(others)
+    dt = sample_period_of([demos[i] for i in taught])
+
+    def model_without(left_out: int | None) -> ProMPModel:
+        rest = {"primitive": [demos[i] for i in taught if i != left_out]}
+        return fit_with(rest, layout, settings, dt, alpha_models=False)
+
     try:
-        model = fit_with({"primitive": others}, layout, settings, dt, alpha_models=False)
+        # each learned one by the model of the other learned ones: the references
+        scored = {i: distance(model_without(i), demos[i]) for i in taught}
+        if not all(learned):  # the others by the model of every learned one
+            model = model_without(None)
+            scored |= {i: distance(model, d) for i, d in enumerate(demos) if not learned[i]}
     except (ValueError, np.linalg.LinAlgError):
-        return None
-    d2, coverage = distance(model, demo)
-    references = []
-    for i, other in enumerate(others):
-        rest = others[:i] + others[i + 1 :]
-        held_out = fit_with({"primitive": rest}, layout, settings, dt, alpha_models=False)
-        references.append(-distance(held_out, other)[0])
-    percentile = float(np.mean(np.array(references) < -d2))
-    return Typicality(-d2, percentile, coverage)
+        return [None] * len(demos)
+    out: list[Typicality | None] = []
+    for i in range(len(demos)):
+        references = np.array([-scored[j][0] for j in taught if j != i])
+        if references.size < MIN_OTHERS:
+            out.append(None)
+            continue
+        d2, coverage = scored[i]
+        out.append(Typicality(-d2, float(np.mean(references < -d2)), coverage))
+    return out

@@ -297,6 +297,11 @@ def workspace_zip_cases(
     yield "not UTF-8 studio.json", zip_of({**valid, index_name: b"\xff\xfe" + valid[index_name]}), (
         "utf-8"
     )
+    score = {"primitive": "a", "demo": "d", "score": -0.3, "percentile": 1.5, "coverage": 1.0}
+    yield "studio.json typicality 150th pct", zip_of({**valid, index_name: _json(
+        {**index, "checks": {"typicality": {"given": [score]}}})}), "percentile"  # fmt: skip
+    yield "studio.json typicality not a list", zip_of({**valid, index_name: _json(
+        {**index, "checks": {"typicality": {"pending": "a/d"}}})}), "pending"  # fmt: skip
 
 
 def dataset_zip_cases(make_csv: Callable[[int], bytes], record: bytes) -> Iterator[Case]:

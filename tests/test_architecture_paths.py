@@ -126,18 +126,16 @@ def test_one_take_calls_the_documented_path(traced) -> None:
                timeout=120, what="the priors drawn")  # fmt: skip
     before = np.array(tubes["curved"].vertices)
     n_before = len(store.state.demos["curved"])
-    record.press()  # Record
-    wait_until(lambda: record.take is not None and record.takes.recording() is not None
-               and record.takes.recording().n_samples > 5, what="a recording")  # fmt: skip
-    start = studio.arm.hand_position()
-    # 12 cm up in 7.5 mm steps, the simulated partner looking at the hand itself (not 0.6 s
-    # ahead of it) and turned to it, within half a step, before the hand's next step. The
-    # recorder holds the head's last reading while the loop is late, so on a busy machine a
-    # gaze swung ahead by one step (a third of the head's extent on a 6 cm take) could be
-    # recorded as one step, which the checks rightly take for a glitch and leave the take out
-    # (the prior is then never redrawn). This way no head step exceeds 1.5 / 16 of the head's
-    # extent (the checks: 1 / 5), however late the loop; the head moves ~7 degrees (the
-    # checks call a head still under a tenth of the other takes' ~36), in ~3 s (theirs).
+    # A curved take: the hand along curved_000's path, from its start to its end (a take that
+    # starts or ends elsewhere is flagged and left out, and the prior is never redrawn), in
+    # 16 steps, the simulated partner looking at the hand itself (not 0.6 s ahead of it) and
+    # turned to it, within half a step, before the hand's next step. The recorder holds the
+    # head's last reading while the loop is late, so on a busy machine a gaze swung ahead by
+    # one step could be recorded as one step, which the checks rightly take for a glitch and
+    # leave the take out. This way no head step exceeds 1.5 / 16 of the head's extent (the
+    # checks: 1 / 5), however late the loop.
+    hand = store.state.demos["curved"][0].select(("x", "y", "z"))
+    path = hand[np.linspace(0, len(hand) - 1, 17).round().astype(int)]
     partner = studio.head.source
     lead, partner.lead_s = partner.lead_s, 0.0
 
@@ -148,10 +146,14 @@ def test_one_take_calls_the_documented_path(traced) -> None:
                     and angles is not None and np.abs(angles - looking).max() < 3.5e-3)
 
     try:
-        for k in range(1, 17):
-            target = start + [0.0, 0.0, 0.0075 * k]
+        studio.loop.call(lambda: studio.arm.move_hand_to(path[0]))
+        wait_until(lambda: turned(path[0]), what="the hand at curved's start, the head turned")
+        record.press()  # Record
+        wait_until(lambda: record.take is not None and record.takes.recording() is not None
+                   and record.takes.recording().n_samples > 5, what="a recording")  # fmt: skip
+        for target in path[1:]:
             studio.loop.call(lambda t=target: studio.arm.move_hand_to(t))
-            wait_until(lambda t=target: turned(t), what="the hand moved up, the head turned")
+            wait_until(lambda t=target: turned(t), what="the hand moved on, the head turned")
     finally:
         partner.lead_s = lead
     wait_until(lambda: record.takes.recording().duration > 3.0,  # as long as the others

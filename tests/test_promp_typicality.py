@@ -10,7 +10,7 @@ import pytest
 
 from promp.data import Demonstration
 from promp.model import Settings
-from promp.typicality import typicality
+from promp.typicality import Typicality, typicalities, typicality
 
 SETTINGS = Settings(n_basis=7, width=1.0, noise_scale=1.5)
 HAND = [0, 1, 2]  # x, y, z in the studio's columns
@@ -82,3 +82,45 @@ def test_typicality_needs_three_others(curved) -> None:
     from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 
     assert typicality(curved[0], curved[1:3], LAYOUT, SETTINGS) is None
+
+
+def test_a_primitive_scored_at_once_is_scored_as_each_take_would_be(curved) -> None:
+    """An import's demonstrations are scored together (one fit per demonstration): each by
+    the model of the others, as a take would be, ranked among the others' own such scores;
+    one left out of learning (flagged) is scored by the model of all the others and is no
+    one's reference."""
+    from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
+
+    demos = [*curved[:8], shifted(curved[8], 0.08)]
+    learned = [True] * 8 + [False]
+    batch = typicalities(demos, LAYOUT, SETTINGS, learned)
+    for i in (0, 4):  # a learned one: the take's score against the 7 other learned ones
+        alone = typicality(demos[i], [d for j, d in enumerate(demos[:8]) if j != i], LAYOUT,
+                           SETTINGS)  # fmt: skip
+        assert batch[i].score == pytest.approx(alone.score, rel=1e-9)
+        assert batch[i].coverage == alone.coverage
+    # the flagged one: exactly what typicality() says of it against the learned ones
+    assert batch[8] == typicality(demos[8], demos[:8], LAYOUT, SETTINGS)
+    assert batch[8].label == "outlier" and batch[8].percentile == 0.0
+    # each learned one ranked among the 7 others: its rank
+    assert sorted(t.percentile for t in batch[:8]) == pytest.approx([k / 7 for k in range(8)])
+    # learned by everyone, the shifted one drags the references of the others: it is still
+    # the least typical of all
+    everyone = typicalities(demos, LAYOUT, SETTINGS)
+    assert min(range(9), key=lambda i: everyone[i].score) == 8
+    assert everyone[8].percentile == 0.0
+    # three others at least, as for a take
+    assert typicalities(demos[:3], LAYOUT, SETTINGS) == [None] * 3
+    assert None not in typicalities(demos[:4], LAYOUT, SETTINGS)
+    assert typicalities(demos[:4], LAYOUT, SETTINGS, [True, True, False, False]) == [None] * 4
+    assert typicalities(demos[:4], LAYOUT, SETTINGS, [True, True, True, False])[3] is not None
+
+
+def test_a_typicality_reads_back_from_json_and_refuses_nonsense() -> None:
+    given = Typicality(-0.31, 0.64, 0.9)
+    assert Typicality.from_json(given.to_json()) == given
+    for bad in ({"score": "x", "percentile": 0.5}, {"percentile": 0.5},
+                {"score": 0.0, "percentile": 1.5}, {"score": float("nan"), "percentile": 0.5},
+                {"score": 0.0, "percentile": 0.5, "coverage": 0}, []):  # fmt: skip
+        with pytest.raises(ValueError, match="not a typicality"):
+            Typicality.from_json(bad)

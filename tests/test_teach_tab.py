@@ -24,6 +24,7 @@ from app.panels.teach.head import MAX_VIDEO_BYTES
 from app.studio import default_workspace
 from app.ui.charts import Band, Trace, band_chart, y_range
 from promp.datasets import read_csv_demo
+from promp.units import amount
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
 from tests.browser import (
     close_notifications,
@@ -412,6 +413,12 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, page, artifacts) ->
     on_disk = read_csv_demo(path)
     np.testing.assert_allclose(on_disk.select(demo.columns), demo.values, atol=1e-9)
     tubes = studio.scene.workspace.tubes
+    # Straight up, where curved's takes go to the bin: flagged for where it ends, said in
+    # centimetres, left out of learning (the prior unchanged) until kept.
+    end = next(f for f in store(studio).findings_of(*key) if f.kind == "end")
+    wait_text(page, f"hand ends {amount(end.size, 'm')} from where curved's other takes end")
+    assert key in store(studio).left_out and "⚠ left out" in row(page, "curved_020").inner_text()
+    row(page, "curved_020").get_by_role("button", name="Keep").dispatch_event("click")
 
     def why() -> str:
         state = store(studio)
@@ -423,6 +430,8 @@ def test_record_a_demonstration_by_dragging_the_hand(studio, page, artifacts) ->
     wait_until(
         lambda: not np.allclose(np.array(tubes["curved"].vertices), tube_before), what=why
     )
+    assert key not in store(studio).left_out and "kept despite findings" in row(
+        page, "curved_020").inner_text()  # fmt: skip
 
 
 @pytest.mark.browser
@@ -802,6 +811,11 @@ def test_sigkill_loses_nothing_recorded_and_restart_restores_the_workspace(
         time.sleep(0.5)
         click(page, "Stop")
         wait_text(page, "Saved curved_020")
+        # the take's typicality kept in studio.json once the learner has given it
+        index = workspace / "studio.json"
+        wait_until(lambda: '"curved_020"' in index.read_text()
+                   and not json.loads(index.read_text())["checks"]["typicality"]["pending"],
+                   timeout=120, what="the take's score kept in studio.json")  # fmt: skip
         saved = _snapshot(workspace)
         assert "demos/curved/curved_020.csv" in saved and len(saved) == 42
         # Killed in the middle of the next recording: nothing half-written appears.

@@ -3,11 +3,14 @@
 One :class:`Learner` per studio, with one worker thread, so that nothing slow runs on the
 studio's loop. It follows the store (:meth:`Learner.follow`, a listener of
 :class:`app.core.store.Store`): a change of what is learned from asks for a refit, a new take
-asks for its typicality. The scores are the learner's (:attr:`LearnerState.scores`, by the
-demonstration scored): nothing goes back into the store. The worker takes the most urgent job
+asks for its typicality, and so do an import's demonstrations (pending in the workspace). The
+scores are published in the learner's state (:attr:`LearnerState.scores`, by the demonstration
+scored), then handed to whoever listens (:meth:`Learner.on_scored`: the session's store keeps
+them in the workspace). The worker takes the most urgent job
 first: the refit of the latest change (a newer request supersedes one in flight, whose result
-is then dropped), then the takes' scores (queued by :class:`app.core.take_scores.TakeScores`),
-then the held-out model the Infer tab inspects, fitted with the settings the refit resolved.
+is then dropped), then the takes' scores, then the held-out model the Infer tab inspects,
+fitted with the settings the refit resolved, then the pending demonstrations' scores, a
+primitive at a time (both queued by :class:`app.core.scorings.Scorings`).
 Each outcome is published as a new :class:`app.core.learner_state.LearnerState` (readers take
 :attr:`Learner.state`, lock-free), stamped with the
 store's ``learn_version`` it answers: meanwhile the previous model stays in use (and drawn),
@@ -23,14 +26,15 @@ from __future__ import annotations
 
 import threading
 import traceback
+from collections.abc import Callable
 from dataclasses import replace
 from types import MappingProxyType
 
 from app.core.fits import FitCache, Fitted, Training, held_out_training
 from app.core.learner_state import HeldOutKey, LearnerState, resolved_settings
+from app.core.scorings import Scorings
 from app.core.store_state import StoreState
-from app.core.take_scores import TakeScores
-from promp.data import Demonstration
+from app.core.take_scores import Scored
 from promp.model import Settings
 
 REFIT_TIMEOUT_S = 120.0
@@ -54,7 +58,7 @@ class Learner:
         self._state = LearnerState()
         self._wake = threading.Condition()
         self._refit: tuple[int, int, Training, bool] | None = None  # (request, version, ...)
-        self._takes = TakeScores()  # the takes' scorings asked for
+        self._scorings = Scorings()  # the takes' and pending demonstrations' scorings
         self._held_out: tuple[HeldOutKey, Training] | None = None  # asked for
         self._fitting: HeldOutKey | None = None  # the held-out model being fitted
         self._asked = (-1, 0)  # (learn_version, request) of the latest refit asked for
@@ -82,9 +86,10 @@ class Learner:
                 if model is not None and model.layout != store.layout:
                     self._publish(model=None, settings=None)  # another workspace's: nothing
                 self._refit = (request, store.learn_version, self._training(store), reuse)
-            takes = self._takes.ask(store, self._state.model, self._state.scores)
-            if set(self._state.scores) - set(takes):  # the scores of takes no longer there go
-                kept = {i: s for i, s in self._state.scores.items() if i in takes}
+            self._scorings.ask(store, self._state.model, self._state.scores)
+            held = {id(d) for items in store.demos.values() for d in items}
+            if set(self._state.scores) - held:  # the scores of those no longer there go
+                kept = {i: s for i, s in self._state.scores.items() if i in held}
                 self._publish(scores=MappingProxyType(kept))
             self._wake.notify_all()
             return request
@@ -117,6 +122,11 @@ class Learner:
                 self._held_out = (key, training)
                 self._wake.notify_all()
         return None
+
+    def on_scored(self, callback: Callable[[Scored], None]) -> None:
+        """Call ``callback(scored)`` with every typicality given, once published (from the
+        worker, no lock held)."""
+        self._scorings.on_scored(callback)
 
     def wait(self, request: int, timeout: float = REFIT_TIMEOUT_S) -> LearnerState:
         """The state once it answers refit ``request`` (or a later one).
@@ -151,20 +161,22 @@ class Learner:
         return Training(trainable, store.layout, store.learning_settings(), previous)
 
     def _work(self) -> None:
+        scorings = self._scorings
         while True:
             with self._wake:
-                self._wake.wait_for(
-                    lambda: self._closed or self._refit or self._takes or self._held_out
-                )
+                self._wake.wait_for(lambda: self._closed or self._refit or scorings.takes
+                                    or self._held_out or scorings.pending)  # fmt: skip
                 if self._closed:
                     return
                 if self._refit is not None:
                     run, job, self._refit = self._run_refit, self._refit, None
-                elif self._takes:
-                    run, job = self._run_score, self._takes.next()
-                else:
+                elif scorings.takes:
+                    run, job = self._run_scoring, (scorings.takes, scorings.takes.next())
+                elif self._held_out is not None:
                     run, job, self._held_out = self._run_held_out, self._held_out, None
                     self._fitting = job[0]
+                else:
+                    run, job = self._run_scoring, (scorings.pending, scorings.pending.next())
             try:
                 run(*job)
             except Exception:  # a bug in one job must not end the worker
@@ -181,13 +193,16 @@ class Learner:
                 settings=resolved_settings(training.settings, training.layout, fitted.model),
             )  # fmt: skip
 
-    def _run_score(self, primitive: str, demo: Demonstration, score) -> None:
-        typicality = score()
+    def _run_scoring(self, queue, job) -> None:
+        """Run a take's or a primitive's scoring (``job`` of ``queue``), with the latest model
+        (the refit of a change comes first); publish, then tell the listeners."""
+        scored = job.run(self._state.model)
         with self._wake:
-            self._takes.done(demo)
+            queue.done(job)
             scores = dict(self._state.scores)
-            scores[id(demo)] = (demo, typicality)
+            scores.update({id(demo): (demo, typicality) for _, demo, typicality in scored})
             self._publish(scores=MappingProxyType(scores))
+        self._scorings.tell(scored)
 
     def _run_held_out(self, key: HeldOutKey, training: Training) -> None:
         fitted = self.fits.fit(training)

@@ -32,6 +32,7 @@ class Session:
         self.learner = Learner(fits if fits is not None else FitCache())
         self.view = View()
         store.on_change(self.learner.follow)
+        self.learner.on_scored(store.keep_scores)  # the scores kept in the workspace
         self.wait_for_model()
 
     @classmethod

@@ -54,14 +54,18 @@ class Snapshot:
 
     @cached_property
     def typicality(self) -> Mapping[Key, Typicality]:
-        """The scores of this run's takes that the learner has given (of these very
-        demonstrations: a take recorded again under a name is scored anew), by key."""
-        scores, out = self.learner.scores, {}
-        for primitive, name in self.store.takes:
-            demo = self._demo(primitive, name)
-            entry = scores.get(id(demo)) if demo is not None else None
-            if entry is not None and entry[0] is demo and entry[1] is not None:
-                out[(primitive, name)] = entry[1]
+        """The demonstrations' scores, by key: those the learner has given in this run (of
+        these very demonstrations: a take recorded again under a name is scored anew), else
+        those the workspace keeps (:mod:`app.io.demo_scores`)."""
+        scores, kept, out = self.learner.scores, self.store.checks.scores.given, {}
+        for primitive, demos in self.store.demos.items():
+            for demo in demos:
+                key, entry = (primitive, demo.name), scores.get(id(demo))
+                if entry is not None and entry[0] is demo:
+                    if entry[1] is not None:
+                        out[key] = entry[1]
+                elif key in kept:
+                    out[key] = kept[key]
         return MappingProxyType(out)
 
     @cached_property

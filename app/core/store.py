@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from types import MappingProxyType
@@ -35,6 +35,8 @@ from app.core.store_state import (
     frozen_demos,
     next_demo_name,
     save_index,
+    to_score,
+    with_scores,
 )
 from app.io.dataset_import import safe_name
 from app.io.runs_folder import RUN_KIND, trash_run
@@ -44,6 +46,7 @@ from app.io.workspace_index import PALETTE, PrimitiveEntry, check_color, check_n
 from promp.data import Demonstration
 from promp.gaps import repair_gaps
 from promp.model import FALLBACK, Settings
+from promp.typicality import Typicality
 
 KEEP = object()  # Store.set_learning: leave a setting as it is
 
@@ -184,7 +187,8 @@ class Store:
     ) -> Demonstration:
         """Store a new demonstration (times (n,), values (n, D) in the layout's column order):
         written to disk before it joins the workspace, one of :attr:`StoreState.takes` (the
-        learner scores it). ``raw``, the (times, values) of the take it
+        learner scores it; until then it is pending, :mod:`app.io.demo_scores`). ``raw``,
+        the (times, values) of the take it
         was trimmed from, is kept in the workspace's ``raw/`` folder (named after the
         demonstration and the time). Returns the demonstration (with its name)."""
         with self._lock:
@@ -206,7 +210,9 @@ class Store:
                 state,
                 demos=frozen_demos({**state.demos, primitive: (*state.demos[primitive], demo)}),
                 takes=state.takes | {(primitive, name)},
+                checks=to_score(state, {(primitive, name)}),
             )
+            save_index(after)
             self._publish(after)
             return demo
 
@@ -332,8 +338,22 @@ class Store:
             for part in made:
                 state.workspace.write_demo(primitive, part, state.layout)
             demos = {**state.demos, primitive: (*state.demos[primitive], *made)}
-            self._publish(replace(state, demos=frozen_demos(demos)))
+            after = replace(state, demos=frozen_demos(demos),
+                            checks=to_score(state, {(primitive, part.name) for part in made}))
+            save_index(after)
+            self._publish(after)
             return made
+
+    def keep_scores(self, scored: Sequence[tuple[str, Demonstration, Typicality | None]]) -> None:
+        """Keep the typicality the learner gave (primitive, the demonstration scored, its score
+        or None: too few others) in the workspace's index, for the demonstrations the workspace
+        still holds (these very ones: one recorded again under the name is another)."""
+        with self._lock:
+            after = with_scores(self._state, scored)
+            if after is None:
+                return
+            save_index(after)
+            self._publish(after, learn=False, recheck=False)
 
     # ------------------------------------------------------------------ whole workspaces
 

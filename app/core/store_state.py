@@ -4,7 +4,7 @@ state from another."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields, replace
 from functools import cached_property
 from types import MappingProxyType
@@ -17,6 +17,7 @@ from app.io.workspace_index import PrimitiveEntry
 from promp.data import Demonstration, Layout
 from promp.model import Settings
 from promp.quality import Finding, split_flagged
+from promp.typicality import Typicality
 
 Key = tuple[str, str]  # (primitive, demonstration)
 
@@ -182,3 +183,24 @@ def after_trashing(state: StoreState, entry: TrashEntry) -> StoreState:
         trash=tuple(state.workspace.trash.entries()),
         takes=state.takes & keys,
     )
+
+
+def to_score(state: StoreState, keys: set[Key]) -> DemoChecks:
+    """``state``'s checks with ``keys``, new demonstrations, to score (:mod:`app.io.demo_scores`:
+    a score given before to their names goes)."""
+    return state.checks.with_scores(state.checks.scores.asked(keys))
+
+
+def with_scores(
+    state: StoreState, scored: Sequence[tuple[str, Demonstration, Typicality | None]]
+) -> StoreState | None:
+    """``state`` keeping the typicality the learner gave (primitive, the demonstration scored,
+    its score or None: too few others) to the demonstrations it still holds (these very ones:
+    one recorded again under the name is another); None when that changes nothing."""
+    held = {(p, d.name): d for p, items in state.demos.items() for d in items}
+    given = {(p, demo.name): score for p, demo, score in scored
+             if held.get((p, demo.name)) is demo}  # fmt: skip
+    scores = state.checks.scores.scored(given)
+    if not given or scores == state.checks.scores:
+        return None
+    return replace(state, checks=state.checks.with_scores(scores))

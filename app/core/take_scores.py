@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable, Collection
+from dataclasses import dataclass
 
 from app.core.learner_state import resolved_settings
 from app.core.store_state import StoreState
@@ -19,8 +20,25 @@ from promp.data import Demonstration
 from promp.model import ProMPModel
 from promp.typicality import Typicality, typicality
 
-# (primitive, the take, its scoring)
-ScoreJob = tuple[str, Demonstration, Callable[[], "Typicality | None"]]
+# (primitive, the demonstration scored, its typicality or None: too few others)
+Scored = list[tuple[str, Demonstration, Typicality | None]]
+
+
+@dataclass(frozen=True, eq=False)
+class TakeJob:
+    """The scoring of one take."""
+
+    primitive: str
+    demo: Demonstration
+    scoring: Callable[[], Typicality | None]
+
+    @property
+    def scored(self) -> tuple[Demonstration, ...]:
+        return (self.demo,)
+
+    def run(self, model: ProMPModel | None) -> Scored:
+        """Its score (with the settings chosen when it was asked for: ``model`` unused)."""
+        return [(self.primitive, self.demo, self.scoring())]
 
 
 def take_scoring(
@@ -42,32 +60,27 @@ class TakeScores:
     its owner's lock guards it."""
 
     def __init__(self) -> None:
-        self._jobs: deque[ScoreJob] = deque()
+        self._jobs: deque[TakeJob] = deque()
         self._queued: set[int] = set()  # ids of the takes whose score is asked for
 
     def __bool__(self) -> bool:
         return bool(self._jobs)
 
-    def ask(
-        self, store: StoreState, model: ProMPModel | None, scored: Collection[int]
-    ) -> dict[int, Demonstration]:
+    def ask(self, store: StoreState, model: ProMPModel | None, scored: Collection[int]) -> None:
         """Queue the scoring of every take of ``store`` neither ``scored`` (ids) nor queued
-        already, with the settings ``model`` chose; returns the takes ``store`` holds, by id."""
-        takes = {}
+        already, with the settings ``model`` chose."""
         for key in sorted(store.takes):
             if (found := take_scoring(store, *key, model)) is None:
                 continue  # gone from the workspace (a state that kept its key)
             demo, scoring = found
-            takes[id(demo)] = demo
             if id(demo) not in self._queued and id(demo) not in scored:
                 self._queued.add(id(demo))  # the same name may come back anew: by id
-                self._jobs.append((key[0], demo, scoring))
-        return takes
+                self._jobs.append(TakeJob(key[0], demo, scoring))
 
-    def next(self) -> ScoreJob:
+    def next(self) -> TakeJob:
         """The oldest scoring asked for (:meth:`done` once it has run)."""
         return self._jobs.popleft()
 
-    def done(self, demo: Demonstration) -> None:
-        """``demo``'s scoring has run: it may be asked for again (when its score is dropped)."""
-        self._queued.discard(id(demo))
+    def done(self, job: TakeJob) -> None:
+        """``job`` has run: its take may be asked for again (when its score is dropped)."""
+        self._queued.discard(id(job.demo))

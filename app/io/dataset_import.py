@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
 from app.io.demo_checks import DemoChecks
+from app.io.demo_scores import DemoScores
 from app.io.hand_frame import HandFrame
 from app.io.workspace import WorkspaceData
 from app.io.workspace_index import PALETTE, PrimitiveEntry, check_layout
@@ -83,7 +84,8 @@ class DatasetSummary:
         """The checks' findings in words: a headline, then one line per finding (at most
         ``limit``, then how many more)."""
         if not self.findings:
-            return ["Checks: nothing found (no gap, jump, still take, odd rate or duration)."]
+            return ["Checks: nothing found (no gap, jump, still take, odd rate or duration, "
+                    "round trip, nor start or end far from the others')."]
         flagged = {f.key for f in self.findings}
         lines = [
             f"Checks: {len(self.findings)} finding(s) in {len(flagged)} demonstration(s); "
@@ -156,7 +158,8 @@ def dataset_to_workspace(
     """The workspace holding ``dataset`` with ``layout`` (names made safe, colours assigned),
     and the readers' ``findings`` (:func:`promp.datasets.read_dataset`) that cannot be found
     again from the stored files (samples set aside for their timestamps), under the new names
-    (``data.checks.imported``).
+    (``data.checks.imported``); every demonstration is to be scored for typicality
+    (``data.checks.scores.pending``, :mod:`app.io.demo_scores`).
 
     Raises
     ------
@@ -196,12 +199,13 @@ def dataset_to_workspace(
         for f in findings
         if f.kind == "timestamps" and f.key in renamed
     )
+    to_score = DemoScores(pending=frozenset(renamed.values()))
     return WorkspaceData(
         primitives=primitives,
         demos=demos,
         settings={},
         layout=layout,
-        checks=DemoChecks(imported=imported),
+        checks=DemoChecks(imported=imported, scores=to_score),
     )
 
 

@@ -5,10 +5,12 @@ A demonstration with a finding (a gap, a jump, one that does not move, a rate or
 from its primitive's others) is left out of learning by default; the user may keep it (one
 click in the Teach tab). That choice, and the findings of the import that cannot be found again
 from the stored files (samples set aside because their timestamps did not increase), are stored
-in the workspace's ``studio.json`` under ``"checks"``::
+in the workspace's ``studio.json`` under ``"checks"``, with the demonstrations' typicality
+(:mod:`app.io.demo_scores`)::
 
     "checks": {"kept": [["reach", "person1_record3"]],
-               "imported": [{"primitive": "reach", "demo": "...", "kind": "timestamps", ...}]}
+               "imported": [{"primitive": "reach", "demo": "...", "kind": "timestamps", ...}],
+               "typicality": {"given": [...], "pending": [...]}}
 
 Leaving a demonstration out never touches its file. The other findings are computed again from
 the demonstrations whenever they change (a few milliseconds for a hundred of them).
@@ -20,25 +22,31 @@ import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from app.io.demo_scores import DemoScores
 from promp.data import Demonstration, Layout
 from promp.quality import Finding, dataset_findings
 
 
 @dataclass(frozen=True)
 class DemoChecks:
-    """The user's choices and the import's findings (see the module docstring)."""
+    """The user's choices, the import's findings and the typicality scores (see the module
+    docstring)."""
 
     kept: frozenset[tuple[str, str]] = field(default_factory=frozenset)
     imported: tuple[Finding, ...] = ()
+    scores: DemoScores = DemoScores()
 
     def __bool__(self) -> bool:
-        return bool(self.kept or self.imported)
+        return bool(self.kept or self.imported or self.scores)
 
     def to_json(self) -> dict:
-        return {
+        out = {
             "kept": sorted([p, d] for p, d in self.kept),
             "imported": [f.to_json() for f in self.imported],
         }
+        if self.scores:
+            out["typicality"] = self.scores.to_json()
+        return out
 
     @classmethod
     def from_json(cls, data: object, label: str) -> DemoChecks:
@@ -58,7 +66,11 @@ class DemoChecks:
             findings = tuple(Finding.from_json(f) for f in imported)
         except ValueError as exc:
             raise ValueError(f"{label}: {exc}") from None
-        return cls(frozenset((p, d) for p, d in kept), findings)
+        scores = DemoScores.from_json(data.get("typicality", {}), label)
+        return cls(frozenset((p, d) for p, d in kept), findings, scores)
+
+    def with_scores(self, scores: DemoScores) -> DemoChecks:
+        return dataclasses.replace(self, scores=scores)
 
     def keep(self, primitive: str, demo: str, kept: bool) -> DemoChecks:
         key = (primitive, demo)
@@ -72,6 +84,7 @@ class DemoChecks:
                 dataclasses.replace(f, primitive=new) if f.primitive == old else f
                 for f in self.imported
             ),
+            self.scores.renamed(old, new),
         )
 
     def findings(

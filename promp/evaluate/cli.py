@@ -27,9 +27,10 @@ every other demonstration): a quick run, the same for every method.
 
 Before the sweep, every demonstration is checked (:mod:`promp.quality`: timestamps that do
 not increase, gaps, jumps, a demonstration that does not move, a rate or a duration far from the
-others'); what is found is printed with the file, the time and the size, and the flagged
-demonstrations are left out of the sweep (neither learned from nor tested) unless
-``--include-flagged``. ``--repair-gaps cut|split`` repairs the gaps first (never by default).
+others', a round trip, a start or an end far from the others'); what is found is printed with
+the file, the time and the size, and the flagged demonstrations are left out of the sweep
+(neither learned from nor tested) unless ``--include-flagged``. ``--repair-gaps cut|split``
+repairs the gaps first (never by default).
 
 ``--method`` takes several methods: they run on the same folds, trials and settings, and the
 tables, the report and the run hold a row per method (:mod:`promp.evaluate.registry`); the

@@ -1,15 +1,17 @@
 """The Teach tab's Demonstrations folder: the selected primitive's demonstrations, newest first.
 
-Each row shows a demonstration's typicality (how a take compares with the primitive's others,
-scored by the learner) and offers Hide/Show (:meth:`app.core.view_state.View.set_hidden`: its
-line in the 3D view) and Delete, after a confirmation (:meth:`app.core.store.Store.delete_demo`:
-to the workspace's trash). *Undo delete* brings back the latest deletion
-(:meth:`app.core.store.Store.undo_delete`). The list is drawn from the frame's snapshot, again
-only when what it shows changed.
+Each row shows a demonstration's typicality (how it compares with the primitive's others,
+scored by the learner: a take when recorded, an import's demonstrations once imported, "scoring"
+until then; :mod:`app.io.demo_scores`) and offers Hide/Show
+(:meth:`app.core.view_state.View.set_hidden`: its line in the 3D view) and Delete, after a
+confirmation (:meth:`app.core.store.Store.delete_demo`: to the workspace's trash). *Undo delete*
+brings back the latest deletion (:meth:`app.core.store.Store.undo_delete`). The list is drawn
+from the frame's snapshot, again only when what it shows changed.
 
 A demonstration the checks flag (:mod:`promp.quality`: a gap, a jump, one that does not move, a
-rate or a duration far from the others') is marked "left out" and listed above the rows with
-what was found, where and how big; its row offers *Keep* (learn from it anyway) and, once kept,
+rate or a duration far from the others'; :mod:`promp.endpoints`: a round trip, a start or an end
+far from the others') is marked "left out" and listed above the rows with what was found, where
+and how big (in the modality's units); its row offers *Keep* (learn from it anyway) and, once kept,
 *Leave out* (:meth:`app.core.store.Store.set_kept`); one with a gap in its timestamps offers
 *Repair gap* (cut at the gap, or split: new demonstrations beside it). Its file is never
 touched.
@@ -37,6 +39,22 @@ def typicality_text(typicality: Typicality | None) -> str:
     if typicality is None:
         return ""
     return f"{typicality.label} ({100 * typicality.percentile:.0f}th pct)"
+
+
+def row_label(row) -> str:
+    """A demonstration's row label (``row`` as :meth:`DemoList.show` builds it): its name,
+    whether it is left out (or kept despite its findings), its typicality (or that it is being
+    scored), whether it is hidden; e.g. ``record1 · ⚠ left out · ⚠ outlier (0th pct)``."""
+    demo_name, _, hidden, typicality, findings, kept, pending = row
+    label = demo_name
+    if findings:
+        label += " · ⚠ kept despite findings" if kept else " · ⚠ left out"
+    if typicality is not None:
+        flag = "" if typicality.label == "typical" else "⚠ "
+        label += f" · {flag}{typicality_text(typicality)}"
+    elif pending:
+        label += " · typicality: scoring..."
+    return label + (" · hidden" if hidden else "")
 
 
 def findings_text(rows) -> str:
@@ -184,6 +202,7 @@ class DemoList:
                 snapshot.typicality.get((name, d.name)),
                 tuple((f.kind, f.message) for f in store.findings_of(name, d.name)),
                 (name, d.name) in store.checks.kept,
+                (name, d.name) in store.checks.scores.pending,
             )
             for d in reversed(demos)  # newest first
         )
@@ -225,16 +244,8 @@ class DemoList:
             if handle.order != self.repair.order + 1 + i:
                 handle.order = self.repair.order + 1 + i
         for row, (_, handle) in zip(rows, self._rows, strict=True):
-            demo_name, _, hidden, typicality, findings, kept = row
-            label = demo_name
-            if findings:
-                label += " · ⚠ kept despite findings" if kept else " · ⚠ left out"
-            if typicality is not None:
-                flag = "" if typicality.label == "typical" else "⚠ "
-                label += f" · {flag}{typicality_text(typicality)}"
-            if hidden:
-                label += " · hidden"
-            handle.label = label
+            hidden, findings, kept = row[2], row[4], row[5]
+            handle.label = row_label(row)
             options = ("Show" if hidden else "Hide", "Delete")
             if any(kind == "gap" for kind, _ in findings):
                 options = (REPAIR, *options)
