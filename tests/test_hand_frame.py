@@ -144,7 +144,8 @@ def test_a_frame_travels_in_studio_json_and_bad_ones_are_refused() -> None:
         ({"placement": {"translation_m": [1e9, 0, 0], "yaw_rad": 0}}, "at most 1000 cm"),
         ({"placement": {"translation_m": ["nan", 0, 0], "yaw_rad": 0}}, "finite"),
         ({"placement": {"translation_m": [0, 0], "yaw_rad": 0}}, "finite"),
-        ({"own": True, "placement": {}}, "'frame' is"),
+        ({"own": True, "placement": {}}, "'frame': a placement needs"),
+        ({"own": True, "placement": {"translation_m": [0, 0, 0], "yaw_rad": 0}}, "not both"),
         ("elsewhere", "'frame' is"),
     ]
     for value, message in bad:
@@ -170,8 +171,10 @@ def test_a_placed_workspace_keeps_its_placement_and_exports_the_data_as_recorded
     data, _ = read_folder(tmp_path / "handover", "csv")
     points = hand_points(data.demos, data.layout)
     assert reach_share(points) < IN_REACH  # recorded 2 m away
-    frame = HandFrame(guess_placement(points))
-    workspace = Workspace.create(tmp_path / "ws", placed(data, frame))
+    imported = placed(data, HandFrame(guess_placement(points)))
+    frame = imported.frame
+    assert frame == HandFrame(guess_placement(points), imported=True) and not frame.in_scene
+    workspace = Workspace.create(tmp_path / "ws", imported)
     # studio.json keeps the placement; the demonstrations are in the iCub's frame, in reach.
     index = json.loads((tmp_path / "ws" / "studio.json").read_text())
     assert index["frame"] == frame.to_json()
@@ -202,11 +205,11 @@ def test_a_placed_workspace_keeps_its_placement_and_exports_the_data_as_recorded
 
 
 def test_every_position_in_space_is_placed_with_the_hand_and_back(tmp_path) -> None:
-    """A partner's hand (hx, hy, hz: three columns ending in x, y, z) was recorded in the same
-    frame as the robot's: placed, it moves with the hand; the EMG stays as it was; exported, both
-    go back to the frame they were recorded in."""
+    """A marker (hx, hy, hz: three columns ending in x, y, z) was recorded in the same frame
+    as the robot's hand: placed, it moves with the hand; the EMG stays as it was; exported,
+    both go back to the frame they were recorded in."""
     far_dataset(tmp_path / "handover")
-    modalities = parse_modalities("hand=x,y,z; partner=hx,hy,hz; emg=e0,e1")
+    modalities = parse_modalities("hand=x,y,z; marker=hx,hy,hz; emg=e0,e1")
     data, _ = read_folder(tmp_path / "handover", "csv", modalities)
     frame = HandFrame(guess_placement(hand_points(data.demos, data.layout)))
     moved = frame.placed(data.demos, data.layout)
@@ -226,7 +229,7 @@ def test_a_workspace_in_its_own_frame_is_stored_and_exported_as_it_is(tmp_path) 
     data, _ = read_folder(tmp_path / "handover", "csv")
     workspace = Workspace.create(tmp_path / "ws", placed(data, HandFrame(own=True)))
     loaded = workspace.load()
-    assert loaded.frame == HandFrame(own=True) and not loaded.frame.robot_shown
+    assert loaded.frame == HandFrame(own=True, imported=True) and not loaded.frame.robot_shown
     exported = exported_csvs(workspace_zip(loaded))
     for key, text in originals.items():
         original, back = demo_from_csv(text), demo_from_csv(exported[key])
@@ -272,7 +275,7 @@ def test_the_command_line_says_a_hand_is_out_of_reach_and_places_it(tmp_path, ca
 
     out, data = imported("as-recorded")
     assert "The hand's path is 0 % within the iCub's reach" in out and "--hand-frame place" in out
-    assert data.frame == ICUB_FRAME
+    assert data.frame == HandFrame(imported=True) and not data.frame.in_scene
     out, data = imported("placed", "--hand-frame", "place")
     assert "Placed the hand in the iCub's frame (yaw 0°, x -19" in out
     assert reach_share(hand_points(data.demos, data.layout)) >= IN_REACH
@@ -280,7 +283,7 @@ def test_the_command_line_says_a_hand_is_out_of_reach_and_places_it(tmp_path, ca
     assert_allclose(back.values, demo_from_csv(originals["curved/take0"]).select(("x", "y", "z")),
                     atol=1e-9)  # fmt: skip
     out, data = imported("own", "--hand-frame", "own")
-    assert "its own frame" in out and data.frame == HandFrame(own=True)
+    assert "its own frame" in out and data.frame == HandFrame(own=True, imported=True)
     with pytest.raises(ValueError, match="--hand-frame go with --import-dataset"):
         prepare_workspace(build_parser().parse_args(["--workspace", str(tmp_path / "ws"),
                                                      "--hand-frame", "own"]))  # fmt: skip
