@@ -7,7 +7,8 @@ folders (``<primitive>/<take>.csv``) the Data tab and ``--import-dataset`` read.
   ``front_to_left``), each take a minimum-jerk movement of the torso (3) and left arm (7)
   joints between jittered configurations, the hand (``l_hand_dh_frame``) by forward
   kinematics. The left goal is low on the robot's left, where the studio's simulated bin
-  stands: these paths would cross it.
+  stands: these paths would cross it. With ``glitch``, one take has a tracking jump: a
+  quarter of a second 1.5 m away (an outlier among the 38).
 - :func:`handover_set`: another lab's handover: a ``human`` hand in a frame whose origin is
   the partner (x towards the robot, y the partner's left, z up), 8 EMG channels, and the
   robot's hand (x, y, z: the studio's ``hand``) in its own base frame (another robot, out of
@@ -51,7 +52,13 @@ def write_csv(path: Path, times: np.ndarray, columns: tuple[str, ...], values: n
     path.write_text("\n".join(lines) + "\n")
 
 
-def icub_set(folder: Path, seed: int = 0, takes: tuple[int, ...] = ICUB_TAKES) -> Path:
+GLITCH = (1.2, 0.8, 0.6)  # m: where a glitching take's samples jump to, from the hand
+GLITCHED = ("base_to_front_goal", 5, slice(40, 52))  # the take and its samples
+
+
+def icub_set(
+    folder: Path, seed: int = 0, takes: tuple[int, ...] = ICUB_TAKES, glitch: bool = False
+) -> Path:
     """The iCub-like set (see the module docstring) written under ``folder``; returns it."""
     rng = np.random.default_rng(seed)
     arm = load_arm()
@@ -70,6 +77,8 @@ def icub_set(folder: Path, seed: int = 0, takes: tuple[int, ...] = ICUB_TAKES) -
             joints = q0 + np.outer(s, q1 - q0)
             hand = np.array([arm.position(q) for q in joints])
             hand += rng.normal(scale=2e-4, size=hand.shape)  # the encoders' noise
+            if glitch and (primitive, k) == GLITCHED[:2]:
+                hand[GLITCHED[2]] += GLITCH
             write_csv(folder / primitive / f"take{k:02d}.csv", times, ("x", "y", "z"), hand)
     return folder
 

@@ -15,7 +15,7 @@ partner, z up. It is placed at the scene's partner, not where the robot's hand g
 :func:`partner_placement` moves that origin onto :data:`PARTNER_ORIGIN` (the middle of the
 partner's shoulders, :data:`SHOULDERS_BELOW_HEAD` below the centre of their head) and turns it
 about the vertical so that the points lie in front of the partner, towards the robot: a hand
-at work is in front of its body, whichever way the lab's axes point.
+at work is in front of its body, whichever way the lab's horizontal axes point.
 """
 
 from __future__ import annotations
@@ -130,17 +130,20 @@ def guess_placement(points: np.ndarray, robot: str = DEFAULT_ROBOT) -> Placement
 def partner_placement(points: np.ndarray) -> Placement:
     """Where positions ``points`` (n, 3), recorded in the partner's frame (origin the partner,
     z up), go in the iCub's root frame: the origin onto :data:`PARTNER_ORIGIN`, turned about
-    the vertical so that the points' median horizontal direction from the origin points at the
-    robot (from the partner towards the root frame's origin). No turn when that median is
-    within :data:`MIN_OFFSET` of the origin (no direction to go by) or there are no points."""
+    the vertical so that the points' mean horizontal direction from the origin (each point
+    farther than :data:`MIN_OFFSET` one unit vector: an outlier counts as much as any other
+    sample) points at the robot, from the partner towards the root frame's origin. No turn
+    without such a point or direction."""
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     points = points[np.all(np.isfinite(points), axis=1)]
     origin = np.asarray(PARTNER_ORIGIN)
+    flat = points[:, :2]
+    length = np.linalg.norm(flat, axis=1)
+    far = length >= MIN_OFFSET
+    ahead = (flat[far] / length[far, None]).sum(axis=0)
     yaw = 0.0
-    if points.shape[0]:
-        ahead = np.median(points[:, :2], axis=0)
-        if np.linalg.norm(ahead) >= MIN_OFFSET:
-            towards = -origin[:2]  # from the partner to the robot
-            yaw = math.atan2(towards[1], towards[0]) - math.atan2(ahead[1], ahead[0])
-            yaw = math.remainder(yaw, 2.0 * math.pi) + 0.0  # no -0.0
+    if np.linalg.norm(ahead) > 1e-9:
+        towards = -origin[:2]  # from the partner to the robot
+        yaw = math.atan2(towards[1], towards[0]) - math.atan2(ahead[1], ahead[0])
+        yaw = math.remainder(yaw, 2.0 * math.pi) + 0.0  # no -0.0
     return Placement(tuple(origin), yaw)  # type: ignore[arg-type]
