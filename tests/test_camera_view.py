@@ -304,7 +304,7 @@ def test_the_start_view_separates_the_paths_and_the_buttons_move_the_camera(
             f"{np.ptp(camera_pixels(page, client, hand_points(scenario)), axis=0)}"))  # fmt: skip
         # The pointer still rests on the button: no tooltip opened over the panel (it stayed
         # there while the user looked at the view the button gave).
-        assert studio.camera.buttons.hint is None
         assert page.locator(".mantine-Tooltip-tooltip").count() == 0
+        assert studio.camera.buttons.hint is None
     finally:
         page.close()

@@ -206,8 +206,8 @@ def test_an_icub_set_is_drawn_without_the_simulated_scene(page, studio, tmp_path
                f"{np.nanmin(camera_pixels(page, client, data), axis=0)} to "
                f"{np.nanmax(camera_pixels(page, client, data), axis=0)}")  # fmt: skip
     # The pointer rests on the button pressed: no tooltip over the panel.
-    assert studio.camera.buttons.hint is None
     assert page.locator(".mantine-Tooltip-tooltip").count() == 0
+    assert studio.camera.buttons.hint is None
     screenshot_to(page, artifacts / "imported_icub_teach.png")
     infer_at(page, studio, "base_to_left_goal", "take03", 40)
     screenshot_to(page, artifacts / "imported_icub_infer.png", from_above=True)
