@@ -266,9 +266,10 @@ def test_a_handover_partners_hand_is_drawn_beside_the_partner(page, studio, tmp_
     assert outlined and max(w.width for w in outlined) > 0.8, drawn.widths
     nodes = {"hand": (studio.scene.inference.tube, studio.scene.inference.outline),
              "human": (human.tube, human.outline)}  # fmt: skip
-    for w in outlined:
+    for w in outlined:  # shown by the scene's look, later in the frame that drew them
         tube, outline = nodes[w.name]
-        assert outline.visible and not tube.visible
+        wait_until(lambda t=tube, o=outline: o.visible and not t.visible, timeout=60,
+                   what=f"{w.name}'s posterior tube as an outline")  # fmt: skip
     note = infer.shaping.tube_note.handle
     wait_until(lambda: all(f"{w.name}'s" in note.content and amount(w.width, "m") in note.content
                            for w in outlined), timeout=60,
