@@ -210,7 +210,10 @@ def test_an_icub_set_is_drawn_without_the_simulated_scene(page, studio, tmp_path
     assert studio.camera.buttons.hint is None
     screenshot_to(page, artifacts / "imported_icub_teach.png")
     infer_at(page, studio, "base_to_left_goal", "take03", 40)
+    panel(studio, "infer").controls.session_mode.value = "faded"  # the inference stands out
+    wait_until(lambda: studio.scene.look.priors == "faded", timeout=60, what="priors faded")
     screenshot_to(page, artifacts / "imported_icub_infer.png", from_above=True)
+    panel(studio, "infer").controls.session_mode.value = "shown"
 
 
 @pytest.mark.browser
