@@ -13,10 +13,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp.data import Demonstration, Layout
+from promp.incremental import IncrementalStatistics
 from promp.inference import Observation
 from promp.learn import fit
 from promp.model import ProMPModel, Settings
 from promp.pipeline import infer
+from promp.recognition import recognise
 
 __all__ = ["ALPHA_ROWS", "TrialAnswer", "ProMPEngine", "TRUE_DURATION"]
 
@@ -92,3 +94,40 @@ class ProMPEngine:
             duration_low=interval.low,
             duration_high=interval.high,
         )
+
+    def probabilities_at(
+        self,
+        demo: Demonstration,
+        n_observed: Sequence[int],
+        observe: Sequence[str],
+        alpha_method: str,
+    ) -> tuple[np.ndarray, str]:
+        """The primitives' probabilities after each of ``n_observed`` samples of ``demo``
+        (what :meth:`infer` gives, recognised alone: nothing is conditioned or predicted), the
+        likelihood's sums carried from one step to the next
+        (:class:`promp.incremental.IncrementalStatistics`, as a live session does).
+
+        Returns
+        -------
+        probabilities : array, shape (len(n_observed), n_primitives)
+            A row of NaN where recognition raised ``ValueError``.
+        error : str
+            The first such reason ('' when there was none).
+        """
+        model = self.model
+        assert model is not None, "fit() first"
+        statistics = IncrementalStatistics()
+        out = np.full((len(n_observed), len(model.primitives)), np.nan)
+        error, done = "", {}
+        duration = demo.duration if alpha_method == TRUE_DURATION else None
+        method = "ml" if alpha_method == TRUE_DURATION else alpha_method
+        for i, n in enumerate(int(n) for n in n_observed):
+            if n not in done:
+                try:
+                    obs = Observation.from_demo(model, demo, n, observe)
+                    done[n] = recognise(model, obs, alpha_method=method, duration=duration,
+                                        statistics=statistics).probabilities  # fmt: skip
+                except ValueError as exc:
+                    done[n], error = out[i], error or str(exc)
+            out[i] = done[n]
+        return out, error

@@ -12,6 +12,7 @@ import numpy as np
 from promp import metrics, units
 from promp.data import Layout, Modality
 from promp.datasets import Dataset
+from promp.evaluate.decisions import Decisions
 from promp.evaluate.report import confusion_matrices, trial_rows
 from promp.evaluate.sweep import SweepResult, Trial
 
@@ -258,12 +259,18 @@ def _short(name: str, limit: int = 18) -> str:
 
 
 def write_figures(
-    folder: Path, result: SweepResult, dataset: Dataset, layout: Layout, method: str
+    folder: Path,
+    result: SweepResult,
+    dataset: Dataset,
+    layout: Layout,
+    method: str,
+    decisions: Decisions | None = None,
 ) -> list[Path]:
     """Write the curves (every method of the sweep in one figure, named after ``method``, the
     run's), and per method the reliability diagram, the confusion matrices (one figure per
     observed modality set and alpha method) and, for a method that predicts a trajectory, one
-    example per observed modality set; return the paths."""
+    example per observed modality set; with ``decisions`` (``--decide``), when each method
+    would act (:func:`promp.evaluate.decision_plots.decision_figure`); return the paths."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = [folder / f"curves_{method}.png"]
@@ -293,6 +300,12 @@ def write_figures(
             path = folder / f"example_{name or method}_{'+'.join(observed)}.png"
             example(candidates[0], dataset, layout, path)
             paths.append(path)
+    if decisions is not None and decisions.rows:
+        from promp.evaluate.decision_plots import decision_figure
+
+        path = folder / f"decisions_{method}.png"
+        decision_figure(decisions.rows, decisions.curve, len(dataset), path, method)
+        paths.append(path)
     return paths
 
 

@@ -9,6 +9,8 @@ with ``--run DIR``)::
                         result row, every trial, the confusion matrices, the findings)
     <run>/results.csv   the result table, one line per (observed, alpha, percent)
     <run>/trials.csv    one line per trial
+    <run>/decisions.csv with --decide: when each method would act (the held-out headline, then
+                        the in-sample curve; promp.evaluate.decisions)
     <run>/figures/      curves, reliability, confusion matrices, examples (PNG)
 
 A run is written into a folder that does not exist yet, built beside it and renamed into place,
@@ -30,6 +32,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from promp.evaluate.decisions import decisions_csv
 from promp.evaluate.report import results_csv, trials_csv
 
 __all__ = [
@@ -136,6 +139,10 @@ def write_run(
         (staging / RUN_FILE).write_text(json.dumps(meta, indent=1), encoding="utf-8")
         (staging / "results.csv").write_text(results_csv(report["results"]), encoding="utf-8")
         (staging / "trials.csv").write_text(trials_csv(report.get("trials", [])), "utf-8")
+        if report.get("decisions"):  # --decide
+            (staging / "decisions.csv").write_text(
+                decisions_csv(report["decisions"], report.get("decision_curve", [])), "utf-8"
+            )
         if figures is not None:
             figures(staging / "figures")
 
