@@ -46,7 +46,8 @@ from promp.evaluate.paths import ProbabilityPath
 
 __all__ = [
     "candidate_thresholds", "DECISION_COLUMNS", "decide", "Decisions", "decisions_csv",
-    "decisions_text", "DOUBT_DECADES", "harmonic_mean", "nested_choice", "Outcomes", "outcomes",
+    "decisions_of", "decisions_text", "DOUBT_DECADES", "harmonic_mean", "nested_choice",
+    "Outcomes", "outcomes",
 ]  # fmt: skip
 
 DOUBT_DECADES = np.round(np.arange(251) / 50.0, 2)  # 0, 0.02, ..., 5
@@ -174,6 +175,17 @@ class Decisions:
     rows: list[dict]
     curve: list[dict]
     trials: list[dict]
+
+
+def decisions_of(report: Mapping) -> Decisions | None:
+    """The :class:`Decisions` a report holds (``--decide``'s ``decisions``,
+    ``decision_curve``, ``decision_trials``), or None when it has none."""
+    rows = report.get("decisions")
+    if not rows:
+        return None
+    window = float((report.get("settings") or {}).get("decide", {}).get("window_s", math.nan))
+    return Decisions(window, list(rows), list(report.get("decision_curve") or []),
+                     list(report.get("decision_trials") or []))  # fmt: skip
 
 
 def decide(
