@@ -1,9 +1,10 @@
 """When each method would act, as the Data tab shows it (an evaluation made with "When it
 acts", or a run made with ``python -m promp.evaluate --decide``): a table of the headline (each
-trial's threshold chosen without it: the threshold, earliness, accuracy, their harmonic mean,
-the share never committed) and a chart of the harmonic mean against the threshold (in-sample),
-one series per method, observed modalities and alpha method, named and coloured as the
-results' (:mod:`app.panels.data.results`). The numbers are :mod:`promp.evaluate.decisions`'.
+trial's threshold chosen without it: the harmonic mean of accuracy and 1 - earliness, the
+accuracy, the earliness, the share never committed, the threshold) and a chart of the
+harmonic mean against the threshold (in-sample), one series per method, observed modalities
+and alpha method, named and coloured as the results' (:mod:`app.panels.data.results`). The
+numbers are :mod:`promp.evaluate.decisions`'.
 """
 
 from __future__ import annotations
@@ -35,33 +36,40 @@ def _share(value: float) -> str:
 
 
 def decisions_table(decisions: Decisions) -> str:
-    """Markdown: one line per method, observed modalities and alpha method, the highest
-    harmonic mean in bold."""
+    """Markdown: a column per method, observed modalities and alpha method (as the results'
+    table), a line per value: the harmonic mean (the highest in bold), accuracy, earliness,
+    the share never committed, the threshold (the median of those chosen)."""
     rows = decisions.rows
     if not rows:
         return ""
     named = len({str(r["method"]) for r in rows}) > 1
     best = max((r["harmonic_mean"] for r in rows if math.isfinite(r["harmonic_mean"])),
                default=math.nan)  # fmt: skip
+
+    def harmonic(value: float) -> str:
+        shown = f"{value:.3f}" if math.isfinite(value) else NOT_GIVEN
+        return f"**{shown}**" if math.isfinite(value) and value == best else shown
+
+    def threshold(value: float) -> str:
+        return f"{value:.3f}" if math.isfinite(value) else NOT_GIVEN
+
     lines = [
         f"**{HEADING}**: commits once the leading primitive's probability has stayed at or above "
         f"a threshold for {decisions.window:g} s; each trial observed every 2 %, its threshold "
         "chosen on the other trials; a trial that never commits counts as wrong, earliness "
         "100 %.",
         "",
-        "| series | threshold | earliness | accuracy | harmonic mean | never committed |",
-        "|---|---:|---:|---:|---:|---:|",
+        "| | " + " | ".join(escape(series_name(r, named)) for r in rows) + " |",
+        "|---|" + "---:|" * len(rows),
     ]
-    for r in rows:
-        hm = r["harmonic_mean"]
-        shown = f"{hm:.3f}" if math.isfinite(hm) else NOT_GIVEN
-        if math.isfinite(hm) and hm == best:
-            shown = f"**{shown}**"
-        threshold = f"{r['threshold']:.3f}" if math.isfinite(r["threshold"]) else NOT_GIVEN
-        lines.append(
-            f"| {escape(series_name(r, named))} | {threshold} | {_share(r['earliness'])} "
-            f"| {_share(r['accuracy'])} | {shown} | {_share(r['never_committed'])} |"
-        )
+    for title, key, shown in (
+        ("harmonic mean", "harmonic_mean", harmonic),
+        ("accuracy", "accuracy", _share),
+        ("earliness", "earliness", _share),
+        ("never committed", "never_committed", _share),
+        ("threshold", "threshold", threshold),
+    ):
+        lines.append(f"| {title} | " + " | ".join(shown(r[key]) for r in rows) + " |")
     return "\n".join(lines)
 
 
