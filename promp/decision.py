@@ -47,7 +47,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["CommitRule", "commit_steps", "Decision", "DecisionState", "WINDOW_S"]
+__all__ = [
+    "check_probabilities", "CommitRule", "commit_steps", "Decision", "DecisionState",
+    "TIME_TOLERANCE_S", "WINDOW_S",
+]  # fmt: skip
 
 WINDOW_S = 0.1  # s: 3 updates at 30 Hz, 10 at 100 Hz; short beside a movement of 0.5-4 s
 TIME_TOLERANCE_S = 1e-9  # sample times summed in floating point: 5 x 0.02 s is 0.1 s

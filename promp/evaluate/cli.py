@@ -41,14 +41,9 @@ findings and what was left out), ``--csv`` the result table, ``--trials-csv`` on
 trial (:mod:`promp.evaluate.report`, which the studio's "Export results" writes too),
 ``--plots`` the figures (:mod:`promp.evaluate.plots`).
 
-``--decide`` also judges *when* each method would act (:mod:`promp.evaluate.decisions`): every
-held-out demonstration observed every 2 % by its fold's model, the decision rule of
-:mod:`promp.decision` (commit once the leading primitive's probability has stayed above a
-threshold for ``--decide-window`` seconds), its earliness/accuracy curve over thresholds
-(in-sample) and its harmonic mean of accuracy and 1 - earliness at the threshold chosen
-without the trial under test; printed after the tables, in the JSON (``decisions``,
-``decision_curve``, ``decision_trials``), the figures and the run, and as CSV with
-``--decisions-csv``.
+``--decide`` also judges when each method would act (:mod:`promp.evaluate.decide_options`,
+:mod:`promp.evaluate.decisions`): printed, in the JSON (``decisions``, ``decision_curve``,
+``decision_trials``), the figures and the run, and as CSV with ``--decisions-csv``.
 """
 
 from __future__ import annotations
@@ -68,11 +63,9 @@ from promp.datasets import (
     read_dataset,
     refused_with_guess,
 )
-from promp.decision import WINDOW_S
+from promp.evaluate import decide_options
 from promp.evaluate.baselines import SCALINGS
-from promp.evaluate.decisions import decide, decisions_csv, decisions_text
 from promp.evaluate.methods import ALPHA_ROWS
-from promp.evaluate.paths import DECISION_PERCENTS
 from promp.evaluate.registry import METHODS, method_factories
 from promp.evaluate.report import (
     basis_settings,
@@ -93,7 +86,6 @@ from promp.units import unitless_note
 __all__ = [
     "add_check_arguments",
     "add_dataset_arguments",
-    "add_decide_arguments",
     "build_parser",
     "DEFAULT_PERCENTS",
     "load",
@@ -278,36 +270,8 @@ def build_parser() -> argparse.ArgumentParser:
         "compare two with python -m promp.evaluate.compare A B",
     )
     parser.add_argument("--run-name", default=None, help="the run's name (default: DIR's)")
-    add_decide_arguments(parser)
+    decide_options.add_decide_arguments(parser)
     return parser
-
-
-def add_decide_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--decide``, ``--decide-window`` and ``--decisions-csv`` (when the robot acts)."""
-    parser.add_argument(
-        "--decide",
-        action="store_true",
-        help="also judge when each method would act: every held-out demonstration observed "
-        "every 2 %% by its fold's model, a rule committing once the leading primitive's "
-        "probability has stayed above a threshold for --decide-window s; its earliness/"
-        "accuracy curve over thresholds (in-sample) and the harmonic mean of accuracy and "
-        "1 - earliness at the threshold chosen without the trial under test",
-    )
-    parser.add_argument(
-        "--decide-window",
-        type=float,
-        default=WINDOW_S,
-        metavar="S",
-        help="the rule's confirmation window, seconds of the movement (with --decide)",
-    )
-    parser.add_argument(
-        "--decisions-csv",
-        type=Path,
-        default=None,
-        metavar="OUT.csv",
-        help="write the decisions (held-out headline, then the in-sample curve) here "
-        "(with --decide)",
-    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -422,10 +386,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.jobs == 0 or args.jobs < -1:
             raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
         held_out = None if args.subset is None else spread_subset(dataset, args.subset)
-        if not args.decide and args.decisions_csv is not None:
-            raise ValueError("--decisions-csv needs --decide")
-        if not (args.decide_window >= 0 and args.decide_window < float("inf")):
-            raise ValueError(f"--decide-window is seconds, at least 0, got {args.decide_window}")
+        decide_options.check_decide_arguments(args)
         result = run_sweep(
             methods,
             dataset,
@@ -438,11 +399,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             jobs=args.jobs,
             scheduler=args.scheduler if args.backend == "dask" else None,
             held_out=held_out,
-            decide_percents=DECISION_PERCENTS if args.decide else (),
+            decide_percents=decide_options.decide_percents(args),
         )
-        decisions = None
-        if args.decide:
-            decisions = decide(result.paths, list(dataset), args.decide_window)
+        decisions = decide_options.judge(args, result, list(dataset))
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -463,9 +422,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         decisions=decisions,
     )
     print_table(result.rows)
-    if decisions is not None:
-        print()
-        print(decisions_text(decisions.rows))
+    decide_options.print_decisions(decisions)
     for failure in result.failures:
         print(
             f"failed ({failure['method']}): {failure['primitive']}/{failure['demo']} at "
@@ -482,9 +439,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.trials_csv is not None:
         args.trials_csv.parent.mkdir(parents=True, exist_ok=True)
         args.trials_csv.write_text(trials_csv(report["trials"]))
-    if args.decisions_csv is not None and decisions is not None:
-        args.decisions_csv.parent.mkdir(parents=True, exist_ok=True)
-        args.decisions_csv.write_text(decisions_csv(decisions.rows, decisions.curve))
+    decide_options.write_decisions_csv(args, decisions)
     if args.plots is not None or args.run is not None:
         from promp.evaluate.plots import write_figures
 

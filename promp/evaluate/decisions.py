@@ -46,7 +46,8 @@ from promp.evaluate.paths import ProbabilityPath
 
 __all__ = [
     "candidate_thresholds", "DECISION_COLUMNS", "decide", "Decisions", "decisions_csv",
-    "decisions_of", "decisions_text", "DOUBT_DECADES", "harmonic_mean", "nested_choice",
+    "decisions_of", "decisions_text", "DOUBT_DECADES", "doubt_decades", "harmonic_mean",
+    "nested_choice",
     "Outcomes", "outcomes",
 ]  # fmt: skip
 
@@ -64,6 +65,14 @@ def candidate_thresholds(n_primitives: int) -> np.ndarray:
     if n_primitives < 1:
         raise ValueError(f"at least one primitive, got {n_primitives}")
     return 1.0 - 10.0 ** -DOUBT_DECADES * (1.0 - 1.0 / n_primitives)
+
+
+def doubt_decades(threshold: float | np.ndarray, n_primitives: int) -> np.ndarray:
+    """``-log10((1 - p) / (1 - 1/K))``: a threshold ``p`` in decades of doubt (0 for ``1/K``,
+    inf for 1)."""
+    doubt = (1.0 - np.asarray(threshold, dtype=float)) / (1.0 - 1.0 / max(n_primitives, 2))
+    with np.errstate(divide="ignore"):
+        return -np.log10(np.clip(doubt, 0.0, None))
 
 
 def harmonic_mean(accuracy: np.ndarray | float, earliness: np.ndarray | float) -> np.ndarray:

@@ -23,7 +23,9 @@ import numpy as np
 from promp.data import Demonstration
 from promp.timing import n_observed_for
 
-__all__ = ["DECISION_PERCENTS", "probability_paths", "ProbabilityPath", "step_times"]
+__all__ = [
+    "checked_percents", "DECISION_PERCENTS", "probability_paths", "ProbabilityPath", "step_times",
+]  # fmt: skip
 
 DECISION_PERCENTS = tuple(float(p) for p in range(2, 101, 2))  # every 2 % of the movement
 
@@ -59,6 +61,20 @@ class ProbabilityPath:
     times: np.ndarray
     probabilities: np.ndarray
     error: str = ""
+
+
+def checked_percents(percents: Sequence[float]) -> list[float]:
+    """``percents`` as floats, checked: increasing, each in (0, 100].
+
+    Raises
+    ------
+    ValueError
+        Otherwise (the sweep's ``decide_percents``).
+    """
+    out = [float(p) for p in percents]
+    if any(not 0.0 < p <= 100.0 for p in out) or out != sorted(set(out)):
+        raise ValueError(f"decide_percents must increase within (0, 100], got {out}")
+    return out
 
 
 def step_times(demo: Demonstration, percents: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:

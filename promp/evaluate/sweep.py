@@ -28,10 +28,8 @@ explanation for) does not end the sweep: it counts as a recognition error, is le
 trajectory metrics, and is listed by primitive, demonstration and reason in the row's
 ``failed`` and in :attr:`SweepResult.failures`.
 
-``decide_percents`` (``--decide``) also observes every held-out demonstration at each of those
-percentages (every 2 %, :data:`promp.evaluate.paths.DECISION_PERCENTS`) with the model its fold
-fitted once, keeping each method's probabilities at every step in :attr:`SweepResult.paths`
-(what :mod:`promp.evaluate.decisions` judges: when a rule would commit, and how often rightly).
+``decide_percents`` (``--decide``): each held-out demonstration also observed at each of them
+by its fold's model, the probabilities kept in :attr:`SweepResult.paths` (:mod:`.paths`).
 """
 
 from __future__ import annotations
@@ -49,14 +47,14 @@ import numpy as np
 from promp import metrics
 from promp.data import Demonstration, Layout, sample_period_of
 from promp.evaluate.methods import ALPHA_ROWS, ProMPEngine, TrialAnswer
-from promp.evaluate.paths import ProbabilityPath, probability_paths
+from promp.evaluate.paths import ProbabilityPath, checked_percents, probability_paths
 from promp.metrics import position_modality  # (also re-exported)
 from promp.model import Settings
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
 __all__ = [
     "CONFIDENT_MISTAKE", "Factory", "Progress", "SweepResult", "Trial", "leave_one_out",
-    "run_sweep", "spread_subset",
+    "run_sweep", "spread_subset", "PARENT_WATCH_S", "exit_with_parent",
 ]  # fmt: skip
 
 Progress = Callable[[int, int], None]
@@ -115,8 +113,7 @@ class SweepResult:
     partial : bool
         Stopped before every demonstration was held out (``stop``).
     paths : list of ProbabilityPath
-        With ``decide_percents``: every held-out demonstration's probabilities at each of
-        them, per method, observed set and alpha method, in the folds' order.
+        With ``decide_percents``: the probabilities at each, per trial, method, observed set.
     """
 
     rows: list[dict] = field(default_factory=list)
@@ -173,8 +170,7 @@ def _run_fold(
                     trials.append(trial)
         if decide_percents:  # the same fitted method, every step of the held-out movement
             trials.extend(probability_paths(method, method_name, k, demo, decide_percents,
-                                            observe_sets, alpha_methods, len(names),
-                                            fit_error))  # fmt: skip
+                                            observe_sets, alpha_methods, len(names), fit_error))
     return trials
 
 
@@ -299,8 +295,7 @@ def run_sweep(
     fitted on all the others (default: every demonstration; see :func:`spread_subset`).
     ``stop()`` is asked after every fold: once true, the sweep ends there and its rows hold the
     folds done (the result says it is ``partial``).
-    ``decide_percents``: also the probabilities of every method at each of these percentages
-    of every held-out demonstration, by its fold's model (:attr:`SweepResult.paths`).
+    ``decide_percents``: each trial's probabilities at each, too (:attr:`SweepResult.paths`).
     """
     names = list(dataset)
     if isinstance(method_factory, Mapping):
@@ -326,11 +321,7 @@ def run_sweep(
             raise ValueError(f"no demonstration (primitive index, index) {unknown[0]} to hold out")
         if len(set(held_out)) != len(held_out) or not held_out:
             raise ValueError("held_out must name distinct demonstrations, at least one")
-    decide_percents = [float(p) for p in decide_percents]
-    if any(not 0.0 < p <= 100.0 for p in decide_percents) or decide_percents != sorted(
-        set(decide_percents)
-    ):
-        raise ValueError(f"decide_percents must increase within (0, 100], got {decide_percents}")
+    decide_percents = checked_percents(decide_percents)
     fold = functools.partial(
         _run_fold,
         methods,

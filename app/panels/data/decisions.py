@@ -18,8 +18,7 @@ import viser
 from app.panels.data.results import METHOD_COLORS, OTHER_COLOR
 from app.ui.display import method_label, series_title
 from app.ui.text import escape
-from promp.evaluate.decision_plots import doubt_decades
-from promp.evaluate.decisions import Decisions
+from promp.evaluate.decisions import Decisions, doubt_decades
 from promp.evaluate.tables import NOT_GIVEN
 
 HEADING = "When it acts"
