@@ -10,7 +10,8 @@ the ratio, and the whole set's estimated CPU time with it (per fold x folds; on 
 the wall clock is about half of it).
 
 Run: ``.venv/bin/python bench/decide.py [--sets synthetic heights flt flt-shapes]
-[--per-primitive N]``. The shared sets are read from ``../shared/data`` (skipped when absent).
+[--per-primitive N]``. The shared sets are read from ``../shared/data`` or the folder
+``STUDIO_SHARED_DATA`` names (skipped when absent).
 The last line is one JSON object.
 """
 
@@ -33,7 +34,7 @@ from promp.evaluate.paths import DECISION_PERCENTS  # noqa: E402
 from promp.evaluate.registry import METHODS, method_factories  # noqa: E402
 from promp.evaluate.sweep import run_sweep, spread_subset  # noqa: E402
 
-SHARED = ROOT.parent / "shared" / "data"
+SHARED = Path(os.environ.get("STUDIO_SHARED_DATA") or ROOT.parent / "shared" / "data")
 PERCENTS = (20, 40, 60, 80)
 
 
