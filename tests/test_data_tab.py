@@ -341,6 +341,11 @@ def test_when_it_acts_in_the_results_the_comparison_and_the_export(tmp_path) -> 
         section.step(SimpleNamespace(store=store))  # the loop shows the finished job
         shown = section.results.handles
         assert "when it acts: every 2 %" in shown[0].content
+        # The position chart leaves out the baselines, which give no position (all NaN: uPlot
+        # drew nothing at all with them); the errors chart has all four.
+        assert [s["label"] for s in shown[2].series[1:]] == ["ours: hand, ML",
+                                                             "toolbox (2017): hand, ML"]
+        assert len(shown[2].data) == 3 and len(shown[1].data) == 5
         chart, table = shown[-2], shown[-1]
         assert chart.title.startswith("When it acts: harmonic mean")
         assert len(chart.data) == 1 + 4 and len(chart.data[0]) == len(decisions.curve) // 4
