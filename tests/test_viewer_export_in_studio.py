@@ -149,3 +149,71 @@ def test_export_view_holds_the_inference_the_infer_layer_drew(studio, tmp_path) 
         assert_allclose(values, curve.probabilities[:, k])
         here = values[list(times).index(state.percent)]
         assert here == pytest.approx(result.inference.probabilities[k], abs=1e-9)
+
+
+def _colourful_share(png: bytes) -> float:
+    """The share of the 3-D view's pixels (the window's middle) in a saturated colour: the
+    primitives' lines and tubes (Rerun's own interface and an empty view are grey)."""
+    import io
+
+    from PIL import Image
+
+    image = np.asarray(Image.open(io.BytesIO(png)).convert("HSV"), dtype=float)
+    h, w = image.shape[:2]
+    middle = image[int(0.15 * h): int(0.7 * h), int(0.25 * w): int(0.75 * w)]
+    return float(np.mean((middle[..., 1] > 110) & (middle[..., 2] > 60)))
+
+
+@pytest.mark.browser
+def test_rerun_s_own_web_viewer_draws_an_exported_workspace(
+    workspace_files, browser, tmp_path, artifacts
+) -> None:
+    """``rerun --web-viewer --bind 127.0.0.1 FILE.rrd`` serves the Data tab's export and
+    headless Chromium draws it (software rendering); the viewer listens on loopback only, its
+    analytics are off (its own switch), and nothing the page asks for leaves the machine: the
+    web page itself asks for fonts, a version check and Rerun's usage events (tel.rerun.io;
+    Rerun 0.41's page has no switch for them), each refused here before it is sent."""
+    from urllib.parse import urlsplit
+
+    from tests.rerun_web import LOOPBACK, listening, web_viewer
+
+    outside: list[str] = []
+
+    def only_loopback(route) -> None:
+        host = urlsplit(route.request.url).hostname or ""
+        if host.startswith(LOOPBACK):
+            route.continue_()
+        else:  # fonts, a version check: refused here, never sent
+            outside.append(route.request.url)
+            route.abort()
+
+    with web_viewer(workspace_files[".rrd"], tmp_path, tmp_path / "rerun.log") as (url, process):
+        addresses = listening(process.pid)
+        assert addresses and all(host.startswith(LOOPBACK) for host, _ in addresses), addresses
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        page.set_default_timeout(120_000)  # a frame of software WebGL on a busy machine
+        shot = artifacts / "rerun.png"
+
+        def drawn() -> bool:
+            page.screenshot(path=str(shot), timeout=120_000)
+            return _colourful_share(shot.read_bytes()) > 0.002
+
+        finished: list[str] = []
+        page.on("requestfinished", lambda request: finished.append(request.url))
+        try:
+            page.route("**/*", only_loopback)
+            page.goto(url)
+            wait_until(drawn, timeout=400, interval=2.0,
+                       what=f"the workspace drawn by Rerun's web viewer (last: {shot})")
+            pictures = [b""]
+
+            def settled() -> bool:  # the whole recording is in: two pictures alike
+                pictures.append(page.screenshot(timeout=120_000))
+                return pictures[-1] == pictures[-2]
+
+            wait_until(settled, timeout=300, interval=3.0, what="the viewer's picture settled")
+            shot.write_bytes(pictures[-1])
+        finally:
+            page.close()
+    sent = {urlsplit(u).hostname for u in finished}
+    assert sent and all(host.startswith(LOOPBACK) for host in sent), sent

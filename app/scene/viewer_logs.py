@@ -58,6 +58,9 @@ __all__ = ["DEMO_TIME", "HAND_POINTS", "infer_log", "workspace_log"]
 
 DEMO_TIME = Timeline("demo_time", "seconds", "seconds from the start of each demonstration")
 HAND_POINTS = LINE_POINTS  # times a demonstration's hand is shown at (the line's resolution)
+# Where the 3-D view starts: from the partner's side of the table, a little to the robot's
+# left and above, looking at the hand paths (metres from what it looks at).
+EYE_OFFSET = (-0.85, -0.45, 0.4)
 UNITS_NOTE = ("Positions and sizes in metres in the iCub's root frame (z up, the robot faces "
               "-x, its left is -y); angles in radians; times in seconds.")  # fmt: skip
 
@@ -133,7 +136,15 @@ def workspace_log(
             items += _demo_items(prefix, demo, store.layout, color)
     if model is not None:
         items += _prior_items(model, colors, view)
-    return SceneLog("icub-studio-workspace", (DEMO_TIME,), tuple(items)), hidden
+    log = SceneLog("icub-studio-workspace", (DEMO_TIME,), tuple(items), _camera(items))
+    return log, hidden
+
+
+def _camera(items: list[Item]):
+    """The start view: towards the middle of the paths drawn (the origin without any)."""
+    paths = [s for item in items if isinstance(item, Strips) for s in item.strips]
+    target = np.vstack(paths).mean(axis=0) if paths else np.zeros(3)
+    return tuple(target + EYE_OFFSET), tuple(target)
 
 
 def infer_log(
@@ -175,4 +186,4 @@ def infer_log(
     else:
         items += probability_series(prefix, names, [percent],
                                     np.asarray(result.inference.probabilities)[None, :])
-    return SceneLog("icub-studio-infer", (OBSERVED,), tuple(items))
+    return SceneLog("icub-studio-infer", (OBSERVED,), tuple(items), _camera(items))

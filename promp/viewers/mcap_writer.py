@@ -45,6 +45,7 @@ from promp.viewers.scene_log import (
     Model,
     Note,
     Points,
+    SceneLog,
     Series,
     Strips,
     Timeline,
@@ -112,6 +113,13 @@ class McapWriter:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+    def describe(self, log: SceneLog) -> None:
+        """The log's camera, as metadata (``camera``: Foxglove's layouts are not in MCAP)."""
+        if log.camera is not None:
+            eye, target = log.camera
+            self.file.write_metadata("camera", {"eye_m": json.dumps(eye),
+                                                "target_m": json.dumps(target)})  # fmt: skip
 
     def write(self, item: Item) -> None:
         """Keep ``item`` for the next :meth:`flush`."""

@@ -59,6 +59,7 @@ def file_bytes(suffix: str, write: Callable[[Path], None]) -> bytes:
 
 def _write_log(writer, log, path: Path) -> None:
     with writer(path, log.name, log.timelines) as opened:
+        opened.describe(log)
         for item in log.items:
             opened.write(item)
 

@@ -30,6 +30,7 @@ from promp.viewers.scene_log import (
     Model,
     Note,
     Points,
+    SceneLog,
     Series,
     Strips,
     Timeline,
@@ -38,6 +39,7 @@ from promp.viewers.scene_log import (
 __all__ = ["RerunWriter", "needs_rerun"]
 
 SERIES_UNITS = {"1": ""}  # a probability is said without a unit
+PLOT_NAMES = {"m": "positions (m)", "rad": "angles (rad)", "1": "probability", "s": "seconds"}
 
 
 def needs_rerun() -> ModuleType:
@@ -90,6 +92,28 @@ class RerunWriter:
             self.stream.set_time(timeline, sequence=int(round(value)))
         else:
             self.stream.set_time(timeline, duration=float(value))
+
+    def describe(self, log: SceneLog) -> None:
+        """The viewer's layout for ``log``: the 3-D view (from the log's camera) beside one
+        plot per unit of its series (metres, radians, probabilities...)."""
+        rrb = self.rr.blueprint
+        series: dict[str, list[str]] = {}
+        for item in log.items:
+            if isinstance(item, Series) and f"/{item.path}" not in series.get(item.unit, []):
+                series.setdefault(item.unit, []).append(f"/{item.path}")
+        eye = None
+        if log.camera is not None:
+            eye = rrb.EyeControls3D(position=log.camera[0], look_target=log.camera[1],
+                                    eye_up=(0.0, 0.0, 1.0))  # fmt: skip
+        hidden = [f"- {p}" for paths in series.values() for p in paths]
+        view = rrb.Spatial3DView(origin="/", name="3D (m)", contents=["+ /**", *hidden],
+                                 eye_controls=eye)  # fmt: skip
+        plots = [rrb.TimeSeriesView(origin="/", name=PLOT_NAMES.get(unit, unit or "values"),
+                                    contents=paths)  # fmt: skip
+                 for unit, paths in series.items()]
+        layout = rrb.Horizontal(view, rrb.Vertical(*plots), column_shares=[3, 2]) if plots else view
+        self.stream.send_blueprint(rrb.Blueprint(layout, collapse_panels=True),
+                                   make_active=True, make_default=True)  # fmt: skip
 
     def write(self, item: Item) -> None:
         """Log ``item`` (at its stamp, or static)."""

@@ -310,14 +310,23 @@ class SceneLog:
         The recording's name (Rerun's application id; MCAP's metadata).
     timelines : tuple of Timeline
     items : tuple of Item
+    camera : ((x, y, z), (x, y, z)) or None
+        Where a viewer's 3-D view starts: its eye and the point it looks at, metres (z up).
     """
 
     name: str
     timelines: tuple[Timeline, ...]
     items: tuple[Item, ...] = field(default=())
+    camera: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
 
     def __post_init__(self) -> None:
         check_path(self.name)
+        if self.camera is not None:
+            eye, target = (tuple(float(v) for v in _points([p], "camera")[0])
+                           for p in self.camera)  # fmt: skip
+            if eye == target:
+                raise ValueError("the camera's eye and target must differ")
+            object.__setattr__(self, "camera", (eye, target))
         object.__setattr__(self, "timelines", tuple(self.timelines))
         object.__setattr__(self, "items", tuple(self.items))
         names = [t.name for t in self.timelines]
