@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -208,3 +209,60 @@ def test_a_missing_library_names_the_extra(tmp_path, monkeypatch) -> None:
 def test_bad_items_are_refused(make, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         make()
+
+
+def test_rerun_opens_with_the_camera_and_a_plot_per_unit(tmp_path) -> None:
+    """The recording's layout (its blueprint, read by Rerun's reader): the 3-D view starts at
+    the log's camera; the series are plotted by unit."""
+    import dataclasses
+
+    import rerun as rr
+
+    log = dataclasses.replace(the_log(), camera=((1.0, -2.0, 0.5), (0.1, 0.0, 0.0)))
+    reader = rr.chunk.RrdReader(write_viewer_file(log, tmp_path / "a.rrd"))
+    [blueprint] = reader.blueprints()
+    found: dict[str, list] = {}
+    for chunk in reader.stream(store=blueprint):
+        batch = chunk.to_record_batch()
+        for name in ("ViewBlueprint:display_name", "EyeControls3D:position",
+                     "EyeControls3D:look_target"):  # fmt: skip
+            if name in batch.schema.names:
+                found.setdefault(name, []).extend(batch.column(name).to_pylist())
+    assert sorted(n[0] for n in found["ViewBlueprint:display_name"]) == ["3D (m)", "positions (m)"]
+    assert_allclose(found["EyeControls3D:position"][0][0], (1.0, -2.0, 0.5))
+    assert_allclose(found["EyeControls3D:look_target"][0][0], (0.1, 0.0, 0.0))
+
+
+def test_rerun_s_own_mcap_reader_opens_the_mcap_file(written) -> None:
+    """A reader we do not write, Rerun's, lists every topic with its Foxglove schema and
+    decodes the scene messages."""
+    import rerun as rr
+
+    _, _, mcap = written
+    reader = rr.chunk.McapReader(mcap)
+    channels = {c.topic: c for c in reader.info().channels}
+    assert {t for t, c in channels.items() if c.schema and c.schema.name == "foxglove.SceneUpdate"
+            } == {"/demos/reach", "/demos/reach/d-1", "/priors", "/trial", "/scene"}  # fmt: skip
+    assert channels["/demos/reach/d-1/hand/x"].message_encoding == "json"
+    decoded = {chunk.entity_path for chunk in reader.stream()
+               if "foxglove.SceneUpdate:message" in chunk.to_record_batch().schema.names}
+    assert decoded == {"/demos/reach", "/demos/reach/d-1", "/priors", "/trial", "/scene"}
+
+
+def test_writing_a_recording_sends_nothing_and_leaves_no_trace(tmp_path) -> None:
+    """The SDK writes the file and nothing else: no analytics configuration or queue in the
+    writer's home (Rerun's analytics live in the viewer, whose switch the manual gives)."""
+    import os
+    import subprocess
+
+    home = tmp_path / "home"
+    home.mkdir()
+    env = dict(os.environ, HOME=str(home), XDG_CONFIG_HOME=str(home / ".config"),
+               XDG_DATA_HOME=str(home / ".local"), XDG_CACHE_HOME=str(home / ".cache"))
+    code = ("from tests.test_viewer_files import the_log\n"
+            "from promp.viewers.formats import write_viewer_file\n"
+            f"write_viewer_file(the_log(), {str(tmp_path / 'a.rrd')!r})\n")  # fmt: skip
+    subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=300,
+                   cwd=Path(__file__).resolve().parent.parent)  # fmt: skip
+    assert (tmp_path / "a.rrd").stat().st_size > 0
+    assert list(home.rglob("*")) == []
