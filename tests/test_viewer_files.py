@@ -18,6 +18,7 @@ from promp.region import region_radius
 from promp.viewers.formats import viewer_file_bytes, write_viewer_file
 from promp.viewers.regions import region_ellipsoids
 from promp.viewers.scene_log import (
+    Event,
     Mesh,
     Model,
     Note,
@@ -61,6 +62,7 @@ def the_log() -> SceneLog:
         region_ellipsoids("trial/region", MEAN, COV, 0.9, (9, 8, 7), Stamp("observed_percent", 40)),
         Model("robot", _glb()),
         Series("demos/reach/d-1/hand/x", "hand x", "m", "demo_time", SERIES_T, SERIES_V),
+        Event("events", "movement start", Stamp("demo_time", 0.25)),
     ))  # fmt: skip
 
 
@@ -105,6 +107,8 @@ def test_rerun_reads_back_every_item_at_its_time(written) -> None:
     assert_allclose(times, SERIES_T * 1e9)
     assert_allclose(values, SERIES_V)  # NaN where there is none
     assert entities["demos/reach/d-1/hand/x"].static["SeriesLines:names"] == ["hand x (m)"]
+    [(when, event)] = entities["events"].rows
+    assert when == {"demo_time": 250_000_000} and event["TextLog:text"] == ["movement start"]
     timelines = {t for e in entities.values() for times, _ in e.rows for t in times}
     assert timelines == {"demo_time", "observed_percent"}  # no wall clock (log_time)
 
@@ -114,7 +118,11 @@ def test_mcap_holds_the_same_entities_and_series_for_foxglove(written) -> None:
     messages, metadata = read_mcap(mcap)
     items = {item.path: item for item in log.items}
     entities = scene_entities(messages)
-    assert set(entities) == {p for p, i in items.items() if not isinstance(i, Note | Series)}
+    assert set(entities) == {p for p, i in items.items()
+                             if not isinstance(i, Note | Series | Event)}  # fmt: skip
+    [event] = [m for m in messages if m.topic == "/events"]
+    assert event.schema == "foxglove.Log" and event.log_time == 250_000_000
+    assert event.message.message == "movement start"
     assert {m.topic for m in messages if m.schema == "foxglove.SceneUpdate"} == {
         "/demos/reach", "/demos/reach/d-1", "/priors", "/trial", "/scene"}  # fmt: skip
     [(t, strip)] = entities["demos/reach/d-1"]

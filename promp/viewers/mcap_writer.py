@@ -13,6 +13,7 @@ tools, with Foxglove's own schemas (written by ``foxglove-sdk``, no ROS install)
   ``{"<timeline>": t, "value": v}`` (``null`` for NaN) with a JSON schema whose title is the
   label and whose ``value`` says the unit: PlotJuggler and Foxglove's Plot panel plot
   ``/<path>/value``.
+* An event is a ``foxglove.Log`` message on ``/`` + its path (Foxglove's Log panel).
 * A note is an MCAP metadata record (``notes``); the timelines and units are another
   (``timelines``).
 
@@ -40,6 +41,7 @@ from scipy.spatial.transform import Rotation
 from promp.viewers.scene_log import (
     FRAME,
     Ellipsoids,
+    Event,
     Item,
     Mesh,
     Model,
@@ -102,6 +104,7 @@ class McapWriter:
         self.channels: dict[str, object] = {}
         self.scene: dict[tuple[int, str], list] = defaultdict(list)  # (ns, topic): entities
         self.values: list[tuple[int, str, dict]] = []  # (ns, topic, JSON message)
+        self.events: list[tuple[int, str, str]] = []  # (ns, topic, text)
         notes = {t.name: f"{t.kind}: {t.label}" for t in timelines}
         notes["units"] = "positions and sizes in metres, angles in radians, times in seconds"
         notes["frame"] = FRAME
@@ -125,6 +128,10 @@ class McapWriter:
         """Keep ``item`` for the next :meth:`flush`."""
         if isinstance(item, Note):
             self.file.write_metadata("notes", {item.path: item.text})
+            return
+        if isinstance(item, Event):
+            ns = _nanoseconds(item.at.value)
+            self.events.append((ns, f"/{item.path}", item.text))
             return
         if isinstance(item, Series):
             topic = f"/{item.path}"
@@ -214,6 +221,7 @@ class McapWriter:
         messages = [(ns, topic, "scene", entities)
                     for (ns, topic), entities in self.scene.items()]  # fmt: skip
         messages += [(ns, topic, "json", body) for ns, topic, body in self.values]
+        messages += [(ns, topic, "log", text) for ns, topic, text in self.events]
         messages.sort(key=lambda m: (m[0], m[1]))
         for ns, topic, kind, body in messages:
             if kind == "scene":
@@ -222,10 +230,18 @@ class McapWriter:
                     channel = self.foxglove.channels.SceneUpdateChannel(topic, context=self.context)
                     self.channels[topic] = channel
                 channel.log(self.m.SceneUpdate(entities=body), log_time=ns)
+            elif kind == "log":
+                if topic not in self.channels:
+                    self.channels[topic] = self.foxglove.channels.LogChannel(
+                        topic, context=self.context)  # fmt: skip
+                stamp = self.m.Timestamp(ns // 1_000_000_000, ns % 1_000_000_000)
+                self.channels[topic].log(self.m.Log(timestamp=stamp, level=self.m.LogLevel.Info,
+                                                    message=body, name=topic), log_time=ns)
             else:
                 self.channels[topic].log(json.dumps(body, allow_nan=False).encode(), log_time=ns)
         self.scene.clear()
         self.values.clear()
+        self.events.clear()
 
     def close(self) -> None:
         """Write what is kept and end the file."""

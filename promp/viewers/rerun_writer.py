@@ -3,8 +3,9 @@
 Each item goes to its path as Rerun's own archetype: line strips ``LineStrips3D``, points
 ``Points3D``, a mesh ``Mesh3D``, ellipsoids ``Ellipsoids3D`` (solid, translucent), a model
 ``Asset3D`` (glTF binary), a series ``Scalars`` with its ``SeriesLines`` name (label and
-unit), a note ``TextDocument`` (markdown). An item at a :class:`Stamp` is logged at that time
-of its timeline (a duration in seconds, or a sequence), others are static. The scene's frame
+unit), a note ``TextDocument`` (markdown), an event ``TextLog``. An item at a
+:class:`Stamp` is logged at that time of its timeline (a duration in seconds, or a sequence),
+others are static. The scene's frame
 is z up (``ViewCoordinates.RIGHT_HAND_Z_UP`` at the root). Rerun's own ``log_time`` is not
 recorded: a file's content is the log's, not the clock's.
 
@@ -25,6 +26,7 @@ from scipy.spatial.transform import Rotation
 
 from promp.viewers.scene_log import (
     Ellipsoids,
+    Event,
     Item,
     Mesh,
     Model,
@@ -147,6 +149,8 @@ class RerunWriter:
             return rr.Asset3D(contents=item.glb, media_type=rr.MediaType.GLB)
         if isinstance(item, Note):
             return rr.TextDocument(item.text, media_type=rr.MediaType.MARKDOWN)
+        if isinstance(item, Event):
+            return rr.TextLog(item.text, level=rr.TextLogLevel.INFO)
         raise ValueError(f"{getattr(item, 'path', item)!r}: not an item of a viewer log")
 
     def _series(self, item: Series) -> None:

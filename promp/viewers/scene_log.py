@@ -26,6 +26,7 @@ __all__ = [
     "FRAME",
     "Color",
     "Ellipsoids",
+    "Event",
     "Item",
     "Mesh",
     "Model",
@@ -297,7 +298,20 @@ class Note:
         check_path(self.path)
 
 
-Item = Strips | Points | Mesh | Ellipsoids | Model | Series | Note
+@dataclass(frozen=True)
+class Event:
+    """Something that happened at a time (a movement's start, a marker, a prediction sent):
+    Rerun's ``TextLog``, Foxglove's ``Log`` message."""
+
+    path: str
+    text: str
+    at: Stamp
+
+    def __post_init__(self) -> None:
+        check_path(self.path)
+
+
+Item = Strips | Points | Mesh | Ellipsoids | Model | Series | Note | Event
 
 
 @dataclass(frozen=True, eq=False)
