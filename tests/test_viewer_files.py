@@ -274,3 +274,4 @@ def test_writing_a_recording_sends_nothing_and_leaves_no_trace(tmp_path) -> None
                    cwd=Path(__file__).resolve().parent.parent)  # fmt: skip
     assert (tmp_path / "a.rrd").stat().st_size > 0
     assert list(home.rglob("*")) == []
+

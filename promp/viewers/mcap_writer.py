@@ -249,5 +249,10 @@ class McapWriter:
             self.flush()
         finally:
             self.file.close()
+            for channel in self.channels.values():
+                channel.close()
+                _forget = getattr(self.foxglove.channel, "_channels_by_id", {})
+                _forget.pop(channel.id(), None)  # the SDK's registry of JSON channels
+            self.channels.clear()
 
 

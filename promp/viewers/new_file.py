@@ -44,6 +44,9 @@ def write_new(path: Path | str, suffix: str, write: Callable[[Path], None]) -> P
             os.link(tmp, path)  # fails, rather than replaces, when path appeared meanwhile
         except FileExistsError:
             raise ValueError(f"{path} already exists: nothing is overwritten") from None
+        except OSError:  # a file system without hard links: renamed, checked just before
+            check_new(path, suffix)
+            os.rename(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
     return path

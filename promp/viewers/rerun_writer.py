@@ -18,6 +18,7 @@ session runs: its inputs, predictions and events at their LSL times on a ``secon
 
 from __future__ import annotations
 
+import uuid
 from pathlib import Path
 from types import ModuleType
 
@@ -77,7 +78,8 @@ class RerunWriter:
         rr = needs_rerun()
         self.rr = rr
         self.timelines = {t.name: t for t in timelines}
-        self.stream = rr.RecordingStream(name, recording_id=None, send_properties=False)
+        # a recording id of its own, said rather than left to the SDK's defaults
+        self.stream = rr.RecordingStream(name, recording_id=uuid.uuid4(), send_properties=False)
         self.stream.set_log_time_enabled(False)
         self.stream.set_log_tick_enabled(False)
         self.stream.save(str(path))
