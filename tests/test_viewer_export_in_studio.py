@@ -203,7 +203,7 @@ def test_rerun_s_own_web_viewer_draws_an_exported_workspace(
         try:
             page.route("**/*", only_loopback)
             page.goto(url)
-            wait_until(drawn, timeout=400, interval=2.0,
+            wait_until(drawn, timeout=300, interval=2.0,
                        what=f"the workspace drawn by Rerun's web viewer (last: {shot})")
             pictures = [b""]
 
@@ -211,7 +211,7 @@ def test_rerun_s_own_web_viewer_draws_an_exported_workspace(
                 pictures.append(page.screenshot(timeout=120_000))
                 return pictures[-1] == pictures[-2]
 
-            wait_until(settled, timeout=300, interval=3.0, what="the viewer's picture settled")
+            wait_until(settled, timeout=180, interval=3.0, what="the viewer's picture settled")
             shot.write_bytes(pictures[-1])
         finally:
             page.close()

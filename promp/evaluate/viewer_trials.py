@@ -104,7 +104,7 @@ def trials_log(
         demo = _demo(dataset, names[trials[0].primitive], trials[0].demo)
         whole = layout.extract(demo)
         if pos_dims is not None:
-            items.append(Strips(f"{prefix}/truth", (whole[:, pos_dims],), TRUTH_COLOR, 0.003))
+            items.append(Strips(f"{prefix}/truth", (whole[:, pos_dims],), TRUTH_COLOR, 0.002))
         probabilities = np.full((len(trials), len(names)), np.nan)
         for i, (trial, percent) in enumerate(zip(trials, percents, strict=True)):
             answer = trial.inferred

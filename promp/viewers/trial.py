@@ -36,7 +36,7 @@ OBSERVED = Timeline("observed_percent", "sequence", "the percent of the movement
 OBSERVED_COLOR: Color = (20, 20, 20)
 PREDICTED_COLOR: Color = (230, 120, 20)
 TRUTH_COLOR: Color = (120, 120, 120)
-END_RADIUS = 0.012  # metres
+END_RADIUS = 0.006  # metres
 
 
 def path_name(text: str) -> str:
@@ -87,10 +87,10 @@ def trial_items(
     at = Stamp(OBSERVED.name, percent)
     items: list[Item] = []
     if observed is not None and len(observed) >= 2:
-        items.append(Strips(f"{prefix}/observed", (observed,), OBSERVED_COLOR, 0.006, at))
+        items.append(Strips(f"{prefix}/observed", (observed,), OBSERVED_COLOR, 0.003, at))
     items.append(region_ellipsoids(f"{prefix}/region", region_mean, region_cov, probability,
                                    color, at))  # fmt: skip
-    items.append(Strips(f"{prefix}/predicted", (predicted,), PREDICTED_COLOR, 0.005, at))
+    items.append(Strips(f"{prefix}/predicted", (predicted,), PREDICTED_COLOR, 0.0025, at))
     items.append(Points(f"{prefix}/end", predicted[-1:], PREDICTED_COLOR, END_RADIUS, at))
     return items
 
