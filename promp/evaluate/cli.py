@@ -13,6 +13,7 @@
         [--backend local|dask --scheduler ADDRESS] [--include-flagged] [--repair-gaps cut|split]
         [--trials-csv OUT.csv] [--run DIR [--run-name NAME]]
         [--decide [--decide-window S] [--decisions-csv OUT.csv]]
+        [--rerun OUT.rrd] [--mcap OUT.mcap]
 
 ``--format records`` reads the lab-record format, ``--format csv`` reads ``DATASET/<primitive>/
 <demo>.csv``, ``yarp``, ``rosbag``, ``xdf`` and ``c3d`` a rig's recordings (:mod:`promp.rigs`:
@@ -40,7 +41,8 @@ printed tables end with the methods side by side (:mod:`promp.evaluate.tables`).
 ``--json`` writes the report (settings, the result rows, the failed trials, every trial, the
 findings and what was left out), ``--csv`` the result table, ``--trials-csv`` one line per
 trial (:mod:`promp.evaluate.report`, which the studio's "Export results" writes too),
-``--plots`` the figures (:mod:`promp.evaluate.plots`).
+``--plots`` the figures (:mod:`promp.evaluate.plots`). ``--rerun`` and ``--mcap`` write every
+trial for Rerun and for Foxglove or PlotJuggler (:mod:`promp.evaluate.viewer_files`).
 
 ``--decide`` also judges when each method would act (:mod:`promp.evaluate.decide_options`,
 :mod:`promp.evaluate.decisions`): printed, in the JSON (``decisions``, ``decision_curve``,
@@ -77,6 +79,11 @@ from promp.evaluate.report import (
 )
 from promp.evaluate.sweep import position_modality, run_sweep, spread_subset
 from promp.evaluate.tables import results_text, side_by_side_text
+from promp.evaluate.viewer_files import (
+    add_viewer_arguments,
+    check_viewer_arguments,
+    write_viewer_files,
+)
 from promp.gaps import REPAIRS, repair_gaps
 from promp.model import SELECT_RULES, Settings
 from promp.progress import stderr_progress
@@ -272,6 +279,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--run-name", default=None, help="the run's name (default: DIR's)")
     decide_options.add_decide_arguments(parser)
+    add_viewer_arguments(parser)
     return parser
 
 
@@ -356,6 +364,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.run is not None and (args.run.exists() or args.run.is_symlink()):
             raise ValueError(f"--run {args.run} already exists: a run is kept in a new folder, "
                              "nothing is overwritten")  # fmt: skip
+        check_viewer_arguments(args)  # said before the sweep, not after
         if args.plots is not None or args.run is not None:  # said before the sweep, not after
             from promp.evaluate.plots import figures_unavailable
 
@@ -459,6 +468,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(f"error: {exc}", file=sys.stderr)
                 return 2
             print(f"run kept in {run.folder} ({run.code_version})")
+    if not write_viewer_files(args, result, dataset, layout):
+        return 2
     return 0
 
 
