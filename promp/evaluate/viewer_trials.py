@@ -35,7 +35,7 @@ from promp.viewers.trial import (
     whole_percents,
 )
 
-__all__ = ["PALETTE", "REGION_PROBABILITY", "trial_path", "trials_log"]
+__all__ = ["NOTE", "PALETTE", "REGION_PROBABILITY", "trial_path", "trials_log"]
 
 # A primitive's colour, by its index (cycled): distinct on a white or a dark background.
 PALETTE: tuple[Color, ...] = ((31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189),

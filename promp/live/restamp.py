@@ -11,8 +11,8 @@ a pause of more than :data:`PAUSE_STEPS` steps) is placed one step before the ne
 burst's last keeps its stamp), and never at or before the stream's previous sample (a burst
 longer than its pause explains is spread evenly after it). A stream that runs faster than it
 declares is judged at the rate it runs (the median step of its last :data:`RUN_GAPS` samples
-given, once it gave that many): its samples after a pause are not a burst, and it is left as
-it is.
+given, once it gave that many and when it is under :data:`RUN_SHARE` of the declared step):
+its samples after a pause are not a burst, and it is left as it is.
 
 A burst is held until it is whole (as many samples as were due during its pause), so that it
 is re-spread whole whatever the chunks it arrives in; one that stays short of that is given
@@ -31,13 +31,16 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["BURST_SHARE", "QUIET_S", "LATE_WINDOW_S", "PAUSE_STEPS", "RUN_GAPS", "Respread"]
+__all__ = ["BURST_SHARE", "QUIET_S", "LATE_WINDOW_S", "PAUSE_STEPS", "RUN_GAPS", "RUN_SHARE",
+           "Respread"]
 
-BURST_SHARE = 0.5  # samples closer than half a step are a burst
+BURST_SHARE = 0.25  # samples closer than a quarter of a step are a burst (a backlog pushed
+# at once is microseconds apart; a stream replayed up to 4x faster than it declares is not one)
 QUIET_S = 0.05  # a burst short of its backlog is given once nothing came for this long
 PAUSE_STEPS = 2.0  # a burst follows a pause longer than this many steps
 LATE_WINDOW_S = 10.0
 RUN_GAPS = 32  # the steps a stream is seen running at: the median of its last 32
+RUN_SHARE = 0.75  # ... when under 3/4 of the declared step
 
 
 class Respread:
@@ -69,7 +72,9 @@ class Respread:
         (0: irregular)."""
         declared = 1.0 / self.rate if self.rate > 0 else 0.0
         if declared > 0 and len(self._gaps) == RUN_GAPS:
-            return min(declared, float(np.median(self._gaps)))
+            runs = float(np.median(self._gaps))
+            if runs < RUN_SHARE * declared:  # clearly faster (not an on-time stream's jitter)
+                return runs
         return declared
 
     def add(self, times: np.ndarray, values: np.ndarray, now: float

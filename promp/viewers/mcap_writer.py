@@ -53,7 +53,7 @@ from promp.viewers.scene_log import (
     Timeline,
 )
 
-__all__ = ["McapWriter", "needs_foxglove", "scene_topic"]
+__all__ = ["GLB", "McapWriter", "needs_foxglove", "scene_topic"]
 
 GLB = "model/gltf-binary"
 

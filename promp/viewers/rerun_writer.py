@@ -39,7 +39,7 @@ from promp.viewers.scene_log import (
     Timeline,
 )
 
-__all__ = ["RerunWriter", "needs_rerun"]
+__all__ = ["PLOT_NAMES", "SERIES_UNITS", "needs_rerun", "RerunWriter"]
 
 SERIES_UNITS = {"1": ""}  # a probability is said without a unit
 PLOT_NAMES = {"m": "positions (m)", "rad": "angles (rad)", "1": "probability", "s": "seconds"}

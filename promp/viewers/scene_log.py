@@ -23,22 +23,9 @@ from typing import Literal
 import numpy as np
 
 __all__ = [
-    "FRAME",
-    "Color",
-    "Ellipsoids",
-    "Event",
-    "Item",
-    "Mesh",
-    "Model",
-    "Note",
-    "Points",
-    "SceneLog",
-    "Series",
-    "Stamp",
-    "Strips",
-    "Timeline",
-    "check_path",
-]
+    "FRAME", "check_path", "Color", "Ellipsoids", "Event", "Item", "Mesh", "Model", "Note",
+    "Points", "SceneLog", "Series", "Stamp", "Strips", "Timeline", "TimelineKind"
+]  # fmt: skip
 
 FRAME = "root_link"  # the iCub URDF's root: the studio's world frame
 Color = tuple[int, int, int]  # 0-255

@@ -23,14 +23,9 @@ from promp.viewers.regions import region_ellipsoids
 from promp.viewers.scene_log import Color, Item, Points, Series, Stamp, Strips, Timeline
 
 __all__ = [
-    "OBSERVED",
-    "PREDICTED_COLOR",
-    "TRUTH_COLOR",
-    "path_name",
-    "probability_series",
-    "trial_items",
-    "whole_percents",
-]
+    "END_RADIUS", "OBSERVED", "OBSERVED_COLOR", "PREDICTED_COLOR", "TRUTH_COLOR", "path_name",
+    "probability_series", "trial_items", "whole_percents"
+]  # fmt: skip
 
 OBSERVED = Timeline("observed_percent", "sequence", "the percent of the movement observed")
 OBSERVED_COLOR: Color = (20, 20, 20)
