@@ -19,9 +19,18 @@ process that started it, however that one ended (``kill -9`` included): a killed
 leaves no worker behind.
 
 ``held_out`` restricts the sweep to some demonstrations (:func:`spread_subset`: a few per
-primitive, evenly spread over its list, the same for every method): each is still tested by a
-model fitted on every other demonstration, so a quick run measures the same thing on fewer
-trials.
+primitive, evenly spread from its shortest to its longest, the same for every method): each is
+still tested by a model fitted on every other demonstration, so a quick run measures the same
+thing on fewer trials.
+
+``groups`` holds out a whole group at a time instead (a subject's or a session's
+demonstrations, :mod:`promp.evaluate.groups`): every demonstration of the group is tested by a
+model fitted on the demonstrations of every other group. Leave-one-out is the case of groups of
+one.
+
+Nothing depends on the demonstrations' names or order: every fold's training demonstrations
+are given to the methods in the order of their content (:mod:`promp.content_key`), and the
+rows' means are exact sums (``math.fsum``), the same in any order.
 
 A trial the method cannot run (it raises ``ValueError``: e.g. an observation it has no
 explanation for) does not end the sweep: it counts as a recognition error, is left out of the
@@ -42,6 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from promp import metrics
+from promp.content_key import canonical_dataset, content_key
 from promp.data import Demonstration, Layout, sample_period_of
 from promp.evaluate.methods import ALPHA_ROWS, ProMPEngine, TrialAnswer
 from promp.metrics import position_modality  # (also re-exported)
@@ -49,12 +59,15 @@ from promp.model import Settings
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
 __all__ = [
-    "CONFIDENT_MISTAKE", "Factory", "Progress", "SweepResult", "Trial", "leave_one_out",
-    "run_sweep", "spread_subset",
+    "CONFIDENT_MISTAKE", "Factory", "LEAVE_ONE_OUT", "MIN_TRAINING", "Pair", "Progress",
+    "SweepResult", "Trial", "check_groups", "leave_one_out", "run_sweep", "spread_subset",
 ]  # fmt: skip
 
 Progress = Callable[[int, int], None]
 Factory = Callable[[], object]
+Pair = tuple[int, int]  # (primitive index, demonstration index)
+LEAVE_ONE_OUT = "leave-one-out"  # the protocol of a sweep without groups
+MIN_TRAINING = 2  # demonstrations a primitive keeps in every fold: a fit needs two
 # A trial whose true primitive got p < 0.01 is a confident mistake (-ln 0.01 = 4.6 nats).
 CONFIDENT_MISTAKE = -math.log(0.01)
 
@@ -120,24 +133,23 @@ def _run_fold(
     methods: Mapping[str, Factory],
     dataset: Mapping[str, Sequence[Demonstration]],
     layout: Layout,
-    k: int,
-    j: int,
+    fold: tuple[tuple[Pair, ...], tuple[Pair, ...]],
     dt: float,
     percents: Sequence[float],
     alpha_methods: Sequence[str],
     observe_sets: Sequence[Sequence[str]],
 ) -> list[Trial]:
-    """Fit every method without demonstration ``j`` of primitive ``k``, then infer it at every
-    setting."""
+    """Fit every method without the demonstrations ``fold[0]`` (a set of (primitive index,
+    demonstration index) pairs), on the others in the order of their content, then infer each
+    of ``fold[1]`` at every setting."""
+    held, tested = set(fold[0]), fold[1]
     names = list(dataset)
     pos_dims = layout.dims([position_modality(layout)])
-    train = {
-        name: [d for i, d in enumerate(demos) if not (kk == k and i == j)]
+    train = canonical_dataset({
+        name: [d for i, d in enumerate(demos) if (kk, i) not in held]
         for kk, (name, demos) in enumerate(dataset.items())
-    }
-    demo = dataset[names[k]][j]
-    truth = layout.extract(demo)[:, pos_dims]
-    trials = []
+    })  # fmt: skip
+    fitted = []
     for method_name, factory in methods.items():
         method = factory()
         try:
@@ -145,63 +157,78 @@ def _run_fold(
             fit_error = ""
         except ValueError as exc:
             fit_error = f"fit without it failed: {exc}"
-        for percent in percents:
-            n_o = n_observed_for(percent, demo.n_samples)
-            for observed in observe_sets:
-                for alpha_method in alpha_methods:
-                    trial = Trial(k, demo.name, float(percent), alpha_method, tuple(observed),
-                                  None, method=method_name)  # fmt: skip
-                    try:
-                        if fit_error:
-                            raise ValueError(fit_error)
-                        inferred = method.infer(demo, n_o, observed, alpha_method)
-                    except ValueError as exc:
-                        trial.error = str(exc)
-                    else:
-                        _measure(trial, inferred, truth, demo.duration, n_o, pos_dims)
-                    trials.append(trial)
+        fitted.append((method_name, method, fit_error))
+    trials = []
+    for k, j in tested:
+        demo = dataset[names[k]][j]
+        truth = layout.extract(demo)[:, pos_dims]
+        for method_name, method, fit_error in fitted:
+            for percent in percents:
+                n_o = n_observed_for(percent, demo.n_samples)
+                for observed in observe_sets:
+                    for alpha_method in alpha_methods:
+                        trial = Trial(k, demo.name, float(percent), alpha_method,
+                                      tuple(observed), None, method=method_name)  # fmt: skip
+                        try:
+                            if fit_error:
+                                raise ValueError(fit_error)
+                            inferred = method.infer(demo, n_o, observed, alpha_method)
+                        except ValueError as exc:
+                            trial.error = str(exc)
+                        else:
+                            _measure(trial, inferred, truth, demo.duration, n_o, pos_dims)
+                        trials.append(trial)
     return trials
 
 
 def spread_subset(
     dataset: Mapping[str, Sequence[Demonstration]], per_primitive: int
-) -> list[tuple[int, int]]:
-    """``per_primitive`` demonstrations of every primitive, evenly spread over its list (the
-    first, the last and equal steps between: deterministic, every primitive represented), as
-    (primitive index, demonstration index) pairs; all of a primitive that has fewer."""
+) -> list[Pair]:
+    """``per_primitive`` demonstrations of every primitive, evenly spread over its
+    demonstrations ordered by duration (the shortest, the longest and equal steps between;
+    equal durations by their content, :func:`promp.content_key.content_key`): deterministic,
+    every primitive represented, the same whatever the files' names and order. As (primitive
+    index, demonstration index) pairs, by primitive then index; all of a primitive that has
+    fewer."""
     if per_primitive < 1:
         raise ValueError(f"hold out at least one demonstration per primitive, got {per_primitive}")
     out = []
     for k, demos in enumerate(dataset.values()):
         n = len(demos)
+        ranked = sorted(range(n), key=lambda i: (demos[i].duration, content_key(demos[i])))
         picks = np.unique(np.round(np.linspace(0, n - 1, min(per_primitive, n))).astype(int))
-        out.extend((k, int(j)) for j in picks)
+        out.extend((k, j) for j in sorted(ranked[int(p)] for p in picks))
     return out
 
 
-def _run_folds(
-    fold: Callable[[int, int], list[Trial]], chunk: Sequence[tuple[int, int]]
-) -> list[list[Trial]]:
-    return [fold(k, j) for k, j in chunk]
+Fold = tuple[tuple[Pair, ...], tuple[Pair, ...]]  # (held out together, tested)
+
+
+def _run_folds(fold: Callable[[Fold], list[Trial]], chunk: Sequence[Fold]) -> list[list[Trial]]:
+    return [fold(f) for f in chunk]
 
 
 def _folds(
-    fold: Callable[[int, int], list[Trial]],
-    held_out: list[tuple[int, int]],
+    fold: Callable[[Fold], list[Trial]],
+    folds: list[Fold],
     jobs: int,
     scheduler: str | None,
     progress: Progress | None,
 ):
-    """Each fold's trials, in the order of ``held_out``.
+    """Each fold's trials, in the order of ``folds``; ``progress`` counts the demonstrations
+    tested.
 
     In parallel, the folds travel in chunks (four per worker): each chunk carries the dataset
     once, rather than once per fold.
     """
+    total = sum(len(tested) for _, tested in folds)
+    done = 0
     if jobs == 1 and scheduler is None:
-        for done, (k, j) in enumerate(held_out):
-            yield fold(k, j)
+        for f in folds:
+            yield fold(f)
+            done += len(f[1])
             if progress is not None:
-                progress(done + 1, len(held_out))
+                progress(done, total)
         return
     import joblib
 
@@ -220,21 +247,22 @@ def _folds(
         workers = jobs if jobs > 0 else (os.cpu_count() or 1)
         config = joblib.parallel_config(backend="loky", n_jobs=jobs, initializer=exit_with_parent,
                                         initargs=(os.getpid(),))  # fmt: skip
-    n_chunks = min(len(held_out), 4 * workers)
-    chunks = [list(c) for c in np.array_split(np.arange(len(held_out)), n_chunks) if c.size]
+    n_chunks = min(len(folds), 4 * workers)
+    chunks = [list(c) for c in np.array_split(np.arange(len(folds)), n_chunks) if c.size]
     try:
         with config:
             parallel = joblib.Parallel(return_as="generator")
             results = parallel(
-                joblib.delayed(_run_folds)(fold, [held_out[i] for i in chunk]) for chunk in chunks
+                joblib.delayed(_run_folds)(fold, [folds[i] for i in chunk]) for chunk in chunks
             )
-            done = 0
+            position = 0
             for trials_of_chunk in results:
                 for trials in trials_of_chunk:
-                    done += 1
+                    done += len(folds[position][1])
+                    position += 1
                     yield trials
                     if progress is not None:
-                        progress(done, len(held_out))
+                        progress(done, total)
     finally:
         if client is not None:
             client.close()
@@ -268,10 +296,12 @@ def run_sweep(
     keep_trials: bool = False,
     jobs: int = 1,
     scheduler: str | None = None,
-    held_out: Sequence[tuple[int, int]] | None = None,
+    held_out: Sequence[Pair] | None = None,
     stop: Callable[[], bool] | None = None,
+    groups: Mapping[str, Sequence[Pair]] | None = None,
 ) -> SweepResult:
-    """Run the leave-one-out protocol; one result row per (method, percent, alpha, observed).
+    """Run the leave-one-out protocol (or the grouped one, ``groups``); one result row per
+    (method, percent, alpha, observed).
 
     ``method_factory`` makes a fresh method (``fit``, ``infer``), named ``method_name``; or a
     mapping of names to such factories: the methods then run on the same folds and settings,
@@ -281,8 +311,12 @@ def run_sweep(
     address) runs them on that cluster instead. The results do not depend on either.
     ``held_out``: the (primitive index, demonstration index) pairs to test, each with a model
     fitted on all the others (default: every demonstration; see :func:`spread_subset`).
-    ``stop()`` is asked after every fold: once true, the sweep ends there and its rows hold the
-    folds done (the result says it is ``partial``).
+    ``groups``: {group name: its (primitive index, demonstration index) pairs}, every
+    demonstration in one group (:func:`promp.evaluate.groups.group_pairs`): each fold holds
+    out a whole group and tests those of its demonstrations in ``held_out``; ValueError when
+    a fold would leave a primitive fewer than :data:`MIN_TRAINING` demonstrations to learn
+    from. ``stop()`` is asked after every fold: once true, the sweep ends there and its rows
+    hold the folds done (the result says it is ``partial``).
     """
     names = list(dataset)
     if isinstance(method_factory, Mapping):
@@ -308,6 +342,10 @@ def run_sweep(
             raise ValueError(f"no demonstration (primitive index, index) {unknown[0]} to hold out")
         if len(set(held_out)) != len(held_out) or not held_out:
             raise ValueError("held_out must name distinct demonstrations, at least one")
+    if groups is None:
+        folds: list[Fold] = [(((k, j),), ((k, j),)) for k, j in held_out]
+    else:
+        folds = _group_folds(dataset, groups, held_out)
     fold = functools.partial(
         _run_fold,
         methods,
@@ -320,11 +358,11 @@ def run_sweep(
     )
     acc: dict[tuple, list[Trial]] = {}
     result = SweepResult()
-    for done, trials in enumerate(_folds(fold, held_out, jobs, scheduler, progress), 1):
+    for done, trials in enumerate(_folds(fold, folds, jobs, scheduler, progress), 1):
         for trial in trials:
             key = (trial.method, trial.percent, trial.alpha_method, trial.observed)
             acc.setdefault(key, []).append(trial)
-        if stop is not None and done < len(held_out) and stop():
+        if stop is not None and done < len(folds) and stop():
             result.partial = True
             break
     for (method, percent, alpha_method, observed), trials in acc.items():
@@ -337,7 +375,7 @@ def run_sweep(
                 "method": method,
                 "recognition_errors": int(sum(not t.correct for t in trials)),
                 "trials": len(trials),
-                "log_loss": float(np.mean(losses)),
+                "log_loss": math.fsum(losses) / len(losses),
                 "confident_mistakes": int(sum(loss > CONFIDENT_MISTAKE for loss in losses)),
                 "worst_log_loss": float(max(losses)),
                 "position_error_m": _nanmean([t.position_error_m for t in trials]),
@@ -477,6 +515,59 @@ def _measure(
 
 
 def _nanmean(values: list[float]) -> float:
-    arr = np.asarray(values, dtype=float)
-    arr = arr[np.isfinite(arr)]
-    return float(arr.mean()) if arr.size else float("nan")
+    """The mean of the finite values (NaN without any), summed exactly: the same in any
+    order."""
+    finite = [float(v) for v in values if math.isfinite(v)]
+    return math.fsum(finite) / len(finite) if finite else float("nan")
+
+
+def check_groups(
+    dataset: Mapping[str, Sequence[Demonstration]], groups: Mapping[str, Sequence[Pair]]
+) -> None:
+    """ValueError unless every demonstration of ``dataset`` is in exactly one of ``groups``
+    and holding out any group leaves every primitive at least :data:`MIN_TRAINING`
+    demonstrations to learn from (the message names the group and the primitive)."""
+    names = list(dataset)
+    owner: dict[Pair, str] = {}
+    for group, pairs in groups.items():
+        for k, j in pairs:
+            pair = (int(k), int(j))
+            if not (0 <= pair[0] < len(names) and 0 <= pair[1] < len(dataset[names[pair[0]]])):
+                raise ValueError(f"group {group!r}: no demonstration (primitive index, index) "
+                                 f"{pair}")  # fmt: skip
+            if pair in owner:
+                raise ValueError(f"{names[pair[0]]}/{dataset[names[pair[0]]][pair[1]].name} is "
+                                 f"in two groups, {owner[pair]!r} and {group!r}")  # fmt: skip
+            owner[pair] = group
+    for k, demos in enumerate(dataset.values()):
+        for j, demo in enumerate(demos):
+            if (k, j) not in owner:
+                raise ValueError(f"{names[k]}/{demo.name} is in no group: every demonstration "
+                                 "needs one")  # fmt: skip
+    for group, pairs in groups.items():
+        for k, name in enumerate(names):
+            left = len(dataset[name]) - sum(1 for kk, _ in pairs if int(kk) == k)
+            if left < MIN_TRAINING:
+                raise ValueError(
+                    f"holding out the group {group!r} leaves {name!r} {left} demonstration(s) "
+                    f"to learn from; a fit needs at least {MIN_TRAINING}: group the "
+                    "demonstrations so that every primitive has takes in two groups or more"
+                )
+
+
+def _group_folds(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    groups: Mapping[str, Sequence[Pair]],
+    held_out: Sequence[Pair],
+) -> list[Fold]:
+    """One fold per group that holds a demonstration of ``held_out``: the group's pairs held
+    out, those of ``held_out`` tested (in ``held_out``'s order)."""
+    check_groups(dataset, groups)
+    folds = []
+    for pairs in groups.values():
+        held = tuple(sorted((int(k), int(j)) for k, j in pairs))
+        mine = set(held)
+        tested = tuple(pair for pair in held_out if pair in mine)
+        if tested:
+            folds.append((held, tested))
+    return folds
