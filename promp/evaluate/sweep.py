@@ -13,10 +13,7 @@ modalities) compare trial for trial.
 
 Folds are independent: ``jobs`` runs them on several processes (joblib; ``-1`` = every core)
 and ``scheduler`` on a Dask cluster (``dask.distributed``, the ``cluster`` extra), with results
-identical to one process: every fold is computed the same way wherever it runs, and the rows
-are assembled in the folds' order. A worker process ends within :data:`PARENT_WATCH_S` of the
-process that started it, however that one ended (``kill -9`` included): a killed evaluation
-leaves no worker behind.
+identical to one process (:mod:`promp.evaluate.folds`, which also says what a fold holds out).
 
 ``held_out`` restricts the sweep to some demonstrations (:func:`spread_subset`: a few per
 primitive, evenly spread from its shortest to its longest, the same for every method): each is
@@ -42,9 +39,6 @@ from __future__ import annotations
 
 import functools
 import math
-import os
-import threading
-import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -53,6 +47,14 @@ import numpy as np
 from promp import metrics
 from promp.content_key import canonical_dataset, content_key
 from promp.data import Demonstration, Layout, sample_period_of
+from promp.evaluate.folds import (  # noqa: F401  (MIN_TRAINING, check_groups re-exported)
+    MIN_TRAINING,
+    Fold,
+    Pair,
+    check_groups,
+    group_folds,
+    run_folds,
+)
 from promp.evaluate.methods import ALPHA_ROWS, ProMPEngine, TrialAnswer
 from promp.metrics import position_modality  # (also re-exported)
 from promp.model import Settings
@@ -65,9 +67,7 @@ __all__ = [
 
 Progress = Callable[[int, int], None]
 Factory = Callable[[], object]
-Pair = tuple[int, int]  # (primitive index, demonstration index)
 LEAVE_ONE_OUT = "leave-one-out"  # the protocol of a sweep without groups
-MIN_TRAINING = 2  # demonstrations a primitive keeps in every fold: a fit needs two
 # A trial whose true primitive got p < 0.01 is a confident mistake (-ln 0.01 = 4.6 nats).
 CONFIDENT_MISTAKE = -math.log(0.01)
 
@@ -201,89 +201,6 @@ def spread_subset(
     return out
 
 
-Fold = tuple[tuple[Pair, ...], tuple[Pair, ...]]  # (held out together, tested)
-
-
-def _run_folds(fold: Callable[[Fold], list[Trial]], chunk: Sequence[Fold]) -> list[list[Trial]]:
-    return [fold(f) for f in chunk]
-
-
-def _folds(
-    fold: Callable[[Fold], list[Trial]],
-    folds: list[Fold],
-    jobs: int,
-    scheduler: str | None,
-    progress: Progress | None,
-):
-    """Each fold's trials, in the order of ``folds``; ``progress`` counts the demonstrations
-    tested.
-
-    In parallel, the folds travel in chunks (four per worker): each chunk carries the dataset
-    once, rather than once per fold.
-    """
-    total = sum(len(tested) for _, tested in folds)
-    done = 0
-    if jobs == 1 and scheduler is None:
-        for f in folds:
-            yield fold(f)
-            done += len(f[1])
-            if progress is not None:
-                progress(done, total)
-        return
-    import joblib
-
-    if scheduler is not None:
-        try:
-            from dask.distributed import Client
-        except ImportError:
-            raise ValueError(
-                "the Dask backend needs the 'cluster' extra: pip install 'dask[distributed]'"
-            ) from None
-        client = Client(scheduler)
-        workers = max(1, sum(client.nthreads().values()))
-        config = joblib.parallel_config(backend="dask")
-    else:
-        client = None
-        workers = jobs if jobs > 0 else (os.cpu_count() or 1)
-        config = joblib.parallel_config(backend="loky", n_jobs=jobs, initializer=exit_with_parent,
-                                        initargs=(os.getpid(),))  # fmt: skip
-    n_chunks = min(len(folds), 4 * workers)
-    chunks = [list(c) for c in np.array_split(np.arange(len(folds)), n_chunks) if c.size]
-    try:
-        with config:
-            parallel = joblib.Parallel(return_as="generator")
-            results = parallel(
-                joblib.delayed(_run_folds)(fold, [folds[i] for i in chunk]) for chunk in chunks
-            )
-            position = 0
-            for trials_of_chunk in results:
-                for trials in trials_of_chunk:
-                    done += len(folds[position][1])
-                    position += 1
-                    yield trials
-                    if progress is not None:
-                        progress(done, total)
-    finally:
-        if client is not None:
-            client.close()
-
-
-PARENT_WATCH_S = 0.5  # how often a worker looks whether the evaluation that started it is alive
-
-
-def exit_with_parent(parent: int) -> None:
-    """A worker's initializer: the worker ends once the process ``parent`` (its parent) has
-    ended. joblib's workers outlive a parent killed by a signal otherwise (until their idle
-    timeout, minutes later), still computing the folds of a sweep nobody waits for."""
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(PARENT_WATCH_S)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
-
-
 def run_sweep(
     method_factory: Factory | Mapping[str, Factory],
     dataset: Mapping[str, Sequence[Demonstration]],
@@ -345,7 +262,7 @@ def run_sweep(
     if groups is None:
         folds: list[Fold] = [(((k, j),), ((k, j),)) for k, j in held_out]
     else:
-        folds = _group_folds(dataset, groups, held_out)
+        folds = group_folds(dataset, groups, held_out)
     fold = functools.partial(
         _run_fold,
         methods,
@@ -358,7 +275,7 @@ def run_sweep(
     )
     acc: dict[tuple, list[Trial]] = {}
     result = SweepResult()
-    for done, trials in enumerate(_folds(fold, folds, jobs, scheduler, progress), 1):
+    for done, trials in enumerate(run_folds(fold, folds, jobs, scheduler, progress), 1):
         for trial in trials:
             key = (trial.method, trial.percent, trial.alpha_method, trial.observed)
             acc.setdefault(key, []).append(trial)
@@ -519,55 +436,3 @@ def _nanmean(values: list[float]) -> float:
     order."""
     finite = [float(v) for v in values if math.isfinite(v)]
     return math.fsum(finite) / len(finite) if finite else float("nan")
-
-
-def check_groups(
-    dataset: Mapping[str, Sequence[Demonstration]], groups: Mapping[str, Sequence[Pair]]
-) -> None:
-    """ValueError unless every demonstration of ``dataset`` is in exactly one of ``groups``
-    and holding out any group leaves every primitive at least :data:`MIN_TRAINING`
-    demonstrations to learn from (the message names the group and the primitive)."""
-    names = list(dataset)
-    owner: dict[Pair, str] = {}
-    for group, pairs in groups.items():
-        for k, j in pairs:
-            pair = (int(k), int(j))
-            if not (0 <= pair[0] < len(names) and 0 <= pair[1] < len(dataset[names[pair[0]]])):
-                raise ValueError(f"group {group!r}: no demonstration (primitive index, index) "
-                                 f"{pair}")  # fmt: skip
-            if pair in owner:
-                raise ValueError(f"{names[pair[0]]}/{dataset[names[pair[0]]][pair[1]].name} is "
-                                 f"in two groups, {owner[pair]!r} and {group!r}")  # fmt: skip
-            owner[pair] = group
-    for k, demos in enumerate(dataset.values()):
-        for j, demo in enumerate(demos):
-            if (k, j) not in owner:
-                raise ValueError(f"{names[k]}/{demo.name} is in no group: every demonstration "
-                                 "needs one")  # fmt: skip
-    for group, pairs in groups.items():
-        for k, name in enumerate(names):
-            left = len(dataset[name]) - sum(1 for kk, _ in pairs if int(kk) == k)
-            if left < MIN_TRAINING:
-                raise ValueError(
-                    f"holding out the group {group!r} leaves {name!r} {left} demonstration(s) "
-                    f"to learn from; a fit needs at least {MIN_TRAINING}: group the "
-                    "demonstrations so that every primitive has takes in two groups or more"
-                )
-
-
-def _group_folds(
-    dataset: Mapping[str, Sequence[Demonstration]],
-    groups: Mapping[str, Sequence[Pair]],
-    held_out: Sequence[Pair],
-) -> list[Fold]:
-    """One fold per group that holds a demonstration of ``held_out``: the group's pairs held
-    out, those of ``held_out`` tested (in ``held_out``'s order)."""
-    check_groups(dataset, groups)
-    folds = []
-    for pairs in groups.values():
-        held = tuple(sorted((int(k), int(j)) for k, j in pairs))
-        mine = set(held)
-        tested = tuple(pair for pair in held_out if pair in mine)
-        if tested:
-            folds.append((held, tested))
-    return folds

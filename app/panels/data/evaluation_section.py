@@ -1,5 +1,6 @@
 """The Data tab's "Leave-one-out evaluation" folder: choose what is observed, the alpha method,
-the percentages and the methods (ours, or ours beside the toolbox and both baselines), run the
+the percentages, the methods (ours, or ours beside the toolbox and both baselines) and whether
+whole groups are held out too (Group by: a subject's or a session's folder), run the
 sweep in the background (:class:`EvaluationJob`) with a progress bar and a Cancel button, then
 show its results.
 
@@ -26,10 +27,13 @@ from app.core.snapshot import Snapshot
 from app.panels.data.evaluation import EvaluationJob
 from app.panels.data.evaluation_plan import (
     ALPHA_CHOICES,
+    GROUP_HINT,
     METHOD_CHOICES,
     MIN_DEMOS,
+    NO_GROUPS,
     SUBSET_CHOICES,
     SUBSET_HINT,
+    group_choices,
     observe_choices,
     plan_evaluation,
 )
@@ -69,6 +73,7 @@ class EvaluationControls:
     run_name_text: viser.GuiTextHandle  # the name the run is saved under (runs_section)
     methods_dropdown: viser.GuiDropdownHandle
     subset_dropdown: viser.GuiDropdownHandle
+    group_dropdown: viser.GuiDropdownHandle
 
 
 class EvaluationSection:
@@ -108,6 +113,10 @@ class EvaluationSection:
             )  # fmt: skip
             subset_dropdown = gui.add_dropdown("Held out", tuple(SUBSET_CHOICES),
                                                hint=SUBSET_HINT)  # fmt: skip
+            group_dropdown = gui.add_dropdown(
+                "Group by", tuple(group_choices(ctx.store.state)), initial_value=NO_GROUPS,
+                hint=GROUP_HINT,
+            )  # fmt: skip
             run_name_text = gui.add_text(
                 "Run name", "", hint="The name the evaluation is kept under in the workspace's "
                 "runs/ (Saved runs); empty: the observed modalities and the alpha method",
@@ -139,7 +148,7 @@ class EvaluationSection:
         self.controls = EvaluationControls(
             observe_dropdown, alpha_dropdown, percents_text, run_button, cancel_button,
             progress_bar, eval_status, export_button, failed_dropdown, open_button, results_folder,
-            run_name_text, methods_dropdown, subset_dropdown,
+            run_name_text, methods_dropdown, subset_dropdown, group_dropdown,
         )  # fmt: skip
         self.results = ResultsArea(gui, results_folder, export_button, notify)
         self.failed_trials = FailedTrialPicker(
@@ -161,6 +170,7 @@ class EvaluationSection:
                 c.percents_text.value,
                 c.methods_dropdown.value,
                 c.subset_dropdown.value,
+                c.group_dropdown.value,
             )
         except ValueError as exc:
             self.notify(client, "Cannot evaluate", f"{exc}.", "red")
@@ -191,6 +201,9 @@ class EvaluationSection:
         if layout != self._layout:  # another workspace: its modalities
             self._layout = layout
             self.controls.observe_dropdown.options = tuple(observe_choices(layout))
+        groups = tuple(group_choices(snapshot.store))
+        if tuple(self.controls.group_dropdown.options) != groups:  # its sources' folders
+            self.controls.group_dropdown.options = groups
         root = snapshot.store.workspace.root
         if root != self._root:  # another workspace: nothing of the previous one's stays
             self._root = root
@@ -293,7 +306,12 @@ def summary(job: EvaluationJob) -> str:
     )
     held = ("each of" if plan.subset is None
             else f"{plan.subset} per primitive, evenly spread:")  # fmt: skip
+    once = plan.n_held_out // (1 if plan.group_by is None else 2)
+    grouped = ("" if outcome.grouped is None else
+               f" Then each of {len(outcome.grouped.groups)} groups held out whole "
+               f"({outcome.grouped.rule.describe()}): {len(outcome.grouped.warnings)} "
+               "warning(s), below.")  # fmt: skip
     return (
-        f"Held out {held} {job.progress.total} demonstrations of {', '.join(plan.dataset)} in "
-        f"{outcome.elapsed_s:.1f} s ({how}).{skipped}{left_out}{failed}"
+        f"Held out {held} {once} demonstrations of {', '.join(plan.dataset)} in "
+        f"{outcome.elapsed_s:.1f} s ({how}).{grouped}{skipped}{left_out}{failed}"
     )

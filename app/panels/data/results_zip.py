@@ -27,7 +27,7 @@ from pathlib import Path
 from app.io.exchange import export_filename
 from promp.data import Demonstration, Layout
 from promp.evaluate.plots import figures_unavailable, write_figures
-from promp.evaluate.report import report_json, results_csv, trials_csv
+from promp.evaluate.report import every_row, every_trial, report_json, results_csv, trials_csv
 from promp.evaluate.sweep import SweepResult
 
 JSON_NAME, CSV_NAME, TRIALS_NAME, FIGURES = "results.json", "results.csv", "trials.csv", "figures"
@@ -57,8 +57,8 @@ def results_zip(
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
         archive.writestr(JSON_NAME, report_json(report))
-        archive.writestr(CSV_NAME, results_csv(report["results"]))
-        archive.writestr(TRIALS_NAME, trials_csv(report["trials"]))
+        archive.writestr(CSV_NAME, results_csv(every_row(report)))
+        archive.writestr(TRIALS_NAME, trials_csv(every_trial(report)))
         if not figures_unavailable():  # else the tables go alone: the export says why
             with tempfile.TemporaryDirectory(prefix="evaluation-figures-") as folder:
                 for path in draw_figures(Path(folder), report, result, dataset, layout):
