@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from promp.content_key import content_order
 from promp.data import Demonstration, Layout, sample_period_of
 from promp.fitting import fit_with
 from promp.model import ProMPModel, Settings
@@ -127,7 +128,7 @@ def typicality(
     """Typicality of ``demo`` against the model learned from ``others`` (its primitive's other
     demonstrations; ``settings`` fully given, nothing is chosen), ranked among the others each
     scored by a model learned without it; None with fewer than :data:`MIN_OTHERS` others."""
-    others = list(others)
+    others = [others[i] for i in content_order(others)]  # the same score in any order
     if len(others) < MIN_OTHERS:
         return None
     settings = settings.with_fallback()
