@@ -150,8 +150,8 @@ def test_infer_holds_out_the_test_demonstrations_group(session) -> None:
                        hold_out="folder")  # fmt: skip
     choice = choose_model(state, session.snapshot(), session.learner)
     assert choice.model is fitted.model
-    assert choice.note == ("learned without session0_left0's group session0 (4 demonstrations) "
-                           "(held out)")
+    assert choice.note == ("learned without session0_left0's group session0 (4 demonstrations "
+                           "held out)")
     assert choice.origin[-1] == "folder"
 
 

@@ -309,23 +309,22 @@ def choose_model(state: InferState, snapshot: Snapshot, learner: Learner) -> Mod
         return ModelChoice(model, "imported, so NOT held out", ("imported", id(model)))
     try:
         fitted = learner.held_out(snapshot.store, state.primitive, state.demo, state.hold_out)
-        without = state.demo
+        without = f"{state.demo} (held out)"
         if state.hold_out is not None:
             group, members = group_members(snapshot.store, state.primitive, state.demo,
                                            state.hold_out)  # fmt: skip
-            without = f"{state.demo}'s group {group} ({len(members)} demonstrations)"
+            without = f"{state.demo}'s group {group} ({len(members)} demonstrations held out)"
     except ValueError as exc:
         return ModelChoice(None, message=str(exc))
     if fitted is None:
-        return ModelChoice(None, message=f"learning a model without {without} (held out)...")
+        return ModelChoice(None, message=f"learning a model without {without}...")
     if fitted.model is None:
         return ModelChoice(None, message=fitted.error or "no model")
     # the settings the learner resolved once for this version (held_out waited for them)
     origin = ("held out", snapshot.store.learn_version, repr(snapshot.learner.settings),
               state.hold_out)  # fmt: skip
     return ModelChoice(
-        fitted.model, f"learned without {without} (held out)", origin,
-        0.0 if fitted.reused else fitted.ms,
+        fitted.model, f"learned without {without}", origin, 0.0 if fitted.reused else fitted.ms,
     )  # fmt: skip
 
 

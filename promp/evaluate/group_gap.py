@@ -139,8 +139,9 @@ def modality_gaps(
         differs}}, "percents": the percentages compared}}``. A set of one modality names it
         without comparing.
     """
+    # a set of one modality is its own comparison
     alone = {(c["method"], tuple(c["observed"]), c["alpha_method"], float(c["percent"])): c
-             for c in single}  # fmt: skip
+             for c in (*single, *(c for c in comparisons if len(c["observed"]) == 1))}  # fmt: skip
     flagged: dict[tuple[str, tuple[str, ...], str], list[float]] = {}
     for c in comparisons:
         if c["differs"]:
@@ -150,11 +151,7 @@ def modality_gaps(
     for (method, observed, alpha), percents in flagged.items():
         by_modality = {}
         for name in observed:
-            rows = [alone.get((method, (name,), alpha, p)) for p in percents]
-            rows = [r for r in rows if r is not None]
-            if len(observed) == 1:
-                rows = [c for c in comparisons if c["method"] == method and c["alpha_method"]
-                        == alpha and tuple(c["observed"]) == observed and c["differs"]]  # fmt: skip
+            rows = [alone[key] for p in percents if (key := (method, (name,), alpha, p)) in alone]
             by_modality[name] = {
                 "extra_errors": sum(r["errors_grouped"] - r["errors_leave_one_out"] for r in rows),
                 "log_loss_gap": math.fsum(r["log_loss_difference"] for r in rows),
@@ -180,8 +177,8 @@ def gap_warnings(comparisons: Sequence[Mapping], drivers: Mapping) -> list[str]:
     for (method, observed, alpha), differing in rows.items():
         cells = "; ".join(
             f"{c['percent']:g} %: {c['errors_grouped']} against {c['errors_leave_one_out']} of "
-            f"{c['trials']} (the difference's band {round(c['difference_interval'][0]):+d} to "
-            f"{round(c['difference_interval'][1]):+d} at {100 * c['confidence']:.1f} %)"
+            f"{c['trials']} (the difference's band {c['difference_interval'][0]:+.1f} to "
+            f"{c['difference_interval'][1]:+.1f} at {100 * c['confidence']:.1f} %)"
             for c in differing
         )
         worse = all(c["errors_grouped"] > c["errors_leave_one_out"] for c in differing)

@@ -38,9 +38,9 @@ def _share(value: float) -> str:
 
 
 def _signed(value: float) -> str:
-    """A whole number with its sign, 0 without one."""
-    rounded = round(float(value))
-    return f"{rounded:+d}" if rounded else "0"
+    """A number of errors with its sign and one decimal (a band's end is not whole), 0
+    without a sign."""
+    return f"{float(value):+.1f}" if round(float(value), 1) else "0"
 
 
 def results_text(rows: Sequence[Mapping]) -> str:
@@ -114,7 +114,7 @@ def grouped_text(run: GroupedRun) -> str:
         lines.append(f"{LEAVE_ONE_OUT} against {run.rule.describe()} (the same trials; "
                      "errors, their difference's band, McNemar's p, log-loss)")  # fmt: skip
         lines.append(f"{'method':10s} {'observed':14s} {'alpha':5s} {'%':>4s} {'LOO':>5s} "
-                     f"{'grouped':>7s} {'difference band':>17s} {'p':>7s} {'log-loss LOO':>12s} "
+                     f"{'grouped':>7s} {'difference band':>19s} {'p':>7s} {'log-loss LOO':>12s} "
                      f"{'grouped':>7s}")  # fmt: skip
         for c in run.comparisons:
             low, high = (_signed(v) for v in c["difference_interval"])
@@ -122,7 +122,7 @@ def grouped_text(run: GroupedRun) -> str:
             lines.append(
                 f"{c['method']:10s} {'+'.join(c['observed']):14s} {c['alpha_method']:5s} "
                 f"{c['percent']:4.0f} {c['errors_leave_one_out']:5d} {c['errors_grouped']:7d} "
-                f"{band:>17s} {c['p_value']:7.2g} "
+                f"{band:>19s} {c['p_value']:7.2g} "
                 f"{number(c['log_loss_leave_one_out'], '.3f'):>12s} "
                 f"{number(c['log_loss_grouped'], '.3f'):>7s}"
             )

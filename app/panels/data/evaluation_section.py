@@ -250,8 +250,9 @@ class EvaluationSection:
         self.results.show_evaluation(job)
         self.failed_trials.show(outcome.result, job.plan.dataset)
         done = "Evaluation cancelled: partial results" if outcome.cancelled else "Evaluation done"
-        self.notify(None, done, f"{progress.done} of {progress.total} held-out demonstrations, "
-                    f"{outcome.elapsed_s:.1f} s.")  # fmt: skip
+        grouped = "" if outcome.grouped is None else " (one at a time, then by group)"
+        self.notify(None, done, f"{progress.done} of {progress.total} held-out demonstrations"
+                    f"{grouped}, {outcome.elapsed_s:.1f} s.")  # fmt: skip
 
     def _clear_results(self) -> None:
         """Nothing of an evaluation stays shown: its results, failed trials and export."""

@@ -145,12 +145,12 @@ def grouped_markdown(run: GroupedRun) -> str:
         "|---|---|---|---:|---:|---:|---:|---:|",
     ]
     for c in run.comparisons:
-        low, high = (round(v) for v in c["difference_interval"])
+        low, high = c["difference_interval"]
         mark = " **\\***" if c["differs"] else ""
         lines.append(
             f"| {method_label(c['method'])} | {escape(' + '.join(c['observed']))} | "
             f"{c['alpha_method']} | {c['percent']:g} | {c['errors_leave_one_out']} | "
-            f"{c['errors_grouped']} | {low:+d} to {high:+d}{mark} | {c['p_value']:.2g} |"
+            f"{c['errors_grouped']} | {low:+.1f} to {high:+.1f}{mark} | {c['p_value']:.2g} |"
         )
     lines.append("")
     if run.result.partial:
