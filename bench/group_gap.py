@@ -15,7 +15,8 @@ session (``--group-by folder``)::
 
     .venv/bin/python bench/group_gap.py [--seed 0] [--jobs 2] [--settings auto|given]
 
-It prints both runs' tables (the grouped rows, both protocols side by side, the warnings).
+It prints both runs' tables (the grouped rows, both protocols side by side, the warnings); the
+last line is one JSON object: each run's warnings, the modality each names, and its seconds.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import json
 import sys
 import tempfile
 import time
@@ -38,9 +40,10 @@ from tests.synthetic import EMG, HAND, handover_sessions  # noqa: E402
 GIVEN = ["--basis", "7", "--width", "1", "--noise-scale", "1.5"]
 
 
-def run(folder: Path, jobs: int, given: bool) -> tuple[str, float]:
-    """The evaluation's printed tables on ``folder``, and its seconds."""
-    args = [str(folder), "--format", "csv",
+def run(folder: Path, jobs: int, given: bool) -> tuple[str, dict, float]:
+    """The evaluation's printed tables on ``folder``, its report and its seconds."""
+    report = folder.with_suffix(".json")
+    args = [str(folder), "--format", "csv", "--json", str(report),
             "--modality", f"hand={','.join(HAND.columns)}",
             "--modality", f"emg={','.join(EMG.columns)}",
             "--observe", "hand,emg", "--alpha", "ml", "--percent", "20", "40", "60", "80",
@@ -52,7 +55,7 @@ def run(folder: Path, jobs: int, given: bool) -> tuple[str, float]:
         code = cli.main(args)
     if code != 0:
         raise SystemExit(f"the evaluation failed on {folder} (exit {code})")
-    return out.getvalue(), time.perf_counter() - start
+    return out.getvalue(), json.loads(report.read_text()), time.perf_counter() - start
 
 
 def main() -> None:
@@ -61,14 +64,23 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--settings", choices=("auto", "given"), default="auto")
     args = parser.parse_args()
+    last = {}
     with tempfile.TemporaryDirectory(prefix="handover-sessions-") as tmp:
         for effect in (True, False):
-            folder = Path(tmp) / ("with-sessions" if effect else "without")
+            name = "with-sessions" if effect else "without"
+            folder = Path(tmp) / name
             write_csv_dataset(folder, handover_sessions(seed=args.seed, session_effect=effect))
-            text, seconds = run(folder, args.jobs, args.settings == "given")
+            text, report, seconds = run(folder, args.jobs, args.settings == "given")
             title = "with a session effect" if effect else "without a session effect"
             print(f"=== {title} (seed {args.seed}, {seconds:.0f} s)")
             print(text)
+            grouped = report["grouped"]
+            last[name] = {
+                "warnings": len(grouped["warnings"]),
+                "drivers": {d["method"]: d["modality"] for d in grouped["drivers"]},
+                "seconds": round(seconds, 1),
+            }
+    print(json.dumps(last))
 
 
 if __name__ == "__main__":
