@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from promp.content_key import content_order
 from promp.data import Demonstration, Layout, sample_period_of
 from promp.fitting import fit_with
 from promp.model import ProMPModel, Settings
@@ -188,7 +189,8 @@ def typicalities(
     dt = sample_period_of([demos[i] for i in taught])
 
     def model_without(left_out: int | None) -> ProMPModel:
-        rest = {"primitive": [demos[i] for i in taught if i != left_out]}
+        rest = [demos[i] for i in taught if i != left_out]
+        rest = {"primitive": [rest[i] for i in content_order(rest)]}  # the same in any order
         return fit_with(rest, layout, settings, dt, alpha_models=False)
 
     try:

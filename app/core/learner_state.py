@@ -17,7 +17,7 @@ from promp.data import Demonstration, Layout
 from promp.model import ProMPModel, Settings
 from promp.typicality import Typicality
 
-HeldOutKey = tuple  # (learn_version, primitive, demo, repr(settings))
+HeldOutKey = tuple  # (learn_version, primitive, demo, repr(settings), the group rule or None)
 # A take's score, by the id of the demonstration scored (held: its id stays its own): the
 # demonstration and its typicality (None: too few others to score it).
 Scores = Mapping[int, tuple[Demonstration, Typicality | None]]

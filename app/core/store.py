@@ -144,6 +144,7 @@ class Store:
                                  for p in state.primitives),  # fmt: skip
                 demos=frozen_demos({new if n == old else n: d for n, d in state.demos.items()}),
                 checks=state.checks.renamed(old, new),
+                sources=state.sources.renamed(old, new),
                 takes=frozenset(renamed(dict.fromkeys(state.takes))),
             )
             save_index(after)

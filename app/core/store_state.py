@@ -10,6 +10,7 @@ from functools import cached_property
 from types import MappingProxyType
 
 from app.io.demo_checks import DemoChecks
+from app.io.demo_sources import DemoSources
 from app.io.hand_frame import ICUB_FRAME, HandFrame
 from app.io.trash import TrashEntry
 from app.io.workspace import Workspace, WorkspaceData
@@ -56,6 +57,9 @@ class StoreState:
     frame : HandFrame
         Where the hand was recorded (``studio.json``): the iCub's frame, placed there, or its
         own (drawn without the robot).
+    sources : DemoSources
+        Where the imported demonstrations came from, below their class folders
+        (``studio.json``): what their groups are read from.
     """
 
     version: int
@@ -72,6 +76,7 @@ class StoreState:
     trash: tuple[TrashEntry, ...] = ()
     problems: tuple[str, ...] = ()
     frame: HandFrame = ICUB_FRAME
+    sources: DemoSources = DemoSources()
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -138,6 +143,7 @@ def adopted(
         trash=tuple(workspace.trash.entries()),
         problems=tuple(data.problems),
         frame=data.frame,
+        sources=data.sources,
         **kept,
     )
 
@@ -169,7 +175,7 @@ def next_demo_name(state: StoreState, primitive: str) -> str:
 
 def save_index(state: StoreState) -> None:
     state.workspace.save_index(
-        state.primitives, state.settings, state.layout, state.checks, state.frame
+        state.primitives, state.settings, state.layout, state.checks, state.frame, state.sources
     )
 
 

@@ -33,6 +33,7 @@ from pathlib import Path, PurePosixPath
 
 from app.io.demo_checks import DemoChecks
 from app.io.demo_scores import DemoScores
+from app.io.demo_sources import DemoSources
 from app.io.hand_frame import HandFrame, imported_frame
 from app.io.workspace import WorkspaceData
 from app.io.workspace_index import PALETTE, PrimitiveEntry, check_layout
@@ -157,11 +158,12 @@ def placed(data: WorkspaceData, frame: HandFrame) -> WorkspaceData:
 def dataset_to_workspace(
     dataset: Dataset, layout: Layout, findings: Sequence[Finding] = ()
 ) -> WorkspaceData:
-    """The workspace holding ``dataset`` with ``layout`` (names made safe, colours assigned),
-    and the readers' ``findings`` (:func:`promp.datasets.read_dataset`) that cannot be found
-    again from the stored files (samples set aside for their timestamps), under the new names
-    (``data.checks.imported``); every demonstration is to be scored for typicality
-    (``data.checks.scores.pending``, :mod:`app.io.demo_scores`).
+    """The workspace holding ``dataset`` with ``layout`` (names made safe, colours assigned,
+    each demonstration's name as read, its path below its class folder, kept in
+    ``data.sources``), and the readers' ``findings`` (:func:`promp.datasets.read_dataset`)
+    that cannot be found again from the stored files (samples set aside for their
+    timestamps), under the new names (``data.checks.imported``); every demonstration is to be
+    scored for typicality (``data.checks.scores.pending``, :mod:`app.io.demo_scores`).
 
     Raises
     ------
@@ -183,6 +185,7 @@ def dataset_to_workspace(
     primitives: list[PrimitiveEntry] = []
     demos: dict[str, list[Demonstration]] = {}
     renamed: dict[tuple[str, str], tuple[str, str]] = {}
+    sources: dict[tuple[str, str], str] = {}
     for k, (raw, items) in enumerate(dataset.items()):
         name = safe_name(raw, taken)
         primitives.append(PrimitiveEntry(name, PALETTE[k % len(PALETTE)]))
@@ -191,6 +194,7 @@ def dataset_to_workspace(
         for d in items:
             demo_name = safe_name(d.name, names)
             renamed[(raw, d.name)] = (name, demo_name)
+            sources[(name, demo_name)] = d.name
             demos[name].append(
                 Demonstration(
                     d.times - d.times[0], d.select(layout.columns), layout.columns, demo_name
@@ -208,6 +212,7 @@ def dataset_to_workspace(
         settings={},
         layout=layout,
         checks=DemoChecks(imported=imported, scores=to_score),
+        sources=DemoSources.of(sources),
     )
 
 

@@ -131,7 +131,7 @@ def workspace_zip(
             archive.writestr(info, content.encode("utf-8") if isinstance(content, str) else content)
 
         add(INDEX_NAME, index_json(data.primitives, data.settings, data.layout, data.checks,
-                                   data.frame))  # fmt: skip
+                                   data.frame, data.sources))  # fmt: skip
         columns = data.layout.columns
         recorded = data.frame.as_recorded(data.demos, data.layout)  # back in the data's frame
         for entry in data.primitives:
@@ -319,7 +319,7 @@ def read_workspace_zip(
             _check_run(folder, files, f"{prefix}{RUNS_DIR}/{folder}")
     data = WorkspaceData(
         index.primitives, index.frame.placed(demos, index.layout), index.settings,
-        layout=index.layout, checks=index.checks, frame=index.frame,
+        layout=index.layout, checks=index.checks, frame=index.frame, sources=index.sources,
     )  # fmt: skip
     return WorkspaceUpload(filename, data, model, ignored, runs)
 

@@ -5,7 +5,8 @@
     WORKSPACE/
       studio.json                     format, version, the layout of modalities, primitives
                                       (name, colour, order), learning settings, the hand's
-                                      frame (app.io.hand_frame)
+                                      frame (app.io.hand_frame), where imported demonstrations
+                                      came from (app.io.demo_sources)
       demos/<primitive>/<demo>.csv    one demonstration each, the engine's CSV format
       raw/<primitive>/<demo>_<time>.csv
                                       each recorded take as it was sampled, before its idle
@@ -38,6 +39,7 @@ from enum import Enum
 from pathlib import Path
 
 from app.io.demo_checks import DemoChecks
+from app.io.demo_sources import DemoSources
 from app.io.hand_frame import ICUB_FRAME, HandFrame
 from app.io.runs_folder import RUN_KIND, RUNS_DIR
 from app.io.trash import Trash, TrashEntry
@@ -73,6 +75,7 @@ class WorkspaceData:
     layout: Layout = STUDIO_LAYOUT
     checks: DemoChecks = DemoChecks()  # what the user kept despite findings (app.io.demo_checks)
     frame: HandFrame = ICUB_FRAME  # the hand's frame: the demos are in the iCub's once placed
+    sources: DemoSources = DemoSources()  # where imported demos came from (app.io.demo_sources)
 
     @property
     def n_demos(self) -> int:
@@ -201,7 +204,7 @@ class Workspace:
             return data
         index = self.read_index()
         data.primitives, data.settings, data.layout = index.primitives, index.settings, index.layout
-        data.checks, data.frame = index.checks, index.frame
+        data.checks, data.frame, data.sources = index.checks, index.frame, index.sources
         data.demos = {entry.name: [] for entry in data.primitives}
         for entry in data.primitives:
             folder = self.demo_dir(entry.name)
@@ -226,8 +229,10 @@ class Workspace:
         layout: Layout,
         checks: DemoChecks,
         frame: HandFrame = ICUB_FRAME,
+        sources: DemoSources | None = None,
     ) -> None:
-        atomic_write_text(self.index_path, index_json(primitives, settings, layout, checks, frame))
+        text = index_json(primitives, settings, layout, checks, frame, sources)
+        atomic_write_text(self.index_path, text)
 
     def write_demo(self, primitive: str, demo: Demonstration, layout: Layout) -> Path:
         """Write one demonstration (its ``name`` is the file stem), atomically."""
@@ -344,7 +349,8 @@ class Workspace:
             primitives.append(PrimitiveEntry(check_name(name_), check_color(color)))
         self.trash.take_back(entry)
         if [p.name for p in primitives] != [p.name for p in index.primitives]:
-            self.save_index(primitives, index.settings, index.layout, index.checks, index.frame)
+            self.save_index(primitives, index.settings, index.layout, index.checks, index.frame,
+                            index.sources)  # fmt: skip
         return entry
 
 
@@ -376,5 +382,6 @@ def _write_all(root: Path, data: WorkspaceData) -> None:
     (root / DEMOS_DIR).mkdir(parents=True, exist_ok=True)
     atomic_write_text(
         root / INDEX_NAME,
-        index_json(data.primitives, data.settings, data.layout, data.checks, data.frame),
+        index_json(data.primitives, data.settings, data.layout, data.checks, data.frame,
+                   data.sources),
     )

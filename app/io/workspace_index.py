@@ -6,7 +6,8 @@
      "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"}, ...],
      "primitives": [{"name": "curved", "color": [213, 94, 0]}, ...],
      "settings": {"n_basis": 7, ...},
-     "frame": {"placement": {"translation_m": [x, y, z], "yaw_rad": yaw}}}
+     "frame": {"placement": {"translation_m": [x, y, z], "yaw_rad": yaw}},
+     "sources": [["top", "person1_record0", "person1/record0"], ...]}
 
 The layout lists the modalities (:func:`layout_listing`); a workspace the studio creates has
 the studio's (:data:`robots.icub.layout.STUDIO_LAYOUT`, hand and head). Primitive names are
@@ -14,7 +15,9 @@ safe file names
 (:func:`check_name`). The settings are those of :class:`promp.model.Settings` the workspace sets;
 absent ones take the engine's defaults. ``frame``, for data recorded elsewhere, says how its
 hand was placed in the iCub's frame or that it stays in its own (:mod:`app.io.hand_frame`;
-absent: the iCub's). The index on disk and one in an imported archive are checked alike
+absent: the iCub's). ``sources``, for data imported from a dataset, says where each
+demonstration came from below its class folder (:mod:`app.io.demo_sources`; absent: nowhere
+known). The index on disk and one in an imported archive are checked alike
 (:func:`check_index`).
 """
 
@@ -26,6 +29,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 
 from app.io.demo_checks import DemoChecks
+from app.io.demo_sources import DemoSources
 from app.io.hand_frame import ICUB_FRAME, HandFrame
 from promp.data import Layout, Modality
 from promp.datasets import MODALITY_NAME
@@ -147,9 +151,11 @@ def index_json(
     layout: Layout = STUDIO_LAYOUT,
     checks: DemoChecks | None = None,
     frame: HandFrame = ICUB_FRAME,
+    sources: DemoSources | None = None,
 ) -> str:
-    """The text of ``studio.json`` (``checks``: :mod:`app.io.demo_checks`, written when it holds
-    something; ``frame``: :mod:`app.io.hand_frame`, written unless the iCub's)."""
+    """The text of ``studio.json`` (``checks``: :mod:`app.io.demo_checks`, ``sources``:
+    :mod:`app.io.demo_sources`, each written when it holds something; ``frame``:
+    :mod:`app.io.hand_frame`, written unless the iCub's)."""
     index = {
         "format": FORMAT,
         "version": VERSION,
@@ -161,6 +167,8 @@ def index_json(
         index["checks"] = checks.to_json()
     if frame.to_json() is not None:
         index["frame"] = frame.to_json()
+    if sources:
+        index["sources"] = sources.to_json()
     return json.dumps(index, indent=1)
 
 
@@ -176,6 +184,7 @@ class Index:
     layout: Layout
     checks: DemoChecks = DemoChecks()
     frame: HandFrame = ICUB_FRAME
+    sources: DemoSources = DemoSources()
 
 
 def check_index(index: object, label: str) -> Index:
@@ -230,4 +239,6 @@ def check_index(index: object, label: str) -> Index:
         raise ValueError(f"{label}: invalid learning settings ({exc})") from None
     checks = DemoChecks.from_json(index["checks"], label) if "checks" in index else DemoChecks()
     frame = HandFrame.from_json(index.get("frame"), label, layout)
-    return Index(primitives, dict(settings), layout, checks, frame)
+    sources = (DemoSources.from_json(index["sources"], label) if "sources" in index
+               else DemoSources())  # fmt: skip
+    return Index(primitives, dict(settings), layout, checks, frame, sources)

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.core.groups import group_members
 from app.core.learner import Learner
 from app.core.snapshot import Snapshot
 from app.core.via_state import StudioViaPoint, of_primitive
@@ -214,6 +215,7 @@ class InferState:
     percent: int
     show_3d: bool
     priors: str
+    hold_out: str | None = None  # the test demonstration's group held out too, by this rule
 
     @property
     def live(self) -> bool:
@@ -317,18 +319,23 @@ def choose_model(state: InferState, snapshot: Snapshot, learner: Learner) -> Mod
         model = imported.model
         return ModelChoice(model, "imported, so NOT held out", ("imported", id(model)))
     try:
-        fitted = learner.held_out(snapshot.store, state.primitive, state.demo)
+        fitted = learner.held_out(snapshot.store, state.primitive, state.demo, state.hold_out)
+        without = f"{state.demo} (held out)"
+        if state.hold_out is not None:
+            group, members = group_members(snapshot.store, state.primitive, state.demo,
+                                           state.hold_out)  # fmt: skip
+            without = f"{state.demo}'s group {group} ({len(members)} demonstrations held out)"
     except ValueError as exc:
         return ModelChoice(None, message=str(exc))
     if fitted is None:
-        return ModelChoice(None, message=f"learning a model without {state.demo} (held out)...")
+        return ModelChoice(None, message=f"learning a model without {without}...")
     if fitted.model is None:
         return ModelChoice(None, message=fitted.error or "no model")
     # the settings the learner resolved once for this version (held_out waited for them)
-    origin = ("held out", snapshot.store.learn_version, repr(snapshot.learner.settings))
+    origin = ("held out", snapshot.store.learn_version, repr(snapshot.learner.settings),
+              state.hold_out)  # fmt: skip
     return ModelChoice(
-        fitted.model, f"learned without {state.demo} (held out)", origin,
-        0.0 if fitted.reused else fitted.ms,
+        fitted.model, f"learned without {without}", origin, 0.0 if fitted.reused else fitted.ms,
     )  # fmt: skip
 
 

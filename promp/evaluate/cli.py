@@ -9,7 +9,7 @@
         [--method ours seed dtw prefix-nn] [--baseline-scaling modality|column|none]
         [--json OUT.json] [--csv OUT.csv] [--plots DIR] [--basis M] [--width W]
         [--shrinkage S|auto] [--noise-scale X] [--duration-temperature T]
-        [--select loo|cv] [--subset N] [--jobs N]
+        [--select loo|cv] [--subset N] [--group-by folder|LEVEL|REGEX] [--jobs N]
         [--backend local|dask --scheduler ADDRESS] [--include-flagged] [--repair-gaps cut|split]
         [--trials-csv OUT.csv] [--run DIR [--run-name NAME]]
         [--decide [--decide-window S] [--decisions-csv OUT.csv]]
@@ -25,7 +25,11 @@ robot's root frame). ``--observe`` (default: the hand) may be repeated to sweep 
 modality sets in one run. The folds run on every core (``--jobs``), or on a Dask cluster
 (``--backend dask --scheduler ADDRESS``); the results are the same. ``--subset N`` holds out
 only N demonstrations per primitive, evenly spread (each still tested by a model fitted on
-every other demonstration): a quick run, the same for every method.
+every other demonstration): a quick run, the same for every method. ``--group-by`` also holds
+out a whole group at a time (a subject's or a session's folder, :mod:`promp.evaluate.groups`),
+every method on the same folds, and prints the grouped rows beside leave-one-out's with a
+warning where they differ beyond the noise, naming the modality that drives it
+(:mod:`promp.evaluate.group_gap`).
 
 Before the sweep, every demonstration is checked (:mod:`promp.quality`: timestamps that do
 not increase, gaps, jumps, a demonstration that does not move, a rate or a duration far from the
@@ -68,17 +72,21 @@ from promp.datasets import (
 )
 from promp.evaluate import decide_options
 from promp.evaluate.baselines import SCALINGS
+from promp.evaluate.grouped import plan_groups, run_grouped
+from promp.evaluate.groups import GROUP_BY_HELP, parse_group_by
 from promp.evaluate.methods import ALPHA_ROWS
 from promp.evaluate.registry import METHODS, method_factories
 from promp.evaluate.report import (
     basis_settings,
+    every_row,
+    every_trial,
     report_json,
     results_csv,
     results_report,
     trials_csv,
 )
 from promp.evaluate.sweep import position_modality, run_sweep, spread_subset
-from promp.evaluate.tables import results_text, side_by_side_text
+from promp.evaluate.tables import grouped_text, results_text, side_by_side_text
 from promp.evaluate.viewer_files import (
     add_viewer_arguments,
     check_viewer_arguments,
@@ -94,6 +102,7 @@ from promp.units import unitless_note
 __all__ = [
     "add_check_arguments",
     "add_dataset_arguments",
+    "add_group_arguments",
     "build_parser",
     "DEFAULT_PERCENTS",
     "load",
@@ -140,6 +149,12 @@ def add_check_arguments(parser: argparse.ArgumentParser) -> None:
         "'cut' keeps the part before the first gap, 'split' makes every part a demonstration "
         "of its own; default: no repair (they are flagged)",
     )
+
+
+def add_group_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--group-by`` (:mod:`promp.evaluate.groups`)."""
+    parser.add_argument("--group-by", default=None, metavar="folder|LEVEL|REGEX",
+                        help=GROUP_BY_HELP)  # fmt: skip
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -253,6 +268,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
     )
+    add_group_arguments(parser)
     add_check_arguments(parser)
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
     parser.add_argument(
@@ -397,6 +413,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
         held_out = None if args.subset is None else spread_subset(dataset, args.subset)
         decide_options.check_decide_arguments(args)
+        rule = None if args.group_by is None else parse_group_by(args.group_by)
+        groups = None if rule is None else plan_groups(dataset, rule)  # refused before a sweep
         result = run_sweep(
             methods,
             dataset,
@@ -412,6 +430,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             decide_percents=decide_options.decide_percents(args),
         )
         decisions = decide_options.judge(args, result, list(dataset))
+        grouped = None
+        if rule is not None:
+            grouped = run_grouped(
+                methods, dataset, layout, result, rule, groups, percents=args.percent,
+                alpha_methods=args.alpha, observe_sets=observe, held_out=held_out,
+                jobs=args.jobs, scheduler=args.scheduler if args.backend == "dask" else None,
+                progress=lambda what: stderr_progress(f"{title}: {what}",
+                                                      "held-out demonstrations"),
+            )  # fmt: skip
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -430,9 +457,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         findings=loaded.findings,
         excluded=loaded.excluded,
         decisions=decisions,
+        grouped=grouped,
     )
     print_table(result.rows)
     decide_options.print_decisions(decisions)
+    if grouped is not None:
+        print()
+        print(grouped_text(grouped))
     for failure in result.failures:
         print(
             f"failed ({failure['method']}): {failure['primitive']}/{failure['demo']} at "
@@ -445,10 +476,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.json.write_text(report_json(report))
     if args.csv is not None:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
-        args.csv.write_text(results_csv(result.rows))
+        args.csv.write_text(results_csv(every_row(report)))
     if args.trials_csv is not None:
         args.trials_csv.parent.mkdir(parents=True, exist_ok=True)
-        args.trials_csv.write_text(trials_csv(report["trials"]))
+        args.trials_csv.write_text(trials_csv(every_trial(report)))
     decide_options.write_decisions_csv(args, decisions)
     if args.plots is not None or args.run is not None:
         from promp.evaluate.plots import write_figures

@@ -18,7 +18,8 @@ import numpy as np
 
 from promp.data import Demonstration, Layout
 from promp.evaluate.decisions import Decisions
-from promp.evaluate.sweep import SweepResult
+from promp.evaluate.grouped import GroupedRun, grouped_json
+from promp.evaluate.sweep import LEAVE_ONE_OUT, SweepResult
 from promp.model import Settings
 from promp.quality import Finding
 
@@ -26,6 +27,8 @@ __all__ = [
     "basis_settings",
     "confusion_matrices",
     "CSV_COLUMNS",
+    "every_row",
+    "every_trial",
     "report_json",
     "results_csv",
     "results_report",
@@ -39,13 +42,15 @@ __all__ = [
 TRIAL_COLUMNS = (
     "method", "primitive", "demo", "percent", "alpha_method", "observed", "recognised", "p_true",
     "alpha", "duration_s", "duration_low_s", "duration_high_s", "position_error_m",
-    "goal_error_m", "duration_error_s", "nrmse_prior", "nrmse_posterior", "error",
+    "goal_error_m", "duration_error_s", "nrmse_prior", "nrmse_posterior", "error", "protocol",
+    "group",
 )  # fmt: skip
 # One CSV row per result row: what it is, then every metric of the JSON's ``results``.
 CSV_COLUMNS = (
     "method", "alpha_method", "observed", "percent", "recognition_errors", "trials",
     "log_loss", "confident_mistakes", "worst_log_loss", "position_error_m", "goal_error_m",
     "duration_error_s", "duration_coverage", "nrmse_prior", "nrmse_posterior", "failed",
+    "protocol",
 )  # fmt: skip
 
 
@@ -81,8 +86,9 @@ def results_report(
     findings: Sequence[Finding] = (),
     excluded: Mapping[tuple[str, str], Sequence[Finding]] | None = None,
     decisions: Decisions | None = None,
+    grouped: GroupedRun | None = None,
 ) -> dict:
-    """The report of one sweep (what ``--json`` writes).
+    """The report of one sweep (what ``--json`` writes), and of its grouped sweep.
 
     Parameters
     ----------
@@ -112,6 +118,8 @@ def results_report(
         (:func:`promp.evaluate.decisions.decide`): ``decisions`` (one row per method and
         observed set), ``decision_curve`` (in-sample) and ``decision_trials``, and
         ``settings.decide`` (the window and the observed steps).
+    grouped : GroupedRun, optional
+        The grouped sweep beside it (:func:`promp.evaluate.grouped.run_grouped`).
 
     Returns
     -------
@@ -119,11 +127,15 @@ def results_report(
         ``dataset``, ``settings``, ``primitives``, ``results`` (the rows), ``failures``,
         ``trials`` (one row per trial, :func:`trial_rows`; empty unless the sweep kept its
         trials), ``confusion`` (:func:`confusion_matrices`), ``used`` (the demonstrations
-        swept, by primitive), ``findings`` and ``excluded``.
+        swept, by primitive), ``findings`` and ``excluded``; with ``grouped``, ``grouped``
+        (:func:`promp.evaluate.grouped.grouped_json`, with its own ``trials``) and the
+        settings' ``group_by``. Every trial names its group then.
     """
     excluded = excluded or {}
     methods = [method] if isinstance(method, str) else list(method)
-    trials = trial_rows(result, list(dataset))
+    part = None if grouped is None else grouped_json(grouped, dataset)
+    groups = None if part is None else part["groups"]
+    trials = trial_rows(result, list(dataset), groups=groups)
     report = {
         "dataset": str(source),
         "settings": {
@@ -161,14 +173,36 @@ def results_report(
         report["decisions"] = decisions.rows
         report["decision_curve"] = decisions.curve
         report["decision_trials"] = decisions.trials
+    if part is not None:
+        part["trials"] = trial_rows(grouped.result, list(dataset), part["protocol"], groups)
+        report["settings"]["group_by"] = part["group_by"]
+        report["grouped"] = part
     return report
 
 
-def trial_rows(result: SweepResult, primitives: Sequence[str]) -> list[dict]:
+def every_row(report: Mapping) -> list[dict]:
+    """The report's result rows, then its grouped sweep's (each saying its ``protocol``):
+    what the result CSV holds."""
+    return list(report["results"]) + list(report.get("grouped", {}).get("results", []))
+
+
+def every_trial(report: Mapping) -> list[dict]:
+    """The report's trials, then its grouped sweep's: what the trials CSV holds."""
+    return list(report.get("trials", [])) + list(report.get("grouped", {}).get("trials", []))
+
+
+def trial_rows(
+    result: SweepResult,
+    primitives: Sequence[str],
+    protocol: str = LEAVE_ONE_OUT,
+    groups: Mapping[str, Sequence[str]] | None = None,
+) -> list[dict]:
     """One row per kept trial of ``result`` (the columns of :data:`TRIAL_COLUMNS`), in the
     sweep's order: the method, the demonstration, the setting, the recognised primitive, the
-    probability of the true one, alpha, the predicted duration and every error (NaN where the method
-    failed, with ``error`` saying why)."""
+    probability of the true one, alpha, the predicted duration and every error (NaN where the
+    method failed, with ``error`` saying why), the sweep's ``protocol`` and the
+    demonstration's group (``groups``: {group: its ``primitive/demo`` names}; "" without)."""
+    group_of = {member: g for g, members in (groups or {}).items() for member in members}
     rows = []
     for t in result.trials:
         inferred = t.inferred
@@ -194,6 +228,8 @@ def trial_rows(result: SweepResult, primitives: Sequence[str]) -> list[dict]:
                 "nrmse_prior": t.nrmse_prior,
                 "nrmse_posterior": t.nrmse_posterior,
                 "error": t.error,
+                "protocol": protocol,
+                "group": group_of.get(f"{primitives[t.primitive]}/{t.demo}", ""),
             }
         )
     return rows
@@ -232,7 +268,8 @@ def trials_csv(rows: Sequence[Mapping]) -> str:
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(TRIAL_COLUMNS)
     for row in rows:
-        cells = {"method": "", **row, "observed": "+".join(row["observed"])}
+        cells = {"method": "", "protocol": LEAVE_ONE_OUT, "group": "", **row,
+                 "observed": "+".join(row["observed"])}  # fmt: skip
         writer.writerow([cells[column] for column in TRIAL_COLUMNS])
     return out.getvalue()
 
@@ -244,11 +281,13 @@ def report_json(report: Mapping) -> str:
 
 def results_csv(rows: Sequence[Mapping]) -> str:
     """The result table as CSV: a header of :data:`CSV_COLUMNS`, then one line per row
-    (observed modalities joined by ``+``, the failed trials' ``primitive/demo`` by ``;``)."""
+    (observed modalities joined by ``+``, the failed trials' ``primitive/demo`` by ``;``; the
+    protocol ``leave-one-out`` unless the row says otherwise)."""
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
     for row in rows:
-        cells = dict(row, observed="+".join(row["observed"]), failed=";".join(row["failed"]))
+        cells = {"protocol": LEAVE_ONE_OUT, **row, "observed": "+".join(row["observed"]),
+                 "failed": ";".join(row["failed"])}  # fmt: skip
         writer.writerow([cells[column] for column in CSV_COLUMNS])
     return out.getvalue()

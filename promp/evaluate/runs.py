@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from promp.evaluate.decisions import decisions_csv
-from promp.evaluate.report import results_csv, trials_csv
+from promp.evaluate.report import every_row, every_trial, results_csv, trials_csv
 
 __all__ = [
     "code_version",
@@ -141,8 +141,8 @@ def write_run(
 
     def fill(staging: Path) -> None:
         (staging / RUN_FILE).write_text(json.dumps(meta, indent=1), encoding="utf-8")
-        (staging / "results.csv").write_text(results_csv(report["results"]), encoding="utf-8")
-        (staging / "trials.csv").write_text(trials_csv(report.get("trials", [])), "utf-8")
+        (staging / "results.csv").write_text(results_csv(every_row(report)), encoding="utf-8")
+        (staging / "trials.csv").write_text(trials_csv(every_trial(report)), "utf-8")
         if report.get("decisions"):  # --decide
             (staging / "decisions.csv").write_text(
                 decisions_csv(report["decisions"], report.get("decision_curve", [])), "utf-8"

@@ -13,15 +13,21 @@ modalities) compare trial for trial.
 
 Folds are independent: ``jobs`` runs them on several processes (joblib; ``-1`` = every core)
 and ``scheduler`` on a Dask cluster (``dask.distributed``, the ``cluster`` extra), with results
-identical to one process: every fold is computed the same way wherever it runs, and the rows
-are assembled in the folds' order. A worker process ends within :data:`PARENT_WATCH_S` of the
-process that started it, however that one ended (``kill -9`` included): a killed evaluation
-leaves no worker behind.
+identical to one process (:mod:`promp.evaluate.folds`, which also says what a fold holds out).
 
 ``held_out`` restricts the sweep to some demonstrations (:func:`spread_subset`: a few per
-primitive, evenly spread over its list, the same for every method): each is still tested by a
-model fitted on every other demonstration, so a quick run measures the same thing on fewer
-trials.
+primitive, evenly spread from its shortest to its longest, the same for every method): each is
+still tested by a model fitted on every other demonstration, so a quick run measures the same
+thing on fewer trials.
+
+``groups`` holds out a whole group at a time instead (a subject's or a session's
+demonstrations, :mod:`promp.evaluate.groups`): every demonstration of the group is tested by a
+model fitted on the demonstrations of every other group. Leave-one-out is the case of groups of
+one.
+
+Nothing depends on the demonstrations' names or order: every fold's training demonstrations
+are given to the methods in the order of their content (:mod:`promp.content_key`), and the
+rows' means are exact sums (``math.fsum``), the same in any order.
 
 A trial the method cannot run (it raises ``ValueError``: e.g. an observation it has no
 explanation for) does not end the sweep: it counts as a recognition error, is left out of the
@@ -36,16 +42,22 @@ from __future__ import annotations
 
 import functools
 import math
-import os
-import threading
-import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from promp import metrics
+from promp.content_key import canonical_dataset, content_key
 from promp.data import Demonstration, Layout, sample_period_of
+from promp.evaluate.folds import (  # noqa: F401  (MIN_TRAINING, check_groups re-exported)
+    MIN_TRAINING,
+    Fold,
+    Pair,
+    check_groups,
+    group_folds,
+    run_folds,
+)
 from promp.evaluate.methods import ALPHA_ROWS, ProMPEngine, TrialAnswer
 from promp.evaluate.paths import ProbabilityPath, checked_percents, probability_paths
 from promp.metrics import position_modality  # (also re-exported)
@@ -53,12 +65,13 @@ from promp.model import Settings
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
 __all__ = [
-    "CONFIDENT_MISTAKE", "Factory", "Progress", "SweepResult", "Trial", "leave_one_out",
-    "run_sweep", "spread_subset", "PARENT_WATCH_S", "exit_with_parent",
+    "CONFIDENT_MISTAKE", "Factory", "LEAVE_ONE_OUT", "MIN_TRAINING", "Pair", "Progress",
+    "SweepResult", "Trial", "check_groups", "leave_one_out", "run_sweep", "spread_subset",
 ]  # fmt: skip
 
 Progress = Callable[[int, int], None]
 Factory = Callable[[], object]
+LEAVE_ONE_OUT = "leave-one-out"  # the protocol of a sweep without groups
 # A trial whose true primitive got p < 0.01 is a confident mistake (-ln 0.01 = 4.6 nats).
 CONFIDENT_MISTAKE = -math.log(0.01)
 
@@ -127,25 +140,25 @@ def _run_fold(
     methods: Mapping[str, Factory],
     dataset: Mapping[str, Sequence[Demonstration]],
     layout: Layout,
-    k: int,
-    j: int,
+    fold: tuple[tuple[Pair, ...], tuple[Pair, ...]],
     dt: float,
     percents: Sequence[float],
     alpha_methods: Sequence[str],
     observe_sets: Sequence[Sequence[str]],
     decide_percents: Sequence[float] = (),
 ) -> list[Trial | ProbabilityPath]:
-    """Fit every method without demonstration ``j`` of primitive ``k``, then infer it at every
-    setting (and, with ``decide_percents``, at each of them: its probability paths)."""
+    """Fit every method without the demonstrations ``fold[0]`` (a set of (primitive index,
+    demonstration index) pairs), on the others in the order of their content, then infer each
+    of ``fold[1]`` at every setting (and, with ``decide_percents``, at each of them: its
+    probability paths)."""
+    held, tested = set(fold[0]), fold[1]
     names = list(dataset)
     pos_dims = layout.dims([position_modality(layout)])
-    train = {
-        name: [d for i, d in enumerate(demos) if not (kk == k and i == j)]
+    train = canonical_dataset({
+        name: [d for i, d in enumerate(demos) if (kk, i) not in held]
         for kk, (name, demos) in enumerate(dataset.items())
-    }
-    demo = dataset[names[k]][j]
-    truth = layout.extract(demo)[:, pos_dims]
-    trials = []
+    })  # fmt: skip
+    fitted = []
     for method_name, factory in methods.items():
         method = factory()
         try:
@@ -153,118 +166,53 @@ def _run_fold(
             fit_error = ""
         except ValueError as exc:
             fit_error = f"fit without it failed: {exc}"
-        for percent in percents:
-            n_o = n_observed_for(percent, demo.n_samples)
-            for observed in observe_sets:
-                for alpha_method in alpha_methods:
-                    trial = Trial(k, demo.name, float(percent), alpha_method, tuple(observed),
-                                  None, method=method_name)  # fmt: skip
-                    try:
-                        if fit_error:
-                            raise ValueError(fit_error)
-                        inferred = method.infer(demo, n_o, observed, alpha_method)
-                    except ValueError as exc:
-                        trial.error = str(exc)
-                    else:
-                        _measure(trial, inferred, truth, demo.duration, n_o, pos_dims)
-                    trials.append(trial)
-        if decide_percents:  # the same fitted method, every step of the held-out movement
-            trials.extend(probability_paths(method, method_name, k, demo, decide_percents,
-                                            observe_sets, alpha_methods, len(names), fit_error))
+        fitted.append((method_name, method, fit_error))
+    trials = []
+    for k, j in tested:
+        demo = dataset[names[k]][j]
+        truth = layout.extract(demo)[:, pos_dims]
+        for method_name, method, fit_error in fitted:
+            for percent in percents:
+                n_o = n_observed_for(percent, demo.n_samples)
+                for observed in observe_sets:
+                    for alpha_method in alpha_methods:
+                        trial = Trial(k, demo.name, float(percent), alpha_method,
+                                      tuple(observed), None, method=method_name)  # fmt: skip
+                        try:
+                            if fit_error:
+                                raise ValueError(fit_error)
+                            inferred = method.infer(demo, n_o, observed, alpha_method)
+                        except ValueError as exc:
+                            trial.error = str(exc)
+                        else:
+                            _measure(trial, inferred, truth, demo.duration, n_o, pos_dims)
+                        trials.append(trial)
+            if decide_percents:  # the same fitted method, every step of the held-out movement
+                trials.extend(probability_paths(
+                    method, method_name, k, demo, decide_percents, observe_sets,
+                    alpha_methods, len(names), fit_error,
+                ))  # fmt: skip
     return trials
 
 
 def spread_subset(
     dataset: Mapping[str, Sequence[Demonstration]], per_primitive: int
-) -> list[tuple[int, int]]:
-    """``per_primitive`` demonstrations of every primitive, evenly spread over its list (the
-    first, the last and equal steps between: deterministic, every primitive represented), as
-    (primitive index, demonstration index) pairs; all of a primitive that has fewer."""
+) -> list[Pair]:
+    """``per_primitive`` demonstrations of every primitive, evenly spread over its
+    demonstrations ordered by duration (the shortest, the longest and equal steps between;
+    equal durations by their content, :func:`promp.content_key.content_key`): deterministic,
+    every primitive represented, the same whatever the files' names and order. As (primitive
+    index, demonstration index) pairs, by primitive then index; all of a primitive that has
+    fewer."""
     if per_primitive < 1:
         raise ValueError(f"hold out at least one demonstration per primitive, got {per_primitive}")
     out = []
     for k, demos in enumerate(dataset.values()):
         n = len(demos)
+        ranked = sorted(range(n), key=lambda i: (demos[i].duration, content_key(demos[i])))
         picks = np.unique(np.round(np.linspace(0, n - 1, min(per_primitive, n))).astype(int))
-        out.extend((k, int(j)) for j in picks)
+        out.extend((k, j) for j in sorted(ranked[int(p)] for p in picks))
     return out
-
-
-def _run_folds(
-    fold: Callable[[int, int], list[Trial]], chunk: Sequence[tuple[int, int]]
-) -> list[list[Trial]]:
-    return [fold(k, j) for k, j in chunk]
-
-
-def _folds(
-    fold: Callable[[int, int], list[Trial]],
-    held_out: list[tuple[int, int]],
-    jobs: int,
-    scheduler: str | None,
-    progress: Progress | None,
-):
-    """Each fold's trials, in the order of ``held_out``.
-
-    In parallel, the folds travel in chunks (four per worker): each chunk carries the dataset
-    once, rather than once per fold.
-    """
-    if jobs == 1 and scheduler is None:
-        for done, (k, j) in enumerate(held_out):
-            yield fold(k, j)
-            if progress is not None:
-                progress(done + 1, len(held_out))
-        return
-    import joblib
-
-    if scheduler is not None:
-        try:
-            from dask.distributed import Client
-        except ImportError:
-            raise ValueError(
-                "the Dask backend needs the 'cluster' extra: pip install 'dask[distributed]'"
-            ) from None
-        client = Client(scheduler)
-        workers = max(1, sum(client.nthreads().values()))
-        config = joblib.parallel_config(backend="dask")
-    else:
-        client = None
-        workers = jobs if jobs > 0 else (os.cpu_count() or 1)
-        config = joblib.parallel_config(backend="loky", n_jobs=jobs, initializer=exit_with_parent,
-                                        initargs=(os.getpid(),))  # fmt: skip
-    n_chunks = min(len(held_out), 4 * workers)
-    chunks = [list(c) for c in np.array_split(np.arange(len(held_out)), n_chunks) if c.size]
-    try:
-        with config:
-            parallel = joblib.Parallel(return_as="generator")
-            results = parallel(
-                joblib.delayed(_run_folds)(fold, [held_out[i] for i in chunk]) for chunk in chunks
-            )
-            done = 0
-            for trials_of_chunk in results:
-                for trials in trials_of_chunk:
-                    done += 1
-                    yield trials
-                    if progress is not None:
-                        progress(done, len(held_out))
-    finally:
-        if client is not None:
-            client.close()
-
-
-PARENT_WATCH_S = 0.5  # how often a worker looks whether the evaluation that started it is alive
-
-
-def exit_with_parent(parent: int) -> None:
-    """A worker's initializer: the worker ends once the process ``parent`` (its parent) has
-    ended. joblib's workers outlive a parent killed by a signal otherwise (until their idle
-    timeout, minutes later), still computing the folds of a sweep nobody waits for."""
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(PARENT_WATCH_S)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
 
 
 def run_sweep(
@@ -279,11 +227,13 @@ def run_sweep(
     keep_trials: bool = False,
     jobs: int = 1,
     scheduler: str | None = None,
-    held_out: Sequence[tuple[int, int]] | None = None,
+    held_out: Sequence[Pair] | None = None,
     stop: Callable[[], bool] | None = None,
     decide_percents: Sequence[float] = (),
+    groups: Mapping[str, Sequence[Pair]] | None = None,
 ) -> SweepResult:
-    """Run the leave-one-out protocol; one result row per (method, percent, alpha, observed).
+    """Run the leave-one-out protocol (or the grouped one, ``groups``); one result row per
+    (method, percent, alpha, observed).
 
     ``method_factory`` makes a fresh method (``fit``, ``infer``), named ``method_name``; or a
     mapping of names to such factories: the methods then run on the same folds and settings,
@@ -293,8 +243,12 @@ def run_sweep(
     address) runs them on that cluster instead. The results do not depend on either.
     ``held_out``: the (primitive index, demonstration index) pairs to test, each with a model
     fitted on all the others (default: every demonstration; see :func:`spread_subset`).
-    ``stop()`` is asked after every fold: once true, the sweep ends there and its rows hold the
-    folds done (the result says it is ``partial``).
+    ``groups``: {group name: its (primitive index, demonstration index) pairs}, every
+    demonstration in one group (:func:`promp.evaluate.groups.group_pairs`): each fold holds
+    out a whole group and tests those of its demonstrations in ``held_out``; ValueError when
+    a fold would leave a primitive fewer than :data:`MIN_TRAINING` demonstrations to learn
+    from. ``stop()`` is asked after every fold: once true, the sweep ends there and its rows
+    hold the folds done (the result says it is ``partial``).
     ``decide_percents``: each trial's probabilities at each, too (:attr:`SweepResult.paths`).
     """
     names = list(dataset)
@@ -322,6 +276,10 @@ def run_sweep(
         if len(set(held_out)) != len(held_out) or not held_out:
             raise ValueError("held_out must name distinct demonstrations, at least one")
     decide_percents = checked_percents(decide_percents)
+    if groups is None:
+        folds: list[Fold] = [(((k, j),), ((k, j),)) for k, j in held_out]
+    else:
+        folds = group_folds(dataset, groups, held_out)
     fold = functools.partial(
         _run_fold,
         methods,
@@ -335,14 +293,14 @@ def run_sweep(
     )
     acc: dict[tuple, list[Trial]] = {}
     result = SweepResult()
-    for done, trials in enumerate(_folds(fold, held_out, jobs, scheduler, progress), 1):
+    for done, trials in enumerate(run_folds(fold, folds, jobs, scheduler, progress), 1):
         for trial in trials:
             if isinstance(trial, ProbabilityPath):
                 result.paths.append(trial)
                 continue
             key = (trial.method, trial.percent, trial.alpha_method, trial.observed)
             acc.setdefault(key, []).append(trial)
-        if stop is not None and done < len(held_out) and stop():
+        if stop is not None and done < len(folds) and stop():
             result.partial = True
             break
     for (method, percent, alpha_method, observed), trials in acc.items():
@@ -355,7 +313,7 @@ def run_sweep(
                 "method": method,
                 "recognition_errors": int(sum(not t.correct for t in trials)),
                 "trials": len(trials),
-                "log_loss": float(np.mean(losses)),
+                "log_loss": math.fsum(losses) / len(losses),
                 "confident_mistakes": int(sum(loss > CONFIDENT_MISTAKE for loss in losses)),
                 "worst_log_loss": float(max(losses)),
                 "position_error_m": _nanmean([t.position_error_m for t in trials]),
@@ -495,6 +453,7 @@ def _measure(
 
 
 def _nanmean(values: list[float]) -> float:
-    arr = np.asarray(values, dtype=float)
-    arr = arr[np.isfinite(arr)]
-    return float(arr.mean()) if arr.size else float("nan")
+    """The mean of the finite values (NaN without any), summed exactly: the same in any
+    order."""
+    finite = [float(v) for v in values if math.isfinite(v)]
+    return math.fsum(finite) / len(finite) if finite else float("nan")

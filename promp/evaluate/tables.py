@@ -1,6 +1,7 @@
 """The tables ``python -m promp.evaluate`` prints: every result row, then, when the sweep
 compared several methods, the methods side by side (one column each) per observed modalities,
-alpha method and percentage. A value a method does not give (the baselines predict no
+alpha method and percentage; with ``--group-by``, the grouped sweep's rows and both protocols
+side by side (:func:`grouped_text`). A value a method does not give (the baselines predict no
 trajectory) is written ``n/a``.
 """
 
@@ -8,10 +9,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 from promp.evaluate.plots import methods_of
+from promp.evaluate.sweep import LEAVE_ONE_OUT
 
-__all__ = ["NOT_GIVEN", "number", "results_text", "SIDE_BY_SIDE", "side_by_side_text"]
+if TYPE_CHECKING:
+    from promp.evaluate.grouped import GroupedRun
+
+__all__ = [
+    "grouped_text", "NOT_GIVEN", "number", "results_text", "SIDE_BY_SIDE", "side_by_side_text",
+]  # fmt: skip
 
 NOT_GIVEN = "n/a"
 
@@ -27,6 +35,12 @@ def number(value: float, fmt: str, scale: float = 1.0) -> str:
 
 def _share(value: float) -> str:
     return "-" if not math.isfinite(float(value)) else f"{100 * float(value):.0f}%"
+
+
+def _signed(value: float) -> str:
+    """A number of errors with its sign and one decimal (a band's end is not whole), 0
+    without a sign."""
+    return f"{float(value):+.1f}" if round(float(value), 1) else "0"
 
 
 def results_text(rows: Sequence[Mapping]) -> str:
@@ -88,3 +102,35 @@ def side_by_side_text(rows: Sequence[Mapping]) -> str:
                        + " ".join(f"{v:>{width}s}" for v in values))  # fmt: skip
         out.append("")
     return "\n".join(out).rstrip()
+
+
+def grouped_text(run: GroupedRun) -> str:
+    """The grouped rows, then each shared row of leave-one-out and grouped side by side (the
+    error counts, the difference's band, McNemar's p, the log-loss of each), then the
+    warnings."""
+    title = f"{run.rule.describe()}: {len(run.groups)} groups ({', '.join(run.groups)})"
+    lines = [title, results_text(run.result.rows), ""]
+    if run.comparisons:
+        lines.append(f"{LEAVE_ONE_OUT} against {run.rule.describe()} (the same trials; "
+                     "errors, their difference's band, McNemar's p, log-loss)")  # fmt: skip
+        lines.append(f"{'method':10s} {'observed':14s} {'alpha':5s} {'%':>4s} {'LOO':>5s} "
+                     f"{'grouped':>7s} {'difference band':>19s} {'p':>7s} {'log-loss LOO':>12s} "
+                     f"{'grouped':>7s}")  # fmt: skip
+        for c in run.comparisons:
+            low, high = (_signed(v) for v in c["difference_interval"])
+            band = f"[{low}, {high}]" + (" *" if c["differs"] else "  ")
+            lines.append(
+                f"{c['method']:10s} {'+'.join(c['observed']):14s} {c['alpha_method']:5s} "
+                f"{c['percent']:4.0f} {c['errors_leave_one_out']:5d} {c['errors_grouped']:7d} "
+                f"{band:>19s} {c['p_value']:7.2g} "
+                f"{number(c['log_loss_leave_one_out'], '.3f'):>12s} "
+                f"{number(c['log_loss_grouped'], '.3f'):>7s}"
+            )
+        lines.append("(* the band, at 1 - 0.05 / rows of the method, excludes 0: the protocols "
+                     "differ beyond the noise)")  # fmt: skip
+    for warning in run.warnings:
+        lines.append(f"warning: {warning}")
+    if not run.warnings and run.comparisons:
+        lines.append("no row differs beyond the noise between leave-one-out and the grouped "
+                     "sweep")  # fmt: skip
+    return "\n".join(lines)

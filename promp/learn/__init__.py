@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from promp.content_key import canonical_dataset
 from promp.data import Demonstration, Layout, sample_period_of
 from promp.fitting import fit_with
 from promp.model import ProMPModel, Settings
@@ -32,7 +33,9 @@ def fit(
     Per demonstration, ridge weights on the phase basis (Eqs. 1-2); per primitive, their mean
     and covariance, under a prior pooled across the primitives (Eqs. 3-4), regressed on the
     log speed; the observation noise of every modality and its Eq. 7 speed model
-    (:mod:`promp.fitting`). Settings left to the data (None: by default the basis count, its
+    (:mod:`promp.fitting`). The demonstrations are taken in the order of their content
+    (:func:`promp.content_key.canonical_dataset`): the model is the same, to the last bit,
+    whatever their names and order. Settings left to the data (None: by default the basis count, its
     width, the noise scale and the duration's temperature) are chosen from ``dataset`` first
     by :func:`promp.selection.choose_settings`.
 
@@ -67,6 +70,9 @@ def fit(
     settings = settings or Settings()
     if not dataset:
         raise ValueError("no primitive to learn: the dataset is empty")
+    # Each primitive's demonstrations in the order of their content: the choice's trials and
+    # every sum of the fit do not depend on the files' names or the order they were read in.
+    dataset = canonical_dataset(dataset)
     all_demos = [d for demos in dataset.values() for d in demos]
     dt = sample_period if sample_period is not None else sample_period_of(all_demos)
     if not np.isfinite(dt) or dt <= 0:

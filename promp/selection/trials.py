@@ -2,20 +2,21 @@
 which modalities, to score a candidate's settings (:mod:`promp.selection`).
 
 Each primitive of three demonstrations or more has its demonstrations dealt into
-:data:`INNER_FOLDS` folds; the trials take the primitives in turn, each trial the next
-(percentage of :data:`PERCENTS`, modality set of :func:`observe_sets`). The same trials score
-every candidate, so the comparison is paired. At most :data:`MAX_TRIALS` trials for the inner
-cross-validation, :data:`LOO_MAX_TRIALS` for the closed-form leave-one-out rule.
+:data:`INNER_FOLDS` folds, in an order drawn from their content
+(:func:`promp.content_key.keyed_shuffle`): the same demonstrations are held out whatever the
+files are called, in whatever order they come and in whatever unit. The trials take the
+primitives in turn, each trial the next (percentage of :data:`PERCENTS`, modality set of
+:func:`observe_sets`). The same trials score every candidate, so the comparison is paired. At
+most :data:`MAX_TRIALS` trials for the inner cross-validation, :data:`LOO_MAX_TRIALS` for the
+closed-form leave-one-out rule.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import zlib
 from collections.abc import Mapping, Sequence
 
-import numpy as np
-
+from promp.content_key import keyed_shuffle
 from promp.data import Demonstration, Layout
 
 __all__ = [
@@ -25,7 +26,13 @@ __all__ = [
 
 INNER_FOLDS = 3
 MAX_TRIALS = 30
-LOO_MAX_TRIALS = 30
+# The closed-form rule's trials. Its choice is a minimum of mean log-losses whose differences
+# between candidates are small beside their sampling noise: with 30 trials, five draws of the
+# trials (other salts of the plan) chose four or five different settings on each shared set and
+# on the studio's default workspace; with 270, the same on heights and flt in five of five,
+# flt-shapes in four, the default workspace between two neighbours (M 10 or 14, width 0.7,
+# noise x4), at 4-8x the CPU of a choice (docs/evaluation.md, "Content keys").
+LOO_MAX_TRIALS = 270
 PERCENTS = (10, 30, 50, 70, 90)
 
 
@@ -55,8 +62,9 @@ def plan_trials(
 ) -> list[Trial]:
     """The inner folds and trials (see the module docstring); empty when nothing can be scored.
 
-    Each primitive of three demonstrations or more has its demonstrations shuffled (a seed
-    fixed per primitive name) and dealt into :data:`INNER_FOLDS` folds; the others are never
+    Each primitive of three demonstrations or more has its demonstrations shuffled by their
+    content (:func:`promp.content_key.keyed_shuffle`, salted by ``seed`` and the primitive's
+    name) and dealt into :data:`INNER_FOLDS` folds; the others are never
     held out. Trials take the primitives in turn (by name), and each trial the next
     (percentage, modalities) combination. The
     model that scores a fold's trials is fitted on every demonstration that none of them
@@ -69,8 +77,7 @@ def plan_trials(
     for k, name in sorted(enumerate(dataset), key=lambda item: item[1]):
         demos = dataset[name]
         if len(demos) >= 3:
-            rng = np.random.default_rng([seed, zlib.crc32(name.encode())])
-            order = rng.permutation(len(demos))
+            order = keyed_shuffle(demos, f"{seed}/{name}")
             queues.append([(k, int(j), i % INNER_FOLDS) for i, j in enumerate(order)])
     if not queues:
         return []

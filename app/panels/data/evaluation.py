@@ -20,6 +20,8 @@ from app.panels.data.evaluation_plan import METHOD, EvaluationPlan
 from app.ui.display import ALPHA_LABELS
 from app.ui.text import escape
 from promp.evaluate.decisions import Decisions, decide
+from promp.evaluate.grouped import GroupedRun, run_grouped
+from promp.evaluate.groups import parse_group_by
 from promp.evaluate.paths import DECISION_PERCENTS
 from promp.evaluate.registry import method_factories
 from promp.evaluate.report import basis_settings, results_report
@@ -70,6 +72,8 @@ class EvaluationOutcome:
         ``time.time()`` when it ended.
     decisions : Decisions or None
         When each method would act (the plan's ``decide``), judged on the folds done.
+    grouped : GroupedRun or None
+        The grouped sweep and its comparison with leave-one-out (a plan with ``group_by``).
     """
 
     result: SweepResult | None = None
@@ -78,6 +82,7 @@ class EvaluationOutcome:
     elapsed_s: float = 0.0
     finished_at: float = 0.0
     decisions: Decisions | None = None
+    grouped: GroupedRun | None = None
 
 
 class EvaluationJob:
@@ -124,13 +129,14 @@ class EvaluationJob:
         started = time.monotonic()
         self.progress = replace(self.progress, started=started)
 
-        def progress(done: int, total: int) -> None:
-            self.progress = EvaluationProgress(done, total, started)
+        def progress(done: int, total: int) -> None:  # (the grouped sweep's count too)
+            self.progress = EvaluationProgress(done, max(total, plan.n_held_out), started)
 
-        result, error, decisions = None, None, None
+        result, error, decisions, grouped = None, None, None, None
+        methods = method_factories(plan.methods, plan.layout, plan.settings)
         try:
             result = run_sweep(
-                method_factories(plan.methods, plan.layout, plan.settings),
+                methods,
                 plan.dataset,
                 plan.layout,
                 percents=plan.percents,
@@ -147,6 +153,8 @@ class EvaluationJob:
             if result.partial:  # the folds done are what it holds
                 done = len({(t.primitive, t.demo) for t in result.trials})
                 self.progress = replace(self.progress, done=done)
+            elif plan.group_by is not None:
+                grouped = self._grouped(methods, result, started)
         except ValueError as exc:
             error = str(exc)
         except Exception as exc:  # a bug must end the job visibly, not hang the progress bar
@@ -156,11 +164,40 @@ class EvaluationJob:
             self.outcome = EvaluationOutcome(
                 result=result,
                 error=error,
-                cancelled=result is not None and result.partial,
+                cancelled=result is not None and (result.partial or (
+                    grouped is not None and grouped.result.partial)),
                 elapsed_s=time.monotonic() - started,
                 finished_at=time.time(),
                 decisions=decisions,
+                grouped=grouped,
             )
+
+    def _grouped(self, methods: dict, loo: SweepResult, started: float) -> GroupedRun:
+        """The grouped sweep after ``loo``, on the progress bar's second half; a modality
+        diagnosis (:func:`promp.evaluate.grouped.run_grouped`) adds its own demonstrations to
+        the count as it starts."""
+        plan = self.plan
+        tally = {"done": self.progress.done, "total": self.progress.total}
+
+        def sweep_progress(_title: str):
+            started_here = [False]
+
+            def progress(done: int, total: int) -> None:
+                if not started_here[0] and tally["done"] >= tally["total"]:
+                    tally["total"] += total  # beyond the plan: a diagnosis sweep
+                started_here[0] = True
+                self.progress = EvaluationProgress(tally["done"] + done, tally["total"], started)
+                if done == total:
+                    tally["done"] += total
+
+            return progress
+
+        return run_grouped(
+            methods, plan.dataset, plan.layout, loo, parse_group_by(plan.group_by), plan.groups,
+            percents=plan.percents, alpha_methods=plan.alpha_methods,
+            observe_sets=plan.observe_sets, held_out=plan.held_out,
+            progress=sweep_progress, stop=self.cancel.is_set,
+        )  # fmt: skip
 
     def title(self) -> str:
         """What the finished evaluation's results show (markdown): the workspace, when, what
@@ -176,12 +213,15 @@ class EvaluationJob:
             raise ValueError("the evaluation has not finished")
         observed = "; ".join(" + ".join(names) for names in plan.observe_sets)
         alphas = ", ".join(ALPHA_LABELS.get(m, m) for m in plan.alpha_methods)
+        once = plan.n_held_out // (1 if plan.group_by is None else 2)
         counted = (
             f"**partial**: cancelled after {progress.done} of {progress.total} held-out "
             "demonstrations"
             if outcome.cancelled
-            else f"{progress.total} held-out demonstrations"
+            else f"{once} held-out demonstrations"
             + ("" if plan.subset is None else f" ({plan.subset} per primitive)")
+            + ("" if outcome.grouped is None else
+               f", one at a time and {outcome.grouped.rule.describe()}")  # fmt: skip
         )
         methods = f"methods {', '.join(plan.methods)}; " if plan.methods != [METHOD] else ""
         acts = "; when it acts: every 2 %" if plan.decide else ""
@@ -221,6 +261,7 @@ class EvaluationJob:
             findings=plan.findings,
             excluded=plan.left_out,
             decisions=self.outcome.decisions,
+            grouped=self.outcome.grouped,
         )
         if result.partial:  # cancelled: what was done, said so
             report["partial"] = {"held_out": self.progress.done, "of": self.progress.total}

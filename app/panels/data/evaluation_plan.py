@@ -5,7 +5,10 @@ The demonstrations are those the workspace learns from (primitives with at least
 :data:`MIN_DEMOS`; flagged demonstrations that the user did not keep are left out and listed in
 the report), with the workspace's learning settings. It evaluates our method alone, or beside
 the 2017 toolbox and the two early-classification baselines on the same folds
-(:data:`METHOD_CHOICES`, as ``--method ours seed dtw prefix-nn`` does).
+(:data:`METHOD_CHOICES`, as ``--method ours seed dtw prefix-nn`` does). With a Group by choice
+(:func:`group_choices`, as ``--group-by`` does) it also holds out a whole group at a time (a
+subject's or a session's folder of the dataset the workspace was imported from), every method
+on the same folds, and compares the two (:mod:`promp.evaluate.grouped`).
 """
 
 from __future__ import annotations
@@ -17,10 +20,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from app.core.groups import group_choices as choices_of_groups
 from app.ui.display import ALPHA_LABELS, observed_choices
 from promp.data import Demonstration, Layout
+from promp.evaluate.grouped import plan_groups
+from promp.evaluate.groups import parse_group_by
 from promp.evaluate.registry import METHODS
-from promp.evaluate.sweep import spread_subset
+from promp.evaluate.sweep import Pair, spread_subset
 from promp.model import Settings
 from promp.quality import Finding
 
@@ -39,14 +45,36 @@ ALPHA_CHOICES: dict[str, list[str]] = {
     "both": list(ALPHA_LABELS),
 }
 # The Held out dropdown: every demonstration, or a few per primitive evenly spread over its
-# list (``--subset N``); each still tested by a model fitted on every other demonstration.
+# durations (``--subset N``); each still tested by a model fitted on every other one.
 SUBSET_CHOICES: dict[str, int | None] = {"every demonstration": None, "10 per primitive": 10,
                                          "5 per primitive": 5, "3 per primitive": 3}  # fmt: skip
 SUBSET_HINT = (
-    "A quick run: only this many demonstrations of each primitive are held out (the first, the "
-    "last and evenly between, as python -m promp.evaluate --subset N), each still tested by a "
-    "model fitted on every other demonstration; the same trials for every method"
+    "A quick run: only this many demonstrations of each primitive are held out (the shortest, "
+    "the longest and evenly between, as python -m promp.evaluate --subset N), each still "
+    "tested by a model fitted on every other demonstration; the same trials for every method"
 )
+NO_GROUPS = "each demonstration"  # the Group by choice of leave-one-out alone
+GROUP_HINT = (
+    "Also hold out a whole group at a time (a subject's or a session's folder of the dataset "
+    "the workspace was imported from, as python -m promp.evaluate --group-by): the grouped "
+    "results beside leave-one-out's, and a warning where they differ beyond the noise"
+)
+
+
+def group_choices(store: StoreState) -> dict[str, str | None]:
+    """The Group by choices ``store`` offers: leave-one-out alone, and the folder levels its
+    imported demonstrations came from (:func:`app.core.groups.group_choices`)."""
+    return choices_of_groups(store, NO_GROUPS)
+
+
+def demo_groups(
+    store: StoreState, dataset: Mapping[str, Sequence[Demonstration]], group_by: str
+) -> dict[str, list[Pair]]:
+    """The groups of ``dataset`` (``store``'s demonstrations) under the rule ``group_by``
+    (``--group-by``'s syntax), from where the workspace says each came from; ValueError when
+    one has none, or holding a group out leaves a primitive too few to learn from."""
+    return plan_groups(dataset, parse_group_by(group_by),
+                       lambda primitive, demo: store.sources.path(primitive, demo.name))
 
 
 def observe_choices(layout: Layout) -> dict[str, list[list[str]]]:
@@ -123,6 +151,10 @@ class EvaluationPlan:
     decide : bool
         Also judge when each method would act (``--decide``: every held-out demonstration
         observed every 2 %, :mod:`promp.evaluate.decisions`).
+    group_by : str or None
+        The grouped sweep's rule (``--group-by``'s syntax); None: leave-one-out alone.
+    groups : dict of str to list of (int, int) or None
+        Its groups (:func:`demo_groups`).
     """
 
     dataset: dict[str, list[Demonstration]]
@@ -138,6 +170,8 @@ class EvaluationPlan:
     methods: list[str] = field(default_factory=lambda: [METHOD])
     subset: int | None = None
     decide: bool = False
+    group_by: str | None = None
+    groups: dict[str, list[Pair]] | None = None
 
     @property
     def held_out(self) -> list[tuple[int, int]] | None:
@@ -146,9 +180,10 @@ class EvaluationPlan:
 
     @property
     def n_held_out(self) -> int:
-        """How many demonstrations are held out, one at a time."""
+        """How many demonstrations are held out, one at a time (and again by group)."""
         held_out = self.held_out
-        return sum(map(len, self.dataset.values())) if held_out is None else len(held_out)
+        once = sum(map(len, self.dataset.values())) if held_out is None else len(held_out)
+        return once if self.group_by is None else 2 * once
 
 
 def plan_evaluation(
@@ -159,6 +194,7 @@ def plan_evaluation(
     methods: str,
     subset: str = "every demonstration",
     decide: bool = False,
+    group_by: str = NO_GROUPS,
 ) -> EvaluationPlan:
     """The plan of the choices of the evaluation's folder on the workspace ``store``.
 
@@ -178,15 +214,22 @@ def plan_evaluation(
         A key of :data:`SUBSET_CHOICES`.
     decide : bool
         Also judge when each method would act (the "When it acts" checkbox).
+    group_by : str
+        A key of :func:`group_choices`.
 
     Raises
     ------
     ValueError
         The percentages are not valid, the observed modalities are not the workspace's, no
-        primitive has :data:`MIN_DEMOS` demonstrations, or ``subset`` is not a choice.
+        primitive has :data:`MIN_DEMOS` demonstrations, ``subset`` or ``group_by`` is not a
+        choice, or the grouping leaves a demonstration without a group or a primitive
+        nothing to learn from when its group is held out.
     """
     if subset not in SUBSET_CHOICES:
         raise ValueError(f"held out: expected one of {list(SUBSET_CHOICES)}, got {subset!r}")
+    rules = group_choices(store)
+    if group_by not in rules:
+        raise ValueError(f"group by: expected one of {list(rules)}, got {group_by!r}")
     percent_values = parse_percents(percents)
     dataset, skipped = evaluation_dataset(store.names, store.learned)
     layout = store.layout
@@ -211,4 +254,6 @@ def plan_evaluation(
         methods=list(METHOD_CHOICES.get(methods, [METHOD])),
         subset=SUBSET_CHOICES[subset],
         decide=bool(decide),
+        group_by=rules[group_by],
+        groups=None if rules[group_by] is None else demo_groups(store, dataset, rules[group_by]),
     )

@@ -1,5 +1,6 @@
 """The Data tab's "Leave-one-out evaluation" folder: choose what is observed, the alpha method,
-the percentages and the methods (ours, or ours beside the toolbox and both baselines), run the
+the percentages, the methods (ours, or ours beside the toolbox and both baselines) and whether
+whole groups are held out too (Group by: a subject's or a session's folder), run the
 sweep in the background (:class:`EvaluationJob`) with a progress bar and a Cancel button, then
 show its results.
 
@@ -26,10 +27,13 @@ from app.core.snapshot import Snapshot
 from app.panels.data.evaluation import EvaluationJob
 from app.panels.data.evaluation_plan import (
     ALPHA_CHOICES,
+    GROUP_HINT,
     METHOD_CHOICES,
     MIN_DEMOS,
+    NO_GROUPS,
     SUBSET_CHOICES,
     SUBSET_HINT,
+    group_choices,
     observe_choices,
     plan_evaluation,
 )
@@ -78,6 +82,7 @@ class EvaluationControls:
     methods_dropdown: viser.GuiDropdownHandle
     subset_dropdown: viser.GuiDropdownHandle
     decide_checkbox: viser.GuiCheckboxHandle
+    group_dropdown: viser.GuiDropdownHandle
 
 
 class EvaluationSection:
@@ -118,6 +123,10 @@ class EvaluationSection:
             subset_dropdown = gui.add_dropdown("Held out", tuple(SUBSET_CHOICES),
                                                hint=SUBSET_HINT)  # fmt: skip
             decide_checkbox = gui.add_checkbox("When it acts", False, hint=DECIDE_HINT)
+            group_dropdown = gui.add_dropdown(
+                "Group by", tuple(group_choices(ctx.store.state)), initial_value=NO_GROUPS,
+                hint=GROUP_HINT,
+            )  # fmt: skip
             run_name_text = gui.add_text(
                 "Run name", "", hint="The name the evaluation is kept under in the workspace's "
                 "runs/ (Saved runs); empty: the observed modalities and the alpha method",
@@ -149,7 +158,7 @@ class EvaluationSection:
         self.controls = EvaluationControls(
             observe_dropdown, alpha_dropdown, percents_text, run_button, cancel_button,
             progress_bar, eval_status, export_button, failed_dropdown, open_button, results_folder,
-            run_name_text, methods_dropdown, subset_dropdown, decide_checkbox,
+            run_name_text, methods_dropdown, subset_dropdown, decide_checkbox, group_dropdown,
         )  # fmt: skip
         self.results = ResultsArea(gui, results_folder, export_button, notify)
         self.failed_trials = FailedTrialPicker(
@@ -172,6 +181,7 @@ class EvaluationSection:
                 c.methods_dropdown.value,
                 c.subset_dropdown.value,
                 c.decide_checkbox.value,
+                c.group_dropdown.value,
             )
         except ValueError as exc:
             self.notify(client, "Cannot evaluate", f"{exc}.", "red")
@@ -202,6 +212,9 @@ class EvaluationSection:
         if layout != self._layout:  # another workspace: its modalities
             self._layout = layout
             self.controls.observe_dropdown.options = tuple(observe_choices(layout))
+        groups = tuple(group_choices(snapshot.store))
+        if tuple(self.controls.group_dropdown.options) != groups:  # its sources' folders
+            self.controls.group_dropdown.options = groups
         root = snapshot.store.workspace.root
         if root != self._root:  # another workspace: nothing of the previous one's stays
             self._root = root
@@ -248,8 +261,9 @@ class EvaluationSection:
         self.results.show_evaluation(job)
         self.failed_trials.show(outcome.result, job.plan.dataset)
         done = "Evaluation cancelled: partial results" if outcome.cancelled else "Evaluation done"
-        self.notify(None, done, f"{progress.done} of {progress.total} held-out demonstrations, "
-                    f"{outcome.elapsed_s:.1f} s.")  # fmt: skip
+        grouped = "" if outcome.grouped is None else " (one at a time, then by group)"
+        self.notify(None, done, f"{progress.done} of {progress.total} held-out demonstrations"
+                    f"{grouped}, {outcome.elapsed_s:.1f} s.")  # fmt: skip
 
     def _clear_results(self) -> None:
         """Nothing of an evaluation stays shown: its results, failed trials and export."""
@@ -304,7 +318,12 @@ def summary(job: EvaluationJob) -> str:
     )
     held = ("each of" if plan.subset is None
             else f"{plan.subset} per primitive, evenly spread:")  # fmt: skip
+    once = plan.n_held_out // (1 if plan.group_by is None else 2)
+    grouped = ("" if outcome.grouped is None else
+               f" Then each of {len(outcome.grouped.groups)} groups held out whole "
+               f"({outcome.grouped.rule.describe()}): {len(outcome.grouped.warnings)} "
+               "warning(s), below.")  # fmt: skip
     return (
-        f"Held out {held} {job.progress.total} demonstrations of {', '.join(plan.dataset)} in "
-        f"{outcome.elapsed_s:.1f} s ({how}).{skipped}{left_out}{failed}"
+        f"Held out {held} {once} demonstrations of {', '.join(plan.dataset)} in "
+        f"{outcome.elapsed_s:.1f} s ({how}).{grouped}{skipped}{left_out}{failed}"
     )

@@ -6,7 +6,9 @@ method, observed modalities and alpha method), so the tab and ``python -m promp.
 --plots`` group and order them alike; positions are in the display unit of
 :mod:`app.ui.display`. When several methods were compared, each series is named after its
 method (``DTW 1-NN: hand, ML``) and coloured by it, so the table lays them side by side; a value
-a method does not give (the baselines predict no trajectory) is ``n/a``.
+a method does not give (the baselines predict no trajectory) is ``n/a``. An evaluation that
+also held out a whole group at a time adds the two protocols' errors side by side, and its
+warnings (:func:`grouped_markdown`).
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ import numpy as np
 import viser
 
 from app.ui.display import LENGTH_SCALE, LENGTH_UNIT, method_label, series_title
+from app.ui.text import escape
+from promp.evaluate.grouped import GroupedRun
 from promp.evaluate.plots import group_series, methods_of
 from promp.evaluate.tables import NOT_GIVEN
 from robots.icub.layout import HAND, HEAD
@@ -130,3 +134,33 @@ def add_results(gui: viser.GuiApi, rows: Sequence[Mapping]) -> list:
         chart("Position error of the remainder", "position_cm", f"error ({LENGTH_UNIT})"),
         gui.add_markdown(results_table(rows)),
     ]
+
+
+def grouped_markdown(run: GroupedRun) -> str:
+    """Markdown: each row's recognition errors held out one at a time and by group, the band
+    of their difference and McNemar's p (:mod:`promp.evaluate.group_gap`), then the warnings
+    (or that none differs beyond the noise)."""
+    lines = [
+        f"**{escape(run.rule.describe().capitalize())}**: {len(run.groups)} groups "
+        f"({escape(', '.join(run.groups))}), errors of the same trials:",
+        "",
+        "| method | observed | alpha | % | one at a time | by group | band | p |",
+        "|---|---|---|---:|---:|---:|---:|---:|",
+    ]
+    for c in run.comparisons:
+        low, high = c["difference_interval"]
+        mark = " **\\***" if c["differs"] else ""
+        lines.append(
+            f"| {method_label(c['method'])} | {escape(' + '.join(c['observed']))} | "
+            f"{c['alpha_method']} | {c['percent']:g} | {c['errors_leave_one_out']} | "
+            f"{c['errors_grouped']} | {low:+.1f} to {high:+.1f}{mark} | {c['p_value']:.2g} |"
+        )
+    lines.append("")
+    if run.result.partial:
+        lines.append("The grouped sweep was cancelled: its rows are partial, not compared.")
+    elif run.warnings:
+        lines += [f"**Warning**: {escape(w)}" for w in run.warnings]
+    else:
+        lines.append("No row differs beyond the noise (the band of the difference, at 1 - 0.05 "
+                     "/ the method's rows, holds 0).")
+    return "\n".join(lines)

@@ -14,7 +14,7 @@ import viser
 from app.io.exchange import format_size
 from app.panels.data.decisions import add_decisions
 from app.panels.data.evaluation import EvaluationJob
-from app.panels.data.results import add_results
+from app.panels.data.results import add_results, grouped_markdown
 from app.panels.data.results_zip import results_filename, results_zip
 from promp.evaluate.decisions import Decisions
 from promp.evaluate.plots import figures_unavailable
@@ -69,9 +69,12 @@ class ResultsArea:
         self.folder.visible = True
 
     def show_evaluation(self, job: EvaluationJob) -> None:
-        """Show the finished ``job``'s results (partial ones when it was cancelled); Export
-        sends them from now on."""
+        """Show the finished ``job``'s results (partial ones when it was cancelled), and its
+        grouped comparison when it has one; Export sends them from now on."""
         self.show(job.title(), job.outcome.result.rows, job.outcome.decisions)
+        if job.outcome.grouped is not None:
+            with self.folder:
+                self.handles.append(self.gui.add_markdown(grouped_markdown(job.outcome.grouped)))
         self.evaluation = job
         self.export_button.disabled = False
 

@@ -30,7 +30,7 @@ from app.io.exchange import export_filename
 from promp.data import Demonstration, Layout
 from promp.evaluate.decisions import decisions_csv, decisions_of
 from promp.evaluate.plots import figures_unavailable, write_figures
-from promp.evaluate.report import report_json, results_csv, trials_csv
+from promp.evaluate.report import every_row, every_trial, report_json, results_csv, trials_csv
 from promp.evaluate.sweep import SweepResult
 
 JSON_NAME, CSV_NAME, TRIALS_NAME, FIGURES = "results.json", "results.csv", "trials.csv", "figures"
@@ -61,8 +61,8 @@ def results_zip(
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
         archive.writestr(JSON_NAME, report_json(report))
-        archive.writestr(CSV_NAME, results_csv(report["results"]))
-        archive.writestr(TRIALS_NAME, trials_csv(report["trials"]))
+        archive.writestr(CSV_NAME, results_csv(every_row(report)))
+        archive.writestr(TRIALS_NAME, trials_csv(every_trial(report)))
         decisions = decisions_of(report)
         if decisions is not None:
             archive.writestr(DECISIONS_NAME, decisions_csv(decisions.rows, decisions.curve))

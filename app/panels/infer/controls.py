@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import viser
 
+from app.core.groups import group_choices
 from app.core.store_state import StoreState
 from app.core.view_state import View
 from app.live.inference import LIVE, LSL, TEST
@@ -21,6 +22,13 @@ from app.ui.tube_style import TubeStyleControl
 NONE = "(none)"
 PRIMITIVE_HINT = "The primitive of the test demonstration."
 DEMO_HINT = "InferResult with a model learned without it."
+HOLD_ALONE = "the demonstration"  # the Hold out choice of the test demonstration alone
+HOLD_PREFIX = "its "  # the other choices: "its folder", "its folder level 2"
+HOLD_HINT = (
+    "What the model is learned without: the test demonstration, or its whole group (a "
+    "subject's or a session's folder of the dataset the workspace was imported from), as the "
+    "Data tab's evaluation grouped by folder does"
+)
 SOURCES = (TEST, LIVE, LSL)
 
 
@@ -43,6 +51,7 @@ class InferControls:
     show_3d: viser.GuiCheckboxHandle
     session_mode: viser.GuiDropdownHandle
     tubes: TubeStyleControl
+    hold_out: viser.GuiDropdownHandle
 
     def follow(self, store: StoreState) -> bool:
         """Offer what ``store`` holds: its primitives, the chosen one's demonstrations (each
@@ -59,12 +68,16 @@ class InferControls:
             named = chosen_hint(hint, handle.value)  # the field may cut a long name
             if handle.hint != named:
                 handle.hint = named
+        holds = tuple(group_choices(store, HOLD_ALONE, HOLD_PREFIX))
+        if tuple(self.hold_out.options) != holds:  # the folders the sources have
+            self.hold_out.options = holds
         observed = tuple(observed_choices(store.layout))
         changed = tuple(self.observed.options) != observed
         if changed:
             self.observed.options = observed
         test, live, lsl = (self.source.value == s for s in SOURCES)
         for handle, wanted in ((self.primitive, test), (self.demo, test),
+                               (self.hold_out, test and len(holds) > 1),
                                (self.live_button, live), (self.live_clear, live),
                                (self.observed, not lsl), (self.percent, not lsl)):  # fmt: skip
             if handle.visible != wanted:
@@ -97,6 +110,7 @@ class InferControls:
             )
         percent = int(min(self.percent.max, max(self.percent.min, round(request.percent))))
         self.source.value = TEST
+        self.hold_out.value = HOLD_ALONE  # the leave-one-out trial: the demonstration alone
         self.primitive.value = request.primitive
         self.demo.options = names
         self.demo.value = request.demo
@@ -118,6 +132,7 @@ def build_observation(gui: PanelGui, observed: tuple[str, ...]) -> dict:
             ),
             primitive=gui.add_dropdown("Primitive", (NONE,), hint=PRIMITIVE_HINT),
             demo=gui.add_dropdown("Test demo", (NONE,), hint=DEMO_HINT),
+            hold_out=gui.add_dropdown("Hold out", (HOLD_ALONE,), hint=HOLD_HINT, visible=False),
             observed=gui.add_dropdown("Observed", observed),
             alpha=gui.add_dropdown(
                 "Alpha", tuple(INFER_ALPHAS), initial_value="ML", hint=ALPHA_HINT,

@@ -34,11 +34,17 @@ import statistics
 import time
 from dataclasses import dataclass, field
 
+from app.core.groups import rule_of
 from app.core.snapshot import Snapshot
 from app.live.inference import InferState, InferView, ModelChoice, choose_model, compute
 from app.live.lsl_view import lsl_view
 from app.live.stream import LiveStream, StreamSamples
-from app.panels.infer.controls import InferControls, build_display, build_observation
+from app.panels.infer.controls import (
+    HOLD_PREFIX,
+    InferControls,
+    build_display,
+    build_observation,
+)
 from app.panels.infer.live_section import LiveSection
 from app.panels.infer.readout import (
     LEGEND_HTML,
@@ -85,7 +91,7 @@ def read_state(c: InferControls) -> InferState:
         source=c.source.value, primitive=c.primitive.value, demo=c.demo.value,
         observed=c.observed.value, alpha_method=INFER_ALPHAS[c.alpha.value],
         percent=int(c.percent.value), show_3d=bool(c.show_3d.value),
-        priors=c.session_mode.value,
+        priors=c.session_mode.value, hold_out=rule_of(c.hold_out.value, HOLD_PREFIX),
     )  # fmt: skip
 
 

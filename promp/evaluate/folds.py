@@ -1,0 +1,164 @@
+"""The folds of a sweep (:mod:`promp.evaluate.sweep`): which demonstrations each holds out
+together and tests, and where they run.
+
+A fold holds out one demonstration (leave-one-out) or a whole group (``groups``: a subject's
+or a session's demonstrations, :mod:`promp.evaluate.groups`), and tests those of them the
+sweep holds out. Folds are independent: :func:`run_folds` runs them in order, on several
+processes (joblib) or on a Dask cluster, and yields their trials in the folds' order, so the
+results are identical wherever they ran. A worker process ends within :data:`PARENT_WATCH_S`
+of the process that started it, however that one ended (``kill -9`` included): a killed
+evaluation leaves no worker behind.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+
+import numpy as np
+
+from promp.data import Demonstration
+
+__all__ = [
+    "Fold", "MIN_TRAINING", "PARENT_WATCH_S", "Pair", "check_groups", "exit_with_parent",
+    "group_folds", "run_folds",
+]  # fmt: skip
+
+Pair = tuple[int, int]  # (primitive index, demonstration index)
+MIN_TRAINING = 2  # demonstrations a primitive keeps in every fold: a fit needs two
+Progress = Callable[[int, int], None]
+Fold = tuple[tuple[Pair, ...], tuple[Pair, ...]]  # (held out together, tested)
+
+
+def _run_chunk(fold: Callable[[Fold], list], chunk: Sequence[Fold]) -> list[list]:
+    return [fold(f) for f in chunk]
+
+
+def run_folds(
+    fold: Callable[[Fold], list],
+    folds: list[Fold],
+    jobs: int,
+    scheduler: str | None,
+    progress: Progress | None,
+) -> Iterator[list]:
+    """Each fold's trials, in the order of ``folds``; ``progress`` counts the demonstrations
+    tested.
+
+    In parallel, the folds travel in chunks (four per worker): each chunk carries the dataset
+    once, rather than once per fold.
+    """
+    total = sum(len(tested) for _, tested in folds)
+    done = 0
+    if jobs == 1 and scheduler is None:
+        for f in folds:
+            yield fold(f)
+            done += len(f[1])
+            if progress is not None:
+                progress(done, total)
+        return
+    import joblib
+
+    if scheduler is not None:
+        try:
+            from dask.distributed import Client
+        except ImportError:
+            raise ValueError(
+                "the Dask backend needs the 'cluster' extra: pip install 'dask[distributed]'"
+            ) from None
+        client = Client(scheduler)
+        workers = max(1, sum(client.nthreads().values()))
+        config = joblib.parallel_config(backend="dask")
+    else:
+        client = None
+        workers = jobs if jobs > 0 else (os.cpu_count() or 1)
+        config = joblib.parallel_config(backend="loky", n_jobs=jobs, initializer=exit_with_parent,
+                                        initargs=(os.getpid(),))  # fmt: skip
+    n_chunks = min(len(folds), 4 * workers)
+    chunks = [list(c) for c in np.array_split(np.arange(len(folds)), n_chunks) if c.size]
+    try:
+        with config:
+            parallel = joblib.Parallel(return_as="generator")
+            results = parallel(
+                joblib.delayed(_run_chunk)(fold, [folds[i] for i in chunk]) for chunk in chunks
+            )
+            position = 0
+            for trials_of_chunk in results:
+                for trials in trials_of_chunk:
+                    done += len(folds[position][1])
+                    position += 1
+                    yield trials
+                    if progress is not None:
+                        progress(done, total)
+    finally:
+        if client is not None:
+            client.close()
+
+
+PARENT_WATCH_S = 0.5  # how often a worker looks whether the evaluation that started it is alive
+
+
+def exit_with_parent(parent: int) -> None:
+    """A worker's initializer: the worker ends once the process ``parent`` (its parent) has
+    ended. joblib's workers outlive a parent killed by a signal otherwise (until their idle
+    timeout, minutes later), still computing the folds of a sweep nobody waits for."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_WATCH_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
+
+
+def check_groups(
+    dataset: Mapping[str, Sequence[Demonstration]], groups: Mapping[str, Sequence[Pair]]
+) -> None:
+    """ValueError unless every demonstration of ``dataset`` is in exactly one of ``groups``
+    and holding out any group leaves every primitive at least :data:`MIN_TRAINING`
+    demonstrations to learn from (the message names the group and the primitive)."""
+    names = list(dataset)
+    owner: dict[Pair, str] = {}
+    for group, pairs in groups.items():
+        for k, j in pairs:
+            pair = (int(k), int(j))
+            if not (0 <= pair[0] < len(names) and 0 <= pair[1] < len(dataset[names[pair[0]]])):
+                raise ValueError(f"group {group!r}: no demonstration (primitive index, index) "
+                                 f"{pair}")  # fmt: skip
+            if pair in owner:
+                raise ValueError(f"{names[pair[0]]}/{dataset[names[pair[0]]][pair[1]].name} is "
+                                 f"in two groups, {owner[pair]!r} and {group!r}")  # fmt: skip
+            owner[pair] = group
+    for k, demos in enumerate(dataset.values()):
+        for j, demo in enumerate(demos):
+            if (k, j) not in owner:
+                raise ValueError(f"{names[k]}/{demo.name} is in no group: every demonstration "
+                                 "needs one")  # fmt: skip
+    for group, pairs in groups.items():
+        for k, name in enumerate(names):
+            left = len(dataset[name]) - sum(1 for kk, _ in pairs if int(kk) == k)
+            if left < MIN_TRAINING:
+                raise ValueError(
+                    f"holding out the group {group!r} leaves {name!r} {left} demonstration(s) "
+                    f"to learn from; a fit needs at least {MIN_TRAINING}: group the "
+                    "demonstrations so that every primitive has takes in two groups or more"
+                )
+
+
+def group_folds(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    groups: Mapping[str, Sequence[Pair]],
+    held_out: Sequence[Pair],
+) -> list[Fold]:
+    """One fold per group that holds a demonstration of ``held_out``: the group's pairs held
+    out, those of ``held_out`` tested (in ``held_out``'s order)."""
+    check_groups(dataset, groups)
+    folds = []
+    for pairs in groups.values():
+        held = tuple(sorted((int(k), int(j)) for k, j in pairs))
+        mine = set(held)
+        tested = tuple(pair for pair in held_out if pair in mine)
+        if tested:
+            folds.append((held, tested))
+    return folds
