@@ -26,8 +26,8 @@ Log-likelihoods and log-evidences (sums of up to ~1e4 nats) are compared to ``--
     .venv/bin/python bench/outputs.py record /work/evidence-baseline/outputs.npz
     .venv/bin/python bench/outputs.py compare /work/evidence-baseline/outputs.npz new.npz
 
-The script reads only public names that every version of the library has kept
-(``promp.pipeline.infer``, ``promp.inference.log_likelihoods``...).
+The record written on the tree before :mod:`promp.evidence` (9d0abac, by this script as it was
+then, reading ``promp.pipeline`` and ``promp._likelihood``) holds the same keys.
 """
 
 from __future__ import annotations
@@ -42,9 +42,10 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from promp.datasets import RECORD_COLUMNS, guess_layout, load_records_dataset  # noqa: E402
+from promp.evidence import Evidence  # noqa: E402
+from promp.evidence.pipeline import infer, log_likelihoods  # noqa: E402
 from promp.inference import Observation  # noqa: E402
 from promp.learn import fit  # noqa: E402
-from promp.pipeline import infer  # noqa: E402
 
 SHARED = REPO.parent / "shared" / "data"
 SETS = ("lab-records-heights", "lab-records-flt", "lab-records-flt-shapes")
@@ -53,7 +54,7 @@ LOG_KINDS = ("log_likelihoods", "log_evidence", "scaled")
 
 
 def record_inference(out: dict, key: str, result) -> None:
-    """Every number of one :class:`promp.pipeline.Inference` under ``key``."""
+    """Every number of one :class:`promp.evidence.Inference` under ``key``."""
     reco = result.recognition
     out[f"{key}/index"] = np.array([reco.index])
     out[f"{key}/probabilities"] = reco.probabilities
@@ -109,11 +110,6 @@ def record_model(out: dict, key: str, model) -> None:
 
 def record_set(out: dict, key: str, dataset: dict, tested: dict, layout, modalities) -> None:
     """The model learned from ``dataset``, and the trials of ``tested``."""
-    try:
-        from promp.pipeline import log_likelihoods
-    except ImportError:  # before promp.evidence
-        from promp.inference import log_likelihoods
-
     model = fit(dataset, layout)
     record_model(out, f"{key}/model", model)
     for name, i, demo in trials(tested):
@@ -135,14 +131,8 @@ def record_set(out: dict, key: str, dataset: dict, tested: dict, layout, modalit
 
 
 def scaled(model, prim, obs) -> np.ndarray:
-    """The likelihood at three noise levels (wherever this version keeps the scaled form)."""
+    """The likelihood at three noise levels."""
     factors = np.array([[0.5], [1.0], [2.0]]) * np.ones((1, model.n_dims))
-    try:
-        from promp.evidence import Evidence
-    except ImportError:  # before promp.evidence
-        from promp._likelihood import log_likelihoods_scaled
-
-        return log_likelihoods_scaled(model, prim, obs, prim.alphas, factors)
     return Evidence(model, obs).log_likelihoods(prim, prim.alphas, factors)
 
 

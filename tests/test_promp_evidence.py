@@ -1,6 +1,7 @@
-"""promp.incremental: a growing observation inferred on with its IncrementalStatistics gives
-what promp.pipeline.infer gives on the same samples from scratch, within 1e-9, on the three
-shared sets (and a faulty copy) at many prefixes."""
+"""promp.evidence: the evidence of a growing observation, extended by its new samples
+(Evidence.extended), gives what promp.evidence.infer gives on the same samples from scratch,
+within 1e-9, on the three shared sets (and a faulty copy) at many prefixes; the speed nodes it
+keeps; threads extending one evidence."""
 
 from __future__ import annotations
 
@@ -11,11 +12,11 @@ import pytest
 from numpy.testing import assert_allclose
 
 from promp.datasets import RECORD_COLUMNS, guess_layout, load_records_dataset
-from promp.incremental import IncrementalStatistics
+from promp.evidence import Evidence
+from promp.evidence.pipeline import infer, recognise
+from promp.evidence.speed import N_NODES, N_REFINE, AlphaPrior, anchored_nodes
 from promp.inference import Observation
 from promp.learn import fit
-from promp.pipeline import infer
-from promp.recognition import N_NODES, N_REFINE, AlphaPrior, anchored_nodes, recognise
 from tests.conftest import SHARED_DATA
 from tests.faults import inject
 
@@ -37,15 +38,16 @@ def same(online, offline) -> None:
     assert_allclose(online.posterior.mean, offline.posterior.mean, **CLOSE)
 
 
-def grow(model, demo, step: int, statistics: IncrementalStatistics) -> int:
-    """Infer on every ``step``-th prefix of ``demo`` with ``statistics``; compare each with
-    the inference from scratch. Returns the number of prefixes."""
+def grow(model, demo, step: int) -> Evidence:
+    """Infer on every ``step``-th prefix of ``demo``, each an extension of the evidence of the
+    one before; compare each with the inference from scratch. Returns the last evidence."""
     times, values = demo.times - demo.times[0], LAYOUT.extract(demo)
-    lengths = list(range(3, times.shape[0], step)) + [times.shape[0]]
-    for n in lengths:
+    evidence = None
+    for n in list(range(3, times.shape[0], step)) + [times.shape[0]]:
         obs = Observation(times[:n], values[:n], LAYOUT.names)
-        same(infer(model, obs, statistics=statistics), infer(model, obs))
-    return len(lengths)
+        evidence = Evidence(model, obs) if evidence is None else evidence.extended(obs)
+        same(evidence.infer(), infer(model, obs))
+    return evidence
 
 
 @pytest.fixture(scope="module", params=["lab-records-heights", "lab-records-flt",
@@ -59,11 +61,10 @@ def test_a_growing_movement_is_inferred_as_from_scratch(shared) -> None:
     dataset, model = shared
     for klass in list(dataset)[:2]:
         demo = dataset[klass][len(dataset[klass]) // 2]
-        statistics = IncrementalStatistics()
         step = max(demo.times.shape[0] // 25, 1)
-        assert grow(model, demo, step, statistics) > 20
-        assert statistics.n_observed == demo.times.shape[0]
-        assert len(statistics) > 0  # it kept sums: the path under test is the incremental one
+        evidence = grow(model, demo, step)
+        assert evidence.observation.n_observed == demo.times.shape[0]
+        assert evidence.n_kept > 0  # it kept sums: the path under test is the incremental one
 
 
 def test_a_faulty_copy_is_inferred_as_from_scratch() -> None:
@@ -73,7 +74,7 @@ def test_a_faulty_copy_is_inferred_as_from_scratch() -> None:
     dataset, _ = inject(clean, LAYOUT, seed=0)
     model = fit(clean, LAYOUT)
     for demo in dataset[next(iter(dataset))][-3:]:  # the three added (inject's order)
-        grow(model, demo, max(demo.times.shape[0] // 12, 1), IncrementalStatistics())
+        grow(model, demo, max(demo.times.shape[0] // 12, 1))
 
 
 def test_the_truncated_nodes_stay_where_they_were() -> None:
@@ -136,37 +137,38 @@ def test_a_long_movement_scores_few_new_speeds_an_update() -> None:
 
 
 def test_another_observation_starts_again(shared) -> None:
-    """Statistics given an observation that does not extend the one they saw forget it: the
-    inference is still the one from scratch (a wrong one costs time, never a wrong number)."""
+    """An evidence extended by an observation that does not extend its own forgets the sums
+    it kept: the inference is still the one from scratch (a wrong one costs time, never a
+    wrong number)."""
     dataset, model = shared
     first, second = (d for ds in list(dataset.values())[:2] for d in ds[:1])
-    statistics = IncrementalStatistics()
+    evidence = None
     for demo in (first, second, first):
         times, values = demo.times - demo.times[0], LAYOUT.extract(demo)
         n = times.shape[0] // 2
         obs = Observation(times[:n], values[:n], LAYOUT.names)
-        same(infer(model, obs, statistics=statistics), infer(model, obs))
-        assert statistics.n_observed == n
+        evidence = Evidence(model, obs) if evidence is None else evidence.extended(obs)
+        same(evidence.infer(), infer(model, obs))
     # a shorter prefix of the one seen: its first samples, the sums kept of them reused or not
     obs = Observation(times[:n - 5], values[:n - 5], LAYOUT.names)
-    same(infer(model, obs, statistics=statistics), infer(model, obs))
+    same(evidence.extended(obs).infer(), infer(model, obs))
 
 
-def test_threads_sharing_one_statistics_get_the_numbers_from_scratch(shared) -> None:
+def test_threads_extending_one_evidence_get_the_numbers_from_scratch(shared) -> None:
     dataset, model = shared
     demo = next(iter(dataset.values()))[0]
     times, values = demo.times - demo.times[0], LAYOUT.extract(demo)
     lengths = np.linspace(5, times.shape[0], 8).astype(int).tolist()
     expected = {n: infer(model, Observation(times[:n], values[:n], LAYOUT.names))
                 for n in lengths}  # fmt: skip
-    statistics = IncrementalStatistics()
+    base = Evidence(model, Observation(times[:3], values[:3], LAYOUT.names))
     failures: list[BaseException] = []
 
     def worker(order: list[int]) -> None:
         try:
             for n in order:
                 obs = Observation(times[:n], values[:n], LAYOUT.names)
-                same(infer(model, obs, statistics=statistics), expected[n])
+                same(base.extended(obs).infer(), expected[n])
         except BaseException as error:  # noqa: BLE001 - reported by the main thread
             failures.append(error)
 

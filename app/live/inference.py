@@ -1,22 +1,21 @@
 """What the Infer tab shows for one state of its controls and one snapshot of the studio, as
 pure computation: no viser, tested without a browser.
 
-:func:`promp.pipeline.infer` does the method's work once: from an early observation (the first
-samples of a held-out test demonstration, or of the live stream) it recognises the primitive
-and its speed (Eq. 6), conditions the recognised primitive on the observation (Eq. 8),
-predicts the prior and the posterior over the predicted duration, and, given the whole
-movement, measures the errors the evaluation reports. :func:`inferred` adds what only the
-studio draws: the predicted future hand path, from the observation point to the predicted
-end, which the 3D view shows and the arm replays.
+The method's work is one :class:`promp.evidence.Evidence` of the early observation (the first
+samples of a held-out test demonstration, or of the live stream): it recognises the primitive
+and its speed (Eq. 6), conditions the recognised primitive on the observation and on that
+primitive's via-points (Eq. 8), predicts the prior and the posterior over the predicted
+duration, gives every position's region and future path, and, given the whole movement,
+measures the errors the evaluation reports (:meth:`promp.evidence.Evidence.infer`).
+:func:`inferred` asks it and :func:`completed` adds what only the studio draws: the observed
+and true parts of each position (:func:`app.live.regions.positions`) and the hand's future,
+which the 3D view shows and the arm replays.
 
 The model comes first (:func:`choose_model`): for a test demonstration, the model learned
 without it (the learner fits it in the background: until then there is nothing to show, and
 the view says so) or an imported one (which cannot be refitted without it); for the live
 stream, the model inference uses. Then the early observation (the first samples of the
 demonstration, or of the live stream's samples) and one inference (:func:`compute`).
-
-:func:`inferred` shapes the posterior with the recognised primitive's via-points and adds what
-the 3D view draws of every position (:mod:`app.live.regions`, where Teach's priors are too).
 """
 
 from __future__ import annotations
@@ -29,14 +28,15 @@ import numpy as np
 from app.core.learner import Learner
 from app.core.snapshot import Snapshot
 from app.core.via_state import StudioViaPoint, of_primitive
-from app.live.regions import PATH_POINTS, TUBE_POINTS, PositionView, positions, shaped
+from app.live.regions import PATH_POINTS, TUBE_POINTS, PositionView, positions
 from app.live.stream import StreamSamples
 from promp.data import Demonstration
-from promp.inference import Gaussian, Observation, Posterior, Prediction, predict
+from promp.evidence import Evidence, Inference
+from promp.evidence.pipeline import relative_speed
+from promp.inference import Gaussian, Observation, Posterior, Prediction
 from promp.model import ProMPModel
-from promp.pipeline import Inference, infer, relative_speed
 from promp.timing import n_observed_for
-from robots.icub.layout import hand_dims
+from robots.icub.layout import HAND, hand_dims
 
 TEST, LIVE = "Test demonstration", "Live stream"  # what is observed
 LSL = "Live streams (LSL)"  # a lab's sensors (app.live.lsl_source)
@@ -112,10 +112,9 @@ def inferred(
     truth: Demonstration | None = None,
     via_points: tuple[StudioViaPoint, ...] = (),
 ) -> InferResult:
-    """Infer from ``observation`` (:func:`promp.pipeline.infer`, predictions on
-    ``TUBE_POINTS`` phases), shape the posterior with the recognised primitive's via-points
-    (of ``via_points``, every primitive's) and add what the 3D view draws: the future hand path
-    and every position's region.
+    """Infer from ``observation`` (:meth:`promp.evidence.Evidence.infer`, predictions on
+    ``TUBE_POINTS`` phases), the posterior shaped by the recognised primitive's via-points (of
+    ``via_points``, every primitive's), with what the 3D view draws (:func:`completed`).
 
     Parameters
     ----------
@@ -132,8 +131,12 @@ def inferred(
         From the engine: an unknown modality, an unknown alpha method, or an observation longer
         than every candidate duration.
     """
-    inference = infer(model, observation, alpha_method, n_points=TUBE_POINTS, truth=truth)
-    return completed(model, observation, inference, truth, via_points)
+    evidence = Evidence(model, observation, alpha_method)
+    has_hand = hand_dims(model.layout) is not None
+    vias = of_primitive(via_points, evidence.recognition.primitive) if has_hand else ()
+    inference = evidence.infer([v.for_model(model.layout) for v in vias], n_points=TUBE_POINTS,
+                               truth=truth, path_points=PATH_POINTS)  # fmt: skip
+    return completed(model, observation, inference, truth, vias)
 
 
 def completed(
@@ -144,38 +147,17 @@ def completed(
     via_points: tuple[StudioViaPoint, ...] = (),
 ) -> InferResult:
     """What only the studio draws, added to ``inference`` of ``observation`` (on
-    ``TUBE_POINTS`` phases): the posterior shaped by the recognised primitive's via-points,
-    the future hand path and every position's region; :func:`inferred`'s, and a live
-    session's (:mod:`app.live.lsl_view`)."""
-    has_hand = hand_dims(model.layout) is not None
-    vias = of_primitive(via_points, inference.primitive) if has_hand else ()
-    weights = shaped(model, inference.posterior, vias, inference.alpha)
-    prediction = (
-        predict(model, weights, inference.alpha, TUBE_POINTS) if vias else inference.prediction
-    )
-    duration = inference.duration
-    observed_phase = min(inference.observed_until / duration, 1.0) if duration > 0 else 1.0
+    ``TUBE_POINTS`` phases, shaped by ``via_points``): every position's observed and true
+    parts, and the future hand path; :func:`inferred`'s, and a live session's
+    (:mod:`app.live.lsl_view`)."""
     whole = model.layout.extract(truth) if truth is not None else None
+    views = positions(model, inference, observation, whole)
+    hand = next((v for v in views if v.modality == HAND.name), None)
+    future = FuturePath(hand.times, hand.future) if hand is not None else None
     return InferResult(
-        model, observation, inference, truth, future_path(model, inference, weights), vias,
-        weights, prediction, positions(model, weights, observation, observed_phase, whole),
+        model, observation, inference, truth, future, via_points, inference.weights,
+        inference.prediction, views,
     )  # fmt: skip
-
-
-def future_path(
-    model: ProMPModel, inference: Inference, weights: Gaussian | Posterior | None = None
-) -> FuturePath | None:
-    """The mean hand of ``weights`` (default: the posterior) from the observation point to
-    the predicted end (None without a hand)."""
-    hand = hand_dims(model.layout)
-    if hand is None:
-        return None
-    duration = inference.duration
-    z_start = min(inference.observed_until / duration, 1.0) if duration > 0 else 1.0
-    phases = np.linspace(z_start, 1.0, PATH_POINTS)
-    mean = (weights if weights is not None else inference.posterior).mean
-    hand_weights = mean.reshape(model.n_dims, -1)[hand]  # (3, M)
-    return FuturePath(phases * duration, model.basis(phases) @ hand_weights.T)
 
 
 def demo_observation(

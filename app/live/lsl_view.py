@@ -1,7 +1,7 @@
 """What the Infer tab shows of the LSL source: its latest prediction, as a test demonstration's
 inference is shown (bars, status, charts, the 3D tube, path and end). Pure: no viser.
 
-The session's predictions are :func:`promp.pipeline.infer` on the movement so far, on the
+The session's predictions are :func:`promp.evidence.infer` on the movement so far, on the
 studio's ``TUBE_POINTS`` phases (:class:`app.live.lsl_source.LslSource` starts it so): each is
 shown as it is (:func:`app.live.inference.completed` adds the future hand path), never
 recomputed. :class:`LslObserved` is the same object until the prediction or the message

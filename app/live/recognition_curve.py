@@ -22,8 +22,8 @@ import numpy as np
 from app.core.fits import LruCache
 from app.live.inference import CurveRequest, demo_observation
 from promp.data import Demonstration
+from promp.evidence.pipeline import recognise
 from promp.model import ProMPModel
-from promp.recognition import recognise
 
 PERCENTS = np.arange(1.0, 101.0)  # every whole percent: 100 recognitions, ~0.5 s
 

@@ -5,10 +5,12 @@ in space (:func:`robots.icub.layout.position_modalities`) they give.
 Teach (:func:`prior_shape`): the weights of a new movement of the primitive, whatever its speed
 (:func:`promp.region.new_movement`), conditioned on its via-points
 (:func:`promp.via_points.condition_on_via_points`), drawn at its typical speed. Infer
-(:func:`shaped_posterior`): the posterior of the recognised primitive given the observation
-(Eq. 8), conditioned on that primitive's via-points as well. A region is where a share of the
-movements' samples are at each moment (:mod:`promp.region`: the weights through the basis, plus
-the samples' noise); the tubes draw it at the probability of the tube style.
+(:func:`positions`): each position's region and future path of the inference (the posterior of
+the recognised primitive given the observation and that primitive's via-points,
+:attr:`promp.evidence.Inference.positions`), with what was observed of it and the truth. A
+region is where a share of the movements' samples are at each moment (:mod:`promp.region`: the
+weights through the basis, plus the samples' noise); the tubes draw it at the probability of the
+tube style.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.core.via_state import StudioViaPoint, of_primitive
+from promp.evidence import Inference
 from promp.inference import Gaussian, Observation, Posterior, Prediction, predict
 from promp.model import ProMPModel
 from promp.region import (
@@ -118,8 +121,10 @@ class PositionView:
     region : SampleDistribution
         On :data:`TUBE_POINTS` phases over the predicted duration: means (n, 3), covariances
         (n, 3, 3), metres.
+    times : array, shape (PATH_POINTS,)
+        Seconds from the start of the movement, from the last observed sample to the end.
     future : array, shape (PATH_POINTS, 3)
-        The predicted mean from the last observed sample to the end.
+        The predicted mean at ``times``.
     observed : array, shape (n_observed, 3), or None
         What was observed of it (None: not observed).
     truth : array, shape (m, 3), or None
@@ -128,6 +133,7 @@ class PositionView:
 
     modality: str
     region: SampleDistribution
+    times: np.ndarray
     future: np.ndarray
     observed: np.ndarray | None
     truth: np.ndarray | None
@@ -135,27 +141,23 @@ class PositionView:
 
 def positions(
     model: ProMPModel,
-    weights: Gaussian | Posterior,
+    inference: Inference,
     observation: Observation,
-    observed_phase: float,
     truth: np.ndarray | None = None,
 ) -> tuple[PositionView, ...]:
-    """Every position modality of ``model`` (the hand first) from the posterior ``weights``.
+    """Every position modality of ``inference`` (the hand first,
+    :func:`robots.icub.layout.position_modalities`) with what was observed of it.
 
     Parameters
     ----------
-    observed_phase : float
-        The share of the predicted duration observed (where the future paths start).
     truth : array, shape (n_samples, n_dims), optional
         The whole test demonstration's values (``model.layout.extract``).
     """
     layout = model.layout
-    start = min(max(observed_phase, 0.0), 1.0)
-    phases = np.linspace(start, 1.0, PATH_POINTS)
-    mean = np.asarray(weights.mean).reshape(model.n_dims, -1)
+    found = {p.modality: p for p in inference.positions}
     views = []
     for modality in position_modalities(layout):
-        dims = layout.dims([modality.name])
+        dims, position = layout.dims([modality.name]), found[modality.name]
         observed = None
         if modality.name in observation.modalities:
             cols = np.flatnonzero(np.isin(layout.dims(observation.modalities), dims))
@@ -163,10 +165,8 @@ def positions(
         rest = None
         if truth is not None:
             rest = truth[max(observation.n_observed - 1, 0) :, dims]
-        views.append(PositionView(
-            modality.name, region_of(model, weights, modality.name),
-            model.basis(phases) @ mean[dims].T, observed, rest,
-        ))  # fmt: skip
+        views.append(PositionView(modality.name, position.region, position.times,
+                                  position.future, observed, rest))  # fmt: skip
     return tuple(views)
 
 

@@ -13,10 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp.data import Demonstration, Layout
+from promp.evidence.pipeline import infer
 from promp.inference import Observation
 from promp.learn import fit
 from promp.model import ProMPModel, Settings
-from promp.pipeline import infer
 
 __all__ = ["ALPHA_ROWS", "TrialAnswer", "ProMPEngine", "TRUE_DURATION"]
 
@@ -57,7 +57,7 @@ class TrialAnswer:
 
 
 class ProMPEngine:
-    """This project's multi-modal ProMP engine (:func:`promp.pipeline.infer`): `--method ours`."""
+    """This project's multi-modal ProMP engine (:func:`promp.evidence.infer`): `--method ours`."""
 
     name = "ours"
 

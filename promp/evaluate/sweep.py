@@ -367,7 +367,7 @@ def leave_one_out(
     others (with ``settings``: by default every fit chooses its basis, width and noise from
     its own training demonstrations); the first ``p`` % of the held-out one's samples
     (``n_o = ceil(p / 100 n)``) in the ``observe`` modalities are recognised, conditioned on
-    and the rest predicted (:func:`promp.pipeline.infer`), and measured against it.
+    and the rest predicted (:func:`promp.evidence.infer`), and measured against it.
 
     Parameters
     ----------

@@ -13,8 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.linalg import lapack
 
-from promp._likelihood import logsumexp_rows
-from promp._weight_space import cholesky_diagonals, equilibrated_precision
+from promp.evidence.speed import logsumexp_rows
+from promp.evidence.weight_space import cholesky_diagonals, equilibrated_precision
 from promp.fitting import FitParts
 from promp.model import ProMPModel
 from promp.recognition import label_noise, with_label_noise
@@ -58,7 +58,7 @@ def loo_score(
     while the noise, the ridge and the pooled prior's target and strength stay those of the
     whole set (an approximation: one demonstration moves them little). Each primitive's
     likelihood (Eq. 6 in weight space, with the Ornstein-Uhlenbeck noise) is integrated over
-    its speed prior on the batch's nodes, as :func:`promp.recognition.recognise` does; the
+    its speed prior on the batch's nodes, as :attr:`promp.evidence.Evidence.recognition` does; the
     terms every primitive shares (the noise determinant) cancel in the posterior.
     """
     return LooScorer(fitted, batches, n_trials, region)(noise_scales)
@@ -236,7 +236,7 @@ def _bordered_diagonals(
 ) -> np.ndarray:
     """The diagonal of the Cholesky factor of every bordered matrix
     ``[[Sigma_o^-1 + A^T R^-1 A, b], [b^T, r^T R^-1 r + 1]]`` of a batch (the module
-    docstring of :mod:`promp._weight_space`), shape (T, K, A, P + 1).
+    docstring of :mod:`promp.evidence.weight_space`), shape (T, K, A, P + 1).
 
     Parameters
     ----------

@@ -1,7 +1,8 @@
-"""Recognition: which primitive, at which speed (paper Eqs. 6-7), with honest probabilities.
+"""The speed prior of a primitive and the quadrature over it (paper Eq. 7 and the integral of
+Eq. 6 over alpha): the one place of the Student-t, the speed prior and logsumexp.
 
-Every primitive k is scored by the evidence of the observation, the likelihood of Eq. 6
-integrated over its time modulation alpha:
+The evidence of an observation under primitive k integrates the likelihood over its time
+modulation alpha (:class:`promp.evidence.Evidence`):
 
     p(y_o | k) = integral of N(y_o | Phi_o(alpha) mu_k(alpha), S_k(alpha)) p(alpha | k) d alpha
 
@@ -15,52 +16,39 @@ gets a recognition (the primitive that most plausibly lasts that long) and a pre
 
 The integral is a quadrature on :data:`N_NODES` equally spaced nodes in log alpha spanning the
 prior's central 99.6 % (truncated: the nodes past the bound dropped and the bound added,
-:func:`anchored_nodes`), refined by :data:`N_REFINE` nodes around the best one; the
-reported alpha is the posterior mode on those nodes. ``alpha_method="model"`` centres half of
-the prior's mass on the Eq. 7 regression from the early displacement (a Student-t of the
+:func:`anchored_nodes`), refined by :data:`N_REFINE` nodes around the best one
+(:func:`refined_nodes`). ``alpha_method="model"`` centres half of the prior's mass on the
+Eq. 7 regression from the early displacement (:func:`model_alpha`, a Student-t of the
 regression's cross-validated error) and keeps the other half on the training prior, so a wrong
 regression (a movement unlike the primitive's demonstrations) costs at most a factor of two in
 evidence instead of a confident mistake.
 
-**No certainty beyond what the demonstrations can support.** The Gaussian likelihood is exact
-for the model, but real movements are not exactly the model: a movement can look like a slower
-reach of another primitive, and with dozens of correlated samples the evidence for the wrong one
-grows by tens of nats (a trial of the lab's heights set got p(true) = 2e-7, one of flt 6e-11).
-So the class posterior carries an explicit "none of these" hypothesis: with probability
-``epsilon`` an observation is not described by the primitive it belongs to, and is then equally
-likely to belong to any of them (its predictive is the primitives' average, so it tells the
-classes nothing apart): ``p(k | y) = (1 - epsilon) p_model(k | y) + epsilon / K``. Its prior
-is Laplace's rule of succession over the N training demonstrations, ``epsilon = 1 / (N + 2)``
-(:func:`label_noise`): the more demonstrations, the more certain the model may be. Nothing is
-fitted to a dataset; the ranking of the primitives is unchanged, a probability never falls below
-``1 / (K (N + 2))`` (-ln p at most ln K (N + 2): 5.9 nats for 122 demonstrations of 3
-primitives) and a confident right answer loses at most ``epsilon`` of its probability.
+The leave-one-out scorer (:mod:`promp.selection`) uses the same functions in batch form: the
+speed prior of many rows at once (:func:`speed_prior`), the Student-t (:func:`t_logpdf`), the
+range (:func:`central_range`), the weights (:func:`quadrature_weights`) and
+:func:`logsumexp_rows`.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 import numpy as np
 from scipy import special
 
-from promp._likelihood import log_likelihoods, logsumexp, logsumexp_rows
 from promp._recent import cached_on
 from promp.model import Primitive, ProMPModel
-from promp.observation import Observation, check_observation
+from promp.observation import Observation
 from promp.quality import winsorized
-from promp.timing import alpha_from_duration
-
-if TYPE_CHECKING:
-    from promp.incremental import IncrementalStatistics
 
 __all__ = [
-    "ALPHA_METHODS", "AlphaMethod", "AlphaPrior", "MAX_SPAN", "N_NODES", "N_REFINE", "Recognition",
-    "TAIL", "alpha_prior", "anchored_nodes", "central_range", "label_noise", "longest_alpha",
-    "modality_columns", "model_alpha", "quadrature", "quadrature_weights", "recognise",
-    "refined_nodes", "speed_prior", "t_logpdf", "with_label_noise"
+    "ALPHA_METHODS", "AlphaMethod", "AlphaPrior", "MAX_SPAN", "N_NODES", "N_REFINE", "TAIL",
+    "alpha_prior", "anchored_nodes", "central_range", "logsumexp", "logsumexp_rows",
+    "longest_alpha", "modality_columns", "model_alpha", "quadrature", "quadrature_weights",
+    "refined_nodes",
+    "speed_prior", "t_logpdf",
 ]  # fmt: skip
 
 AlphaMethod = Literal["ml", "model"]
@@ -178,69 +166,32 @@ class AlphaPrior:
         return float(lo), float(hi)
 
 
-@dataclass(frozen=True, eq=False)
-class Recognition:
-    """Which primitive the observation belongs to, and at which speed.
 
-    Attributes
-    ----------
-    index : int
-        Index of the recognised primitive in ``model.primitives``.
-    primitive : str
-    alpha : float
-        Time modulation of the recognised primitive (its posterior mode).
-    probabilities : array, shape (n_primitives,)
-        Posterior probability of each primitive (uniform prior over primitives, each
-        primitive's likelihood integrated over its alpha prior), with the "none of these"
-        hypothesis (:func:`with_label_noise`).
-    candidates : tuple of arrays
-        Per primitive, the alpha nodes scored (increasing).
-    log_likelihoods : tuple of arrays
-        Per primitive, the log-likelihood of the observation at each node (Eq. 6).
-    log_prior : tuple of arrays
-        Per primitive, the log prior density of each node (per unit of log alpha).
-    log_evidence : array, shape (n_primitives,)
-        ``log p(y_o | k)``.
-    alpha_method : str
+
+def logsumexp(values: np.ndarray) -> float:
+    """``log(sum(exp(values)))`` over every entry, stable; ``-inf`` for an empty or all
+    ``-inf`` input: :func:`logsumexp_rows` of one row."""
+    return float(logsumexp_rows(np.ravel(values)))
+
+
+def logsumexp_rows(values: np.ndarray) -> np.ndarray:
+    """``log(sum(exp(values)))`` along the last axis, stable: shape (...,) for ``values`` of
+    shape (..., n); ``-inf`` for an empty or all ``-inf`` row, the row's maximum for a row
+    holding ``+inf`` or NaN.
+
+    (scipy's version costs ~0.2 ms of checks per call, too much for a 60 Hz scrub loop.)
     """
-
-    index: int
-    primitive: str
-    alpha: float
-    probabilities: np.ndarray
-    candidates: tuple[np.ndarray, ...]
-    log_likelihoods: tuple[np.ndarray, ...]
-    log_prior: tuple[np.ndarray, ...]
-    log_evidence: np.ndarray
-    alpha_method: str
-
-    def speed_posterior(
-        self, index: int | None = None, temperature: float = 1.0
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The posterior over the speed of primitive ``index`` (default: the recognised one)
-        on its quadrature nodes: ``(alphas (A,), masses (A,))``, masses summing to 1 (the
-        trapezoid weights of the quadrature times the likelihood raised to ``temperature``,
-        normalised; see :mod:`promp.duration`)."""
-        k = self.index if index is None else index
-        alphas = self.candidates[k]
-        log_nodes = np.log(alphas)
-        widths = np.gradient(log_nodes) if log_nodes.size > 1 else np.ones(1)
-        log_mass = temperature * self.log_likelihoods[k] + self.log_prior[k] + np.log(widths)
-        if not np.isfinite(log_mass).any():
-            raise ValueError(f"primitive {k} does not explain the observation")
-        mass = np.exp(log_mass - np.max(log_mass))
-        return alphas, mass / mass.sum()
-
-
-def label_noise(model: ProMPModel) -> float:
-    """``epsilon = 1 / (N + 2)``, N the model's training demonstrations (module docstring)."""
-    return 1.0 / (sum(p.n_demos for p in model.primitives) + 2.0)
-
-
-def with_label_noise(probabilities: np.ndarray, epsilon: float) -> np.ndarray:
-    """``(1 - epsilon) p + epsilon / K`` along the last axis (K its length)."""
-    k = probabilities.shape[-1]
-    return (1.0 - epsilon) * probabilities + epsilon / k
+    values = np.asarray(values, dtype=float)
+    if values.shape[-1] == 0:
+        return np.full(values.shape[:-1], -np.inf)
+    top = values.max(axis=-1, keepdims=True)
+    finite = np.isfinite(top)
+    if finite.all():
+        return (top + np.log(np.exp(values - top).sum(axis=-1, keepdims=True)))[..., 0]
+    safe = np.where(finite, top, 0.0)  # rows without a finite maximum: their maximum
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = safe + np.log(np.exp(values - safe).sum(axis=-1, keepdims=True))
+    return np.where(finite, out, top)[..., 0]
 
 
 def modality_columns(model: ProMPModel, obs: Observation, name: str) -> np.ndarray:
@@ -295,13 +246,11 @@ def alpha_prior(
     return prior.mixed_with(math.log(alpha), max(log_sd, prior.scales[0] / 4), prior.dofs[0], 0.5)
 
 
-def quadrature(
-    model: ProMPModel, obs: Observation, prior: AlphaPrior
-) -> tuple[np.ndarray, np.ndarray, float]:
+def quadrature(prior: AlphaPrior, bound: float) -> tuple[np.ndarray, np.ndarray, float]:
     """The coarse quadrature in log alpha: :data:`N_NODES` nodes over the prior's central mass,
-    truncated at the longest possible alpha (:func:`anchored_nodes`), their log prior
-    densities, and the log of the prior mass below that bound."""
-    bound = math.log(longest_alpha(model, obs))
+    truncated at ``bound``, the log of the longest possible alpha (:func:`longest_alpha`;
+    :func:`anchored_nodes`), their log prior densities, and the log of the prior mass below
+    the bound."""
     nodes = anchored_nodes(prior, bound)
     return nodes, prior.logpdf(nodes), prior.logcdf(bound)
 
@@ -312,11 +261,11 @@ def anchored_nodes(prior: AlphaPrior, bound: float) -> np.ndarray:
     same lattice below the bound (more than half a step below it), and the bound itself.
 
     The lattice does not move with the bound (nodes are dropped, never shifted), so as an
-    observation grows only the node at the bound is new: the likelihood's sums of the others
-    are kept from one update to the next (:mod:`promp.incremental`), where spreading the
-    nodes over the truncated range made every node new at every sample. When every plausible
-    speed ends too early (the bound below the central mass), the nodes are those of a lattice
-    of the same origin and half the step below it, within ``4 max(scale)`` of the bound.
+    observation grows only the node at the bound is new: the likelihood's sums of the others are
+    kept from one update to the next (:meth:`promp.evidence.Evidence.extended`), where spreading the
+    nodes over the truncated range made every node new at every sample. When every plausible speed
+    ends too early (the bound below the central mass), the nodes are those of a lattice of the same
+    origin and half the step below it, within ``4 max(scale)`` of the bound.
     """
     lo, hi = prior.span(math.inf)
     lattice = np.linspace(lo, hi, N_NODES)
@@ -368,131 +317,3 @@ def refined_nodes(nodes: np.ndarray, best: int) -> np.ndarray:
     fine = np.linspace(nodes[best] - step, nodes[best] + step, N_REFINE + 2)[1:-1]
     keep = (fine > nodes[0]) & (fine < nodes[-1])
     return fine[keep & ~np.isclose(fine, nodes[best], rtol=0, atol=1e-9)]
-
-def _integrate(
-    model: ProMPModel,
-    primitive: Primitive,
-    obs: Observation,
-    prior: AlphaPrior,
-    statistics: IncrementalStatistics | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """Nodes (log alpha), their log-likelihoods and log prior densities, and the evidence."""
-    nodes, lp, log_mass = quadrature(model, obs, prior)
-    ll = log_likelihoods(model, primitive, obs, np.exp(nodes), statistics)
-    fine = refined_nodes(nodes, int(np.argmax(ll + lp)))
-    if fine.size:
-        nodes = np.concatenate([nodes, fine])
-        ll = np.concatenate([ll, log_likelihoods(model, primitive, obs, np.exp(fine), statistics)])
-        lp = np.concatenate([lp, prior.logpdf(fine)])
-        order = np.argsort(nodes)
-        nodes, ll, lp = nodes[order], ll[order], lp[order]
-    evidence = logsumexp(ll + quadrature_weights(nodes, lp, log_mass))
-    return nodes, ll, lp, evidence
-
-
-def recognise(
-    model: ProMPModel,
-    obs: Observation,
-    alpha_method: AlphaMethod = "ml",
-    duration: float | None = None,
-    statistics: IncrementalStatistics | None = None,
-) -> Recognition:
-    """Recognise the primitive and its time modulation from an early observation.
-
-    Every primitive k is scored by its evidence, the likelihood of Eq. 6 integrated over its
-    speed prior (module docstring), ``p(y_o | k) = int N(y_o | Phi_o(alpha) mu_k(alpha),
-    S_k(alpha)) p(alpha | k) d alpha``; the class posterior (a uniform prior over the
-    primitives) carries the "none of these" hypothesis (:func:`with_label_noise`).
-
-    Parameters
-    ----------
-    model : ProMPModel
-    obs : Observation
-    alpha_method : {"ml", "model"}
-        The speed's prior: the primitive's training speeds, or half of it on the Eq. 7
-        regression from the early displacement.
-    duration : float, optional
-        When the whole movement's duration is known (s; the evaluation's oracle row: how far
-        a perfect estimate of the speed would take the method): every primitive is scored at
-        the speed of that duration alone, and ``alpha_method`` is not used.
-    statistics : IncrementalStatistics, optional
-        For an observation that grows, what the likelihood kept of its first samples
-        (:mod:`promp.incremental`): the same recognition to round-off, at a cost that does not
-        grow with the observation's length.
-
-    Returns
-    -------
-    Recognition
-        ``index``/``primitive`` recognised, ``probabilities`` (n_primitives,), ``alpha`` (its
-        posterior mode), and per primitive the nodes, log-likelihoods and log prior of the
-        quadrature.
-
-    Raises
-    ------
-    ValueError
-        Unknown modality or alpha method, an empty or non-finite observation, a duration
-        shorter than the observation.
-    """
-    check_observation(model, obs)
-    if alpha_method not in ALPHA_METHODS:
-        raise ValueError(f"alpha_method must be one of {ALPHA_METHODS}, got {alpha_method!r}")
-    if duration is not None:
-        return _recognise_at(model, obs, float(duration), statistics)
-    nodes, tables, priors = [], [], []
-    evidence = np.empty(len(model.primitives))
-    for k, prim in enumerate(model.primitives):
-        x, ll, lp, evidence[k] = _integrate(
-            model, prim, obs, alpha_prior(model, prim, obs, alpha_method), statistics
-        )
-        nodes.append(x)
-        tables.append(ll)
-        priors.append(lp)
-    return _recognition(model, nodes, tables, priors, evidence, alpha_method)
-
-
-def _recognition(
-    model: ProMPModel,
-    nodes: list[np.ndarray],
-    tables: list[np.ndarray],
-    priors: list[np.ndarray],
-    evidence: np.ndarray,
-    alpha_method: str,
-) -> Recognition:
-    if not np.isfinite(evidence).any():
-        raise ValueError("no primitive explains the observation (every likelihood is zero)")
-    probabilities = with_label_noise(np.exp(evidence - logsumexp(evidence)), label_noise(model))
-    index = int(np.argmax(evidence))
-    best = int(np.argmax(tables[index] + priors[index]))
-    return Recognition(
-        index=index,
-        primitive=model.primitives[index].name,
-        alpha=float(math.exp(nodes[index][best])),
-        probabilities=probabilities,
-        candidates=tuple(np.exp(x) for x in nodes),
-        log_likelihoods=tuple(tables),
-        log_prior=tuple(priors),
-        log_evidence=evidence,
-        alpha_method=alpha_method,
-    )
-
-
-def _recognise_at(
-    model: ProMPModel,
-    obs: Observation,
-    duration: float,
-    statistics: IncrementalStatistics | None = None,
-) -> Recognition:
-    """Every primitive scored at the speed of a known ``duration`` (seconds)."""
-    if not math.isfinite(duration) or duration < obs.elapsed[-1] * (1.0 - 1e-9):
-        raise ValueError(
-            f"the duration ({duration} s) must be at least the observation's "
-            f"({obs.elapsed[-1]:.3f} s)"
-        )
-    alpha = alpha_from_duration(max(duration, float(obs.elapsed[-1])), model.sample_period,
-                                model.settings.s_bar)  # fmt: skip
-    node = np.array([math.log(alpha)])
-    tables = [log_likelihoods(model, prim, obs, np.exp(node), statistics)
-              for prim in model.primitives]  # fmt: skip
-    evidence = np.array([float(t[0]) for t in tables])
-    zeros = [np.zeros(1) for _ in model.primitives]
-    return _recognition(model, [node] * len(tables), tables, zeros, evidence, "duration given")
