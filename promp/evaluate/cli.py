@@ -61,7 +61,7 @@ from promp.evaluate.report import (
     results_report,
     trials_csv,
 )
-from promp.evaluate.sweep import position_modality, run_sweep, spread_subset
+from promp.evaluate.sweep import SweepResult, position_modality, run_sweep, spread_subset
 from promp.evaluate.tables import results_text, side_by_side_text
 from promp.gaps import REPAIRS, repair_gaps
 from promp.model import SELECT_RULES, Settings
@@ -131,6 +131,16 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     add_dataset_arguments(parser)
+    _add_sweep_arguments(parser)
+    _add_settings_arguments(parser)
+    _add_run_arguments(parser)
+    add_check_arguments(parser)
+    _add_output_arguments(parser)
+    return parser
+
+
+def _add_sweep_arguments(parser: argparse.ArgumentParser) -> None:
+    """What is swept: the observed modalities, the percentages, the speed rows, the methods."""
     parser.add_argument(
         "--observe",
         action="append",
@@ -168,6 +178,10 @@ def build_parser() -> argparse.ArgumentParser:
         "Euclidean geometry kept) and per column otherwise (modality), every column alone "
         "(column), or none (the raw values)",
     )
+
+
+def _add_settings_arguments(parser: argparse.ArgumentParser) -> None:
+    """The learning settings of ours (each left to every fit's choice by default)."""
     parser.add_argument(
         "--basis",
         type=int,
@@ -210,6 +224,10 @@ def build_parser() -> argparse.ArgumentParser:
         "log-loss of each training demonstration left out in closed form (one fit per "
         "candidate basis); 'cv', inner folds refitted for every candidate (slower)",
     )
+
+
+def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """Which demonstrations are held out, and where the folds run."""
     parser.add_argument(
         "--subset",
         type=int,
@@ -231,7 +249,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
     )
-    add_check_arguments(parser)
+
+
+def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
+    """Where the results are written: JSON, CSV tables, figures, a kept run."""
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
     parser.add_argument(
         "--trials-csv",
@@ -256,7 +277,6 @@ def build_parser() -> argparse.ArgumentParser:
         "compare two with python -m promp.evaluate.compare A B",
     )
     parser.add_argument("--run-name", default=None, help="the run's name (default: DIR's)")
-    return parser
 
 
 @dataclass(frozen=True, eq=False)
@@ -329,51 +349,11 @@ def print_findings(loaded: Loaded, include_flagged: bool) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        if args.run is not None and (args.run.exists() or args.run.is_symlink()):
-            raise ValueError(f"--run {args.run} already exists: a run is kept in a new folder, "
-                             "nothing is overwritten")  # fmt: skip
-        loaded = load(args)
-        dataset, layout, observe = loaded.dataset, loaded.layout, loaded.observe
-        print_findings(loaded, args.include_flagged)
-        if any(not 0 < p <= 100 for p in args.percent):
-            raise ValueError("--percent values must be in (0, 100]")
-        try:
-            shrinkage = None if args.shrinkage == "auto" else float(args.shrinkage)
-        except ValueError:
-            raise ValueError(
-                f"--shrinkage expects a number in (0, 1] or 'auto', got {args.shrinkage!r}"
-            ) from None
-        settings = Settings(
-            n_basis=args.basis,
-            width=args.width,
-            shrinkage=shrinkage,
-            noise_scale=args.noise_scale,
-            duration_temperature=args.duration_temperature,
-            select=args.select,
-        )
-        methods = method_factories(args.method, layout, settings, args.baseline_scaling)
-        title = "+".join(methods)
-        if args.backend == "dask" and not args.scheduler:
-            raise ValueError("--backend dask needs --scheduler ADDRESS")
-        if args.jobs == 0 or args.jobs < -1:
-            raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
-        held_out = None if args.subset is None else spread_subset(dataset, args.subset)
-        result = run_sweep(
-            methods,
-            dataset,
-            layout,
-            percents=args.percent,
-            alpha_methods=args.alpha,
-            observe_sets=observe,
-            progress=stderr_progress(f"{title}: leave-one-out", "held-out demonstrations"),
-            keep_trials=True,
-            jobs=args.jobs,
-            scheduler=args.scheduler if args.backend == "dask" else None,
-            held_out=held_out,
-        )
+        loaded, settings, methods, result = _sweep(args)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    dataset, layout, observe = loaded.dataset, loaded.layout, loaded.observe
     report = results_report(
         result,
         dataset,
@@ -397,6 +377,68 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"({'+'.join(failure['observed'])}, alpha {failure['alpha_method']}): "
             f"{failure['error']}"
         )
+    return _write_outputs(args, result, report, loaded, "+".join(methods))
+
+
+def _sweep(args: argparse.Namespace) -> tuple[Loaded, Settings, dict, SweepResult]:
+    """The demonstrations read and checked, the settings, the methods and their sweep.
+
+    Raises
+    ------
+    ValueError
+        An argument out of range, a run folder that exists, data that cannot be read.
+    """
+    if args.run is not None and (args.run.exists() or args.run.is_symlink()):
+        raise ValueError(f"--run {args.run} already exists: a run is kept in a new folder, "
+                         "nothing is overwritten")  # fmt: skip
+    loaded = load(args)
+    dataset, layout, observe = loaded.dataset, loaded.layout, loaded.observe
+    print_findings(loaded, args.include_flagged)
+    if any(not 0 < p <= 100 for p in args.percent):
+        raise ValueError("--percent values must be in (0, 100]")
+    try:
+        shrinkage = None if args.shrinkage == "auto" else float(args.shrinkage)
+    except ValueError:
+        raise ValueError(
+            f"--shrinkage expects a number in (0, 1] or 'auto', got {args.shrinkage!r}"
+        ) from None
+    settings = Settings(
+        n_basis=args.basis,
+        width=args.width,
+        shrinkage=shrinkage,
+        noise_scale=args.noise_scale,
+        duration_temperature=args.duration_temperature,
+        select=args.select,
+    )
+    methods = method_factories(args.method, layout, settings, args.baseline_scaling)
+    title = "+".join(methods)
+    if args.backend == "dask" and not args.scheduler:
+        raise ValueError("--backend dask needs --scheduler ADDRESS")
+    if args.jobs == 0 or args.jobs < -1:
+        raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
+    held_out = None if args.subset is None else spread_subset(dataset, args.subset)
+    result = run_sweep(
+        methods,
+        dataset,
+        layout,
+        percents=args.percent,
+        alpha_methods=args.alpha,
+        observe_sets=observe,
+        progress=stderr_progress(f"{title}: leave-one-out", "held-out demonstrations"),
+        keep_trials=True,
+        jobs=args.jobs,
+        scheduler=args.scheduler if args.backend == "dask" else None,
+        held_out=held_out,
+    )
+    return loaded, settings, methods, result
+
+
+def _write_outputs(
+    args: argparse.Namespace, result: SweepResult, report: dict, loaded: Loaded, title: str
+) -> int:
+    """Write what the arguments ask for (JSON, CSV tables, figures, a kept run): the exit
+    code (2 when the run cannot be kept)."""
+    dataset, layout = loaded.dataset, loaded.layout
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(report_json(report))
