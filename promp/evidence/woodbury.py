@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import cho_solve
+from scipy.linalg import cho_solve, solve_triangular
 
 from promp.evidence.sums import WhitenedSums
 from promp.inference import per_dimension
@@ -212,7 +212,11 @@ def posterior(
     correction = wg @ u_all.transpose(0, 2, 1)
     t3 = t_o[:, None, None]
     correction[dims] += t3**2 * big_h + t3 * (u_o @ hu.transpose(0, 2, 1))
-    z = np.linalg.solve(chol_q[None], wg.transpose(0, 2, 1))  # L_q^-1 (W G)^T, (D, r, M)
+    # L_q^-1 (W G)^T, (D, r, M): one triangular solve with every dimension's right-hand sides
+    r = chol_q.shape[0]
+    rhs = np.ascontiguousarray(wg.transpose(2, 0, 1).reshape(r, -1))  # (r, D M)
+    z = solve_triangular(chol_q, rhs, lower=True, check_finite=False)
+    z = z.reshape(r, n_dims, m).transpose(1, 0, 2)
     prior_blocks = t_all[:, None, None] * np.eye(m) + u_all @ u_all.transpose(0, 2, 1)
     blocks = prior_blocks - correction + z.transpose(0, 2, 1) @ z
     blocks = 0.5 * (blocks + blocks.transpose(0, 2, 1))
