@@ -5,6 +5,7 @@ keeps; threads extending one evidence."""
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 
 import numpy as np
@@ -180,3 +181,80 @@ def test_threads_extending_one_evidence_get_the_numbers_from_scratch(shared) -> 
         thread.join(timeout=600)
     assert not any(thread.is_alive() for thread in threads)
     assert not failures, failures[0]
+
+
+# ---------------------------------------------------------------------- what an Inference holds
+
+
+def test_an_inference_holds_the_via_points_posterior_and_every_positions_region() -> None:
+    """``Evidence.infer(via_points)``: the posterior conditioned on the observation, then on the
+    via-points (:func:`promp.via_points.condition_on_via_points` of it), the prediction drawn
+    from that, each position modality's region (:func:`promp.region.sample_distribution` of
+    it with the samples' noise) and future from the observed phase, and how far the
+    prediction passes from each point; the errors stay those of the method's own posterior."""
+    from promp.data import Layout, Modality
+    from promp.inference import predict
+    from promp.model import Settings
+    from promp.region import sample_distribution, sample_noise_var
+    from promp.via_points import ViaPoint, condition_on_via_points
+    from tests.synthetic import HAND, HEAD, make_dataset
+
+    partner = Modality("partner", ("px", "py", "pz"), unit="m")
+    layout = Layout((HEAD, HAND, partner))  # the hand not first: the layout's order is kept
+
+    def with_partner(demo):
+        values = np.column_stack([demo.values, 0.5 - demo.values[:, :3]])
+        return dataclasses.replace(demo, values=values, columns=(*demo.columns, "px", "py", "pz"))
+
+    dataset = {k: [with_partner(d) for d in v]
+               for k, v in make_dataset(seed=3, n_demos=6).items()}  # fmt: skip
+    model = fit(dataset, layout, Settings(n_basis=6, width=1.0, noise_scale=1.5))
+    demo = dataset[model.names[0]][0]
+    obs = Observation.from_demo(model, demo, 40, ["hand"])
+    evidence = Evidence(model, obs)
+    plain = evidence.infer(n_points=30, truth=demo)
+    target = plain.mean_at("hand", 0.8) + [0.0, 0.01, 0.0]  # 1 cm off the plain prediction
+    points = (ViaPoint.isotropic(("x", "y", "z"), target, 0.001, phase=0.8),
+              ViaPoint.isotropic(("pz",), [0.1], 0.05, time=0.5 * demo.duration))  # fmt: skip
+    shaped = evidence.infer(points, 30, demo)
+    assert shaped.posterior is plain.posterior is evidence.posterior
+    expected = condition_on_via_points(model, plain.posterior, points, plain.alpha)
+    assert_allclose(shaped.weights.mean, expected.mean, rtol=0, atol=1e-12)
+    assert_allclose(shaped.weights.cov, expected.cov, rtol=0, atol=1e-12)
+    drawn = predict(model, expected, plain.alpha, 30)
+    assert_allclose(shaped.prediction.mean, drawn.mean, rtol=0, atol=1e-12)
+    assert_allclose(shaped.errors.position, plain.errors.position, rtol=0, atol=0)
+    assert [p.modality for p in shaped.positions] == ["hand", "partner"]
+    noise = sample_noise_var(model, model.primitives[shaped.index])
+    phase = shaped.observed_until / shaped.duration
+    for position, dims in zip(shaped.positions, ([3, 4, 5], [6, 7, 8]), strict=True):
+        region = sample_distribution(model, expected, dims, np.linspace(0, 1, 30), noise)
+        assert_allclose(position.region.mean, region.mean, rtol=0, atol=1e-12)
+        assert_allclose(position.region.cov, region.cov, rtol=0, atol=1e-12)
+        assert_allclose(position.future[0], shaped.mean_at(position.modality, phase), atol=1e-12)
+        assert_allclose(position.times[[0, -1]], [shaped.observed_until, shaped.duration])
+    hand_at = shaped.mean_at("hand", 0.8)
+    partner_at = shaped.mean_at("partner", 0.5 * demo.duration / shaped.duration)
+    assert_allclose(shaped.via_errors, [np.linalg.norm(hand_at - target),
+                                        abs(partner_at[2] - 0.1)], rtol=1e-12)  # fmt: skip
+    assert shaped.via_errors[0] < 0.005  # a tight point 1 cm off: more than half way to it
+    assert plain.via_errors.shape == (0,) and plain.weights is plain.posterior
+
+
+def test_an_evidence_refuses_what_it_cannot_answer() -> None:
+    """Bad input is a ValueError naming it, before any work: an unknown alpha method, a
+    duration shorter than the observation, a modality the model does not have."""
+    from promp.model import Settings
+    from tests.synthetic import LAYOUT as SYNTHETIC
+    from tests.synthetic import make_dataset
+
+    model = fit(make_dataset(seed=3, n_demos=5), SYNTHETIC, Settings(n_basis=6, width=1.0,
+                                                                      noise_scale=1.5))  # fmt: skip
+    demo = make_dataset(seed=4, n_demos=3)[model.names[0]][0]
+    obs = Observation.from_demo(model, demo, 30, ["hand"])
+    with pytest.raises(ValueError, match="alpha_method"):
+        Evidence(model, obs, "fastest")
+    with pytest.raises(ValueError, match="at least the observation"):
+        Evidence(model, obs, duration=0.1)
+    with pytest.raises(ValueError, match="gaze"):
+        Evidence(model, Observation(obs.times, obs.values, ("gaze",)))

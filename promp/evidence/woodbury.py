@@ -185,7 +185,7 @@ def posterior(
     """The posterior of the weights given the observation whose whitened ``sums`` at the one
     speed ``alpha`` (A = 1) are given (Eq. 8): its mean (n_weights,) and the covariance of
     each dimension's weights (n_dims, M, M), from the terms of the likelihood (Woodbury's
-    identity on ``Sigma_w = T + U U^T``): O(D M^2 r) (:func:`promp.inference.condition`)."""
+    identity on ``Sigma_w = T + U U^T``): O(D M^2 r) (:meth:`promp.evidence.Evidence.condition`)."""
     rot = rotate(sums, primitive, dims, compress=False)
     w = woodbury(rot, primitive.noise_var[dims][None, :])
     n_dims, m = primitive.noise_var.shape[0], sums.gram.shape[-1]
