@@ -160,22 +160,27 @@ def log_likelihoods(
     # One matrix at a time in one buffer, which stays in the cache: a stack of them, filled
     # at once then factorised, is ~25 % slower at P ~ 180 (each matrix leaves the cache
     # between its filling and its factorisation).
+    # LAPACK reads and overwrites one triangle of the buffer (the C array's upper one, its
+    # Fortran transpose's lower): the bordered matrix is written there alone.
     buffer = np.empty((p + 1, p + 1))
     blocks = diagonal_blocks(buffer[None], n_do, m)[0]  # (Do, M, M), a view
+    border = buffer[:, p]  # the last column: b, then the corner
     factorised = np.diagonal(buffer)  # the factor's diagonal once factorised, a view
+    fortran = buffer.T
     diag = np.empty((n_levels, n_cand, p + 1))
     for level in range(n_levels):
         # [[Sigma_o^-1 + A^T R^-1 A, b], [b^T, r^T R^-1 r + 1]]: the last diagonal of its
         # Cholesky factor squared is r^T S^-1 r + 1 (the Schur complement).
         scaled = inv_s2[level, None, :, None, None] * gram  # (A, Do, M, M)
-        b = (inv_s2[level, :, None] * proj).reshape(n_cand, p)
-        corner = rr @ inv_s2[level] + 1.0
+        bordered = np.empty((n_cand, p + 1))  # each candidate's last column
+        bordered[:, :p] = (inv_s2[level, :, None] * proj).reshape(n_cand, p)
+        bordered[:, p] = rr @ inv_s2[level] + 1.0
         for a in range(n_cand):
             buffer[...] = precision  # (whole rows: faster than filling the top-left block)
             blocks += scaled[a]
-            buffer[:p, p] = buffer[p, :p] = b[a]
-            buffer[p, p] = corner[a]
-            _factorise(buffer)
+            border[...] = bordered[a]
+            if lapack.dpotrf(fortran, lower=1, clean=0, overwrite_a=1)[1] != 0:
+                raise np.linalg.LinAlgError("Matrix is not positive definite")
             diag[level, a] = factorised
     quad = diag[..., p] ** 2 - 1.0
     logdet = 2.0 * np.log(diag[..., :p]).sum(-1) + logdet_sigma
