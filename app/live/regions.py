@@ -23,6 +23,7 @@ import numpy as np
 
 from app.core.via_state import StudioViaPoint, of_primitive
 from promp.evidence import Inference
+from promp.evidence.inference import PATH_POINTS  # noqa: F401 (a path's samples: the method's)
 from promp.inference import Gaussian, Observation, Posterior, Prediction, predict
 from promp.model import ProMPModel
 from promp.region import (
@@ -37,7 +38,6 @@ from promp.via_points import condition_on_via_points
 from robots.icub.layout import HAND, position_modalities
 
 TUBE_POINTS = 100  # rings of a tube (fixed mesh topology)
-PATH_POINTS = 60  # samples of a predicted path
 
 
 def region_of(
