@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from app.live.inference import LSL, TUBE_POINTS
+from app.live.inference import TUBE_POINTS
 from app.panels.infer import InferPanel
+from app.panels.infer.view_model import LSL
 from promp.evidence.pipeline import infer
 from promp.inference import Observation
 from tests.browser import (

@@ -32,6 +32,8 @@ from collections.abc import Callable
 import viser
 from viser import _messages
 
+from app.ui.element_id import element_id
+
 Refused = Callable[[viser.ClientHandle | None, str, int], None]
 
 
@@ -59,7 +61,7 @@ class UploadGuard:
     ):
         self.max_bytes = int(max_bytes)
         self._server = server
-        self._uuid = button._impl.uuid
+        self._uuid = element_id(button)
         self._refused = refused
         self._interface = getattr(server.gui, "_websock_interface", None)
         self._states = getattr(server.gui, "_current_file_upload_states", None)

@@ -1,7 +1,7 @@
 """The Infer tab's controls: built once (:func:`build_observation`, :func:`build_display`),
 following what the workspace offers (:meth:`InferControls.follow`), set to a request of another
 tab (:meth:`InferControls.show`); the panel reads them once per frame into an immutable
-:class:`app.live.inference.InferState`."""
+:class:`app.panels.infer.view_model.InferState`."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import viser
 
 from app.core.store_state import StoreState
 from app.core.view_state import View
-from app.live.inference import LIVE, LSL, TEST
+from app.panels.infer.view_model import LIVE, LSL, TEST
 from app.scene.look import FADED, PRIOR_MODES
 from app.ui.context import InferRequest, PanelGui
 from app.ui.display import ALPHA_HINT, INFER_ALPHAS, observed_choices

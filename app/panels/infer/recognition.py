@@ -21,8 +21,7 @@ from collections.abc import Callable, Hashable
 
 import numpy as np
 
-from app.live.inference import CurveRequest
-from app.live.recognition_curve import CurveWorker, RecognitionCurve
+from app.live.recognition_curve import CurveRequest, CurveWorker, RecognitionCurve
 from app.ui.charts import chart_axes, css
 from app.ui.context import PanelContext
 from app.ui.text import escape

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from app.live.inference import InferState, InferView, ModelChoice, completed
+from app.live.inference import completed
+from app.panels.infer.view_model import InferState, InferView, ModelChoice
 from promp.live.predictor import LivePrediction
 from promp.model import ProMPModel
 
