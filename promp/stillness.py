@@ -1,7 +1,7 @@
 """When a recording moves: speeds, the idle thresholds, and the moving spans of a long take.
 
 One rule for both places that need it: the studio trims the still ends of a take
-(``app.takes.active_span``), and a session recorded without markers is cut into demonstrations
+(``app.live.takes.active_span``), and a session recorded without markers is cut into demonstrations
 at its still periods (:mod:`promp.rigs`). A signal moves while its speed (the norm of its time
 derivative, smoothed over :data:`SMOOTH_S` so that a tremor or a tracking jitter is not
 motion) exceeds its idle threshold: :data:`HAND_IDLE_M_S` for positions in metres,

@@ -20,7 +20,7 @@ A file refused *after* it was read (bad content) has already been acknowledged i
 browser has turned its notification into "File uploaded successfully.". The guard remembers
 each client's latest transfer on its button; :meth:`UploadGuard.dismiss` closes that
 notification, so the refusal does not sit under a contradicting success toast. This relies on
-viser internals (checked at construction: :attr:`active` is False
+viser internals (checked at construction: :attr:`UploadGuard.active` is False
 when they are missing, and callers must then check the size after the upload, as the studio
 always does anyway).
 """

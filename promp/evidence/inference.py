@@ -48,7 +48,8 @@ class Position:
 
 @dataclass(frozen=True, eq=False)
 class Inference:
-    """What an early observation says about the rest of the movement (:meth:`Evidence.infer`).
+    """What an early observation says about the rest of the movement
+    (:meth:`promp.evidence.Evidence.infer`).
 
     Attributes
     ----------

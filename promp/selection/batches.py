@@ -37,8 +37,9 @@ LOO_ROWS = 48
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Batch:
-    """The trials of one modality set, laid out for :func:`loo_score` (independent of the
-    candidate settings: built once per choice). ``index``: their positions in the plan."""
+    """The trials of one modality set, laid out for :func:`promp.selection.loo.loo_score`
+    (independent of the candidate settings: built once per choice). ``index``: their
+    positions in the plan."""
 
     index: list[int]
     truth: np.ndarray  # (T,) true primitive

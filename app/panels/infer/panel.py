@@ -9,7 +9,7 @@ the per-dimension charts. "Play" then lets the robot finish the
 movement (:mod:`app.panels.infer.replay_section`).
 
 The panel is a view: at every frame :meth:`InferPanel.step` reads its controls into an
-:class:`~app.panels.infer.controls.InferState`, and when that state, the workspace, the model
+:class:`~app.panels.infer.view_model.InferState`, and when that state, the workspace, the model
 or the live samples changed since the view it shows, computes the new one
 (:func:`app.panels.infer.view_model.compute`, pure), writes it to its controls and measures that
 server-side time (shown in the tab). It hands the inference to the scene's Infer layer
