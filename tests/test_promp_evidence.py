@@ -238,6 +238,13 @@ def test_an_inference_holds_the_via_points_posterior_and_every_positions_region(
     assert_allclose(shaped.via_errors, [np.linalg.norm(hand_at - target),
                                         abs(partner_at[2] - 0.1)], rtol=1e-12)  # fmt: skip
     assert shaped.via_errors[0] < 0.005  # a tight point 1 cm off: more than half way to it
+    # by primitive: the recognised primitive's via-points shape it, another's are not used
+    other = next(name for name in model.names if name != shaped.primitive)
+    mapped = evidence.infer({shaped.primitive: points, other: points[:1]}, 30, demo)
+    assert_allclose(mapped.weights.mean, expected.mean, rtol=0, atol=0)
+    assert mapped.via_points == points
+    unshaped = evidence.infer({other: points}, 30, demo)
+    assert unshaped.weights is plain.posterior and unshaped.via_points == ()
     assert plain.via_errors.shape == (0,) and plain.weights is plain.posterior
 
 

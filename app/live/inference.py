@@ -7,9 +7,9 @@ and its speed (Eq. 6), conditions the recognised primitive on the observation an
 primitive's via-points (Eq. 8), predicts the prior and the posterior over the predicted
 duration, gives every position's region and future path, and, given the whole movement,
 measures the errors the evaluation reports (:meth:`promp.evidence.Evidence.infer`).
-:func:`inferred` asks it and :func:`completed` adds what only the studio draws: the observed
-and true parts of each position (:func:`app.live.regions.positions`) and the hand's future,
-which the 3D view shows and the arm replays. The Infer tab's view model, which chooses the
+:func:`inferred` asks it; its :class:`InferResult` derives what only the studio draws: the
+observed and true parts of each position (:func:`app.live.regions.positions`) and the hand's
+future, which the 3D view shows and the arm replays. The Infer tab's view model, which chooses the
 model and the observation, is :mod:`app.panels.infer.view_model`.
 """
 
@@ -17,10 +17,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from app.core.via_state import StudioViaPoint, of_primitive
+from app.core.via_state import StudioViaPoint, by_primitive
 from app.live.regions import PATH_POINTS, TUBE_POINTS, PositionView, positions
 from promp.data import Demonstration
 from promp.evidence import Evidence, Inference
@@ -28,7 +29,7 @@ from promp.evidence.pipeline import relative_speed
 from promp.inference import Gaussian, Observation, Posterior, Prediction
 from promp.model import ProMPModel
 from promp.timing import n_observed_for
-from robots.icub.layout import HAND, hand_dims
+from robots.icub.layout import HAND
 
 __all__ = ["PATH_POINTS", "TUBE_POINTS"]  # where the scene finds them (app.live.regions')
 
@@ -53,6 +54,9 @@ class FuturePath:
 class InferResult:
     """Everything the Infer tab shows of one observation.
 
+    The method's answer as it is, with what only the studio draws derived from it once, when
+    first read: every position's observed and true parts, and the hand's future path.
+
     Attributes
     ----------
     model : ProMPModel
@@ -60,34 +64,46 @@ class InferResult:
     observation : Observation
     inference : Inference
         The method's answer: recognition, timing (duration and observed share with their
-        intervals), prior and posterior on ``TUBE_POINTS`` phases, and, with a truth, the
-        natural-length prediction and the errors.
+        intervals), prior and posterior on ``TUBE_POINTS`` phases (shaped by the recognised
+        primitive's via-points), every position's region and future path, and, with a truth,
+        the natural-length prediction and the errors.
     truth : Demonstration or None
         The whole test demonstration (None for the live stream).
-    future : FuturePath or None
-        The hand's predicted path (None when the layout has no hand).
     via_points : tuple of StudioViaPoint
         The recognised primitive's via-points the prediction passes through (none: the
         method's posterior as it is).
-    weights : Gaussian or Posterior
-        The posterior, conditioned on ``via_points``.
-    prediction : Prediction
-        Every dimension over the predicted duration on ``TUBE_POINTS`` phases, from
-        ``weights`` (the method's ``inference.prediction`` without via-points).
-    positions : tuple of PositionView
-        Every position in space of the layout (the hand first): its region, predicted and
-        observed paths.
     """
 
     model: ProMPModel
     observation: Observation
     inference: Inference
-    truth: Demonstration | None
-    future: FuturePath | None
+    truth: Demonstration | None = None
     via_points: tuple[StudioViaPoint, ...] = ()
-    weights: Gaussian | Posterior | None = None
-    prediction: Prediction | None = None
-    positions: tuple[PositionView, ...] = ()
+
+    @property
+    def weights(self) -> Gaussian | Posterior:
+        """The posterior, conditioned on ``via_points``."""
+        return self.inference.weights
+
+    @property
+    def prediction(self) -> Prediction:
+        """Every dimension over the predicted duration on ``TUBE_POINTS`` phases, from
+        ``weights``."""
+        return self.inference.prediction
+
+    @cached_property
+    def positions(self) -> tuple[PositionView, ...]:
+        """Every position in space of the layout (the hand first): its region, predicted and
+        observed paths, and the truth's rest (:func:`app.live.regions.positions`)."""
+        truth = self.truth
+        whole = self.model.layout.extract(truth) if truth is not None else None
+        return positions(self.model, self.inference, self.observation, whole)
+
+    @cached_property
+    def future(self) -> FuturePath | None:
+        """The hand's predicted path (None when the layout has no hand)."""
+        hand = next((v for v in self.positions if v.modality == HAND.name), None)
+        return FuturePath(hand.times, hand.future) if hand is not None else None
 
     @property
     def relative_speed(self) -> float:
@@ -104,7 +120,7 @@ def inferred(
 ) -> InferResult:
     """Infer from ``observation`` (:meth:`promp.evidence.Evidence.infer`, predictions on
     ``TUBE_POINTS`` phases), the posterior shaped by the recognised primitive's via-points (of
-    ``via_points``, every primitive's), with what the 3D view draws (:func:`completed`).
+    ``via_points``, every primitive's, on the layout's hand: none without one).
 
     Parameters
     ----------
@@ -121,33 +137,13 @@ def inferred(
         From the engine: an unknown modality, an unknown alpha method, or an observation longer
         than every candidate duration.
     """
-    evidence = Evidence(model, observation, alpha_method)
-    has_hand = hand_dims(model.layout) is not None
-    vias = of_primitive(via_points, evidence.recognition.primitive) if has_hand else ()
-    inference = evidence.infer([v.for_model(model.layout) for v in vias], n_points=TUBE_POINTS,
-                               truth=truth, path_points=PATH_POINTS)  # fmt: skip
-    return completed(model, observation, inference, truth, vias)
-
-
-def completed(
-    model: ProMPModel,
-    observation: Observation,
-    inference: Inference,
-    truth: Demonstration | None = None,
-    via_points: tuple[StudioViaPoint, ...] = (),
-) -> InferResult:
-    """What only the studio draws, added to ``inference`` of ``observation`` (on
-    ``TUBE_POINTS`` phases, shaped by ``via_points``): every position's observed and true
-    parts, and the future hand path; :func:`inferred`'s, and a live session's
-    (:mod:`app.panels.infer.lsl_view`)."""
-    whole = model.layout.extract(truth) if truth is not None else None
-    views = positions(model, inference, observation, whole)
-    hand = next((v for v in views if v.modality == HAND.name), None)
-    future = FuturePath(hand.times, hand.future) if hand is not None else None
-    return InferResult(
-        model, observation, inference, truth, future, via_points, inference.weights,
-        inference.prediction, views,
-    )  # fmt: skip
+    vias = by_primitive(via_points, model.layout)
+    inference = Evidence(model, observation, alpha_method).infer(
+        vias, n_points=TUBE_POINTS, truth=truth, path_points=PATH_POINTS
+    )
+    recognised = inference.recognition.primitive
+    shaping = tuple(v for v in via_points if v.primitive == recognised) if vias else ()
+    return InferResult(model, observation, inference, truth, shaping)
 
 
 def demo_observation(

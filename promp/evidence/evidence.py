@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -278,7 +278,7 @@ class Evidence:
 
     def infer(
         self,
-        via_points: Sequence[ViaPoint] = (),
+        via_points: Sequence[ViaPoint] | Mapping[str, Sequence[ViaPoint]] = (),
         n_points: int | None = None,
         truth: Demonstration | None = None,
         path_points: int = PATH_POINTS,
@@ -291,8 +291,9 @@ class Evidence:
 
         Parameters
         ----------
-        via_points : sequence of ViaPoint
-            Points the prediction must pass through (a time is read at the timing's speed).
+        via_points : sequence of ViaPoint, or mapping of str to sequence of ViaPoint
+            Points the prediction must pass through (a time is read at the timing's speed);
+            by primitive: the recognised primitive's (none when it has none).
         n_points : int, optional
             Samples of the predictions and regions (default: the predicted number of samples).
         truth : Demonstration, optional
@@ -302,6 +303,8 @@ class Evidence:
         """
         model, recognition, timing_ = self.model, self.recognition, self.timing
         alpha, posterior = timing_.alpha, self.posterior
+        if isinstance(via_points, Mapping):
+            via_points = via_points.get(recognition.primitive, ())
         vias = tuple(via_points)
         weights = condition_on_via_points(model, posterior, vias, alpha) if vias else posterior
         prediction = predict(model, weights, alpha, n_points=n_points)
