@@ -13,11 +13,12 @@ from numpy.testing import assert_allclose
 
 from app.core.via_state import checked
 from app.live.inference import inferred
-from app.live.regions import TUBE_POINTS, mean_position, prior_shape
+from app.live.regions import TUBE_POINTS, prior_shape
 from app.panels.teach import TeachPanel
 from app.scene.tubes import RING, region_vertices
 from promp.inference import Observation
 from promp.learn import fit
+from promp.region import mean_position
 from promp.via_points import condition_on_via_points
 from robots.icub.layout import HAND, STUDIO_LAYOUT
 from robots.icub.scenario import generate_scenario

@@ -1,21 +1,20 @@
-"""What the tubes show, computed (no viser): a primitive's prior in Teach and the inference's
-posterior in Infer, each shaped by its primitive's via-points, and the region of every position
-in space (:func:`robots.icub.layout.position_modalities`) they give.
+"""What the tubes show, as the studio draws them (no viser, and no method of its own): a
+primitive's prior in Teach and the inference's posterior in Infer, each shaped by its
+primitive's via-points, and the region of every position in space
+(:func:`robots.icub.layout.position_modalities`) they give.
 
-Teach (:func:`prior_shape`): the weights of a new movement of the primitive, whatever its speed
-(:func:`promp.region.new_movement`), conditioned on its via-points
-(:func:`promp.via_points.condition_on_via_points`), drawn at its typical speed. Infer
-(:func:`positions`): each position's region and future path of the inference (the posterior of
-the recognised primitive given the observation and that primitive's via-points,
-:attr:`promp.evidence.Inference.positions`), with what was observed of it and the truth. A
-region is where a share of the movements' samples are at each moment (:mod:`promp.region`: the
-weights through the basis, plus the samples' noise); the tubes draw it at the probability of the
-tube style.
+Teach (:func:`prior_shape`): the studio's via-points of the primitive put on the layout's hand,
+and the method's :func:`promp.region.shaped_prior` (a new movement whatever its speed,
+conditioned on them, at its typical speed); its regions are
+:func:`promp.region.modality_region`. Infer (:func:`positions`): each position's region and
+future path of the inference (:attr:`promp.evidence.Inference.positions`), with what was
+observed of it and the truth. A region is where a share of the movements' samples are at each
+moment (:mod:`promp.region`: the weights through the basis, plus the samples' noise); the tubes
+draw it at the probability of the tube style.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -26,49 +25,10 @@ from promp.evidence import Inference
 from promp.evidence.inference import PATH_POINTS  # noqa: F401 (a path's samples: the method's)
 from promp.inference import Gaussian, Observation, Posterior, Prediction, predict
 from promp.model import ProMPModel
-from promp.region import (
-    Coverage,
-    SampleDistribution,
-    coverage,
-    new_movement,
-    sample_distribution,
-    sample_noise_var,
-)
-from promp.via_points import condition_on_via_points
+from promp.region import Coverage, SampleDistribution, coverage, modality_region, shaped_prior
 from robots.icub.layout import HAND, position_modalities
 
 TUBE_POINTS = 100  # rings of a tube (fixed mesh topology)
-
-
-def region_of(
-    model: ProMPModel, weights: Gaussian | Posterior, modality: str, n_points: int = TUBE_POINTS
-) -> SampleDistribution:
-    """The region of ``modality``'s samples on ``n_points`` phases over [0, 1], for the
-    weights ``weights`` (with the samples' noise)."""
-    noise = sample_noise_var(model, model.primitives[0])  # shared by the primitives
-    phases = np.linspace(0.0, 1.0, n_points)
-    return sample_distribution(model, weights, model.layout.dims([modality]), phases, noise)
-
-
-def shaped(
-    model: ProMPModel,
-    weights: Gaussian | Posterior,
-    via_points: Sequence[StudioViaPoint],
-    alpha: float,
-) -> Gaussian | Posterior:
-    """``weights`` conditioned on ``via_points`` (none: ``weights`` itself)."""
-    if not via_points:
-        return weights
-    points = [v.for_model(model.layout) for v in via_points]
-    return condition_on_via_points(model, weights, points, alpha)
-
-
-def mean_position(
-    model: ProMPModel, weights: Gaussian | Posterior, modality: str, phase: float
-) -> np.ndarray:
-    """The mean of ``modality`` at ``phase`` (in [0, 1]) under ``weights``, shape (k,)."""
-    mean = np.asarray(weights.mean).reshape(model.n_dims, -1)[model.layout.dims([modality])]
-    return mean @ model.basis(np.array([phase]))[0]
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,18 +54,21 @@ class PriorShape:
         """Every dimension's mean and standard deviation (the movement, without noise)."""
         return predict(model, self.weights, self.alpha, n_points)
 
-    def region(self, model: ProMPModel, modality: str, n_points: int = TUBE_POINTS):
-        return region_of(model, self.weights, modality, n_points)
+    def region(
+        self, model: ProMPModel, modality: str, n_points: int = TUBE_POINTS
+    ) -> SampleDistribution:
+        """Where ``modality``'s samples lie (:func:`promp.region.modality_region`)."""
+        return modality_region(model, self.weights, modality, n_points)
 
 
 def prior_shape(
     model: ProMPModel, name: str, via_points: Sequence[StudioViaPoint] = ()
 ) -> PriorShape:
     """Primitive ``name`` with its via-points (those of ``via_points`` that are its)."""
-    primitive = model.primitive(name)
-    alpha = float(math.exp(primitive.log_alpha_mean))
     mine = of_primitive(via_points, name)
-    return PriorShape(name, alpha, shaped(model, new_movement(primitive), mine, alpha), mine)
+    points = [v.for_model(model.layout) for v in mine] if mine else []
+    alpha, weights = shaped_prior(model, name, points)
+    return PriorShape(name, alpha, weights, mine)
 
 
 # ---------------------------------------------------------------------- Infer

@@ -15,7 +15,7 @@ from promp.metrics import Errors
 from promp.model import ProMPModel
 from promp.observation import Observation
 from promp.recognition import Recognition
-from promp.region import SampleDistribution, sample_distribution, sample_noise_var
+from promp.region import SampleDistribution, mean_position, sample_distribution, sample_noise_var
 from promp.via_points import ViaPoint
 
 __all__ = ["Inference", "PATH_POINTS", "Position"]
@@ -129,9 +129,7 @@ class Inference:
 
     def mean_at(self, modality: str, phase: float) -> np.ndarray:
         """The predicted mean of ``modality`` at ``phase`` (in [0, 1]), shape (k,)."""
-        model = self.model
-        mean = np.asarray(self.weights.mean).reshape(model.n_dims, -1)
-        return mean[model.layout.dims([modality])] @ model.basis(np.array([phase]))[0]
+        return mean_position(self.model, self.weights, modality, phase)
 
     @functools.cached_property
     def positions(self) -> tuple[Position, ...]:
