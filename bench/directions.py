@@ -52,11 +52,12 @@ from scipy import special
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import promp.recognition as recognition  # noqa: E402
-from promp._likelihood import logsumexp, logsumexp_rows  # noqa: E402
+import promp.evidence.speed as speed  # noqa: E402
 from promp.datasets import read_dataset  # noqa: E402
 from promp.evaluate.methods import ProMPEngine  # noqa: E402
 from promp.evaluate.sweep import position_modality, run_sweep  # noqa: E402
+from promp.evidence import Evidence  # noqa: E402
+from promp.evidence.speed import logsumexp, logsumexp_rows  # noqa: E402
 from promp.fitting import fit_parts  # noqa: E402
 from promp.observation import check_observation  # noqa: E402
 from promp.quality import winsorized  # noqa: E402
@@ -103,22 +104,22 @@ class Variant(ProMPEngine):
         if self.kind == "promp":
             yield
             return
-        original = recognition._integrate
+        original = Evidence._integrate
 
-        def integrate(model, prim, obs, prior, statistics=None):
+        def integrate(evidence, prim, prior):
             if self.kind == "mixture":
-                return self._mixture(model, prim, obs, prior)
-            nodes, ll, lp, _ = original(model, prim, obs, prior, statistics)
-            return nodes, ll, lp, self._ebip(model, prim, obs)
+                return self._mixture(evidence, prim, prior)
+            nodes, ll, lp, _ = original(evidence, prim, prior)
+            return nodes, ll, lp, self._ebip(evidence.model, prim, evidence.observation)
 
-        recognition._integrate = integrate
+        Evidence._integrate = integrate
         try:
             yield
         finally:
-            recognition._integrate = original
+            Evidence._integrate = original
 
     # -- direction (iii): the mixture over the demonstrations --------------------------------
-    def _mixture(self, model, prim, obs, prior):
+    def _mixture(self, evidence, prim, prior):
         h = self.value
         share = math.sqrt(max(1.0 - h * h, 0.0))
         if prim.name not in self._components:
@@ -129,25 +130,24 @@ class Variant(ProMPEngine):
                 for e in residuals
             ]  # fmt: skip
         comps = self._components[prim.name]
-        nodes, _, _ = recognition.quadrature(model, obs, prior)
-        bound = math.log(recognition.longest_alpha(model, obs))
+        bound = math.log(speed.longest_alpha(evidence.model, evidence.observation))
+        nodes, _, _ = speed.quadrature(prior, bound)
 
         def table(x):
-            return np.stack([recognition.log_likelihoods(model, c, obs, np.exp(x))
-                             for c in comps], axis=1)  # fmt: skip
+            return np.stack([evidence.log_likelihoods(c, np.exp(x)) for c in comps], axis=1)
 
         def kernels(x):
             loc, scale, dof = prior.locs[0], prior.scales[0], prior.dofs[0]
             centres = loc + share * (winsorized(np.log(prim.alphas)) - loc)
             width = h * scale
             z = (x[None, :] - centres[:, None]) / width
-            density = recognition.t_logpdf(z, dof) - math.log(width)
+            density = speed.t_logpdf(z, dof) - math.log(width)
             with np.errstate(divide="ignore"):
                 mass = np.log(special.stdtr(dof, (bound - centres) / width))
-            return recognition.quadrature_weights(x[None, :], density, mass)  # (J, A)
+            return speed.quadrature_weights(x[None, :], density, mass)  # (J, A)
 
         ll, weights = table(nodes), kernels(nodes)
-        fine = recognition.refined_nodes(nodes, int(np.argmax(logsumexp_rows(ll + weights.T))))
+        fine = speed.refined_nodes(nodes, int(np.argmax(logsumexp_rows(ll + weights.T))))
         if fine.size:
             nodes = np.concatenate([nodes, fine])
             ll = np.concatenate([ll, table(fine)])

@@ -31,10 +31,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from promp.data import Demonstration, Layout, Modality  # noqa: E402
-from promp.inference import Observation, log_likelihoods, predict  # noqa: E402
+from promp.evidence.pipeline import infer, log_likelihoods  # noqa: E402
+from promp.inference import Observation, predict  # noqa: E402
 from promp.learn import fit  # noqa: E402
 from promp.model import Settings  # noqa: E402
-from promp.pipeline import infer  # noqa: E402
 from promp.timing import duration_from_alpha  # noqa: E402
 
 D, M, N_DEMOS, RATE = 9, 20, 20, 50.0

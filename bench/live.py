@@ -24,7 +24,7 @@ Measured, from this process's pushes and what its inlets receive (one machine, o
   closing line counts them);
 * ``agree_with_offline``: the share of published predictions whose every number (the
   probabilities, the phase, duration and time left with their intervals, the remainder's rows)
-  equals, within 1e-9, :func:`promp.pipeline.infer` run here on the same samples.
+  equals, within 1e-9, :func:`promp.evidence.infer` run here on the same samples.
 
 With ``--slow F`` every demonstration is stretched F times in time (resampled at its own
 rate, 100 Hz) before the model is learned and the replay made: ``--slow 7`` gives movements of
@@ -69,10 +69,10 @@ import pylsl  # noqa: E402
 
 from promp.data import Demonstration, Layout, Modality  # noqa: E402
 from promp.datasets import load_records_dataset  # noqa: E402
+from promp.evidence.pipeline import infer  # noqa: E402
 from promp.inference import Observation, trajectory_at  # noqa: E402
 from promp.io import save_model  # noqa: E402
 from promp.learn import fit  # noqa: E402
-from promp.pipeline import infer  # noqa: E402
 
 DATA = REPO.parent / "shared" / "data" / "lab-records-flt"
 RATE_HZ = 250.0
@@ -257,7 +257,7 @@ def predicting(process: subprocess.Popen, out: str, log: Path) -> Iterator[dict]
 
 
 def offline(model, pushed: Pushed, plan: Plan, p: Published) -> tuple[np.ndarray, np.ndarray]:
-    """The published numbers of ``p`` and the same from promp.pipeline.infer on the samples
+    """The published numbers of ``p`` and the same from promp.evidence.infer on the samples
     it observed (flattened, in the order of the outlets' channels)."""
     start, n = float(p.timing[2]), int(p.timing[14])
     i0 = int(np.argmin(np.abs(pushed.stamps - start)))

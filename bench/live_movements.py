@@ -20,7 +20,7 @@ alone, with no pause learned, cuts in two or more: :func:`promp.stillness.moving
 ``right`` / ``wrong`` (each movement's last prediction within its rows, against the take's
 class: the predictions made while the stillness that ended it went on observed still rows it
 does not keep),
-``as_offline`` (its primitive equals :func:`promp.pipeline.infer` on the take as the same rule
+``as_offline`` (its primitive equals :func:`promp.infer` on the take as the same rule
 cuts it offline from the held take: the live movement's rows, on the stamps as sent),
 ``as_whole`` and ``whole_right`` (the offline answer on the whole take, as the learning saw
 its takes: equal to the live one, and right), and the longest pause learned. Every stream
@@ -47,11 +47,11 @@ import numpy as np  # noqa: E402
 
 from promp.data import Layout, Modality  # noqa: E402
 from promp.datasets import load_records_dataset  # noqa: E402
+from promp.evidence.pipeline import infer  # noqa: E402
 from promp.learn import fit  # noqa: E402
 from promp.live.segmenter import Segmenter, StillRule  # noqa: E402
 from promp.model import Settings  # noqa: E402
 from promp.observation import Observation  # noqa: E402
-from promp.pipeline import infer  # noqa: E402
 from promp.stillness import moving_spans  # noqa: E402
 from tests.live_fakes import guided_split, held, replay_over_lsl  # noqa: E402
 

@@ -9,7 +9,7 @@ is connected, so nothing is drawn) and starts its Live source as *LSL streams (l
 *Predictions out* on: the mapping of ``bench/live.py``, movements by the marker stream, the
 hand's remainder at 50 Hz. Its published streams are read back as the headless predictor's
 are: the latency is from a sample's push to the receipt of the first prediction the studio
-publishes that includes it, and every prediction is compared with :func:`promp.pipeline.infer`
+publishes that includes it, and every prediction is compared with :func:`promp.evidence.infer`
 of the model the studio learned (saved by the studio process for this purpose).
 
 Run: ``nice -n 10 .venv/bin/python bench/live_studio.py [--seconds 60]``; the last line is one

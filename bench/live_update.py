@@ -9,15 +9,15 @@ an update adds the last 1/31 s of samples (8 at 250 Hz, 3 at 100 Hz: ~31 updates
 to an observation already inferred on at the two lengths before, as the
 predictor's previous updates did. Measured, median of ``--repeats``:
 
-* ``dense_ms``: :func:`promp.pipeline.infer` on the n samples without statistics (the offline
-  path, what every update cost before :mod:`promp.incremental`);
-* ``update_ms``: the same with the movement's
-  :class:`promp.incremental.IncrementalStatistics` (when this tree has it);
-* ``statistics_ms``: the part of ``update_ms`` spent in the likelihood's sums
-  (:func:`promp.incremental.whitened_sums`: the basis, the correlated-noise whitening, the
-  sums), and ``whiten_rows``: the rows (samples x candidate speeds) whitened in that update,
-  by recognition (the new samples of the candidates kept, every sample of a new candidate)
-  and by the conditioning at the estimated speed (every sample, one candidate).
+* ``dense_ms``: :func:`promp.evidence.infer` on the n samples (a new evidence: the offline
+  path, what every update cost before the sums were kept);
+* ``update_ms``: the same by the movement's evidence extended by the last samples
+  (:meth:`promp.evidence.Evidence.extended`);
+* ``statistics_ms``: the part of ``update_ms`` spent in the likelihood's sums (the evidence's
+  ``_sums``: the basis, the correlated-noise whitening, the sums), and ``whiten_rows``: the
+  rows (samples x candidate speeds) whitened in that update, by recognition (the new samples
+  of the candidates kept, every sample of a new candidate) and by the conditioning at the
+  estimated speed (every sample, one candidate).
 
 Each ``*_ratio`` is the figure at the longest length over the shortest: 1 means the cost
 does not grow with the movement. The updates agree with the dense inference within 1e-9
@@ -29,7 +29,6 @@ Run: ``nice -n 10 .venv/bin/python bench/live_update.py``. The last line is one 
 from __future__ import annotations
 
 import argparse
-import inspect
 import json
 import os
 import statistics
@@ -42,16 +41,17 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+import promp.evidence.evidence as evidence_module  # noqa: E402
 from promp.datasets import load_records_dataset  # noqa: E402
+from promp.evidence import Evidence  # noqa: E402
+from promp.evidence.pipeline import infer  # noqa: E402
 from promp.inference import Observation  # noqa: E402
 from promp.learn import fit  # noqa: E402
-from promp.pipeline import infer  # noqa: E402
 
 sys.path.insert(0, str(REPO / "bench"))
 from live import DATA, LAYOUT, RATE_HZ, slowed  # noqa: E402
 
 STEP = 8  # samples a 250 Hz update adds at ~31 updates a second
-INCREMENTAL = "statistics" in inspect.signature(infer).parameters
 
 
 def movement(dataset: dict, rate: float) -> np.ndarray:
@@ -74,62 +74,48 @@ def measure(model, rows: np.ndarray, repeats: int, rate: float) -> dict:
         began = time.perf_counter()
         reference = infer(model, observation(rows, n, rate))
         dense.append(time.perf_counter() - began)
-        if not INCREMENTAL:
-            continue
-        from promp import incremental
-
-        statistics_ = incremental.IncrementalStatistics()
-        for k in (n - 2 * step, n - step):
-            infer(model, observation(rows, k, rate), statistics=statistics_)
+        evidence = Evidence(model, observation(rows, n - 2 * step, rate))
+        evidence.infer()
+        evidence = evidence.extended(observation(rows, n - step, rate))
+        evidence.infer()
         spent, rows_whitened = [0.0], [0]
-        original = incremental.whitened_sums
-        row_sums = incremental.row_sums
+        original, row_sums = Evidence._sums, evidence_module.row_sums
+        dense_sums = evidence_module.dense_sums
 
-        def timed(*args, original=original, spent=spent, **kwargs):
+        def timed(*args, original=original, spent=spent):
             began = time.perf_counter()
             try:
-                return original(*args, **kwargs)
+                return original(*args)
             finally:
                 spent[0] += time.perf_counter() - began
 
-        def counted(*args, row_sums=row_sums, rows_whitened=rows_whitened):
-            elapsed, alphas, start = args[2], args[5], args[7]
-            rows_whitened[0] += (elapsed.shape[0] - start) * alphas.shape[0]
-            return row_sums(*args)
+        def counted(owner, primitive, alphas, durations, start, row_sums=row_sums,
+                    rows_whitened=rows_whitened):
+            rows_whitened[0] += (owner.elapsed.shape[0] - start) * alphas.shape[0]
+            return row_sums(owner, primitive, alphas, durations, start)
 
-        dense_sums = incremental.dense_sums
+        def counted_dense(owner, primitive, alphas, durations, dense_sums=dense_sums,
+                          rows_whitened=rows_whitened):
+            rows_whitened[0] += owner.elapsed.shape[0] * alphas.shape[0]
+            return dense_sums(owner, primitive, alphas, durations)
 
-        def counted_dense(*args, dense_sums=dense_sums, rows_whitened=rows_whitened):
-            rows_whitened[0] += args[2].n_observed * args[4].shape[0]
-            return dense_sums(*args)
-
-        incremental.whitened_sums, incremental.row_sums = timed, counted
-        incremental.dense_sums = counted_dense
-        import promp._likelihood as likelihood
-        import promp._weight_space as weight_space
-
-        patched = [m for m in (likelihood, weight_space) if hasattr(m, "whitened_sums")]
-        for module in patched:
-            module.whitened_sums = timed
+        Evidence._sums = timed
+        evidence_module.row_sums, evidence_module.dense_sums = counted, counted_dense
         try:
             began = time.perf_counter()
-            result = infer(model, observation(rows, n, rate), statistics=statistics_)
+            result = evidence.extended(observation(rows, n, rate)).infer()
             update.append(time.perf_counter() - began)
         finally:
-            incremental.whitened_sums, incremental.row_sums = original, row_sums
-            incremental.dense_sums = dense_sums
-            for module in patched:
-                module.whitened_sums = original
+            Evidence._sums = original
+            evidence_module.row_sums, evidence_module.dense_sums = row_sums, dense_sums
         sums.append(spent[0])
         whitened.append(rows_whitened[0])
         diff = max(diff, float(np.abs(result.probabilities - reference.probabilities).max()))
-    out = {"samples": n, "dense_ms": 1e3 * statistics.median(dense)}
-    if INCREMENTAL:
-        out |= {"update_ms": 1e3 * statistics.median(update),
-                "statistics_ms": 1e3 * statistics.median(sums),
-                "whiten_rows": int(statistics.median(whitened)),
-                "max_probability_difference": diff}  # fmt: skip
-    return out
+    return {"samples": n, "dense_ms": 1e3 * statistics.median(dense),
+            "update_ms": 1e3 * statistics.median(update),
+            "statistics_ms": 1e3 * statistics.median(sums),
+            "whiten_rows": int(statistics.median(whitened)),
+            "max_probability_difference": diff}  # fmt: skip
 
 
 def main() -> None:
@@ -150,9 +136,8 @@ def main() -> None:
         print(f"{seconds:5.1f} s: {row}", flush=True)
     first, last = figures[f"{args.lengths[0]:g}s"], figures[f"{args.lengths[-1]:g}s"]
     ratios = {f"{key}_ratio": last[key] / max(first[key], 1e-12)
-              for key in ("dense_ms", "update_ms", "statistics_ms", "whiten_rows")
-              if key in first}  # fmt: skip
-    print(json.dumps({"incremental": INCREMENTAL, "slow": args.slow, "rate": args.rate,
+              for key in ("dense_ms", "update_ms", "statistics_ms", "whiten_rows")}
+    print(json.dumps({"slow": args.slow, "rate": args.rate,
                       "lengths": figures} | ratios
                      | {"load_average": [round(x, 2) for x in os.getloadavg()]}))  # fmt: skip
 

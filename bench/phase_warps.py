@@ -40,13 +40,13 @@ from scipy.optimize import minimize
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from promp._weight_space import (  # noqa: E402
-    cholesky_diagonals,
-    diagonal_blocks,
-    observed_precision,  # noqa: E402
-)
 from promp.data import Demonstration  # noqa: E402
 from promp.datasets import read_dataset  # noqa: E402
+from promp.evidence.weight_space import (  # noqa: E402
+    cholesky_diagonals,
+    diagonal_blocks,
+    observed_precision,
+)
 from promp.fitting import fit_with  # noqa: E402
 from promp.model import Settings  # noqa: E402
 from promp.noise import noise_groups, whiten  # noqa: E402
@@ -59,7 +59,7 @@ GRID = np.linspace(0.0, 1.0, 101)
 
 
 def log_likelihoods(model, prim, obs, phases, alphas):
-    """Eq. 6 at arbitrary observed phases (A, n) (the weight-space form of promp._weight_space)."""
+    """Eq. 6 at arbitrary observed phases (A, n) (promp.evidence.weight_space's form)."""
     dims = model.layout.dims(obs.modalities)
     m, n_do = model.basis.n_basis, dims.shape[0]
     p, a = n_do * m, phases.shape[0]

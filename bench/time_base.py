@@ -8,7 +8,7 @@ rows as they are, or put on a regular time base at ``--rate`` Hz (default 100, t
 own; linear interpolation, as :class:`promp.live.timebase.TimeBase` does), at 25, 50, 75 and
 100 % of each movement. Measured for each: the share of observations whose recognised
 primitive is the true one, the mean ``-ln p(true)``, the mean time of one
-:func:`promp.pipeline.infer`, and the largest difference in p(true) between the two.
+:func:`promp.evidence.infer`, and the largest difference in p(true) between the two.
 
 Run: ``nice -n 10 .venv/bin/python bench/time_base.py``. The last line is one JSON object.
 """
@@ -31,9 +31,9 @@ sys.path.insert(0, str(REPO / "bench"))
 from live import DATA, LAYOUT, RATE_HZ  # noqa: E402
 
 from promp.datasets import load_records_dataset  # noqa: E402
+from promp.evidence.pipeline import infer  # noqa: E402
 from promp.inference import Observation  # noqa: E402
 from promp.learn import fit  # noqa: E402
-from promp.pipeline import infer  # noqa: E402
 
 SHARES = (0.25, 0.5, 0.75, 1.0)
 FOLDS = 3

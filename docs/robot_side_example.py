@@ -12,9 +12,9 @@ import argparse
 import numpy as np
 
 from promp.datasets import read_csv_demo
+from promp.evidence.pipeline import infer
 from promp.inference import Observation
 from promp.io import load_model
-from promp.pipeline import infer
 
 
 def main() -> None:

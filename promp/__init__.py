@@ -12,7 +12,10 @@ Learn and infer
 ---------------
 fit(dataset, layout)            a ProMPModel from {primitive name: [Demonstration, ...]}; the
                                 basis, its width and the noise are chosen from the data
-infer(model, observation)       an Inference: recognition, timing, posterior, prediction
+infer(model, observation)       an Inference: recognition, timing, posterior, prediction, the
+                                regions and paths of every position (via_points=...: shaped)
+Evidence(model, observation)    what infer asks: the likelihoods, the recognition, the timing,
+                                the posterior; .extended(longer) for a growing observation
 recognise, condition, predict   the three steps of infer, one at a time
 condition_on_via_points         a primitive (or a posterior) made to pass through points,
                                 ViaPoint by phase or time, each with its precision (Eq. 8)
@@ -70,9 +73,9 @@ from promp import _threads  # noqa: F401
 # them all at once would double the cost of ``import promp``; see the tests).
 _HOMES = {
     "fit": "promp.learn",
-    "infer": "promp.pipeline",
-    "recognise": "promp.recognition",
-    "condition": "promp.inference",
+    "infer": "promp.evidence",
+    "recognise": "promp.evidence",
+    "condition": "promp.evidence",
     "predict": "promp.inference",
     "condition_on_via_points": "promp.via_points",
     "ViaPoint": "promp.via_points",
@@ -87,7 +90,8 @@ _HOMES = {
     "Settings": "promp.model",
     "ProMPModel": "promp.model",
     "Primitive": "promp.model",
-    "Inference": "promp.pipeline",
+    "Inference": "promp.evidence",
+    "Evidence": "promp.evidence",
     "Recognition": "promp.recognition",
     "Posterior": "promp.inference",
     "Prediction": "promp.inference",

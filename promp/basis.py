@@ -59,7 +59,7 @@ class RBFBasis:
         """Basis values at phases ``z`` of shape (..., n), the basis functions along a new
         axis -2: shape (..., n_basis, n), each column summing to 1. The numbers of
         :meth:`__call__`, laid out so that the samples are the contiguous axis (the
-        incremental likelihood's sums over samples, :mod:`promp._statistics`)."""
+        likelihood's sums over samples, :mod:`promp.evidence.sums`)."""
         z = np.asarray(z, dtype=float)[..., None, :]
         return self._normalised(z, self._centres[:, None], axis=-2)
 

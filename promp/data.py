@@ -159,6 +159,20 @@ class Modality:
             )
         object.__setattr__(self, "columns", tuple(self.columns))
 
+    @property
+    def is_position(self) -> bool:
+        """Whether it is a point in space: three linear columns in metres (a robot's hand, a
+        partner's hand, a marker), or three linear columns of no stated unit whose names end in
+        x, y and z, in that order (``hx, hy, hz``, ``marker_x, ...``: a CSV's columns other
+        than x, y, z get no unit, and are taken for metres). A modality in another unit (a
+        force in N, an orientation in rad) or of another size is not."""
+        if self.kind != "linear" or len(self.columns) != 3:
+            return False
+        if self.unit == "m":
+            return True
+        named = all(c.lower().endswith(a) for c, a in zip(self.columns, "xyz", strict=True))
+        return self.unit == "" and named
+
 
 @dataclass(frozen=True)
 class Layout:
@@ -195,6 +209,11 @@ class Layout:
     @property
     def n_dims(self) -> int:
         return len(self.columns)
+
+    @property
+    def positions(self) -> tuple[Modality, ...]:
+        """The modalities that are points in space (:attr:`Modality.is_position`), in order."""
+        return tuple(m for m in self.modalities if m.is_position)
 
     def modality(self, name: str) -> Modality:
         for m in self.modalities:

@@ -15,7 +15,7 @@ evaluation's observed steps and on a live stream of predictions that arrive at i
 times: counted in updates, a window of 5 would wait 50 ms at 100 Hz, 170 ms at 30 Hz and, in
 the evaluation, 10 % of the movement (2 s for a 20 s one). Counted on the movement's own clock
 (the time of the latest observed sample, from the movement's start: what
-:attr:`promp.pipeline.Inference.observed_until` and the live predictor's ``elapsed`` give), it
+:attr:`promp.evidence.Inference.observed_until` and the live predictor's ``elapsed`` give), it
 asks the same of the evidence however often it is looked at. On a discrete stream it commits at
 the first update at least ``window`` seconds after the run began: it can wait up to one
 update longer than the window, never less. ``window = 0`` commits at the first update at or

@@ -1,6 +1,6 @@
 """How long the movement lasts, as the recognition believes it: a posterior, not a mode.
 
-The recognition integrates every primitive's likelihood over its speed (:mod:`promp.recognition`);
+The recognition integrates every primitive's likelihood over its speed (:mod:`promp.evidence`);
 the same quadrature gives the posterior over the recognised primitive's speed, hence over the
 duration ``T(alpha) = (s_bar / alpha - 1) dt`` (:mod:`promp.timing`). Its median is the
 predicted duration, and its quantiles, from the likelihood tempered to what held-out movements

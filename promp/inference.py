@@ -1,17 +1,15 @@
-"""Conditioning and prediction (paper Eqs. 5-8); the likelihood of Eq. 6 is re-exported.
+"""Distributions over the weights and the trajectories they give (paper Eqs. 1, 5 and 8).
 
-From the first samples of a movement, observed in any subset of the modalities:
-
-* :func:`log_likelihoods` scores a primitive at candidate time modulations alpha by the log
-  marginal likelihood of the observation (Eq. 6),
-  ``log N(y_o | Phi_o mu_k, Phi_o Sigma_k Phi_o^T + Sigma_noise)``, exploiting the structure of
-  the prior covariance (:mod:`promp._likelihood`); recognition, which integrates it over alpha,
-  is :mod:`promp.recognition`.
-* :func:`condition` updates the weight distribution on the observed samples (Eq. 8) with
-  Cholesky solves: with the same Woodbury terms as the likelihood for the primitive's own prior,
-  densely (in weight space or observation space, whichever is smaller) for any other Gaussian.
+* :class:`Gaussian` and :class:`Posterior`: a distribution over the weights (a posterior keeps
+  the covariance of each dimension's weights and computes the full one on first use);
+* :func:`condition_dense`: the Kalman update of any Gaussian over the weights on observed
+  samples (Eq. 8), densely, in observation space or weight space, whichever is smaller, with
+  Cholesky solves; the structured update from a primitive's own prior is the evidence's
+  (:meth:`promp.evidence.Evidence.condition`, over the likelihood's terms), and
+  :func:`promp.evidence.condition` gives either;
 * :func:`predict` gives the mean and standard deviation over [0, t_f] of every modality,
-  observed or not: the cross-covariance of the weights predicts the unobserved ones.
+  observed or not: the cross-covariance of the weights predicts the unobserved ones
+  (:func:`trajectory_at` at any phases).
 """
 
 from __future__ import annotations
@@ -23,22 +21,20 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import cho_solve, solve_triangular
 
-from promp._likelihood import (
-    log_likelihoods,  # (re-exported: Eq. 6 is a public name of the method)
-    noise_groups,
-    per_dimension,
-    rotate,
-    whiten,
-    woodbury,
-)
 from promp.model import Primitive, ProMPModel
+from promp.noise import noise_groups, whiten
 from promp.observation import Observation, check_observation  # (Observation re-exported)
 from promp.timing import check_alpha, duration_from_alpha, n_samples_from_alpha
 
 __all__ = [
-    "Gaussian", "Observation", "Posterior", "Prediction", "condition", "log_likelihoods",
-    "observation_basis", "predict", "trajectory_at"
+    "Gaussian", "Observation", "Posterior", "Prediction", "condition_dense", "observation_basis",
+    "per_dimension", "predict", "trajectory_at"
 ]  # fmt: skip
+
+
+def per_dimension(vector: np.ndarray, n_dims: int) -> np.ndarray:
+    """A dimension-major weight vector (n_dims * M,) as rows, shape (n_dims, M)."""
+    return vector.reshape(n_dims, -1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,96 +94,7 @@ def observation_basis(model: ProMPModel, obs: Observation, alpha: float) -> np.n
     return model.basis(obs.elapsed / duration)
 
 
-def condition(
-    model: ProMPModel,
-    primitive: Primitive,
-    obs: Observation,
-    alpha: float,
-    prior: Gaussian | None = None,
-) -> Posterior:
-    """Posterior weight distribution given the observation (Eq. 8).
-
-    ``mu' = mu + Sigma A^T (A Sigma A^T + R)^-1 (y_o - A mu)`` and ``Sigma' = Sigma -
-    Sigma A^T (A Sigma A^T + R)^-1 A Sigma``, with ``A`` the basis at the observed phases
-    for ``alpha`` (block-diagonal over the observed dimensions) and ``R`` the
-    Ornstein-Uhlenbeck observation noise.
-
-    A batch update on all observed samples of all observed modalities. Without ``prior``, the
-    primitive's prior at ``alpha`` is used and the update exploits its structure (Woodbury's
-    identity on ``Sigma_w = T + U U^T``, see :class:`promp._likelihood.Woodbury`): the mean and each
-    dimension's covariance block cost O(D M^2 r); the full covariance is computed on demand
-    with the dense update below. With an explicit ``prior`` (any Gaussian), the dense update
-    runs directly: in observation space or weight space, whichever is smaller, with Cholesky
-    solves. Returns a new object; nothing is modified.
-
-    Parameters
-    ----------
-    model : ProMPModel
-    primitive : Primitive
-        One of ``model.primitives`` (its prior at ``alpha`` unless ``prior`` is given).
-    obs : Observation
-    alpha : float
-        The time modulation (> 0); the observation must fit in its duration.
-    prior : Gaussian, optional
-        Any prior over the weights: mean (n_weights,), cov (n_weights, n_weights).
-
-    Returns
-    -------
-    Posterior
-        ``mean`` (n_weights,), ``blocks(n_dims)`` (n_dims, n_basis, n_basis), ``cov``
-        (n_weights, n_weights) on first use.
-
-    Raises
-    ------
-    ValueError
-        Unknown modalities, alpha <= 0, or an observation longer than alpha's duration.
-    """
-    dims = check_observation(model, obs)
-    observation_basis(model, obs, alpha)  # validates alpha against the observation
-    if prior is not None:
-        mean, cov = _condition_dense(model, primitive, obs, alpha, prior, None)
-        return Posterior(mean, Gaussian(mean, cov).blocks(model.n_dims), lambda: cov)
-    duration = float(duration_from_alpha(alpha, model.sample_period, model.settings.s_bar))
-    rot = rotate(model, primitive, obs, dims, np.array([alpha]), np.array([duration]), False)
-    w = woodbury(rot, primitive.noise_var[dims][None, :])
-    n_dims, m = model.n_dims, model.basis.n_basis
-    u_all = primitive.cov_factor.reshape(n_dims, m, -1)  # (D, M, r)
-    t_all = per_dimension(primitive.cov_diag, n_dims)[:, 0]  # (D,)
-    u_o, t_o = u_all[dims], w.t
-    vec = w.eigvec[0][w.group]  # (Do, M, M)
-    # one noise level, one alpha: index [0, 0]
-    big_h = vec @ (w.h_diag[0, 0][..., None] * vec.transpose(0, 2, 1))  # H = Psi^T B^-1 Psi
-    small_h = (vec @ w.h_hat[0, 0][..., None])[..., 0]  # h = Psi^T B^-1 r
-    hu = big_h @ u_o  # (Do, M, r)
-    utu = w.utu[0, 0]
-    chol_q = np.linalg.cholesky(utu + np.eye(utu.shape[0]))
-    # Sigma A^T S^-1 r with S^-1 = B^-1 - B^-1 V Q^-1 V^T B^-1:  A^T S^-1 r = h - H U Q^-1 v.
-    kappa = small_h - hu @ cho_solve((chol_q, True), w.v[0, 0], check_finite=False)
-    shift = u_all @ np.einsum("dmr,dm->r", u_o, kappa)  # U U_O^T kappa
-    mean = per_dimension(primitive.mean_at(alpha), n_dims) + shift
-    mean[dims] += t_o[:, None] * kappa
-    # Diagonal blocks of Sigma - Sigma A^T S^-1 A Sigma, with Sigma_de = t_d I [d = e] + U_d U_e^T.
-    wg = u_all @ utu  # Sigma_(d,O) A^T B^-1 V
-    wg[dims] += t_o[:, None, None] * hu
-    # Sigma_(d,O) H Sigma_(O,d) = U_d (Q - I) U_d^T + t_d H_d U_d U_d^T (from wg)
-    #                            + t_d^2 H_d + t_d U_d U_d^T H_d          (observed d only)
-    correction = wg @ u_all.transpose(0, 2, 1)
-    t3 = t_o[:, None, None]
-    correction[dims] += t3**2 * big_h + t3 * (u_o @ hu.transpose(0, 2, 1))
-    z = np.linalg.solve(chol_q[None], wg.transpose(0, 2, 1))  # L_q^-1 (W G)^T, (D, r, M)
-    prior_blocks = t_all[:, None, None] * np.eye(m) + u_all @ u_all.transpose(0, 2, 1)
-    blocks = prior_blocks - correction + z.transpose(0, 2, 1) @ z
-    blocks = 0.5 * (blocks + blocks.transpose(0, 2, 1))
-    flat_mean = mean.reshape(-1)
-
-    def full() -> np.ndarray:
-        prior_at = Gaussian(primitive.mean_at(alpha), primitive.cov)
-        return _condition_dense(model, primitive, obs, alpha, prior_at, primitive.cov_cholesky)[1]
-
-    return Posterior(flat_mean, blocks, full)
-
-
-def _condition_dense(
+def condition_dense(
     model: ProMPModel,
     primitive: Primitive,
     obs: Observation,
@@ -195,7 +102,13 @@ def _condition_dense(
     prior: Gaussian,
     cov_cholesky: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The dense Kalman update of a Gaussian weight prior: (mean, covariance)."""
+    """The dense Kalman update of a Gaussian weight ``prior`` on the observation at speed
+    ``alpha`` (Eq. 8): ``mu' = mu + Sigma A^T (A Sigma A^T + R)^-1 (y_o - A mu)`` and
+    ``Sigma' = Sigma - Sigma A^T (A Sigma A^T + R)^-1 A Sigma``, with ``A`` the basis at the
+    observed phases (block-diagonal over the observed dimensions) and ``R`` the
+    Ornstein-Uhlenbeck noise of ``primitive``: (mean (P,), covariance (P, P)), new arrays.
+    ``cov_cholesky``: the prior covariance's Cholesky factor when known (the weight-space
+    update uses it)."""
     dims = check_observation(model, obs)
     psi = observation_basis(model, obs, alpha)  # (n, M)
     m = model.basis.n_basis

@@ -237,6 +237,32 @@ def model_from_dict(data: Any) -> ProMPModel:
     report = data.get("report", {})
     if not isinstance(report, Mapping):
         raise ValueError("model 'report' must be a JSON object")
+    layout, settings = _layout_and_settings(data)
+    sample_period = _number(data, "sample_period", "model")
+    if sample_period <= 0:
+        raise ValueError(f"sample_period must be positive, got {sample_period}")
+    primitives = []
+    raw_prims = _field(data, "primitives", "model")
+    if not isinstance(raw_prims, list) or not raw_prims:
+        raise ValueError("a model needs a non-empty list of primitives")
+    names = set()
+    for i, p in enumerate(raw_prims):
+        name = str(_field(p, "name", f"primitive {i}"))
+        if name in names:
+            raise ValueError(f"duplicate primitive name {name!r}")
+        names.add(name)
+        primitives.append(_primitive_from_dict(p, name, layout, settings.n_basis, version))
+    return ProMPModel(
+        layout=layout,
+        settings=settings,
+        sample_period=sample_period,
+        primitives=tuple(primitives),
+        report=dict(report),
+    )
+
+
+def _layout_and_settings(data: Mapping) -> tuple[Layout, Settings]:
+    """The layout and the settings of a model file's dict (see :func:`model_from_dict`)."""
     try:
         layout = Layout(
             tuple(
@@ -266,101 +292,94 @@ def model_from_dict(data: Any) -> ProMPModel:
         )
     except (TypeError, AttributeError) as exc:
         raise ValueError(f"malformed layout or settings ({exc})") from exc
-    sample_period = _number(data, "sample_period", "model")
-    if sample_period <= 0:
-        raise ValueError(f"sample_period must be positive, got {sample_period}")
+    return layout, settings
+
+
+def _primitive_from_dict(
+    p: Mapping, name: str, layout: Layout, n_basis: int, version: int
+) -> Primitive:
+    """Primitive ``name`` of a model file's dict, validated (see :func:`model_from_dict`)."""
     n_dims = layout.n_dims
-    n_weights = n_dims * settings.n_basis
-    primitives = []
-    raw_prims = _field(data, "primitives", "model")
-    if not isinstance(raw_prims, list) or not raw_prims:
-        raise ValueError("a model needs a non-empty list of primitives")
-    names = set()
-    for i, p in enumerate(raw_prims):
-        name = str(_field(p, "name", f"primitive {i}"))
-        if name in names:
-            raise ValueError(f"duplicate primitive name {name!r}")
-        names.add(name)
-        what = f"primitive {name!r}"
-        factor = _array(_field(p, "cov_factor", what), f"{what} cov_factor", (n_weights, None))
-        cov_diag = _array(_field(p, "cov_diag", what), f"{what} cov_diag", (n_weights,))
-        if np.any(cov_diag <= 0):
-            raise ValueError(f"{what} cov_diag: variances must be positive")
-        if version == 1:
-            cov_diag, factor = _block_diagonal(cov_diag, factor, n_dims)
-        noise_var = _array(_field(p, "noise_var", what), f"{what} noise_var", (n_dims,))
-        if np.any(noise_var <= 0):
-            raise ValueError(f"{what} noise_var: variances must be positive")
-        if version == 1 and "noise_tau" not in p:  # white noise: the first writer's model
-            noise_tau = np.zeros(n_dims)
-        else:
-            noise_tau = _array(_field(p, "noise_tau", what), f"{what} noise_tau", (n_dims,))
-        if np.any(noise_tau < 0):
-            raise ValueError(f"{what} noise_tau: correlation times must be >= 0")
-        alphas = _array(_field(p, "alphas", what), f"{what} alphas", (None,))
-        if alphas.size == 0 or np.any(alphas <= 0):
-            raise ValueError(f"{what} alphas: need at least one, all positive")
-        alpha_models = {}
-        raw_models = _field(p, "alpha_models", what)
-        if not isinstance(raw_models, Mapping):
-            raise ValueError(f"{what} alpha_models: expected an object")
-        for modality in layout.modalities:
-            am = _field(raw_models, modality.name, f"{what} alpha_models")
-            width = len(modality.columns)
-            label = f"{what} alpha model {modality.name!r}"
-            lo = _array(_field(am, "lo", label), f"{label} lo", (None, width))
-            if version == 1 and "n_observed" not in am:  # one row per n_o from 1
-                grid = np.arange(1.0, lo.shape[0] + 1.0)
-            else:
-                grid = _array(
-                    _field(am, "n_observed", label), f"{label} n_observed", (lo.shape[0],)
-                )
-            if grid.size == 0 or grid[0] != 1 or np.any(np.diff(grid) <= 0):
-                raise ValueError(f"{label} n_observed: must increase from 1")
-            alpha_models[modality.name] = AlphaModel(
-                n_observed=grid.astype(int),
-                lo=lo,
-                hi=_array(_field(am, "hi", label), f"{label} hi", (lo.shape[0], width)),
-                weights=_array(
-                    _field(am, "weights", label), f"{label} weights", (lo.shape[0], width * N_RBF)
-                ),
-                residual_var=_array(
-                    _field(am, "residual_var", label), f"{label} residual_var", (lo.shape[0],)
-                ),
-            )
-        shrinkage = _field(p, "shrinkage", what)
-        if version == 1 and not isinstance(shrinkage, (list, bool)):  # one for every dimension
-            shrinkage = [shrinkage] * n_dims
-        shrinkage = _array(shrinkage, f"{what} shrinkage", (n_dims,))
-        if np.any((shrinkage <= 0) | (shrinkage > 1)):
-            raise ValueError(f"{what} shrinkage: intensities must be in (0, 1]")
-        stillness = _stillness(_field(p, "stillness", what) if version >= 3 else {}, layout,
-                               alphas.size, what)  # fmt: skip
-        log_alpha_mean = _number(p, "log_alpha_mean", what)
-        alpha_slope = _array(_field(p, "alpha_slope", what), f"{what} alpha_slope", (n_weights,))
-        primitives.append(
-            Primitive(
-                name=name,
-                mean=_array(_field(p, "mean", what), f"{what} mean", (n_weights,)),
-                cov_diag=cov_diag,
-                cov_factor=factor,
-                noise_var=noise_var,
-                noise_tau=noise_tau,
-                alphas=alphas,
-                alpha_models=alpha_models,
-                shrinkage=shrinkage,
-                log_alpha_mean=log_alpha_mean,
-                alpha_slope=alpha_slope,
-                stillness=stillness,
-            )
-        )
-    return ProMPModel(
-        layout=layout,
-        settings=settings,
-        sample_period=sample_period,
-        primitives=tuple(primitives),
-        report=dict(report),
+    n_weights = n_dims * n_basis
+    what = f"primitive {name!r}"
+    factor = _array(_field(p, "cov_factor", what), f"{what} cov_factor", (n_weights, None))
+    cov_diag = _array(_field(p, "cov_diag", what), f"{what} cov_diag", (n_weights,))
+    if np.any(cov_diag <= 0):
+        raise ValueError(f"{what} cov_diag: variances must be positive")
+    if version == 1:
+        cov_diag, factor = _block_diagonal(cov_diag, factor, n_dims)
+    noise_var = _array(_field(p, "noise_var", what), f"{what} noise_var", (n_dims,))
+    if np.any(noise_var <= 0):
+        raise ValueError(f"{what} noise_var: variances must be positive")
+    if version == 1 and "noise_tau" not in p:  # white noise: the first writer's model
+        noise_tau = np.zeros(n_dims)
+    else:
+        noise_tau = _array(_field(p, "noise_tau", what), f"{what} noise_tau", (n_dims,))
+    if np.any(noise_tau < 0):
+        raise ValueError(f"{what} noise_tau: correlation times must be >= 0")
+    alphas = _array(_field(p, "alphas", what), f"{what} alphas", (None,))
+    if alphas.size == 0 or np.any(alphas <= 0):
+        raise ValueError(f"{what} alphas: need at least one, all positive")
+    alpha_models = _alpha_models_from_dict(_field(p, "alpha_models", what), layout, what,
+                                           version)  # fmt: skip
+    shrinkage = _field(p, "shrinkage", what)
+    if version == 1 and not isinstance(shrinkage, (list, bool)):  # one for every dimension
+        shrinkage = [shrinkage] * n_dims
+    shrinkage = _array(shrinkage, f"{what} shrinkage", (n_dims,))
+    if np.any((shrinkage <= 0) | (shrinkage > 1)):
+        raise ValueError(f"{what} shrinkage: intensities must be in (0, 1]")
+    stillness = _stillness(_field(p, "stillness", what) if version >= 3 else {}, layout,
+                           alphas.size, what)  # fmt: skip
+    log_alpha_mean = _number(p, "log_alpha_mean", what)
+    alpha_slope = _array(_field(p, "alpha_slope", what), f"{what} alpha_slope", (n_weights,))
+    return Primitive(
+        name=name,
+        mean=_array(_field(p, "mean", what), f"{what} mean", (n_weights,)),
+        cov_diag=cov_diag,
+        cov_factor=factor,
+        noise_var=noise_var,
+        noise_tau=noise_tau,
+        alphas=alphas,
+        alpha_models=alpha_models,
+        shrinkage=shrinkage,
+        log_alpha_mean=log_alpha_mean,
+        alpha_slope=alpha_slope,
+        stillness=stillness,
     )
+
+
+def _alpha_models_from_dict(
+    raw_models: Any, layout: Layout, what: str, version: int
+) -> dict[str, AlphaModel]:
+    """The Eq. 7 model of every modality of primitive ``what`` (see :func:`model_from_dict`)."""
+    alpha_models = {}
+    if not isinstance(raw_models, Mapping):
+        raise ValueError(f"{what} alpha_models: expected an object")
+    for modality in layout.modalities:
+        am = _field(raw_models, modality.name, f"{what} alpha_models")
+        width = len(modality.columns)
+        label = f"{what} alpha model {modality.name!r}"
+        lo = _array(_field(am, "lo", label), f"{label} lo", (None, width))
+        if version == 1 and "n_observed" not in am:  # one row per n_o from 1
+            grid = np.arange(1.0, lo.shape[0] + 1.0)
+        else:
+            grid = _array(
+                _field(am, "n_observed", label), f"{label} n_observed", (lo.shape[0],)
+            )
+        if grid.size == 0 or grid[0] != 1 or np.any(np.diff(grid) <= 0):
+            raise ValueError(f"{label} n_observed: must increase from 1")
+        alpha_models[modality.name] = AlphaModel(
+            n_observed=grid.astype(int),
+            lo=lo,
+            hi=_array(_field(am, "hi", label), f"{label} hi", (lo.shape[0], width)),
+            weights=_array(
+                _field(am, "weights", label), f"{label} weights", (lo.shape[0], width * N_RBF)
+            ),
+            residual_var=_array(
+                _field(am, "residual_var", label), f"{label} residual_var", (lo.shape[0],)
+            ),
+        )
+    return alpha_models
 
 
 def model_from_json(text: str | bytes) -> ProMPModel:

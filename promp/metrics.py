@@ -19,13 +19,21 @@ duration on ``n_f`` evenly spaced phases):
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from promp.data import Layout
+from promp.data import Demonstration, Layout
+
+if TYPE_CHECKING:
+    from promp.duration import Timing
+    from promp.inference import Prediction
+    from promp.model import ProMPModel
 
 __all__ = [
-    "calibration_error", "goal_error", "nrmse", "position_modality", "reliability",
-    "remainder_error", "resample"
+    "Errors", "calibration_error", "goal_error", "measure", "nrmse", "position_modality",
+    "reliability", "remainder_error", "resample"
 ]  # fmt: skip
 
 
@@ -132,3 +140,37 @@ def position_modality(layout: Layout) -> str:
         if name in layout.names:
             return name
     return layout.names[0]
+
+
+@dataclass(frozen=True)
+class Errors:
+    """An inference against the whole movement it observed the start of (:func:`measure`).
+    Positions in the unit of ``modality`` (metres for the hand)."""
+
+    modality: str
+    position: float  # mean error of the predicted remainder (NaN when nothing remains)
+    goal: float  # error of the predicted final position
+    duration: float  # |predicted duration (posterior median) - true duration|, seconds
+    duration_covered: bool  # the true duration lies in the duration's interval
+
+
+def measure(
+    model: ProMPModel,
+    natural: Prediction,
+    estimate: Timing,
+    truth: Demonstration,
+    n_observed: int,
+) -> Errors:
+    """:class:`Errors` of a prediction on its natural samples against ``truth``, the whole
+    movement whose first ``n_observed`` samples were observed."""
+    name = position_modality(model.layout)
+    dims = model.layout.dims([name])
+    true_values = model.layout.extract(truth)[:, dims]
+    predicted = natural.mean[:, dims]
+    return Errors(
+        modality=name,
+        position=remainder_error(true_values, predicted, n_observed),
+        goal=goal_error(true_values, predicted),
+        duration=abs(natural.duration - truth.duration),
+        duration_covered=estimate.duration.covers(truth.duration),
+    )

@@ -32,6 +32,7 @@ samples inside its region.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -43,6 +44,7 @@ from promp.inference import Gaussian, Posterior
 from promp.model import Primitive, ProMPModel
 from promp.quality import winsorized
 from promp.timing import demo_phases
+from promp.via_points import ViaPoint, condition_on_via_points
 
 __all__ = [
     "DEFAULT_PROBABILITY",
@@ -50,10 +52,13 @@ __all__ = [
     "SampleDistribution",
     "check_probability",
     "coverage",
+    "mean_position",
+    "modality_region",
     "new_movement",
     "region_radius",
     "sample_distribution",
     "sample_noise_var",
+    "shaped_prior",
     "speed_variance",
 ]
 
@@ -165,6 +170,44 @@ def sample_distribution(
         cov = cov + np.diag(np.asarray(noise_var, dtype=float)[dims])[None]
     cov = 0.5 * (cov + cov.transpose(0, 2, 1))
     return SampleDistribution(phases, mean, cov)
+
+
+def modality_region(
+    model: ProMPModel,
+    weights: Gaussian | Posterior,
+    modality: str,
+    n_points: int,
+    primitive: Primitive | None = None,
+) -> SampleDistribution:
+    """Where ``modality``'s samples lie under ``weights``: :func:`sample_distribution` on
+    ``n_points`` phases over [0, 1], with the samples' noise of ``primitive`` (default the
+    model's first: the primitives share it)."""
+    noise = sample_noise_var(model, primitive or model.primitives[0])
+    phases = np.linspace(0.0, 1.0, n_points)
+    return sample_distribution(model, weights, model.layout.dims([modality]), phases, noise)
+
+
+def mean_position(
+    model: ProMPModel, weights: Gaussian | Posterior, modality: str, phase: float
+) -> np.ndarray:
+    """The mean of ``modality`` at ``phase`` (in [0, 1]) under ``weights``, shape (k,)."""
+    mean = np.asarray(weights.mean).reshape(model.n_dims, -1)[model.layout.dims([modality])]
+    return mean @ model.basis(np.array([phase]))[0]
+
+
+def shaped_prior(
+    model: ProMPModel, name: str, via_points: Sequence[ViaPoint] = ()
+) -> tuple[float, Gaussian | Posterior]:
+    """Primitive ``name``'s typical speed (exp of its training demonstrations' mean log
+    alpha) and the weights of a new movement of it (:func:`new_movement`) conditioned on
+    ``via_points`` at that speed (:func:`promp.via_points.condition_on_via_points`; none: the
+    new movement itself)."""
+    primitive = model.primitive(name)
+    alpha = float(math.exp(primitive.log_alpha_mean))
+    weights = new_movement(primitive)
+    if via_points:
+        weights = condition_on_via_points(model, weights, via_points, alpha)
+    return alpha, weights
 
 
 @dataclass(frozen=True)

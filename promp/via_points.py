@@ -201,7 +201,7 @@ def condition_on_via_points(
     prior : Primitive, Gaussian or Posterior
         The weights before: a primitive's prior at speed ``alpha`` (``mean_at(alpha)``,
         ``Sigma_w``), any Gaussian over the weights, or a posterior given an observation
-        (:func:`promp.inference.condition`): the points then combine with what was observed.
+        (:func:`promp.evidence.condition`): the points then combine with what was observed.
     via_points : sequence of ViaPoint
         Conditioned on at once; none gives the prior back, unchanged.
     alpha : float, optional

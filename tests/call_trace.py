@@ -6,7 +6,9 @@ sees every Python call; :class:`CallTrace` keeps those into the repository's own
 promp/, robots/) made between :meth:`CallTrace.on` and :meth:`CallTrace.off`, with the thread
 that made them. Python 3.11 cannot give a profile function to a thread already running, so a
 trace is installed before the studio it watches starts (:meth:`CallTrace.install`), and is
-idle (one flag test per call) until it is switched on.
+idle (one flag test per call) until it is switched on. A call to a function of
+:meth:`CallTrace.watch` also keeps its stack: the functions of ours it was called through, from
+its thread's first.
 """
 
 from __future__ import annotations
@@ -23,11 +25,13 @@ OURS = tuple(f"{REPO / package}/" for package in ("app", "promp", "robots"))
 @dataclass(frozen=True)
 class Call:
     """One call: the thread that made it, the file (relative to the repository) and the
-    function's qualified name (``Class.method``)."""
+    function's qualified name (``Class.method``); for a watched function, ``stack``: the
+    functions of ours it was called through, (file, name) from its thread's first."""
 
     thread: str
     path: str
     name: str
+    stack: tuple[tuple[str, str], ...] = ()
 
 
 class CallTrace:
@@ -36,6 +40,7 @@ class CallTrace:
     def __init__(self) -> None:
         self.calls: list[Call] = []
         self._on = False
+        self._watched: set[tuple[str, str]] = set()
         self._lock = threading.Lock()
 
     def _profile(self, frame, event, arg) -> None:
@@ -44,8 +49,9 @@ class CallTrace:
         filename = frame.f_code.co_filename
         if not filename.startswith(OURS):
             return
-        call = Call(threading.current_thread().name, filename[len(str(REPO)) + 1 :],
-                    frame.f_code.co_qualname)  # fmt: skip
+        path, name = filename[len(str(REPO)) + 1 :], frame.f_code.co_qualname
+        stack = _stack(frame.f_back) if (path, name) in self._watched else ()
+        call = Call(threading.current_thread().name, path, name, stack)
         with self._lock:
             self.calls.append(call)
 
@@ -57,6 +63,10 @@ class CallTrace:
     def uninstall(self) -> None:
         threading.setprofile(None)
         sys.setprofile(None)
+
+    def watch(self, functions: set[tuple[str, str]]) -> None:
+        """Keep the stack of every call to ``functions`` ((file, qualified name))."""
+        self._watched = set(functions)
 
     def on(self) -> None:
         with self._lock:
@@ -79,3 +89,14 @@ def first_calls(calls: list[Call]) -> list[Call]:
             seen.add((call.path, call.name))
             out.append(call)
     return out
+
+
+def _stack(frame) -> tuple[tuple[str, str], ...]:
+    """The functions of ours on the stack from ``frame`` out, (file, name) outermost first."""
+    out = []
+    while frame is not None:
+        filename = frame.f_code.co_filename
+        if filename.startswith(OURS):
+            out.append((filename[len(str(REPO)) + 1 :], frame.f_code.co_qualname))
+        frame = frame.f_back
+    return tuple(reversed(out))

@@ -1,9 +1,10 @@
 """The shape of the code: no import cycle between our modules nor between any two of our
 packages (promp's core, ``promp/*.py``, the bottom of promp), ``promp`` imports nothing of
 ``app`` or ``robots``, ``robots`` nothing of ``app``, panels nothing of the studio, no file of
-``app`` over 400 lines nor of ``robots`` or ``promp`` over 500, and no class of ``app`` with more
-than 25 members (attributes and methods). docs/ARCHITECTURE.md's paths are checked against a
-trace of the running studio in tests/test_architecture_paths.py.
+``app`` over 400 lines nor of ``robots`` or ``promp`` over 500, no function over 80 lines of
+code, and no class of ``app`` with more than 25 members (attributes and methods).
+docs/ARCHITECTURE.md's paths are checked against a trace of the running studio in
+tests/test_architecture_paths.py.
 
 The import graph is read from the source (every ``import`` statement, also inside functions and
 under ``TYPE_CHECKING``): an edge goes from a module to each module of ours it names.
@@ -184,6 +185,63 @@ def test_no_file_of_promp_is_over_500_lines() -> None:
         for path in (REPO / "promp").rglob("*.py")
         if (n := len(path.read_text(encoding="utf-8").splitlines())) > PROMP_MAX_LINES
     }
+    assert long == {}
+
+
+MAX_FUNCTION_LINES = 80  # lines of code of a function, its docstring excluded
+
+
+def function_lines(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """A function's lines from its ``def`` to its last line (comments and blank lines
+    included, decorators not), its docstring excluded."""
+    lines = node.end_lineno - node.lineno + 1
+    first = node.body[0]
+    if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(
+        first.value.value, str
+    ):
+        lines -= first.end_lineno - first.lineno + 1
+    return lines
+
+
+def long_functions(source: str, path: str) -> dict[str, int]:
+    """{``path:Class.function``: lines} of the functions of ``source`` over
+    :data:`MAX_FUNCTION_LINES` (:func:`function_lines`), methods named by their class."""
+    found = {}
+
+    def visit(node: ast.AST, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.ClassDef):
+                visit(child, f"{prefix}{child.name}.")
+            elif isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
+                if (n := function_lines(child)) > MAX_FUNCTION_LINES:
+                    found[f"{path}:{prefix}{child.name}"] = n
+                visit(child, f"{prefix}{child.name}.")
+
+    visit(ast.parse(source), "")
+    return found
+
+
+def test_the_function_length_counts_code_not_docstrings() -> None:
+    """The check itself: 81 lines of code fail, 80 with a docstring of 30 pass, a nested
+    function and a method are named by what holds them."""
+    body = "".join(f"    x{i} = {i}\n" for i in range(79))
+    docstring = '    """' + "\n" * 29 + '    """\n'
+    assert long_functions(f"def f():\n{docstring}{body}", "m.py") == {}
+    assert long_functions(f"def f():\n{docstring}{body}    y = 0\n", "m.py") == {"m.py:f": 81}
+    nested = f"class C:\n    def g(self):\n        def h():\n{body}    y = 0\n".replace(
+        "\n    x", "\n            x"
+    ).replace("\n    y", "\n            y")
+    assert set(long_functions(nested, "m.py")) == {"m.py:C.g", "m.py:C.g.h"}
+
+
+def test_no_function_is_over_80_lines_of_code() -> None:
+    """No function of promp, app or robots (nested ones and methods too) over
+    :data:`MAX_FUNCTION_LINES` lines of code."""
+    long = {}
+    for package in PACKAGES:
+        for path in sorted((REPO / package).rglob("*.py")):
+            relative = path.relative_to(REPO).as_posix()
+            long.update(long_functions(path.read_text(encoding="utf-8"), relative))
     assert long == {}
 
 

@@ -3,7 +3,9 @@ one step of the Observed % slider (to the tube in 3D) and one take (from Stop to
 prior). The studio runs with a call trace installed (tests/call_trace.py); each documented step
 must be a function the trace entered during that action, in the documented order, on the thread
 the document names (the loop, the save worker, the learner), and the counts the text states
-must be the list's."""
+must be the list's. The path itself is bounded as traced, not as written: the functions and
+modules of ours the documented calls were made through (each one's stack from its thread's
+first function of ours) are no more than SLIDER_PATH and RECORD_PATH."""
 
 from __future__ import annotations
 
@@ -20,6 +22,10 @@ STEP = re.compile(r"^\d+\. `(?P<path>[^`]+)` `(?P<name>[^`]+)` — (?P<text>.*)$
 COUNTS = re.compile(r"(\d+) calls over (\d+) modules")
 # The threads a step may name ("on the learner's worker"): the thread's name in the studio.
 THREADS = {"the loop": "studio-loop", "the save worker": "save-take", "the learner": "learner"}
+# The functions and modules of ours a documented path is traced through (traced_path): what
+# was measured when it was last made shorter; an indirection added on the way fails the test.
+SLIDER_PATH = (12, 9)
+RECORD_PATH = (21, 11)
 THREAD_OF = re.compile(r"\[(the loop|the save worker|the learner)\]")
 
 
@@ -37,25 +43,35 @@ def documented_path(title: str) -> tuple[list[tuple[str, str, str]], tuple[int, 
     return steps, (int(calls), int(modules))
 
 
-def match(steps: list[tuple[str, str, str]], calls: list[Call], start: int) -> int | None:
-    """How many of ``steps`` are found in order in ``calls`` from ``start`` on (each entered
-    after the one before it, on its thread)."""
-    position = start - 1
-    for k, (path, name, thread) in enumerate(steps):
-        found = next((i for i in range(position + 1, len(calls))
+def match(steps: list[tuple[str, str, str]], calls: list[Call], start: int) -> list[int]:
+    """The positions in ``calls`` of the first of ``steps`` found in order from ``start`` on
+    (each entered after the one before it, on its thread)."""
+    positions = [start - 1]
+    for path, name, thread in steps:
+        found = next((i for i in range(positions[-1] + 1, len(calls))
                       if (calls[i].path, calls[i].name) == (path, name)
                       and calls[i].thread.startswith(thread)), None)  # fmt: skip
         if found is None:
-            return k
-        position = found
-    return len(steps)
+            break
+        positions.append(found)
+    return positions[1:]
 
 
-def assert_path(title: str, calls: list[Call]) -> None:
+def traced_path(calls: list[Call]) -> tuple[int, int]:
+    """(functions, modules) of ours that ``calls`` were made through: each call's stack from
+    its thread's first function of ours, and the call itself. An indirection added on the way
+    to any of them is one function more."""
+    functions = {frame for call in calls for frame in (*call.stack, (call.path, call.name))}
+    print("traced through", sorted(functions))  # shown when the bound fails
+    return len(functions), len({path for path, _ in functions})
+
+
+def assert_path(title: str, calls: list[Call]) -> list[Call]:
     """The documented steps of ``title`` are a subsequence of ``calls`` (in time order),
     starting at one of the calls of its first step (the trace may begin in the middle of a
     frame): each step entered after the step before it, on the thread the document names.
-    The counts the text states are the list's, and the path is short."""
+    The counts the text states are the list's, and the path is short. Returns the calls that
+    matched the steps."""
     steps, stated = documented_path(title)
     counted = (len(steps), len({path for path, _, _ in steps}))
     assert counted == stated, (title, counted, stated)
@@ -63,13 +79,25 @@ def assert_path(title: str, calls: list[Call]) -> None:
     first = steps[0][:2]
     starts = [i for i, c in enumerate(calls) if (c.path, c.name) == first]
     assert starts, f"{title}: its first step {first} was not called"
-    best = max(match(steps, calls, start) for start in starts)
+    found = max((match(steps, calls, start) for start in starts), key=len)
+    best = len(found)
     if best < len(steps):
         path, name, thread = steps[best]
         threads = sorted({c.thread for c in calls if c.name == name})
         raise AssertionError(f"{title}, step {best + 1}: {path} {name} was not called "
                              f"{'on ' + thread + ' ' if thread else ''}after step {best} (it was "
                              f"called on {threads})")  # fmt: skip
+    return [calls[i] for i in found]
+
+
+def within(traced: tuple[int, int], bound: tuple[int, int]) -> bool:
+    """No more functions and no more modules than ``bound``."""
+    return traced[0] <= bound[0] and traced[1] <= bound[1]
+
+
+def watch(trace: CallTrace, title: str) -> None:
+    """Keep the stacks of the documented steps of ``title``."""
+    trace.watch({(path, name) for path, name, _ in documented_path(title)[0]})
 
 
 @pytest.fixture(scope="module")
@@ -103,6 +131,7 @@ def test_one_slider_step_calls_the_documented_path(traced) -> None:
             return None
         return view.result if studio.scene.inference.drawn.result is view.result else None
 
+    watch(trace, "The slider's path")
     controls.percent.value = 30  # the held-out model fitted first: not part of a step
     wait_until(lambda: shown_at(30), timeout=120, what="the first view drawn")
     trace.on()
@@ -112,7 +141,8 @@ def test_one_slider_step_calls_the_documented_path(traced) -> None:
     controls.percent.value = 60
     wait_until(lambda: shown_at(60), timeout=60, what="the step at 60 % drawn")
     calls = trace.off()
-    assert_path("The slider's path", calls)
+    traced = traced_path(assert_path("The slider's path", calls))
+    assert within(traced, SLIDER_PATH), traced
 
 
 def test_one_take_calls_the_documented_path(traced) -> None:
@@ -126,6 +156,7 @@ def test_one_take_calls_the_documented_path(traced) -> None:
                timeout=120, what="the priors drawn")  # fmt: skip
     before = np.array(tubes["curved"].vertices)
     n_before = len(store.state.demos["curved"])
+    watch(trace, "The record path")
     # A curved take: the hand along curved_000's path, from its start to its end (a take that
     # starts or ends elsewhere is flagged and left out, and the prior is never redrawn), in
     # 16 steps, the simulated partner looking at the hand itself (not 0.6 s ahead of it) and
@@ -161,6 +192,7 @@ def test_one_take_calls_the_documented_path(traced) -> None:
     trace.on()
     record.press()  # Stop
     wait_until(lambda: len(store.state.demos["curved"]) == n_before + 1, what="the take saved")
+
     def why() -> str:
         state, learner = store.state, studio.session.learner.state
         return (f"the prior of curved redrawn (left out: {dict(state.left_out)}; learned from "
@@ -174,4 +206,5 @@ def test_one_take_calls_the_documented_path(traced) -> None:
                timeout=120, what="the take's typicality")  # fmt: skip
     wait_until(lambda: name in record.controls.status.content, what="the take's outcome shown")
     calls = trace.off()
-    assert_path("The record path", calls)
+    traced = traced_path(assert_path("The record path", calls))
+    assert within(traced, RECORD_PATH), traced

@@ -18,11 +18,12 @@ from app.io.dataset_import import dataset_to_workspace
 from app.io.demo_sources import DemoSources
 from app.io.exchange import read_workspace_zip, workspace_zip
 from app.io.workspace import Workspace
-from app.live.inference import TEST, InferState, choose_model
+from app.live.inference import TEST
 from app.panels.data.evaluation import EvaluationJob
 from app.panels.data.evaluation_plan import NO_GROUPS, plan_evaluation
 from app.panels.data.evaluation_section import summary
 from app.panels.data.results import grouped_markdown
+from app.panels.infer.view_model import InferState, choose_model
 from promp.data import Demonstration
 from tests.conftest import FITS, wait_until
 from tests.synthetic import LAYOUT, make_dataset

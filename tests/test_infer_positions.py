@@ -21,7 +21,7 @@ from app.scene.tubes import region_vertices
 from promp.data import Demonstration, Layout, Modality
 from promp.inference import Observation
 from promp.learn import fit
-from robots.icub.layout import HAND, HEAD, is_position, position_modalities
+from robots.icub.layout import HAND, HEAD, position_modalities
 from robots.icub.scenario import generate_scenario
 from tests.browser import choose, settled_screenshot
 from tests.conftest import PageSpec, StudioSpec, wait_frames, wait_until
@@ -60,12 +60,12 @@ PAGE = PageSpec(tab="Infer", dpr=1.0)
 
 
 def test_a_position_is_three_linear_columns_in_metres() -> None:
-    assert is_position(HAND) and is_position(PARTNER)
-    assert is_position(Modality("marker", ("hx", "hy", "hz"), unit=""))  # a CSV's, no unit
-    assert not is_position(HEAD)  # angles
-    assert not is_position(Modality("force", ("fx", "fy", "fz"), unit="N"))
-    assert not is_position(Modality("marker", ("a", "b", "c"), unit=""))  # not named x, y, z
-    assert not is_position(Modality("plane", ("x", "y"), unit="m"))
+    assert HAND.is_position and PARTNER.is_position
+    assert Modality("marker", ("hx", "hy", "hz"), unit="").is_position  # a CSV's, no unit
+    assert not HEAD.is_position  # angles
+    assert not Modality("force", ("fx", "fy", "fz"), unit="N").is_position
+    assert not Modality("marker", ("a", "b", "c"), unit="").is_position  # not named x, y, z
+    assert not Modality("plane", ("x", "y"), unit="m").is_position
     layout = Layout((HEAD, PARTNER, HAND))
     assert [m.name for m in position_modalities(layout)] == ["hand", "partner"]  # hand first
 

@@ -19,7 +19,8 @@ from app.live.stream import LiveStream
 from app.ui.display import observed_choices
 from promp import metrics
 from promp.data import Demonstration
-from promp.inference import condition, predict
+from promp.evidence.pipeline import condition
+from promp.inference import predict
 from promp.learn import fit
 from promp.model import Settings
 from promp.timing import n_observed_for

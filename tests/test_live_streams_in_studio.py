@@ -2,7 +2,7 @@
 (tests/lsl_loopback.cfg): an outlet replaying a demonstration of lab-records-flt (in mm, at
 its real rate and 2.5 times faster) is listed, its mapping guessed, a wrong one refused, the
 right one started; each movement's prediction reaches the bars and the 3D view and equals
-promp.pipeline.infer on the samples pushed, and the studio's published streams carry the
+promp.evidence.infer on the samples pushed, and the studio's published streams carry the
 same numbers; injected faults show their status in the page; a movement recorded in Teach's
 Live takes lands in the workspace."""
 
@@ -17,10 +17,11 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from app.live.inference import LSL, TUBE_POINTS
+from app.live.inference import TUBE_POINTS
 from app.panels.infer import InferPanel
+from app.panels.infer.view_model import LSL
+from promp.evidence.pipeline import infer
 from promp.inference import Observation
-from promp.pipeline import infer
 from tests.browser import (
     choose,
     click,
@@ -106,7 +107,7 @@ def top_demo(speed: float):
 
 
 def expected(model, stamps: np.ndarray, values_m: np.ndarray, start: float, n: int):
-    """promp.pipeline.infer on the ``n`` samples pushed from the one stamped ``start``."""
+    """promp.evidence.infer on the ``n`` samples pushed from the one stamped ``start``."""
     i0 = int(np.argmin(np.abs(stamps - start)))
     obs = Observation(stamps[i0:i0 + n] - stamps[i0], values_m[i0:i0 + n], ("hand",))
     return obs, infer(model, obs, n_points=TUBE_POINTS)

@@ -18,12 +18,12 @@ from app.live.live_takes import JOURNALS_DIR, TakeRecorder, recover_takes, save_
 from app.live.lsl_placement import PlacedTransport
 from app.live.lsl_source import LiveConfig, LslSource
 from promp.data import Demonstration
+from promp.evidence.pipeline import infer
 from promp.inference import Observation
 from promp.live.journal import read_journal
 from promp.live.recorder import Recorder, movement_of
 from promp.live.session import LiveOptions, LiveSession
 from promp.live.source import LiveInput
-from promp.pipeline import infer
 from robots.icub.placement import Placement
 from tests.conftest import wait_until
 from tests.live_fakes import (

@@ -12,12 +12,11 @@ from scipy import stats
 
 from promp import metrics
 from promp.duration import choose_temperature, summarise, timing, weighted_quantiles
-from promp.inference import Observation, log_likelihoods
+from promp.evidence.pipeline import infer, log_likelihoods, recognise
+from promp.inference import Observation
 from promp.io import model_from_dict, model_to_dict
 from promp.learn import fit
 from promp.model import Settings
-from promp.pipeline import infer
-from promp.recognition import recognise
 from promp.timing import alpha_from_duration, duration_from_alpha
 from tests.synthetic import LAYOUT, make_dataset
 

@@ -15,11 +15,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from promp.inference import Gaussian, Observation, condition, log_likelihoods, predict
+from promp.evidence.pipeline import condition, infer, log_likelihoods, recognise
+from promp.evidence.speed import AlphaPrior
+from promp.inference import Gaussian, Observation, predict
 from promp.learn import fit
 from promp.model import Settings
-from promp.pipeline import infer
-from promp.recognition import AlphaPrior, recognise
 from tests import dense_reference as dense
 from tests.synthetic import LAYOUT, make_dataset, make_demo
 
@@ -57,20 +57,20 @@ def test_both_forms_of_the_likelihood_match_dense_brute_force(
 ) -> None:
     """The Woodbury form and the weight-space form (each chosen where it is cheaper), at two
     noise levels, against the dense formula."""
-    from promp import _likelihood, _weight_space
+    from promp.evidence import weight_space, woodbury
+    from promp.evidence.evidence import Evidence
     from promp.timing import duration_from_alpha
 
     obs = Observation.from_demo(model, test_demo, n_observed, modalities)
-    dims = model.layout.dims(modalities)
+    evidence = Evidence(model, obs)
+    dims = evidence.dims
     for prim in model.primitives[:1]:
         alphas = prim.alphas[:2]
         durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
         noise = prim.noise_var[dims][None, :] * np.array([[1.0], [2.0]])
-        if form == "woodbury":
-            rot = _likelihood.rotate(model, prim, obs, dims, alphas, durations)
-            fast = _likelihood._log_likelihood(_likelihood.woodbury(rot, noise), obs.values.size)
-        else:
-            fast = _weight_space.log_likelihoods(model, prim, obs, dims, alphas, durations, noise)
+        sums = evidence._sums(prim, alphas, durations)
+        form = woodbury if form == "woodbury" else weight_space
+        fast = form.log_likelihoods(sums, prim, dims, noise)
         for level, factor in enumerate((1.0, 2.0)):
             louder = dataclasses.replace(prim, noise_var=prim.noise_var * factor)
             slow = [dense.log_likelihood(model, louder, obs, a) for a in alphas]
@@ -241,7 +241,7 @@ def test_the_speed_prior_of_a_primitive_is_computed_once_and_is_its_training_spe
     its training alphas, kept on the primitive (the same object at the next step); the
     "model" prior mixes it with the Eq. 7 regression and is not kept (it depends on the
     observation)."""
-    from promp.recognition import alpha_prior
+    from promp.evidence.speed import alpha_prior
 
     obs = Observation.from_demo(model, test_demo, 30, ["hand"])
     prim = model.primitives[0]
@@ -336,7 +336,7 @@ import promp
 from promp.inference import Observation
 from promp.learn import fit
 from promp.model import Settings
-from promp.pipeline import infer
+from promp.evidence.pipeline import condition, infer, log_likelihoods, recognise
 from tests.synthetic import LAYOUT, make_dataset
 seen["imported"] = blas()
 data = make_dataset(seed=0, n_demos=5)

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from promp.inference import Observation, condition, predict
+from promp.evidence.pipeline import condition, recognise
+from promp.inference import Observation, predict
 from promp.io import (
     demo_from_npz_bytes,
     demo_to_npz_bytes,
@@ -22,7 +23,6 @@ from promp.io import (
 )
 from promp.learn import fit
 from promp.model import Settings
-from promp.recognition import recognise
 from tests.synthetic import LAYOUT, make_dataset
 
 

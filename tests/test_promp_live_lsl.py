@@ -1,6 +1,6 @@
 """Live sessions over real LSL on the loopback (tests/lsl_loopback.cfg): an outlet replays a
 recorded demonstration of a shared set, at its real rate and faster, into a session on its own
-threads; the predictions equal promp.pipeline.infer on the samples pushed, and docs/live.md's
+threads; the predictions equal promp.evidence.infer on the samples pushed, and docs/live.md's
 robot-side reader reads them from the published streams. A stream that vanishes is found
 again. Where liblsl cannot load, the message says what to do."""
 
@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
+from promp.evidence.pipeline import infer
 from promp.inference import Observation
 from promp.live.status import Condition
-from promp.pipeline import infer
 from tests.conftest import REPO, wait_until
 from tests.live_fakes import flt_dataset, hand_model, held
 

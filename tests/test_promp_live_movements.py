@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from promp.data import Layout, Modality
+from promp.evidence.pipeline import infer
 from promp.learn import fit
 from promp.model import Settings
 from promp.observation import Observation
-from promp.pipeline import infer
 from promp.stillness import SMOOTH_S
 from tests.live_fakes import flt_dataset, guided_split, replay_over_lsl, slowed_middle
 

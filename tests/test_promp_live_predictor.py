@@ -1,4 +1,4 @@
-"""The online predictor: each update is promp.pipeline.infer on the movement's samples so far
+"""The online predictor: each update is promp.evidence.infer on the movement's samples so far
 (the same numbers, exactly), whether one stream or several at different rates feed it; the
 predicted remainder at a stated rate."""
 
@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.testing import assert_allclose, assert_array_equal
 
+from promp.evidence.pipeline import infer
 from promp.inference import Observation, trajectory_at
 from promp.learn import fit
 from promp.model import Settings
-from promp.pipeline import infer
 from promp.rigs.streams import Stream, on_one_clock
 from tests.live_fakes import (
     FakeStream,

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from promp.evidence.pipeline import infer
 from promp.inference import predict
 from promp.io import MODEL_VERSION, READABLE_VERSIONS, load_model, model_to_dict, save_model
 from promp.observation import Observation
-from promp.pipeline import infer
 
 FOLDER = Path(__file__).parent / "data" / "model_format"
 FILES = sorted(p for p in FOLDER.glob("v*.json") if not p.name.endswith(".prior.json"))

@@ -29,8 +29,8 @@ from tests.synthetic import LAYOUT, make_dataset
 FUNCTIONS = ("fit", "infer", "recognise", "condition", "predict", "condition_on_via_points",
              "save_model", "load_model", "read_dataset", "leave_one_out")  # fmt: skip
 TYPES = ("Demonstration", "Layout", "Modality", "Observation", "Settings", "ProMPModel",
-         "Primitive", "Inference", "Recognition", "Posterior", "Prediction", "ViaPoint",
-         "DatasetRead", "SweepResult", "CommitRule")  # fmt: skip
+         "Primitive", "Evidence", "Inference", "Recognition", "Posterior", "Prediction",
+         "ViaPoint", "DatasetRead", "SweepResult", "CommitRule")  # fmt: skip
 # Modules without ``__all__``, and why.
 WITHOUT_ALL = {
     "promp.evaluate.__main__": "a script: ``python -m promp.evaluate``",

@@ -14,11 +14,11 @@ import pytest
 
 from promp.data import Demonstration
 from promp.datasets import read_csv_demo, read_dataset, write_csv_dataset
+from promp.evidence.pipeline import infer
 from promp.gaps import repair_gaps
 from promp.inference import Observation
 from promp.learn import fit
 from promp.model import Settings
-from promp.pipeline import infer
 from promp.quality import Finding, dataset_findings, demo_findings, split_flagged
 from promp.timing import n_observed_for
 from promp.weights import fit_all_weights

@@ -132,3 +132,34 @@ def test_the_region_holds_near_its_probability_of_real_demonstrations(name) -> N
     assert all(0.85 <= s <= 1.0 for s in shares.values()), shares
     pooled = np.mean(list(shares.values()))
     assert 0.88 <= pooled <= 0.98, shares
+
+
+def test_a_modalitys_region_mean_and_shaped_prior_are_the_textbook_ones(model) -> None:
+    """modality_region: sample_distribution on evenly spaced phases with the samples' noise;
+    mean_position: the weights' mean through the basis at one phase (the region's mean there);
+    shaped_prior: a new movement at the primitive's typical speed, conditioned on via-points at
+    that speed (none: the new movement itself)."""
+    import math
+
+    from promp.region import mean_position, modality_region, shaped_prior
+    from promp.via_points import ViaPoint, condition_on_via_points
+
+    name = model.names[0]
+    primitive = model.primitive(name)
+    alpha, weights = shaped_prior(model, name)
+    assert alpha == math.exp(primitive.log_alpha_mean)
+    assert_allclose(weights.cov, new_movement(primitive).cov, rtol=0, atol=0)
+    region = modality_region(model, weights, "hand", 11)
+    dims = model.layout.dims(["hand"])
+    noise = sample_noise_var(model, model.primitives[0])
+    expected = sample_distribution(model, weights, dims, np.linspace(0, 1, 11), noise)
+    assert_allclose(region.cov, expected.cov, rtol=0, atol=0)
+    assert_allclose(mean_position(model, weights, "hand", 0.3), region.mean[3], atol=1e-12)
+    point = ViaPoint.isotropic(model.layout.modality("hand").columns, region.mean[5] + 0.01,
+                               0.001, phase=0.5)  # fmt: skip
+    _, through = shaped_prior(model, name, [point])
+    conditioned = condition_on_via_points(model, weights, [point], alpha)
+    assert_allclose(through.mean, conditioned.mean, rtol=0, atol=0)
+    before = np.linalg.norm(mean_position(model, weights, "hand", 0.5) - point.values)
+    after = np.linalg.norm(mean_position(model, through, "hand", 0.5) - point.values)
+    assert after < 0.2 * before  # a tight point 1.7 cm off: most of the way to it

@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from promp.data import Demonstration, Layout, Modality
+from promp.evidence.pipeline import infer
 from promp.inference import Observation
 from promp.learn import fit
 from promp.model import Settings
-from promp.pipeline import infer
 from tests.synthetic import make_dataset
 
 # The synthetic head as a linear modality: angles are radians by definition (they are

@@ -190,18 +190,20 @@ def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(
 ) -> None:
     """:func:`promp.selection.loo_score` (every trial of a modality set at once, padded,
     whitened, every primitive at every node) against the engine's own Eq. 6
-    (:func:`promp._likelihood.log_likelihoods_scaled`) on a model whose true primitive is
-    the downdated one, with the same nodes and quadrature weights, and those weights against
-    :func:`promp.recognition.quadrature_weights` over :meth:`AlphaPrior.span`. Both ways of
+    (:meth:`promp.evidence.Evidence.log_likelihoods` at each noise level) on a model whose
+    true primitive is the downdated one, with the same nodes and quadrature weights, and those
+    weights against :func:`promp.evidence.speed.quadrature_weights` over
+    :meth:`AlphaPrior.span`. Both ways of
     factorising the bordered matrices: as one stack, and one at a time (many weights)."""
     import dataclasses as dc
     import math
 
-    from promp._likelihood import log_likelihoods_scaled
     from promp.data import sample_period_of
+    from promp.evidence import Evidence
+    from promp.evidence.speed import AlphaPrior, quadrature_weights
     from promp.fitting import fit_parts
     from promp.observation import Observation
-    from promp.recognition import AlphaPrior, label_noise, quadrature_weights
+    from promp.recognition import label_noise
     from promp.timing import n_observed_for
 
     monkeypatch.setattr(batches, "LOO_ROWS", 10_000)  # every sample: the engine's input
@@ -248,7 +250,7 @@ def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(
                 factors = np.full((1, model.n_dims), scale**2)
                 evidence = np.array([
                     np.logaddexp.reduce(
-                        log_likelihoods_scaled(reference, p, obs, np.exp(nodes), factors)[0]
+                        Evidence(reference, obs).log_likelihoods(p, np.exp(nodes), factors)[0]
                         + batch.log_weights[row, kk]
                     )
                     for kk, p in enumerate(reference.primitives)
@@ -367,7 +369,7 @@ def test_a_refit_keeps_the_previous_choice_while_it_beats_the_runner_up(monkeypa
 def test_the_priors_without_each_demonstration_match_the_speed_prior() -> None:
     """:func:`promp.selection.batches.priors_without_each` (every demonstration left out at
     once) against :meth:`AlphaPrior.from_alphas` of the others, a far-out speed among them."""
-    from promp.recognition import AlphaPrior
+    from promp.evidence.speed import AlphaPrior
 
     rng = np.random.default_rng(0)
     for n in (3, 4, 10, 40):
@@ -381,11 +383,11 @@ def test_the_priors_without_each_demonstration_match_the_speed_prior() -> None:
 
 
 def test_the_speed_prior_is_the_predictive_of_the_winsorized_sample() -> None:
-    """:func:`promp.recognition.speed_prior` (the one both paths call) against its definition
+    """:func:`promp.evidence.speed.speed_prior` (the one both paths call) against its definition
     written out: the far-out speed brought to the nearest ordinary one, the sample's mean,
     its standard deviation inflated by sqrt(1 + 1/n), n - 1 degrees of freedom; the floor of
     one sample's worth of duration when the sample hardly spreads."""
-    from promp.recognition import speed_prior
+    from promp.evidence.speed import speed_prior
 
     logs = np.log([0.9, 1.0, 1.1, 1.05, 30.0])
     loc, scale, dof = speed_prior(logs, 100.0)
@@ -402,11 +404,11 @@ def test_the_speed_prior_is_the_predictive_of_the_winsorized_sample() -> None:
 
 
 def test_the_batched_logsumexp_is_the_single_one_row_by_row() -> None:
-    """One logsumexp: :func:`promp._likelihood.logsumexp` is :func:`logsumexp_rows` of one
+    """One logsumexp: :func:`promp.evidence.speed.logsumexp` is :func:`logsumexp_rows` of one
     row; rows with -inf entries, all -inf, +inf, and an empty last axis; against scipy."""
     from scipy.special import logsumexp as reference
 
-    from promp._likelihood import logsumexp, logsumexp_rows
+    from promp.evidence.speed import logsumexp, logsumexp_rows
 
     rng = np.random.default_rng(1)
     values = rng.normal(0.0, 300.0, (6, 4, 9))
@@ -432,7 +434,7 @@ def test_the_batched_student_t_and_quadrature_are_recognitions() -> None:
     :func:`t_logpdf` against scipy's Student-t."""
     from scipy import stats
 
-    from promp.recognition import AlphaPrior, quadrature_weights, t_logpdf
+    from promp.evidence.speed import AlphaPrior, quadrature_weights, t_logpdf
     from promp.selection.batches import LOO_NODES, _quadrature_grid
 
     rng = np.random.default_rng(2)

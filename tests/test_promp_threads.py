@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from promp._threads import promp_blas_threads
+from promp.evidence.pipeline import infer
 from promp.inference import Observation
 from promp.learn import fit
 from promp.model import Settings
-from promp.pipeline import infer
 from tests.synthetic import LAYOUT, make_dataset
 
 SECONDS = 3.0  # how long the four threads infer together

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from promp.inference import Gaussian, Observation, condition, predict
+from promp.evidence.pipeline import condition
+from promp.inference import Gaussian, Observation, predict
 from promp.io import model_to_json
 from promp.learn import fit
 from promp.model import Settings

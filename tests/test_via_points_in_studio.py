@@ -13,11 +13,12 @@ from numpy.testing import assert_allclose
 
 from app.core.via_state import checked
 from app.live.inference import inferred
-from app.live.regions import TUBE_POINTS, mean_position, prior_shape
+from app.live.regions import TUBE_POINTS, prior_shape
 from app.panels.teach import TeachPanel
 from app.scene.tubes import RING, region_vertices
 from promp.inference import Observation
 from promp.learn import fit
+from promp.region import mean_position
 from promp.via_points import condition_on_via_points
 from robots.icub.layout import HAND, STUDIO_LAYOUT
 from robots.icub.scenario import generate_scenario
@@ -273,7 +274,7 @@ def test_in_infer_the_errors_are_those_of_the_prediction_through_the_via_points(
     from app.panels.infer.readout import errors_line
     from app.ui.display import shown
     from promp.inference import predict
-    from promp.pipeline import measure
+    from promp.metrics import measure
 
     model, demo, obs, plain = held_out_at_40()
     assert plain.errors is plain.inference.errors  # no via-point: the method's own

@@ -42,9 +42,9 @@ class LearnerState:
     n_demos : int
         The demonstrations it was learned from.
     request : int
-        The refit request it answers (:meth:`Learner.refit` waits for its own).
+        The refit request it answers (:meth:`app.core.learner.Learner.wait` waits for its own).
     held_out : mapping of HeldOutKey to Fitted
-        Models learned without one demonstration, by :func:`held_out_key`.
+        Models learned without one demonstration, by :func:`app.core.learner.held_out_key`.
     scores : mapping of int to (Demonstration, Typicality or None)
         The takes' typicality, by the id of the demonstration scored (a take of the same
         name recorded again is another demonstration, scored anew).

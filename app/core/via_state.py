@@ -89,3 +89,16 @@ def checked(
 def of_primitive(points: Sequence[StudioViaPoint], primitive: str | None) -> tuple:
     """The via-points of ``primitive``, in the order they were added."""
     return tuple(p for p in points if p.primitive == primitive)
+
+
+def by_primitive(points: Sequence[StudioViaPoint], layout: Layout) -> dict[str, tuple]:
+    """Each primitive's via-points of ``points`` on ``layout``'s hand
+    (:meth:`StudioViaPoint.for_model`), in the order they were added; none when ``layout`` has
+    no hand. What :meth:`promp.evidence.Evidence.infer` takes: it uses the recognised
+    primitive's."""
+    if HAND.name not in layout.names:
+        return {}
+    out: dict[str, tuple] = {}
+    for point in points:
+        out[point.primitive] = (*out.get(point.primitive, ()), point.for_model(layout))
+    return out

@@ -113,7 +113,8 @@ class HeadPoseEstimator:
     search_tiles : bool
         When the whole-frame detection finds no face, also scan overlapping tiles, which finds
         faces down to about 35 pixels wide instead of about 70 in a 640x480 frame (more detector
-        runs, only while no face is tracked). See :meth:`FaceDetector.detect_tiled`.
+        runs, only while no face is tracked). See
+        :meth:`app.headpose.detector.FaceDetector.detect_tiled`.
     models : ModelPaths, optional
         Model files; default :func:`app.headpose.models.locate_models`.
 

@@ -6,16 +6,14 @@ the recordings of a rig, :mod:`promp.rigs`: YARP dumps, ROS bags, XDF, C3D), rea
 :func:`promp.datasets.read_dataset` as ``python -m promp.evaluate``, with a layout of
 modalities given or guessed from the columns (from the streams). It arrives either as a folder
 on the server (``python -m app --import-dataset DIR``) or as an uploaded zip of that folder (the
-Data tab), which is checked member by member like a workspace archive (no absolute paths,
-``..``, links or encrypted members; bounded count and size) and extracted into a temporary
-folder the studio makes and removes; a single session file (``.bag``, ``.mcap``, ``.db3``,
+Data tab), checked member by member like a workspace archive (no absolute paths, ``..``, links
+or encrypted members; bounded) and extracted into a temporary folder the studio removes; a single session file (``.bag``, ``.mcap``, ``.db3``,
 ``.xdf``, ``.xdfz``, ``.c3d``, cut into demonstrations by its markers) may be uploaded as it is.
 
-The source is only read. Primitive and demonstration names become safe file names (other
-characters become ``_``; ``person1/record0`` becomes ``person1_record0``). Refused, with the file
-or class named and nothing written: no demonstration at all, an unreadable or non-numeric file,
-a class with fewer than two demonstrations (no distribution can be learned from one), a
-modality naming a column the files lack, a ``hand`` modality that is not 3 columns in metres.
+The source is only read. Names become safe file names (``person1/record0`` becomes
+``person1_record0``). Refused, with the file or class named and nothing written: no
+demonstration, an unreadable or non-numeric file, a class of fewer than two demonstrations, a
+modality naming a column the files lack, a ``hand`` that is not 3 columns in metres.
 """
 
 from __future__ import annotations
@@ -159,11 +157,9 @@ def dataset_to_workspace(
     dataset: Dataset, layout: Layout, findings: Sequence[Finding] = ()
 ) -> WorkspaceData:
     """The workspace holding ``dataset`` with ``layout`` (names made safe, colours assigned,
-    each demonstration's name as read, its path below its class folder, kept in
-    ``data.sources``), and the readers' ``findings`` (:func:`promp.datasets.read_dataset`)
-    that cannot be found again from the stored files (samples set aside for their
-    timestamps), under the new names (``data.checks.imported``); every demonstration is to be
-    scored for typicality (``data.checks.scores.pending``, :mod:`app.io.demo_scores`).
+    each one's path below its class folder in ``data.sources``), the readers' ``findings``
+    (:func:`promp.datasets.read_dataset`) not found again from the stored files, under the
+    new names (``data.checks.imported``); each is to be scored (:mod:`app.io.demo_scores`).
 
     Raises
     ------

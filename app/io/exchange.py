@@ -227,43 +227,11 @@ def read_workspace_zip(
     limits = limits or Limits()
     try:
         archive = zipfile.ZipFile(io.BytesIO(content))
-    except (
-        zipfile.BadZipFile,
-        zipfile.LargeZipFile,
-        NotImplementedError,  # e.g. an unknown zip version
-        ValueError,
-        EOFError,
-        OSError,
-    ) as exc:
-        raise ValueError(f"not a zip archive ({exc})") from None
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, ValueError, EOFError, OSError,
+            NotImplementedError) as exc:  # (NotImplementedError: e.g. an unknown zip version)
+        raise ValueError(f"not a zip archive ({exc})") from None  # fmt: skip
     with archive:
-        infos = archive.infolist()
-        if len(infos) > limits.max_members:
-            raise ValueError(
-                f"the archive holds {len(infos)} entries; at most {limits.max_members} allowed"
-            )
-        total = sum(info.file_size for info in infos)
-        if total > limits.max_uncompressed_bytes:
-            raise ValueError(
-                f"the archive expands to {format_size(total)}, over the "
-                f"{format_size(limits.max_uncompressed_bytes)} limit"
-            )
-        files: dict[str, zipfile.ZipInfo] = {}
-        ignored: list[str] = []
-        for info in infos:
-            name = check_member(info)
-            if info.is_dir():
-                continue
-            if name in files:
-                raise ValueError(f"{name}: appears twice in the archive")
-            files[name] = info
-        for name in list(files):
-            parts = name.split("/")
-            if parts[0] == "__MACOSX" or parts[-1].startswith("."):  # Finder's and hidden files
-                ignored.append(name)
-                del files[name]
-        prefix = _common_root(files)
-        members = {name[len(prefix) :]: info for name, info in files.items()}
+        members, prefix, ignored = _members(archive, limits)
         if INDEX_NAME not in members:
             raise ValueError(
                 f"no {INDEX_NAME}: not a studio workspace (a workspace archive holds "
@@ -283,14 +251,7 @@ def read_workspace_zip(
             if inner == INDEX_NAME:
                 continue
             if inner.startswith(f"{RUNS_DIR}/"):
-                folder, _, relative = inner[len(RUNS_DIR) + 1 :].partition("/")
-                if not relative:
-                    raise ValueError(f"{label}: unexpected file; a run is a folder, "
-                                     f"{RUNS_DIR}/<run>/{RUN_FILE} and its files")  # fmt: skip
-                try:
-                    run_path(PurePosixPath("."), folder)
-                except ValueError as exc:
-                    raise ValueError(f"{label}: {exc}") from None
+                folder, relative = _run_member(inner, label)
                 runs.setdefault(folder, {})[relative] = read(inner)
                 continue
             if inner == MODEL_NAME:
@@ -299,19 +260,7 @@ def read_workspace_zip(
                 except ValueError as exc:
                     raise ValueError(f"{label}: {exc}") from None
                 continue
-            parts = inner.split("/")
-            if len(parts) != 3 or parts[0] != DEMOS_DIR or not parts[2].endswith(".csv"):
-                raise ValueError(
-                    f"{label}: unexpected file; a workspace archive holds {INDEX_NAME}, "
-                    f"{DEMOS_DIR}/<primitive>/<demo>.csv and optionally {MODEL_NAME} and "
-                    f"{RUNS_DIR}/<run>/"
-                )
-            primitive, stem = parts[1], parts[2][: -len(".csv")]
-            try:
-                check_name(primitive)
-                check_name(stem, "demonstration")
-            except ValueError as exc:
-                raise ValueError(f"{label}: {exc}") from None
+            primitive, stem = _demo_member(inner, label)
             if primitive not in demos:
                 raise ValueError(f"{label}: primitive {primitive!r} is not listed in {INDEX_NAME}")
             demos[primitive].append(_parse_demo(read(inner), stem, label, index.layout))
@@ -325,6 +274,73 @@ def read_workspace_zip(
 
 
 # ---------------------------------------------------------------------------------- helpers
+
+
+def _members(
+    archive: zipfile.ZipFile, limits: Limits
+) -> tuple[dict[str, zipfile.ZipInfo], str, list[str]]:
+    """The archive's files by their name in its root folder, that root, the files left out
+    (Finder's, hidden); ValueError on too many entries, too many bytes, a bad or repeated name."""
+    infos = archive.infolist()
+    if len(infos) > limits.max_members:
+        raise ValueError(
+            f"the archive holds {len(infos)} entries; at most {limits.max_members} allowed"
+        )
+    total = sum(info.file_size for info in infos)
+    if total > limits.max_uncompressed_bytes:
+        raise ValueError(
+            f"the archive expands to {format_size(total)}, over the "
+            f"{format_size(limits.max_uncompressed_bytes)} limit"
+        )
+    files: dict[str, zipfile.ZipInfo] = {}
+    ignored: list[str] = []
+    for info in infos:
+        name = check_member(info)
+        if info.is_dir():
+            continue
+        if name in files:
+            raise ValueError(f"{name}: appears twice in the archive")
+        files[name] = info
+    for name in list(files):
+        parts = name.split("/")
+        if parts[0] == "__MACOSX" or parts[-1].startswith("."):  # Finder's and hidden files
+            ignored.append(name)
+            del files[name]
+    prefix = _common_root(files)
+    return {name[len(prefix) :]: info for name, info in files.items()}, prefix, ignored
+
+
+def _run_member(inner: str, label: str) -> tuple[str, str]:
+    """``(run folder, file in it)`` of a member under ``runs/``; ValueError naming ``label``
+    for a file directly in ``runs/`` or a folder's name the runs folder refuses."""
+    folder, _, relative = inner[len(RUNS_DIR) + 1 :].partition("/")
+    if not relative:
+        raise ValueError(f"{label}: unexpected file; a run is a folder, "
+                         f"{RUNS_DIR}/<run>/{RUN_FILE} and its files")  # fmt: skip
+    try:
+        run_path(PurePosixPath("."), folder)
+    except ValueError as exc:
+        raise ValueError(f"{label}: {exc}") from None
+    return folder, relative
+
+
+def _demo_member(inner: str, label: str) -> tuple[str, str]:
+    """``(primitive, demonstration)`` of a member that must be ``demos/<primitive>/<demo>.csv``;
+    ValueError naming ``label`` for any other file or a name the workspace refuses."""
+    parts = inner.split("/")
+    if len(parts) != 3 or parts[0] != DEMOS_DIR or not parts[2].endswith(".csv"):
+        raise ValueError(
+            f"{label}: unexpected file; a workspace archive holds {INDEX_NAME}, "
+            f"{DEMOS_DIR}/<primitive>/<demo>.csv and optionally {MODEL_NAME} and "
+            f"{RUNS_DIR}/<run>/"
+        )
+    primitive, stem = parts[1], parts[2][: -len(".csv")]
+    try:
+        check_name(primitive)
+        check_name(stem, "demonstration")
+    except ValueError as exc:
+        raise ValueError(f"{label}: {exc}") from None
+    return primitive, stem
 
 
 def _common_root(files: Mapping[str, zipfile.ZipInfo]) -> str:

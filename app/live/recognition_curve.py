@@ -14,18 +14,31 @@ from __future__ import annotations
 import threading
 import time
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from app.core.fits import LruCache
-from app.live.inference import CurveRequest, demo_observation
+from app.live.inference import demo_observation
 from promp.data import Demonstration
+from promp.evidence.pipeline import recognise
 from promp.model import ProMPModel
-from promp.recognition import recognise
 
 PERCENTS = np.arange(1.0, 101.0)  # every whole percent: 100 recognitions, ~0.5 s
+
+
+@dataclass(frozen=True)
+class CurveRequest:
+    """What a curve is computed from; ``key`` says what it depends on (demonstration, model,
+    observed modalities, alpha method)."""
+
+    key: Hashable
+    model: ProMPModel
+    demo: Demonstration
+    modalities: tuple[str, ...]
+    alpha_method: str
+    truth: str
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,71 +1,34 @@
-"""What the tubes show, computed (no viser): a primitive's prior in Teach and the inference's
-posterior in Infer, each shaped by its primitive's via-points, and the region of every position
-in space (:func:`robots.icub.layout.position_modalities`) they give.
+"""What the tubes show, as the studio draws them (no viser, and no method of its own): a
+primitive's prior in Teach and the inference's posterior in Infer, each shaped by its
+primitive's via-points, and the region of every position in space
+(:func:`robots.icub.layout.position_modalities`) they give.
 
-Teach (:func:`prior_shape`): the weights of a new movement of the primitive, whatever its speed
-(:func:`promp.region.new_movement`), conditioned on its via-points
-(:func:`promp.via_points.condition_on_via_points`), drawn at its typical speed. Infer
-(:func:`shaped_posterior`): the posterior of the recognised primitive given the observation
-(Eq. 8), conditioned on that primitive's via-points as well. A region is where a share of the
-movements' samples are at each moment (:mod:`promp.region`: the weights through the basis, plus
-the samples' noise); the tubes draw it at the probability of the tube style.
+Teach (:func:`prior_shape`): the studio's via-points of the primitive put on the layout's hand,
+and the method's :func:`promp.region.shaped_prior` (a new movement whatever its speed,
+conditioned on them, at its typical speed); its regions are
+:func:`promp.region.modality_region`. Infer (:func:`positions`): each position's region and
+future path of the inference (:attr:`promp.evidence.Inference.positions`), with what was
+observed of it and the truth. A region is where a share of the movements' samples are at each
+moment (:mod:`promp.region`: the weights through the basis, plus the samples' noise); the tubes
+draw it at the probability of the tube style.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from app.core.via_state import StudioViaPoint, of_primitive
+from promp.evidence import Inference
+from promp.evidence.inference import PATH_POINTS  # noqa: F401 (a path's samples: the method's)
 from promp.inference import Gaussian, Observation, Posterior, Prediction, predict
 from promp.model import ProMPModel
-from promp.region import (
-    Coverage,
-    SampleDistribution,
-    coverage,
-    new_movement,
-    sample_distribution,
-    sample_noise_var,
-)
-from promp.via_points import condition_on_via_points
+from promp.region import Coverage, SampleDistribution, coverage, modality_region, shaped_prior
 from robots.icub.layout import HAND, position_modalities
 
 TUBE_POINTS = 100  # rings of a tube (fixed mesh topology)
-PATH_POINTS = 60  # samples of a predicted path
-
-
-def region_of(
-    model: ProMPModel, weights: Gaussian | Posterior, modality: str, n_points: int = TUBE_POINTS
-) -> SampleDistribution:
-    """The region of ``modality``'s samples on ``n_points`` phases over [0, 1], for the
-    weights ``weights`` (with the samples' noise)."""
-    noise = sample_noise_var(model, model.primitives[0])  # shared by the primitives
-    phases = np.linspace(0.0, 1.0, n_points)
-    return sample_distribution(model, weights, model.layout.dims([modality]), phases, noise)
-
-
-def shaped(
-    model: ProMPModel,
-    weights: Gaussian | Posterior,
-    via_points: Sequence[StudioViaPoint],
-    alpha: float,
-) -> Gaussian | Posterior:
-    """``weights`` conditioned on ``via_points`` (none: ``weights`` itself)."""
-    if not via_points:
-        return weights
-    points = [v.for_model(model.layout) for v in via_points]
-    return condition_on_via_points(model, weights, points, alpha)
-
-
-def mean_position(
-    model: ProMPModel, weights: Gaussian | Posterior, modality: str, phase: float
-) -> np.ndarray:
-    """The mean of ``modality`` at ``phase`` (in [0, 1]) under ``weights``, shape (k,)."""
-    mean = np.asarray(weights.mean).reshape(model.n_dims, -1)[model.layout.dims([modality])]
-    return mean @ model.basis(np.array([phase]))[0]
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,18 +54,21 @@ class PriorShape:
         """Every dimension's mean and standard deviation (the movement, without noise)."""
         return predict(model, self.weights, self.alpha, n_points)
 
-    def region(self, model: ProMPModel, modality: str, n_points: int = TUBE_POINTS):
-        return region_of(model, self.weights, modality, n_points)
+    def region(
+        self, model: ProMPModel, modality: str, n_points: int = TUBE_POINTS
+    ) -> SampleDistribution:
+        """Where ``modality``'s samples lie (:func:`promp.region.modality_region`)."""
+        return modality_region(model, self.weights, modality, n_points)
 
 
 def prior_shape(
     model: ProMPModel, name: str, via_points: Sequence[StudioViaPoint] = ()
 ) -> PriorShape:
     """Primitive ``name`` with its via-points (those of ``via_points`` that are its)."""
-    primitive = model.primitive(name)
-    alpha = float(math.exp(primitive.log_alpha_mean))
     mine = of_primitive(via_points, name)
-    return PriorShape(name, alpha, shaped(model, new_movement(primitive), mine, alpha), mine)
+    points = [v.for_model(model.layout) for v in mine] if mine else []
+    alpha, weights = shaped_prior(model, name, points)
+    return PriorShape(name, alpha, weights, mine)
 
 
 # ---------------------------------------------------------------------- Infer
@@ -118,8 +84,10 @@ class PositionView:
     region : SampleDistribution
         On :data:`TUBE_POINTS` phases over the predicted duration: means (n, 3), covariances
         (n, 3, 3), metres.
+    times : array, shape (PATH_POINTS,)
+        Seconds from the start of the movement, from the last observed sample to the end.
     future : array, shape (PATH_POINTS, 3)
-        The predicted mean from the last observed sample to the end.
+        The predicted mean at ``times``.
     observed : array, shape (n_observed, 3), or None
         What was observed of it (None: not observed).
     truth : array, shape (m, 3), or None
@@ -128,6 +96,7 @@ class PositionView:
 
     modality: str
     region: SampleDistribution
+    times: np.ndarray
     future: np.ndarray
     observed: np.ndarray | None
     truth: np.ndarray | None
@@ -135,27 +104,23 @@ class PositionView:
 
 def positions(
     model: ProMPModel,
-    weights: Gaussian | Posterior,
+    inference: Inference,
     observation: Observation,
-    observed_phase: float,
     truth: np.ndarray | None = None,
 ) -> tuple[PositionView, ...]:
-    """Every position modality of ``model`` (the hand first) from the posterior ``weights``.
+    """Every position modality of ``inference`` (the hand first,
+    :func:`robots.icub.layout.position_modalities`) with what was observed of it.
 
     Parameters
     ----------
-    observed_phase : float
-        The share of the predicted duration observed (where the future paths start).
     truth : array, shape (n_samples, n_dims), optional
         The whole test demonstration's values (``model.layout.extract``).
     """
     layout = model.layout
-    start = min(max(observed_phase, 0.0), 1.0)
-    phases = np.linspace(start, 1.0, PATH_POINTS)
-    mean = np.asarray(weights.mean).reshape(model.n_dims, -1)
+    found = {p.modality: p for p in inference.positions}
     views = []
     for modality in position_modalities(layout):
-        dims = layout.dims([modality.name])
+        dims, position = layout.dims([modality.name]), found[modality.name]
         observed = None
         if modality.name in observation.modalities:
             cols = np.flatnonzero(np.isin(layout.dims(observation.modalities), dims))
@@ -163,10 +128,8 @@ def positions(
         rest = None
         if truth is not None:
             rest = truth[max(observation.n_observed - 1, 0) :, dims]
-        views.append(PositionView(
-            modality.name, region_of(model, weights, modality.name),
-            model.basis(phases) @ mean[dims].T, observed, rest,
-        ))  # fmt: skip
+        views.append(PositionView(modality.name, position.region, position.times,
+                                  position.future, observed, rest))  # fmt: skip
     return tuple(views)
 
 

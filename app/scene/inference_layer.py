@@ -5,7 +5,7 @@ prediction starts from, and the true remainder of a test demonstration; the same
 for every other position in space of the layout (:mod:`app.scene.position_nodes`).
 
 :meth:`InferenceLayer.draw` shapes them from an inference (:class:`app.live.inference.InferResult`);
-whether they are shown is the scene's decision (:func:`app.scene.look.look`). The tube's mesh
+whether they are shown is the scene's decision (:func:`app.scene.scene_view.look`). The tube's mesh
 has a fixed topology, so a new inference only replaces its vertices; it is drawn as the view's
 tube style says (:func:`app.scene.tubes.tube_look`: a band, its outline, or nothing), as an
 outline when wider than its position's workspace (:mod:`app.scene.tube_scale`).

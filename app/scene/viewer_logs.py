@@ -26,13 +26,14 @@ the Recognition chart's curve (or the current percent alone, before the curve is
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from typing import Any, Protocol
 
 import numpy as np
 
 from app.core.store_state import StoreState
 from app.core.via_state import of_primitive
 from app.core.view_state import ViewState
-from app.live.inference import InferView
+from app.live.inference import InferResult
 from app.live.recognition_curve import RecognitionCurve
 from app.live.regions import TUBE_POINTS, prior_shape
 from app.scene.tubes import region_vertices, resample, tube_faces, tube_look
@@ -147,8 +148,18 @@ def _camera(items: list[Item]):
     return tuple(target + EYE_OFFSET), tuple(target)
 
 
+class ShownInference(Protocol):
+    """What :func:`infer_log` reads of the Infer tab's view
+    (:class:`app.panels.infer.view_model.InferView`, which the scene does not import: the
+    panels draw on the scene, not the other way round)."""
+
+    result: InferResult | None
+    message: str
+    state: Any  # its ``live``, ``primitive``, ``demo`` and ``percent``
+
+
 def infer_log(
-    view: InferView,
+    view: ShownInference,
     color_of: Callable[[str], Color],
     tube_style: str,
     curve: RecognitionCurve | None = None,

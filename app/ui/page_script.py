@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass
 
 import viser
 
+from app.ui.element_id import element_id
 from app.ui.help import STATIC
 from app.ui.text import escape_html
 
@@ -89,7 +90,7 @@ class BrowserTabs:
     ):
         self._switches: dict[int, viser.GuiHtmlHandle] = {}  # the latest, per client
         self.reporter = server.gui.add_button_group("Tab shown", titles)
-        self.config = {"report": self.reporter._impl.uuid, "titles": list(titles)}
+        self.config = {"report": element_id(self.reporter), "titles": list(titles)}
 
         @self.reporter.on_click
         def _(event: viser.GuiEvent) -> None:

@@ -20,7 +20,7 @@ A file refused *after* it was read (bad content) has already been acknowledged i
 browser has turned its notification into "File uploaded successfully.". The guard remembers
 each client's latest transfer on its button; :meth:`UploadGuard.dismiss` closes that
 notification, so the refusal does not sit under a contradicting success toast. This relies on
-viser internals (checked at construction: :attr:`active` is False
+viser internals (checked at construction: :attr:`UploadGuard.active` is False
 when they are missing, and callers must then check the size after the upload, as the studio
 always does anyway).
 """
@@ -31,6 +31,8 @@ from collections.abc import Callable
 
 import viser
 from viser import _messages
+
+from app.ui.element_id import element_id
 
 Refused = Callable[[viser.ClientHandle | None, str, int], None]
 
@@ -59,7 +61,7 @@ class UploadGuard:
     ):
         self.max_bytes = int(max_bytes)
         self._server = server
-        self._uuid = button._impl.uuid
+        self._uuid = element_id(button)
         self._refused = refused
         self._interface = getattr(server.gui, "_websock_interface", None)
         self._states = getattr(server.gui, "_current_file_upload_states", None)

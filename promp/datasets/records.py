@@ -68,7 +68,7 @@ def load_records_dataset(
     """Read the lab-record format into {class: [demonstrations]} (see the module docstring).
 
     A demonstration is named by its path below the class folder (``person1/record0``).
-    ``findings``: as :func:`load_csv_dataset`.
+    ``findings``: as :func:`promp.datasets.csv_folder.load_csv_dataset`.
     """
     dataset: Dataset = {}
     root = Path(root)

@@ -61,19 +61,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from promp.data import Layout
 from promp.datasets import (
     FORMATS,
-    Dataset,
-    command_line_modalities,
-    modality_options,
-    read_dataset,
-    refused_with_guess,
 )
 from promp.evaluate import decide_options
 from promp.evaluate.baselines import SCALINGS
 from promp.evaluate.grouped import plan_groups, run_grouped
 from promp.evaluate.groups import GROUP_BY_HELP, parse_group_by
+from promp.evaluate.loading import Loaded, load, print_findings
 from promp.evaluate.methods import ALPHA_ROWS
 from promp.evaluate.registry import METHODS, method_factories
 from promp.evaluate.report import (
@@ -85,19 +80,17 @@ from promp.evaluate.report import (
     results_report,
     trials_csv,
 )
-from promp.evaluate.sweep import position_modality, run_sweep, spread_subset
+from promp.evaluate.sweep import SweepResult, run_sweep, spread_subset
 from promp.evaluate.tables import grouped_text, results_text, side_by_side_text
 from promp.evaluate.viewer_files import (
     add_viewer_arguments,
     check_viewer_arguments,
     write_viewer_files,
 )
-from promp.gaps import REPAIRS, repair_gaps
+from promp.gaps import REPAIRS
 from promp.model import SELECT_RULES, Settings
 from promp.progress import stderr_progress
-from promp.quality import Finding, dataset_findings, split_flagged
-from promp.rigs import MAPPING_HELP, add_rig_arguments, rig_options
-from promp.units import unitless_note
+from promp.rigs import MAPPING_HELP, add_rig_arguments
 
 __all__ = [
     "add_check_arguments",
@@ -126,8 +119,7 @@ def add_dataset_arguments(parser: argparse.ArgumentParser) -> None:
         default=[],
         metavar="NAME=COL,COL,...",
         help="a modality: a name and its columns (repeatable); e.g. hand=x,y,z "
-        f"head=roll,pitch,yaw, or for lab records wrench=fx,fy,fz,mx,my,mz; default: guessed, "
-        f"and printed as --modality options to edit and pass back; {MAPPING_HELP}",
+        f"head=roll,pitch,yaw, or for lab records wrench=fx,fy,fz,mx,my,mz; {MAPPING_HELP}",
     )
     add_rig_arguments(parser)
 
@@ -168,6 +160,19 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     add_dataset_arguments(parser)
+    _add_sweep_arguments(parser)
+    _add_settings_arguments(parser)
+    _add_run_arguments(parser)
+    add_group_arguments(parser)
+    add_check_arguments(parser)
+    _add_output_arguments(parser)
+    decide_options.add_decide_arguments(parser)
+    add_viewer_arguments(parser)
+    return parser
+
+
+def _add_sweep_arguments(parser: argparse.ArgumentParser) -> None:
+    """What is swept: the observed modalities, the percentages, the speed rows, the methods."""
     parser.add_argument(
         "--observe",
         action="append",
@@ -205,6 +210,10 @@ def build_parser() -> argparse.ArgumentParser:
         "Euclidean geometry kept) and per column otherwise (modality), every column alone "
         "(column), or none (the raw values)",
     )
+
+
+def _add_settings_arguments(parser: argparse.ArgumentParser) -> None:
+    """The learning settings of ours (each left to every fit's choice by default)."""
     parser.add_argument(
         "--basis",
         type=int,
@@ -247,6 +256,10 @@ def build_parser() -> argparse.ArgumentParser:
         "log-loss of each training demonstration left out in closed form (one fit per "
         "candidate basis); 'cv', inner folds refitted for every candidate (slower)",
     )
+
+
+def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """Which demonstrations are held out, and where the folds run."""
     parser.add_argument(
         "--subset",
         type=int,
@@ -268,8 +281,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
     )
-    add_group_arguments(parser)
-    add_check_arguments(parser)
+
+
+def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
+    """Where the results are written: JSON, CSV tables, figures, a kept run."""
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
     parser.add_argument(
         "--trials-csv",
@@ -294,154 +309,31 @@ def build_parser() -> argparse.ArgumentParser:
         "compare two with python -m promp.evaluate.compare A B",
     )
     parser.add_argument("--run-name", default=None, help="the run's name (default: DIR's)")
-    decide_options.add_decide_arguments(parser)
-    add_viewer_arguments(parser)
-    return parser
 
 
 @dataclass(frozen=True, eq=False)
-class Loaded:
-    """What the arguments name: the demonstrations to sweep (flagged ones left out unless
-    ``--include-flagged``), their layout, the observed modality sets, what the checks found
-    and what was left out."""
+class _Swept:
+    """What :func:`_sweep` gives: the demonstrations read, the settings, the methods, the
+    leave-one-out sweep, when each method would act (``--decide``) and the grouped sweep
+    (``--group-by``)."""
 
-    dataset: Dataset
-    layout: Layout
-    observe: list[list[str]]
-    findings: tuple[Finding, ...]
-    excluded: dict[tuple[str, str], list[Finding]]
-    mapping: str = ""  # recordings: the mapping of streams to modalities used
-    notes: tuple[str, ...] = ()  # recordings: streams, what was left out, the clock
-    guessed: bool = False  # the modalities were guessed (no --modality nor --mapping)
-
-
-def load(args: argparse.Namespace) -> Loaded:
-    """The dataset, its layout, the observed modality sets and the checks' findings."""
-    observe = [
-        [name.strip() for name in spec.split(",") if name.strip()] for spec in (args.observe or [])
-    ]
-    modalities = command_line_modalities(args.modality, args.mapping)
-    try:
-        read = read_dataset(args.dataset, args.format, modalities, rig_options(args))
-    except ValueError as exc:  # the guess to edit, when the modalities were guessed
-        raise exc if modalities else refused_with_guess(exc, args.dataset, args.format) from None
-    dataset, layout, findings = read.dataset, read.layout, read.findings
-    if args.repair_gaps is not None:
-        dataset = {
-            name: [part for d in demos for part in repair_gaps(d, args.repair_gaps)]
-            for name, demos in dataset.items()
-        }
-        kept = [f for f in findings if f.kind == "timestamps"]  # the readers' own findings
-        findings = tuple(kept + dataset_findings(dataset, layout, read.files))
-    observe = observe or [[position_modality(layout)]]
-    for names in observe:
-        layout.observed(names)  # unknown names are an error before any work
-    everyone = {(p, d.name) for p, demos in dataset.items() for d in demos}
-    dataset, excluded = split_flagged(dataset, findings, everyone if args.include_flagged else ())
-    return Loaded(dataset, layout, observe, tuple(findings), excluded, read.mapping, read.notes,
-                  guessed=not modalities)  # fmt: skip
-
-
-def print_findings(loaded: Loaded, include_flagged: bool) -> None:
-    """How recordings were read, what the checks found, and what is left out (on stderr,
-    before the sweep)."""
-    if loaded.mapping:
-        print(f"mapping: {loaded.mapping}", file=sys.stderr)
-        for note in loaded.notes:
-            print(f"  {note}", file=sys.stderr)
-        if loaded.guessed:
-            print(f"  guessed; to change it, edit and pass: {modality_options(loaded.mapping)}",
-                  file=sys.stderr)  # fmt: skip
-    if not loaded.findings:
-        print("checks: nothing found in any demonstration", file=sys.stderr)
-        return
-    flagged = {f.key for f in loaded.findings}
-    print(
-        f"checks: {len(loaded.findings)} finding(s) in {len(flagged)} demonstration(s)",
-        file=sys.stderr,
-    )
-    if note := unitless_note(loaded.layout.modalities):
-        print(f"  ({note})", file=sys.stderr)
-    for finding in loaded.findings:
-        print(f"  {finding.describe()}", file=sys.stderr)
-    if include_flagged:
-        print("kept anyway (--include-flagged)", file=sys.stderr)
-    else:
-        print(
-            f"left out of the sweep: {len(loaded.excluded)} demonstration(s) "
-            "(--include-flagged keeps them)",
-            file=sys.stderr,
-        )
+    loaded: Loaded
+    settings: Settings
+    methods: dict
+    result: SweepResult
+    decisions: object = None  # promp.evaluate.decisions.Decisions
+    grouped: object = None  # promp.evaluate.grouped.GroupedRun
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        if args.run is not None and (args.run.exists() or args.run.is_symlink()):
-            raise ValueError(f"--run {args.run} already exists: a run is kept in a new folder, "
-                             "nothing is overwritten")  # fmt: skip
-        check_viewer_arguments(args)  # said before the sweep, not after
-        if args.plots is not None or args.run is not None:  # said before the sweep, not after
-            from promp.evaluate.plots import figures_unavailable
-
-            if figures_unavailable():
-                raise ValueError(f"--plots and --run draw figures: {figures_unavailable()}")
-        loaded = load(args)
-        dataset, layout, observe = loaded.dataset, loaded.layout, loaded.observe
-        print_findings(loaded, args.include_flagged)
-        if any(not 0 < p <= 100 for p in args.percent):
-            raise ValueError("--percent values must be in (0, 100]")
-        try:
-            shrinkage = None if args.shrinkage == "auto" else float(args.shrinkage)
-        except ValueError:
-            raise ValueError(
-                f"--shrinkage expects a number in (0, 1] or 'auto', got {args.shrinkage!r}"
-            ) from None
-        settings = Settings(
-            n_basis=args.basis,
-            width=args.width,
-            shrinkage=shrinkage,
-            noise_scale=args.noise_scale,
-            duration_temperature=args.duration_temperature,
-            select=args.select,
-        )
-        methods = method_factories(args.method, layout, settings, args.baseline_scaling)
-        title = "+".join(methods)
-        if args.backend == "dask" and not args.scheduler:
-            raise ValueError("--backend dask needs --scheduler ADDRESS")
-        if args.jobs == 0 or args.jobs < -1:
-            raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
-        held_out = None if args.subset is None else spread_subset(dataset, args.subset)
-        decide_options.check_decide_arguments(args)
-        rule = None if args.group_by is None else parse_group_by(args.group_by)
-        groups = None if rule is None else plan_groups(dataset, rule)  # refused before a sweep
-        result = run_sweep(
-            methods,
-            dataset,
-            layout,
-            percents=args.percent,
-            alpha_methods=args.alpha,
-            observe_sets=observe,
-            progress=stderr_progress(f"{title}: leave-one-out", "held-out demonstrations"),
-            keep_trials=True,
-            jobs=args.jobs,
-            scheduler=args.scheduler if args.backend == "dask" else None,
-            held_out=held_out,
-            decide_percents=decide_options.decide_percents(args),
-        )
-        decisions = decide_options.judge(args, result, list(dataset))
-        grouped = None
-        if rule is not None:
-            grouped = run_grouped(
-                methods, dataset, layout, result, rule, groups, percents=args.percent,
-                alpha_methods=args.alpha, observe_sets=observe, held_out=held_out,
-                jobs=args.jobs, scheduler=args.scheduler if args.backend == "dask" else None,
-                progress=lambda what: stderr_progress(f"{title}: {what}",
-                                                      "held-out demonstrations"),
-            )  # fmt: skip
+        swept = _sweep(args)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    loaded, settings, methods, result = swept.loaded, swept.settings, swept.methods, swept.result
+    dataset, layout, observe = loaded.dataset, loaded.layout, loaded.observe
     report = results_report(
         result,
         dataset,
@@ -456,14 +348,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         subset=args.subset,
         findings=loaded.findings,
         excluded=loaded.excluded,
-        decisions=decisions,
-        grouped=grouped,
+        decisions=swept.decisions,
+        grouped=swept.grouped,
     )
     print_table(result.rows)
-    decide_options.print_decisions(decisions)
-    if grouped is not None:
+    decide_options.print_decisions(swept.decisions)
+    if swept.grouped is not None:
         print()
-        print(grouped_text(grouped))
+        print(grouped_text(swept.grouped))
     for failure in result.failures:
         print(
             f"failed ({failure['method']}): {failure['primitive']}/{failure['demo']} at "
@@ -471,6 +363,87 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"({'+'.join(failure['observed'])}, alpha {failure['alpha_method']}): "
             f"{failure['error']}"
         )
+    return _write_outputs(args, swept, report, "+".join(methods))
+
+
+def _sweep(args: argparse.Namespace) -> _Swept:
+    """The demonstrations read and checked, the settings, the methods and their sweep (with
+    ``--decide``'s decisions and ``--group-by``'s grouped sweep).
+
+    Raises
+    ------
+    ValueError
+        An argument out of range, a run folder that exists, data that cannot be read.
+    """
+    if args.run is not None and (args.run.exists() or args.run.is_symlink()):
+        raise ValueError(f"--run {args.run} already exists: a run is kept in a new folder, "
+                         "nothing is overwritten")  # fmt: skip
+    check_viewer_arguments(args)  # said before the sweep, not after
+    if args.plots is not None or args.run is not None:  # said before the sweep, not after
+        from promp.evaluate.plots import figures_unavailable
+
+        if figures_unavailable():
+            raise ValueError(f"--plots and --run draw figures: {figures_unavailable()}")
+    loaded = load(args)
+    dataset, layout, observe = loaded.dataset, loaded.layout, loaded.observe
+    print_findings(loaded, args.include_flagged)
+    if any(not 0 < p <= 100 for p in args.percent):
+        raise ValueError("--percent values must be in (0, 100]")
+    try:
+        shrinkage = None if args.shrinkage == "auto" else float(args.shrinkage)
+    except ValueError:
+        raise ValueError(
+            f"--shrinkage expects a number in (0, 1] or 'auto', got {args.shrinkage!r}"
+        ) from None
+    settings = Settings(
+        n_basis=args.basis,
+        width=args.width,
+        shrinkage=shrinkage,
+        noise_scale=args.noise_scale,
+        duration_temperature=args.duration_temperature,
+        select=args.select,
+    )
+    methods = method_factories(args.method, layout, settings, args.baseline_scaling)
+    title = "+".join(methods)
+    if args.backend == "dask" and not args.scheduler:
+        raise ValueError("--backend dask needs --scheduler ADDRESS")
+    if args.jobs == 0 or args.jobs < -1:
+        raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
+    held_out = None if args.subset is None else spread_subset(dataset, args.subset)
+    decide_options.check_decide_arguments(args)
+    rule = None if args.group_by is None else parse_group_by(args.group_by)
+    groups = None if rule is None else plan_groups(dataset, rule)  # refused before a sweep
+    result = run_sweep(
+        methods,
+        dataset,
+        layout,
+        percents=args.percent,
+        alpha_methods=args.alpha,
+        observe_sets=observe,
+        progress=stderr_progress(f"{title}: leave-one-out", "held-out demonstrations"),
+        keep_trials=True,
+        jobs=args.jobs,
+        scheduler=args.scheduler if args.backend == "dask" else None,
+        held_out=held_out,
+        decide_percents=decide_options.decide_percents(args),
+    )
+    decisions = decide_options.judge(args, result, list(dataset))
+    grouped = None
+    if rule is not None:
+        grouped = run_grouped(
+            methods, dataset, layout, result, rule, groups, percents=args.percent,
+            alpha_methods=args.alpha, observe_sets=observe, held_out=held_out,
+            jobs=args.jobs, scheduler=args.scheduler if args.backend == "dask" else None,
+            progress=lambda what: stderr_progress(f"{title}: {what}", "held-out demonstrations"),
+        )  # fmt: skip
+    return _Swept(loaded, settings, methods, result, decisions, grouped)
+
+
+def _write_outputs(args: argparse.Namespace, swept: _Swept, report: dict, title: str) -> int:
+    """Write what the arguments ask for (JSON, CSV tables, figures, a kept run, viewer
+    files): the exit code (2 when the run or a viewer file cannot be written)."""
+    result, decisions = swept.result, swept.decisions
+    dataset, layout = swept.loaded.dataset, swept.loaded.layout
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(report_json(report))

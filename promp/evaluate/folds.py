@@ -22,8 +22,8 @@ import numpy as np
 from promp.data import Demonstration
 
 __all__ = [
-    "Fold", "MIN_TRAINING", "PARENT_WATCH_S", "Pair", "check_groups", "exit_with_parent",
-    "group_folds", "run_folds",
+    "Fold", "MIN_TRAINING", "PARENT_WATCH_S", "Pair", "Progress", "check_groups",
+    "exit_with_parent", "group_folds", "run_folds",
 ]  # fmt: skip
 
 Pair = tuple[int, int]  # (primitive index, demonstration index)

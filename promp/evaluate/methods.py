@@ -13,11 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp.data import Demonstration, Layout
+from promp.evidence.pipeline import infer, recognise
 from promp.inference import Observation
 from promp.learn import fit
 from promp.model import ProMPModel, Settings
-from promp.pipeline import infer
-from promp.recognition import recognise
 
 __all__ = ["ALPHA_ROWS", "TrialAnswer", "ProMPEngine", "TRUE_DURATION"]
 
@@ -58,7 +57,7 @@ class TrialAnswer:
 
 
 class ProMPEngine:
-    """This project's multi-modal ProMP engine (:func:`promp.pipeline.infer`): `--method ours`."""
+    """This project's multi-modal ProMP engine (:func:`promp.evidence.infer`): `--method ours`."""
 
     name = "ours"
 
@@ -104,7 +103,7 @@ class ProMPEngine:
         """The primitives' probabilities after each of ``n_observed`` samples of ``demo``:
         what :meth:`infer` gives, recognised alone (nothing is conditioned or predicted).
         Each step is recognised from its samples alone: carrying the likelihood's sums from
-        one step to the next (:class:`promp.incremental.IncrementalStatistics`, what a live
+        one step to the next (:meth:`promp.evidence.Evidence.extended`, what a live
         session does at every sample) saved nothing at steps of 2 % of these movements.
 
         Returns

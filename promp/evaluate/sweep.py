@@ -35,7 +35,8 @@ trajectory metrics, and is listed by primitive, demonstration and reason in the 
 ``failed`` and in :attr:`SweepResult.failures`.
 
 ``decide_percents`` (``--decide``): each held-out demonstration also observed at each of them
-by its fold's model, the probabilities kept in :attr:`SweepResult.paths` (:mod:`.paths`).
+by its fold's model, the probabilities kept in :attr:`SweepResult.paths`
+(:mod:`promp.evaluate.paths`).
 """
 
 from __future__ import annotations
@@ -258,23 +259,8 @@ def run_sweep(
             raise ValueError("name at least one method to evaluate")
     else:
         methods = {method_name: method_factory}
-    for name, demos in dataset.items():
-        if len(demos) < 3:
-            raise ValueError(
-                f"leave-one-out needs at least 3 demonstrations per primitive; "
-                f"{name!r} has {len(demos)}"
-            )
+    held_out = _held_out(dataset, held_out)
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
-    everyone = [(k, j) for k, name in enumerate(names) for j in range(len(dataset[name]))]
-    if held_out is None:
-        held_out = everyone
-    else:
-        held_out = [(int(k), int(j)) for k, j in held_out]
-        unknown = sorted(set(held_out) - set(everyone))
-        if unknown:
-            raise ValueError(f"no demonstration (primitive index, index) {unknown[0]} to hold out")
-        if len(set(held_out)) != len(held_out) or not held_out:
-            raise ValueError("held_out must name distinct demonstrations, at least one")
     decide_percents = checked_percents(decide_percents)
     if groups is None:
         folds: list[Fold] = [(((k, j),), ((k, j),)) for k, j in held_out]
@@ -303,31 +289,11 @@ def run_sweep(
         if stop is not None and done < len(folds) and stop():
             result.partial = True
             break
-    for (method, percent, alpha_method, observed), trials in acc.items():
-        losses = [t.log_loss(len(names)) for t in trials]
-        result.rows.append(
-            {
-                "percent": percent,
-                "alpha_method": alpha_method,
-                "observed": list(observed),
-                "method": method,
-                "recognition_errors": int(sum(not t.correct for t in trials)),
-                "trials": len(trials),
-                "log_loss": math.fsum(losses) / len(losses),
-                "confident_mistakes": int(sum(loss > CONFIDENT_MISTAKE for loss in losses)),
-                "worst_log_loss": float(max(losses)),
-                "position_error_m": _nanmean([t.position_error_m for t in trials]),
-                "goal_error_m": _nanmean([t.goal_error_m for t in trials]),
-                "duration_error_s": _nanmean([t.duration_error_s for t in trials]),
-                "duration_coverage": _nanmean([t.duration_covered for t in trials]),
-                "nrmse_prior": _nanmean([t.nrmse_prior for t in trials]),
-                "nrmse_posterior": _nanmean([t.nrmse_posterior for t in trials]),
-                "failed": [f"{names[t.primitive]}/{t.demo}" for t in trials if t.inferred is None],
-            }
-        )
+    for key, trials in acc.items():
+        result.rows.append(_row(key, trials, names))
         result.failures.extend(
             {
-                "method": method,
+                "method": key[0],
                 "primitive": names[t.primitive],
                 "demo": t.demo,
                 "percent": t.percent,
@@ -347,6 +313,59 @@ def run_sweep(
     return result
 
 
+def _held_out(
+    dataset: Mapping[str, Sequence[Demonstration]], held_out: Sequence[tuple[int, int]] | None
+) -> list[tuple[int, int]]:
+    """The (primitive index, demonstration index) pairs to test, checked: every
+    demonstration by default.
+
+    Raises
+    ------
+    ValueError
+        A primitive with fewer than 3 demonstrations, an unknown or repeated pair, none.
+    """
+    for name, demos in dataset.items():
+        if len(demos) < 3:
+            raise ValueError(
+                f"leave-one-out needs at least 3 demonstrations per primitive; "
+                f"{name!r} has {len(demos)}"
+            )
+    everyone = [(k, j) for k, name in enumerate(dataset) for j in range(len(dataset[name]))]
+    if held_out is None:
+        return everyone
+    held_out = [(int(k), int(j)) for k, j in held_out]
+    unknown = sorted(set(held_out) - set(everyone))
+    if unknown:
+        raise ValueError(f"no demonstration (primitive index, index) {unknown[0]} to hold out")
+    if len(set(held_out)) != len(held_out) or not held_out:
+        raise ValueError("held_out must name distinct demonstrations, at least one")
+    return held_out
+
+
+def _row(key: tuple, trials: list[Trial], names: list[str]) -> dict:
+    """The result row of the ``trials`` of one (method, percent, alpha method, observed)."""
+    method, percent, alpha_method, observed = key
+    losses = [t.log_loss(len(names)) for t in trials]
+    return {
+        "percent": percent,
+        "alpha_method": alpha_method,
+        "observed": list(observed),
+        "method": method,
+        "recognition_errors": int(sum(not t.correct for t in trials)),
+        "trials": len(trials),
+        "log_loss": math.fsum(losses) / len(losses),  # exact: the same in any order
+        "confident_mistakes": int(sum(loss > CONFIDENT_MISTAKE for loss in losses)),
+        "worst_log_loss": float(max(losses)),
+        "position_error_m": _nanmean([t.position_error_m for t in trials]),
+        "goal_error_m": _nanmean([t.goal_error_m for t in trials]),
+        "duration_error_s": _nanmean([t.duration_error_s for t in trials]),
+        "duration_coverage": _nanmean([t.duration_covered for t in trials]),
+        "nrmse_prior": _nanmean([t.nrmse_prior for t in trials]),
+        "nrmse_posterior": _nanmean([t.nrmse_posterior for t in trials]),
+        "failed": [f"{names[t.primitive]}/{t.demo}" for t in trials if t.inferred is None],
+    }
+
+
 def leave_one_out(
     dataset: Mapping[str, Sequence[Demonstration]],
     layout: Layout,
@@ -364,7 +383,7 @@ def leave_one_out(
     others (with ``settings``: by default every fit chooses its basis, width and noise from
     its own training demonstrations); the first ``p`` % of the held-out one's samples
     (``n_o = ceil(p / 100 n)``) in the ``observe`` modalities are recognised, conditioned on
-    and the rest predicted (:func:`promp.pipeline.infer`), and measured against it.
+    and the rest predicted (:func:`promp.evidence.infer`), and measured against it.
 
     Parameters
     ----------

@@ -12,7 +12,7 @@ with a fake upstream and a recorded stream, only the transport knowing LSL:
   reader's :func:`promp.rigs.streams.on_one_clock`);
 * :mod:`promp.live.segmenter`: where each movement starts and ends (stillness, by the rule
   the model learned its demonstrations with, a marker stream, or calls);
-* :mod:`promp.live.predictor`: the movement so far through :func:`promp.pipeline.infer`;
+* :mod:`promp.live.predictor`: the movement so far through :func:`promp.evidence.infer`;
 * sinks: :mod:`promp.live.outlets` (the prediction as LSL streams) and
   :mod:`promp.live.recorder` (each movement a demonstration; a journal a kill cannot undo).
 

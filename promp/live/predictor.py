@@ -4,11 +4,12 @@ update.
 Each update takes every row of the movement so far (its observed modalities, in the model's
 layout order; angles unwrapped, as :meth:`promp.data.Layout.extract` does for a
 demonstration) as one :class:`promp.inference.Observation` whose times count from the
-movement's first row, and calls :func:`promp.pipeline.infer` on it with the movement's
-:class:`promp.incremental.IncrementalStatistics`, so that the likelihood adds only the terms
-of the rows new since the last update: the result is the one the offline engine gives on the
-same samples to round-off (within 1e-9; the tests check it), at a cost that does not grow
-with the rows already observed wherever recognition scores the same speeds again. What the robot
+movement's first row, and infers on it (:meth:`promp.evidence.Evidence.infer`) with the
+movement's evidence extended by the new rows (:meth:`promp.evidence.Evidence.extended`), so
+that the likelihood adds only their terms: the result is the one the offline engine
+(:func:`promp.evidence.infer`) gives on the same samples to round-off (within 1e-9; the tests
+check it), at a cost that does not grow with the rows already observed wherever recognition
+scores the same speeds again. What the robot
 needs is read from it (:class:`LivePrediction`): the primitives' probabilities, the phase (the
 share of the movement observed) and the duration with their intervals, the time left, and the
 predicted remainder of one modality at a stated rate (:class:`Remainder`, from the posterior
@@ -25,11 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp.duration import Estimate
-from promp.incremental import IncrementalStatistics
+from promp.evidence.evidence import Evidence, Inference
+from promp.evidence.speed import ALPHA_METHODS
 from promp.inference import Observation, trajectory_at
 from promp.model import ProMPModel
-from promp.pipeline import Inference, infer
-from promp.recognition import ALPHA_METHODS
 
 __all__ = ["LivePrediction", "observed_columns", "OnlinePredictor", "Remainder", "REMAINDER_HZ"]
 
@@ -73,7 +73,7 @@ class LivePrediction:
     observation : Observation
         What was observed (times from the movement's start).
     inference : Inference
-        :func:`promp.pipeline.infer` on it.
+        :meth:`promp.evidence.Evidence.infer` on it.
     remainder : Remainder or None
     compute_s : float
         The time the inference took.
@@ -134,8 +134,8 @@ class OnlinePredictor:
     rate : float
         The remainder's rate, Hz.
     n_points : int, optional
-        Passed to :func:`promp.pipeline.infer` (the prior and posterior's samples; the studio
-        draws its tubes on a fixed number).
+        Passed to :meth:`promp.evidence.Evidence.infer` (the prior and posterior's samples;
+        the studio draws its tubes on a fixed number).
     """
 
     def __init__(
@@ -172,8 +172,8 @@ class OnlinePredictor:
         self.rate = float(rate)
         self.n_points = n_points
         self._seq = 0
-        self._movement: int | None = None  # the movement the statistics are of
-        self._statistics = IncrementalStatistics()
+        self._movement: int | None = None  # the movement the evidence is of
+        self._evidence: Evidence | None = None
 
     def observation(self, times: np.ndarray, values: np.ndarray) -> Observation:
         """The movement's rows ``times`` (n,), ``values`` (n, n_channels) as an observation
@@ -193,10 +193,12 @@ class OnlinePredictor:
         """
         obs = self.observation(times, values)
         began = time.perf_counter()
-        if number != self._movement:  # a new movement: a new observation
-            self._movement, self._statistics = number, IncrementalStatistics()
-        inference = infer(self.model, obs, self.alpha_method, n_points=self.n_points,
-                          statistics=self._statistics)  # fmt: skip
+        if number != self._movement or self._evidence is None:  # a new movement
+            self._movement = number
+            self._evidence = Evidence(self.model, obs, self.alpha_method)
+        else:
+            self._evidence = self._evidence.extended(obs)
+        inference = self._evidence.infer(n_points=self.n_points)
         remainder = self._remainder(inference) if self.remainder else None
         self._seq += 1
         return LivePrediction(

@@ -75,7 +75,7 @@ class LiveOptions:
         A regular time base at this rate (Hz); None: the slowest input's samples.
     max_movement_s : float
     n_points : int or None
-        The prior and posterior's samples (:func:`promp.pipeline.infer`).
+        The prior and posterior's samples (:func:`promp.evidence.pipeline.infer`).
     min_observed : int
         Rows a movement needs before its first prediction.
     """

@@ -7,11 +7,11 @@ movement. The score of a candidate is the **recognition log-loss of training dem
 held out** (a proper scoring rule, so probabilities are rewarded for being right, not only the
 arg-max): a demonstration observed for its first 10, 30, 50, 70 or 90 % (:data:`PERCENTS`),
 every modality alone and all of them together, is recognised by a model that has not seen it,
-with the speed integrated over each primitive's prior; the loss is ``-ln p(true primitive)``,
-with the "none of these" hypothesis of :func:`promp.recognition.with_label_noise`. A candidate
-whose mean trajectories leave the box the demonstrations span, widened on every side by its
-extent (:func:`within_region`), is never chosen: its predictions would be metres off. Two rules
-compute it (``Settings.select``):
+with the speed integrated over each primitive's prior; the loss is ``-ln p(true primitive)``, with
+the "none of these" hypothesis of :func:`promp.recognition.with_label_noise`. A candidate
+whose mean trajectories leave the box the demonstrations span, widened on every side by its extent
+(:func:`within_region`), is never chosen: its predictions would be metres off. Two rules compute it
+(``Settings.select``):
 
 * ``"loo"`` (the default): **leave-one-out in closed form**. One model is fitted per candidate
   basis on every demonstration (:func:`promp.fitting.fit_parts`); each trial's demonstration is
@@ -28,7 +28,7 @@ compute it (``Settings.select``):
 * ``"cv"``: **inner cross-validation** (the rule it replaces, kept for comparison). Each
   primitive's demonstrations are dealt into :data:`INNER_FOLDS` folds; a model is fitted
   without each fold for every candidate and recognises its demonstrations
-  (:func:`promp.recognition.recognise`'s quadrature, without the refinement of the mode); M
+  (recognition's quadrature, :mod:`promp.evidence.speed`, without the refinement of the mode); M
   over :data:`BASIS_GRID` at width 1, then the width over :data:`WIDTH_GRID` at the best M,
   every pair with every noise scale; at most :data:`MAX_TRIALS` trials. About six times
   slower (``bench/evaluate.py``).

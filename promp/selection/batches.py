@@ -5,8 +5,8 @@ trial shares (:data:`LOO_NODES` nodes) with each primitive's log weights there.
 
 Everything here is independent of the candidate settings: built once per choice. The speed
 prior of each primitive, its Student-t density, its range and the quadrature weights are
-recognition's own (:func:`promp.recognition.speed_prior`, :func:`~promp.recognition.t_logpdf`,
-:func:`~promp.recognition.central_range`, :func:`~promp.recognition.quadrature_weights`), in
+recognition's own (:func:`promp.evidence.speed.speed_prior`, :func:`~promp.evidence.speed.t_logpdf`,
+:func:`~promp.evidence.speed.central_range`, :func:`~promp.evidence.speed.quadrature_weights`), in
 their batch form.
 """
 
@@ -19,7 +19,7 @@ import numpy as np
 from scipy import special
 
 from promp.data import Demonstration, Layout
-from promp.recognition import (
+from promp.evidence.speed import (
     AlphaPrior,
     central_range,
     quadrature_weights,
@@ -37,8 +37,9 @@ LOO_ROWS = 48
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Batch:
-    """The trials of one modality set, laid out for :func:`loo_score` (independent of the
-    candidate settings: built once per choice). ``index``: their positions in the plan."""
+    """The trials of one modality set, laid out for :func:`promp.selection.loo.loo_score`
+    (independent of the candidate settings: built once per choice). ``index``: their
+    positions in the plan."""
 
     index: list[int]
     truth: np.ndarray  # (T,) true primitive
@@ -110,8 +111,8 @@ def make_batches(
 
 
 def priors_without_each(alphas: np.ndarray, s_bar: float) -> np.ndarray:
-    """:meth:`promp.recognition.AlphaPrior.from_alphas` of ``alphas`` (n,) without each one in
-    turn, all at once (:func:`promp.recognition.speed_prior` of n rows): (location, scale,
+    """:meth:`promp.evidence.speed.AlphaPrior.from_alphas` of ``alphas`` (n,) without each one in
+    turn, all at once (:func:`promp.evidence.speed.speed_prior` of n rows): (location, scale,
     dof) x n."""
     logs = np.log(np.asarray(alphas, dtype=float))
     n = logs.shape[0]
@@ -123,10 +124,10 @@ def _quadrature_grid(
     locs: np.ndarray, scales: np.ndarray, dofs: np.ndarray, bounds: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """:data:`LOO_NODES` nodes per trial spanning every primitive's prior (Student-t in log
-    alpha, parameters (T, K)) as :meth:`promp.recognition.AlphaPrior.span` does
-    (:func:`promp.recognition.central_range`), truncated at the trial's bound (T,); and each
+    alpha, parameters (T, K)) as :meth:`promp.evidence.speed.AlphaPrior.span` does
+    (:func:`promp.evidence.speed.central_range`), truncated at the trial's bound (T,); and each
     primitive's log quadrature weights there, (T, K, A), normalised to its prior mass below
-    the bound (:func:`promp.recognition.quadrature_weights` for every trial and primitive at
+    the bound (:func:`promp.evidence.speed.quadrature_weights` for every trial and primitive at
     once)."""
     lo, hi = central_range(locs, scales, dofs)
     hi = np.minimum(hi, bounds[:, None])

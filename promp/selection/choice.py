@@ -127,8 +127,22 @@ def _choose(
     else:
         cv_search(dataset, layout, inner, dt, trials, scales, (basis_grid, width_grid),
                   start_width, region, scores)  # fmt: skip
+    chosen, report = _lowest(settings, scores, inner.noise_scale, LOO_RULE if loo else RULE,
+                             len(trials))  # fmt: skip
+    return chosen, report, candidates
+
+
+def _lowest(
+    settings: Settings, scores: dict, scale_unit: float, rule: str, n_trials: int
+) -> tuple[Settings, dict]:
+    """The candidate of the lowest mean loss among ``scores`` ({(n_basis, width): {noise
+    scale in units of ``scale_unit``: losses per trial}}), and the report of the choice
+    (``rule``, the runner-up, every candidate's loss); the fallback values when every
+    candidate left the demonstrations' region."""
+    automatic = settings.automatic
+    given = {name: getattr(settings, name) for name in FALLBACK if name not in automatic}
     table = [
-        (m, w, s * inner.noise_scale, losses)
+        (m, w, s * scale_unit, losses)
         for (m, w), by_scale in scores.items()
         for s, losses in by_scale.items()
     ]
@@ -139,7 +153,7 @@ def _choose(
             "demonstrations span)",
             "chosen": {name: getattr(chosen, name) for name in automatic},
             "given": given,
-        }, candidates
+        }
     # the lowest mean loss; a tie (e.g. every candidate perfect) goes to the reference
     n_basis, width, noise_scale, losses = min(
         table, key=lambda c: (round(float(c[3].mean()), 9), preference(*c[:3]))
@@ -158,18 +172,18 @@ def _choose(
         margin["runner_up"] = {name: getattr(runner, name) for name in automatic}
         margin["runner_up_log_loss"] = float(runner_losses.mean())
     return chosen, {
-        "rule": LOO_RULE if loo else RULE,
+        "rule": rule,
         "chosen": {name: getattr(chosen, name) for name in automatic},
         "given": given,
         "log_loss": float(losses.mean()),
-        "trials": len(trials),
+        "trials": n_trials,
         **margin,
         "candidates": [
             {"n_basis": m, "width": w,
-             "noise_scale": [s * inner.noise_scale for s in sorted(by_scale)],
+             "noise_scale": [s * scale_unit for s in sorted(by_scale)],
              "log_loss": [round(float(by_scale[s].mean()), 6)
                           if np.isfinite(by_scale[s]).all() else None
                           for s in sorted(by_scale)]}
             for (m, w), by_scale in scores.items()
         ],
-    }, candidates  # fmt: skip
+    }  # fmt: skip

@@ -1,10 +1,10 @@
 """The inner cross-validation rule (``Settings(select="cv")``, the rule the closed-form
 leave-one-out replaced, kept for comparison): each primitive's demonstrations dealt into
 :data:`~promp.selection.trials.INNER_FOLDS` folds, a model fitted without each fold for every
-candidate, recognising its demonstrations with :func:`promp.recognition.recognise`'s
-quadrature (without the refinement of the mode); M over the whole basis grid at width 1, then
-the width at the best M, every pair with every noise scale. About six times slower than the
-leave-one-out rule (``bench/evaluate.py``)."""
+candidate, recognising its demonstrations with recognition's quadrature
+(:mod:`promp.evidence.speed`, without the refinement of the mode); M over the whole basis grid at
+width 1, then the width at the best M, every pair with every noise scale. About six times slower
+than the leave-one-out rule (``bench/evaluate.py``)."""
 
 from __future__ import annotations
 
@@ -14,18 +14,19 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from promp._likelihood import log_likelihoods_scaled, logsumexp_rows
 from promp.data import Demonstration, Layout
+from promp.evidence.evidence import Evidence
+from promp.evidence.speed import (
+    AlphaPrior,
+    logsumexp_rows,
+    longest_alpha,
+    quadrature,
+    quadrature_weights,
+)
 from promp.fitting import fit_with
 from promp.model import ProMPModel, Settings
 from promp.observation import Observation
-from promp.recognition import (
-    AlphaPrior,
-    label_noise,
-    quadrature,
-    quadrature_weights,
-    with_label_noise,
-)
+from promp.recognition import label_noise, with_label_noise
 from promp.selection.candidates import BASIS_GRID, NOISE_GRID, WIDTH_GRID
 from promp.selection.region import within_region
 from promp.selection.trials import INNER_FOLDS, MAX_TRIALS, PERCENTS, Trial
@@ -63,17 +64,18 @@ def trial_losses(
         obs = Observation.from_demo(
             model, demo, n_observed_for(trial.percent, demo.n_samples), trial.modalities
         )
-        quadratures = []
+        quadratures, bound = [], math.log(longest_alpha(model, obs))
         for prior in priors:
-            nodes, log_prior, log_mass = quadrature(model, obs, prior)
+            nodes, log_prior, log_mass = quadrature(prior, bound)
             quadratures.append((np.exp(nodes), quadrature_weights(nodes, log_prior, log_mass)))
         cache[trial] = (obs, quadratures)
     obs, quadratures = cache[trial]
+    scored = Evidence(model, obs)
     evidence = np.empty((factors.shape[0], len(model.primitives)))
     for k, (primitive, (alphas, log_w)) in enumerate(
         zip(model.primitives, quadratures, strict=True)
     ):
-        table = log_likelihoods_scaled(model, primitive, obs, alphas, factors)
+        table = scored.log_likelihoods(primitive, alphas, factors)
         evidence[:, k] = logsumexp_rows(table + log_w)
     total = logsumexp_rows(evidence)
     # what recognise reports: the model's probability with the "none of these" hypothesis;

@@ -34,7 +34,8 @@ def keep_previous(
     candidates: Candidates, settings: Settings, previous: Mapping
 ) -> tuple[Settings, dict] | None:
     """The previous choice kept, if it still beats the previous runner-up on ``dataset``'s
-    trials (see :func:`choose_settings`); None when the search must run again."""
+    trials (see :func:`promp.selection.choice.choose_settings`); None when the search must run
+    again."""
     automatic = settings.automatic
 
     def values_of(entry: object) -> dict | None:

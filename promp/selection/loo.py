@@ -13,8 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.linalg import lapack
 
-from promp._likelihood import logsumexp_rows
-from promp._weight_space import cholesky_diagonals, equilibrated_precision
+from promp.evidence.speed import logsumexp_rows
+from promp.evidence.weight_space import cholesky_diagonals, equilibrated_precision
 from promp.fitting import FitParts
 from promp.model import ProMPModel
 from promp.recognition import label_noise, with_label_noise
@@ -47,18 +47,18 @@ def loo_score(
     noise_scales: Sequence[float],
     region: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
-    """:func:`score` by the closed-form leave-one-out rule: shape (n_scales, n_trials),
-    ``-ln p(true primitive)`` of every trial; infinite everywhere when the model's mean
-    trajectories leave ``region``.
+    """:func:`promp.selection.cv.score`'s loss by the closed-form leave-one-out rule: shape
+    (n_scales, n_trials), ``-ln p(true primitive)`` of every trial; infinite everywhere when the
+    model's mean trajectories leave ``region``.
 
-    ``fitted``: the model fitted on every demonstration with the candidate settings (noise
-    scale 1, or the one given), and its parts (:func:`promp.model.fit_parts`). A trial's
-    demonstration is then left out of its own primitive exactly for the mean, the regression
-    on log alpha and the residual scatter (rank-one downdates, :class:`promp.model.FitParts`),
+    ``fitted``: the model fitted on every demonstration with the candidate settings (noise scale
+    1, or the one given), and its parts (:func:`promp.fitting.fit_parts`). A trial's
+    demonstration is then left out of its own primitive exactly for the mean, the regression on
+    log alpha and the residual scatter (rank-one downdates, :class:`promp.fitting.FitParts`),
     while the noise, the ridge and the pooled prior's target and strength stay those of the
     whole set (an approximation: one demonstration moves them little). Each primitive's
-    likelihood (Eq. 6 in weight space, with the Ornstein-Uhlenbeck noise) is integrated over
-    its speed prior on the batch's nodes, as :func:`promp.recognition.recognise` does; the
+    likelihood (Eq. 6 in weight space, with the Ornstein-Uhlenbeck noise) is integrated over its
+    speed prior on the batch's nodes, as :attr:`promp.evidence.Evidence.recognition` does; the
     terms every primitive shares (the noise determinant) cancel in the posterior.
     """
     return LooScorer(fitted, batches, n_trials, region)(noise_scales)
@@ -236,7 +236,7 @@ def _bordered_diagonals(
 ) -> np.ndarray:
     """The diagonal of the Cholesky factor of every bordered matrix
     ``[[Sigma_o^-1 + A^T R^-1 A, b], [b^T, r^T R^-1 r + 1]]`` of a batch (the module
-    docstring of :mod:`promp._weight_space`), shape (T, K, A, P + 1).
+    docstring of :mod:`promp.evidence.weight_space`), shape (T, K, A, P + 1).
 
     Parameters
     ----------
@@ -285,8 +285,9 @@ def _bordered_diagonals(
 
 @dataclasses.dataclass(frozen=True)
 class _HeldOut:
-    """Each trial's primitive refitted without its demonstration (:meth:`FitParts.without`,
-    vectorised): mean and slope (T, P), scatter lost (T, p, p), degrees of freedom (T,)."""
+    """Each trial's primitive refitted without its demonstration
+    (:meth:`promp.fitting.FitParts.without`, vectorised): mean and slope (T, P), scatter lost
+    (T, p, p), degrees of freedom (T,)."""
 
     mean: np.ndarray
     slope: np.ndarray

@@ -4,8 +4,8 @@ Each item goes to its path as Rerun's own archetype: line strips ``LineStrips3D`
 ``Points3D``, a mesh ``Mesh3D``, ellipsoids ``Ellipsoids3D`` (solid, translucent), a model
 ``Asset3D`` (glTF binary), a series ``Scalars`` with its ``SeriesLines`` name (label and
 unit), a note ``TextDocument`` (markdown), an event ``TextLog``. An item at a
-:class:`Stamp` is logged at that time of its timeline (a duration in seconds, or a sequence),
-others are static. The scene's frame
+:class:`promp.viewers.scene_log.Stamp` is logged at that time of its timeline (a duration in
+seconds, or a sequence), others are static. The scene's frame
 is z up (``ViewCoordinates.RIGHT_HAND_Z_UP`` at the root). Rerun's own ``log_time`` is not
 recorded: a file's content is the log's, not the clock's.
 

@@ -115,6 +115,104 @@ def _positive(value: float, what: str, allow_zero: bool = False) -> float:
     return x
 
 
+@dataclass(frozen=True, eq=False)
+class _Problem:
+    """One IK problem: the target, the tolerances and the joints that move (see
+    :func:`solve_ik`), and the damped least-squares descent towards it."""
+
+    arm: ArmChain
+    p_target: np.ndarray
+    r_target: np.ndarray | None
+    w_rot: float
+    tol_p: float
+    tol_o: float
+    active: np.ndarray
+    q_rest: np.ndarray
+    gain: float
+    step_cap: float
+
+    @property
+    def lower(self) -> np.ndarray:
+        return self.arm.lower[self.active]
+
+    @property
+    def upper(self) -> np.ndarray:
+        return self.arm.upper[self.active]
+
+    def evaluate(self, qq: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray]:
+        """The task error, its Jacobian over the active joints, the position and orientation
+        errors and the hand's pose at ``qq``."""
+        active, p_target, r_target, w_rot = self.active, self.p_target, self.r_target, self.w_rot
+        pose, jac = self.arm._fk_jacobian(qq)
+        e_pos = p_target - pose[:3, 3]
+        if r_target is None:
+            return e_pos, jac[:3, active], float(np.linalg.norm(e_pos)), np.nan, pose
+        e_rot = rotation_error(r_target, pose[:3, :3])
+        e = np.concatenate([e_pos, w_rot * e_rot])
+        j = np.vstack([jac[:3, active], w_rot * jac[3:, active]])
+        return e, j, float(np.linalg.norm(e_pos)), float(np.linalg.norm(e_rot)), pose
+
+    def done(self, pos_err: float, rot_err: float) -> bool:
+        return pos_err <= self.tol_p and (self.r_target is None or rot_err <= self.tol_o)
+
+    def descend(self, q: np.ndarray, budget: int) -> tuple[np.ndarray, tuple, float, int]:
+        """Iterate from ``q``; return the final configuration, its evaluation, cost, iterations."""
+        active, lower, upper, gain = self.active, self.lower, self.upper, self.gain
+        evaluate, done, step_cap = self.evaluate, self.done, self.step_cap
+        eye_task = np.eye(3 if self.r_target is None else 6)
+        state = evaluate(q)
+        e, jac, pos_err, rot_err, _ = state
+        cost = float(e @ e)
+        damping_scale = 1.0
+        iterations = 0
+        history = [np.sqrt(cost)]
+        while not done(pos_err, rot_err) and iterations < budget:
+            iterations += 1
+            qa = q[active]
+            pull = gain * (self.q_rest[active] - qa)
+            accepted = False
+            for _ in range(8):
+                mu = damping_scale * (1e-6 + _DAMPING * cost)
+                weight = np.ones(active.shape[0])
+                for _ in range(3):
+                    jw = jac * weight
+                    gain_matrix = jw.T @ np.linalg.solve(jw @ jac.T + mu * eye_task, eye_task)
+                    pull_w = pull * weight
+                    dq = gain_matrix @ e + pull_w - gain_matrix @ (jac @ pull_w)
+                    pushing_out = ((qa <= lower + 1e-12) & (dq < 0.0)) | (
+                        (qa >= upper - 1e-12) & (dq > 0.0)
+                    )
+                    if not np.any(pushing_out & (weight > 0.0)):
+                        break
+                    weight[pushing_out] = 0.0  # this joint is on a limit: the others take over
+                largest = float(np.abs(dq).max())
+                if largest > step_cap:
+                    dq *= step_cap / largest
+                candidate = q.copy()
+                candidate[active] = np.clip(qa + dq, lower, upper)
+                new = evaluate(candidate)
+                new_cost = float(new[0] @ new[0])
+                if new_cost <= cost * (1.0 + 1e-9) or new_cost < 1e-14:
+                    accepted = True
+                    break
+                if pull.any():
+                    pull = np.zeros_like(pull)  # the posture pull is a bonus: drop it first
+                else:
+                    damping_scale *= 10.0
+            if not accepted:
+                break  # no step reduces the error: a local minimum of the distance
+            damping_scale = max(damping_scale * 0.3, 1.0)
+            q, state, cost = candidate, new, new_cost
+            e, jac, pos_err, rot_err, _ = state
+            history.append(np.sqrt(cost))
+            if (
+                len(history) > _STALL_WINDOW
+                and history[-1 - _STALL_WINDOW] - history[-1] < _STALL_M
+            ):
+                break
+        return q, state, cost, iterations
+
+
 def solve_ik(
     arm: ArmChain,
     target_position: np.ndarray,
@@ -191,78 +289,10 @@ def solve_ik(
         raise ValueError("orientation_weight must be > 0 when a target_rotation is given")
 
     active = np.arange(N_TORSO if lock_torso else 0, arm.n_joints)
-    lower = arm.lower[active]
-    upper = arm.upper[active]
-    n_task = 3 if r_target is None else 6
-    eye_task = np.eye(n_task)
-
-    def evaluate(qq: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray]:
-        pose, jac = arm._fk_jacobian(qq)
-        e_pos = p_target - pose[:3, 3]
-        if r_target is None:
-            return e_pos, jac[:3, active], float(np.linalg.norm(e_pos)), np.nan, pose
-        e_rot = rotation_error(r_target, pose[:3, :3])
-        e = np.concatenate([e_pos, w_rot * e_rot])
-        j = np.vstack([jac[:3, active], w_rot * jac[3:, active]])
-        return e, j, float(np.linalg.norm(e_pos)), float(np.linalg.norm(e_rot)), pose
-
-    def done(pos_err: float, rot_err: float) -> bool:
-        return pos_err <= tol_p and (r_target is None or rot_err <= tol_o)
-
-    def descend(q: np.ndarray, budget: int) -> tuple[np.ndarray, tuple, float, int]:
-        """Iterate from ``q``; return the final configuration, its evaluation, cost, iterations."""
-        state = evaluate(q)
-        e, jac, pos_err, rot_err, _ = state
-        cost = float(e @ e)
-        damping_scale = 1.0
-        iterations = 0
-        history = [np.sqrt(cost)]
-        while not done(pos_err, rot_err) and iterations < budget:
-            iterations += 1
-            qa = q[active]
-            pull = gain * (q_rest[active] - qa)
-            accepted = False
-            for _ in range(8):
-                mu = damping_scale * (1e-6 + _DAMPING * cost)
-                weight = np.ones(active.shape[0])
-                for _ in range(3):
-                    jw = jac * weight
-                    gain_matrix = jw.T @ np.linalg.solve(jw @ jac.T + mu * eye_task, eye_task)
-                    pull_w = pull * weight
-                    dq = gain_matrix @ e + pull_w - gain_matrix @ (jac @ pull_w)
-                    pushing_out = ((qa <= lower + 1e-12) & (dq < 0.0)) | (
-                        (qa >= upper - 1e-12) & (dq > 0.0)
-                    )
-                    if not np.any(pushing_out & (weight > 0.0)):
-                        break
-                    weight[pushing_out] = 0.0  # this joint is on a limit: the others take over
-                largest = float(np.abs(dq).max())
-                if largest > step_cap:
-                    dq *= step_cap / largest
-                candidate = q.copy()
-                candidate[active] = np.clip(qa + dq, lower, upper)
-                new = evaluate(candidate)
-                new_cost = float(new[0] @ new[0])
-                if new_cost <= cost * (1.0 + 1e-9) or new_cost < 1e-14:
-                    accepted = True
-                    break
-                if pull.any():
-                    pull = np.zeros_like(pull)  # the posture pull is a bonus: drop it first
-                else:
-                    damping_scale *= 10.0
-            if not accepted:
-                break  # no step reduces the error: a local minimum of the distance
-            damping_scale = max(damping_scale * 0.3, 1.0)
-            q, state, cost = candidate, new, new_cost
-            e, jac, pos_err, rot_err, _ = state
-            history.append(np.sqrt(cost))
-            if (
-                len(history) > _STALL_WINDOW
-                and history[-1 - _STALL_WINDOW] - history[-1] < _STALL_M
-            ):
-                break
-        return q, state, cost, iterations
-
+    problem = _Problem(arm, p_target, r_target, w_rot, tol_p, tol_o, active, q_rest, gain,
+                       step_cap)  # fmt: skip
+    lower, upper = problem.lower, problem.upper
+    done, descend = problem.done, problem.descend
     best_q, best_state, best_cost, iterations = descend(q, int(max_iterations))
     if restarts and not done(best_state[2], best_state[3]):
         rng = np.random.default_rng(0)  # deterministic restarts

@@ -125,23 +125,7 @@ class ArmChain:
         if not joint_names:
             raise ValueError("an arm chain needs at least one movable joint")
         base = urdf.base_link if base_frame is None else base_frame
-        links = set(urdf.link_map)
-        for role, link in (("tip", tip_frame), ("base", base)):
-            if link not in links:
-                raise ValueError(
-                    f"the URDF has no {role} link {link!r}: it cannot hold the iCub's left-arm "
-                    f"chain ({base!r} -> {tip_frame!r})"
-                )
-        parent_joint = {j.child: j for j in urdf.robot.joints}
-        path = []
-        link = tip_frame
-        while link != base:
-            if link not in parent_joint:
-                raise ValueError(f"link {tip_frame!r} is not below {base!r} in the URDF tree")
-            joint = parent_joint[link]
-            path.append(joint)
-            link = joint.parent
-        path.reverse()
+        path = _joint_path(urdf, base, tip_frame)
 
         movable = [j.name for j in path if j.type != "fixed"]
         if tuple(movable) != tuple(joint_names):
@@ -157,28 +141,9 @@ class ArmChain:
             acc = acc @ origin
             if joint.type == "fixed":
                 continue
-            if joint.type not in _MOVABLE:
-                raise ValueError(
-                    f"joint {joint.name!r} is {joint.type!r}: the arm chain supports only fixed, "
-                    "revolute and continuous joints"
-                )
-            if joint.mimic is not None:
-                raise ValueError(f"joint {joint.name!r} mimics another joint: not supported")
-            axis = np.asarray(joint.axis, dtype=float)
-            norm = float(np.linalg.norm(axis))
-            if not np.isfinite(norm) or norm < 1e-12:
-                raise ValueError(f"joint {joint.name!r} has no valid axis ({joint.axis})")
-            limit = joint.limit
-            if joint.type == "revolute":
-                if limit is None or limit.lower is None or limit.upper is None:
-                    raise ValueError(f"revolute joint {joint.name!r} has no limits in the URDF")
-                lo, hi = float(limit.lower), float(limit.upper)
-                if not lo <= hi:
-                    raise ValueError(f"joint {joint.name!r}: lower limit {lo} > upper {hi}")
-            else:
-                lo, hi = -np.inf, np.inf
+            axis, lo, hi = _axis_and_limits(joint)
             pre.append(acc)
-            axes.append(axis / norm)
+            axes.append(axis)
             lower.append(lo)
             upper.append(hi)
             acc = np.eye(4)
@@ -342,3 +307,63 @@ def load_arm(robot: str = DEFAULT_ROBOT) -> ArmChain:
         If the robot name is unknown or its URDF lacks the chain.
     """
     return ArmChain.from_urdf(load_urdf(robot, load_meshes=False))
+
+
+def _joint_path(urdf: yourdfpy.URDF, base: str, tip: str) -> list:
+    """The joints of ``urdf`` from link ``base`` down to link ``tip``, in order.
+
+    Raises
+    ------
+    ValueError
+        A link the URDF does not have, or ``tip`` not below ``base``.
+    """
+    links = set(urdf.link_map)
+    for role, link in (("tip", tip), ("base", base)):
+        if link not in links:
+            raise ValueError(
+                f"the URDF has no {role} link {link!r}: it cannot hold the iCub's left-arm "
+                f"chain ({base!r} -> {tip!r})"
+            )
+    parent_joint = {j.child: j for j in urdf.robot.joints}
+    path = []
+    link = tip
+    while link != base:
+        if link not in parent_joint:
+            raise ValueError(f"link {tip!r} is not below {base!r} in the URDF tree")
+        joint = parent_joint[link]
+        path.append(joint)
+        link = joint.parent
+    path.reverse()
+    return path
+
+
+def _axis_and_limits(joint) -> tuple[np.ndarray, float, float]:
+    """A movable joint's unit axis (3,) and its limits (radians; infinite when continuous).
+
+    Raises
+    ------
+    ValueError
+        A joint neither revolute nor continuous, one that mimics another, without a valid
+        axis, or revolute without limits (or with them inverted).
+    """
+    if joint.type not in _MOVABLE:
+        raise ValueError(
+            f"joint {joint.name!r} is {joint.type!r}: the arm chain supports only fixed, "
+            "revolute and continuous joints"
+        )
+    if joint.mimic is not None:
+        raise ValueError(f"joint {joint.name!r} mimics another joint: not supported")
+    axis = np.asarray(joint.axis, dtype=float)
+    norm = float(np.linalg.norm(axis))
+    if not np.isfinite(norm) or norm < 1e-12:
+        raise ValueError(f"joint {joint.name!r} has no valid axis ({joint.axis})")
+    limit = joint.limit
+    if joint.type == "revolute":
+        if limit is None or limit.lower is None or limit.upper is None:
+            raise ValueError(f"revolute joint {joint.name!r} has no limits in the URDF")
+        lo, hi = float(limit.lower), float(limit.upper)
+        if not lo <= hi:
+            raise ValueError(f"joint {joint.name!r}: lower limit {lo} > upper {hi}")
+    else:
+        lo, hi = -np.inf, np.inf
+    return axis / norm, lo, hi

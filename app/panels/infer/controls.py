@@ -1,7 +1,7 @@
 """The Infer tab's controls: built once (:func:`build_observation`, :func:`build_display`),
 following what the workspace offers (:meth:`InferControls.follow`), set to a request of another
 tab (:meth:`InferControls.show`); the panel reads them once per frame into an immutable
-:class:`app.live.inference.InferState`."""
+:class:`app.panels.infer.view_model.InferState`."""
 
 from __future__ import annotations
 

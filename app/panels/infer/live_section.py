@@ -12,8 +12,9 @@ on while its checkbox is.
 
 The callbacks only record presses; :meth:`LiveSection.step`, on the studio's loop, acts on them
 (:class:`app.live.lsl_source.LslSource`: a refused start is a notification and a red line,
-nothing starts) and returns what the tab observes: an :class:`app.live.lsl_view.LslObserved`,
-the same object until the session's prediction or its message changes.
+nothing starts) and returns what the tab observes: an
+:class:`app.panels.infer.lsl_view.LslObserved`, the same object until the session's prediction
+or its message changes.
 """
 
 from __future__ import annotations
@@ -25,11 +26,12 @@ from dataclasses import dataclass
 import viser
 
 from app.core.snapshot import Snapshot
-from app.live.inference import LSL, InferState
+from app.live.inference import LSL
 from app.live.lsl_mapping import guess_mapping, selector_text
 from app.live.lsl_source import STARTS, LiveConfig, LslSource
-from app.live.lsl_view import LslObserved
 from app.panels.infer.live_status import idle_html, outputs_html, session_html, streams_html
+from app.panels.infer.lsl_view import LslObserved
+from app.panels.infer.view_model import InferState
 from app.ui.context import Frame, PanelContext, PanelGui
 from promp.data import Layout
 from robots.icub.layout import HAND

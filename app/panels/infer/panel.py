@@ -10,9 +10,9 @@ movement (:mod:`app.panels.infer.replay_section`); "Export view to" Rerun or MCA
 what the tab shows (:mod:`app.panels.infer.viewer_export`).
 
 The panel is a view: at every frame :meth:`InferPanel.step` reads its controls into an
-:class:`~app.panels.infer.controls.InferState`, and when that state, the workspace, the model
+:class:`~app.panels.infer.view_model.InferState`, and when that state, the workspace, the model
 or the live samples changed since the view it shows, computes the new one
-(:func:`app.live.inference.compute`, pure), writes it to its controls and measures that
+(:func:`app.panels.infer.view_model.compute`, pure), writes it to its controls and measures that
 server-side time (shown in the tab). It hands the inference to the scene's Infer layer
 (:class:`app.scene.inference_layer.InferenceLayer`, which says what it draws) itself, and
 returns only its display options (:class:`app.scene.look.InferenceShown`) and via-points for
@@ -36,8 +36,6 @@ from dataclasses import dataclass, field
 
 from app.core.groups import rule_of
 from app.core.snapshot import Snapshot
-from app.live.inference import InferState, InferView, ModelChoice, choose_model, compute
-from app.live.lsl_view import lsl_view
 from app.live.stream import LiveStream, StreamSamples
 from app.panels.infer.controls import (
     HOLD_PREFIX,
@@ -46,6 +44,7 @@ from app.panels.infer.controls import (
     build_observation,
 )
 from app.panels.infer.live_section import LiveSection
+from app.panels.infer.lsl_view import lsl_view
 from app.panels.infer.readout import (
     LEGEND_HTML,
     InferCharts,
@@ -56,11 +55,20 @@ from app.panels.infer.readout import (
 from app.panels.infer.recognition import LIVE_NOTE, TITLE, X_RANGE, RecognitionChart
 from app.panels.infer.replay_section import ReplaySection
 from app.panels.infer.shaping import InferShaping
+from app.panels.infer.view_model import (
+    InferState,
+    InferView,
+    ModelChoice,
+    ViewInputs,
+    choose_model,
+    compute,
+)
 from app.panels.infer.viewer_export import InferExport
 from app.scene.inference_layer import DEFAULT_COLOR
 from app.scene.look import INFER, InferenceShown, Shown
 from app.ui.context import Frame, InferRequest, PanelContext
 from app.ui.display import INFER_ALPHAS, observed_choices
+from app.ui.element_id import element_id
 from app.ui.page_script import ChartSlider
 
 
@@ -95,24 +103,6 @@ def read_state(c: InferControls) -> InferState:
     )  # fmt: skip
 
 
-def in_background(inputs: tuple, old: tuple, panel: str, view: InferView | None) -> bool:
-    """Only the workspace, the model or the via-points changed (not the controls, not the
-    live samples), another tab is in use, and the view shown has a result; or, another tab in
-    use, the LSL source's new predictions wait for the tab to be (each would redraw the
-    charts)."""
-    if panel == INFER or not old or view is None or inputs[0] != old[0]:
-        return False
-    return inputs[0].lsl or (inputs[5] is old[5] and view.result is not None)
-
-
-def same_inputs(new: tuple, old: tuple) -> bool:
-    """The same two values first (equal), then the same objects."""
-    return (
-        len(new) == len(old) and new[:2] == old[:2]
-        and all(a is b for a, b in zip(new[2:], old[2:], strict=True))
-    )  # fmt: skip
-
-
 class InferPanel:
     """The Infer tab (see the module docstring). Built inside its tab's container."""
 
@@ -121,7 +111,7 @@ class InferPanel:
         self.live = LiveStream()
         self.view: InferView | None = None
         self.steps = StepTimes()
-        self._inputs: tuple = ()  # what the shown view was computed from
+        self._inputs: ViewInputs | None = None  # what the shown view was computed from
         self._snapshot: Snapshot | None = None  # of the frame being shown (colours)
         self._shown = InferenceShown(None, DEFAULT_COLOR)
         self._pressed: list[str] = []  # live and replay buttons, until the next frame
@@ -158,14 +148,14 @@ class InferPanel:
         observed = self.lsl.step(frame, state)
         samples = observed if state.lsl else self._observe(frame, state)
         choice = choose_model(state, snapshot, self.ctx.learner)
-        # The view is computed again when one of its inputs changed: the state and the
-        # model's message by value, the immutable rest by identity. A change of the workspace
-        # or of the model alone waits, while another tab is in use, until this one is (the
-        # view it replaces had a result: it is not shown meanwhile).
-        inputs = (state, choice.message, snapshot.store.demos, snapshot.store.primitives,
-                  choice.model, samples, snapshot.view.via_points)  # fmt: skip
-        if not same_inputs(inputs, self._inputs) and not in_background(
-            inputs, self._inputs, frame.panel, self.view
+        # The view is computed again when one of its inputs changed (ViewInputs.same); a
+        # change of the workspace or of the model alone waits, while another tab is in use,
+        # until this one is (ViewInputs.waits).
+        inputs = ViewInputs(state, choice.message, snapshot.store.demos,
+                            snapshot.store.primitives, choice.model, samples,
+                            snapshot.view.via_points)  # fmt: skip
+        if not inputs.same(self._inputs) and not inputs.waits(
+            self._inputs, frame.panel != INFER, self.view
         ):
             self._inputs = inputs
             self._show(frame, state, choice, samples)
@@ -270,7 +260,7 @@ class InferPanel:
     def chart_sliders(self) -> dict[str, ChartSlider]:
         """A click on the recognition chart moves the Observed % slider (the page's script)."""
         slider = self.controls.percent
-        return {TITLE: ChartSlider(slider._impl.uuid, slider.min, slider.max, X_RANGE)}
+        return {TITLE: ChartSlider(element_id(slider), slider.min, slider.max, X_RANGE)}
 
     def close(self) -> None:
         """Stop the recognition chart's worker."""

@@ -4,8 +4,9 @@ marker at the earliest point from which the recognition stays right.
 
 The curve takes a hundred recognitions (half a second, more on a loaded machine), so a worker
 thread computes it (:class:`app.live.recognition_curve.CurveWorker`, which gives way while the
-slider moves); the loop asks for the curve of what it inspects (:meth:`request`) and draws it
-once there, cached per demonstration and settings. Moving the slider only moves the cursor.
+slider moves); the loop asks for the curve of what it inspects
+(:meth:`RecognitionChart.request`) and draws it once there, cached per demonstration and
+settings. Moving the slider only moves the cursor.
 
 A click on the chart moves the slider there: the page's script (``static/studio.js``) turns it
 into a click on the slider's track at the same percentage.
@@ -21,8 +22,7 @@ from collections.abc import Callable, Hashable
 
 import numpy as np
 
-from app.live.inference import CurveRequest
-from app.live.recognition_curve import CurveWorker, RecognitionCurve
+from app.live.recognition_curve import CurveRequest, CurveWorker, RecognitionCurve
 from app.ui.charts import chart_axes, css
 from app.ui.context import PanelContext
 from app.ui.text import escape

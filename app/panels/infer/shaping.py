@@ -6,12 +6,12 @@ the observation (:func:`app.live.inference.inferred`)."""
 from __future__ import annotations
 
 from app.core.snapshot import Snapshot
-from app.live.inference import InferView
-from app.live.regions import mean_position
+from app.panels.infer.view_model import InferView
 from app.scene.look import INFER, ViaShown
 from app.ui.context import PanelContext
 from app.ui.tube_style import TubeNote
 from app.ui.via_points import ViaPointSection
+from promp.region import mean_position
 from robots.icub.layout import HAND
 
 

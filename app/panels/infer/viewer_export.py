@@ -10,8 +10,8 @@ from collections.abc import Callable
 
 import viser
 
-from app.live.inference import InferView
 from app.live.recognition_curve import RecognitionCurve
+from app.panels.infer.view_model import InferView
 from app.scene.viewer_logs import infer_log
 from app.ui.context import PanelContext
 from app.ui.viewer_download import FORMATS, send_viewer_file

@@ -2,7 +2,7 @@
 
 :class:`app.panels.teach.panel.TeachPanel` composes one section per folder:
 :mod:`~app.panels.teach.primitives`, :mod:`~app.panels.teach.record` (over the pure state
-machine of :mod:`~app.live.take_machine`), :mod:`~app.panels.teach.head`,
+machine of :mod:`~app.live.take_controller`), :mod:`~app.panels.teach.head`,
 :mod:`~app.panels.teach.demos`, :mod:`~app.panels.teach.learn` and
 :mod:`~app.panels.teach.prior`.
 """

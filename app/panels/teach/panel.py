@@ -11,7 +11,7 @@ the frame's snapshot, redrawing only what changed, so every browser tab shows th
 from __future__ import annotations
 
 from app.live.recorder import Recording
-from app.live.regions import mean_position, prior_shape
+from app.live.regions import prior_shape
 from app.live.take_controller import COUNTDOWN_S, Phase
 from app.panels.teach.demos import DemoList
 from app.panels.teach.head import HeadSection
@@ -23,6 +23,7 @@ from app.panels.teach.record import RecordSection
 from app.scene.look import TEACH, Shown
 from app.ui.context import Frame, PanelContext
 from app.ui.via_points import ViaPointSection
+from promp.region import mean_position
 from robots.icub.layout import HAND
 
 

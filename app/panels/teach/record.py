@@ -6,7 +6,7 @@ The callbacks only record the press. :meth:`RecordSection.step`, on the studio's
 to the take's controller (:class:`app.live.take_controller.TakeController`: the countdown, the
 recorder, the save on a worker), notifies what the take came to, and writes the status line,
 a pure function of the controller's state, the frame's snapshot and the options
-(:func:`status_text`): the line says what happened to the latest take of the workspace shown,
+(:func:`outcome_text`): the line says what happened to the latest take of the workspace shown,
 with its typicality once the learner has scored it. The scene shows the ghost of the chosen
 primitive's start (where its demonstrations begin, :func:`app.live.takes.mean_start`);
 *Go to start* and, after Stop, the option *Back to start* put the hand there.

@@ -1,4 +1,5 @@
-"""The likelihood of an observation under a primitive (paper Eq. 6), exploiting the structure.
+"""The likelihood of Eq. 6 through Woodbury's identity, and the posterior of Eq. 8 from the same
+terms.
 
 ``log N(y_o | Phi_o mu_k, Phi_o Sigma_k Phi_o^T + Sigma_noise)`` for many candidate time
 modulations at once. The prior covariance is ``Sigma_w = diag(t) + U U^T`` (``t`` constant
@@ -7,17 +8,14 @@ noise of each dimension is an Ornstein-Uhlenbeck process whose precision is trid
 diagonal part keeps the dimensions independent, so with the determinant lemma and Woodbury's
 identity a score needs M x M work per dimension, diagonal in one eigenbasis per noise group, and
 one r x r factorisation; never the n_o x n_o observation covariance. The same terms give the
-posterior (Eq. 8, :func:`promp.inference.condition`).
+posterior (Eq. 8, :func:`posterior`).
 
-The terms that do not depend on the noise level (the basis at the observed phases, the
-whitened statistics and their eigendecompositions, the rotated prior) are computed once
+Everything is read from the whitened sums (:mod:`promp.evidence.sums`); the terms that do not
+depend on the noise level (their eigendecompositions, the rotated prior) are computed once
 (:func:`rotate`), so the likelihood at several noise levels costs little more than at one
-(:func:`log_likelihoods_scaled`, which the automatic choice of the noise scale uses).
-
-When ``U`` is square (a primitive with as many demonstrations as observed weights), the same
-likelihood is cheaper in weight space (:mod:`promp._weight_space`: one bordered Cholesky
-factorisation per candidate, no eigendecomposition); :func:`log_likelihoods_scaled` takes the
-cheaper form by their operation counts. Both are checked against the dense formula.
+(:func:`log_likelihoods`, which the automatic choice of the noise scale uses). When ``U`` is
+square the weight-space form costs less (:mod:`promp.evidence.weight_space`); both are checked
+against the dense formula.
 """
 
 from __future__ import annotations
@@ -26,46 +24,17 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import cho_solve, solve_triangular
 
-from promp import _weight_space
-from promp.incremental import IncrementalStatistics, whitened_sums
-from promp.model import Primitive, ProMPModel
-from promp.noise import noise_groups, whiten  # noqa: F401  (re-exported)
-from promp.observation import Observation, check_observation
-from promp.timing import check_alpha, duration_from_alpha
+from promp.evidence.sums import WhitenedSums
+from promp.inference import per_dimension
+from promp.model import Primitive
+
+__all__ = [
+    "LOG_2PI", "Rotated", "Woodbury", "log_likelihoods", "posterior", "rotate", "woodbury"
+]  # fmt: skip
 
 LOG_2PI = math.log(2.0 * math.pi)
-
-
-def logsumexp(values: np.ndarray) -> float:
-    """``log(sum(exp(values)))`` over every entry, stable; ``-inf`` for an empty or all
-    ``-inf`` input: :func:`logsumexp_rows` of one row."""
-    return float(logsumexp_rows(np.ravel(values)))
-
-
-def logsumexp_rows(values: np.ndarray) -> np.ndarray:
-    """``log(sum(exp(values)))`` along the last axis, stable: shape (...,) for ``values`` of
-    shape (..., n); ``-inf`` for an empty or all ``-inf`` row, the row's maximum for a row
-    holding ``+inf`` or NaN.
-
-    (scipy's version costs ~0.2 ms of checks per call, too much for a 60 Hz scrub loop.)
-    """
-    values = np.asarray(values, dtype=float)
-    if values.shape[-1] == 0:
-        return np.full(values.shape[:-1], -np.inf)
-    top = values.max(axis=-1, keepdims=True)
-    finite = np.isfinite(top)
-    if finite.all():
-        return (top + np.log(np.exp(values - top).sum(axis=-1, keepdims=True)))[..., 0]
-    safe = np.where(finite, top, 0.0)  # rows without a finite maximum: their maximum
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out = safe + np.log(np.exp(values - safe).sum(axis=-1, keepdims=True))
-    return np.where(finite, out, top)[..., 0]
-
-
-def per_dimension(vector: np.ndarray, n_dims: int) -> np.ndarray:
-    """A dimension-major weight vector (n_dims * M,) as rows, shape (n_dims, M)."""
-    return vector.reshape(n_dims, -1)
 
 
 @dataclass(frozen=True)
@@ -114,34 +83,26 @@ class Woodbury:
 
 
 def rotate(
-    model: ProMPModel,
-    primitive: Primitive,
-    obs: Observation,
-    dims: np.ndarray,
-    alphas: np.ndarray,
-    durations: np.ndarray,
-    compress: bool = True,
-    statistics: IncrementalStatistics | None = None,
+    sums: WhitenedSums, primitive: Primitive, dims: np.ndarray, compress: bool = True
 ) -> Rotated:
-    """The terms of :class:`Rotated`: the whitened sums (:mod:`promp._statistics`, extended
-    from ``statistics`` when given), the eigendecomposition of each noise group's
-    ``Psi^T K^-1 Psi``, and the rotations into its eigenbasis.
+    """The terms of :class:`Rotated` from the whitened ``sums`` of the observed ``dims``: the
+    eigendecomposition of each noise group's ``Psi^T K^-1 Psi`` and the rotations into its
+    eigenbasis.
 
     ``compress``: use the observed rows of ``U`` with at most as many columns as rows
     (:meth:`promp.model.Primitive.observed_factor`; enough for the likelihood); off, the
     columns of ``U`` itself (the posterior of the unobserved weights needs them).
     """
-    m = model.basis.n_basis
-    t = per_dimension(primitive.cov_diag, model.n_dims)[dims, 0]  # (Do,)
+    n_dims, m = primitive.noise_var.shape[0], sums.gram.shape[-1]
+    t = per_dimension(primitive.cov_diag, n_dims)[dims, 0]  # (Do,)
     if compress:
         u = primitive.observed_factor(dims)  # (Do, M, r)
     else:
-        u = primitive.cov_factor.reshape(model.n_dims, m, -1)[dims]
-    sums = whitened_sums(model, primitive, obs, dims, alphas, durations, statistics)
+        u = primitive.cov_factor.reshape(n_dims, m, -1)[dims]
     eigval, eigvec = np.linalg.eigh(sums.gram)  # (A, n_groups, M), (A, n_groups, M, M)
     eigval = np.maximum(eigval, 0.0)
-    group, proj, rr, logdet_k = sums.group, sums.proj, sums.rr, sums.logdet_k
-    n_cand, r = alphas.shape[0], u.shape[-1]
+    group, proj = sums.group, sums.proj
+    n_cand, r = proj.shape[0], u.shape[-1]
     vt_proj = np.empty_like(proj)
     u_hat = np.empty((n_cand, dims.shape[0], m, r))
     for index in range(eigvec.shape[1]):
@@ -152,8 +113,8 @@ def rotate(
         u_cols = u[cols].transpose(1, 0, 2).reshape(m, -1)
         u_hat[:, cols] = (vec_t @ u_cols).reshape(n_cand, m, cols.shape[0], r).transpose(0, 2, 1, 3)
     return Rotated(
-        eigval[:, group], eigvec, group, vt_proj, u_hat.reshape(n_cand, -1, r), rr, logdet_k, t,
-        obs.n_observed,
+        eigval[:, group], eigvec, group, vt_proj, u_hat.reshape(n_cand, -1, r), sums.rr,
+        sums.logdet_k, t, sums.n,
     )  # fmt: skip
 
 
@@ -204,81 +165,60 @@ def _log_likelihood(w: Woodbury, n_values: int) -> np.ndarray:
     return -0.5 * (quad + logdet + n_values * LOG_2PI)
 
 
-def log_likelihoods_scaled(
-    model: ProMPModel,
-    primitive: Primitive,
-    obs: Observation,
-    alphas: np.ndarray,
-    noise_factors: np.ndarray,
-    statistics: IncrementalStatistics | None = None,
+def log_likelihoods(
+    sums: WhitenedSums, primitive: Primitive, dims: np.ndarray, noise_var: np.ndarray
 ) -> np.ndarray:
-    """Log marginal likelihood of ``obs`` for each alpha and each noise level (Eq. 6).
-
-    Parameters
-    ----------
-    alphas : array, shape (n_candidates,)
-    noise_factors : array, shape (n_levels, n_dims)
-        Each row multiplies the primitive's noise variance of every model dimension.
-    statistics : IncrementalStatistics, optional
-        What the likelihood kept of the observation's first samples, for an observation
-        that grows (:class:`promp.incremental.IncrementalStatistics`): only the new samples'
-        terms are computed. The same numbers to round-off.
-
-    Returns
-    -------
-    array, shape (n_levels, n_candidates)
-        ``-inf`` where the candidate's duration is shorter than the observation.
-
-    In weight space (:mod:`promp._weight_space`) when that costs less than the Woodbury form
-    (:func:`promp._weight_space.cheaper_than_woodbury`); the two agree to round-off.
-    """
-    alphas = np.atleast_1d(np.asarray(alphas, dtype=float))
-    check_alpha(alphas)
-    dims = check_observation(model, obs)
-    durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
-    valid = obs.elapsed[-1] <= durations * (1.0 + 1e-9)
-    factors = np.atleast_2d(np.asarray(noise_factors, dtype=float))
-    out = np.full((factors.shape[0], alphas.shape[0]), -np.inf)
-    if not valid.any():
-        return out
-    noise_var = primitive.noise_var[dims][None, :] * factors[:, dims]
-    factor = primitive.observed_factor(dims)
-    if _weight_space.cheaper_than_woodbury(factor.shape[0] * factor.shape[1], factor.shape[2]):
-        out[:, valid] = _weight_space.log_likelihoods(
-            model, primitive, obs, dims, alphas[valid], durations[valid], noise_var, statistics
-        )
-        return out
-    rot = rotate(model, primitive, obs, dims, alphas[valid], durations[valid],
-                 statistics=statistics)  # fmt: skip
+    """``log N(y | A mu, S)`` per noise level and candidate, shape (L, A), from the whitened
+    ``sums`` of the observed ``dims`` and their noise variance at each level ``noise_var``
+    (L, Do)."""
+    rot = rotate(sums, primitive, dims)
+    out = np.empty((noise_var.shape[0], sums.proj.shape[0]))
     for level in range(noise_var.shape[0]):  # (one level at a time: smaller batches run faster)
         w = woodbury(rot, noise_var[level : level + 1])
-        out[level, valid] = _log_likelihood(w, obs.values.size)[0]
+        out[level] = _log_likelihood(w, sums.n * dims.shape[0])[0]
     return out
 
 
-def log_likelihoods(
-    model: ProMPModel,
-    primitive: Primitive,
-    obs: Observation,
-    alphas: np.ndarray,
-    statistics: IncrementalStatistics | None = None,
-) -> np.ndarray:
-    """Log marginal likelihood of ``obs`` under ``primitive`` for each alpha (Eq. 6).
+def posterior(
+    sums: WhitenedSums, primitive: Primitive, dims: np.ndarray, alpha: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The posterior of the weights given the observation whose whitened ``sums`` at the one
+    speed ``alpha`` (A = 1) are given (Eq. 8): its mean (n_weights,) and the covariance of
+    each dimension's weights (n_dims, M, M), from the terms of the likelihood (Woodbury's
+    identity on ``Sigma_w = T + U U^T``): O(D M^2 r) (:meth:`promp.evidence.Evidence.condition`)."""
+    rot = rotate(sums, primitive, dims, compress=False)
+    w = woodbury(rot, primitive.noise_var[dims][None, :])
+    n_dims, m = primitive.noise_var.shape[0], sums.gram.shape[-1]
+    u_all = primitive.cov_factor.reshape(n_dims, m, -1)  # (D, M, r)
+    t_all = per_dimension(primitive.cov_diag, n_dims)[:, 0]  # (D,)
+    u_o, t_o = u_all[dims], w.t
+    vec = w.eigvec[0][w.group]  # (Do, M, M)
+    # one noise level, one alpha: index [0, 0]
+    big_h = vec @ (w.h_diag[0, 0][..., None] * vec.transpose(0, 2, 1))  # H = Psi^T B^-1 Psi
+    small_h = (vec @ w.h_hat[0, 0][..., None])[..., 0]  # h = Psi^T B^-1 r
+    hu = big_h @ u_o  # (Do, M, r)
+    utu = w.utu[0, 0]
+    chol_q = np.linalg.cholesky(utu + np.eye(utu.shape[0]))
+    # Sigma A^T S^-1 r with S^-1 = B^-1 - B^-1 V Q^-1 V^T B^-1:  A^T S^-1 r = h - H U Q^-1 v.
+    kappa = small_h - hu @ cho_solve((chol_q, True), w.v[0, 0], check_finite=False)
+    shift = u_all @ np.einsum("dmr,dm->r", u_o, kappa)  # U U_O^T kappa
+    mean = per_dimension(primitive.mean_at(alpha), n_dims) + shift
+    mean[dims] += t_o[:, None] * kappa
+    # Diagonal blocks of Sigma - Sigma A^T S^-1 A Sigma, with Sigma_de = t_d I [d = e] + U_d U_e^T.
+    wg = u_all @ utu  # Sigma_(d,O) A^T B^-1 V
+    wg[dims] += t_o[:, None, None] * hu
+    # Sigma_(d,O) H Sigma_(O,d) = U_d (Q - I) U_d^T + t_d H_d U_d U_d^T (from wg)
+    #                            + t_d^2 H_d + t_d U_d U_d^T H_d          (observed d only)
+    correction = wg @ u_all.transpose(0, 2, 1)
+    t3 = t_o[:, None, None]
+    correction[dims] += t3**2 * big_h + t3 * (u_o @ hu.transpose(0, 2, 1))
+    # L_q^-1 (W G)^T, (D, r, M): one triangular solve with every dimension's right-hand sides
+    r = chol_q.shape[0]
+    rhs = np.ascontiguousarray(wg.transpose(2, 0, 1).reshape(r, -1))  # (r, D M)
+    z = solve_triangular(chol_q, rhs, lower=True, check_finite=False)
+    z = z.reshape(r, n_dims, m).transpose(1, 0, 2)
+    prior_blocks = t_all[:, None, None] * np.eye(m) + u_all @ u_all.transpose(0, 2, 1)
+    blocks = prior_blocks - correction + z.transpose(0, 2, 1) @ z
+    blocks = 0.5 * (blocks + blocks.transpose(0, 2, 1))
+    return mean.reshape(-1), blocks
 
-    ``log N(y | A mu, S)`` with ``S = A Sigma_w A^T + R``, by the determinant lemma and
-    Woodbury's identity on the structure of ``Sigma_w`` (see :class:`Woodbury`): M x M work per
-    dimension, diagonal in a shared eigenbasis, plus one r x r Cholesky factorisation.
-    Candidates whose predicted duration is shorter than the observation get ``-inf``.
-
-    Parameters
-    ----------
-    alphas : array, shape (n_candidates,)
-    statistics : IncrementalStatistics, optional
-        For an observation that grows: see :func:`log_likelihoods_scaled`.
-
-    Returns
-    -------
-    array, shape (n_candidates,)
-    """
-    ones = np.ones((1, model.n_dims))
-    return log_likelihoods_scaled(model, primitive, obs, alphas, ones, statistics)[0]

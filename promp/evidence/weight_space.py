@@ -1,6 +1,6 @@
 """The likelihood of Eq. 6 in weight space, for when the observed weights' covariance is dense.
 
-:mod:`promp._likelihood` scores an observation through ``Sigma_w = T + U U^T`` with Woodbury's
+:mod:`promp.evidence.woodbury` scores an observation through ``Sigma_w = T + U U^T`` with Woodbury's
 identity: its work per candidate and noise level is an ``r x r`` factorisation and an
 ``(n_o_weights x r)`` product, cheap while the rank r of ``U`` is well below the number of
 observed weights ``P_o = D_o M``. Once a primitive has as many demonstrations as that (the
@@ -14,22 +14,25 @@ quadratic form are cheaper from the ``P_o x P_o`` matrix of the weight-space pos
 with ``Sigma_o^-1`` factorised once per primitive and observed set, ``A^T R^-1 A``
 block-diagonal (one whitened Gram matrix per dimension) and no eigendecomposition at all: one
 Cholesky factorisation of the bordered ``(P_o + 1)`` matrix per candidate and noise level gives
-both terms. :func:`promp._likelihood.log_likelihoods_scaled` picks the cheaper form.
+both terms. :meth:`promp.evidence.Evidence.log_likelihoods` picks the cheaper form
+(:func:`cheaper_than_woodbury`); the leave-one-out scorer (:mod:`promp.selection.loo`) uses the
+same factorisations in batch form.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from scipy.linalg import lapack
 
 from promp._recent import cached_on
-from promp.incremental import IncrementalStatistics, whitened_sums
-from promp.model import Primitive, ProMPModel
-from promp.observation import Observation
+from promp.evidence.sums import WhitenedSums
+from promp.evidence.woodbury import LOG_2PI
+from promp.model import Primitive
 
-LOG_2PI = math.log(2.0 * math.pi)
+__all__ = [
+    "cheaper_than_woodbury", "cholesky_diagonals", "diagonal_blocks", "equilibrated_precision",
+    "log_likelihoods", "observed_precision",
+]  # fmt: skip
 
 
 def equilibrated_precision(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -123,59 +126,63 @@ def cholesky_diagonals(matrices: np.ndarray) -> np.ndarray:
         A matrix is not positive definite.
     """
     for matrix in matrices:
-        _, info = lapack.dpotrf(matrix.T, lower=1, clean=0, overwrite_a=1)
-        if info != 0:
-            raise np.linalg.LinAlgError("Matrix is not positive definite")
+        _factorise(matrix)
     return np.diagonal(matrices, axis1=1, axis2=2).copy()  # (factorised in place)
 
 
-def log_likelihoods(
-    model: ProMPModel,
-    primitive: Primitive,
-    obs: Observation,
-    dims: np.ndarray,
-    alphas: np.ndarray,
-    durations: np.ndarray,
-    noise_var: np.ndarray,
-    statistics: IncrementalStatistics | None = None,
-) -> np.ndarray:
-    """``log N(y | A mu, A Sigma_o A^T + R)`` per noise level and candidate, shape (L, A).
+def _factorise(matrix: np.ndarray) -> None:
+    """The lower Cholesky factor of the C-ordered symmetric positive definite ``matrix`` (N,
+    N) in place, by LAPACK (its transpose is the same matrix in Fortran order).
 
-    Parameters
-    ----------
-    dims : int array, shape (Do,)
-        The observed model dimensions.
-    alphas, durations : array, shape (A,)
-        Candidate time modulations and their durations (each at least as long as ``obs``).
-    noise_var : array, shape (L, Do)
-        The noise variance of every observed dimension at each noise level.
-    statistics : IncrementalStatistics, optional
-        The sums of the samples seen before (:func:`promp.incremental.whitened_sums`).
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        The matrix is not positive definite.
     """
-    m = model.basis.n_basis
-    n_do, n_cand, n_levels = dims.shape[0], alphas.shape[0], noise_var.shape[0]
+    _, info = lapack.dpotrf(matrix.T, lower=1, clean=0, overwrite_a=1)
+    if info != 0:
+        raise np.linalg.LinAlgError("Matrix is not positive definite")
+
+
+def log_likelihoods(
+    sums: WhitenedSums, primitive: Primitive, dims: np.ndarray, noise_var: np.ndarray
+) -> np.ndarray:
+    """``log N(y | A mu, A Sigma_o A^T + R)`` per noise level and candidate, shape (L, A),
+    from the whitened ``sums`` of the observed ``dims`` (:mod:`promp.evidence.sums`) and their
+    noise variance at each level ``noise_var`` (L, Do)."""
+    m = sums.gram.shape[-1]
+    n_do, n_cand, n_levels = dims.shape[0], sums.proj.shape[0], noise_var.shape[0]
     p = n_do * m
-    sums = whitened_sums(model, primitive, obs, dims, alphas, durations, statistics)
     gram = sums.gram[:, sums.group]  # Psi^T K^-1 Psi of each dimension's noise group
     proj, rr = sums.proj, sums.rr  # Psi^T K^-1 (y - Psi mu), (y - Psi mu)^T K^-1 (y - Psi mu)
     precision, logdet_sigma = observed_precision(primitive, dims)
     inv_s2 = 1.0 / noise_var  # (L, Do)
-    # One noise level at a time, and one buffer serves every level.
-    bordered = np.empty((n_cand, p + 1, p + 1))
-    blocks = diagonal_blocks(bordered, n_do, m)  # (A, Do, M, M), a view
-    quad = np.empty((n_levels, n_cand))
-    logdet = np.empty((n_levels, n_cand))
+    # One matrix at a time in one buffer, which stays in the cache: a stack of them, filled
+    # at once then factorised, is ~25 % slower at P ~ 180 (each matrix leaves the cache
+    # between its filling and its factorisation).
+    # LAPACK reads and overwrites one triangle of the buffer (the C array's upper one, its
+    # Fortran transpose's lower): the bordered matrix is written there alone.
+    buffer = np.empty((p + 1, p + 1))
+    blocks = diagonal_blocks(buffer[None], n_do, m)[0]  # (Do, M, M), a view
+    border = buffer[:, p]  # the last column: b, then the corner
+    factorised = np.diagonal(buffer)  # the factor's diagonal once factorised, a view
+    fortran = buffer.T
+    diag = np.empty((n_levels, n_cand, p + 1))
     for level in range(n_levels):
         # [[Sigma_o^-1 + A^T R^-1 A, b], [b^T, r^T R^-1 r + 1]]: the last diagonal of its
         # Cholesky factor squared is r^T S^-1 r + 1 (the Schur complement).
-        bordered[...] = precision  # (whole rows: faster than filling the top-left block)
-        blocks += inv_s2[level, None, :, None, None] * gram
-        b = (inv_s2[level, :, None] * proj).reshape(n_cand, p)
-        bordered[:, :p, p] = b
-        bordered[:, p, :p] = b
-        bordered[:, p, p] = rr @ inv_s2[level] + 1.0
-        diag = cholesky_diagonals(bordered)
-        quad[level] = diag[:, p] ** 2 - 1.0
-        logdet[level] = 2.0 * np.log(diag[:, :p]).sum(-1) + logdet_sigma
-    logdet_r = (obs.n_observed * np.log(noise_var) + sums.logdet_k).sum(-1)  # (L,)
-    return -0.5 * (quad + logdet + logdet_r[:, None] + obs.values.size * LOG_2PI)
+        scaled = inv_s2[level, None, :, None, None] * gram  # (A, Do, M, M)
+        bordered = np.empty((n_cand, p + 1))  # each candidate's last column
+        bordered[:, :p] = (inv_s2[level, :, None] * proj).reshape(n_cand, p)
+        bordered[:, p] = rr @ inv_s2[level] + 1.0
+        for a in range(n_cand):
+            buffer[...] = precision  # (whole rows: faster than filling the top-left block)
+            blocks += scaled[a]
+            border[...] = bordered[a]
+            if lapack.dpotrf(fortran, lower=1, clean=0, overwrite_a=1)[1] != 0:
+                raise np.linalg.LinAlgError("Matrix is not positive definite")
+            diag[level, a] = factorised
+    quad = diag[..., p] ** 2 - 1.0
+    logdet = 2.0 * np.log(diag[..., :p]).sum(-1) + logdet_sigma
+    logdet_r = (sums.n * np.log(noise_var) + sums.logdet_k).sum(-1)  # (L,)
+    return -0.5 * (quad + logdet + logdet_r[:, None] + sums.n * n_do * LOG_2PI)

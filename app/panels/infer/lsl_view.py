@@ -1,9 +1,9 @@
 """What the Infer tab shows of the LSL source: its latest prediction, as a test demonstration's
 inference is shown (bars, status, charts, the 3D tube, path and end). Pure: no viser.
 
-The session's predictions are :func:`promp.pipeline.infer` on the movement so far, on the
+The session's predictions are :func:`promp.evidence.infer` on the movement so far, on the
 studio's ``TUBE_POINTS`` phases (:class:`app.live.lsl_source.LslSource` starts it so): each is
-shown as it is (:func:`app.live.inference.completed` adds the future hand path), never
+shown as it is (:class:`app.live.inference.InferResult` derives the future hand path), never
 recomputed. :class:`LslObserved` is the same object until the prediction or the message
 changes, so the panel draws once per new prediction.
 """
@@ -12,7 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from app.live.inference import InferState, InferView, ModelChoice, completed
+from app.live.inference import InferResult
+from app.panels.infer.view_model import InferState, InferView, ModelChoice
 from promp.live.predictor import LivePrediction
 from promp.model import ProMPModel
 
@@ -52,5 +53,5 @@ def lsl_view(state: InferState, observed: LslObserved | None) -> InferView:
         return InferView(state, None, message, ModelChoice(None, message=message),
                          samples=observed)  # fmt: skip
     p, model = observed.prediction, observed.model
-    result = completed(model, p.observation, p.inference)
+    result = InferResult(model, p.observation, p.inference)
     return InferView(state, result, "", ModelChoice(model, observed.note), samples=observed)

@@ -1,9 +1,11 @@
-"""promp.incremental: a growing observation inferred on with its IncrementalStatistics gives
-what promp.pipeline.infer gives on the same samples from scratch, within 1e-9, on the three
-shared sets (and a faulty copy) at many prefixes."""
+"""promp.evidence: the evidence of a growing observation, extended by its new samples
+(Evidence.extended), gives what promp.evidence.infer gives on the same samples from scratch,
+within 1e-9, on the three shared sets (and a faulty copy) at many prefixes; the speed nodes it
+keeps; threads extending one evidence."""
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 
 import numpy as np
@@ -11,11 +13,11 @@ import pytest
 from numpy.testing import assert_allclose
 
 from promp.datasets import RECORD_COLUMNS, guess_layout, load_records_dataset
-from promp.incremental import IncrementalStatistics
+from promp.evidence import Evidence
+from promp.evidence.pipeline import infer, recognise
+from promp.evidence.speed import N_NODES, N_REFINE, AlphaPrior, anchored_nodes
 from promp.inference import Observation
 from promp.learn import fit
-from promp.pipeline import infer
-from promp.recognition import N_NODES, N_REFINE, AlphaPrior, anchored_nodes, recognise
 from tests.conftest import shared_set
 from tests.faults import inject
 
@@ -40,15 +42,16 @@ def same(online, offline, n_samples: int = 0) -> None:
     assert_allclose(online.posterior.mean, offline.posterior.mean, **CLOSE)
 
 
-def grow(model, demo, step: int, statistics: IncrementalStatistics) -> int:
-    """Infer on every ``step``-th prefix of ``demo`` with ``statistics``; compare each with
-    the inference from scratch. Returns the number of prefixes."""
+def grow(model, demo, step: int) -> Evidence:
+    """Infer on every ``step``-th prefix of ``demo``, each an extension of the evidence of the
+    one before; compare each with the inference from scratch. Returns the last evidence."""
     times, values = demo.times - demo.times[0], LAYOUT.extract(demo)
-    lengths = list(range(3, times.shape[0], step)) + [times.shape[0]]
-    for n in lengths:
+    evidence = None
+    for n in list(range(3, times.shape[0], step)) + [times.shape[0]]:
         obs = Observation(times[:n], values[:n], LAYOUT.names)
-        same(infer(model, obs, statistics=statistics), infer(model, obs), n)
-    return len(lengths)
+        evidence = Evidence(model, obs) if evidence is None else evidence.extended(obs)
+        same(evidence.infer(), infer(model, obs), n)
+    return evidence
 
 
 @pytest.fixture(scope="module", params=["lab-records-heights", "lab-records-flt",
@@ -62,11 +65,10 @@ def test_a_growing_movement_is_inferred_as_from_scratch(shared) -> None:
     dataset, model = shared
     for klass in list(dataset)[:2]:
         demo = dataset[klass][len(dataset[klass]) // 2]
-        statistics = IncrementalStatistics()
         step = max(demo.times.shape[0] // 25, 1)
-        assert grow(model, demo, step, statistics) > 20
-        assert statistics.n_observed == demo.times.shape[0]
-        assert len(statistics) > 0  # it kept sums: the path under test is the incremental one
+        evidence = grow(model, demo, step)
+        assert evidence.observation.n_observed == demo.times.shape[0]
+        assert evidence.n_kept > 0  # it kept sums: the path under test is the incremental one
 
 
 def test_a_faulty_copy_is_inferred_as_from_scratch() -> None:
@@ -76,7 +78,7 @@ def test_a_faulty_copy_is_inferred_as_from_scratch() -> None:
     dataset, _ = inject(clean, LAYOUT, seed=0)
     model = fit(clean, LAYOUT)
     for demo in dataset[next(iter(dataset))][-3:]:  # the three added (inject's order)
-        grow(model, demo, max(demo.times.shape[0] // 12, 1), IncrementalStatistics())
+        grow(model, demo, max(demo.times.shape[0] // 12, 1))
 
 
 def test_the_truncated_nodes_stay_where_they_were() -> None:
@@ -139,37 +141,38 @@ def test_a_long_movement_scores_few_new_speeds_an_update() -> None:
 
 
 def test_another_observation_starts_again(shared) -> None:
-    """Statistics given an observation that does not extend the one they saw forget it: the
-    inference is still the one from scratch (a wrong one costs time, never a wrong number)."""
+    """An evidence extended by an observation that does not extend its own forgets the sums
+    it kept: the inference is still the one from scratch (a wrong one costs time, never a
+    wrong number)."""
     dataset, model = shared
     first, second = (d for ds in list(dataset.values())[:2] for d in ds[:1])
-    statistics = IncrementalStatistics()
+    evidence = None
     for demo in (first, second, first):
         times, values = demo.times - demo.times[0], LAYOUT.extract(demo)
         n = times.shape[0] // 2
         obs = Observation(times[:n], values[:n], LAYOUT.names)
-        same(infer(model, obs, statistics=statistics), infer(model, obs))
-        assert statistics.n_observed == n
+        evidence = Evidence(model, obs) if evidence is None else evidence.extended(obs)
+        same(evidence.infer(), infer(model, obs))
     # a shorter prefix of the one seen: its first samples, the sums kept of them reused or not
     obs = Observation(times[:n - 5], values[:n - 5], LAYOUT.names)
-    same(infer(model, obs, statistics=statistics), infer(model, obs))
+    same(evidence.extended(obs).infer(), infer(model, obs))
 
 
-def test_threads_sharing_one_statistics_get_the_numbers_from_scratch(shared) -> None:
+def test_threads_extending_one_evidence_get_the_numbers_from_scratch(shared) -> None:
     dataset, model = shared
     demo = next(iter(dataset.values()))[0]
     times, values = demo.times - demo.times[0], LAYOUT.extract(demo)
     lengths = np.linspace(5, times.shape[0], 8).astype(int).tolist()
     expected = {n: infer(model, Observation(times[:n], values[:n], LAYOUT.names))
                 for n in lengths}  # fmt: skip
-    statistics = IncrementalStatistics()
+    base = Evidence(model, Observation(times[:3], values[:3], LAYOUT.names))
     failures: list[BaseException] = []
 
     def worker(order: list[int]) -> None:
         try:
             for n in order:
                 obs = Observation(times[:n], values[:n], LAYOUT.names)
-                same(infer(model, obs, statistics=statistics), expected[n])
+                same(base.extended(obs).infer(), expected[n])
         except BaseException as error:  # noqa: BLE001 - reported by the main thread
             failures.append(error)
 
@@ -181,3 +184,87 @@ def test_threads_sharing_one_statistics_get_the_numbers_from_scratch(shared) -> 
         thread.join(timeout=600)
     assert not any(thread.is_alive() for thread in threads)
     assert not failures, failures[0]
+
+
+# ---------------------------------------------------------------------- what an Inference holds
+
+
+def test_an_inference_holds_the_via_points_posterior_and_every_positions_region() -> None:
+    """``Evidence.infer(via_points)``: the posterior conditioned on the observation, then on the
+    via-points (:func:`promp.via_points.condition_on_via_points` of it), the prediction drawn
+    from that, each position modality's region (:func:`promp.region.sample_distribution` of
+    it with the samples' noise) and future from the observed phase, and how far the
+    prediction passes from each point; the errors stay those of the method's own posterior."""
+    from promp.data import Layout, Modality
+    from promp.inference import predict
+    from promp.model import Settings
+    from promp.region import sample_distribution, sample_noise_var
+    from promp.via_points import ViaPoint, condition_on_via_points
+    from tests.synthetic import HAND, HEAD, make_dataset
+
+    partner = Modality("partner", ("px", "py", "pz"), unit="m")
+    layout = Layout((HEAD, HAND, partner))  # the hand not first: the layout's order is kept
+
+    def with_partner(demo):
+        values = np.column_stack([demo.values, 0.5 - demo.values[:, :3]])
+        return dataclasses.replace(demo, values=values, columns=(*demo.columns, "px", "py", "pz"))
+
+    dataset = {k: [with_partner(d) for d in v]
+               for k, v in make_dataset(seed=3, n_demos=6).items()}  # fmt: skip
+    model = fit(dataset, layout, Settings(n_basis=6, width=1.0, noise_scale=1.5))
+    demo = dataset[model.names[0]][0]
+    obs = Observation.from_demo(model, demo, 40, ["hand"])
+    evidence = Evidence(model, obs)
+    plain = evidence.infer(n_points=30, truth=demo)
+    target = plain.mean_at("hand", 0.8) + [0.0, 0.01, 0.0]  # 1 cm off the plain prediction
+    points = (ViaPoint.isotropic(("x", "y", "z"), target, 0.001, phase=0.8),
+              ViaPoint.isotropic(("pz",), [0.1], 0.05, time=0.5 * demo.duration))  # fmt: skip
+    shaped = evidence.infer(points, 30, demo)
+    assert shaped.posterior is plain.posterior is evidence.posterior
+    expected = condition_on_via_points(model, plain.posterior, points, plain.alpha)
+    assert_allclose(shaped.weights.mean, expected.mean, rtol=0, atol=1e-12)
+    assert_allclose(shaped.weights.cov, expected.cov, rtol=0, atol=1e-12)
+    drawn = predict(model, expected, plain.alpha, 30)
+    assert_allclose(shaped.prediction.mean, drawn.mean, rtol=0, atol=1e-12)
+    assert_allclose(shaped.errors.position, plain.errors.position, rtol=0, atol=0)
+    assert [p.modality for p in shaped.positions] == ["hand", "partner"]
+    noise = sample_noise_var(model, model.primitives[shaped.index])
+    phase = shaped.observed_until / shaped.duration
+    for position, dims in zip(shaped.positions, ([3, 4, 5], [6, 7, 8]), strict=True):
+        region = sample_distribution(model, expected, dims, np.linspace(0, 1, 30), noise)
+        assert_allclose(position.region.mean, region.mean, rtol=0, atol=1e-12)
+        assert_allclose(position.region.cov, region.cov, rtol=0, atol=1e-12)
+        assert_allclose(position.future[0], shaped.mean_at(position.modality, phase), atol=1e-12)
+        assert_allclose(position.times[[0, -1]], [shaped.observed_until, shaped.duration])
+    hand_at = shaped.mean_at("hand", 0.8)
+    partner_at = shaped.mean_at("partner", 0.5 * demo.duration / shaped.duration)
+    assert_allclose(shaped.via_errors, [np.linalg.norm(hand_at - target),
+                                        abs(partner_at[2] - 0.1)], rtol=1e-12)  # fmt: skip
+    assert shaped.via_errors[0] < 0.005  # a tight point 1 cm off: more than half way to it
+    # by primitive: the recognised primitive's via-points shape it, another's are not used
+    other = next(name for name in model.names if name != shaped.primitive)
+    mapped = evidence.infer({shaped.primitive: points, other: points[:1]}, 30, demo)
+    assert_allclose(mapped.weights.mean, expected.mean, rtol=0, atol=0)
+    assert mapped.via_points == points
+    unshaped = evidence.infer({other: points}, 30, demo)
+    assert unshaped.weights is plain.posterior and unshaped.via_points == ()
+    assert plain.via_errors.shape == (0,) and plain.weights is plain.posterior
+
+
+def test_an_evidence_refuses_what_it_cannot_answer() -> None:
+    """Bad input is a ValueError naming it, before any work: an unknown alpha method, a
+    duration shorter than the observation, a modality the model does not have."""
+    from promp.model import Settings
+    from tests.synthetic import LAYOUT as SYNTHETIC
+    from tests.synthetic import make_dataset
+
+    model = fit(make_dataset(seed=3, n_demos=5), SYNTHETIC, Settings(n_basis=6, width=1.0,
+                                                                      noise_scale=1.5))  # fmt: skip
+    demo = make_dataset(seed=4, n_demos=3)[model.names[0]][0]
+    obs = Observation.from_demo(model, demo, 30, ["hand"])
+    with pytest.raises(ValueError, match="alpha_method"):
+        Evidence(model, obs, "fastest")
+    with pytest.raises(ValueError, match="at least the observation"):
+        Evidence(model, obs, duration=0.1)
+    with pytest.raises(ValueError, match="gaze"):
+        Evidence(model, Observation(obs.times, obs.values, ("gaze",)))

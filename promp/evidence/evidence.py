@@ -1,0 +1,351 @@
+"""The evidence of an observation under a model: one object that owns what the observation says
+and answers every question asked of it (like a frozen distribution, or a Gaussian process's
+posterior holding its factorisation).
+
+:class:`Evidence` is built from a model and an observation (the first samples of a movement, in
+any of the model's modalities). It holds the observed dimensions, the bound on the speeds that
+still contain the observation, and the whitened sums of the samples at every candidate speed it
+was asked about (:mod:`promp.evidence.sums`), kept so that the evidence of the same movement
+observed longer (:meth:`Evidence.extended`) adds only the new samples' terms. From them it
+answers:
+
+* the likelihood of Eq. 6 at any speeds and noise levels (:meth:`Evidence.log_likelihoods`, in
+  the cheaper of two exact forms: :mod:`promp.evidence.woodbury`,
+  :mod:`promp.evidence.weight_space`);
+* the recognition (:attr:`Evidence.recognition`): every primitive's likelihood integrated over
+  its speed prior (:mod:`promp.evidence.speed`), the class posterior with the "none of these"
+  hypothesis (:mod:`promp.recognition`);
+* the timing (:attr:`Evidence.timing`): the duration and the observed share of the movement as
+  a posterior (:mod:`promp.duration`), and the speed the predictions are drawn at;
+* the posterior of the weights (Eq. 8, :meth:`Evidence.condition`, from the same sums), and
+  with the via-points a user gives (:mod:`promp.via_points`) in one :meth:`Evidence.infer`: the
+  :class:`Inference` that holds the recognition, the timing, the posterior, the prior and
+  posterior predictions of every dimension, the region and future path of every position
+  modality (:mod:`promp.region`), how far the prediction passes from each via-point, and, given
+  the whole movement, the errors (:func:`promp.metrics.measure`).
+
+The prediction is drawn at the speed whose duration is the posterior median of the recognised
+primitive's duration (:mod:`promp.duration`), not at the posterior mode: the mode of a long
+observation often sits at the shortest duration that still contains it, a movement ending now.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from promp.data import Demonstration
+from promp.duration import Timing, timing
+from promp.evidence import weight_space, woodbury
+from promp.evidence.inference import PATH_POINTS, Inference
+from promp.evidence.speed import (
+    ALPHA_METHODS,
+    AlphaPrior,
+    alpha_prior,
+    logsumexp,
+    longest_alpha,
+    quadrature,
+    quadrature_weights,
+    refined_nodes,
+)
+from promp.evidence.sums import KeptSums, ObservationSums
+from promp.inference import (
+    Gaussian,
+    Posterior,
+    condition_dense,
+    observation_basis,
+    predict,
+)
+from promp.metrics import measure
+from promp.model import Primitive, ProMPModel
+from promp.observation import Observation, check_observation
+from promp.recognition import Recognition, label_noise, with_label_noise
+from promp.timing import alpha_from_duration, check_alpha, duration_from_alpha
+from promp.via_points import ViaPoint, condition_on_via_points
+
+__all__ = ["Evidence"]
+
+
+class Evidence:
+    """What ``observation`` says under ``model`` (see the module docstring).
+
+    Parameters
+    ----------
+    model : ProMPModel
+    observation : Observation
+        The first samples of the movement, in any of the model's modalities.
+    alpha_method : {"ml", "model"}
+        The speed's prior: each primitive's, fitted to its training speeds (``"ml"``), or half
+        of it centred on the Eq. 7 regression from the early displacement (``"model"``).
+    duration : float, optional
+        The movement's duration when it is known (s; the evaluation's oracle row): every
+        primitive is scored at the speed of that duration alone.
+
+    Attributes
+    ----------
+    model, observation, alpha_method, duration
+    dims : int array, shape (Do,)
+        The model dimensions observed.
+    elapsed : array, shape (n,)
+        The observation's times from its first sample, seconds.
+
+    Raises
+    ------
+    ValueError
+        An unknown modality or alpha method, an observation whose columns do not match its
+        modalities, a duration shorter than the observation.
+    """
+
+    def __init__(
+        self,
+        model: ProMPModel,
+        observation: Observation,
+        alpha_method: str = "ml",
+        duration: float | None = None,
+        *,
+        _kept: KeptSums | None = None,
+    ) -> None:
+        self.dims = check_observation(model, observation)
+        if alpha_method not in ALPHA_METHODS:
+            raise ValueError(f"alpha_method must be one of {ALPHA_METHODS}, got {alpha_method!r}")
+        self.elapsed = observation.elapsed
+        if duration is not None:
+            duration = float(duration)
+            if not math.isfinite(duration) or duration < self.elapsed[-1] * (1.0 - 1e-9):
+                raise ValueError(
+                    f"the duration ({duration} s) must be at least the observation's "
+                    f"({self.elapsed[-1]:.3f} s)"
+                )
+        self.model, self.observation = model, observation
+        self.alpha_method, self.duration = alpha_method, duration
+        self._bound = math.log(longest_alpha(model, observation))  # log alpha, the fastest
+        self._sums = ObservationSums(model, observation, self.dims, _kept)
+
+    def extended(self, observation: Observation) -> Evidence:
+        """The evidence of ``observation``: the same movement observed longer (this one's
+        samples, then new ones). The sums this evidence computed are kept, and extended by the
+        new samples' terms alone: the numbers of a new evidence to round-off, at a cost that
+        grows with the new samples. Threads may extend one evidence at once. An observation
+        that does not extend this one is an evidence computed from every sample."""
+        return Evidence(self.model, observation, self.alpha_method, self.duration,
+                        _kept=self._sums.kept)  # fmt: skip
+
+    @property
+    def n_kept(self) -> int:
+        """Candidate speeds whose sums are kept for the next :meth:`extended`."""
+        return len(self._sums.kept)
+
+    def log_likelihoods(
+        self,
+        primitive: Primitive,
+        alphas: np.ndarray,
+        noise_factors: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Log marginal likelihood of the observation under ``primitive`` (one of the
+        model's) at each of ``alphas`` (Eq. 6).
+
+        ``log N(y | A mu, S)`` with ``S = A Sigma_w A^T + R``, from the whitened sums, in the
+        cheaper of two exact forms (:func:`promp.evidence.weight_space.cheaper_than_woodbury`):
+        Woodbury's identity on the structure of ``Sigma_w`` (:mod:`promp.evidence.woodbury`)
+        or weight space (:mod:`promp.evidence.weight_space`).
+
+        Parameters
+        ----------
+        alphas : array, shape (A,)
+        noise_factors : array, shape (L, n_dims), optional
+            Each row multiplies the primitive's noise variance of every model dimension: the
+            likelihood at L noise levels (what the choice of the noise scale reads).
+
+        Returns
+        -------
+        array, shape (A,), or (L, A) with ``noise_factors``
+            ``-inf`` where the candidate's duration is shorter than the observation.
+        """
+        alphas = np.atleast_1d(np.asarray(alphas, dtype=float))
+        check_alpha(alphas)
+        model, dims = self.model, self.dims
+        durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
+        valid = self.elapsed[-1] <= durations * (1.0 + 1e-9)
+        scaled = noise_factors is not None
+        factors = np.atleast_2d(np.asarray(noise_factors if scaled else np.ones(model.n_dims),
+                                           dtype=float))  # fmt: skip
+        out = np.full((factors.shape[0], alphas.shape[0]), -np.inf)
+        if valid.any():
+            noise_var = primitive.noise_var[dims][None, :] * factors[:, dims]
+            sums = self._sums(primitive, alphas[valid], durations[valid])
+            u = primitive.observed_factor(dims)
+            cheaper = weight_space.cheaper_than_woodbury(u.shape[0] * u.shape[1], u.shape[2])
+            form = weight_space if cheaper else woodbury
+            out[:, valid] = form.log_likelihoods(sums, primitive, dims, noise_var)
+        return out if scaled else out[0]
+
+    @functools.cached_property
+    def recognition(self) -> Recognition:
+        """Which primitive, at which speed: every primitive's evidence, its likelihood
+        integrated over its speed prior (:mod:`promp.evidence.speed`: a quadrature on nodes in
+        log alpha, refined around the best), the class posterior with the "none of these"
+        hypothesis (:mod:`promp.recognition`); with a known
+        duration, every primitive at that speed alone.
+
+        Raises
+        ------
+        ValueError
+            No primitive explains the observation (every likelihood is zero).
+        """
+        model = self.model
+        if self.duration is not None:
+            return self._recognition_at(self.duration)
+        nodes, tables, priors = [], [], []
+        evidence = np.empty(len(model.primitives))
+        for k, primitive in enumerate(model.primitives):
+            prior = alpha_prior(model, primitive, self.observation, self.alpha_method)
+            x, ll, lp, evidence[k] = self._integrate(primitive, prior)
+            nodes.append(x)
+            tables.append(ll)
+            priors.append(lp)
+        return _recognition(model, nodes, tables, priors, evidence, self.alpha_method)
+
+    def _integrate(
+        self, primitive: Primitive, prior: AlphaPrior
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """The quadrature of ``primitive``'s likelihood over its speed ``prior``: the nodes
+        (log alpha, increasing), their log-likelihoods and log prior densities, and the
+        log-evidence."""
+        x, lp, log_mass = quadrature(prior, self._bound)
+        ll = self.log_likelihoods(primitive, np.exp(x))
+        fine = refined_nodes(x, int(np.argmax(ll + lp)))
+        if fine.size:
+            x = np.concatenate([x, fine])
+            ll = np.concatenate([ll, self.log_likelihoods(primitive, np.exp(fine))])
+            lp = np.concatenate([lp, prior.logpdf(fine)])
+            order = np.argsort(x)
+            x, ll, lp = x[order], ll[order], lp[order]
+        return x, ll, lp, logsumexp(ll + quadrature_weights(x, lp, log_mass))
+
+    def _recognition_at(self, duration: float) -> Recognition:
+        """Every primitive scored at the speed of a known ``duration`` (seconds)."""
+        model = self.model
+        alpha = alpha_from_duration(max(duration, float(self.elapsed[-1])), model.sample_period,
+                                    model.settings.s_bar)  # fmt: skip
+        node = np.array([math.log(alpha)])
+        tables = [self.log_likelihoods(p, np.exp(node)) for p in model.primitives]
+        evidence = np.array([float(t[0]) for t in tables])
+        zeros = [np.zeros(1) for _ in model.primitives]
+        return _recognition(model, [node] * len(tables), tables, zeros, evidence,
+                            "duration given")  # fmt: skip
+
+    @functools.cached_property
+    def timing(self) -> Timing:
+        """The recognised primitive's duration and observed share, with their intervals
+        (:func:`promp.duration.timing`, the likelihood tempered by the model's
+        ``duration_temperature``), and the speed of the predictions."""
+        model, settings = self.model, self.model.settings
+        return timing(self.recognition, float(self.elapsed[-1]), model.sample_period,
+                      settings.s_bar, settings.duration_temperature or 1.0)  # fmt: skip
+
+    def condition(self, primitive: Primitive, alpha: float) -> Posterior:
+        """The weights of ``primitive`` at speed ``alpha`` conditioned on the observation
+        (Eq. 8), from the likelihood's own sums and terms (:func:`promp.evidence.woodbury.
+        posterior`): the mean and each dimension's covariance block in O(D M^2 r), the full
+        covariance on first use (the dense update, :func:`promp.inference.condition_dense`).
+
+        Raises
+        ------
+        ValueError
+            alpha <= 0, or an observation longer than alpha's duration.
+        """
+        model = self.model
+        observation_basis(model, self.observation, alpha)  # validates alpha against it
+        duration = float(duration_from_alpha(alpha, model.sample_period, model.settings.s_bar))
+        sums = self._sums(primitive, np.array([float(alpha)]), np.array([duration]))
+        mean, blocks = woodbury.posterior(sums, primitive, self.dims, alpha)
+
+        def full() -> np.ndarray:
+            prior = Gaussian(primitive.mean_at(alpha), primitive.cov)
+            return condition_dense(model, primitive, self.observation, alpha, prior,
+                                   primitive.cov_cholesky)[1]  # fmt: skip
+
+        return Posterior(mean, blocks, full)
+
+    @functools.cached_property
+    def posterior(self) -> Posterior:
+        """The recognised primitive's weights at the timing's speed given the observation."""
+        primitive = self.model.primitives[self.recognition.index]
+        return self.condition(primitive, self.timing.alpha)
+
+    def infer(
+        self,
+        via_points: Sequence[ViaPoint] | Mapping[str, Sequence[ViaPoint]] = (),
+        n_points: int | None = None,
+        truth: Demonstration | None = None,
+        path_points: int = PATH_POINTS,
+    ) -> Inference:
+        """Everything the evidence says about the rest of the movement, as an
+        :class:`Inference`: the recognition, the timing, the posterior (conditioned on
+        ``via_points`` as well, :func:`promp.via_points.condition_on_via_points`), the prior
+        and posterior predictions of every dimension at the timing's speed, the positions'
+        regions and futures, and with ``truth`` (the whole movement) the errors.
+
+        Parameters
+        ----------
+        via_points : sequence of ViaPoint, or mapping of str to sequence of ViaPoint
+            Points the prediction must pass through (a time is read at the timing's speed);
+            by primitive: the recognised primitive's (none when it has none).
+        n_points : int, optional
+            Samples of the predictions and regions (default: the predicted number of samples).
+        truth : Demonstration, optional
+            The whole movement: the errors are measured against it.
+        path_points : int
+            Samples of each position's future path.
+        """
+        model, recognition, timing_ = self.model, self.recognition, self.timing
+        alpha, posterior = timing_.alpha, self.posterior
+        if isinstance(via_points, Mapping):
+            via_points = via_points.get(recognition.primitive, ())
+        vias = tuple(via_points)
+        weights = condition_on_via_points(model, posterior, vias, alpha) if vias else posterior
+        prediction = predict(model, weights, alpha, n_points=n_points)
+        natural, errors = None, None
+        if truth is not None:
+            plain = n_points is None and not vias
+            natural = prediction if plain else predict(model, posterior, alpha)
+            errors = measure(model, natural, timing_, truth, self.observation.n_observed)
+        primitive = model.primitives[recognition.index]
+        return Inference(
+            model, self.observation, recognition, timing_, posterior, weights,
+            predict(model, primitive, alpha, n_points=n_points), prediction, vias, natural,
+            errors, path_points,
+        )  # fmt: skip
+
+
+def _recognition(
+    model: ProMPModel,
+    nodes: Sequence[np.ndarray],
+    tables: Sequence[np.ndarray],
+    priors: Sequence[np.ndarray],
+    evidence: np.ndarray,
+    alpha_method: str,
+) -> Recognition:
+    """The :class:`promp.recognition.Recognition` of every primitive's quadrature: its
+    ``nodes`` (log alpha, increasing), the log-likelihoods ``tables`` and log prior densities
+    ``priors`` there, and its log-evidence (``evidence``, (K,)); the probabilities with the
+    "none of these" hypothesis (:func:`promp.recognition.with_label_noise`)."""
+    if not np.isfinite(evidence).any():
+        raise ValueError("no primitive explains the observation (every likelihood is zero)")
+    probabilities = with_label_noise(np.exp(evidence - logsumexp(evidence)), label_noise(model))
+    index = int(np.argmax(evidence))
+    best = int(np.argmax(tables[index] + priors[index]))
+    return Recognition(
+        index=index,
+        primitive=model.primitives[index].name,
+        alpha=float(math.exp(nodes[index][best])),
+        probabilities=probabilities,
+        candidates=tuple(np.exp(x) for x in nodes),
+        log_likelihoods=tuple(tables),
+        log_prior=tuple(priors),
+        log_evidence=evidence,
+        alpha_method=alpha_method,
+    )

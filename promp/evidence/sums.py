@@ -1,0 +1,315 @@
+"""The whitened sufficient statistics of Eq. 6 at candidate speeds, and how they are kept
+while an observation grows: what both forms of the likelihood read
+(:mod:`promp.evidence.woodbury`, :mod:`promp.evidence.weight_space`).
+
+For a candidate alpha (its duration D, the basis ``Psi`` at the phases ``elapsed / D``, the
+prior mean ``mu(alpha)``) and an observed dimension d of noise group g (correlation time
+``tau_g``, :func:`promp.noise.noise_groups`):
+
+    gram_g = Psi^T K_g^-1 Psi,    proj_d = Psi^T K_g^-1 r_d,    rr_d = r_d^T K_g^-1 r_d,
+
+``r_d = y_d - Psi mu_d(alpha)``, and ``log det K_g``. With ``K^-1 = W^T W``
+(:func:`promp.noise.whiten`) each is a sum over the samples of products of whitened rows, and
+the whitened row of sample i depends on samples i and i - 1 alone: the sums over the first n
+samples extend to n + k by adding the terms of the k new samples
+(:meth:`ObservationSums.rows`). Either way the residual is formed sample by sample rather than
+expanded (``y^T K^-1 y - 2 mu^T Psi^T K^-1 y + ...`` cancels to a few digits).
+
+**Kept while the observation grows.** A live movement is inferred on again each time samples
+arrive, from every sample so far (:mod:`promp.live.predictor`), and at a candidate speed the
+terms of the samples already observed do not change as more arrive (the basis at their phases,
+their whitening, their residual). :class:`KeptSums` keeps each candidate's sums, and the sums of
+a longer observation of the movement (:class:`ObservationSums`, which
+:meth:`promp.evidence.Evidence.extended` makes) add only the new samples' terms: the work of an
+update grows with the samples that arrived since the last one, not with the movement's length.
+The numbers are those from every sample to round-off (only the order of the additions differs).
+Recognition's quadrature nodes stay where they are while the movement is shorter than a
+primitive's fastest plausible speeds, and past that the nodes beyond the bound are dropped,
+never moved (:func:`promp.evidence.speed.anchored_nodes`): only the node at the bound and the
+refined nodes around a best node that moved are new candidates, whose sums come from every
+sample (:meth:`ObservationSums.dense`). An update of a 10 s movement at 250 Hz whitens ~10 rows
+per sample instead of ~100 (``bench/live_update.py``).
+
+One :class:`KeptSums` belongs to the evidences of one movement: no global cache. Given an
+observation that does not extend the one it saw last, it forgets everything and starts again,
+so a wrong one costs time, never a wrong number. Threads may share one: what it holds is read
+and replaced under its lock, and computed outside it (as :mod:`promp._recent`'s caches are);
+the sums of an observation that replaced the one they were computed for are not stored.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from promp.model import Primitive, ProMPModel
+from promp.noise import correlation_steps, log_det_correlation, noise_groups, whiten
+from promp.observation import Observation
+
+__all__ = ["KeptSums", "ObservationSums", "WhitenedSums", "noise_terms"]
+
+
+@dataclass(frozen=True)
+class WhitenedSums:
+    """The statistics of A candidate speeds over ``n`` samples (see the module docstring).
+
+    Attributes
+    ----------
+    gram : array, shape (A, n_groups, M, M)
+        ``Psi^T K^-1 Psi`` of each noise group.
+    group : int array, shape (Do,)
+        The noise group of each observed dimension.
+    proj : array, shape (A, Do, M)
+        ``Psi^T K^-1 r`` of each observed dimension.
+    rr : array, shape (A, Do)
+        ``r^T K^-1 r``.
+    logdet_k : array, shape (Do,)
+        ``log det K``.
+    n : int
+        The samples summed over.
+    """
+
+    gram: np.ndarray
+    group: np.ndarray
+    proj: np.ndarray
+    rr: np.ndarray
+    logdet_k: np.ndarray
+    n: int
+
+
+def _whitened(x: np.ndarray, rho: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """``(x_i - rho_i x_(i-1)) / scale_i`` along the last axis of ``x`` (..., k + 1) (``rho``
+    and ``scale`` of shape (..., k) broadcasting against it): the rows of
+    :func:`promp.noise.whiten` after the first."""
+    return (x[..., 1:] - rho * x[..., :-1]) / scale
+
+
+def noise_terms(
+    primitive: Primitive, dims: np.ndarray, elapsed: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:class:`WhitenedSums`' ``group`` and ``logdet_k`` of the samples at ``elapsed`` (n,)."""
+    group = np.empty(dims.shape[0], dtype=int)
+    logdet_k = np.empty(dims.shape[0])
+    for index, (tau, cols) in enumerate(noise_groups(primitive, dims).items()):
+        group[cols] = index
+        logdet_k[cols] = log_det_correlation(elapsed, tau)
+    return group, logdet_k
+
+
+@dataclass(frozen=True)
+class _Kept:
+    """One candidate's sums over the first ``n`` samples (:class:`WhitenedSums`' rows)."""
+
+    n: int
+    gram: np.ndarray  # (n_groups, M, M)
+    proj: np.ndarray  # (Do, M)
+    rr: np.ndarray  # (Do,)
+
+
+class KeptSums:
+    """The candidates' sums of one growing observation, kept between its evidences (see the
+    module docstring): those of the candidates scored at the latest two lengths of the
+    observation; a candidate not scored in two updates is forgotten."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._elapsed = np.zeros(0)
+        self._values = np.zeros((0, 0))
+        self._generation = 0  # counts the observations it started again from
+        self._entries: dict[tuple, _Kept] = {}
+        self._latest = 0  # the length of the observation the latest sums were stored for
+        self._previous = 0  # and of the one before
+
+    @property
+    def n_observed(self) -> int:
+        """Samples of the longest observation seen since it last started again."""
+        return int(self._elapsed.shape[0])
+
+    def __len__(self) -> int:
+        """Candidates whose sums are kept."""
+        return len(self._entries)
+
+    def adopt(self, elapsed: np.ndarray, values: np.ndarray) -> int:
+        """Compare an observation with the one seen: start again unless one extends the
+        other; keep the longer. Returns the generation its sums belong to."""
+        with self._lock:
+            seen = self._elapsed.shape[0]
+            common = min(seen, elapsed.shape[0])
+            same = (
+                values.shape[1:] == self._values.shape[1:]
+                and np.array_equal(elapsed[:common], self._elapsed[:common])
+                and np.array_equal(values[:common], self._values[:common])
+            )
+            if not same:
+                self._generation += 1
+                self._entries.clear()
+                self._latest = self._previous = 0
+            if not same or elapsed.shape[0] > seen:
+                self._elapsed, self._values = elapsed.copy(), values.copy()
+            return self._generation
+
+    def take(self, generation: int, key: tuple, alphas: np.ndarray) -> list[_Kept | None]:
+        """The sums kept of each of ``alphas`` (A,) under ``key`` (None where there are
+        none, or where the observation was replaced since ``generation``)."""
+        with self._lock:
+            if generation != self._generation:
+                return [None] * alphas.shape[0]
+            return [self._entries.get((*key, a)) for a in alphas.tolist()]
+
+    def store(self, generation: int, key: tuple, alphas: np.ndarray, sums: WhitenedSums) -> None:
+        """Keep the candidates' sums, unless the observation was replaced meanwhile or a
+        longer one was seen; forget those of two updates ago."""
+        n = sums.n
+        with self._lock:
+            if generation != self._generation or n < self._latest:
+                return
+            if n > self._latest:
+                self._previous, self._latest = self._latest, n
+                self._entries = {k: e for k, e in self._entries.items()
+                                 if e.n >= self._previous}  # fmt: skip
+            for i, a in enumerate(alphas.tolist()):
+                self._entries[(*key, a)] = _Kept(n, sums.gram[i], sums.proj[i], sums.rr[i])
+
+
+class ObservationSums:
+    """The whitened sums of one observation at any candidate speeds (see the module
+    docstring): each call computes those of the candidates asked for, from the sums kept of a
+    shorter observation of the movement where there are some, and keeps them in turn.
+
+    Parameters
+    ----------
+    model : ProMPModel
+    observation : Observation
+    dims : int array, shape (Do,)
+        The model dimensions ``observation`` holds.
+    kept : KeptSums, optional
+        The sums kept of the movement's earlier observations (default: none yet).
+    """
+
+    def __init__(
+        self,
+        model: ProMPModel,
+        observation: Observation,
+        dims: np.ndarray,
+        kept: KeptSums | None = None,
+    ) -> None:
+        self.model, self.dims = model, dims
+        self.elapsed, self.values = observation.elapsed, observation.values
+        self.kept = KeptSums() if kept is None else kept
+        self._generation = self.kept.adopt(self.elapsed, self.values)
+        self._key = tuple(dims.tolist())
+
+    def __call__(
+        self, primitive: Primitive, alphas: np.ndarray, durations: np.ndarray
+    ) -> WhitenedSums:
+        """:class:`WhitenedSums` at the candidates ``alphas`` and their ``durations`` (A,)
+        (each at least as long as the observation): those kept of a shorter observation
+        extended by the new samples' terms, the others from every sample; kept in turn."""
+        key = (primitive, self._key)
+        kept = self.kept.take(self._generation, key, alphas)
+        n = self.elapsed.shape[0]
+        starts = np.array([e.n if e is not None and e.n <= n else 0 for e in kept], dtype=int)
+        if not starts.any():
+            sums = self.dense(primitive, alphas, durations)
+        else:
+            sums = self._extended(primitive, alphas, durations, kept, starts)
+        for array in (sums.gram, sums.proj, sums.rr):
+            array.setflags(write=False)  # rows of it are kept: read, never written
+        self.kept.store(self._generation, key, alphas, sums)
+        return sums
+
+    def _extended(
+        self,
+        primitive: Primitive,
+        alphas: np.ndarray,
+        durations: np.ndarray,
+        kept: list[_Kept | None],
+        starts: np.ndarray,
+    ) -> WhitenedSums:
+        """The sums of candidates kept over their first ``starts`` samples (A,): the kept
+        ones plus the new samples' terms (:meth:`rows`); the others (``starts == 0``) from
+        every sample (:meth:`dense`)."""
+        n, m = self.elapsed.shape[0], self.model.basis.n_basis
+        group, logdet_k = noise_terms(primitive, self.dims, self.elapsed)
+        gram = np.empty((alphas.shape[0], int(group.max()) + 1, m, m))
+        proj = np.empty((alphas.shape[0], self.dims.shape[0], m))
+        rr = np.empty((alphas.shape[0], self.dims.shape[0]))
+        for start in np.unique(starts).tolist():
+            which = np.flatnonzero(starts == start)
+            if start == n:  # nothing new
+                gram[which], proj[which], rr[which] = 0.0, 0.0, 0.0
+            else:
+                some = (primitive, alphas[which], durations[which])
+                part = self.dense(*some) if start == 0 else self.rows(*some, start)
+                gram[which], proj[which], rr[which] = part.gram, part.proj, part.rr
+            if start > 0:  # the sums of the samples before
+                gram[which] += np.stack([kept[i].gram for i in which])
+                proj[which] += np.stack([kept[i].proj for i in which])
+                rr[which] += np.stack([kept[i].rr for i in which])
+        return WhitenedSums(gram, group, proj, rr, logdet_k, n)
+
+    def dense(
+        self, primitive: Primitive, alphas: np.ndarray, durations: np.ndarray
+    ) -> WhitenedSums:
+        """:class:`WhitenedSums` of the observation from all its samples at once: the basis at
+        the observed phases from the model's cache (:class:`promp.basis.PhaseBasisCache`),
+        whitened one noise group at a time."""
+        model, dims, elapsed, values = self.model, self.dims, self.elapsed, self.values
+        m = model.basis.n_basis
+        n_cand, n_do = alphas.shape[0], dims.shape[0]
+        psi = model.phase_basis(elapsed, durations)  # (A, n, M)
+        mu = primitive.mean_at(alphas).reshape(n_cand, model.n_dims, m)[:, dims]  # (A, Do, M)
+        groups = noise_groups(primitive, dims)
+        gram = np.empty((n_cand, len(groups), m, m))
+        group = np.empty(n_do, dtype=int)
+        proj = np.empty((n_cand, n_do, m))
+        rr = np.empty((n_cand, n_do))
+        logdet_k = np.empty(n_do)
+        for index, (tau, cols) in enumerate(groups.items()):
+            psi_w, logdet = whiten(elapsed, tau, psi)
+            y_w, _ = whiten(elapsed, tau, values[:, cols])
+            resid = y_w[None] - psi_w @ mu[:, cols].transpose(0, 2, 1)  # (A, n, Dg)
+            gram[:, index] = psi_w.transpose(0, 2, 1) @ psi_w
+            group[cols] = index
+            proj[:, cols] = (psi_w.transpose(0, 2, 1) @ resid).transpose(0, 2, 1)
+            rr[:, cols] = (resid**2).sum(axis=1)
+            logdet_k[cols] = logdet
+        return WhitenedSums(gram, group, proj, rr, logdet_k, elapsed.shape[0])
+
+
+    def rows(
+        self, primitive: Primitive, alphas: np.ndarray, durations: np.ndarray, start: int
+    ) -> WhitenedSums:
+        """The terms of the samples ``start, ..., n - 1`` (0 < start < n) in the sums of
+        :class:`WhitenedSums`; ``group`` and ``logdet_k`` of all n samples.
+
+        The numbers of :meth:`dense` but for the order of the additions: the basis
+        (:meth:`promp.basis.RBFBasis.columns`) and its whitening for every noise group at once
+        (the steps of :func:`promp.noise.whiten`), with the samples along the contiguous axis,
+        so that a sample costs a few operations per candidate, and a call a few dozen numpy
+        operations whatever the number of samples.
+        """
+        model, dims, elapsed = self.model, self.dims, self.elapsed
+        m = model.basis.n_basis
+        n_cand, n_do = alphas.shape[0], dims.shape[0]
+        groups = noise_groups(primitive, dims)
+        taus = np.array(list(groups))
+        group, logdet_k = noise_terms(primitive, dims, elapsed)
+        times = elapsed[start - 1 :]  # from the sample before the part, for its whitening
+        psi = model.basis.columns(times[None, :] / durations[:, None])  # (A, M, k + 1)
+        mu = primitive.mean_at(alphas).reshape(n_cand, model.n_dims, m)[:, dims]  # (A, Do, M)
+        rho, scale = correlation_steps(times, taus)  # (G, k)
+        # the whitened basis of every group (A, G, M, k), and the whitened values (Do, k)
+        psi_w = _whitened(psi[:, None], rho[:, None], scale[:, None])
+        y_w = _whitened(self.values[start - 1 :].T, rho[group], scale[group])
+        gram = psi_w @ psi_w.swapaxes(-1, -2)  # (A, G, M, M)
+        proj = np.empty((n_cand, n_do, m))
+        rr = np.empty((n_cand, n_do))
+        for index, cols in enumerate(groups.values()):
+            basis = psi_w[:, index]  # (A, M, k)
+            resid = y_w[cols] - mu[:, cols] @ basis  # (A, Dg, k)
+            proj[:, cols] = resid @ basis.swapaxes(-1, -2)
+            rr[:, cols] = np.einsum("adk,adk->ad", resid, resid)
+        return WhitenedSums(gram, group, proj, rr, logdet_k, elapsed.shape[0])
