@@ -21,7 +21,7 @@ from promp.data import Demonstration
 from promp.inference import Observation
 from promp.live.journal import read_journal
 from promp.live.recorder import Recorder, movement_of
-from promp.live.session import LiveOptions, LiveSession
+from promp.live.session import LiveOptions, LiveSession, live_columns
 from promp.live.source import LiveInput
 from promp.pipeline import infer
 from robots.icub.placement import Placement
@@ -154,10 +154,11 @@ NAMES = ("front", "left", "top")
 
 
 def recording_session(tmp_path, fake, stream_name="Vicon"):
-    session = LiveSession(hand_model(), [f"hand={stream_name}:0,1,2"], fake,
-                          LiveOptions(start="call"))  # fmt: skip
-    recorder = TakeRecorder(tmp_path / JOURNALS_DIR, session.columns, lambda: NAMES, "live-t")
-    session.recorder = recorder
+    inputs = [f"hand={stream_name}:0,1,2"]
+    recorder = TakeRecorder(tmp_path / JOURNALS_DIR, live_columns(hand_model(), inputs),
+                            lambda: NAMES, "live-t")  # fmt: skip
+    session = LiveSession(hand_model(), inputs, fake, LiveOptions(start="call"),
+                          recorder=recorder)  # fmt: skip
     session.connect()
     session.step()
     return session, recorder
@@ -172,6 +173,7 @@ def movement(session, fake, stream, n: int, label: str = "") -> np.ndarray:
     stamps = replay(session, fake, stream, demo.times[:n] - demo.times[0] + 0.005, values)
     session.end(stamps[-1] - 0.005)  # ends with the rows up to then (the last one after it)
     session.step()
+    session.flush()  # the recorder's sink finished it
     assert session.snapshot().movement is None
     return values
 
@@ -194,6 +196,7 @@ def test_a_movement_is_a_take_only_while_armed_into_the_primitive_chosen(tmp_pat
     assert read_journal(journal)[0].n_samples == rows  # acknowledged: in the journal
     session.end(stamps[-1] - 0.005)
     session.step()
+    session.flush()
     (recorded,) = session.snapshot().recorded
     assert recorder.primitive_of(recorded) == "top" and recorded.journal == journal
     assert_array_equal(recorded.demo.values, demo.values[:recorded.demo.n_samples, :3])

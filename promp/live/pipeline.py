@@ -1,0 +1,197 @@
+"""The live pipeline's core: one step of the stages on what arrived, no threads, no I/O.
+
+``source -> time base -> segmenter -> online predictor`` (:mod:`promp.live`):
+:func:`step` takes a :class:`PipelineState` and the :class:`Arrivals` of one step (the
+clock's time, the streams a look opened, the samples pulled, the calls of a Record button)
+and returns the next state, the step's events, the movements' boundaries and the
+predictions. It reads no clock, opens and pulls no stream, writes no file and calls no sink:
+the runner (:class:`promp.live.session.LiveSession`) gathers the arrivals, and hands the
+outputs to the sinks (:mod:`promp.live.sinks`) after the step, where their failures are
+collected. A test drives it with hand-made arrivals.
+
+The stages keep their buffers (the time base's samples, the segmenter's rows, the
+predictor's sums) in objects the state owns: :func:`step` advances them in place and returns
+the state with its own fields replaced, so a state is stepped once, by one thread; the
+values it returns (events, boundaries, movements, predictions) are immutable and may be read
+anywhere. Everything a step keeps is bounded: rows while nothing moves
+(:data:`promp.live.segmenter.HISTORY_S`), a movement's rows (``max_movement_s``), each input's
+last samples (:data:`promp.live.timebase.KEEP_S`); each step's events come from what arrived
+(a condition that changed, a marker, a boundary), and it predicts at most once per boundary
+and once for the movement going on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+from promp.live.options import LiveOptions, live_inputs
+from promp.live.predictor import LivePrediction, OnlinePredictor, observed_columns
+from promp.live.segmenter import Boundary, Movement, Segmenter
+from promp.live.source import Opened, Pulled, Source
+from promp.live.status import LiveEvent
+from promp.live.timebase import TimeBase
+from promp.live.transport import Selector
+from promp.model import ProMPModel
+
+__all__ = ["Arrivals", "build", "Call", "PipelineState", "shown", "step", "StepOutputs"]
+
+
+@dataclass(frozen=True)
+class Call:
+    """A movement started (``kind`` ``"start"``, with its class ``label``) or ended
+    (``"end"``) at ``time`` (the session's clock): a Record button's press."""
+
+    kind: str
+    time: float
+    label: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class Arrivals:
+    """What reached the pipeline since the last step.
+
+    Attributes
+    ----------
+    now : float
+        The session's clock, seconds.
+    opened : tuple of Opened
+        What a look for the missing streams found (:class:`promp.live.source.Opened`).
+    pulled : mapping of int to Pulled
+        Per connected stream (by its feed's index), the samples pulled or its loss.
+    calls : tuple of Call
+    notes : tuple of LiveEvent
+        Said by the runner itself (a look that failed, a step that failed): passed on first.
+    """
+
+    now: float
+    opened: tuple[Opened, ...] = ()
+    pulled: Mapping[int, Pulled] = field(default_factory=lambda: MappingProxyType({}))
+    calls: tuple[Call, ...] = ()
+    notes: tuple[LiveEvent, ...] = ()
+
+
+@dataclass(frozen=True, eq=False)
+class PipelineState:
+    """The stages, and what the pipeline knows of its own predictions.
+
+    Attributes
+    ----------
+    source, timebase, segmenter, predictor
+        The stages (their buffers advance in place: module docstring).
+    min_observed : int
+        Rows a movement needs before its first prediction.
+    predicted : (int, int)
+        The movement and the number of rows of the latest prediction.
+    prediction : LivePrediction or None
+        The latest prediction.
+    """
+
+    source: Source
+    timebase: TimeBase
+    segmenter: Segmenter
+    predictor: OnlinePredictor
+    min_observed: int = 2
+    predicted: tuple[int, int] = (0, 0)
+    prediction: LivePrediction | None = None
+
+
+StepOutputs = tuple[PipelineState, tuple[LiveEvent, ...], tuple[Boundary, ...],
+                    tuple[LivePrediction, ...]]  # fmt: skip
+
+
+def build(model: ProMPModel, inputs: Sequence, options: LiveOptions, now: float = 0.0
+          ) -> PipelineState:  # fmt: skip
+    """The stages of a session observing ``inputs`` (:class:`promp.live.source.LiveInput`
+    or their mapping text) of ``model`` as ``options`` say; ``now`` the clock at the start.
+
+    Raises
+    ------
+    ValueError
+        An input, an option or the remainder the stages refuse.
+    """
+    inputs = live_inputs(model, inputs)
+    names = [i.name for i in inputs]
+    widths = [len(i.modality.fields) for i in inputs]
+    columns = observed_columns(names, widths)
+    units = [model.layout.modality(n).unit for n in names]
+    markers = Selector.parse(options.markers) if options.markers else None
+    source = Source(inputs, markers, now)
+    timebase = TimeBase(names, widths, options.rate)
+    segmenter = Segmenter(options.start, sum(widths),
+                          [(columns[n], u) for n, u in zip(names, units, strict=True)],
+                          options.max_movement_s)  # fmt: skip
+    predictor = OnlinePredictor(model, columns, options.alpha_method, options.remainder,
+                                options.remainder_rate, options.n_points)  # fmt: skip
+    return PipelineState(source, timebase, segmenter, predictor, options.min_observed)
+
+
+def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
+    """Each stage once on ``arrivals``: the next state, the events, the boundaries and the
+    predictions, in the order they happened (see the module docstring)."""
+    source, timebase, segmenter = state.source, state.timebase, state.segmenter
+    now = arrivals.now
+    events = list(arrivals.notes)
+    boundaries: list[Boundary] = []
+    events += source.adopt(arrivals.opened, now)
+    for call in arrivals.calls:
+        if call.kind == "start":
+            segmenter.begin(call.time, call.label)
+        else:
+            segmenter.end(call.time)
+    batch = source.poll(arrivals.pulled, now)
+    events += batch.events
+    for name in sorted(batch.broken):
+        timebase.restart(name)
+        boundaries += segmenter.abort(f"input {name!r} broke off")
+    for name, (times, values, units) in batch.samples.items():
+        gap = timebase.push(name, times, values, units)
+        if gap:
+            events.append(LiveEvent(now, gap))
+            boundaries += segmenter.abort(gap)
+    segmenter.markers(batch.markers)
+    events += [LiveEvent(time, f"marker {shown(label)} left out (not start/end CLASS)")
+               for time, label in segmenter.unknown]  # fmt: skip
+    segmenter.unknown.clear()
+    rows = timebase.advance({n: source.nominal_rate(n) for n in timebase.names})
+    boundaries += segmenter.feed(rows)
+    predictions: list[LivePrediction] = []
+    for b in boundaries:
+        if b.movement is not None:  # its last rows, if they came with its end
+            state = _predict(state, b.movement, predictions, events)
+        events += _said(b)
+    movement = segmenter.movement
+    if movement is not None:
+        state = _predict(state, movement, predictions, events)
+    return state, tuple(events), tuple(boundaries), tuple(predictions)
+
+
+def _predict(state: PipelineState, movement: Movement, predictions: list[LivePrediction],
+             events: list[LiveEvent]) -> PipelineState:  # fmt: skip
+    """A prediction from ``movement``'s rows, unless they were predicted from (or a still
+    end cut them back to fewer)."""
+    n = len(movement)
+    number, done = state.predicted
+    if n < state.min_observed or (number == movement.number and n <= done):
+        return state
+    state = dataclasses.replace(state, predicted=(movement.number, n))
+    try:
+        prediction = state.predictor.predict(movement.number, movement.times, movement.values)
+    except ValueError as exc:
+        events.append(LiveEvent(float(movement.times[-1]), f"no prediction: {exc}"))
+        return state
+    predictions.append(prediction)
+    return dataclasses.replace(state, prediction=prediction)
+
+
+def _said(b: Boundary) -> list[LiveEvent]:
+    if b.kind == "start":
+        return [LiveEvent(b.time, f"movement {b.number} started")]
+    return [LiveEvent(b.time, f"movement {b.number} ended ({b.reason})")]
+
+
+def shown(label: str, limit: int = 60) -> str:
+    """A marker's label as an event quotes it (cut to ``limit`` characters)."""
+    return repr(label if len(label) <= limit else label[:limit] + "...")
