@@ -15,14 +15,19 @@ the state with its own fields replaced, so a state is stepped once, by one threa
 values it returns (events, boundaries, movements, predictions) are immutable and may be read
 anywhere. Everything a step keeps is bounded: rows while nothing moves
 (:data:`promp.live.segmenter.HISTORY_S`), a movement's rows (``max_movement_s``), each input's
-last samples (:data:`promp.live.timebase.KEEP_S`); each step's events come from what arrived
-(a condition that changed, a marker, a boundary), and it predicts at most once per boundary
-and once for the movement going on.
+last samples (:data:`promp.live.timebase.KEEP_S`), and the samples that wait for an input that
+lags: a row needs every input, so while one input is silent (stalled, vanished) the others'
+samples wait for it, but never longer than a movement may last (``max_movement_s``): past
+that, the input is said to lag, the movement under way ends, and the others' samples that
+waited are dropped (their rows could only have been given once it came back). Each step's
+events come from what arrived (a condition that changed, a marker, a boundary), and it
+predicts at most once per boundary and once for the movement going on.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -83,10 +88,16 @@ class PipelineState:
         The stages (their buffers advance in place: module docstring).
     min_observed : int
         Rows a movement needs before its first prediction.
+    wait_s : float
+        The longest the rows wait for an input that lags (seconds: ``max_movement_s``).
     predicted : (int, int)
         The movement and the number of rows of the latest prediction.
     prediction : LivePrediction or None
         The latest prediction.
+    newest : mapping of str to float
+        Each input's newest sample (the session's clock; the session's start before any).
+    lagging : frozenset of str
+        The inputs said to lag (see the module docstring).
     """
 
     source: Source
@@ -94,8 +105,11 @@ class PipelineState:
     segmenter: Segmenter
     predictor: OnlinePredictor
     min_observed: int = 2
+    wait_s: float = 30.0
     predicted: tuple[int, int] = (0, 0)
     prediction: LivePrediction | None = None
+    newest: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    lagging: frozenset[str] = frozenset()
 
 
 StepOutputs = tuple[PipelineState, tuple[LiveEvent, ...], tuple[Boundary, ...],
@@ -125,7 +139,9 @@ def build(model: ProMPModel, inputs: Sequence, options: LiveOptions, now: float 
                           options.max_movement_s)  # fmt: skip
     predictor = OnlinePredictor(model, columns, options.alpha_method, options.remainder,
                                 options.remainder_rate, options.n_points)  # fmt: skip
-    return PipelineState(source, timebase, segmenter, predictor, options.min_observed)
+    newest = MappingProxyType(dict.fromkeys(names, float(now)))  # none yet: since the start
+    return PipelineState(source, timebase, segmenter, predictor, options.min_observed,
+                         float(options.max_movement_s), newest=newest)
 
 
 def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
@@ -151,6 +167,7 @@ def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
         if gap:
             events.append(LiveEvent(now, gap))
             boundaries += segmenter.abort(gap)
+    state = _waited(state, batch.samples, events, boundaries)
     segmenter.markers(batch.markers)
     events += [LiveEvent(time, f"marker {shown(label)} left out (not start/end CLASS)")
                for time, label in segmenter.unknown]  # fmt: skip
@@ -166,6 +183,26 @@ def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
     if movement is not None:
         state = _predict(state, movement, predictions, events)
     return state, tuple(events), tuple(boundaries), tuple(predictions)
+
+
+def _waited(state: PipelineState, samples: Mapping, events: list[LiveEvent],
+            boundaries: list[Boundary]) -> PipelineState:  # fmt: skip
+    """The samples that waited too long for an input that lags, dropped (module docstring)."""
+    newest = {**state.newest, **{n: float(t[-1]) for n, (t, _, _) in samples.items()}}
+    lead = max(newest.values(), default=-math.inf)
+    lagging = frozenset(n for n in state.timebase.names
+                        if lead - newest.get(n, lead) > state.wait_s)  # fmt: skip
+    if not lagging and not state.lagging:
+        return dataclasses.replace(state, newest=MappingProxyType(newest))
+    for name in sorted(lagging - state.lagging):
+        reason = (f"input {name!r} lags the others by over {state.wait_s:g} s: their samples "
+                  "no longer wait for it")  # fmt: skip
+        events.append(LiveEvent(lead, reason))
+        boundaries += state.segmenter.abort(reason)
+    for name in state.timebase.names if lagging else ():
+        if name not in lagging:
+            state.timebase.restart(name)
+    return dataclasses.replace(state, newest=MappingProxyType(newest), lagging=lagging)
 
 
 def _predict(state: PipelineState, movement: Movement, predictions: list[LivePrediction],
