@@ -110,11 +110,13 @@ class LiveSession:
         self._record = SessionRecord()
         self._lock = threading.Lock()  # the record and the snapshot: the step and flush
         self._threads = SessionThreads(self.step, self._intake)
-        self._snapshot = self._take()
+        self._snapshot: LiveSnapshot | None = None
+        self._publish(transport.clock())
 
     # ------------------------------------------------------------------ from any thread
 
     def snapshot(self) -> LiveSnapshot:
+        """The latest snapshot (immutable; read it from any thread, without a lock)."""
         return self._snapshot
 
     def begin(self, label: str = "", time: float | None = None) -> None:
@@ -141,20 +143,16 @@ class LiveSession:
         self._threads.stop()
         problems = self._sinks.close()
         self._intake.close()
-        with self._lock:
-            self._record.add([LiveEvent(self.transport.clock(), p) for p in problems], (), (),
-                             self._sinks.kept())  # fmt: skip
-            self._snapshot = self._take()
+        now = self.transport.clock()
+        self._publish(now, [LiveEvent(now, p) for p in problems])
 
     def flush(self, timeout: float = 10.0) -> bool:
         """Wait until every sink delivered what it was offered (False after ``timeout``
-        seconds), then publish what they returned and said (a stepped session's tests)."""
+        seconds), then publish what they returned and what changed of them (a stepped
+        session's tests)."""
         done = self._sinks.flush(timeout)
-        with self._lock:
-            self._record.add(self._sinks.news(self.transport.clock()), (), (),
-                             self._sinks.kept())  # fmt: skip
-            self._snapshot = self._take()
-        return done
+        news = self._publish(self.transport.clock())
+        return self._sinks.flush(timeout) if news else done
 
     def connect(self, wait: float = FIND_WAIT_S) -> None:
         """Look for the missing streams once, here (a session stepped by hand)."""
@@ -167,33 +165,36 @@ class LiveSession:
         arrived or happened."""
         now = self.transport.clock()
         arrivals = self._intake.arrivals(now)
-        before = self.state.source.statuses()
         self.state, events, boundaries, predictions = step(self.state, arrivals)
         source = self.state.source
         self._intake.settle(source.connected(), source.wanted())
         worked = bool(arrivals.opened or arrivals.calls or events or predictions
                       or any(len(p.times) for p in arrivals.pulled.values()))  # fmt: skip
-        movement = self.state.segmenter.movement
         if worked or boundaries:
-            self._sinks.offer(Output(now, events, boundaries, predictions, movement))
-        news = self._sinks.news(now)  # the sinks' failures, after the step: said once
-        if news:
-            self._sinks.offer(Output(now, tuple(news)))
+            self._sinks.offer(Output(now, events, boundaries, predictions,
+                                     self.state.segmenter.movement))  # fmt: skip
+        return bool(self._publish(now, events, boundaries, predictions, worked)) or worked
+
+    def _publish(self, now: float, events=(), boundaries=(), predictions=(),
+                 changed: bool = True) -> list[LiveEvent]:  # fmt: skip
+        """Record a step's outputs with what changed of the sinks since (collected after the
+        step, said once: in the events, and to the sinks) and what they returned, and publish
+        a snapshot if anything changed; the sinks' news."""
         with self._lock:
+            news = self._sinks.news(now)
+            if news:
+                self._sinks.offer(Output(now, tuple(news)))
             kept = self._sinks.kept()
             self._record.add([*events, *news], boundaries, predictions, kept)
-            snap = self._snapshot
-            if worked or news or kept or source.statuses() != before \
-                    or len(self._intake.found) != len(snap.found) \
-                    or self._sinks.states() != snap.sinks:  # fmt: skip
-                self._snapshot = self._take()
-        return worked or bool(news)
-
-    def _take(self) -> LiveSnapshot:
-        source = self.state.source
-        return self._record.snapshot(self.transport.clock(), self._intake.found,
-                                     source.statuses(), self.state.segmenter.movement,
-                                     source.counts(), self._sinks.states())  # fmt: skip
+            source, snap = self.state.source, self._snapshot
+            statuses, sinks = source.statuses(), self._sinks.states()
+            if snap is None or changed or news or kept or statuses != snap.statuses \
+                    or len(self._intake.found) != len(snap.found) or sinks != snap.sinks:
+                self._snapshot = self._record.snapshot(
+                    self.transport.clock(), self._intake.found, statuses,
+                    self.state.segmenter.movement, source.counts(), sinks,
+                )  # fmt: skip
+        return news
 
 
 class SessionThreads:

@@ -10,10 +10,11 @@ raises, blocks or finds the disk full never stalls the prediction:
   sink starts failing (``sink 'events outlet' failed: OSError: ...``) and once when it works
   again, never once per output (an events outlet that fails on the event saying it failed
   says nothing new);
-* **blocks**: its queue fills (:data:`QUEUE_OUTPUTS` outputs); after that, a lossy sink's new
-  outputs are dropped and counted, said once when it falls behind and once when it has caught
-  up. A lossless sink (the recorder: its appends carry every row of the movement so far)
-  folds each new output into the last one queued (:meth:`Output.then`): nothing is lost but
+* **blocks**: its queue fills (:data:`QUEUE_OUTPUTS` outputs); after that, a lossy sink's
+  oldest queued outputs are dropped for the new ones (it delivers the latest when it can) and
+  counted, said once when it falls behind and once when it has caught up. A lossless sink
+  (the recorder: its appends carry every row of the movement so far) folds each new output
+  into the last one queued (:meth:`Output.then`): nothing is lost but
   the ended movements beyond :data:`QUEUE_OUTPUTS` in one fold, counted as dropped (their
   journals keep what was acknowledged, recovered as after a kill).
 
@@ -73,7 +74,7 @@ class Sink(Protocol):
     """A sink of the session's outputs (see the module docstring)."""
 
     name: str  # how the events name it
-    lossless: bool  # a full queue folds outputs (True) or drops the new ones (False)
+    lossless: bool  # a full queue folds outputs (True) or drops the oldest (False)
 
     def view(self, output: Output) -> Output | None:
         """The part of ``output`` this sink reads (None: nothing; not queued)."""
@@ -135,7 +136,9 @@ class SinkWorker:
                 dropped = max(len(ends) - self.capacity, 0)
                 self._queue[-1] = Output(folded.time, folded.events, ends[dropped:],
                                          folded.predictions, folded.movement)  # fmt: skip
-            else:
+            else:  # the oldest goes: a live sink wants the latest
+                self._queue.popleft()
+                self._queue.append(part)
                 dropped = 1
             queued = len(self._queue)
             self._state = replace(self._state, dropped=self._state.dropped + dropped,
