@@ -29,6 +29,7 @@ from numpy.testing import assert_allclose
 from promp.data import Layout
 from promp.learn import fit
 from promp.live.journal import read_journal
+from promp.live.predictor import LivePrediction
 from promp.live.recorder import Recorder
 from promp.live.segmenter import HISTORY_S
 from promp.live.session import LiveOptions, LiveSession
@@ -366,13 +367,15 @@ class LiveSessionMachine(RuleBasedStateMachine):
 
 def held_bytes(root) -> int:
     """Bytes of the arrays reachable from ``root`` (through attributes, containers), but the
-    model's (constant); 8 per element of a container of numbers."""
+    model's (constant) and the latest prediction's (an output, not a buffer: one, its size
+    the model's, ``s_bar / alpha`` points); 8 per element of a container of numbers."""
     seen: set[int] = set()
     total = 0
     stack = [root]
     while stack:
         obj = stack.pop()
-        if id(obj) in seen or isinstance(obj, ProMPModel | Layout | str | bytes | type):
+        if id(obj) in seen or isinstance(obj, ProMPModel | Layout | LivePrediction | str | bytes
+                                         | type):
             continue
         seen.add(id(obj))
         if isinstance(obj, np.ndarray):

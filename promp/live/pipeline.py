@@ -172,7 +172,9 @@ def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
     events += [LiveEvent(time, f"marker {shown(label)} left out (not start/end CLASS)")
                for time, label in segmenter.unknown]  # fmt: skip
     segmenter.unknown.clear()
-    rows = timebase.advance({n: source.nominal_rate(n) for n in timebase.names})
+    rates = None if timebase.base is not None else {n: source.nominal_rate(n)
+                                                     for n in timebase.names}  # fmt: skip
+    rows = timebase.advance(rates)  # the rates choose the rows' input, once
     boundaries += segmenter.feed(rows)
     predictions: list[LivePrediction] = []
     for b in boundaries:
@@ -188,6 +190,8 @@ def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
 def _waited(state: PipelineState, samples: Mapping, events: list[LiveEvent],
             boundaries: list[Boundary]) -> PipelineState:  # fmt: skip
     """The samples that waited too long for an input that lags, dropped (module docstring)."""
+    if not samples and not state.lagging:  # nothing arrived: nothing lags more than before
+        return state
     newest = {**state.newest, **{n: float(t[-1]) for n, (t, _, _) in samples.items()}}
     lead = max(newest.values(), default=-math.inf)
     lagging = frozenset(n for n in state.timebase.names

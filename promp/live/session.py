@@ -166,8 +166,9 @@ class LiveSession:
         now = self.transport.clock()
         arrivals = self._intake.arrivals(now)
         self.state, events, boundaries, predictions = step(self.state, arrivals)
-        source = self.state.source
-        self._intake.settle(source.connected(), source.wanted())
+        if arrivals.opened or any(p.lost for p in arrivals.pulled.values()):
+            source = self.state.source  # what the source reads changed: the inlets follow
+            self._intake.settle(source.connected(), source.wanted())
         worked = bool(arrivals.opened or arrivals.calls or events or predictions
                       or any(len(p.times) for p in arrivals.pulled.values()))  # fmt: skip
         if worked or boundaries:
@@ -181,17 +182,20 @@ class LiveSession:
         step, said once: in the events, and to the sinks) and what they returned, and publish
         a snapshot if anything changed; the sinks' news."""
         with self._lock:
-            news = self._sinks.news(now)
+            sinks = self._sinks.states()
+            news = self._sinks.news(now, sinks)
             if news:
                 self._sinks.offer(Output(now, tuple(news)))
             kept = self._sinks.kept()
-            self._record.add([*events, *news], boundaries, predictions, kept)
-            source, snap = self.state.source, self._snapshot
-            statuses, sinks = source.statuses(), self._sinks.states()
-            if snap is None or changed or news or kept or statuses != snap.statuses \
-                    or len(self._intake.found) != len(snap.found) or sinks != snap.sinks:
+            if events or boundaries or predictions or news or kept:
+                self._record.add([*events, *news], boundaries, predictions, kept)
+            snap = self._snapshot
+            # a stream's condition changes with an event, or with samples (a count): changed
+            if snap is None or changed or news or kept or sinks != snap.sinks \
+                    or len(self._intake.found) != len(snap.found):  # fmt: skip
+                source = self.state.source
                 self._snapshot = self._record.snapshot(
-                    self.transport.clock(), self._intake.found, statuses,
+                    self.transport.clock(), self._intake.found, source.statuses(),
                     self.state.segmenter.movement, source.counts(), sinks,
                 )  # fmt: skip
         return news

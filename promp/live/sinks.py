@@ -174,6 +174,8 @@ class SinkWorker:
 
     def kept(self) -> list[object]:
         """What the sink returned since the last call."""
+        if not self._kept:  # most calls: nothing (read without the lock: a list's length)
+            return []
         with self._cond:
             kept, self._kept = self._kept, []
         return kept
@@ -210,11 +212,12 @@ class Sinks:
     def kept(self) -> list[object]:
         return [k for w in self.workers for k in w.kept()]
 
-    def news(self, now: float) -> list[LiveEvent]:
-        """The events of the sinks' changes since the last call: one per change of a sink
-        (it started or stopped failing, fell behind or caught up), never one per output."""
+    def news(self, now: float, states: Sequence[SinkState] | None = None) -> list[LiveEvent]:
+        """The events of the sinks' changes since the last call (``states``: theirs now, if
+        just read): one per change of a sink (it started or stopped failing, fell behind or
+        caught up), never one per output."""
         events = []
-        for state in self.states():
+        for state in self.states() if states is None else states:
             texts = self._said[state.name].update(state)
             events += [LiveEvent(now, f"sink {state.name!r} {t}") for t in texts]
         return events

@@ -200,9 +200,11 @@ class Pulled:
     values: np.ndarray | list[str]
     lost: bool = False
     LOST: ClassVar[Pulled]
+    NOTHING: ClassVar[Pulled]
 
 
 Pulled.LOST = Pulled(np.zeros(0), [], lost=True)
+Pulled.NOTHING = Pulled(np.zeros(0), [])
 
 
 @dataclass(eq=False)
@@ -321,7 +323,7 @@ class Source:
         for k, feed in enumerate(self._feeds):
             if not feed.connected:
                 continue
-            got = pulled.get(k, Pulled(np.zeros(0), []))
+            got = pulled.get(k, Pulled.NOTHING)
             if got.lost:
                 feed.connected = False
                 batch.events += self._set(feed, Condition.VANISHED, now, "its outlet is gone; "
