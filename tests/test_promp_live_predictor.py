@@ -56,7 +56,8 @@ def test_each_update_is_the_offline_inference_on_the_samples_so_far() -> None:
         same_inference(p.inference, infer(model, obs))
     assert np.all(np.diff([p.n_observed for p in predictions]) > 0)
     final = predictions[-1].probabilities
-    assert_allclose(final.sum(), 1.0) and final.argmax() == model.names.index("left")
+    assert_allclose(final.sum(), 1.0)
+    assert final.argmax() == model.names.index("left")
 
 
 def test_streams_at_two_rates_are_observed_on_the_xdf_readers_clock() -> None:
@@ -118,6 +119,7 @@ def test_the_remainder_runs_at_its_rate_to_the_predicted_end() -> None:
         assert_allclose(r.after[:-1], np.arange(1, r.after.size) / 50.0)
         phases = np.clip((inference.observed_until + r.after) / inference.duration, 0, 1)
         mean, std = trajectory_at(model, inference.posterior, inference.alpha, phases)
-        assert_array_equal(r.mean, mean) and assert_array_equal(r.std, std) is None
+        assert_array_equal(r.mean, mean)
+        assert_array_equal(r.std, std)
         assert_allclose(r.mean[-1], inference.prediction.mean[-1], atol=1e-12)
         assert_allclose(p.remaining.value, left, rtol=1e-12)
