@@ -189,7 +189,7 @@ def placed_as_asked(data, hand_frame: str):
 
     points = hand_points(data.demos, data.layout)
     if not points.shape[0]:
-        return data
+        return placed(data, HandFrame())
     if hand_frame == "own":
         stage("The hand stays in its own frame: drawn where it is, without the robot.")
         return placed(data, HandFrame(own=True))
@@ -205,7 +205,7 @@ def placed_as_asked(data, hand_frame: str):
     if share < IN_REACH:
         stage(f"{reach_sentence(share)} Import it with --hand-frame place (moved into reach) "
               "or --hand-frame own (without the robot).")  # fmt: skip
-    return data
+    return placed(data, HandFrame())
 
 
 def stage(text: str) -> None:

@@ -186,7 +186,7 @@ class Studio:
         names = {title: name for title, name, _ in TABS}
         self.tabs = BrowserTabs(self.server, tuple(names), lambda t: self.scene.use_panel(names[t]))
         guarded = GuardedGui(self.server.gui, self.notify)
-        self.camera = ViewControls(self.server, self.scene, guarded)
+        self.camera = ViewControls(self.server, self.scene, guarded, self.session)
         tabs = self.server.gui.add_tab_group()
         panels: list[Panel] = []
         for title, name, build in TABS:

@@ -19,7 +19,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from app.io.dataset_import import read_folder  # noqa: E402
+from app.io.dataset_import import placed, read_folder  # noqa: E402
+from app.io.hand_frame import ICUB_FRAME  # noqa: E402
 from app.io.workspace import Workspace  # noqa: E402
 from tests.browser import choose, click, close_notifications, open_tab, settled_screenshot  # noqa: E402
 from tests.conftest import CHROMIUM, CHROMIUM_FLAGS, open_page, start_studio, wait_until  # noqa: E402
@@ -118,7 +119,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         workspace = Path(tmp) / args.dataset.name
         data_, summary = read_folder(args.dataset, "records")
-        Workspace.create(workspace, data_)
+        # as the Data tab imports it: in the iCub's frame, recorded elsewhere (no simulated
+        # table and bins drawn)
+        Workspace.create(workspace, placed(data_, ICUB_FRAME))
         print(f"workspace: {summary.describe()}", flush=True)
         studio = start_studio(workspace)
         try:

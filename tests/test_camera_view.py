@@ -10,6 +10,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from app.scene.camera import (
+    CANVAS,
     FOV,
     FRAME,
     MARGIN,
@@ -19,6 +20,7 @@ from app.scene.camera import (
     TOP,
     CameraPose,
     frame,
+    framed_points,
     partner_eye,
     project,
     view_pose,
@@ -141,6 +143,31 @@ def test_paths_that_reach_behind_the_eye_are_framed_from_further_back(scenario, 
     np.testing.assert_allclose(forward(pose), forward(usual), atol=0.02)
     assert np.linalg.norm(pose.look_at - pose.position) > np.linalg.norm(
         usual.look_at - usual.position)  # fmt: skip
+
+
+def test_paths_are_framed_without_a_few_outliers_and_whole_otherwise(scenario) -> None:
+    """Every sample of the simulated set (two primitives) is kept, as are a straight segment
+    seen from its middle and two groups of paths far apart; a logging glitch 2 m away, or one
+    take of 38 recorded a metre and a half off, is left out, and a camera framed on the rest
+    sees the paths large."""
+    points = hand_points(scenario)
+    assert_allclose(framed_points(points), points)
+    segment = np.linspace([0.0, 0.0, 0.0], [0.5, 0.0, 0.0], 200)
+    assert framed_points(segment).shape == segment.shape
+    groups = np.concatenate([points, points + [0.0, 0.8, 0.0]])
+    assert framed_points(groups).shape == groups.shape
+    glitch = np.concatenate([points, [[2.0, 1.0, 0.5]] * 3])
+    assert_allclose(framed_points(glitch), points)
+    takes = [d.values[:, :3] for demos in scenario.values() for d in demos]
+    takes = [takes[k % len(takes)] for k in range(38)]
+    off = np.concatenate([*takes[:-1], takes[-1] + [1.5, 0.0, 0.0]])
+    kept = framed_points(off)
+    assert_allclose(kept, np.concatenate(takes[:-1]))
+    pose = frame(kept, [1.0, 0.2, -0.5])
+    pixels = project(pose, np.concatenate(takes[:-1]), *CANVAS)
+    assert np.ptp(pixels[:, 0]) > 0.5 * (CANVAS[0] - PANEL_PX)
+    assert_allclose(framed_points(np.ones((5, 3))), np.ones((5, 3)))  # all at one place
+    assert framed_points(np.full((2, 3), np.nan)).shape == (0, 3)
 
 
 # ---------------------------------------------------------------------- in a real browser
@@ -275,5 +302,9 @@ def test_the_start_view_separates_the_paths_and_the_buttons_move_the_camera(
         wait_until(framed, timeout=60, what=lambda: (
             "every hand path in the picture, beside the panel: x, y in "
             f"{np.ptp(camera_pixels(page, client, hand_points(scenario)), axis=0)}"))  # fmt: skip
+        # The pointer still rests on the button: no tooltip opened over the panel (it stayed
+        # there while the user looked at the view the button gave).
+        assert page.locator(".mantine-Tooltip-tooltip").count() == 0
+        assert studio.camera.buttons.hint is None
     finally:
         page.close()

@@ -1,8 +1,9 @@
 """Data recorded elsewhere, brought in: the modalities' field takes one per line (or ``;`` or
 spaces), the preview names the columns no modality uses, and a hand placed in the iCub's frame
 at import is kept with the workspace (``studio.json``), loaded back, and undone on export: the
-exported CSVs are the recorded ones. Old workspaces (no ``frame``) open as before; a bad
-placement is refused with a message."""
+exported CSVs are the recorded ones. A partner's position (a human's hand) has a placement of
+its own, beside the partner, guessed from its name and chosen by the user. Old workspaces (no
+``frame``) open as before; a bad placement is refused with a message."""
 
 from __future__ import annotations
 
@@ -19,13 +20,30 @@ from app.core.store import Store
 from app.core.store_state import workspace_data
 from app.io.dataset_import import compact_columns, placed, read_folder
 from app.io.exchange import read_workspace_zip, workspace_zip
-from app.io.hand_frame import ICUB_FRAME, HandFrame, hand_points, placement_from_fields
+from app.io.hand_frame import (
+    ICUB_FRAME,
+    HandFrame,
+    guessed_partner,
+    hand_points,
+    imported_frame,
+    placement_from_fields,
+    points_of,
+)
 from app.io.workspace import Workspace
-from app.io.workspace_index import check_index
+from app.io.workspace_index import check_index, layout_listing
 from app.panels.data.import_inputs import one_per_line, preview_text
+from promp.data import Layout, Modality
 from promp.datasets import demo_from_csv, parse_modalities
-from robots.icub.placement import IN_REACH, Placement, guess_placement, reach_share
+from robots.icub.layout import HAND
+from robots.icub.placement import (
+    IN_REACH,
+    PARTNER_ORIGIN,
+    Placement,
+    guess_placement,
+    reach_share,
+)
 from robots.icub.scenario import generate_scenario
+from tests.imported_sets import HANDOVER_MODALITIES, handover_set
 
 FAR = np.array([2.0, 0.0, 0.0])  # m: the dataset's hand is 2 m in front of the iCub's root
 EXTRA = ("hx", "hy", "hz", *(f"e{i}" for i in range(8)))
@@ -144,7 +162,8 @@ def test_a_frame_travels_in_studio_json_and_bad_ones_are_refused() -> None:
         ({"placement": {"translation_m": [1e9, 0, 0], "yaw_rad": 0}}, "at most 1000 cm"),
         ({"placement": {"translation_m": ["nan", 0, 0], "yaw_rad": 0}}, "finite"),
         ({"placement": {"translation_m": [0, 0], "yaw_rad": 0}}, "finite"),
-        ({"own": True, "placement": {}}, "'frame' is"),
+        ({"own": True, "placement": {}}, "'frame': a placement needs"),
+        ({"own": True, "placement": {"translation_m": [0, 0, 0], "yaw_rad": 0}}, "not both"),
         ("elsewhere", "'frame' is"),
     ]
     for value, message in bad:
@@ -170,8 +189,10 @@ def test_a_placed_workspace_keeps_its_placement_and_exports_the_data_as_recorded
     data, _ = read_folder(tmp_path / "handover", "csv")
     points = hand_points(data.demos, data.layout)
     assert reach_share(points) < IN_REACH  # recorded 2 m away
-    frame = HandFrame(guess_placement(points))
-    workspace = Workspace.create(tmp_path / "ws", placed(data, frame))
+    imported = placed(data, HandFrame(guess_placement(points)))
+    frame = imported.frame
+    assert frame == HandFrame(guess_placement(points), imported=True) and not frame.in_scene
+    workspace = Workspace.create(tmp_path / "ws", imported)
     # studio.json keeps the placement; the demonstrations are in the iCub's frame, in reach.
     index = json.loads((tmp_path / "ws" / "studio.json").read_text())
     assert index["frame"] == frame.to_json()
@@ -202,11 +223,11 @@ def test_a_placed_workspace_keeps_its_placement_and_exports_the_data_as_recorded
 
 
 def test_every_position_in_space_is_placed_with_the_hand_and_back(tmp_path) -> None:
-    """A partner's hand (hx, hy, hz: three columns ending in x, y, z) was recorded in the same
-    frame as the robot's: placed, it moves with the hand; the EMG stays as it was; exported, both
-    go back to the frame they were recorded in."""
+    """A marker (hx, hy, hz: three columns ending in x, y, z) was recorded in the same frame
+    as the robot's hand: placed, it moves with the hand; the EMG stays as it was; exported,
+    both go back to the frame they were recorded in."""
     far_dataset(tmp_path / "handover")
-    modalities = parse_modalities("hand=x,y,z; partner=hx,hy,hz; emg=e0,e1")
+    modalities = parse_modalities("hand=x,y,z; marker=hx,hy,hz; emg=e0,e1")
     data, _ = read_folder(tmp_path / "handover", "csv", modalities)
     frame = HandFrame(guess_placement(hand_points(data.demos, data.layout)))
     moved = frame.placed(data.demos, data.layout)
@@ -226,7 +247,7 @@ def test_a_workspace_in_its_own_frame_is_stored_and_exported_as_it_is(tmp_path) 
     data, _ = read_folder(tmp_path / "handover", "csv")
     workspace = Workspace.create(tmp_path / "ws", placed(data, HandFrame(own=True)))
     loaded = workspace.load()
-    assert loaded.frame == HandFrame(own=True) and not loaded.frame.robot_shown
+    assert loaded.frame == HandFrame(own=True, imported=True) and not loaded.frame.robot_shown
     exported = exported_csvs(workspace_zip(loaded))
     for key, text in originals.items():
         original, back = demo_from_csv(text), demo_from_csv(exported[key])
@@ -272,7 +293,7 @@ def test_the_command_line_says_a_hand_is_out_of_reach_and_places_it(tmp_path, ca
 
     out, data = imported("as-recorded")
     assert "The hand's path is 0 % within the iCub's reach" in out and "--hand-frame place" in out
-    assert data.frame == ICUB_FRAME
+    assert data.frame == HandFrame(imported=True) and not data.frame.in_scene
     out, data = imported("placed", "--hand-frame", "place")
     assert "Placed the hand in the iCub's frame (yaw 0°, x -19" in out
     assert reach_share(hand_points(data.demos, data.layout)) >= IN_REACH
@@ -280,7 +301,97 @@ def test_the_command_line_says_a_hand_is_out_of_reach_and_places_it(tmp_path, ca
     assert_allclose(back.values, demo_from_csv(originals["curved/take0"]).select(("x", "y", "z")),
                     atol=1e-9)  # fmt: skip
     out, data = imported("own", "--hand-frame", "own")
-    assert "its own frame" in out and data.frame == HandFrame(own=True)
+    assert "its own frame" in out and data.frame == HandFrame(own=True, imported=True)
     with pytest.raises(ValueError, match="--hand-frame go with --import-dataset"):
         prepare_workspace(build_parser().parse_args(["--workspace", str(tmp_path / "ws"),
                                                      "--hand-frame", "own"]))  # fmt: skip
+
+
+# ------------------------------------------------------------------------- the partner's positions
+
+
+def handover(tmp_path):
+    """The handover set (tests/imported_sets.py) read with its three modalities, as recorded."""
+    data, _ = read_folder(handover_set(tmp_path / "handover"), "csv",
+                          parse_modalities(HANDOVER_MODALITIES))  # fmt: skip
+    return data
+
+
+@pytest.mark.parametrize(
+    ("names", "partner"),
+    [
+        (("human", "marker", "emg"), ("human",)),
+        (("partner_hand", "robot_tool"), ("partner_hand",)),
+        (("Subject1", "object"), ("Subject1",)),
+        (("humanWrist", "userElbow", "box"), ("humanWrist", "userElbow")),
+        (("tracker", "wand"), ()),  # a lab's names that say no person: the user says it
+    ],
+)
+def test_the_import_guesses_the_partners_positions_from_their_names(names, partner) -> None:
+    layout = Layout((HAND, *(Modality(n, (f"{n}_x", f"{n}_y", f"{n}_z")) for n in names),
+                     Modality("human_force", ("fx", "fy", "fz"), unit="N")))  # fmt: skip
+    assert guessed_partner(layout) == partner  # a force is no position, the hand the robot's
+
+
+def test_a_partners_hand_is_placed_beside_the_partner_not_with_the_robots(tmp_path) -> None:
+    """The handover set: a human's hand in the partner's frame, the robot's hand in its base's.
+    Placed with the robot's placement (as every position was) the human's hand was drawn at the
+    iCub's waist, in its legs; it has its own placement, at the partner, undone on export."""
+    data = handover(tmp_path)
+    robot = guess_placement(hand_points(data.demos, data.layout))
+    imported = placed(data, HandFrame(robot))
+    frame = imported.frame
+    assert frame.partner_names == ("human",) and frame.placement == robot and frame.imported
+    human = points_of(imported.demos, data.layout, "human")
+    # within a person's reach of the partner's shoulders (an arm and the shoulder's own play)
+    assert np.max(np.linalg.norm(human - np.array(PARTNER_ORIGIN), axis=1)) < 0.9
+    assert np.all(human[:, 0] < -0.3)  # in front of the robot (it faces -x), never in it
+    assert_allclose(hand_points(imported.demos, data.layout),
+                    robot.apply(hand_points(data.demos, data.layout)))  # fmt: skip
+    emg = [f"emg{i}" for i in range(8)]
+    assert_allclose(points_of(imported.demos, data.layout, "emg"),
+                    np.concatenate([d.select(emg) for v in data.demos.values() for d in v]))
+    # Kept in studio.json, read back, and undone on export: the data as recorded.
+    workspace = Workspace.create(tmp_path / "ws", imported)
+    index = json.loads((tmp_path / "ws" / "studio.json").read_text())
+    assert set(index["frame"]["partner"]) == {"human"} and index["frame"]["imported"] is True
+    loaded = workspace.load()
+    assert loaded.frame == frame
+    back = read_workspace_zip(workspace_zip(loaded)).data
+    assert back.frame == frame
+    recorded = frame.as_recorded(loaded.demos, loaded.layout)
+    for name, demos in data.demos.items():
+        for demo, again in zip(demos, recorded[name], strict=True):
+            assert_allclose(again.values, demo.values, atol=1e-9)
+
+
+def test_the_user_says_which_positions_are_the_partners(tmp_path) -> None:
+    data = handover(tmp_path)
+    frame = imported_frame(HandFrame(Placement((0.1, 0.0, -0.5))), data.demos, data.layout)
+    assert frame.partner_names == ("human",)
+    # The robot's frame: moved with the hand, as a marker would be.
+    robots = frame.with_partner("human", False, data.demos, data.layout)
+    assert robots.partner == () and robots.placement == frame.placement
+    moved = robots.placed(data.demos, data.layout)
+    assert_allclose(points_of(moved, data.layout, "human"),
+                    frame.placement.apply(points_of(data.demos, data.layout, "human")))
+    assert robots.with_partner("human", True, data.demos, data.layout) == frame
+    for name, message in (("hand", "other than the robot's hand"), ("emg", "not a position"),
+                          ("nobody", "not a position")):  # fmt: skip
+        with pytest.raises(ValueError, match=message):
+            frame.with_partner(name, True, data.demos, data.layout)
+    with pytest.raises(ValueError, match="own frame"):
+        HandFrame(own=True).with_partner("human", True, data.demos, data.layout)
+    # Kept as it is said, checked against the layout when read.
+    index = {"format": "icub-intention-studio/workspace", "version": 1, "primitives": [],
+             "layout": layout_listing(data.layout)}  # fmt: skip
+    assert check_index({**index, "frame": frame.to_json()}, "s").frame == frame
+    placement = Placement(PARTNER_ORIGIN).to_json()
+    for partner, message in (({"emg": placement}, "not positions"),
+                             ({"hand": placement}, "other modalities than the robot's hand"),
+                             ({"human": {"yaw_rad": 0}}, "a placement needs"),
+                             (["human"], "'frame' is")):  # fmt: skip
+        with pytest.raises(ValueError, match=message):
+            check_index({**index, "frame": {"imported": True, "partner": partner}}, "s")
+    with pytest.raises(ValueError, match="keeps every position as recorded"):
+        HandFrame(own=True, partner=(("human", Placement(PARTNER_ORIGIN)),))

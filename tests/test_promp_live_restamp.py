@@ -70,6 +70,20 @@ def test_on_time_faster_and_irregular_streams_are_left_as_they_are() -> None:
         assert_array_equal(index, np.arange(stamps.size))
 
 
+def test_a_faster_stream_resumed_after_a_pause_keeps_its_stamps() -> None:
+    # takes replayed at 2.5x a declared 100 Hz, a second of silence between them: the first
+    # samples after the pause are the stream's own step apart, not a late sender's burst
+    rng = np.random.default_rng(3)
+    step = 0.4 / RATE
+    takes = [t0 + np.cumsum(step * rng.uniform(0.95, 1.05, 300)) for t0 in (10.0, 12.2, 14.4)]
+    stamps = np.concatenate(takes)
+    spread = Respread(RATE)
+    times, index = delivered(spread, stamps, rng)
+    assert_array_equal(times, stamps)
+    assert_array_equal(index, np.arange(stamps.size))
+    assert spread.lateness(stamps[-1]) == 0.0
+
+
 def test_a_pause_the_sender_caught_up_is_no_gap_and_one_it_did_not_is() -> None:
     rng = np.random.default_rng(2)
     true = 20.0 + np.arange(300) / RATE

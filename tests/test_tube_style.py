@@ -1,7 +1,8 @@
 """The tube styles: what each draws (a region of stated probability), the tube's cross-section
 (the shadow of each 3-D ellipsoid on the plane normal to the path), the outline's geometry, the
-view state that holds the one choice, the line that says what a tube is. No browser:
-tests/test_tube_style_in_studio.py drives the studio."""
+view state that holds the one choice, the line that says what a tube is; a tube wider than its
+workspace drawn as an outline, its width said. No browser: tests/test_tube_style_in_studio.py
+drives the studio."""
 
 from __future__ import annotations
 
@@ -10,18 +11,22 @@ import pytest
 from numpy.testing import assert_allclose
 
 from app.core.view_state import NO_TUBES, OUTLINE, REGION_50, REGION_90, TUBE_STYLES, View
+from app.live.regions import TUBE_POINTS, prior_shape
+from app.scene.tube_scale import TubeWidth, drawn_look, tube_width, workspace_extent
 from app.scene.tubes import (
     MIN_RADIUS,
     OUTLINE_RAILS,
     OUTLINE_RINGS,
     RING,
     TUBE_SIDE,
+    TubeLook,
     outline_segments,
     region_vertices,
+    ring_widths,
     tube_look,
     tube_vertices,
 )
-from app.ui.tube_style import measured_sentence, tube_sentence
+from app.ui.tube_style import measured_sentence, tube_sentence, wide_sentence
 from promp.region import Coverage, SampleDistribution, region_radius
 
 N = 50
@@ -117,3 +122,82 @@ def test_the_view_state_holds_one_style_for_both_tabs() -> None:
     with pytest.raises(ValueError, match="unknown tube style"):
         view.set_tube_style("wireframe")
     assert view.state.tube_style is OUTLINE
+
+
+# ---------------------------------------------------------------------- tubes too wide for a band
+
+
+def test_a_rings_width_is_its_longest_diameter() -> None:
+    """An elongated spread across a straight path: the ring's width is the ellipse's long
+    axis, measured on the vertices drawn (opposite vertices of a ring of many)."""
+    mean = np.linspace([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], N)
+    a = np.diag([1e-4, 9e-2, 1e-4])  # 30 cm of spread sideways (y)
+    region = SampleDistribution(np.linspace(0, 1, N), mean, np.broadcast_to(a, (N, 3, 3)))
+    widths = ring_widths(region, 0.9)
+    assert_allclose(widths, 2 * region_radius(0.9, 3) * 0.3)
+    rings = tube_vertices(mean, region.cov, region_radius(0.9, 3), ring=64).reshape(N, 64, 3)
+    across = np.linalg.norm(rings[:, :32] - rings[:, 32:], axis=2).max(axis=1)
+    assert_allclose(across, widths, rtol=1e-3)
+    assert_allclose(ring_widths(straight_region(0.0), 0.9), 2 * MIN_RADIUS)  # never thinner
+
+
+def straight_region(sd: float, length: float = 1.0) -> SampleDistribution:
+    mean = np.linspace([0.0, 0.0, 0.0], [length, 0.0, 0.0], N)
+    return SampleDistribution(np.linspace(0, 1, N), mean,
+                              np.broadcast_to(sd**2 * np.eye(3), (N, 3, 3)))  # fmt: skip
+
+
+def test_a_tube_wider_than_its_workspace_is_drawn_as_an_outline_its_width_said() -> None:
+    """A 90 % region 1.25 m wide (sd 25 cm) over paths that span 40 cm: an outline whatever
+    the band style, and the line beside it says how wide it is and why; a 5 cm tube over the
+    same paths stays a band, and says nothing more."""
+    wide = tube_width("human", straight_region(0.25, 0.4), 0.9, extent=0.4)
+    thin = tube_width("hand", straight_region(0.01, 0.4), 0.9, extent=0.4)
+    assert wide.width == pytest.approx(2 * region_radius(0.9, 3) * 0.25) and wide.too_wide
+    assert not thin.too_wide
+    for style in (REGION_90, REGION_50):
+        assert drawn_look(tube_look(style), wide) == TubeLook(
+            tube_look(style).probability, surface=False, outline=True)  # fmt: skip
+        assert drawn_look(tube_look(style), thin) == tube_look(style)
+    assert drawn_look(tube_look(NO_TUBES), wide) == tube_look(NO_TUBES)
+    said = tube_sentence(REGION_90, "give", widths=(thin, wide))
+    assert said.endswith(" Drawn as an outline, wider than where the paths go: human's tube "
+                         "125 cm wide (its paths span 40 cm).")  # fmt: skip
+    two = wide_sentence((wide, TubeWidth("hand", 0.9, 0.3)))
+    assert "Drawn as outlines" in two and "human's tube 125 cm wide" in two
+    assert "hand's 90 cm wide (its paths span 30 cm)" in two
+    assert tube_sentence(REGION_90, widths=(thin,)) == tube_sentence(REGION_90)
+    assert tube_sentence(OUTLINE, widths=(wide,)) == tube_sentence(OUTLINE)  # outlines anyway
+
+
+def test_a_workspace_is_the_span_of_every_primitives_mean_path() -> None:
+    from app.studio import default_workspace
+    from promp.learn import fit
+
+    data = default_workspace()
+    model = fit(data.demos, data.layout)
+    points = np.concatenate([d.select(("x", "y", "z")) for v in data.demos.values() for d in v])
+    extent = workspace_extent(model, "hand")
+    assert 0.8 * np.ptp(points, axis=0).max() < extent <= np.ptp(points, axis=0).max()
+    regions = [prior_shape(model, n).region(model, "hand", TUBE_POINTS) for n in model.names]
+    assert not any(tube_width(n, r, 0.9, extent).too_wide
+                   for n, r in zip(model.names, regions, strict=True))  # fmt: skip
+
+
+@pytest.mark.parametrize("name", ["lab-records-heights", "lab-records-flt",
+                                  "lab-records-flt-shapes"])  # fmt: skip
+def test_no_prior_tube_of_the_shared_lab_sets_is_too_wide(name) -> None:
+    """The rule draws no real set's prior tube as an outline: the widest is 0.42 of its
+    workspace (flt's left tube), under the 1 of WIDER_THAN."""
+    from app.io.dataset_import import read_folder
+    from app.ui.tube_style import prior_widths
+    from promp.learn import fit
+    from tests.conftest import SHARED_DATA
+
+    if not (SHARED_DATA / name).is_dir():
+        pytest.skip(f"shared lab recordings not found at {SHARED_DATA / name}")
+    data, _ = read_folder(SHARED_DATA / name, "records")
+    model = fit(data.demos, data.layout)
+    widths = prior_widths(model, model.names, REGION_90, ())
+    ratios = [w.width / w.extent for w in widths]
+    assert len(widths) == len(model.names) and max(ratios) < 0.5, widths

@@ -1,10 +1,11 @@
 """What the user chose to look at, shared by every browser tab: the demonstrations hidden in
 the 3D view, the primitive being taught, a model imported to infer with, how the
-distribution tubes are drawn (:data:`TUBE_STYLES`, one choice that Teach and Infer both show)
-and the via-points that shape the primitives (:mod:`app.core.via_state`).
+distribution tubes are drawn (:data:`TUBE_STYLES`, one choice that Teach and Infer both show),
+whether the simulated scene is drawn (:func:`scene_shown`) and the via-points that shape the
+primitives (:mod:`app.core.via_state`).
 
-Not written to the workspace. :class:`View` holds the latest :class:`ViewState` (readers take
-:attr:`View.state`, lock-free); its setters publish a new one.
+Not written to the workspace, like every view setting. :class:`View` holds the latest
+:class:`ViewState` (readers take :attr:`View.state`, lock-free); its setters publish a new one.
 """
 
 from __future__ import annotations
@@ -37,6 +38,22 @@ class ImportedModel:
 
 
 @dataclass(frozen=True)
+class SceneChoice:
+    """The simulated scene shown (or hidden) by the user, for the workspace ``key`` names
+    (:func:`scene_key`); another workspace has its own default again."""
+
+    key: tuple
+    shown: bool
+
+
+def scene_key(store: StoreState) -> tuple:
+    """What a choice of the scene holds for: the workspace's folder and whether its data was
+    recorded in the scene (a dataset imported into the default workspace's folder is a new
+    choice)."""
+    return (store.workspace.root, store.frame.in_scene)
+
+
+@dataclass(frozen=True)
 class ViewState:
     """The view's choices (see the module docstring).
 
@@ -53,6 +70,9 @@ class ViewState:
     via_points : tuple of StudioViaPoint
         The via-points of every primitive, in the order they were added
         (:mod:`app.core.via_state`).
+    scene : SceneChoice or None
+        The user's choice of the simulated scene (None: the workspace's default,
+        :func:`scene_shown`).
     """
 
     hidden: frozenset[Key] = frozenset()
@@ -60,6 +80,18 @@ class ViewState:
     imported: ImportedModel | None = None
     tube_style: str = REGION_90
     via_points: tuple[StudioViaPoint, ...] = ()
+    scene: SceneChoice | None = None
+
+
+def scene_shown(view: ViewState, store: StoreState) -> bool:
+    """Whether the 3D view draws the simulated scene (table, object, bins, partner) with
+    ``store``'s workspace: as the user chose for it, else when its data was recorded in that
+    scene (:attr:`app.io.hand_frame.HandFrame.in_scene`: the studio's own workspaces, not an
+    imported dataset)."""
+    choice = view.scene
+    if choice is not None and choice.key == scene_key(store):
+        return choice.shown
+    return store.frame.in_scene
 
 
 class View:
@@ -99,6 +131,10 @@ class View:
     def choose(self, primitive: str | None) -> None:
         """The primitive being taught."""
         self._set(primitive=primitive)
+
+    def show_scene(self, shown: bool, store: StoreState) -> None:
+        """Draw the simulated scene (``shown``) with ``store``'s workspace."""
+        self._set(scene=SceneChoice(scene_key(store), bool(shown)))
 
     def set_tube_style(self, style: str) -> None:
         """Draw the distribution tubes as ``style`` says.

@@ -33,7 +33,7 @@ from pathlib import Path, PurePosixPath
 
 from app.io.demo_checks import DemoChecks
 from app.io.demo_scores import DemoScores
-from app.io.hand_frame import HandFrame
+from app.io.hand_frame import HandFrame, imported_frame
 from app.io.workspace import WorkspaceData
 from app.io.workspace_index import PALETTE, PrimitiveEntry, check_layout
 from app.io.zip_members import Limits, check_member, format_size
@@ -147,8 +147,10 @@ def compact_columns(columns: Sequence[str]) -> str:
 
 
 def placed(data: WorkspaceData, frame: HandFrame) -> WorkspaceData:
-    """``data`` (its hand as recorded) with the hand in the iCub's frame by ``frame``, which
+    """``data`` (imported, as recorded) with the hand in the iCub's frame by ``frame`` and the
+    partner's positions beside the partner (:func:`app.io.hand_frame.imported_frame`), which
     the workspace keeps (:mod:`app.io.hand_frame`)."""
+    frame = imported_frame(frame, data.demos, data.layout)
     return dataclasses.replace(data, demos=frame.placed(data.demos, data.layout), frame=frame)
 
 

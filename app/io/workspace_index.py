@@ -229,5 +229,5 @@ def check_index(index: object, label: str) -> Index:
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{label}: invalid learning settings ({exc})") from None
     checks = DemoChecks.from_json(index["checks"], label) if "checks" in index else DemoChecks()
-    frame = HandFrame.from_json(index.get("frame"), label)
+    frame = HandFrame.from_json(index.get("frame"), label, layout)
     return Index(primitives, dict(settings), layout, checks, frame)

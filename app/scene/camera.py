@@ -10,6 +10,9 @@ distance at which the points fit; the presets stand at a fixed place (the Partne
 and above the partner's head, the others :data:`PRESET_DISTANCE` from the paths) and zoom: the
 narrowest field of view that fits them, so that their perspective stays natural.
 
+What is framed is the data, robust to a few outliers (:func:`framed_points`): a glitch metres
+away, or one take recorded elsewhere, does not shrink the demonstrations to a speck.
+
 Conventions: world frame z up (the robot's root frame); a pose's ``fov`` is the vertical field
 of view in radians, as viser's; pixels from the top-left corner, y down.
 """
@@ -32,6 +35,8 @@ PRESET_MARGIN = 0.4  # the presets leave more room around the paths: the robot, 
 NEAR = 0.08  # metres: no framed point closer to the camera than this
 PARTNER_EYE_OFFSET = np.array([-0.3, 0.0, 0.4])  # from the partner's head centre, metres
 PRESET_DISTANCE = 1.3  # metres from the paths, Top and Side views
+OUTLIER_SHARE = 0.9  # framed: the points within OUTLIER_FACTOR times the distance from their
+OUTLIER_FACTOR = 3.0  # median that this share of them is within
 
 PARTNER, TOP, SIDE, FRAME = "Partner view", "Top view", "Side view", "Frame paths"
 VIEWS = (PARTNER, TOP, SIDE, FRAME)
@@ -162,6 +167,24 @@ def frame(
     return CameraPose(
         look_at - distance * forward, look_at, tuple(float(u) for u in up), 2 * math.atan(tan_v)
     )
+
+
+def framed_points(points) -> np.ndarray:
+    """``points`` (n, 3) without their outliers: those farther from the points' median (per
+    axis) than :data:`OUTLIER_FACTOR` times the distance :data:`OUTLIER_SHARE` of the points
+    are within. Paths, however they spread, have their farthest points within about 1.1 times
+    that distance (a straight segment, seen from its middle: 1 / 0.9); a glitch, or a few
+    takes out of hundreds of samples, far beyond it is left out. The finite points all kept
+    when they are all at one place."""
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    points = points[np.all(np.isfinite(points), axis=1)]
+    if points.shape[0] == 0:
+        return points
+    distance = np.linalg.norm(points - np.median(points, axis=0), axis=1)
+    scale = float(np.quantile(distance, OUTLIER_SHARE))
+    if scale <= 0.0:
+        return points
+    return points[distance <= OUTLIER_FACTOR * scale]
 
 
 def preset_direction(view: str) -> np.ndarray:

@@ -8,7 +8,9 @@ demonstrations; *Frame paths* keeps the current direction and frames the demonst
 those hidden) and, in Infer, the inference on show with them (never the dragged hand's gizmo
 alone). Without any hand path, the scene's hand targets (the object and the bins) are framed.
 The start view follows the demonstrations once they have been still for :data:`SETTLE_S` (a
-take, then its refit, change them: the view is framed once, off the busy frames).
+take, then its refit, change them: the view is framed once, off the busy frames). Under the
+buttons, what is drawn around the data (:mod:`app.scene.scene_controls`). Every view frames the
+paths without their outliers (:func:`app.scene.camera.framed_points`).
 """
 
 from __future__ import annotations
@@ -19,8 +21,19 @@ import time
 import numpy as np
 import viser
 
-from app.scene.camera import CANVAS, FRAME, PARTNER, VIEWS, CameraPose, frame, scene_points
+from app.core.session import Session
+from app.scene.camera import (
+    CANVAS,
+    FRAME,
+    PARTNER,
+    VIEWS,
+    CameraPose,
+    frame,
+    framed_points,
+    scene_points,
+)
 from app.scene.camera import view_pose as preset_pose
+from app.scene.scene_controls import SceneControls
 from app.scene.scene_view import SceneView
 
 SETTLE_S = 1.0  # the start view follows a changed drawing once it has not changed for this long
@@ -29,9 +42,12 @@ SETTLE_S = 1.0  # the start view follows a changed drawing once it has not chang
 class ViewControls:
     """The camera buttons (see the module docstring), built in the current GUI container."""
 
-    def __init__(self, server: viser.ViserServer, scene: SceneView, gui=None):
+    def __init__(
+        self, server: viser.ViserServer, scene: SceneView, gui=None, session: Session | None = None
+    ):
         """``gui``: what the buttons are built with (the studio's guards its callbacks;
-        ``server.gui`` by default)."""
+        ``server.gui`` by default); ``session``: whose scene and frames the controls under
+        them choose (none without)."""
         self.server = server
         self.scene = scene
         self._requests: list[tuple[viser.ClientHandle, str]] = []
@@ -40,18 +56,17 @@ class ViewControls:
         self._drawn: tuple | None = None  # the latest drawing, and since when
         self._drawn_at = 0.0
         self._started: set[int] = set()  # browser tabs checked for the start view
-        self.buttons = (gui or server.gui).add_button_group(
-            "3D view",
-            VIEWS,
-            hint="Partner view: the paths as the partner sees them (the start view). Top and "
-            "side views. Frame paths: zoom on the demonstrations (and the inference shown), "
-            "from the current direction.",
-        )
+        # No hint: its tooltip opened over the panel when the pointer rested on a button, and
+        # stayed there while the user looked at the view the button gave (the buttons' names
+        # say what they do; the manual says the rest).
+        self.buttons = (gui or server.gui).add_button_group("3D view", VIEWS)
 
         @self.buttons.on_click
         def _(event) -> None:
             if event.client is not None:
                 self.request(event.client, str(event.target.value))
+
+        self.controls = None if session is None else SceneControls(gui or server.gui, session)
 
     def request(self, client: viser.ClientHandle, view: str) -> None:
         """Ask for ``view`` in ``client``'s browser tab (from any thread)."""
@@ -61,7 +76,10 @@ class ViewControls:
             self._requests.append((client, view))
 
     def step(self) -> None:
-        """Set the cameras asked for; keep the start view on the workspace's paths."""
+        """Set the cameras asked for; keep the start view on the workspace's paths; show the
+        latest drawing's choices in the controls."""
+        if self.controls is not None and self.scene.snapshot is not None:
+            self.controls.step(self.scene.snapshot)
         with self._lock:
             requests, self._requests = self._requests, []
         for client, view in requests:
@@ -110,13 +128,13 @@ class ViewControls:
         if width < 50 or height < 50:
             width, height = CANVAS
         if view == FRAME:
-            points = self.scene.paths()
+            points = framed_points(self.scene.paths())
             if points.shape[0] == 0:
                 points = scene_points()
             if current is None:
                 return preset_pose(PARTNER, points, width, height)
             return frame(points, current.look_at - current.position, width, height, current.fov)
-        points = self.scene.paths(inference=False)
+        points = framed_points(self.scene.paths(inference=False))
         if points.shape[0] == 0:
             points = scene_points()
         return preset_pose(view, points, width, height)

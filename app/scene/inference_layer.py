@@ -7,7 +7,8 @@ for every other position in space of the layout (:mod:`app.scene.position_nodes`
 :meth:`InferenceLayer.draw` shapes them from an inference (:class:`app.live.inference.InferResult`);
 whether they are shown is the scene's decision (:func:`app.scene.look.look`). The tube's mesh
 has a fixed topology, so a new inference only replaces its vertices; it is drawn as the view's
-tube style says (:func:`app.scene.tubes.tube_look`: a band, its outline, or nothing).
+tube style says (:func:`app.scene.tubes.tube_look`: a band, its outline, or nothing), as an
+outline when wider than its position's workspace (:mod:`app.scene.tube_scale`).
 
 "This result is drawn" is said in one place, :attr:`InferenceLayer.drawn`: a
 :class:`DrawnInference` replaced only once the tube, its outline, the paths and the points of a
@@ -26,6 +27,7 @@ from app.core.view_state import REGION_90
 from app.live.inference import PATH_POINTS, TUBE_POINTS, InferResult
 from app.scene import tubes
 from app.scene.position_nodes import PositionNodes, shape_tube
+from app.scene.tube_scale import TubeWidth, drawn_look, position_widths
 from robots.icub.layout import HAND, hand_dims
 
 POSTERIOR_OPACITY = 0.45
@@ -42,12 +44,13 @@ def darker(color, factor: float = 0.6) -> tuple[int, int, int]:
 class DrawnInference:
     """What the Infer layer's nodes show: ``result`` (None: nothing) in ``color`` and tube
     ``style``; ``shaped``: the nodes it gave a shape to (the others keep an older shape and
-    stay hidden)."""
+    stay hidden); ``widths``: each position's tube width (those too wide are outlines)."""
 
     result: InferResult | None
     color: tuple[int, int, int]
     style: str
     shaped: frozenset[int] = frozenset()
+    widths: tuple[TubeWidth, ...] = ()
 
     def shows(self, result: InferResult | None, color, style: str) -> bool:
         """Whether this is what drawing ``result`` in ``color`` and ``style`` would give."""
@@ -110,6 +113,13 @@ class InferenceLayer:
         return self.hand_nodes + tuple(n for o in self.others.values() for n in o.nodes)
 
     @property
+    def path_nodes(self) -> tuple:
+        """The nodes that draw paths and points (observed, predicted, true, the end), not
+        regions or labels: what *Frame paths* frames."""
+        hand = (self.future, self.observed_line, self.truth_line, self.end_point, self.now_point)
+        return hand + tuple(n for o in self.others.values() for n in o.paths)
+
+    @property
     def has_shape(self) -> bool:
         """True when the result drawn last had something to show in 3D."""
         return bool(self.drawn.shaped)
@@ -121,25 +131,30 @@ class InferenceLayer:
         tube ``style``); none without a result or a hand modality. :attr:`drawn` says so once
         every node is written."""
         color = tuple(int(c) for c in color)
-        shaped = self._shape(result, color, style)
-        self.drawn = DrawnInference(result, color, style, frozenset(shaped))
+        shaped, widths = self._shape(result, color, style)
+        self.drawn = DrawnInference(result, color, style, frozenset(shaped), widths)
 
-    def _shape(self, result: InferResult | None, color: tuple[int, int, int], style: str) -> set:
-        """Write the nodes ``result`` shapes; their ids."""
+    def _shape(
+        self, result: InferResult | None, color: tuple[int, int, int], style: str
+    ) -> tuple[set, tuple[TubeWidth, ...]]:
+        """Write the nodes ``result`` shapes; their ids, and the tubes' widths."""
         layout = result.model.layout if result is not None else None
         hand = hand_dims(layout) if layout is not None else None
         if result is None or hand is None or result.future is None:
-            return set()
+            return set(), ()
         look = tubes.tube_look(style)
         views = {view.modality: view for view in result.positions}
+        widths = position_widths(result.model, result.positions, look.probability)
         labelled = len(views) > 1  # two positions or more: say which is which
-        drawn = self._shape_hand(result, views[HAND.name], color, look, labelled)
+        drawn = self._shape_hand(result, views[HAND.name], color,
+                                 drawn_look(look, widths[HAND.name]), labelled)  # fmt: skip
         for name, view in views.items():
             if name != HAND.name:
                 if name not in self.others:
                     self.others[name] = PositionNodes(self.server, name, POSTERIOR_OPACITY)
-                drawn |= self.others[name].shape(view, color, look, labelled)
-        return drawn
+                drawn |= self.others[name].shape(view, color, drawn_look(look, widths[name]),
+                                                 labelled)  # fmt: skip
+        return drawn, tuple(widths.values())
 
     def _shape_hand(self, result: InferResult, view, color, look, labelled: bool) -> set:
         future = result.future.hand

@@ -75,6 +75,7 @@ class PositionNodes:
         self.label = scene.add_label(f"{root}/label", text=name, visible=False)
         self.nodes = (self.tube, self.outline, self.future, self.observed, self.truth, self.end,
                       self.label)  # fmt: skip
+        self.paths = (self.future, self.observed, self.truth, self.end)  # not regions, labels
 
     def shape(self, view: PositionView, color, look: tubes.TubeLook, labelled: bool) -> set[int]:
         """Write ``view`` into the nodes (the tube in ``look``, in a lighter tone of

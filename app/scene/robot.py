@@ -4,7 +4,8 @@ Moving the robot (a drag, a replay) updates only the frames of the joints whose 
 viser's ``ViserUrdf.update_cfg`` recomputes every joint's transform (about 25 ms for the iCub's
 59 joints, at every frame of a drag); a joint's frame is relative to its parent, so the others
 stay as they are. The partner's head avatar is :mod:`app.scene.partner`. A workspace whose
-hand stays in its own frame (:mod:`app.io.hand_frame`) is drawn without the robot and its scene
+hand stays in its own frame (:mod:`app.io.hand_frame`) is drawn without the robot and its scene;
+the simulated scene (table, object, bins) can be hidden with the robot kept
 (:meth:`RobotView.show`).
 """
 
@@ -46,17 +47,25 @@ class RobotView:
     q: np.ndarray
     # Per actuated joint, the joint and its frames in the scene (None: update every frame).
     _frames: list | None = field(default=None, repr=False)
-    # What is shown and hidden with the robot: its table, object and bins, the hand's gizmo.
+    # What is shown and hidden with the robot (the hand's gizmo), and the simulated scene
+    # around it (table, object, bins), which can be hidden on its own.
     props: list = field(default_factory=list, repr=False)
+    scene: list = field(default_factory=list, repr=False)
     shown: bool = True
+    scene_shown: bool = True
 
-    def show(self, visible: bool) -> None:
-        """Show or hide the robot with its scene (nothing sent when it is so already)."""
-        if visible == self.shown:
-            return
-        self.shown = visible
-        for node in (self.root, *self.props):
-            node.visible = visible
+    def show(self, visible: bool, scene: bool = True) -> None:
+        """Show or hide the robot, and its simulated scene with it when ``scene`` (nothing
+        sent for what is so already)."""
+        scene = visible and scene
+        if visible != self.shown:
+            self.shown = visible
+            for node in (self.root, *self.props):
+                node.visible = visible
+        if scene != self.scene_shown:
+            self.scene_shown = scene
+            for node in self.scene:
+                node.visible = scene
 
     def set_configuration(self, q: np.ndarray) -> None:
         """Show the actuated joint vector ``q``, shape (n_actuated,): the frames of the joints
@@ -121,8 +130,8 @@ def add_robot(server: viser.ViserServer, urdf: yourdfpy.URDF, scene: Scene) -> R
     view = RobotView(urdf=urdf, viser_urdf=viser_urdf, root=root, q=natural_pose(urdf))
     view.set_configuration(view.q)
 
-    def add_box(name: str, **kwargs) -> None:  # the robot's scene: hidden with the robot
-        view.props.append(server.scene.add_box(name, **kwargs))
+    def add_box(name: str, **kwargs) -> None:  # the simulated scene: hidden with the robot
+        view.scene.append(server.scene.add_box(name, **kwargs))
 
     table = scene.table
     add_box("/scene/table/top", dimensions=table.size, position=table.center, color=TABLE_COLOR)

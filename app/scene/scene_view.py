@@ -12,7 +12,9 @@ never touch the nodes; the Infer panel alone hands its result to the Infer layer
 (:meth:`app.scene.inference_layer.InferenceLayer.draw`, which says what it draws), which the
 look then shows or hides. Everything runs on the studio's loop thread except
 :meth:`SceneView.use_panel`, which only records. The robot (:mod:`app.scene.robot`) is drawn
-unless the workspace's hand stays in its own frame (:attr:`app.io.hand_frame.HandFrame.own`).
+unless the workspace's hand stays in its own frame (:attr:`app.io.hand_frame.HandFrame.own`);
+the simulated scene around it (table, object, bins, the partner's head) as the view says
+(:func:`app.core.view_state.scene_shown`: by default only for data recorded in it).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ import viser
 
 from app.core.snapshot import Snapshot
 from app.core.via_state import of_primitive
+from app.core.view_state import scene_shown
 from app.scene.inference_layer import DEFAULT_COLOR, InferenceLayer
 from app.scene.look import INFER, PANELS, PRIOR_MODES, SHOWN, TEACH, InferenceShown, Shown
 from app.scene.partner import PartnerView
@@ -113,6 +116,7 @@ class SceneView:
         self._hidden: frozenset = frozenset()
         self.drawn_from: tuple = ()  # what the demonstration lines were drawn from
         self._tubes_from: tuple = (None,) * 4  # model, primitives, via-points, tube style shown
+        self.snapshot: Snapshot | None = None  # the latest drawn (the camera buttons read it)
 
     def use_panel(self, panel: str) -> None:
         """``panel`` is shown or used in a browser: its look is drawn (from any thread)."""
@@ -125,9 +129,12 @@ class SceneView:
         the panels asked for; returns the look applied. The Infer layer's shape is the Infer
         panel's to give (it draws its result there, :meth:`InferenceLayer.draw`): here it is
         only shown or hidden."""
+        self.snapshot = snapshot
         self._draw_workspace(snapshot)
+        scene = scene_shown(snapshot.view, snapshot.store)
         if self.robot is not None:
-            self.robot.show(snapshot.store.frame.robot_shown)
+            self.robot.show(snapshot.store.frame.robot_shown, scene)
+        self.partner.show(scene and HEAD.name in snapshot.store.layout.names)
         self.partner.orient(head)
         inference, style = shown.inference or NOTHING_INFERRED, snapshot.view.tube_style
         start = shown.start
@@ -164,7 +171,6 @@ class SceneView:
             a is not b for a, b in zip(lines[1:], drawn[1:], strict=True)
         ):
             self._hidden = hidden
-            self.partner.show(HEAD.name in store.layout.names)
             self.workspace.draw_lines(store.demos, colors, store.layout, set(store.left_out))
             self.drawn_from = lines  # said once drawn (tests wait on it)
         tubes = (model, store.primitives, snapshot.view.via_points, snapshot.view.tube_style)
@@ -177,20 +183,21 @@ class SceneView:
     # ------------------------------------------------------------------ what the camera frames
 
     def paths(self, inference: bool | None = None) -> np.ndarray:
-        """The hand paths, points (n, 3): the demonstration lines (but those the user hid,
-        whether the look shows them now or not), and with them the Infer layer's (observation,
-        prediction, truth, posterior tube) when ``inference`` (default: when the current look
-        shows it). Empty (0, 3) without any.
+        """The paths drawn, points (n, 3): the demonstration lines (but those the user hid,
+        whether the look shows them now or not), and with them the Infer layer's paths and
+        points (observation, prediction, truth and end, of every position) when ``inference``
+        (default: when the current look shows it). Empty (0, 3) without any.
 
         The demonstrations are always among them: a single inference (a few centimetres of one
         movement, beside the dragged hand's gizmo) framed alone filled the picture with the
-        gizmo, not with the paths."""
+        gizmo, not with the paths. The tubes are not: a region a metre wide framed with them
+        left the data a speck among the scene's clutter."""
         if inference is None:
             inference = self.look.inference
         nodes = [line for key, line in self.workspace.lines.items() if key not in self._hidden]
         if inference:
             shaped = self.inference.drawn.shaped
-            nodes += [n for n in self.inference.nodes if n.visible and id(n) in shaped]
+            nodes += [n for n in self.inference.path_nodes if n.visible and id(n) in shaped]
         arrays = []
         for node in nodes:
             points = getattr(node, "points", None)

@@ -88,6 +88,28 @@ def tube_faces(n_points: int, ring: int = RING) -> np.ndarray:
     return faces.reshape(-1, 3).astype(np.uint32)
 
 
+def ring_spreads(
+    mean: np.ndarray, cov: np.ndarray, radius: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each ring's plane (n, 3, 2: the path's normal and binormal), and the eigenvalues (n, 2,
+    ascending) and eigenvectors (n, 2, 2) of the covariance ``cov`` (n, 3, 3) projected on it,
+    the eigenvalues floored so that no ring is thinner than :data:`MIN_RADIUS` at ``radius``."""
+    normal, binormal = _frames(np.asarray(mean, dtype=float))
+    plane = np.stack([normal, binormal], axis=2)  # (n, 3, 2)
+    projected = plane.transpose(0, 2, 1) @ np.asarray(cov, dtype=float) @ plane  # (n, 2, 2)
+    values, vectors = np.linalg.eigh(projected)
+    floor = (MIN_RADIUS / max(radius, 1e-12)) ** 2
+    return plane, np.maximum(values, floor), vectors
+
+
+def ring_widths(region: SampleDistribution, probability: float) -> np.ndarray:
+    """The width (n,) of each ring of :func:`region_vertices` (the ellipse's longest
+    diameter, metres): what the tube measures across at each phase."""
+    radius = region_radius(probability, 3)
+    _, values, _ = ring_spreads(region.mean, region.cov, radius)
+    return 2.0 * radius * np.sqrt(values[:, -1])
+
+
 def tube_vertices(
     mean: np.ndarray, cov: np.ndarray, radius: float, ring: int = RING
 ) -> np.ndarray:
@@ -103,16 +125,11 @@ def tube_vertices(
     array, shape (n * ring, 3), float32
     """
     mean = np.asarray(mean, dtype=float)
-    cov = np.asarray(cov, dtype=float)
-    normal, binormal = _frames(mean)
-    plane = np.stack([normal, binormal], axis=2)  # (n, 3, 2)
-    projected = plane.transpose(0, 2, 1) @ cov @ plane  # (n, 2, 2)
+    plane, values, vectors = ring_spreads(mean, cov, radius)
     # no axis thinner than MIN_RADIUS: eigenvalues floored, the matrix rebuilt (a Cholesky
     # factor of it, not the eigenvectors, whose signs could flip from ring to ring and twist
     # the mesh)
-    values, vectors = np.linalg.eigh(projected)
-    floor = (MIN_RADIUS / max(radius, 1e-12)) ** 2
-    floored = (vectors * np.maximum(values, floor)[:, None, :]) @ vectors.transpose(0, 2, 1)
+    floored = (vectors * values[:, None, :]) @ vectors.transpose(0, 2, 1)
     chol = np.linalg.cholesky(floored)  # (n, 2, 2)
     theta = np.linspace(0.0, 2.0 * np.pi, ring, endpoint=False)
     circle = np.stack([np.cos(theta), np.sin(theta)])  # (2, ring)

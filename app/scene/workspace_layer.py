@@ -6,8 +6,10 @@ their demonstration is the same object; tubes keep their mesh topology (``TUBE_P
 where 90 % (or 50 %) of the primitive's movements are at each moment
 (:func:`app.live.regions.prior_shape`), drawn as the view's tube style says
 (:func:`app.scene.tubes.tube_look`): a translucent band, an outline (thin rings and lines, its
-own node), or nothing; lines stay above it. A primitive shaped by via-points has its tube
-conditioned on them and its mean path drawn as a thicker line through them.
+own node), or nothing; lines stay above it. A tube wider than its workspace is drawn as its
+outline whatever the style (:mod:`app.scene.tube_scale`; :attr:`WorkspaceLayer.widths`). A
+primitive shaped by via-points has its tube conditioned on them and its mean path drawn as a
+thicker line through them.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import viser
 from app.core.via_state import StudioViaPoint, of_primitive
 from app.live.regions import TUBE_POINTS, prior_shape
 from app.scene.look import FADED, HIDDEN
+from app.scene.tube_scale import TubeWidth, drawn_look, tube_width, workspace_extent
 from app.scene.tubes import (
     TUBE_SIDE,
     outline_segments,
@@ -71,6 +74,7 @@ class WorkspaceLayer:
         self.outlines: dict[str, viser.LineSegmentsHandle] = {}
         self.means: dict[str, viser.SceneNodeHandle] = {}  # a shaped primitive's mean path
         self._tones: dict[str, tuple] = {}  # each outline's colour and the tone it shows
+        self.widths: dict[str, TubeWidth] = {}  # each tube's, at the style drawn
         self.faces = tube_faces(TUBE_POINTS)
 
     def draw_lines(
@@ -152,12 +156,15 @@ class WorkspaceLayer:
                 self.tubes.pop(name).remove()
                 self.outlines.pop(name).remove()
                 self._tones.pop(name, None)
+                self.widths.pop(name, None)
         for name in list(self.means):
             if name not in names or not of_primitive(via_points, name):
                 self.means.pop(name).remove()
         look = tube_look(style)
+        extent = workspace_extent(model, HAND.name) if names else 0.0
         for name in names:
             region = self.prior_tube(model, name, via_points)
+            self.widths[name] = tube_width(name, region, look.probability, extent)
             vertices = region_vertices(region, look.probability)
             color = tuple(colors.get(name, NO_COLOR))
             if of_primitive(via_points, name):
@@ -208,15 +215,17 @@ class WorkspaceLayer:
         ``priors`` says (shown, faded or hidden) in tube ``style``."""
         for key, line in list(self.lines.items()):
             _set(line, "visible", demos and key not in hidden)
-        look = tube_look(style)
+        style_look = tube_look(style)
         opacity = DIMMED_OPACITY if priors == FADED else PRIOR_OPACITY
-        for tube in list(self.tubes.values()):
-            _set(tube, "visible", priors != HIDDEN and look.surface)
-            _set(tube, "opacity", opacity)
+        white = DIMMED_WHITE if priors == FADED else OUTLINE_WHITE
         for mean in list(self.means.values()):
             _set(mean, "visible", priors != HIDDEN)
-        white = DIMMED_WHITE if priors == FADED else OUTLINE_WHITE
-        for name, outline in list(self.outlines.items()):
+        for name, tube in list(self.tubes.items()):
+            width = self.widths.get(name)
+            look = style_look if width is None else drawn_look(style_look, width)
+            _set(tube, "visible", priors != HIDDEN and look.surface)
+            _set(tube, "opacity", opacity)
+            outline = self.outlines[name]
             _set(outline, "visible", priors != HIDDEN and look.outline)
             if self._tones[name][1] != white:
                 self._tone(name, white)

@@ -16,8 +16,8 @@ from promp.evaluate.report import confusion_matrices, trial_rows
 from promp.evaluate.sweep import SweepResult, Trial
 
 __all__ = [
-    "MAX_COLUMNS", "column_units", "confusion_figure", "curves", "display_unit", "example",
-    "figures_unavailable", "grid", "group_series", "methods_of", "reliability_diagram",
+    "MAX_COLUMNS", "PLOTS_EXTRA", "column_units", "confusion_figure", "curves", "display_unit",
+    "example", "figures_unavailable", "grid", "group_series", "methods_of", "reliability_diagram",
     "series_label", "write_figures"
 ]  # fmt: skip
 

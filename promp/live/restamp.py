@@ -9,8 +9,10 @@ back: a stamp is when the sample was pushed, never before it was taken, and samp
 step apart, so each sample of a burst (samples closer than :data:`BURST_SHARE` of a step after
 a pause of more than :data:`PAUSE_STEPS` steps) is placed one step before the next one (the
 burst's last keeps its stamp), and never at or before the stream's previous sample (a burst
-longer than its pause explains is spread evenly after it). A stream that only runs faster than
-it declares pauses nowhere, and is left as it is.
+longer than its pause explains is spread evenly after it). A stream that runs faster than it
+declares is judged at the rate it runs (the median step of its last :data:`RUN_GAPS` samples
+given, once it gave that many): its samples after a pause are not a burst, and it is left as
+it is.
 
 A burst is held until it is whole (as many samples as were due during its pause), so that it
 is re-spread whole whatever the chunks it arrives in; one that stays short of that is given
@@ -29,12 +31,13 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["BURST_SHARE", "QUIET_S", "LATE_WINDOW_S", "PAUSE_STEPS", "Respread"]
+__all__ = ["BURST_SHARE", "QUIET_S", "LATE_WINDOW_S", "PAUSE_STEPS", "RUN_GAPS", "Respread"]
 
 BURST_SHARE = 0.5  # samples closer than half a step are a burst
 QUIET_S = 0.05  # a burst short of its backlog is given once nothing came for this long
 PAUSE_STEPS = 2.0  # a burst follows a pause longer than this many steps
 LATE_WINDOW_S = 10.0
+RUN_GAPS = 32  # the steps a stream is seen running at: the median of its last 32
 
 
 class Respread:
@@ -58,10 +61,16 @@ class Respread:
         self._heard = -math.inf  # when the latest samples arrived
         self._last = -math.inf  # the latest time given
         self._late: deque[tuple[float, float]] = deque()  # (when, seconds moved back)
+        self._gaps: deque[float] = deque(maxlen=RUN_GAPS)  # between the latest samples given
 
     @property
     def step(self) -> float:
-        return 1.0 / self.rate if self.rate > 0 else 0.0
+        """The stream's step (s): the declared one, or the one it runs at when shorter
+        (0: irregular)."""
+        declared = 1.0 / self.rate if self.rate > 0 else 0.0
+        if declared > 0 and len(self._gaps) == RUN_GAPS:
+            return min(declared, float(np.median(self._gaps)))
+        return declared
 
     def add(self, times: np.ndarray, values: np.ndarray, now: float
             ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
@@ -104,8 +113,8 @@ class Respread:
         step = self.step
         gaps = np.diff(np.concatenate([[self._last], times]))
         close = gaps < BURST_SHARE * step
-        # a burst: samples close together after a pause of more than PAUSE_STEPS steps (a
-        # stream that is only faster than it declares pauses nowhere: it is left as it is)
+        # a burst: samples close together after a pause of more than PAUSE_STEPS steps (the
+        # step of a stream faster than it declares is the one it runs at: see ``step``)
         paused = np.isfinite(gaps) & (gaps > PAUSE_STEPS * step)  # not the stream's first
         starts = [j for j in np.flatnonzero(paused).tolist()
                   if j + 1 == times.size or close[j + 1]]  # fmt: skip (alone: more may come)
@@ -128,6 +137,9 @@ class Respread:
             previous = out[j - 1] if j else self._last
             out[j:k] = self._spread(times[j:k], previous)
         if held:
+            given = out[:held] if not math.isfinite(self._last) else \
+                np.concatenate([[self._last], out[:held]])  # fmt: skip
+            self._gaps.extend(np.diff(given).tolist())
             self._last = float(out[held - 1])
         given = (out, values[:held])
         self._times, self._values = times[held:], values[held:]

@@ -9,6 +9,13 @@ proposes the rigid motion (a turn about the vertical and a translation: the iCub
 has z up) that moves the data's centre onto the centre of the reachable positions, which the
 user may edit; :class:`Placement` applies it and undoes it (an export goes back to the data's
 own frame). Lengths are metres, angles radians.
+
+A partner's position (a human's hand) is recorded in the partner's frame: its origin is the
+partner, z up. It is placed at the scene's partner, not where the robot's hand goes:
+:func:`partner_placement` moves that origin onto :data:`PARTNER_ORIGIN` (the middle of the
+partner's shoulders, :data:`SHOULDERS_BELOW_HEAD` below the centre of their head) and turns it
+about the vertical so that the points lie in front of the partner, towards the robot: a hand
+at work is in front of its body, whichever way the lab's horizontal axes point.
 """
 
 from __future__ import annotations
@@ -23,10 +30,15 @@ from scipy.spatial import cKDTree
 
 from robots.icub.kinematics import load_arm
 from robots.icub.model import DEFAULT_ROBOT
+from robots.icub.scene import DEFAULT_SCENE
 
 N_SAMPLES = 4000  # arm configurations sampled for the reachable positions
 TOLERANCE = 0.04  # m: a sample this close to a reachable position is in reach
 IN_REACH = 0.8  # share of samples in reach for a path to count as the iCub's
+SHOULDERS_BELOW_HEAD = 0.2  # m: a seated adult's shoulders, below the centre of the head
+PARTNER_ORIGIN = tuple(float(v) for v in np.add(DEFAULT_SCENE.partner_head,
+                                                (0.0, 0.0, -SHOULDERS_BELOW_HEAD)))
+MIN_OFFSET = 0.05  # m: points closer to the origin than this (horizontally) say no direction
 
 
 @dataclass(frozen=True)
@@ -113,3 +125,25 @@ def guess_placement(points: np.ndarray, robot: str = DEFAULT_ROBOT) -> Placement
     centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
     target = np.median(reachable_positions(robot), axis=0)
     return Placement(tuple(target - centre))  # type: ignore[arg-type]
+
+
+def partner_placement(points: np.ndarray) -> Placement:
+    """Where positions ``points`` (n, 3), recorded in the partner's frame (origin the partner,
+    z up), go in the iCub's root frame: the origin onto :data:`PARTNER_ORIGIN`, turned about
+    the vertical so that the points' mean horizontal direction from the origin (each point
+    farther than :data:`MIN_OFFSET` one unit vector: an outlier counts as much as any other
+    sample) points at the robot, from the partner towards the root frame's origin. No turn
+    without such a point or direction."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    points = points[np.all(np.isfinite(points), axis=1)]
+    origin = np.asarray(PARTNER_ORIGIN)
+    flat = points[:, :2]
+    length = np.linalg.norm(flat, axis=1)
+    far = length >= MIN_OFFSET
+    ahead = (flat[far] / length[far, None]).sum(axis=0)
+    yaw = 0.0
+    if np.linalg.norm(ahead) > 1e-9:
+        towards = -origin[:2]  # from the partner to the robot
+        yaw = math.atan2(towards[1], towards[0]) - math.atan2(ahead[1], ahead[0])
+        yaw = math.remainder(yaw, 2.0 * math.pi) + 0.0  # no -0.0
+    return Placement(tuple(origin), yaw)  # type: ignore[arg-type]

@@ -28,7 +28,7 @@ class InferShaping:
         result = view.result if view is not None else None
         name = result.inference.primitive if result is not None else None
         vias = len(result.via_points) if result is not None else 0
-        self.tube_note.show(snapshot.view.tube_style, name, vias)
+        self.tube_note.show(snapshot.view.tube_style, name, vias, result)
 
         def mean_at(phase: float):
             if result is None or HAND.name not in result.model.layout.names:

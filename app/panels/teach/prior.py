@@ -24,7 +24,7 @@ from app.scene.tubes import tube_look
 from app.ui.charts import Band, Trace, add_band_chart, band_chart, update_band_chart
 from app.ui.context import PanelContext
 from app.ui.display import quantities
-from app.ui.tube_style import TubeStyleControl, measured_sentence, tube_sentence
+from app.ui.tube_style import TubeStyleControl, measured_sentence, prior_widths, tube_sentence
 from app.ui.via_points import via_marks
 from promp.data import Layout
 from robots.icub.layout import HAND, HEAD
@@ -69,7 +69,8 @@ class PriorCharts:
         again when the model or the tubes' probability changed)."""
         model, style = snapshot.model, snapshot.view.tube_style
         store = snapshot.store
-        key = (style, model, store.demos, store.findings, store.checks)
+        vias = snapshot.view.via_points
+        key = (style, model, store.demos, store.findings, store.checks, vias)
         if self._measured and key[0] == self._measured[0] and all(
             a is b for a, b in zip(key[1:], self._measured[1:], strict=True)
         ):
@@ -78,6 +79,7 @@ class PriorCharts:
         text = tube_sentence(style)
         look = tube_look(style)
         if model is not None and look.shown and HAND.name in model.layout.names:
+            text = tube_sentence(style, widths=prior_widths(model, store.names, style, vias))
             learned = store.learned
             text += " " + measured_sentence(measured_shares(model, learned, look.probability))
         self.tube_note.content = text
