@@ -9,10 +9,14 @@ back: a stamp is when the sample was pushed, never before it was taken, and samp
 step apart, so each sample of a burst (samples closer than :data:`BURST_SHARE` of a step after
 a pause of more than :data:`PAUSE_STEPS` steps) is placed one step before the next one (the
 burst's last keeps its stamp), and never at or before the stream's previous sample (a burst
-longer than its pause explains is spread evenly after it). A stream that runs faster than it
-declares is judged at the rate it runs (the median step of its last :data:`RUN_GAPS` samples
-given, once it gave that many): its samples after a pause are not a burst, and it is left as
-it is.
+longer than its pause explains is spread evenly after it). A stream that runs so much faster
+than it declares that its own steps are what a burst's would be at its declared rate (the
+median step of its last :data:`RUN_GAPS` samples given, once it gave that many, under
+:data:`BURST_SHARE` of the declared step) is judged at the rate it runs: its samples after a
+pause are not a burst, and it is left as it is. A stream near its declared rate is judged at
+that rate: a sender stamping at its pushes runs a little early or late, and the steps of its
+on-time samples scatter around the declared one (their median a little shorter would pull a
+burst re-spread at it away from the samples' true times).
 
 A burst is held until it is whole (as many samples as were due during its pause), so that it
 is re-spread whole whatever the chunks it arrives in; one that stays short of that is given
@@ -65,11 +69,12 @@ class Respread:
 
     @property
     def step(self) -> float:
-        """The stream's step (s): the declared one, or the one it runs at when shorter
-        (0: irregular)."""
+        """The stream's step (s): the declared one, or the one it runs at when that is
+        shorter than a burst's (0: irregular)."""
         declared = 1.0 / self.rate if self.rate > 0 else 0.0
         if declared > 0 and len(self._gaps) == RUN_GAPS:
-            return min(declared, float(np.median(self._gaps)))
+            running = float(np.median(self._gaps))
+            return running if running < BURST_SHARE * declared else declared
         return declared
 
     def add(self, times: np.ndarray, values: np.ndarray, now: float
