@@ -54,7 +54,12 @@ def test_each_update_is_the_offline_inference_on_the_samples_so_far() -> None:
         assert p.last == times[-1]
         obs = Observation(times - times[0], values_mm[i0:i0 + p.n_observed] * 1e-3, ("hand",))
         same_inference(p.inference, infer(model, obs))
-    assert np.all(np.diff([p.n_observed for p in predictions]) > 0)
+    # while the movement goes on, each prediction sees more rows; the last is on the ended
+    # movement's final rows (its end cut the stillness after the motion: fewer rows)
+    assert np.all(np.diff([p.n_observed for p in predictions[:-1]]) > 0)
+    (movement,) = session.snapshot().ended
+    assert predictions[-1].n_observed == len(movement) < predictions[-2].n_observed
+    assert predictions[-1].last == movement.times[-1]
     final = predictions[-1].probabilities
     assert_allclose(final.sum(), 1.0)
     assert final.argmax() == model.names.index("left")

@@ -21,7 +21,9 @@ samples wait for it, but never longer than a movement may last (``max_movement_s
 that, the input is said to lag, the movement under way ends, and the others' samples that
 waited are dropped (their rows could only have been given once it came back). Each step's
 events come from what arrived (a condition that changed, a marker, a boundary), and it
-predicts at most once per boundary and once for the movement going on.
+predicts at most once per boundary and once for the movement going on. The prediction
+given last on an ended movement is on its final rows: an end that cut the movement back to
+fewer rows than its latest prediction saw is predicted once more.
 """
 
 from __future__ import annotations
@@ -180,8 +182,8 @@ def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
     boundaries += segmenter.feed(rows, belief(state.prediction))
     predictions: list[LivePrediction] = []
     for b in boundaries:
-        if b.movement is not None:  # its last rows, if they came with its end
-            state = _predict(state, b.movement, predictions, events)
+        if b.movement is not None:  # its final rows: the prediction published last on it
+            state = _predict(state, b.movement, predictions, events, final=True)
         events += _said(b)
     movement = segmenter.movement
     if movement is not None:
@@ -212,12 +214,15 @@ def _waited(state: PipelineState, samples: Mapping, events: list[LiveEvent],
 
 
 def _predict(state: PipelineState, movement: Movement, predictions: list[LivePrediction],
-             events: list[LiveEvent]) -> PipelineState:  # fmt: skip
-    """A prediction from ``movement``'s rows, unless they were predicted from (or a still
-    end cut them back to fewer)."""
+             events: list[LiveEvent], final: bool = False) -> PipelineState:  # fmt: skip
+    """A prediction from ``movement``'s rows, unless they were predicted from. A movement
+    going on only grows; an ended one (``final``) may have been cut back to fewer rows than
+    its latest prediction saw (a still end keeps only the stillness learned after its
+    motion): it is predicted once more, on its final rows."""
     n = len(movement)
     number, done = state.predicted
-    if n < state.min_observed or (number == movement.number and n <= done):
+    seen = number == movement.number and (n == done if final else n <= done)
+    if n < state.min_observed or seen:
         return state
     state = dataclasses.replace(state, predicted=(movement.number, n))
     try:
