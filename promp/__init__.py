@@ -20,6 +20,10 @@ save_model, load_model          the model as versioned JSON (the studio's Export
 read_dataset(folder, format)    demonstrations from files (lab records, CSV, rig recordings)
 leave_one_out(dataset, layout,  the evaluation: every demonstration held out in turn
               percents)         (what ``python -m promp.evaluate`` runs)
+CommitRule(threshold, window)   when to act: commit to the recognised primitive once its
+                                probability has stayed above ``threshold`` for ``window`` s of
+                                the movement, fed prediction by prediction
+                                (``state, decision = state.update(time, probabilities)``)
 
 Example
 -------
@@ -89,6 +93,7 @@ _HOMES = {
     "Prediction": "promp.inference",
     "DatasetRead": "promp.datasets",
     "SweepResult": "promp.evaluate.sweep",
+    "CommitRule": "promp.decision",
 }
 
 __all__ = list(_HOMES)

@@ -146,9 +146,15 @@ def browser() -> Iterator[object]:
         chromium.close()
 
 
+PATIENCE_S = 120.0  # the least any wait allows: a loaded CI machine is 4-10x slower than idle
+
+
 def wait_until(predicate, timeout: float = 30.0, interval: float = 0.05, what="condition"):
     """Poll ``predicate`` until it returns a truthy value; fail the test on timeout, saying
-    ``what`` was awaited (a string, or a callable giving one with the state at that time)."""
+    ``what`` was awaited (a string, or a callable giving one with the state at that time).
+    ``timeout`` is what an idle machine needs at most; the wait allows at least
+    :data:`PATIENCE_S` (a wait is on state, never a measure of speed)."""
+    timeout = max(timeout, PATIENCE_S)
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         value = predicate()

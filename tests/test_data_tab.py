@@ -301,6 +301,86 @@ def test_a_quick_evaluation_holds_out_a_few_demonstrations_per_primitive() -> No
         server.stop()
 
 
+def test_when_it_acts_in_the_results_the_comparison_and_the_export(tmp_path) -> None:
+    """"When it acts" checked: the evaluation observes every held-out demonstration every 2 %,
+    its results show the decisions (the headline per method, the in-sample chart), its report,
+    export and kept run hold them, a saved run opens with them, and two runs compared say
+    them A → B."""
+    import viser
+
+    from app.io.net import free_port
+    from app.panels.data.decisions import decisions_table
+    from app.panels.data.evaluation_section import EvaluationSection
+    from app.panels.data.runs_text import comparison_markdown
+    from promp.evaluate.decisions import decisions_of
+    from promp.evaluate.runs import compare_runs, read_run, write_run
+
+    dataset = make_dataset(seed=0, n_demos=3)
+    store = SimpleNamespace(
+        layout=LAYOUT, workspace=SimpleNamespace(root=Path("/somewhere/lab")), names=tuple(dataset),
+        learned=dataset, findings=(), left_out={},
+        learning_settings=lambda: Settings(**GIVEN_SETTINGS),
+    )  # fmt: skip
+    server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)
+    ctx = SimpleNamespace(gui=server.gui, store=SimpleNamespace(state=store),
+                          open_in_infer=lambda *_: None)  # fmt: skip
+    try:
+        section = EvaluationSection(ctx, lambda *_: None)
+        controls = section.controls
+        assert controls.decide_checkbox.value is False
+        controls.percents_text.value = "50"
+        controls.observe_dropdown.value = "hand"
+        controls.methods_dropdown.value = "ours + toolbox + baselines"
+        controls.decide_checkbox.value = True
+        job = section.start(None)
+        job.join(timeout=600)
+        assert job.outcome.error is None and job.plan.decide
+        decisions = job.outcome.decisions
+        assert [r["method"] for r in decisions.rows] == ["ours", "seed", "dtw", "prefix-nn"]
+        assert {r["trials"] for r in decisions.rows} == {6}
+        section.step(SimpleNamespace(store=store))  # the loop shows the finished job
+        shown = section.results.handles
+        assert "when it acts: every 2 %" in shown[0].content
+        # The position chart leaves out the baselines, which give no position (all NaN: uPlot
+        # drew nothing at all with them); the errors chart has all four.
+        assert [s["label"] for s in shown[2].series[1:]] == ["ours: hand, ML",
+                                                             "toolbox (2017): hand, ML"]
+        assert len(shown[2].data) == 3 and len(shown[1].data) == 5
+        chart, table = shown[-2], shown[-1]
+        assert chart.title.startswith("When it acts: harmonic mean")
+        assert len(chart.data) == 1 + 4 and len(chart.data[0]) == len(decisions.curve) // 4
+        assert table.content == decisions_table(decisions)
+        lines = table.content.splitlines()
+        assert lines[2] == ("| | ours: hand, ML | toolbox (2017): hand, ML | DTW 1-NN: hand, ML "
+                            "| prefix 1-NN: hand, ML |")  # fmt: skip
+        assert [line.split(" | ")[0] for line in lines[4:]] == [
+            "| harmonic mean", "| accuracy", "| earliness", "| never committed", "| threshold"]
+        accuracy = " | ".join(f"{100 * r['accuracy']:.0f} %" for r in decisions.rows)
+        assert lines[5] == f"| accuracy | {accuracy} |"
+        best = max(r["harmonic_mean"] for r in decisions.rows)
+        assert f"**{best:.3f}**" in table.content  # the best harmonic mean in bold
+        report = job.report()
+        assert report["decisions"] == decisions.rows
+        with zipfile.ZipFile(io.BytesIO(results_zip(report, job.outcome.result, dataset,
+                                                    LAYOUT))) as archive:  # fmt: skip
+            assert "decisions.csv" in archive.namelist()
+            assert "figures/decisions_ours+seed+dtw+prefix-nn.png" in archive.namelist()
+        # Kept, opened again: the same decisions; beside another run: A → B.
+        a = write_run(tmp_path / "a", report, "a")
+        other = dict(report, decisions=[dict(r, harmonic_mean=0.5) for r in report["decisions"]])
+        b = write_run(tmp_path / "b", other, "b")
+        assert decisions_of(read_run(tmp_path / "a").report).rows == decisions.rows
+        section.results.show("saved", a.report["results"], decisions_of(a.report))
+        assert section.results.handles[-1].content == table.content
+        text = comparison_markdown(a, b, compare_runs(a, b))
+        assert "**When it acts**" in text
+        ours = next(line for line in text.splitlines() if line.startswith("| ours: hand, ML |")
+                    and "→ 0.500" in line)  # fmt: skip
+        assert f"{decisions.rows[0]['harmonic_mean']:.3f} → 0.500" in ours
+    finally:
+        server.stop()
+
+
 # ---------------------------------------------------------------------------- browser
 
 

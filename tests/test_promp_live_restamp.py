@@ -71,11 +71,13 @@ def test_on_time_faster_and_irregular_streams_are_left_as_they_are() -> None:
 
 
 def test_a_faster_stream_resumed_after_a_pause_keeps_its_stamps() -> None:
-    # takes replayed at 2.5x a declared 100 Hz, a second of silence between them: the first
-    # samples after the pause are the stream's own step apart, not a late sender's burst
+    # takes replayed at 2.5x a declared 100 Hz, a pause between them: the first samples after
+    # the pause are the stream's own step apart, not a late sender's burst; so are those of a
+    # take at 2.5x after one at the declared rate
     rng = np.random.default_rng(3)
-    step = 0.4 / RATE
-    takes = [t0 + np.cumsum(step * rng.uniform(0.95, 1.05, 300)) for t0 in (10.0, 12.2, 14.4)]
+    steps = (0.4 / RATE, 0.4 / RATE, 1.0 / RATE, 0.4 / RATE)
+    takes = [t0 + np.cumsum(step * rng.uniform(0.95, 1.05, 300))
+             for t0, step in zip((10.0, 12.2, 14.4, 18.2), steps, strict=True)]  # fmt: skip
     stamps = np.concatenate(takes)
     spread = Respread(RATE)
     times, index = delivered(spread, stamps, rng)

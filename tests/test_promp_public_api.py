@@ -30,7 +30,7 @@ FUNCTIONS = ("fit", "infer", "recognise", "condition", "predict", "condition_on_
              "save_model", "load_model", "read_dataset", "leave_one_out")  # fmt: skip
 TYPES = ("Demonstration", "Layout", "Modality", "Observation", "Settings", "ProMPModel",
          "Primitive", "Inference", "Recognition", "Posterior", "Prediction", "ViaPoint",
-         "DatasetRead", "SweepResult")  # fmt: skip
+         "DatasetRead", "SweepResult", "CommitRule")  # fmt: skip
 # Modules without ``__all__``, and why.
 WITHOUT_ALL = {
     "promp.evaluate.__main__": "a script: ``python -m promp.evaluate``",

@@ -81,7 +81,7 @@ def test_runs_are_kept_listed_opened_compared_deleted_and_restored(browser, stud
     runs, root = panel.runs, studio.session.store.state.workspace.root
     page, _client = open_page(browser, studio, width=1200, height=1400)
     try:
-        page.set_default_timeout(60_000)
+        page.set_default_timeout(120_000)
         open_tab(page, "Data")
         page.get_by_text("Saved runs", exact=True).first.wait_for()
         evaluate(page, panel, "both seen", "hand + head")
@@ -167,7 +167,7 @@ def test_ours_beside_the_toolbox_and_both_baselines(browser, studio) -> None:
     runs = panel.runs
     page, _client = open_page(browser, studio, width=1200, height=1400)
     try:
-        page.set_default_timeout(60_000)
+        page.set_default_timeout(120_000)
         open_tab(page, "Data")
         page.get_by_text("Saved runs", exact=True).first.wait_for()
         evaluate(page, panel, "ours alone", "hand")

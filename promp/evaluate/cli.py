@@ -12,6 +12,8 @@
         [--select loo|cv] [--subset N] [--jobs N]
         [--backend local|dask --scheduler ADDRESS] [--include-flagged] [--repair-gaps cut|split]
         [--trials-csv OUT.csv] [--run DIR [--run-name NAME]]
+        [--decide [--decide-window S] [--decisions-csv OUT.csv]]
+        [--rerun OUT.rrd] [--mcap OUT.mcap]
 
 ``--format records`` reads the lab-record format, ``--format csv`` reads ``DATASET/<primitive>/
 <demo>.csv``, ``yarp``, ``rosbag``, ``xdf`` and ``c3d`` a rig's recordings (:mod:`promp.rigs`:
@@ -39,7 +41,12 @@ printed tables end with the methods side by side (:mod:`promp.evaluate.tables`).
 ``--json`` writes the report (settings, the result rows, the failed trials, every trial, the
 findings and what was left out), ``--csv`` the result table, ``--trials-csv`` one line per
 trial (:mod:`promp.evaluate.report`, which the studio's "Export results" writes too),
-``--plots`` the figures (:mod:`promp.evaluate.plots`).
+``--plots`` the figures (:mod:`promp.evaluate.plots`). ``--rerun`` and ``--mcap`` write every
+trial for Rerun and for Foxglove or PlotJuggler (:mod:`promp.evaluate.viewer_files`).
+
+``--decide`` also judges when each method would act (:mod:`promp.evaluate.decide_options`,
+:mod:`promp.evaluate.decisions`): printed, in the JSON (``decisions``, ``decision_curve``,
+``decision_trials``), the figures and the run, and as CSV with ``--decisions-csv``.
 """
 
 from __future__ import annotations
@@ -59,6 +66,7 @@ from promp.datasets import (
     read_dataset,
     refused_with_guess,
 )
+from promp.evaluate import decide_options
 from promp.evaluate.baselines import SCALINGS
 from promp.evaluate.methods import ALPHA_ROWS
 from promp.evaluate.registry import METHODS, method_factories
@@ -71,6 +79,11 @@ from promp.evaluate.report import (
 )
 from promp.evaluate.sweep import position_modality, run_sweep, spread_subset
 from promp.evaluate.tables import results_text, side_by_side_text
+from promp.evaluate.viewer_files import (
+    add_viewer_arguments,
+    check_viewer_arguments,
+    write_viewer_files,
+)
 from promp.gaps import REPAIRS, repair_gaps
 from promp.model import SELECT_RULES, Settings
 from promp.progress import stderr_progress
@@ -265,6 +278,8 @@ def build_parser() -> argparse.ArgumentParser:
         "compare two with python -m promp.evaluate.compare A B",
     )
     parser.add_argument("--run-name", default=None, help="the run's name (default: DIR's)")
+    decide_options.add_decide_arguments(parser)
+    add_viewer_arguments(parser)
     return parser
 
 
@@ -349,6 +364,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.run is not None and (args.run.exists() or args.run.is_symlink()):
             raise ValueError(f"--run {args.run} already exists: a run is kept in a new folder, "
                              "nothing is overwritten")  # fmt: skip
+        check_viewer_arguments(args)  # said before the sweep, not after
         if args.plots is not None or args.run is not None:  # said before the sweep, not after
             from promp.evaluate.plots import figures_unavailable
 
@@ -380,6 +396,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.jobs == 0 or args.jobs < -1:
             raise ValueError(f"--jobs must be a positive number or -1, got {args.jobs}")
         held_out = None if args.subset is None else spread_subset(dataset, args.subset)
+        decide_options.check_decide_arguments(args)
         result = run_sweep(
             methods,
             dataset,
@@ -392,7 +409,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             jobs=args.jobs,
             scheduler=args.scheduler if args.backend == "dask" else None,
             held_out=held_out,
+            decide_percents=decide_options.decide_percents(args),
         )
+        decisions = decide_options.judge(args, result, list(dataset))
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -410,8 +429,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         subset=args.subset,
         findings=loaded.findings,
         excluded=loaded.excluded,
+        decisions=decisions,
     )
     print_table(result.rows)
+    decide_options.print_decisions(decisions)
     for failure in result.failures:
         print(
             f"failed ({failure['method']}): {failure['primitive']}/{failure['demo']} at "
@@ -428,23 +449,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.trials_csv is not None:
         args.trials_csv.parent.mkdir(parents=True, exist_ok=True)
         args.trials_csv.write_text(trials_csv(report["trials"]))
+    decide_options.write_decisions_csv(args, decisions)
     if args.plots is not None or args.run is not None:
         from promp.evaluate.plots import write_figures
 
         if args.plots is not None:
-            write_figures(args.plots, result, dataset, layout, title)
+            write_figures(args.plots, result, dataset, layout, title, decisions)
         if args.run is not None:
             from promp.evaluate.runs import write_run
 
             try:
                 run = write_run(
                     args.run, report, args.run_name or args.run.name,
-                    figures=lambda folder: write_figures(folder, result, dataset, layout, title),
+                    figures=lambda folder: write_figures(folder, result, dataset, layout, title,
+                                                         decisions),
                 )  # fmt: skip
             except ValueError as exc:
                 print(f"error: {exc}", file=sys.stderr)
                 return 2
             print(f"run kept in {run.folder} ({run.code_version})")
+    if not write_viewer_files(args, result, dataset, layout):
+        return 2
     return 0
 
 

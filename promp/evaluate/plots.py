@@ -12,12 +12,14 @@ import numpy as np
 from promp import metrics, units
 from promp.data import Layout, Modality
 from promp.datasets import Dataset
+from promp.evaluate.decisions import Decisions, doubt_decades
 from promp.evaluate.report import confusion_matrices, trial_rows
 from promp.evaluate.sweep import SweepResult, Trial
 
 __all__ = [
-    "MAX_COLUMNS", "PLOTS_EXTRA", "column_units", "confusion_figure", "curves", "display_unit",
-    "example", "figures_unavailable", "grid", "group_series", "methods_of", "reliability_diagram",
+    "MAX_COLUMNS", "PLOTS_EXTRA", "column_units", "confusion_figure", "curves", "decision_figure",
+    "display_unit", "example",
+    "figures_unavailable", "grid", "group_series", "methods_of", "reliability_diagram",
     "series_label", "write_figures"
 ]  # fmt: skip
 
@@ -258,12 +260,18 @@ def _short(name: str, limit: int = 18) -> str:
 
 
 def write_figures(
-    folder: Path, result: SweepResult, dataset: Dataset, layout: Layout, method: str
+    folder: Path,
+    result: SweepResult,
+    dataset: Dataset,
+    layout: Layout,
+    method: str,
+    decisions: Decisions | None = None,
 ) -> list[Path]:
     """Write the curves (every method of the sweep in one figure, named after ``method``, the
     run's), and per method the reliability diagram, the confusion matrices (one figure per
     observed modality set and alpha method) and, for a method that predicts a trajectory, one
-    example per observed modality set; return the paths."""
+    example per observed modality set; with ``decisions`` (``--decide``), when each method
+    would act (:func:`decision_figure`); return the paths."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = [folder / f"curves_{method}.png"]
@@ -293,9 +301,68 @@ def write_figures(
             path = folder / f"example_{name or method}_{'+'.join(observed)}.png"
             example(candidates[0], dataset, layout, path)
             paths.append(path)
+    if decisions is not None and decisions.rows:
+        path = folder / f"decisions_{method}.png"
+        decision_figure(decisions.rows, decisions.curve, len(dataset), path, method)
+        paths.append(path)
     return paths
 
 
 def _predicts(inferred) -> bool:
     """Whether a method predicted a trajectory (the baselines only recognise: NaN)."""
     return bool(np.isfinite(inferred.posterior_mean).any())
+
+
+def decision_figure(
+    rows: Sequence[Mapping], curve: Sequence[Mapping], n_primitives: int, path: Path, title: str
+) -> None:
+    """When each method would act (``--decide``), drawn to ``path``: left, the earliness /
+    accuracy trade-off of the commit rule over its thresholds (in-sample: every trial at every
+    threshold), one curve per method, observed set and alpha method, with the headline decision
+    (each trial's threshold chosen without it) marked on it; right, the harmonic mean of
+    accuracy and 1 - earliness against the threshold in decades of doubt, the median threshold
+    chosen without each trial dotted. ``rows``, the headline, and ``curve``, in-sample, are
+    :func:`promp.evaluate.decisions.decide`'s."""
+    plt = _pyplot()
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.6))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    named = len({str(r["method"]) for r in rows}) > 1
+    for i, row in enumerate(rows):
+        key = (row["method"], tuple(row["observed"]), row["alpha_method"])
+        points = [c for c in curve
+                  if (c["method"], tuple(c["observed"]), c["alpha_method"]) == key]  # fmt: skip
+        colour = colours[i % len(colours)]
+        label = series_label(row["observed"], row["alpha_method"],
+                             str(row["method"]) if named else "")  # fmt: skip
+        earliness = np.array([c["earliness"] for c in points])
+        accuracy = np.array([c["accuracy"] for c in points])
+        x = doubt_decades([c["threshold"] for c in points], n_primitives)
+        hm = np.array([c["harmonic_mean"] for c in points])
+        left.plot(100 * earliness, 100 * accuracy, ".-", color=colour, lw=1, ms=3,
+                  label=f"{label} (in-sample)")  # fmt: skip
+        right.plot(x, hm, "-", color=colour, lw=1.2, label=label)
+        if math.isfinite(row["harmonic_mean"]):
+            held_out = f"{label}: held-out, harmonic mean {row['harmonic_mean']:.2f}"
+            left.plot(100 * row["earliness"], 100 * row["accuracy"], "*", color=colour, ms=13,
+                      mec="k", mew=0.6, label=held_out)  # fmt: skip
+            chosen = float(doubt_decades(row["threshold"], n_primitives))
+            right.axvline(min(chosen, float(x.max())), color=colour, ls=":", lw=1)
+    left.set_xlabel("earliness: % of the movement observed when it commits (never: 100)")
+    left.set_ylabel("accuracy: % of trials committed to the true primitive")
+    left.set_title("earliness / accuracy over thresholds (in-sample);\n*: each trial's "
+                   "threshold chosen without it", fontsize=10)  # fmt: skip
+    left.set_xlim(0, 100)
+    left.set_ylim(0, 100)
+    right.set_xlabel("threshold, decades of doubt: -log10((1 - p) / (1 - 1/K))")
+    right.set_ylabel("harmonic mean of accuracy and 1 - earliness")
+    right.set_title("harmonic mean against the threshold (in-sample);\ndotted: the median "
+                    "threshold chosen without each trial", fontsize=10)  # fmt: skip
+    right.set_ylim(0, 1)
+    for ax in (left, right):
+        ax.grid(alpha=0.3)
+    left.legend(fontsize=7, loc="lower right")
+    window = rows[0].get("window_s", math.nan) if rows else math.nan
+    fig.suptitle(f"when the robot acts, {title}: commit once p >= threshold for {window:g} s")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

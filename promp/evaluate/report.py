@@ -17,6 +17,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from promp.data import Demonstration, Layout
+from promp.evaluate.decisions import Decisions
 from promp.evaluate.sweep import SweepResult
 from promp.model import Settings
 from promp.quality import Finding
@@ -79,6 +80,7 @@ def results_report(
     subset: int | None = None,
     findings: Sequence[Finding] = (),
     excluded: Mapping[tuple[str, str], Sequence[Finding]] | None = None,
+    decisions: Decisions | None = None,
 ) -> dict:
     """The report of one sweep (what ``--json`` writes).
 
@@ -105,6 +107,11 @@ def results_report(
         What the checks found in the demonstrations (:mod:`promp.quality`).
     excluded : mapping of (primitive, demo) to findings
         The demonstrations left out of the sweep (neither learned from nor tested), and why.
+    decisions : Decisions, optional
+        ``--decide``'s judgement of when each method would act
+        (:func:`promp.evaluate.decisions.decide`): ``decisions`` (one row per method and
+        observed set), ``decision_curve`` (in-sample) and ``decision_trials``, and
+        ``settings.decide`` (the window and the observed steps).
 
     Returns
     -------
@@ -117,7 +124,7 @@ def results_report(
     excluded = excluded or {}
     methods = [method] if isinstance(method, str) else list(method)
     trials = trial_rows(result, list(dataset))
-    return {
+    report = {
         "dataset": str(source),
         "settings": {
             "format": data_format,
@@ -148,6 +155,13 @@ def results_report(
             for (primitive, demo), reasons in excluded.items()
         ],
     }
+    if decisions is not None:
+        steps = sorted({float(p) for path in result.paths for p in path.percents})
+        report["settings"]["decide"] = {"window_s": decisions.window, "percents": steps}
+        report["decisions"] = decisions.rows
+        report["decision_curve"] = decisions.curve
+        report["decision_trials"] = decisions.trials
+    return report
 
 
 def trial_rows(result: SweepResult, primitives: Sequence[str]) -> list[dict]:

@@ -9,6 +9,8 @@ with ``--run DIR``)::
                         result row, every trial, the confusion matrices, the findings)
     <run>/results.csv   the result table, one line per (observed, alpha, percent)
     <run>/trials.csv    one line per trial
+    <run>/decisions.csv with --decide: when each method would act (the held-out headline, then
+                        the in-sample curve; promp.evaluate.decisions)
     <run>/figures/      curves, reliability, confusion matrices, examples (PNG)
 
 A run is written into a folder that does not exist yet, built beside it and renamed into place,
@@ -30,13 +32,16 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from promp.evaluate.decisions import decisions_csv
 from promp.evaluate.report import results_csv, trials_csv
 
 __all__ = [
     "code_version",
+    "compare_decisions",
     "compare_runs",
     "COMPARED",
     "comparison_text",
+    "DECIDED",
     "folder_name",
     "NAME",
     "read_run",
@@ -62,6 +67,8 @@ COMPARED = (
     ("duration_error_s", lambda r: r["duration_error_s"]),
     ("duration_coverage", lambda r: r.get("duration_coverage", math.nan)),
 )
+# What a comparison lists of the runs' decisions (``--decide``), per method, observed, alpha.
+DECIDED = ("harmonic_mean", "accuracy", "earliness", "never_committed", "threshold")
 
 
 def code_version() -> str:
@@ -136,6 +143,10 @@ def write_run(
         (staging / RUN_FILE).write_text(json.dumps(meta, indent=1), encoding="utf-8")
         (staging / "results.csv").write_text(results_csv(report["results"]), encoding="utf-8")
         (staging / "trials.csv").write_text(trials_csv(report.get("trials", [])), "utf-8")
+        if report.get("decisions"):  # --decide
+            (staging / "decisions.csv").write_text(
+                decisions_csv(report["decisions"], report.get("decision_curve", [])), "utf-8"
+            )
         if figures is not None:
             figures(staging / "figures")
 
@@ -265,6 +276,28 @@ def compare_runs(a: Run, b: Run) -> list[dict]:
     return out
 
 
+def compare_decisions(a: Run, b: Run) -> list[dict]:
+    """The two runs' decisions (``--decide``, the report's ``decisions``) side by side: one
+    row per (method, observed, alpha) of either, every value of :data:`DECIDED` for ``a``,
+    ``b`` and ``b - a`` (NaN where a run has no such row, or no decisions at all), in the
+    order of ``a``'s rows then ``b``'s."""
+
+    def keyed(run: Run) -> dict[tuple, Mapping]:
+        rows = run.report.get("decisions") or []
+        return {(str(r["method"]), "+".join(r["observed"]), r["alpha_method"]): r for r in rows}
+
+    rows_a, rows_b = keyed(a), keyed(b)
+    out = []
+    for key in dict.fromkeys([*rows_a, *rows_b]):
+        row: dict = {"method": key[0], "observed": key[1], "alpha": key[2]}
+        for name in DECIDED:
+            va = float(rows_a[key][name]) if key in rows_a else math.nan
+            vb = float(rows_b[key][name]) if key in rows_b else math.nan
+            row[f"{name}_a"], row[f"{name}_b"], row[f"{name}_diff"] = va, vb, vb - va
+        out.append(row)
+    return out
+
+
 def comparison_text(a: Run, b: Run, rows: Sequence[Mapping]) -> str:
     """:func:`compare_runs` as a table to read: errors, log-loss, position error (cm) and
     duration error of ``a`` -> ``b`` and the difference (``n/a`` for a value a method does
@@ -290,6 +323,21 @@ def comparison_text(a: Run, b: Run, rows: Sequence[Mapping]) -> str:
             f"{pair(r, 'position_error_m', '.2f', 100.0):>13s}  "
             f"{pair(r, 'duration_error_s', '.2f'):>12s}"
         )
+    decided = compare_decisions(a, b)
+    if decided:
+        lines += [
+            "", "when the robot acts (--decide; each trial's threshold chosen without it)",
+            f"{'method':10s} {'observed':14s} {'alpha':5s}  {'harmonic mean A->B':>18s}  "
+            f"{'accuracy A->B':>13s}  {'earliness A->B':>14s}  {'never A->B':>11s}",
+        ]  # fmt: skip
+        for r in decided:
+            lines.append(
+                f"{r['method']:10s} {r['observed']:14s} {r['alpha']:5s}  "
+                f"{pair(r, 'harmonic_mean', '.3f'):>18s}  "
+                f"{pair(r, 'accuracy', '.0f', 100.0):>13s}  "
+                f"{pair(r, 'earliness', '.0f', 100.0):>14s}  "
+                f"{pair(r, 'never_committed', '.0f', 100.0):>11s}"
+            )
     return "\n".join(lines)
 
 

@@ -125,11 +125,12 @@ class ToolboxBaseline:
         n = resid.size
         return -0.5 * ((resid**2).sum() / NOISE + n * math.log(2 * math.pi * NOISE))
 
-    def infer(
-        self, demo: Demonstration, n_observed: int, observe: Sequence[str], alpha_method: str
-    ) -> TrialAnswer:
-        dims = self.layout.dims(observe)
-        y = self.layout.extract(demo)[:n_observed, dims]
+    def _evidence(
+        self, demo: Demonstration, y: np.ndarray, dims: np.ndarray, alpha_method: str
+    ) -> tuple[np.ndarray, tuple[float, int, float]]:
+        """Every primitive's best score over its candidate alphas, shape (n_primitives,), and
+        the best (score, primitive, alpha) of all."""
+        n_observed = y.shape[0]
         best = (-np.inf, 0, 1.0)
         evidence = np.full(len(self.primitives), -np.inf)
         for k, prim in enumerate(self.primitives):
@@ -144,6 +145,14 @@ class ToolboxBaseline:
                 evidence[k] = max(evidence[k], score)
                 if score > best[0]:
                     best = (score, k, alpha)
+        return evidence, best
+
+    def infer(
+        self, demo: Demonstration, n_observed: int, observe: Sequence[str], alpha_method: str
+    ) -> TrialAnswer:
+        dims = self.layout.dims(observe)
+        y = self.layout.extract(demo)[:n_observed, dims]
+        evidence, best = self._evidence(demo, y, dims, alpha_method)
         _, index, alpha = best
         if not np.isfinite(best[0]):
             # No training alpha covers the observation: the toolbox would fail; fall back to
@@ -181,11 +190,9 @@ class ToolboxBaseline:
 
         prior_mean, prior_std = trajectory(prim.mean, prim.cov)
         post_mean, post_std = trajectory(mean, cov)
-        probabilities = np.exp(evidence - np.max(evidence))
-        probabilities /= probabilities.sum()
         return TrialAnswer(
             index=index,
-            probabilities=probabilities,
+            probabilities=_probabilities(evidence),
             alpha=float(alpha),
             duration=(S_BAR / alpha - 1.0) * self.sample_period,
             prior_mean=prior_mean,
@@ -193,3 +200,32 @@ class ToolboxBaseline:
             posterior_mean=post_mean,
             posterior_std=post_std,
         )
+
+    def probabilities_at(
+        self,
+        demo: Demonstration,
+        n_observed: Sequence[int],
+        observe: Sequence[str],
+        alpha_method: str,
+    ) -> tuple[np.ndarray, str]:
+        """The probabilities :meth:`infer` gives after each of ``n_observed`` samples, without
+        its conditioning and trajectories: shape (len(n_observed), n_primitives); a row of NaN
+        where no training speed of any primitive covers the observation, and why."""
+        dims = self.layout.dims(observe)
+        values = self.layout.extract(demo)[:, dims]
+        out = np.full((len(n_observed), len(self.primitives)), np.nan)
+        error = ""
+        for i, n in enumerate(int(n) for n in n_observed):
+            evidence, _ = self._evidence(demo, values[:n], dims, alpha_method)
+            if np.isfinite(evidence).any():
+                out[i] = _probabilities(evidence)
+            else:
+                error = error or "no training speed of any primitive covers the observation"
+        return out, error
+
+
+def _probabilities(evidence: np.ndarray) -> np.ndarray:
+    """The toolbox's class probabilities: its scores normalised (NaN when none is finite)."""
+    with np.errstate(invalid="ignore"):
+        probabilities = np.exp(evidence - np.max(evidence))
+        return probabilities / probabilities.sum()

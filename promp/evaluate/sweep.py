@@ -27,6 +27,9 @@ A trial the method cannot run (it raises ``ValueError``: e.g. an observation it 
 explanation for) does not end the sweep: it counts as a recognition error, is left out of the
 trajectory metrics, and is listed by primitive, demonstration and reason in the row's
 ``failed`` and in :attr:`SweepResult.failures`.
+
+``decide_percents`` (``--decide``): each held-out demonstration also observed at each of them
+by its fold's model, the probabilities kept in :attr:`SweepResult.paths` (:mod:`.paths`).
 """
 
 from __future__ import annotations
@@ -44,13 +47,14 @@ import numpy as np
 from promp import metrics
 from promp.data import Demonstration, Layout, sample_period_of
 from promp.evaluate.methods import ALPHA_ROWS, ProMPEngine, TrialAnswer
+from promp.evaluate.paths import ProbabilityPath, checked_percents, probability_paths
 from promp.metrics import position_modality  # (also re-exported)
 from promp.model import Settings
 from promp.timing import n_observed_for  # noqa: F401  (re-exported)
 
 __all__ = [
     "CONFIDENT_MISTAKE", "Factory", "Progress", "SweepResult", "Trial", "leave_one_out",
-    "run_sweep", "spread_subset",
+    "run_sweep", "spread_subset", "PARENT_WATCH_S", "exit_with_parent",
 ]  # fmt: skip
 
 Progress = Callable[[int, int], None]
@@ -108,12 +112,15 @@ class SweepResult:
         The trials the method could not run, and why.
     partial : bool
         Stopped before every demonstration was held out (``stop``).
+    paths : list of ProbabilityPath
+        With ``decide_percents``: the probabilities at each, per trial, method, observed set.
     """
 
     rows: list[dict] = field(default_factory=list)
     trials: list[Trial] = field(default_factory=list)
     failures: list[dict] = field(default_factory=list)  # trials the method failed on
     partial: bool = False  # stopped before every demonstration was held out (``stop``)
+    paths: list[ProbabilityPath] = field(default_factory=list)  # with ``decide_percents``
 
 
 def _run_fold(
@@ -126,9 +133,10 @@ def _run_fold(
     percents: Sequence[float],
     alpha_methods: Sequence[str],
     observe_sets: Sequence[Sequence[str]],
-) -> list[Trial]:
+    decide_percents: Sequence[float] = (),
+) -> list[Trial | ProbabilityPath]:
     """Fit every method without demonstration ``j`` of primitive ``k``, then infer it at every
-    setting."""
+    setting (and, with ``decide_percents``, at each of them: its probability paths)."""
     names = list(dataset)
     pos_dims = layout.dims([position_modality(layout)])
     train = {
@@ -160,6 +168,9 @@ def _run_fold(
                     else:
                         _measure(trial, inferred, truth, demo.duration, n_o, pos_dims)
                     trials.append(trial)
+        if decide_percents:  # the same fitted method, every step of the held-out movement
+            trials.extend(probability_paths(method, method_name, k, demo, decide_percents,
+                                            observe_sets, alpha_methods, len(names), fit_error))
     return trials
 
 
@@ -270,6 +281,7 @@ def run_sweep(
     scheduler: str | None = None,
     held_out: Sequence[tuple[int, int]] | None = None,
     stop: Callable[[], bool] | None = None,
+    decide_percents: Sequence[float] = (),
 ) -> SweepResult:
     """Run the leave-one-out protocol; one result row per (method, percent, alpha, observed).
 
@@ -283,6 +295,7 @@ def run_sweep(
     fitted on all the others (default: every demonstration; see :func:`spread_subset`).
     ``stop()`` is asked after every fold: once true, the sweep ends there and its rows hold the
     folds done (the result says it is ``partial``).
+    ``decide_percents``: each trial's probabilities at each, too (:attr:`SweepResult.paths`).
     """
     names = list(dataset)
     if isinstance(method_factory, Mapping):
@@ -308,6 +321,7 @@ def run_sweep(
             raise ValueError(f"no demonstration (primitive index, index) {unknown[0]} to hold out")
         if len(set(held_out)) != len(held_out) or not held_out:
             raise ValueError("held_out must name distinct demonstrations, at least one")
+    decide_percents = checked_percents(decide_percents)
     fold = functools.partial(
         _run_fold,
         methods,
@@ -317,11 +331,15 @@ def run_sweep(
         percents=list(percents),
         alpha_methods=list(alpha_methods),
         observe_sets=[list(o) for o in observe_sets],
+        decide_percents=decide_percents,
     )
     acc: dict[tuple, list[Trial]] = {}
     result = SweepResult()
     for done, trials in enumerate(_folds(fold, held_out, jobs, scheduler, progress), 1):
         for trial in trials:
+            if isinstance(trial, ProbabilityPath):
+                result.paths.append(trial)
+                continue
             key = (trial.method, trial.percent, trial.alpha_method, trial.observed)
             acc.setdefault(key, []).append(trial)
         if stop is not None and done < len(held_out) and stop():

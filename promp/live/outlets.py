@@ -46,6 +46,7 @@ __all__ = [
     "EventSink",
     "outlet_specs",
     "PredictionOutlets",
+    "Publisher",
     "PredictionSink",
     "probabilities_row",
     "remainder_rows",

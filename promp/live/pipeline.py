@@ -43,7 +43,7 @@ from promp.live.timebase import TimeBase
 from promp.live.transport import Selector
 from promp.model import ProMPModel
 
-__all__ = ["Arrivals", "build", "Call", "PipelineState", "shown", "step", "StepOutputs"]
+__all__ = ["Arrivals", "belief", "build", "Call", "PipelineState", "shown", "step", "StepOutputs"]
 
 
 @dataclass(frozen=True)

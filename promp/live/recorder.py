@@ -30,7 +30,7 @@ from promp.live.journal import SUFFIX, Journal, journals, read_journal
 from promp.live.segmenter import Movement
 from promp.live.sinks import Output
 
-__all__ = ["free_path", "movement_of", "Recorded", "Recorder", "RecorderSink", "recover"]
+__all__ = ["free_path", "movement_of", "Recorded", "Recorder", "RecorderSink", "Records", "recover"]
 
 
 @dataclass(frozen=True, eq=False)

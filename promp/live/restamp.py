@@ -9,14 +9,10 @@ back: a stamp is when the sample was pushed, never before it was taken, and samp
 step apart, so each sample of a burst (samples closer than :data:`BURST_SHARE` of a step after
 a pause of more than :data:`PAUSE_STEPS` steps) is placed one step before the next one (the
 burst's last keeps its stamp), and never at or before the stream's previous sample (a burst
-longer than its pause explains is spread evenly after it). A stream that runs so much faster
-than it declares that its own steps are what a burst's would be at its declared rate (the
-median step of its last :data:`RUN_GAPS` samples given, once it gave that many, under
-:data:`BURST_SHARE` of the declared step) is judged at the rate it runs: its samples after a
-pause are not a burst, and it is left as it is. A stream near its declared rate is judged at
-that rate: a sender stamping at its pushes runs a little early or late, and the steps of its
-on-time samples scatter around the declared one (their median a little shorter would pull a
-burst re-spread at it away from the samples' true times).
+longer than its pause explains is spread evenly after it). A stream that runs faster than it
+declares is judged at the rate it runs (the median step of its last :data:`RUN_GAPS` samples
+given, once it gave that many and when it is under :data:`RUN_SHARE` of the declared step):
+its samples after a pause are not a burst, and it is left as it is.
 
 A burst is held until it is whole (as many samples as were due during its pause), so that it
 is re-spread whole whatever the chunks it arrives in; one that stays short of that is given
@@ -35,13 +31,16 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["BURST_SHARE", "QUIET_S", "LATE_WINDOW_S", "PAUSE_STEPS", "RUN_GAPS", "Respread"]
+__all__ = ["BURST_SHARE", "QUIET_S", "LATE_WINDOW_S", "PAUSE_STEPS", "RUN_GAPS", "RUN_SHARE",
+           "Respread"]
 
-BURST_SHARE = 0.5  # samples closer than half a step are a burst
+BURST_SHARE = 0.25  # samples closer than a quarter of a step are a burst (a backlog pushed
+# at once is microseconds apart; a stream replayed up to 4x faster than it declares is not one)
 QUIET_S = 0.05  # a burst short of its backlog is given once nothing came for this long
 PAUSE_STEPS = 2.0  # a burst follows a pause longer than this many steps
 LATE_WINDOW_S = 10.0
 RUN_GAPS = 32  # the steps a stream is seen running at: the median of its last 32
+RUN_SHARE = 0.75  # ... when under 3/4 of the declared step
 
 
 class Respread:
@@ -70,10 +69,11 @@ class Respread:
 
     @property
     def step(self) -> float:
-        """The stream's step (s): the declared one, or the one it runs at when that is
-        shorter than a burst's (0: irregular)."""
+        """The stream's step (s): the declared one, or the one it runs at when shorter
+        (0: irregular)."""
         declared = 1.0 / self.rate if self.rate > 0 else 0.0
-        if declared > 0 and self._running < BURST_SHARE * declared:  # (nan: too few yet)
+        # clearly faster (not an on-time stream's jitter); nan: too few steps yet
+        if declared > 0 and self._running < RUN_SHARE * declared:
             return self._running
         return declared
 

@@ -50,6 +50,7 @@ __all__ = [
     "LiveOptions",
     "LiveSession",
     "LiveSnapshot",
+    "SessionThreads",
 ]
 
 IDLE_S = 0.002  # the loop's pause when nothing arrived

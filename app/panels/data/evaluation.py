@@ -19,6 +19,8 @@ from pathlib import Path
 from app.panels.data.evaluation_plan import METHOD, EvaluationPlan
 from app.ui.display import ALPHA_LABELS
 from app.ui.text import escape
+from promp.evaluate.decisions import Decisions, decide
+from promp.evaluate.paths import DECISION_PERCENTS
 from promp.evaluate.registry import method_factories
 from promp.evaluate.report import basis_settings, results_report
 from promp.evaluate.sweep import SweepResult, run_sweep
@@ -66,6 +68,8 @@ class EvaluationOutcome:
         How long it ran, seconds.
     finished_at : float
         ``time.time()`` when it ended.
+    decisions : Decisions or None
+        When each method would act (the plan's ``decide``), judged on the folds done.
     """
 
     result: SweepResult | None = None
@@ -73,6 +77,7 @@ class EvaluationOutcome:
     cancelled: bool = False
     elapsed_s: float = 0.0
     finished_at: float = 0.0
+    decisions: Decisions | None = None
 
 
 class EvaluationJob:
@@ -122,7 +127,7 @@ class EvaluationJob:
         def progress(done: int, total: int) -> None:
             self.progress = EvaluationProgress(done, total, started)
 
-        result, error = None, None
+        result, error, decisions = None, None, None
         try:
             result = run_sweep(
                 method_factories(plan.methods, plan.layout, plan.settings),
@@ -135,7 +140,10 @@ class EvaluationJob:
                 keep_trials=True,
                 stop=self.cancel.is_set,
                 held_out=plan.held_out,
+                decide_percents=DECISION_PERCENTS if plan.decide else (),
             )
+            if plan.decide:
+                decisions = decide(result.paths, list(plan.dataset))
             if result.partial:  # the folds done are what it holds
                 done = len({(t.primitive, t.demo) for t in result.trials})
                 self.progress = replace(self.progress, done=done)
@@ -151,6 +159,7 @@ class EvaluationJob:
                 cancelled=result is not None and result.partial,
                 elapsed_s=time.monotonic() - started,
                 finished_at=time.time(),
+                decisions=decisions,
             )
 
     def title(self) -> str:
@@ -175,11 +184,12 @@ class EvaluationJob:
             + ("" if plan.subset is None else f" ({plan.subset} per primitive)")
         )
         methods = f"methods {', '.join(plan.methods)}; " if plan.methods != [METHOD] else ""
+        acts = "; when it acts: every 2 %" if plan.decide else ""
         return (
             f"**Results of {escape(Path(plan.source).name or plan.source)}** "
             f"({time.strftime('%H:%M', time.localtime(outcome.finished_at))}): {counted}; "
             f"{methods}observed {escape(observed)}, alpha {alphas}, "
-            f"{', '.join(f'{p:g}' for p in plan.percents)} %."
+            f"{', '.join(f'{p:g}' for p in plan.percents)} %{acts}."
         )
 
     def report(self) -> dict:
@@ -210,6 +220,7 @@ class EvaluationJob:
             subset=plan.subset,
             findings=plan.findings,
             excluded=plan.left_out,
+            decisions=self.outcome.decisions,
         )
         if result.partial:  # cancelled: what was done, said so
             report["partial"] = {"held_out": self.progress.done, "of": self.progress.total}

@@ -120,6 +120,9 @@ class EvaluationPlan:
         The methods compared (:mod:`promp.evaluate.registry`).
     subset : int or None
         Held out per primitive (:func:`promp.evaluate.sweep.spread_subset`); None: all.
+    decide : bool
+        Also judge when each method would act (``--decide``: every held-out demonstration
+        observed every 2 %, :mod:`promp.evaluate.decisions`).
     """
 
     dataset: dict[str, list[Demonstration]]
@@ -134,6 +137,7 @@ class EvaluationPlan:
     left_out: dict[tuple[str, str], list[Finding]] = field(default_factory=dict)
     methods: list[str] = field(default_factory=lambda: [METHOD])
     subset: int | None = None
+    decide: bool = False
 
     @property
     def held_out(self) -> list[tuple[int, int]] | None:
@@ -154,6 +158,7 @@ def plan_evaluation(
     percents: str,
     methods: str,
     subset: str = "every demonstration",
+    decide: bool = False,
 ) -> EvaluationPlan:
     """The plan of the choices of the evaluation's folder on the workspace ``store``.
 
@@ -171,6 +176,8 @@ def plan_evaluation(
         A key of :data:`METHOD_CHOICES` (anything else: ours alone).
     subset : str
         A key of :data:`SUBSET_CHOICES`.
+    decide : bool
+        Also judge when each method would act (the "When it acts" checkbox).
 
     Raises
     ------
@@ -203,4 +210,5 @@ def plan_evaluation(
         left_out=store.left_out,
         methods=list(METHOD_CHOICES.get(methods, [METHOD])),
         subset=SUBSET_CHOICES[subset],
+        decide=bool(decide),
     )

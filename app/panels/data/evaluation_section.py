@@ -38,11 +38,19 @@ from app.panels.data.results_area import ResultsArea
 from app.ui.context import PanelContext
 from app.ui.display import ALPHA_HINT
 from app.ui.text import escape
+from promp.decision import WINDOW_S
 from promp.evaluate.cli import DEFAULT_PERCENTS
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
 FAILURES_LISTED = 10
 IDLE = f"Held out one demonstration at a time (primitives with at least {MIN_DEMOS})."
+DECIDE_HINT = (
+    "Also judge when each method would act, as python -m promp.evaluate --decide: every "
+    "held-out demonstration observed every 2 %, a rule committing once the leading "
+    f"primitive's probability stays above a threshold for {WINDOW_S:g} s; the threshold chosen "
+    "on the "
+    "other trials; earliness, accuracy and their harmonic mean (slower: 50 steps a trial)"
+)
 
 
 def running_text(job: EvaluationJob, now: float) -> str:
@@ -69,6 +77,7 @@ class EvaluationControls:
     run_name_text: viser.GuiTextHandle  # the name the run is saved under (runs_section)
     methods_dropdown: viser.GuiDropdownHandle
     subset_dropdown: viser.GuiDropdownHandle
+    decide_checkbox: viser.GuiCheckboxHandle
 
 
 class EvaluationSection:
@@ -108,6 +117,7 @@ class EvaluationSection:
             )  # fmt: skip
             subset_dropdown = gui.add_dropdown("Held out", tuple(SUBSET_CHOICES),
                                                hint=SUBSET_HINT)  # fmt: skip
+            decide_checkbox = gui.add_checkbox("When it acts", False, hint=DECIDE_HINT)
             run_name_text = gui.add_text(
                 "Run name", "", hint="The name the evaluation is kept under in the workspace's "
                 "runs/ (Saved runs); empty: the observed modalities and the alpha method",
@@ -139,7 +149,7 @@ class EvaluationSection:
         self.controls = EvaluationControls(
             observe_dropdown, alpha_dropdown, percents_text, run_button, cancel_button,
             progress_bar, eval_status, export_button, failed_dropdown, open_button, results_folder,
-            run_name_text, methods_dropdown, subset_dropdown,
+            run_name_text, methods_dropdown, subset_dropdown, decide_checkbox,
         )  # fmt: skip
         self.results = ResultsArea(gui, results_folder, export_button, notify)
         self.failed_trials = FailedTrialPicker(
@@ -161,6 +171,7 @@ class EvaluationSection:
                 c.percents_text.value,
                 c.methods_dropdown.value,
                 c.subset_dropdown.value,
+                c.decide_checkbox.value,
             )
         except ValueError as exc:
             self.notify(client, "Cannot evaluate", f"{exc}.", "red")

@@ -5,7 +5,9 @@ the leave-one-out evaluation.
   :mod:`promp.io`'s format, what robot-side code loads); **Export workspace** downloads
   ``workspace-<time>.zip`` (studio.json, demos/<primitive>/<demo>.csv, model.json, the saved
   evaluation runs under runs/). Both wait for the model of the latest change (learning runs
-  in the background).
+  in the background). **Export to Rerun** and **Export to MCAP** download the workspace as
+  the 3D view shows it, for Rerun, Foxglove and PlotJuggler
+  (:mod:`app.panels.data.viewer_export`).
 * **Import** takes either file. Everything is validated in memory first (:mod:`app.io.exchange`);
   a bad file gives a notification naming the file and the problem and changes nothing (closed
   when a later file from the same browser tab is accepted). A model becomes the model inference
@@ -39,6 +41,7 @@ from app.panels.data.import_dataset import DatasetImport
 from app.panels.data.model_status import ModelStatus
 from app.panels.data.runs_section import RunsSection
 from app.panels.data.trash_list import RecentlyDeleted
+from app.panels.data.viewer_export import ViewerExport
 from app.scene.look import Shown
 from app.ui.context import Frame, PanelContext
 from app.ui.dialogs import confirm
@@ -77,6 +80,7 @@ class DataPanel:
             hint="Download every primitive, demonstration, saved evaluation run and the "
             "model as one zip",
         )
+        self.viewers = ViewerExport(ctx, self._notify, self._model_for_export)
         gui.add_markdown("**Import**")
         self.upload_button = gui.add_upload_button(
             "Import model or workspace",

@@ -112,9 +112,12 @@ def add_results(gui: viser.GuiApi, rows: Sequence[Mapping]) -> list:
         styles.append(style)
 
     def chart(title: str, key: str, y_label: str):
+        # A method that gives no value here (the baselines' position errors: NaN throughout)
+        # is left out of the chart: uPlot draws nothing at all when a series is only NaN.
+        shown = [i for i, label in enumerate(labels) if np.isfinite(series[label][key]).any()]
         return gui.add_uplot(
-            data=(x, *(series[label][key] for label in labels)),
-            series=({"label": "observed (%)"}, *styles),
+            data=(x, *(series[labels[i]][key] for i in shown)),
+            series=({"label": "observed (%)"}, *(styles[i] for i in shown)),
             title=title,
             scales={"x": {"time": False}, "y": {"auto": True}},
             axes=({"label": "observed (% of the movement)"}, {"label": y_label}),

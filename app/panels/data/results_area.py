@@ -12,9 +12,11 @@ from pathlib import Path
 import viser
 
 from app.io.exchange import format_size
+from app.panels.data.decisions import add_decisions
 from app.panels.data.evaluation import EvaluationJob
 from app.panels.data.results import add_results
 from app.panels.data.results_zip import results_filename, results_zip
+from promp.evaluate.decisions import Decisions
 from promp.evaluate.plots import figures_unavailable
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
@@ -53,19 +55,23 @@ class ResultsArea:
         self.evaluation: EvaluationJob | None = None
         export_button.on_click(lambda event: self.export(event.client))
 
-    def show(self, title: str, rows: Sequence[Mapping]) -> None:
-        """Show result ``rows`` (the sweep's, or a saved run's) under ``title`` (markdown), in
+    def show(
+        self, title: str, rows: Sequence[Mapping], decisions: Decisions | None = None
+    ) -> None:
+        """Show result ``rows`` (the sweep's, or a saved run's) under ``title`` (markdown), and
+        when each method would act when it was judged (:mod:`app.panels.data.decisions`), in
         place of what was shown."""
         for handle in self.handles:
             handle.remove()
         with self.folder:
-            self.handles = [self.gui.add_markdown(title), *add_results(self.gui, rows)]
+            self.handles = [self.gui.add_markdown(title), *add_results(self.gui, rows),
+                            *add_decisions(self.gui, decisions)]  # fmt: skip
         self.folder.visible = True
 
     def show_evaluation(self, job: EvaluationJob) -> None:
         """Show the finished ``job``'s results (partial ones when it was cancelled); Export
         sends them from now on."""
-        self.show(job.title(), job.outcome.result.rows)
+        self.show(job.title(), job.outcome.result.rows, job.outcome.decisions)
         self.evaluation = job
         self.export_button.disabled = False
 

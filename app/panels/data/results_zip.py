@@ -9,6 +9,8 @@ the same run, built in memory by the command line's own writers
                         the checks' findings and what was left out
     results.csv         the result table, one line per row
     trials.csv          one line per trial (as --trials-csv writes it)
+    decisions.csv       when each method would act, if the evaluation judged it (as
+                        --decisions-csv writes it: the held-out headline, the in-sample curve)
     figures/*.png       curves, reliability diagram, the confusion matrices (one figure per
                         observed modality set and alpha method, a panel per percentage; the
                         counts are results.json's "confusion"), one example per modality set
@@ -26,11 +28,13 @@ from pathlib import Path
 
 from app.io.exchange import export_filename
 from promp.data import Demonstration, Layout
+from promp.evaluate.decisions import decisions_csv, decisions_of
 from promp.evaluate.plots import figures_unavailable, write_figures
 from promp.evaluate.report import report_json, results_csv, trials_csv
 from promp.evaluate.sweep import SweepResult
 
 JSON_NAME, CSV_NAME, TRIALS_NAME, FIGURES = "results.json", "results.csv", "trials.csv", "figures"
+DECISIONS_NAME = "decisions.csv"
 # pyplot keeps its figures in global state: two exports at once draw one after the other.
 _PYPLOT = threading.Lock()
 
@@ -59,6 +63,9 @@ def results_zip(
         archive.writestr(JSON_NAME, report_json(report))
         archive.writestr(CSV_NAME, results_csv(report["results"]))
         archive.writestr(TRIALS_NAME, trials_csv(report["trials"]))
+        decisions = decisions_of(report)
+        if decisions is not None:
+            archive.writestr(DECISIONS_NAME, decisions_csv(decisions.rows, decisions.curve))
         if not figures_unavailable():  # else the tables go alone: the export says why
             with tempfile.TemporaryDirectory(prefix="evaluation-figures-") as folder:
                 for path in draw_figures(Path(folder), report, result, dataset, layout):
@@ -75,10 +82,12 @@ def draw_figures(
     layout: Layout,
 ) -> list[Path]:
     """The figures of ``python -m promp.evaluate --plots`` in ``folder`` (curves, reliability,
-    a confusion matrix per percentage for each series, examples); their paths. One drawing at
-    a time: pyplot keeps its figures in global state."""
+    a confusion matrix per percentage for each series, examples, and when each method would
+    act if the report judged it); their paths. One drawing at a time: pyplot keeps its figures
+    in global state."""
     with _PYPLOT:
-        return write_figures(Path(folder), result, dataset, layout, report["settings"]["method"])
+        return write_figures(Path(folder), result, dataset, layout, report["settings"]["method"],
+                             decisions_of(report))  # fmt: skip
 
 
 def results_filename(workspace: str, when: float | None = None) -> str:

@@ -36,6 +36,7 @@ from app.panels.data.runs_text import NO_RUN, comparison_markdown, describe, run
 from app.ui.context import PanelContext
 from app.ui.display import ALPHA_LABELS, observed_label
 from app.ui.text import escape
+from promp.evaluate.decisions import decisions_of
 from promp.evaluate.plots import figures_unavailable
 from promp.evaluate.runs import Run, compare_runs
 
@@ -238,8 +239,9 @@ class RunsSection:
         how = " · ".join(describe(item)) + " %" if isinstance(item, RunListing) else ""
         partial = " *(partial)*" if run.report.get("partial") else ""
         self.evaluation.results.show(
-            f"**Saved run:** {escape(run.label)}{partial}  \n{how}", run.report["results"]
-        )
+            f"**Saved run:** {escape(run.label)}{partial}  \n{how}", run.report["results"],
+            decisions_of(run.report),
+        )  # fmt: skip
         self.notify(client, "Run opened", f"{run.label}: its results are shown.", "blue")
         return run
 

@@ -17,7 +17,7 @@ from app.ui.display import (
     series_title,
 )
 from app.ui.text import escape
-from promp.evaluate.runs import Run
+from promp.evaluate.runs import Run, compare_decisions
 from promp.evaluate.tables import NOT_GIVEN
 
 NO_RUN = "(no saved run)"
@@ -189,4 +189,29 @@ def comparison_markdown(a: Run, b: Run, rows: Sequence[Mapping]) -> str:
         lines.append("")
     if not rows:
         lines.append("Neither run has result rows.")
+    lines += decisions_comparison(a, b, named)
     return "\n".join(lines).rstrip()
+
+
+def decisions_comparison(a: Run, b: Run, named: bool) -> list[str]:
+    """When each method would act in the two runs (``--decide``,
+    :func:`promp.evaluate.runs.compare_decisions`), A → B (B − A), as markdown lines; none
+    when neither run judged it."""
+    rows = compare_decisions(a, b)
+    if not rows:
+        return []
+    lines = [
+        "", "**When it acts** (each trial's threshold chosen without it)", "",
+        "| series | harmonic mean | accuracy (%) | earliness (%) | never committed (%) |",
+        "|---|---:|---:|---:|---:|",
+    ]  # fmt: skip
+    for row in rows:
+        title = series_title(row["observed"].split("+"), row["alpha"])
+        title = f"{method_label(row['method'])}: {title}" if named else title
+        lines.append(
+            f"| {escape(title)} | {_change(row, 'harmonic_mean', '.3f')} "
+            f"| {_change(row, 'accuracy', '.0f', 100.0)} "
+            f"| {_change(row, 'earliness', '.0f', 100.0)} "
+            f"| {_change(row, 'never_committed', '.0f', 100.0)} |"
+        )
+    return lines

@@ -6,7 +6,8 @@ alpha method, and scrubs the observed percentage. Everything follows the slider:
 tube, the predicted future path and its end point (drawn by the scene), the probability of each
 primitive, the predicted and true durations, the errors (:mod:`app.panels.infer.readout`), and
 the per-dimension charts. "Play" then lets the robot finish the
-movement (:mod:`app.panels.infer.replay_section`).
+movement (:mod:`app.panels.infer.replay_section`); "Export view to" Rerun or MCAP downloads
+what the tab shows (:mod:`app.panels.infer.viewer_export`).
 
 The panel is a view: at every frame :meth:`InferPanel.step` reads its controls into an
 :class:`~app.panels.infer.controls.InferState`, and when that state, the workspace, the model
@@ -49,6 +50,7 @@ from app.panels.infer.readout import (
 from app.panels.infer.recognition import LIVE_NOTE, TITLE, X_RANGE, RecognitionChart
 from app.panels.infer.replay_section import ReplaySection
 from app.panels.infer.shaping import InferShaping
+from app.panels.infer.viewer_export import InferExport
 from app.scene.inference_layer import DEFAULT_COLOR
 from app.scene.look import INFER, InferenceShown, Shown
 from app.ui.context import Frame, InferRequest, PanelContext
@@ -127,6 +129,7 @@ class InferPanel:
         handles["replay_buttons"] = gui.add_button_group("Replay", ("Play", "Pause", "Reset"))
         handles["replay_bar"] = gui.add_progress_bar(0.0, color="gray")
         gui.add_html(LEGEND_HTML)
+        InferExport(ctx, lambda: (self.view, self.recognition.curve()), self._color)
         self.shaping = InferShaping(ctx)  # what the tube is; the via-points
         self.charts = InferCharts(ctx, gui.add_folder("Charts", expand_by_default=True), layout)
         self.controls = InferControls(**handles, **build_display(gui, ctx.view))
