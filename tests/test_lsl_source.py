@@ -22,7 +22,7 @@ from promp.evidence.pipeline import infer
 from promp.inference import Observation
 from promp.live.journal import read_journal
 from promp.live.recorder import Recorder, movement_of
-from promp.live.session import LiveOptions, LiveSession
+from promp.live.session import LiveOptions, LiveSession, live_columns
 from promp.live.source import LiveInput
 from robots.icub.placement import Placement
 from tests.conftest import wait_until
@@ -155,10 +155,11 @@ NAMES = ("front", "left", "top")
 
 
 def recording_session(tmp_path, fake, stream_name="Vicon"):
-    session = LiveSession(hand_model(), [f"hand={stream_name}:0,1,2"], fake,
-                          LiveOptions(start="call"))  # fmt: skip
-    recorder = TakeRecorder(tmp_path / JOURNALS_DIR, session.columns, lambda: NAMES, "live-t")
-    session.recorder = recorder
+    inputs = [f"hand={stream_name}:0,1,2"]
+    recorder = TakeRecorder(tmp_path / JOURNALS_DIR, live_columns(hand_model(), inputs),
+                            lambda: NAMES, "live-t")  # fmt: skip
+    session = LiveSession(hand_model(), inputs, fake, LiveOptions(start="call"),
+                          recorder=recorder)  # fmt: skip
     session.connect()
     session.step()
     return session, recorder
@@ -173,6 +174,7 @@ def movement(session, fake, stream, n: int, label: str = "") -> np.ndarray:
     stamps = replay(session, fake, stream, demo.times[:n] - demo.times[0] + 0.005, values)
     session.end(stamps[-1] - 0.005)  # ends with the rows up to then (the last one after it)
     session.step()
+    session.flush()  # the recorder's sink finished it
     assert session.snapshot().movement is None
     return values
 
@@ -195,6 +197,7 @@ def test_a_movement_is_a_take_only_while_armed_into_the_primitive_chosen(tmp_pat
     assert read_journal(journal)[0].n_samples == rows  # acknowledged: in the journal
     session.end(stamps[-1] - 0.005)
     session.step()
+    session.flush()
     (recorded,) = session.snapshot().recorded
     assert recorder.primitive_of(recorded) == "top" and recorded.journal == journal
     assert_array_equal(recorded.demo.values, demo.values[:recorded.demo.n_samples, :3])
@@ -290,9 +293,10 @@ def test_a_guided_take_from_a_busy_sender_is_one_live_take(tmp_path) -> None:
                 Settings(n_basis=7, width=1.0, noise_scale=1.5, duration_temperature=1.0))
     fake = FakeTransport()
     stream = fake.add(FakeStream("Vicon", LABELS, rate=100.0))
-    session = LiveSession(model, ["hand=Vicon:0,1,2"], fake, LiveOptions(start="still"))
-    recorder = TakeRecorder(tmp_path / JOURNALS_DIR, session.columns, lambda: NAMES, "live-g")
-    session.recorder = recorder
+    inputs = ["hand=Vicon:0,1,2"]
+    recorder = TakeRecorder(tmp_path / JOURNALS_DIR, live_columns(model, inputs), lambda: NAMES,
+                            "live-g")  # fmt: skip
+    session = LiveSession(model, inputs, fake, LiveOptions(start="still"), recorder=recorder)
     session.connect()
     session.step()
     recorder.arm("top")
@@ -308,6 +312,7 @@ def test_a_guided_take_from_a_busy_sender_is_one_live_take(tmp_path) -> None:
             stream.push([fake.now + 1e-6 * i], values[i:i + 1])  # stamped at the push
             i += 1
         session.step()
+    assert session.flush()
     (recorded,) = session.snapshot().recorded
     assert recorded.number == 1 and recorder.primitive_of(recorded) == "top"
     taken = recorded.demo.select(["x", "y", "z"])

@@ -91,13 +91,14 @@ def test_the_command_predicts_publishes_records_and_stops_cleanly(tmp_path) -> N
     assert process.returncode == 0
     summary = json.loads(rest.strip().splitlines()[-1])
     assert summary["received"][name] == demo.n_samples and summary["movements"] == 1
-    assert summary["predictions"] == len(rows) > 10
+    assert summary["predictions"] == len(rows) >= 2  # a second's count is the machine's load
     assert any("movement 1 (" in line and "predictions/s" in line for line in lines)
     seqs = [int(r[0]) for r in rows]
     assert seqs == list(range(1, len(rows) + 1))
     (take,) = (tmp_path / "takes" / "live").glob("*.csv")
     recorded = read_csv_demo(take)
     assert recorded.columns == ("x", "y", "z") and recorded.n_samples > 50
+    assert int(rows[-1][14]) == recorded.n_samples  # the last prediction: the take's rows
     assert np.all(np.isin(np.round(recorded.values[:, 0] * 1000.0, 9),
                           np.round(values[:, 0], 9)))  # fmt: skip
     assert list((tmp_path / "takes" / ".journals").glob("*")) == []

@@ -7,8 +7,8 @@ the recordings of a rig, :mod:`promp.rigs`: YARP dumps, ROS bags, XDF, C3D), rea
 modalities given or guessed from the columns (from the streams). It arrives either as a folder
 on the server (``python -m app --import-dataset DIR``) or as an uploaded zip of that folder (the
 Data tab), checked member by member like a workspace archive (no absolute paths, ``..``, links
-or encrypted members; bounded) and extracted into a temporary folder the studio removes; a single session file (``.bag``, ``.mcap``, ``.db3``,
-``.xdf``, ``.xdfz``, ``.c3d``, cut into demonstrations by its markers) may be uploaded as it is.
+or encrypted members; bounded) and extracted into a temporary folder the studio removes; a
+session file (``.bag``, ``.mcap``, ``.db3``, ``.xdf``, ``.c3d``: cut by its markers) as it is.
 
 The source is only read. Names become safe file names (``person1/record0`` becomes
 ``person1_record0``). Refused, with the file or class named and nothing written: no

@@ -31,7 +31,7 @@ from app.live.live_takes import JOURNALS_DIR, TakeRecorder
 from app.live.lsl_mapping import MappingCheck, parse_mapping, safe_out_name
 from app.live.lsl_placement import PlacedTransport
 from promp.live.predictor import LivePrediction
-from promp.live.session import LiveOptions, LiveSession, LiveSnapshot
+from promp.live.session import LiveOptions, LiveSession, LiveSnapshot, live_columns
 from promp.live.status import LiveEvent
 from promp.live.transport import Selector, StreamDescription, Transport
 from promp.model import ProMPModel
@@ -236,14 +236,14 @@ class LslSource:
             options = LiveOptions(start=config.start, markers=config.markers.strip(),
                                   alpha_method=config.alpha_method, remainder=config.remainder,
                                   remainder_rate=config.rate, n_points=TUBE_POINTS)  # fmt: skip
-            session = LiveSession(model, check.inputs, transport, options, outlets=self.outlets)
             number = next(self._numbers)
             recorder = None
             if workspace is not None:
                 prefix = time.strftime(f"live-%Y%m%d-%H%M%S-{number}")
-                recorder = TakeRecorder(Path(workspace) / JOURNALS_DIR, session.columns, names,
-                                        prefix)  # fmt: skip
-                session.recorder = recorder
+                recorder = TakeRecorder(Path(workspace) / JOURNALS_DIR,
+                                        live_columns(model, check.inputs), names, prefix)
+            session = LiveSession(model, check.inputs, transport, options, outlets=self.outlets,
+                                  recorder=recorder)  # fmt: skip
             if specs is not None:
                 self.outlets.set(_outlets(specs, self.transport()))
             session.start()

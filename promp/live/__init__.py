@@ -13,10 +13,13 @@ with a fake upstream and a recorded stream, only the transport knowing LSL:
 * :mod:`promp.live.segmenter`: where each movement starts and ends (stillness, by the rule
   the model learned its demonstrations with, a marker stream, or calls);
 * :mod:`promp.live.predictor`: the movement so far through :func:`promp.evidence.infer`;
-* sinks: :mod:`promp.live.outlets` (the prediction as LSL streams) and
-  :mod:`promp.live.recorder` (each movement a demonstration; a journal a kill cannot undo).
+* sinks (:mod:`promp.live.sinks`: each on its own thread, behind a bounded queue):
+  :mod:`promp.live.outlets` (the prediction as LSL streams) and :mod:`promp.live.recorder`
+  (each movement a demonstration; a journal a kill cannot undo).
 
-:class:`promp.live.session.LiveSession` wires them (the studio's loop reads its
+:func:`promp.live.pipeline.step` is the stages' pure step (no clock, no stream, no file);
+:class:`promp.live.session.LiveSession` is the thin runner around it, its sinks given when it
+is made (:mod:`promp.live.intake` gathers what arrives; the studio's loop reads its
 :class:`~promp.live.session.LiveSnapshot`); ``python -m promp.live`` is the headless command
 (:mod:`promp.live.cli`). :mod:`promp.live.transport` says what a transport does and
 :mod:`promp.live.lsl` is the one over LSL (the only module that imports ``pylsl``: the

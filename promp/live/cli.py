@@ -98,7 +98,8 @@ def main(argv: list[str] | None = None) -> int:
         return _fail(str(exc))
     from promp.io import load_model
     from promp.live.outlets import PredictionOutlets, outlet_specs
-    from promp.live.session import LiveOptions, LiveSession
+    from promp.live.pipeline import build
+    from promp.live.session import LiveOptions, LiveSession, live_columns
 
     try:
         model = load_model(args.model)
@@ -108,12 +109,13 @@ def main(argv: list[str] | None = None) -> int:
                               max_movement_s=args.max_movement)  # fmt: skip
         transport = LslTransport()
         specs = outlet_specs(model, args.out, args.remainder)
-        session = LiveSession(model, args.inputs, transport, options)
-        recorder = _recorder(args.record, session) if args.record else None
+        build(model, args.inputs, options)  # every refusal, before anything is opened
+        columns = live_columns(model, args.inputs)
+        recorder = _recorder(args.record, columns) if args.record else None
     except ValueError as exc:
         return _fail(str(exc))
-    session.outlets = PredictionOutlets(specs, transport.outlet)
-    session.recorder = recorder
+    session = LiveSession(model, args.inputs, transport, options,
+                          outlets=PredictionOutlets(specs, transport.outlet), recorder=recorder)
     # Ctrl-C and a service manager's stop end it cleanly, even when started with SIGINT
     # ignored (a background job of a shell script inherits that)
     signal.signal(signal.SIGINT, _interrupt)
@@ -154,7 +156,7 @@ def _fail(message: str, session=None) -> int:
     return 2
 
 
-def _recorder(folder: Path, session):
+def _recorder(folder: Path, columns: tuple[str, ...]):
     from promp.datasets import write_csv_demo
     from promp.live.recorder import Recorder, free_path, recover
 
@@ -168,7 +170,7 @@ def _recorder(folder: Path, session):
         print(f"recovered {demo.n_samples} samples of an interrupted recording: {target}",
               flush=True)  # fmt: skip
     prefix = time.strftime("live-%Y%m%d-%H%M%S")
-    return Recorder(folder / ".journals", session.columns, prefix, output=folder)
+    return Recorder(folder / ".journals", columns, prefix, output=folder)
 
 
 def _wait_for_inputs(session, wait: float) -> bool:

@@ -9,7 +9,10 @@ demonstration's name, its class, the session-clock time of its first row), the C
 exact round trip). Each :meth:`Journal.append` is one ``write`` to the operating system: when
 it returns, the rows are **acknowledged**, and survive the process being killed; the file is
 also ``fsync``-ed every :data:`FSYNC_S` and when closed (a power cut may lose the last
-second). :func:`read_journal` reads one back, a last line cut short by a kill left out.
+second). A write that fails (a full disk: ``OSError`` ENOSPC, after writing part of the rows)
+is cut back to the rows acknowledged before it raises, so that the next append, once there is
+room, follows them: a torn row never stays in the middle of a journal. :func:`read_journal`
+reads one back, a last line cut short by a kill left out.
 """
 
 from __future__ import annotations
@@ -42,15 +45,30 @@ class Journal:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
         header = {"name": name, "label": label, "start": self.start, "columns": list(columns)}
-        self._write(f"{MAGIC}{json.dumps(header)}\n{','.join(('t', *self.columns))}\n")
-        os.fsync(self._fd)
+        self._size = 0  # bytes of the header and the rows acknowledged
+        try:
+            self._write(f"{MAGIC}{json.dumps(header)}\n{','.join(('t', *self.columns))}\n")
+            os.fsync(self._fd)
+        except Exception:  # the file it created holds nothing: it goes
+            os.close(self._fd)
+            self.path.unlink(missing_ok=True)
+            raise
         self._synced = time.monotonic()
         self.acknowledged = 0
 
     def _write(self, text: str) -> None:
         data = text.encode("utf-8")
-        while data:
-            data = data[os.write(self._fd, data):]
+        size = len(data)
+        try:
+            while data:
+                data = data[os.write(self._fd, data):]
+        except Exception:
+            try:  # what was written of it goes: the file ends with whole rows
+                os.ftruncate(self._fd, self._size)
+            except OSError:
+                pass
+            raise
+        self._size += size
 
     def append(self, times: np.ndarray, values: np.ndarray) -> int:
         """Append rows (times on the session's clock (n,), values (n, n_columns)); returns

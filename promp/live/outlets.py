@@ -22,23 +22,32 @@ the predictor's LSL clock (a reader's time correction maps it to its own), and j
   count - 1`` is the predicted end.
 * ``NAME-events`` (type ``Markers``, strings): ``movement N started``, ``movement N ended
   (REASON)``, and each change of an input's condition (``stream 'MocapHand': stalled ...``).
+
+A session publishes through two sinks (:mod:`promp.live.sinks`), each on its own thread:
+:class:`PredictionSink` (the predictions' outlets) and :class:`EventSink` (the events outlet),
+so that one failing or blocking does not hold the other back.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from typing import Protocol
 
 import numpy as np
 
 from promp.live.predictor import LivePrediction
+from promp.live.sinks import Output
 from promp.live.status import LiveEvent
 from promp.live.transport import Outlet, OutletSpec
 from promp.model import ProMPModel
 
 __all__ = [
+    "EventSink",
     "outlet_specs",
     "PredictionOutlets",
+    "Publisher",
+    "PredictionSink",
     "probabilities_row",
     "remainder_rows",
     "TIMING_LABELS",
@@ -140,3 +149,58 @@ class PredictionOutlets:
     def close(self) -> None:
         for outlet in self._outlets.values():
             outlet.close()
+
+
+class Publisher(Protocol):
+    """What the sinks need of the outlets (:class:`PredictionOutlets`, or the studio's outlets
+    switched on and off)."""
+
+    def publish(self, p: LivePrediction) -> None: ...
+
+    def event(self, event: LiveEvent) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class PredictionSink:
+    """The sink of the predictions' outlets (probabilities, timing, remainder); it closes the
+    outlets when the session ends (the events outlet with them)."""
+
+    name = "prediction outlets"
+    lossless = False
+
+    def __init__(self, outlets: Publisher):
+        self.outlets = outlets
+
+    def view(self, output: Output) -> Output | None:
+        return Output(output.time, predictions=output.predictions) if output.predictions \
+            else None  # fmt: skip
+
+    def take(self, output: Output) -> tuple[()]:
+        for prediction in output.predictions:
+            self.outlets.publish(prediction)
+        return ()
+
+    def close(self) -> None:
+        self.outlets.close()
+
+
+class EventSink:
+    """The sink of the events outlet (its outlets are closed by :class:`PredictionSink`)."""
+
+    name = "events outlet"
+    lossless = False
+
+    def __init__(self, outlets: Publisher):
+        self.outlets = outlets
+
+    def view(self, output: Output) -> Output | None:
+        return Output(output.time, events=output.events) if output.events else None
+
+    def take(self, output: Output) -> tuple[()]:
+        for event in output.events:
+            self.outlets.event(event)
+        return ()
+
+    def close(self) -> None:
+        pass

@@ -9,13 +9,18 @@ the journal already holds) and, given a path, writes it atomically as a CSV demo
 removes the journal; the studio, which writes into its workspace itself, calls
 :meth:`Recorder.release` once it has. After a kill, :func:`recover` reads back what each
 journal left holds: every acknowledged row.
+
+A session hands a recorder the movements through :class:`RecorderSink`, on the sink's own
+thread (:mod:`promp.live.sinks`): a disk that blocks or is full never stalls the prediction.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
@@ -23,8 +28,9 @@ from promp.data import Demonstration
 from promp.datasets import write_csv_demo
 from promp.live.journal import SUFFIX, Journal, journals, read_journal
 from promp.live.segmenter import Movement
+from promp.live.sinks import Output
 
-__all__ = ["free_path", "movement_of", "Recorded", "Recorder", "recover"]
+__all__ = ["free_path", "movement_of", "Recorded", "Recorder", "RecorderSink", "Records", "recover"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,3 +162,41 @@ def recover(folder: Path) -> list[tuple[Path, Demonstration | str]]:
 def movement_of(demo: Demonstration, number: int, label: str = "") -> Movement:
     """A demonstration as the rows of a movement (tests, replays)."""
     return Movement(number, label, np.asarray(demo.times), np.asarray(demo.values))
+
+
+class Records(Protocol):
+    """What :class:`RecorderSink` needs of a recorder (:class:`Recorder`, the studio's take
+    recorder)."""
+
+    def append(self, movement: Movement) -> int: ...
+
+    def finish(self, movement: Movement) -> Recorded | None: ...
+
+    def close(self) -> None: ...
+
+
+class RecorderSink:
+    """The recorder as a session's sink: each ended movement finished, then the rows of the
+    movement going on journalled. Lossless: when it falls behind, the outputs queued are
+    folded into one (the movement going on carries all its rows so far)."""
+
+    name = "recorder"
+    lossless = True
+
+    def __init__(self, recorder: Records):
+        self.recorder = recorder
+
+    def view(self, output: Output) -> Output | None:
+        ends = tuple(b for b in output.boundaries if b.movement is not None)
+        if not ends and output.movement is None:
+            return None
+        return Output(output.time, boundaries=ends, movement=output.movement)
+
+    def take(self, output: Output) -> Sequence[Recorded]:
+        recorded = [self.recorder.finish(b.movement) for b in output.boundaries]
+        if output.movement is not None:
+            self.recorder.append(output.movement)
+        return [r for r in recorded if r is not None]
+
+    def close(self) -> None:
+        self.recorder.close()

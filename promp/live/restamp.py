@@ -65,16 +65,16 @@ class Respread:
         self._last = -math.inf  # the latest time given
         self._late: deque[tuple[float, float]] = deque()  # (when, seconds moved back)
         self._gaps: deque[float] = deque(maxlen=RUN_GAPS)  # between the latest samples given
+        self._running = math.nan  # their median once there are RUN_GAPS (read at every step)
 
     @property
     def step(self) -> float:
         """The stream's step (s): the declared one, or the one it runs at when shorter
         (0: irregular)."""
         declared = 1.0 / self.rate if self.rate > 0 else 0.0
-        if declared > 0 and len(self._gaps) == RUN_GAPS:
-            runs = float(np.median(self._gaps))
-            if runs < RUN_SHARE * declared:  # clearly faster (not an on-time stream's jitter)
-                return runs
+        # clearly faster (not an on-time stream's jitter); nan: too few steps yet
+        if declared > 0 and self._running < RUN_SHARE * declared:
+            return self._running
         return declared
 
     def add(self, times: np.ndarray, values: np.ndarray, now: float
@@ -145,6 +145,8 @@ class Respread:
             given = out[:held] if not math.isfinite(self._last) else \
                 np.concatenate([[self._last], out[:held]])  # fmt: skip
             self._gaps.extend(np.diff(given).tolist())
+            if len(self._gaps) == RUN_GAPS:
+                self._running = float(np.median(self._gaps))
             self._last = float(out[held - 1])
         given = (out, values[:held])
         self._times, self._values = times[held:], values[held:]

@@ -4,9 +4,12 @@ Each input is a :class:`promp.live.inputs.LiveInput`: one modality in the rig fo
 mapping syntax (``hand=MocapHand:0,1,2@mm``), its channels found in its stream's samples and
 converted to SI units (:func:`promp.live.inputs.channels_of`).
 
-:meth:`Source.poll` returns what arrived since the last poll, on the session's clock (the
-transport's time correction applied), strictly increasing per stream, and updates each
-input's :class:`StreamStatus`. What it does with faults, never raising:
+:class:`Source` is the stage's pure half: it opens and pulls nothing (the session's intake,
+:mod:`promp.live.intake`, holds the inlets and hands it what a look found, :class:`Opened`,
+and what each inlet gave, :class:`Pulled`). :meth:`Source.poll` returns what arrived since the
+last poll, on the session's clock (the transport's time correction applied), strictly
+increasing per stream, and updates each input's :class:`StreamStatus`. What it does with
+faults, never raising:
 
 * **NaN or infinite values** (or beyond :data:`promp.data.MAX_MAGNITUDE`): the sample is left
   out (``bad values``); samples not of the stream's channel count too (``wrong channels``);
@@ -29,18 +32,20 @@ input's :class:`StreamStatus`. What it does with faults, never raising:
   is re-spread at the stream's rate (:mod:`promp.live.restamp`), and how late it was is the
   stream's recent lateness (:meth:`Source.lateness`), against which the time base judges a
   pause in its stamps;
-* **vanished**: the outlet is gone; the stream is looked for again (:meth:`Source.open_missing`,
-  on the session's resolver thread) and, found, is ``back`` (the same outlet) or
+* **vanished**: the outlet is gone; the stream is looked for again (:meth:`Source.wanted`,
+  by the session's resolver thread) and, found, is ``back`` (the same outlet) or
   ``restarted`` (a new one), or ``wrong channels`` when it no longer has the mapping's channels
-  (it is then not used: the mapping would read the wrong values).
+  (it is then not used: the mapping would read the wrong values, and that stream is not
+  opened again).
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -48,7 +53,7 @@ from promp.data import MAX_MAGNITUDE
 from promp.live.inputs import Channels, LiveInput, channels_of
 from promp.live.restamp import Respread
 from promp.live.status import Condition, LiveEvent, StreamStatus
-from promp.live.transport import Inlet, Selector, StreamDescription, StreamLost, Transport
+from promp.live.transport import Selector, StreamDescription
 
 __all__ = [
     "BAD_DETAIL",
@@ -57,12 +62,15 @@ __all__ = [
     "CLEAN_S",
     "JUMP_S",
     "LiveInput",
+    "Opened",
+    "Pulled",
     "RATE_TOLERANCE",
     "RATE_WINDOW_S",
     "Source",
     "SourceBatch",
     "STALL_MIN_S",
     "STALL_STEPS",
+    "Wanted",
 ]
 
 JUMP_S = 0.25
@@ -96,13 +104,51 @@ class SourceBatch:
     broken: set[str]
 
 
+@dataclass(frozen=True)
+class Wanted:
+    """A stream to look for: feed ``feed``'s (its ``selector``; a marker stream or not), but
+    not the stream of uid ``refused`` (it lacked the mapping's channels)."""
+
+    feed: int
+    selector: Selector
+    markers: bool
+    refused: str = ""
+
+
+@dataclass(frozen=True)
+class Opened:
+    """What a look found for feed ``feed``: its ``stream`` opened (``problem`` empty), or
+    why not (``stream`` None, or a stream that could not be opened)."""
+
+    feed: int
+    stream: StreamDescription | None
+    problem: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class Pulled:
+    """What an inlet gave: ``times`` (n,) on the session's clock and ``values`` (n,
+    n_channels) (a marker stream's: n labels), or ``lost`` (its outlet is gone)."""
+
+    times: np.ndarray
+    values: np.ndarray | list[str]
+    lost: bool = False
+    LOST: ClassVar[Pulled]
+    NOTHING: ClassVar[Pulled]
+
+
+Pulled.LOST = Pulled(np.zeros(0), [], lost=True)
+Pulled.NOTHING = Pulled(np.zeros(0), [])
+
+
 @dataclass(eq=False)
 class _Feed:
     """One input's (or the marker stream's) connection and what is known of its samples."""
 
     selector: Selector
     inputs: tuple[LiveInput, ...]  # none: the marker stream
-    inlet: Inlet | None = None
+    connected: bool = False  # its stream's samples are read
+    width: int = 0  # its stream's channels
     channels: tuple[Channels, ...] = ()
     uid: str = ""
     rejected: str = ""  # the uid of a stream without the mapping's channels
@@ -138,31 +184,20 @@ class Source:
     Parameters
     ----------
     inputs : sequence of LiveInput
-    transport : Transport
     markers : Selector, optional
         The marker stream (``start CLASS`` / ``end CLASS``).
-    own : callable, optional
-        The source ids of the streams the session itself publishes, now: never opened (a
-        selector such as ``type=Markers`` would otherwise read the session's own events back,
-        each event about a marker becoming the next marker).
+    now : float
+        The session's clock at the start (seconds).
     """
 
-    def __init__(
-        self,
-        inputs: Sequence[LiveInput],
-        transport: Transport,
-        markers: Selector | None = None,
-        own: Callable[[], frozenset[str]] = frozenset,
-    ):
+    def __init__(self, inputs: Sequence[LiveInput], markers: Selector | None = None,
+                 now: float = 0.0):  # fmt: skip
         names = [i.name for i in inputs]
         if not inputs:
             raise ValueError("a live session needs at least one input (--in NAME=STREAM:...)")
         if len(set(names)) != len(names):
             raise ValueError(f"a modality is given twice among the inputs {names}")
         self.inputs = tuple(inputs)
-        self.transport = transport
-        self._own = own
-        now = transport.clock()
         # inputs of one stream share its inlet
         selectors = list(dict.fromkeys(i.selector for i in inputs))
         self._feeds = [_Feed(sel, tuple(i for i in inputs if i.selector == sel))
@@ -176,68 +211,31 @@ class Source:
 
     # ------------------------------------------------------------------ connecting
 
-    def missing(self) -> tuple[int, ...]:
-        """The feeds without an inlet (what the resolver looks for)."""
-        return tuple(k for k, f in enumerate(self._feeds) if f.inlet is None)
+    def wanted(self) -> tuple[Wanted, ...]:
+        """The feeds whose stream is not read (what the resolver looks for)."""
+        return tuple(Wanted(k, f.selector, not f.inputs, f.rejected)
+                     for k, f in enumerate(self._feeds) if not f.connected)  # fmt: skip
 
-    def open_missing(
-        self, streams: Sequence[StreamDescription], wanted: Sequence[int]
-    ) -> list[tuple[int, Inlet | None, StreamDescription | None, str]]:
-        """Open inlets for the feeds ``wanted`` among ``streams`` (a find's answer); returns
-        ``(feed, inlet, stream, problem)`` for each: an inlet, or None and why. Safe on
-        another thread: it reads only what does not change (the inputs); :meth:`adopt` hands
-        the inlets to the feeds."""
-        out = []
-        own = self._own()
-        for k in wanted:
-            feed = self._feeds[k]
-            markers = not feed.inputs
-            selected = [s for s in streams
-                        if feed.selector.matches(s) and s.is_markers == markers]  # fmt: skip
-            matching = [s for s in selected if s.source_id not in own]
-            if not matching:
-                if selected:
-                    out.append((k, None, None, f"{selected[0].name} is this session's own "
-                                               "output, not read back"))  # fmt: skip
-                continue
-            uids = {s.uid for s in matching}
-            if len(uids) > 1:
-                names = ", ".join(s.summary() for s in matching)
-                out.append((k, None, None, f"several streams match: {names}; name one by "
-                                           "source_id=ID"))  # fmt: skip
-                continue
-            stream = matching[0]
-            if stream.uid == feed.rejected:
-                continue
-            try:
-                inlet = self.transport.open(stream)
-            except StreamLost as exc:
-                out.append((k, None, stream, str(exc)))
-                continue
-            out.append((k, inlet, inlet.description, ""))
-        return out
+    def connected(self) -> frozenset[int]:
+        """The feeds whose stream is read (the intake keeps their inlets open)."""
+        return frozenset(k for k, f in enumerate(self._feeds) if f.connected)
 
-    def adopt(self, opened: Sequence[tuple[int, Inlet | None, StreamDescription | None, str]]
-              ) -> list[LiveEvent]:  # fmt: skip
-        """Give the feeds the inlets :meth:`open_missing` opened (on the polling thread)."""
-        now = self.transport.clock()
+    def adopt(self, opened: Sequence[Opened], now: float) -> list[LiveEvent]:
+        """Take the streams a look opened (:class:`Opened`): a feed reads one unless it lacks
+        the mapping's channels (refused: the intake closes it)."""
         events = []
-        for k, inlet, stream, problem in opened:
+        for k, stream, problem in ((o.feed, o.stream, o.problem) for o in opened):
             feed = self._feeds[k]
-            if feed.inlet is not None:  # found twice: keep the first
-                if inlet is not None:
-                    inlet.close()
+            if feed.connected:  # found twice: keep the first
                 continue
-            if inlet is None:  # a vanished stream still listed a while stays vanished
+            if stream is None or problem:  # a vanished stream still listed stays vanished
                 if feed.status is None or feed.status.condition is not Condition.VANISHED:
                     events += self._set(feed, Condition.WAITING, now, problem)
                 continue
-            assert stream is not None
             if feed.inputs:
                 try:
                     feed.channels = tuple(channels_of(i, stream) for i in feed.inputs)
                 except ValueError as exc:
-                    inlet.close()
                     feed.rejected = stream.uid
                     events += self._set(feed, Condition.WRONG_CHANNELS, now, str(exc))
                     continue
@@ -245,7 +243,8 @@ class Source:
             condition = Condition.OK
             if was is Condition.VANISHED or feed.uid:
                 condition = Condition.BACK if stream.uid == feed.uid else Condition.RESTARTED
-            feed.inlet, feed.uid, feed.arrival = inlet, stream.uid, now
+            feed.connected, feed.width = True, stream.n_channels
+            feed.uid, feed.arrival = stream.uid, now
             feed.rate, feed.recent = max(stream.rate, 0.0), deque()
             feed.spread = Respread(feed.rate)  # a declared rate only: an irregular one is not
             feed.last, feed.stamp, feed.shift = -math.inf, -math.inf, 0.0
@@ -254,22 +253,21 @@ class Source:
 
     # ------------------------------------------------------------------ polling
 
-    def poll(self) -> SourceBatch:
-        """What arrived since the last poll (see the module docstring)."""
-        now = self.transport.clock()
+    def poll(self, pulled: Mapping[int, Pulled], now: float) -> SourceBatch:
+        """What arrived since the last poll: ``pulled``, each connected feed's samples (by
+        its index; a feed absent gave none), at ``now`` (see the module docstring)."""
         batch = SourceBatch({}, [], [], set())
-        for feed in self._feeds:
-            if feed.inlet is None:
+        for k, feed in enumerate(self._feeds):
+            if not feed.connected:
                 continue
-            try:
-                times, values = feed.inlet.pull()
-            except StreamLost:
-                feed.inlet.close()
-                feed.inlet = None
+            got = pulled.get(k, Pulled.NOTHING)
+            if got.lost:
+                feed.connected = False
                 batch.events += self._set(feed, Condition.VANISHED, now, "its outlet is gone; "
                                           "looking for it again")  # fmt: skip
                 batch.broken.update(feed.names)
                 continue
+            times, values = got.times, got.values
             if len(times) == 0:
                 batch.events += self._check_stall(feed, now)
                 if feed.inputs:
@@ -288,7 +286,7 @@ class Source:
                  batch: SourceBatch) -> None:  # fmt: skip
         feed.received += times.shape[0]
         feed.heard = now  # a stream that sends bad values is not stalled
-        width = feed.inlet.description.n_channels if feed.inlet is not None else 0
+        width = feed.width
         if values.ndim != 2 or values.shape[1] != width or times.ndim != 1 \
                 or values.shape[0] != times.shape[0]:  # fmt: skip
             feed.left_out += times.shape[0]
@@ -428,25 +426,12 @@ class Source:
         going back)."""
         return {f.label: (f.received, f.left_out) for f in self._feeds}
 
-    def lateness(self, name: str) -> float:
-        """How far input ``name``'s late samples were moved back lately (s; 0: on time)."""
+    def lateness(self, name: str, now: float) -> float:
+        """How far input ``name``'s late samples were moved back in the
+        :data:`promp.live.restamp.LATE_WINDOW_S` before ``now`` (s; 0: on time)."""
         feed = next(f for f in self._feeds if name in f.names)
-        return feed.spread.lateness(self.transport.clock())
+        return feed.spread.lateness(now)
 
     def nominal_rate(self, name: str) -> float:
         """The rate input ``name``'s stream is believed to run at (Hz; 0 while unknown)."""
         return next(f.rate for f in self._feeds if name in f.names)
-
-    def close(self) -> None:
-        for feed in self._feeds:
-            if feed.inlet is not None:
-                feed.inlet.close()
-                feed.inlet = None
-
-    def find_and_adopt(self, wait: float) -> list[LiveEvent]:
-        """Look for the missing feeds' streams and take them (both on this thread)."""
-        wanted = self.missing()
-        if not wanted:
-            return []
-        return self.adopt(self.open_missing(self.transport.find(wait), wanted))
-

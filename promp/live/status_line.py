@@ -9,8 +9,11 @@ __all__ = ["status_line"]
 
 def status_line(snap: LiveSnapshot, predictions_per_s: float) -> str:
     """``movement 3 (1.24 s, 310 rows): top 0.91 · phase 0.62 [0.55-0.70] · ends in 0.48 s
-    [0.31-0.70] · 58 predictions/s · streams ok``."""
+    [0.31-0.70] · 58 predictions/s · streams ok`` (or what is wrong with a stream or a
+    sink)."""
     unhealthy = [s.message(snap.time) for s in snap.statuses if not s.healthy]
+    unhealthy += [f"sink {s.name!r} " + (f"failing ({s.error})" if s.failing else "behind")
+                  for s in snap.sinks if not s.healthy]  # fmt: skip
     streams = "streams ok" if not unhealthy else "; ".join(unhealthy)
     p = snap.prediction
     if snap.movement is None:

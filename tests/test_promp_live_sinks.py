@@ -1,0 +1,308 @@
+"""A live session's sinks (promp.live.sinks): the prediction outlets, the events outlet, the
+recorder and its journal, a prediction callback. Each one raises, blocks (until the test
+releases it), or finds the disk full (OSError ENOSPC, after writing part of its data), and the
+session keeps predicting through each fault; the fault is said once when it starts and once
+when it ends, never once per output; what a sink was given while it blocked is delivered
+(the recorder: nothing lost) or dropped and counted (the outlets, the callback); a journal
+that hit a full disk holds whole rows only. A failing events outlet, whose failure was an
+event for it to publish, once made a step loop for ever: it is a test of its own."""
+
+from __future__ import annotations
+
+import errno
+import os
+import threading
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+import promp.live.journal
+import promp.live.sinks
+from promp.live.journal import read_journal
+from promp.live.outlets import PredictionOutlets, outlet_specs
+from promp.live.recorder import Recorder
+from promp.live.session import LiveOptions, LiveSession
+from promp.live.sinks import CallbackSink
+from tests.live_fakes import FakeStream, FakeTransport, hand_model
+
+RATE = 100.0
+SINKS = ("prediction outlets", "events outlet", "recorder", "prediction callback")
+FAULTS = ("raises", "blocks", "disk full")
+LIMIT_S = 120.0  # a generous bound on work that takes well under a second: past it, a hang
+
+
+class Fault:
+    """A fault switched on and off at a sink's operation (``hit``)."""
+
+    def __init__(self, kind: str):
+        self.kind = kind
+        self.on = False
+        self.release = threading.Event()
+        self.blocked = threading.Event()
+
+    def hit(self) -> None:
+        if not self.on:
+            return
+        if self.kind == "raises":
+            raise RuntimeError("the sink broke")
+        if self.kind == "disk full":
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        self.blocked.set()
+        assert self.release.wait(LIMIT_S), "the test never released the sink"
+
+
+class FullDisk:
+    """The journal's ``os``: a write while the fault is on writes half its data, then fails
+    as a full disk does (or raises, or blocks)."""
+
+    def __init__(self, fault: Fault):
+        self.fault = fault
+
+    def __getattr__(self, name):
+        return getattr(os, name)
+
+    def write(self, fd: int, data: bytes) -> int:
+        if self.fault.on and self.fault.kind == "disk full":
+            os.write(fd, data[: len(data) // 2])
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        self.fault.hit()
+        return os.write(fd, data)
+
+
+class LosslessWitness(CallbackSink):
+    """A healthy sink that never drops: every prediction the session made reaches it."""
+
+    lossless = True
+
+
+class Rig:
+    """A session in call mode over a 100 Hz hand stream with every sink, ``faulty`` one of
+    them, and a lossless witness of the predictions."""
+
+    def __init__(self, tmp_path, monkeypatch, faulty: str, fault: Fault):
+        self.transport = FakeTransport()
+        self.stream = self.transport.add(FakeStream("Hand", ("x", "y", "z"), rate=RATE))
+        model = hand_model()
+        outlets = PredictionOutlets(outlet_specs(model, "icub", None), self.transport.outlet)
+        kind = {"prediction outlets": "icub-probabilities", "events outlet": "icub-events"}
+        if faulty in kind:
+            outlet = self.transport.outlets[kind[faulty]]
+            push = outlet.push
+
+            def faulty_push(rows, stamp):
+                fault.hit()
+                push(rows, stamp)
+
+            outlet.push = faulty_push
+        if faulty == "recorder":
+            monkeypatch.setattr(promp.live.journal, "os", FullDisk(fault))
+        self.called: list = []
+
+        def callback(prediction):
+            if faulty == "prediction callback":
+                fault.hit()
+            self.called.append(prediction)
+
+        self.witness: list = []
+        self.recorder = Recorder(tmp_path, ("x", "y", "z"))
+        self.session = LiveSession(model, ["hand=Hand:0,1,2"], self.transport,
+                                   LiveOptions(start="call"), outlets=outlets,
+                                   recorder=self.recorder, on_prediction=callback,
+                                   sinks=[LosslessWitness(self.witness.append, "witness")])
+        self.session.connect()
+        self.session.step()
+        self.stamp = self.transport.now
+        self.wait = False  # whether each step waits for the sinks (while they are healthy)
+
+    def push(self, n: int) -> None:
+        """``n`` samples in real time (a slow circle, metres), a step every third."""
+        for k in range(n):
+            self.transport.now += 1 / RATE
+            self.stamp += 1 / RATE
+            t = self.stamp
+            self.stream.push([t], np.array([[0.1 * np.cos(t), 0.1 * np.sin(t), 0.0]]))
+            if k % 3 == 2 or k == n - 1:
+                self.session.step()
+                if self.wait:
+                    self.session.flush()
+
+    def movement(self, n: int) -> None:
+        """A movement of ``n`` samples, begun and ended by calls."""
+        self.session.begin()
+        self.push(n)
+        self.session.end(self.stamp)
+        self.push(3)
+
+    def texts(self, name: str) -> list[str]:
+        return [e.text for e in self.session.snapshot().events if e.text.startswith(
+            f"sink {name!r}")]  # fmt: skip
+
+
+def within(work, what: str) -> None:
+    """Run ``work`` on a thread; fail (not hang) when it does not end in :data:`LIMIT_S`."""
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            work()
+        except BaseException as exc:  # noqa: BLE001 (the test's thread reports it)
+            errors.append(exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(LIMIT_S)
+    assert not thread.is_alive(), f"{what} did not end: the session stalled"
+    if errors:
+        raise errors[0]
+
+
+def script(rig: Rig, fault: Fault) -> tuple[int, int]:
+    """Movement 1 healthy, then with the fault on: movement 1 goes on and ends, 2 and 3 come
+    and go; the fault off (released), movement 4. The predictions before and during the
+    fault. While the sinks are healthy, each step waits for them (a queue of 4 then never
+    fills on a busy machine); while one is faulty, none does."""
+    session = rig.session
+    session.begin()
+    rig.wait = True
+    rig.push(30)
+    session.flush()
+    before = session.snapshot().predictions
+    fault.on, rig.wait = True, False
+
+    def faulty_part() -> None:
+        rig.push(30)
+        session.end(rig.stamp)
+        rig.push(3)
+        rig.movement(15)
+        rig.movement(15)
+
+    within(faulty_part, f"predicting while the sink is faulty ({fault.kind})")
+    during = session.snapshot().predictions - before
+    if fault.kind == "blocks":  # it took an output, and holds it
+        assert fault.blocked.wait(LIMIT_S) and not session.flush(0.0)
+    fault.on = False
+    fault.release.set()
+    assert session.flush()
+    rig.wait = True
+    rig.movement(30)
+    assert session.flush()
+    return before, during
+
+
+HEALTHY: dict = {}
+
+
+def healthy_predictions(tmp_path, monkeypatch) -> list[tuple[int, int]]:
+    """What the script predicts with every sink healthy: (movement, rows) of each."""
+    if not HEALTHY:
+        rig = Rig(tmp_path / "healthy", monkeypatch, "none", Fault("raises"))
+        HEALTHY["counts"] = script(rig, Fault("raises"))
+        HEALTHY["predictions"] = [(p.movement, p.n_observed) for p in rig.witness]
+        rig.session.close()
+    return HEALTHY["predictions"]
+
+
+@pytest.mark.parametrize("kind", FAULTS)
+@pytest.mark.parametrize("faulty", SINKS)
+def test_a_faulty_sink_never_stalls_the_session(tmp_path, monkeypatch, faulty, kind) -> None:
+    healthy = healthy_predictions(tmp_path, monkeypatch)
+    if kind == "blocks":
+        monkeypatch.setattr(promp.live.sinks, "QUEUE_OUTPUTS", 4)  # falls behind sooner
+    fault = Fault(kind)
+    rig = Rig(tmp_path, monkeypatch, faulty, fault)
+    counts = script(rig, fault)
+    snap = rig.session.snapshot()
+    # the same predictions as with every sink healthy, each handed on
+    assert counts == HEALTHY["counts"] and counts[1] >= 15
+    assert [(p.movement, p.n_observed) for p in rig.witness] == healthy
+    assert [p.seq for p in rig.witness] == list(range(1, snap.predictions + 1))
+    said = rig.texts(faulty)
+    if kind == "blocks":
+        assert [t.split(":")[0].split(" (")[0] for t in said] == [
+            f"sink {faulty!r} fell behind", f"sink {faulty!r} caught up"], said
+    else:
+        assert len(said) == 2 and said[0].endswith(("RuntimeError: the sink broke",
+                                                    "No space left on device"))  # fmt: skip
+        assert "works again" in said[1], said
+    state = next(s for s in snap.sinks if s.name == faulty)
+    assert state.healthy and (state.failures > 0) == (kind != "blocks")
+    check_the_sink_works_again(rig, faulty, kind, snap)
+    rig.session.close()
+
+
+def check_the_sink_works_again(rig: Rig, faulty: str, kind: str, snap) -> None:
+    """Movement 4 (after the fault) reached the faulty sink whole."""
+    last = [p for p in rig.witness if p.movement == 4]
+    assert last
+    if faulty == "prediction outlets":
+        rows = rig.transport.outlets["icub-probabilities"].pushed
+        assert [int(r[0][0, 0]) for r in rows[-len(last):]] == [p.seq for p in last]
+    elif faulty == "events outlet":
+        texts = [r[0][0] for r in rig.transport.outlets["icub-events"].pushed]
+        assert "movement 4 ended (ended)" in texts
+    elif faulty == "prediction callback":
+        assert rig.called[-len(last):] == last
+    else:
+        check_the_journals(rig, kind, snap)
+
+
+def check_the_journals(rig: Rig, kind: str, snap) -> None:
+    """Every movement's journal holds whole rows, the first of the movement's: all of them
+    when the recorder only blocked (a lossless sink), and for movement 4."""
+    recorded = {r.number: r for r in snap.recorded}
+    assert 4 in recorded
+    for movement in snap.ended:
+        path = rig.recorder.journal_path(movement.number)
+        if kind != "blocks" and movement.number in (2, 3) and not path.exists():
+            continue  # born and ended while the disk was full: nothing acknowledged
+        demo, header = read_journal(path)  # raises on a torn row
+        n = demo.n_samples
+        assert_allclose(demo.times + header["start"], movement.times[:n], rtol=0, atol=1e-12)
+        assert_array_equal(demo.values, movement.values[:n])
+        if kind == "blocks" or movement.number == 4:
+            assert n == len(movement) and movement.number in recorded
+
+
+class Runaway(BaseException):
+    """Raised by the events outlet past any sane number of calls: ends a runaway loop (it
+    escapes ``except Exception``) instead of filling the memory."""
+
+
+def test_a_failing_events_outlet_does_not_hang_the_session() -> None:
+    """The events outlet's failure used to be appended, as an event, to the list of events the
+    step was publishing: the step published it, failed again, and never ended (10 000 calls
+    here in the first step). Now a step hands its events to the outlet's own thread and says
+    the failure once."""
+    transport = FakeTransport()
+    stream = transport.add(FakeStream("Hand", ("x", "y", "z"), rate=RATE))
+    outlets = PredictionOutlets(outlet_specs(hand_model(), "icub", None), transport.outlet)
+    calls = []
+
+    def broken(rows, stamp):
+        calls.append(rows)
+        if len(calls) > 10_000:
+            raise Runaway
+        raise OSError("the events outlet is down")
+
+    transport.outlets["icub-events"].push = broken
+    session = LiveSession(hand_model(), ["hand=Hand:0,1,2"], transport,
+                          LiveOptions(start="call"), outlets=outlets)  # fmt: skip
+    session.connect()
+
+    def run() -> None:
+        session.begin()
+        for _ in range(10):
+            transport.now += 0.05
+            stream.push(transport.now - np.arange(5)[::-1] * 0.01,
+                        np.random.default_rng(0).normal(size=(5, 3)) * 0.01)  # fmt: skip
+            session.step()
+        session.flush()
+
+    within(run, "stepping with a failing events outlet")
+    snap = session.snapshot()
+    assert snap.predictions >= 5 and len(calls) < 100
+    said = [e.text for e in snap.events if "events outlet" in e.text]
+    assert said == ["sink 'events outlet' failed: OSError: the events outlet is down"]
+    assert len(transport.outlets["icub-probabilities"].pushed) == snap.predictions
+    session.close()
