@@ -8,7 +8,10 @@ Teach (:func:`prior_shape`): the weights of a new movement of the primitive, wha
 (:func:`shaped_posterior`): the posterior of the recognised primitive given the observation
 (Eq. 8), conditioned on that primitive's via-points as well. A region is where a share of the
 movements' samples are at each moment (:mod:`promp.region`: the weights through the basis, plus
-the samples' noise); the tubes draw it at the probability of the tube style.
+the samples' noise); the tubes draw it at the probability of the tube style. Teach's is
+calibrated: its radius times the primitive's factor (:func:`promp.region.region_scale`, chosen
+by the fit so that it holds its stated share of held-out demonstrations); Infer's posterior
+keeps the Gaussian's (the factor is learned of a new movement, not of one observed in part).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from promp.region import (
     SampleDistribution,
     coverage,
     new_movement,
+    region_scale,
     sample_distribution,
     sample_noise_var,
 )
@@ -38,13 +42,18 @@ PATH_POINTS = 60  # samples of a predicted path
 
 
 def region_of(
-    model: ProMPModel, weights: Gaussian | Posterior, modality: str, n_points: int = TUBE_POINTS
+    model: ProMPModel,
+    weights: Gaussian | Posterior,
+    modality: str,
+    n_points: int = TUBE_POINTS,
+    scale: float = 1.0,
 ) -> SampleDistribution:
     """The region of ``modality``'s samples on ``n_points`` phases over [0, 1], for the
-    weights ``weights`` (with the samples' noise)."""
+    weights ``weights`` (with the samples' noise), its radius times ``scale``."""
     noise = sample_noise_var(model, model.primitives[0])  # shared by the primitives
     phases = np.linspace(0.0, 1.0, n_points)
-    return sample_distribution(model, weights, model.layout.dims([modality]), phases, noise)
+    dims = model.layout.dims([modality])
+    return sample_distribution(model, weights, dims, phases, noise, scale)
 
 
 def shaped(
@@ -92,7 +101,10 @@ class PriorShape:
         return predict(model, self.weights, self.alpha, n_points)
 
     def region(self, model: ProMPModel, modality: str, n_points: int = TUBE_POINTS):
-        return region_of(model, self.weights, modality, n_points)
+        """The region of a new movement in ``modality``, calibrated (its radius times the
+        primitive's factor, :func:`promp.region.region_scale`)."""
+        scale = region_scale(model.primitive(self.name), modality)
+        return region_of(model, self.weights, modality, n_points, scale)
 
 
 def prior_shape(
