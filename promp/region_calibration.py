@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
@@ -43,9 +43,6 @@ from promp.quality import winsorized
 from promp.region import DEFAULT_PROBABILITY, region_radius, sample_noise_var
 from promp.timing import demo_phases
 
-if TYPE_CHECKING:  # the fit calls this module: its parts are only read
-    from promp.fitting import FitParts
-
 __all__ = ["MIN_DEMOS", "calibrate", "held_out_distances"]
 
 MIN_DEMOS = 3  # each left out, two remain to spread a Gaussian
@@ -53,7 +50,7 @@ MIN_DEMOS = 3  # each left out, two remain to spread a Gaussian
 
 def calibrate(
     model: ProMPModel,
-    parts: Sequence[FitParts],
+    parts: Sequence[Any],
     dataset: Mapping[str, Sequence[Demonstration]],
     probability: float = DEFAULT_PROBABILITY,
 ) -> ProMPModel:
@@ -67,8 +64,9 @@ def calibrate(
     ----------
     model : ProMPModel
         Fitted on ``dataset``.
-    parts : sequence of FitParts
-        Its fit's parts, one per primitive (:func:`promp.fitting.fit_parts`).
+    parts : sequence of promp.fitting.FitParts
+        Its fit's parts, one per primitive (:func:`promp.fitting.fit_parts`; not imported
+        here: the fit calls this module).
     dataset : mapping of str to sequence of Demonstration
         What ``model`` was fitted on, in its primitives' order.
     """
@@ -89,14 +87,14 @@ def calibrate(
 def held_out_distances(
     model: ProMPModel,
     prim: Primitive,
-    part: FitParts,
+    part: Any,
     demos: Sequence[Demonstration],
     modality: str,
 ) -> np.ndarray:
     """The squared Mahalanobis distance of every sample of every one of ``demos`` (``prim``'s
-    training demonstrations, in order) in ``modality`` to the region of ``prim`` learned
-    without that demonstration (unscaled, with the samples' noise), concatenated: shape
-    (total samples,)."""
+    training demonstrations, in order; ``part`` its :class:`promp.fitting.FitParts`) in
+    ``modality`` to the region of ``prim`` learned without that demonstration (unscaled, with
+    the samples' noise), concatenated: shape (total samples,)."""
     m = model.basis.n_basis
     dims = model.layout.dims([modality])
     cols = (dims[:, None] * m + np.arange(m)).reshape(-1)
@@ -124,7 +122,7 @@ def held_out_distances(
 
 
 def _covariance(
-    part: FitParts, cols: np.ndarray, left_out: tuple[np.ndarray, int] | None
+    part: Any, cols: np.ndarray, left_out: tuple[np.ndarray, int] | None
 ) -> np.ndarray:
     """The covariance of the weights ``cols`` as the fit's rule gives it (before its floor and
     compression): the whole primitive's (``left_out`` None) or without one demonstration

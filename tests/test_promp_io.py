@@ -110,7 +110,7 @@ def _mutated(model, change) -> dict:
 @pytest.mark.parametrize(
     "change, message",
     [
-        (lambda d: d.update(version=4), "unsupported model version 4"),
+        (lambda d: d.update(version=5), "unsupported model version 5"),
         (lambda d: d["primitives"][0]["stillness"]["hand"].update(pause=[0.1]),
          r"stillness 'hand' pause.*shape"),
         (lambda d: d["primitives"][0]["stillness"]["hand"]["lead"].__setitem__(0, -1.0),
