@@ -95,8 +95,8 @@ def test_the_line_beside_the_tubes_says_what_they_are() -> None:
     calibrated = {"a": Coverage(45, 50, 0.9, 1.31), "b": Coverage(90, 100, 0.9, 0.85)}
     assert measured_sentence(calibrated) == (
         "Inside the 90 % tubes, measured: a 90 %, b 90 % of their demonstrations' samples. "
-        "Each tube's width is calibrated to hold that share of its primitive's takes, each left "
-        "out in turn (one Gaussian does not hold how takes vary in their timing within the "
+        "Each tube's width is calibrated to hold 90 % of its primitive's takes, each left out "
+        "in turn (one Gaussian does not hold how takes vary in their timing within the "
         "movement): a widened ×1.31, b narrowed ×0.85."
     )
 

@@ -118,8 +118,9 @@ def calibration_sentence(shares: Mapping[str, Coverage]) -> str:
         f"{escape_html(name)} {'widened' if c > 1.0 else 'narrowed'} ×{c:.2f}"
         for name, c in scaled.items()
     )
-    return (" Each tube's width is calibrated to hold that share of its primitive's takes, "
-            "each left out in turn (one Gaussian does not hold how takes vary in their timing "
+    p = percent(next(iter(shares.values())).probability)
+    return (f" Each tube's width is calibrated to hold {p} of its primitive's takes, each "
+            "left out in turn (one Gaussian does not hold how takes vary in their timing "
             f"within the movement): {parts}.")  # fmt: skip
 
 
