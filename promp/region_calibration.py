@@ -100,7 +100,7 @@ def held_out_distances(
     cols = (dims[:, None] * m + np.arange(m)).reshape(-1)
     k = dims.size
     noise = np.diag(sample_noise_var(model, prim)[dims])
-    full = _covariance(part, cols, None)
+    base = prim.cov[np.ix_(cols, cols)] - _covariance(part, cols, None)  # the floor's part
     logs = np.log(np.asarray(prim.alphas, dtype=float))
     out = []
     for j, demo in enumerate(demos):
@@ -109,7 +109,7 @@ def held_out_distances(
         v_a = float(np.var(others, ddof=1))
         # the regression predicts at the whole set's typical speed; the refit's is the others'
         mean_j = mean_j + (float(others.mean()) - prim.log_alpha_mean) * slope_j
-        sigma = prim.cov[np.ix_(cols, cols)] + _covariance(part, cols, (drop, dof)) - full
+        sigma = base + _covariance(part, cols, (drop, dof))
         sigma = sigma + v_a * np.outer(slope_j[cols], slope_j[cols])
         phi = model.basis(demo_phases(demo.times))  # (n, M)
         blocks = sigma.reshape(k, m, k, m)
