@@ -40,6 +40,7 @@ from promp.data import Demonstration, Layout
 from promp.model import STILL_PARTS, Primitive, ProMPModel, Settings
 from promp.noise import estimate_noise
 from promp.quality import winsorized
+from promp.region_calibration import calibrate
 from promp.scale import RELATIVE_FLOOR
 from promp.stillness import still_parts
 from promp.timing import alpha_from_duration
@@ -193,8 +194,10 @@ def fit_with(
 ) -> ProMPModel:
     """:func:`promp.learn.fit` with every setting given (no choice) and the sample period
     ``dt`` (s); without ``alpha_models`` the primitives have no Eq. 7 models (they are not
-    needed to recognise with the "ml" alpha)."""
-    return fit_parts(dataset, layout, settings, dt, alpha_models)[0]
+    needed to recognise with the "ml" alpha). Each primitive's region is calibrated on its
+    own demonstrations left out in turn (:func:`promp.region_calibration.calibrate`)."""
+    model, parts = fit_parts(dataset, layout, settings, dt, alpha_models)
+    return calibrate(model, parts, dataset)
 
 
 def fit_parts(

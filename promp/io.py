@@ -1,11 +1,11 @@
 """File formats: versioned JSON for models, NPZ (or CSV, see :mod:`promp.datasets`) for
 demonstrations. No pickle anywhere: NPZ files are read with ``allow_pickle=False``.
 
-Model JSON, schema version 3 (versions 1 and 2 still load: see :func:`model_from_dict`)::
+Model JSON, schema version 4 (versions 1 to 3 still load: see :func:`model_from_dict`)::
 
     {
       "format": "icub-intention-studio/promp-model",
-      "version": 3,
+      "version": 4,
       "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"},
                  ...],
       "settings": {"n_basis": 7, "width": 1.0, "ridge": 1e-06, "s_bar": 100.0,
@@ -31,6 +31,9 @@ Model JSON, schema version 3 (versions 1 and 2 still load: see :func:`model_from
           "stillness": {"hand": {"lead": [...], "pause": [...], "trail": [...]}, ...}
                     # per modality in m or rad, each (n_demos,): how each demonstration is
                     # still, s: before its motion, the longest pause inside, after
+          "region_scale": {"hand": 1.3, ...}
+                    # per modality: the factor on the radius of its predictive region that
+                    # holds its stated share of its own demonstrations, each left out in turn
       }, ...]
     }
 
@@ -61,8 +64,8 @@ __all__ = [
 ]  # fmt: skip
 
 MODEL_FORMAT = "icub-intention-studio/promp-model"
-MODEL_VERSION = 3
-READABLE_VERSIONS = (1, 2, 3)
+MODEL_VERSION = 4
+READABLE_VERSIONS = (1, 2, 3, 4)
 
 
 def _has_bool(value: Any) -> bool:
@@ -146,6 +149,23 @@ def _stillness(raw: Any, layout: Layout, n_demos: int, what: str
     return out
 
 
+def _region_scale(raw: Any, layout: Layout, what: str) -> dict[str, float]:
+    """A primitive's ``region_scale``: a positive finite number per modality of ``layout``
+    it lists."""
+    if not isinstance(raw, Mapping):
+        raise ValueError(f"{what} region_scale: expected an object")
+    out = {}
+    for name, value in raw.items():
+        if name not in layout.names:
+            raise ValueError(f"{what} region_scale: {name!r} is not a modality of the layout")
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"{what} region_scale {name!r}: expected a number")
+        if not np.isfinite(value) or value <= 0:
+            raise ValueError(f"{what} region_scale {name!r}: must be positive, got {value}")
+        out[str(name)] = float(value)
+    return out
+
+
 def model_to_dict(model: ProMPModel) -> dict[str, Any]:
     """The JSON-ready description of ``model`` (schema in the module docstring)."""
     s = model.settings
@@ -190,6 +210,7 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
                 "stillness": {name: {part: np.asarray(v, dtype=float).tolist()
                                      for part, v in parts.items()}
                               for name, parts in p.stillness.items()},
+                "region_scale": {name: float(v) for name, v in p.region_scale.items()},
             }
             for p in model.primitives
         ],
@@ -207,6 +228,8 @@ def model_from_dict(data: Any) -> ProMPModel:
     (``tests/test_promp_model_format.py`` loads a file of each writer and compares the prior it
     predicts with the one that writer's code predicted):
 
+    * version 4 adds each primitive's ``region_scale`` (absent: every region keeps the radius
+      of its Gaussian, as its writer drew it);
     * version 3 adds each primitive's ``stillness`` (absent: none learned, the primitive is
       taken never to pause, its still ends unknown: the live segmenter cuts its movements as
       before);
@@ -330,6 +353,8 @@ def _primitive_from_dict(
         raise ValueError(f"{what} shrinkage: intensities must be in (0, 1]")
     stillness = _stillness(_field(p, "stillness", what) if version >= 3 else {}, layout,
                            alphas.size, what)  # fmt: skip
+    region_scale = _region_scale(_field(p, "region_scale", what) if version >= 4 else {},
+                                 layout, what)  # fmt: skip
     log_alpha_mean = _number(p, "log_alpha_mean", what)
     alpha_slope = _array(_field(p, "alpha_slope", what), f"{what} alpha_slope", (n_weights,))
     return Primitive(
@@ -345,6 +370,7 @@ def _primitive_from_dict(
         log_alpha_mean=log_alpha_mean,
         alpha_slope=alpha_slope,
         stillness=stillness,
+        region_scale=region_scale,
     )
 
 

@@ -187,6 +187,12 @@ class Primitive:
         ``lead`` before its first moving sample, the longest ``pause`` inside it, ``trail``
         after its last moving sample (:func:`promp.stillness.still_parts`). Empty for a model
         whose file predates them: it is taken never to pause, its still ends unknown.
+    region_scale : mapping of str to float
+        Per modality, the factor on the radius of the predictive region of a new movement
+        (:mod:`promp.region`) that makes it hold its stated share of the primitive's own
+        demonstrations, each left out in turn (:mod:`promp.region_calibration`). A modality
+        not listed (every one of a model whose file predates them) keeps the radius of the
+        Gaussian, 1.
     """
 
     name: str
@@ -201,6 +207,7 @@ class Primitive:
     alpha_slope: np.ndarray | None = None
     noise_tau: np.ndarray | None = None
     stillness: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
+    region_scale: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         blocks = np.asarray(self.cov_diag).reshape(np.asarray(self.noise_var).shape[0], -1)

@@ -26,8 +26,13 @@ it is 4: a region with it covered 99 % of the samples where it said 90 %).
 
 The covariance is the model's, pooled across primitives (:mod:`promp.covariance`): a primitive
 with few demonstrations borrows the others' shape, so its region may be wider (or narrower)
-than its own demonstrations' spread; :func:`coverage` measures the share of a primitive's
-samples inside its region.
+than its own demonstrations' spread. And one Gaussian over the weights holds demonstrations
+that differ in shape and overall speed, not in their timing within the movement (one that
+lingers where another hurries lies outside the Gaussian at the same phase). So the fit
+calibrates the region of each primitive and modality (:mod:`promp.region_calibration`): a
+factor ``c`` on its radius (``S`` times ``c^2``, :func:`region_scale`), the one whose region,
+learned without each of the primitive's demonstrations in turn, holds the stated share of the
+one left out. :func:`coverage` measures the share of a primitive's samples inside its region.
 """
 
 from __future__ import annotations
@@ -56,6 +61,7 @@ __all__ = [
     "modality_region",
     "new_movement",
     "region_radius",
+    "region_scale",
     "sample_distribution",
     "sample_noise_var",
     "shaped_prior",
@@ -105,6 +111,12 @@ def region_radius(probability: float, k: int) -> float:
     return float(np.sqrt(chi2.ppf(check_probability(probability), int(k))))
 
 
+def region_scale(primitive: Primitive, modality: str) -> float:
+    """The calibrated factor on the radius of ``primitive``'s region in ``modality``
+    (:attr:`promp.model.Primitive.region_scale`; 1 when it has none)."""
+    return float(primitive.region_scale.get(modality, 1.0))
+
+
 def speed_variance(primitive: Primitive) -> float:
     """The variance of the (winsorised) log alphas of the primitive's training
     demonstrations, ``v_a``; 0 with fewer than two."""
@@ -139,6 +151,7 @@ def sample_distribution(
     dims: np.ndarray | Sequence[int],
     phases: np.ndarray,
     noise_var: np.ndarray | None = None,
+    scale: float = 1.0,
 ) -> SampleDistribution:
     """The Gaussian of a sample in columns ``dims`` at each of ``phases``.
 
@@ -153,6 +166,9 @@ def sample_distribution(
     noise_var : array, shape (n_dims,), optional
         The samples' noise variance (:func:`sample_noise_var`); None: the movement itself,
         without noise.
+    scale : float
+        The factor on the region's radius (:func:`region_scale`): the covariance is multiplied
+        by its square.
     """
     dims = np.asarray(dims, dtype=int).reshape(-1)
     if dims.size == 0 or dims.min() < 0 or dims.max() >= model.n_dims:
@@ -168,7 +184,9 @@ def sample_distribution(
     cov = np.einsum("nm,dmek,nk->nde", phi, blocks, phi)
     if noise_var is not None:
         cov = cov + np.diag(np.asarray(noise_var, dtype=float)[dims])[None]
-    cov = 0.5 * (cov + cov.transpose(0, 2, 1))
+    if not np.isfinite(scale) or scale <= 0:
+        raise ValueError(f"the region's scale must be positive, got {scale}")
+    cov = 0.5 * (cov + cov.transpose(0, 2, 1)) * float(scale) ** 2
     return SampleDistribution(phases, mean, cov)
 
 
@@ -178,13 +196,16 @@ def modality_region(
     modality: str,
     n_points: int,
     primitive: Primitive | None = None,
+    scale: float = 1.0,
 ) -> SampleDistribution:
     """Where ``modality``'s samples lie under ``weights``: :func:`sample_distribution` on
     ``n_points`` phases over [0, 1], with the samples' noise of ``primitive`` (default the
-    model's first: the primitives share it)."""
+    model's first: the primitives share it), its radius times ``scale`` (a calibrated
+    factor, :func:`region_scale`)."""
     noise = sample_noise_var(model, primitive or model.primitives[0])
     phases = np.linspace(0.0, 1.0, n_points)
-    return sample_distribution(model, weights, model.layout.dims([modality]), phases, noise)
+    dims = model.layout.dims([modality])
+    return sample_distribution(model, weights, dims, phases, noise, scale)
 
 
 def mean_position(
@@ -213,11 +234,12 @@ def shaped_prior(
 @dataclass(frozen=True)
 class Coverage:
     """How many samples of some demonstrations lie inside a region: ``inside`` of ``total``,
-    at ``probability``."""
+    at ``probability``, its radius times ``scale`` (:func:`region_scale`)."""
 
     inside: int
     total: int
     probability: float
+    scale: float = 1.0
 
     @property
     def share(self) -> float:
@@ -230,11 +252,13 @@ def coverage(
     demos: Sequence[Demonstration],
     modality: str,
     probability: float = DEFAULT_PROBABILITY,
+    calibrated: bool = True,
 ) -> Coverage:
     """The samples of ``demos`` in ``modality`` inside primitive ``name``'s region of
     ``probability``, each at its own phase ``t / T`` (its time over its demonstration's
     duration): the region of a new movement (:func:`new_movement`) with the samples' noise
-    (:func:`sample_noise_var`).
+    (:func:`sample_noise_var`), its radius times the primitive's calibrated factor
+    (:func:`region_scale`; 1 without ``calibrated``).
 
     Raises
     ------
@@ -244,13 +268,14 @@ def coverage(
     primitive = model.primitive(name)
     dims = model.layout.dims([modality])
     q = region_radius(probability, dims.size) ** 2
+    scale = region_scale(primitive, modality) if calibrated else 1.0
     dist = new_movement(primitive)
     noise = sample_noise_var(model, primitive)
     inside = total = 0
     for demo in demos:
         phases = demo_phases(demo.times)
-        region = sample_distribution(model, dist, dims, phases, noise)
+        region = sample_distribution(model, dist, dims, phases, noise, scale)
         d2 = region.squared_distances(model.layout.extract(demo)[:, dims])
         inside += int(np.count_nonzero(d2 <= q))
         total += int(d2.shape[0])
-    return Coverage(inside, total, check_probability(probability))
+    return Coverage(inside, total, check_probability(probability), scale)

@@ -27,7 +27,7 @@ def test_there_is_a_file_of_every_readable_version_and_of_the_current_writer() -
     versions = {json.loads(p.read_text())["version"] for p in FILES}
     assert versions == set(READABLE_VERSIONS)
     assert MODEL_VERSION == max(READABLE_VERSIONS)
-    assert len(FILES) == 7  # the seven writers of the README: none may go missing
+    assert len(FILES) == 8  # the eight writers of the README: none may go missing
 
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: p.stem)
@@ -89,3 +89,14 @@ def test_a_file_before_version_3_learned_no_pause_and_its_movements_end_as_befor
     assert segmenter.allowed_pause() == MIN_STILL_S
     if version < 3:
         assert (rule.before, rule.after) == (MARGIN_S, MARGIN_S)
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.stem)
+def test_a_file_before_version_4_has_no_calibrated_region(path: Path) -> None:
+    """Version 4 keeps each primitive's region factor per modality; an older file has none
+    (its regions are the Gaussian's, as its writer drew them)."""
+    model = load_model(path)
+    version = json.loads(path.read_text())["version"]
+    for primitive in model.primitives:
+        assert (primitive.region_scale == {}) == (version < 4)
+        assert all(c > 0 for c in primitive.region_scale.values())

@@ -92,6 +92,13 @@ def test_the_line_beside_the_tubes_says_what_they_are() -> None:
     assert measured_sentence(shares) == (
         "Inside the 90 % tubes, measured: a 90 %, b 99 % of their demonstrations' samples."
     )
+    calibrated = {"a": Coverage(45, 50, 0.9, 1.31), "b": Coverage(90, 100, 0.9, 0.85)}
+    assert measured_sentence(calibrated) == (
+        "Inside the 90 % tubes, measured: a 90 %, b 90 % of their demonstrations' samples. "
+        "Each tube's width is calibrated to hold 90 % of its primitive's takes, each left out "
+        "in turn (one Gaussian does not hold how takes vary in their timing within the "
+        "movement): a widened ×1.31, b narrowed ×0.85."
+    )
 
 
 def test_the_outline_is_rings_and_lines_along_on_the_tube() -> None:
@@ -187,8 +194,9 @@ def test_a_workspace_is_the_span_of_every_primitives_mean_path() -> None:
 @pytest.mark.parametrize("name", ["lab-records-heights", "lab-records-flt",
                                   "lab-records-flt-shapes"])  # fmt: skip
 def test_no_prior_tube_of_the_shared_lab_sets_is_too_wide(name) -> None:
-    """The rule draws no real set's prior tube as an outline: the widest is 0.42 of its
-    workspace (flt's left tube), under the 1 of WIDER_THAN."""
+    """The rule draws no real set's prior tube as an outline: the widest is 0.47 of its
+    workspace (flt-shapes' trajH1 tube, widened x1.33 by its calibration), under the 1 of
+    WIDER_THAN."""
     from app.io.dataset_import import read_folder
     from app.ui.tube_style import prior_widths
     from promp.learn import fit

@@ -10,7 +10,10 @@ conditioned on them, at its typical speed); its regions are
 future path of the inference (:attr:`promp.evidence.Inference.positions`), with what was
 observed of it and the truth. A region is where a share of the movements' samples are at each
 moment (:mod:`promp.region`: the weights through the basis, plus the samples' noise); the tubes
-draw it at the probability of the tube style.
+draw it at the probability of the tube style. Teach's is
+calibrated: its radius times the primitive's factor (:func:`promp.region.region_scale`, chosen
+by the fit so that it holds its stated share of held-out demonstrations); Infer's posterior
+keeps the Gaussian's (the factor is learned of a new movement, not of one observed in part).
 """
 
 from __future__ import annotations
@@ -25,7 +28,14 @@ from promp.evidence import Inference
 from promp.evidence.inference import PATH_POINTS  # noqa: F401 (a path's samples: the method's)
 from promp.inference import Gaussian, Observation, Posterior, Prediction, predict
 from promp.model import ProMPModel
-from promp.region import Coverage, SampleDistribution, coverage, modality_region, shaped_prior
+from promp.region import (
+    Coverage,
+    SampleDistribution,
+    coverage,
+    modality_region,
+    region_scale,
+    shaped_prior,
+)
 from robots.icub.layout import HAND, position_modalities
 
 TUBE_POINTS = 100  # rings of a tube (fixed mesh topology)
@@ -57,8 +67,11 @@ class PriorShape:
     def region(
         self, model: ProMPModel, modality: str, n_points: int = TUBE_POINTS
     ) -> SampleDistribution:
-        """Where ``modality``'s samples lie (:func:`promp.region.modality_region`)."""
-        return modality_region(model, self.weights, modality, n_points)
+        """Where ``modality``'s samples lie (:func:`promp.region.modality_region`),
+        calibrated: its radius times the primitive's factor (:func:`promp.region.region_scale`)."""
+        primitive = model.primitive(self.name)
+        scale = region_scale(primitive, modality)
+        return modality_region(model, self.weights, modality, n_points, scale=scale)
 
 
 def prior_shape(

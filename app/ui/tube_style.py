@@ -6,7 +6,9 @@ every browser tab) at the next frame. Not written to the workspace.
 What a tube is, in one line beside it (:func:`tube_sentence`): at each moment, the stated share
 of the movements is inside it (a region in 3-D, :mod:`promp.region`), and the width of each tube
 too wide to be a band, drawn as an outline (:mod:`app.scene.tube_scale`); Teach adds the share
-of each primitive's demonstrations' samples measured inside (:func:`measured_sentence`).
+of each primitive's demonstrations' samples measured inside and how much each tube was widened
+or narrowed by its calibration on held-out takes (:func:`measured_sentence`,
+:mod:`promp.region_calibration`).
 """
 
 from __future__ import annotations
@@ -96,12 +98,30 @@ def inference_widths(result: InferResult | None, style: str) -> tuple[TubeWidth,
 
 
 def measured_sentence(shares: Mapping[str, Coverage]) -> str:
-    """The share of each primitive's demonstrations' samples measured inside its tube."""
+    """The share of each primitive's demonstrations' samples measured inside its tube, and
+    the calibration of each tube's radius (:func:`calibration_sentence`)."""
     if not shares:
         return ""
     p = percent(next(iter(shares.values())).probability)
     parts = ", ".join(f"{escape_html(name)} {c.share * 100:.0f} %" for name, c in shares.items())
-    return f"Inside the {p} tubes, measured: {parts} of their demonstrations' samples."
+    return (f"Inside the {p} tubes, measured: {parts} of their demonstrations' samples."
+            f"{calibration_sentence(shares)}")  # fmt: skip
+
+
+def calibration_sentence(shares: Mapping[str, Coverage]) -> str:
+    """Why and how much each tube of ``shares`` is wider or narrower than its Gaussian's
+    (" Each tube's width is calibrated ..."); "" when none is (too few demonstrations)."""
+    scaled = {name: c.scale for name, c in shares.items() if c.scale != 1.0}
+    if not scaled:
+        return ""
+    parts = ", ".join(
+        f"{escape_html(name)} {'widened' if c > 1.0 else 'narrowed'} ×{c:.2f}"
+        for name, c in scaled.items()
+    )
+    p = percent(next(iter(shares.values())).probability)
+    return (f" Each tube's width is calibrated to hold {p} of its primitive's takes, each "
+            "left out in turn (one Gaussian does not hold how takes vary in their timing "
+            f"within the movement): {parts}.")  # fmt: skip
 
 
 class TubeStyleControl:
