@@ -319,7 +319,7 @@ def test_when_it_acts_in_the_results_the_comparison_and_the_export(tmp_path) -> 
     dataset = make_dataset(seed=0, n_demos=3)
     store = SimpleNamespace(
         layout=LAYOUT, workspace=SimpleNamespace(root=Path("/somewhere/lab")), names=tuple(dataset),
-        learned=dataset, findings=(), left_out={},
+        learned=dataset, findings=(), left_out={}, sources=DemoSources(),
         learning_settings=lambda: Settings(**GIVEN_SETTINGS),
     )  # fmt: skip
     server = viser.ViserServer(host="127.0.0.1", port=free_port(), verbose=False)

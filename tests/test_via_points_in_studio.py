@@ -253,19 +253,23 @@ def test_in_the_infer_tab_a_via_point_shapes_the_recognised_primitive(studio, pa
     add(page)
     wait_until(lambda: len(view.state.via_points) == 1, timeout=60, what="the via-point added")
     (point,) = view.state.via_points
-    assert point.primitive == name
-    shaped = wait_until(lambda: (r := result()) and r.via_points == (point,)
-                        and studio.scene.inference.drawn.result is r and r, timeout=120,
-                        what="the prediction shaped and drawn")  # fmt: skip
-    hand = shaped.positions[0]
-    k = phase * (TUBE_POINTS - 1)
-    i = int(k)
-    centre = hand.region.mean[i] + (k - i) * (hand.region.mean[i + 1] - hand.region.mean[i])
-    assert np.linalg.norm(centre - np.asarray(point.position)) < 0.004  # the tube's mean, there
-    assert "shaped by 1 via-point" in infer.shaping.tube_note.handle.content
-    wait_until(lambda: point.id in studio.scene.vias.handles, timeout=60,
-               what="its handle in 3D")  # fmt: skip
-    view.remove_via_points([point.id])
+    try:  # the point is removed whatever fails: the module's other tests start without one
+        assert point.primitive == name
+        shaped = wait_until(lambda: (r := result()) and r.via_points == (point,)
+                            and studio.scene.inference.drawn.result is r and r, timeout=120,
+                            what="the prediction shaped and drawn")  # fmt: skip
+        hand = shaped.positions[0]
+        k = phase * (TUBE_POINTS - 1)
+        i = int(k)
+        centre = hand.region.mean[i] + (k - i) * (hand.region.mean[i + 1] - hand.region.mean[i])
+        # the tube's mean passes there: within a few of the point's 1 mm precision (2 cm away
+        # from the prior's mean before), the rings' linear interpolation included
+        assert np.linalg.norm(centre - np.asarray(point.position)) < 0.005
+        assert "shaped by 1 via-point" in infer.shaping.tube_note.handle.content
+        wait_until(lambda: point.id in studio.scene.vias.handles, timeout=60,
+                   what="its handle in 3D")  # fmt: skip
+    finally:
+        view.remove_via_points([point.id])
     wait_until(lambda: (r := result()) and r.via_points == (), timeout=120,
                what="the method's prediction again")  # fmt: skip
 
