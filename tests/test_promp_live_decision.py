@@ -10,10 +10,11 @@ import numpy as np
 
 from promp.decision import CommitRule
 from promp.learn import fit
-from promp.live.commitment import DECISION
+from promp.live.commitment import DECISION, Commitment, Committing
 from promp.live.outlets import TIMING_LABELS, PredictionOutlets, outlet_specs
 from promp.live.session import LiveOptions, LiveSession
 from promp.live.sinks import CallbackSink, Output
+from promp.live.status import LiveEvent
 from promp.model import ProMPModel, Settings
 from tests.live_fakes import FakeStream, FakeTransport, replay
 from tests.synthetic import LAYOUT, make_dataset
@@ -148,3 +149,24 @@ def test_no_decision_without_decide() -> None:
     assert all(p.committed is None for p in run.predictions)
     rows = np.vstack([row for row, _ in run.pushed("timing")])
     assert np.all(rows[:, COMMITTED] == -1)
+
+
+def test_a_failed_prediction_breaks_the_run_and_a_cut_back_one_is_not_taken() -> None:
+    """Committing alone: an update without a prediction starts the window again (the rule's
+    word), the still end's last prediction (earlier on the movement's clock) is left out
+    rather than refused, and a new movement starts from the rule's start."""
+    sure = np.array([0.95, 0.05])
+    c = Committing(RULE, ("a", "b"))
+    c, made = c.update(1, 0.00, sure, 0.0, 10.00)
+    c = c.missed(1, 0.05)
+    c, made = c.update(1, 0.10, sure, 0.1, 10.10)
+    assert made is None  # 0.1 s after the first update, but the run began again at 0.1 s
+    c, made = c.update(1, 0.15, sure, 0.2, 10.15)
+    assert made is None
+    c, made = c.update(1, 0.20, sure, 0.3, 10.20)
+    assert made == Commitment(1, 0, "a", 0.20, 0.3, 0.95, 10.20)
+    assert made.event() == LiveEvent(10.20, made.text, DECISION)
+    c, again = c.update(1, 0.12, sure, 0.3, 10.12)  # cut back: not taken, still committed
+    assert again is None and c.commitment == made
+    c, made = c.update(2, 0.00, sure[::-1], 0.0, 11.00)
+    assert made is None and c.commitment is None and c.movement == 2
