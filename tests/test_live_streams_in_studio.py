@@ -4,7 +4,7 @@ its real rate and 2.5 times faster) is listed, its mapping guessed, a wrong one 
 right one started; each movement's prediction reaches the bars and the 3D view and equals
 promp.evidence.infer on the samples pushed, and the studio's published streams carry the
 same numbers; injected faults show their status in the page; a movement recorded in Teach's
-Live takes lands in the workspace."""
+Live takes lands in the workspace; the commit rule chosen in the page says its commitment."""
 
 from __future__ import annotations
 
@@ -242,6 +242,40 @@ def test_a_replayed_demonstration_is_listed_mapped_started_and_predicted_in_the_
                                        same.timing.duration.high], rtol=0, atol=1e-9)
         checked += 1
     assert checked >= 5
+    studio.live.stop()
+    wait_until(lambda: live.run.label == "Start", what="stopped")
+
+
+def test_the_commit_rule_is_chosen_in_the_page_and_its_commitment_shown(
+    page, studio, artifacts
+) -> None:
+    panel = infer_panel(studio)
+    c, live = panel.controls, panel.lsl.controls
+    hand = Replayer(unique("CommitHand"))
+    choose(page, c.source, LSL)
+    if studio.live.running is not None:
+        click(page, "Stop")
+        wait_until(lambda: studio.live.running is None, what="the source stopped")
+    page.get_by_text(hand.name, exact=True).wait_for()
+    mapping = f"hand={hand.name}:hand_x,hand_y,hand_z"
+    row(page, "Mapping").locator("textarea").fill(mapping)
+    wait_until(lambda: live.mapping.value == mapping, what="the mapping typed")
+    assert not live.commit.value and not live.threshold.visible  # off by default
+    row(page, "Commit to a primitive").locator("input").first.dispatch_event("click")
+    wait_until(lambda: live.commit.value and live.threshold.visible, what="the rule chosen")
+    click(page, "Start")
+    page.locator(f'[data-stream="{hand.name}"][data-condition="ok"]').wait_for()
+    session = studio.live.running.session
+    assert session.state.committing.rule.threshold == live.threshold.value
+    hand.push(top_demo(1.0).select(["x", "y", "z"]) * 1000.0)
+    made = wait_until(lambda: (p := session.snapshot().prediction) is not None and p.committed,
+                      what="a commitment")  # fmt: skip
+    shown = page.locator(f'[data-committed="{made.index}"]')
+    shown.wait_for()
+    text = " ".join(shown.inner_text().split())
+    assert text.startswith(f"Movement {made.movement}: committed to {made.primitive} at "
+                           f"{made.time:.2f} s ({100 * made.phase:.0f} %)")  # fmt: skip
+    screenshot(page, artifacts / "infer_live_commit.png")
     studio.live.stop()
     wait_until(lambda: live.run.label == "Start", what="stopped")
 

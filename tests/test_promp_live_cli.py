@@ -53,6 +53,36 @@ def test_bad_input_is_refused_with_a_message(tmp_path, capsys, argv, expected) -
     assert expected in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(("argv", "expected"), [
+    (["--decide", "--decide-threshold", "0"], "--decide-threshold is a probability in (0, 1)"),
+    (["--decide", "--decide-threshold", "1"], "--decide-threshold is a probability in (0, 1)"),
+    (["--decide", "--decide-threshold", "1.5"], "--decide-threshold is a probability in (0, 1)"),
+    (["--decide", "--decide-threshold", "nan"], "--decide-threshold is a probability in (0, 1)"),
+    (["--decide", "--decide-window", "-0.1"], "--decide-window: the window is seconds"),
+    (["--decide", "--decide-window", "inf"], "--decide-window: the window is seconds"),
+    (["--decide-threshold", "0.8"], "need --decide"),
+    (["--decide-window", "0.2"], "need --decide"),
+])  # fmt: skip
+def test_a_commit_rule_outside_its_range_is_refused_before_anything_starts(
+        tmp_path, capsys, argv, expected) -> None:  # fmt: skip
+    """Refused before the model is read (it does not exist here) and before any stream."""
+    code = main(["--model", str(tmp_path / "none.json"), "--in", "hand=S:0,1,2", "--out",
+                 "robot", "--wait", "0", *argv])  # fmt: skip
+    assert code == 2
+    err = capsys.readouterr().err
+    assert expected in err and "cannot read" not in err
+
+
+def test_decide_rule_defaults_to_the_rule_s_window() -> None:
+    from promp.decision import WINDOW_S, CommitRule
+    from promp.live.cli import decide_rule
+    from promp.live.options import DECIDE_THRESHOLD
+
+    assert decide_rule(False, None, None) is None
+    assert decide_rule(True, None, None) == CommitRule(DECIDE_THRESHOLD, WINDOW_S)
+    assert decide_rule(True, 0.7, 0.0) == CommitRule(0.7, 0.0)
+
+
 def test_the_command_predicts_publishes_records_and_stops_cleanly(tmp_path) -> None:
     model = hand_model()
     save_model(tmp_path / "model.json", model)

@@ -30,6 +30,7 @@ from app.live.inference import TUBE_POINTS
 from app.live.live_takes import JOURNALS_DIR, TakeRecorder
 from app.live.lsl_mapping import MappingCheck, parse_mapping, safe_out_name
 from app.live.lsl_placement import PlacedTransport
+from promp.decision import CommitRule
 from promp.live.predictor import LivePrediction
 from promp.live.session import LiveOptions, LiveSession, LiveSnapshot, live_columns
 from promp.live.status import LiveEvent
@@ -64,6 +65,10 @@ class LiveConfig:
         The modality whose predicted remainder is published.
     rate : float
         Its rate, Hz.
+    commit : float or None
+        Commit to a primitive in each movement once its probability has stayed at or above
+        this threshold, in (0, 1), for the rule's window (:class:`promp.decision.CommitRule`,
+        :mod:`promp.live.commitment`); None: no commitment.
     """
 
     mapping: str
@@ -74,6 +79,7 @@ class LiveConfig:
     out: str = "studio"
     remainder: str | None = None
     rate: float = 50.0
+    commit: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -230,12 +236,14 @@ class LslSource:
                     raise ValueError("choose the marker stream the movements start and end by")
                 Selector.parse(config.markers)
             specs = _specs(model, config) if config.publish else None
+            rule = _commit_rule(config.commit)
             hand = next((i for i in check.inputs if i.name == HAND.name), None)
             if placement is not None and not placement.is_identity and hand is not None:
                 transport = PlacedTransport(transport, hand, placement)
             options = LiveOptions(start=config.start, markers=config.markers.strip(),
                                   alpha_method=config.alpha_method, remainder=config.remainder,
-                                  remainder_rate=config.rate, n_points=TUBE_POINTS)  # fmt: skip
+                                  remainder_rate=config.rate, n_points=TUBE_POINTS,
+                                  decide=rule)  # fmt: skip
             number = next(self._numbers)
             recorder = None
             if workspace is not None:
@@ -312,6 +320,14 @@ def _described(transport: Transport, stream: StreamDescription) -> StreamDescrip
         return inlet.description
     finally:
         inlet.close()
+
+
+def _commit_rule(threshold: float | None) -> CommitRule | None:
+    if threshold is None:
+        return None
+    if not 0.0 < threshold < 1.0:  # the rule takes 1, which a posterior may never reach
+        raise ValueError(f"the commit threshold is a probability in (0, 1), got {threshold:g}")
+    return CommitRule(threshold)
 
 
 def _specs(model: ProMPModel, config: LiveConfig):

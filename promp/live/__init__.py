@@ -13,6 +13,8 @@ with a fake upstream and a recorded stream, only the transport knowing LSL:
 * :mod:`promp.live.segmenter`: where each movement starts and ends (stillness, by the rule
   the model learned its demonstrations with, a marker stream, or calls);
 * :mod:`promp.live.predictor`: the movement so far through :func:`promp.evidence.infer`;
+* :mod:`promp.live.commitment`: with ``--decide``, :class:`promp.decision.CommitRule` on each
+  movement's predictions (the moment the robot acts);
 * sinks (:mod:`promp.live.sinks`: each on its own thread, behind a bounded queue):
   :mod:`promp.live.outlets` (the prediction as LSL streams) and :mod:`promp.live.recorder`
   (each movement a demonstration; a journal a kill cannot undo).

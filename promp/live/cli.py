@@ -19,10 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
+from promp.decision import WINDOW_S, CommitRule
+from promp.live.options import DECIDE_THRESHOLD
 from promp.live.predictor import REMAINDER_HZ
 from promp.live.segmenter import MAX_MOVEMENT_S
 
-__all__ = ["EXAMPLE", "main", "parser"]
+__all__ = ["decide_rule", "EXAMPLE", "main", "parser"]
 
 EXAMPLE = (
     "example: python -m promp.live --model model.json --in hand=MocapHand:0,1,2@mm "
@@ -71,6 +73,17 @@ def parser() -> argparse.ArgumentParser:
                    "slowest input's own samples (the others interpolated at them)")
     p.add_argument("--max-movement", type=float, default=MAX_MOVEMENT_S, metavar="S",
                    help=f"a movement is ended after this long (default {MAX_MOVEMENT_S:g} s)")
+    p.add_argument("--decide", action="store_true",
+                   help="commit to a primitive in each movement (promp.CommitRule): once the "
+                   "leading primitive's probability has stayed at or above --decide-threshold "
+                   "for --decide-window s of the movement, say it on NAME-events and in "
+                   "NAME-timing's 'committed' channel")
+    p.add_argument("--decide-threshold", type=float, default=None, metavar="P",
+                   help=f"with --decide, the probability to reach, in (0, 1) (default "
+                   f"{DECIDE_THRESHOLD:g})")
+    p.add_argument("--decide-window", type=float, default=None, metavar="S",
+                   help=f"with --decide, how long it must hold, s of the movement, at least 0 "
+                   f"(default {WINDOW_S:g})")
     p.add_argument("--record", type=Path, default=None, metavar="DIR",
                    help="also record each movement as a CSV demonstration in DIR/<class>/ "
                    "(the class its start marker names, else 'live'); journals in "
@@ -102,11 +115,12 @@ def main(argv: list[str] | None = None) -> int:
     from promp.live.session import LiveOptions, LiveSession, live_columns
 
     try:
+        rule = decide_rule(args.decide, args.decide_threshold, args.decide_window)
         model = load_model(args.model)
         options = LiveOptions(start=args.start, markers=args.markers,
                               alpha_method=args.alpha_method, remainder=args.remainder,
                               remainder_rate=args.rate, rate=args.time_base,
-                              max_movement_s=args.max_movement)  # fmt: skip
+                              max_movement_s=args.max_movement, decide=rule)  # fmt: skip
         transport = LslTransport()
         specs = outlet_specs(model, args.out, args.remainder)
         build(model, args.inputs, options)  # every refusal, before anything is opened
@@ -143,6 +157,29 @@ def main(argv: list[str] | None = None) -> int:
         summary["infer_ms_p99"] = round(float(np.percentile(ms, 99)), 2)
     print(json.dumps(summary), flush=True)
     return 0
+
+
+def decide_rule(decide: bool, threshold: float | None, window: float | None
+                ) -> CommitRule | None:  # fmt: skip
+    """The commit rule of ``--decide`` (None without it), its defaults filled in.
+
+    Raises
+    ------
+    ValueError
+        A threshold outside (0, 1), a window that is negative or not finite, or either without
+        ``--decide``.
+    """
+    if not decide:
+        if threshold is not None or window is not None:
+            raise ValueError("--decide-threshold and --decide-window need --decide")
+        return None
+    threshold = DECIDE_THRESHOLD if threshold is None else float(threshold)
+    if not 0.0 < threshold < 1.0:  # the rule takes 1, but a posterior may never reach it
+        raise ValueError(f"--decide-threshold is a probability in (0, 1), got {threshold:g}")
+    try:
+        return CommitRule(threshold, WINDOW_S if window is None else window)
+    except ValueError as exc:
+        raise ValueError(f"--decide-window: {exc}") from None
 
 
 def _interrupt(signum, frame) -> None:

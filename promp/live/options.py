@@ -11,11 +11,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from promp.decision import CommitRule
 from promp.live.segmenter import MAX_MOVEMENT_S, STARTS
 from promp.live.source import LiveInput
 from promp.model import ProMPModel
 
-__all__ = ["check_inputs", "live_columns", "live_inputs", "LiveOptions"]
+__all__ = ["check_inputs", "DECIDE_THRESHOLD", "live_columns", "live_inputs", "LiveOptions"]
+
+# --decide's threshold unless one is given: a choice (nine chances in ten), not tuned on any
+# set; python -m promp.evaluate --decide chooses one from a model's held-out trials
+DECIDE_THRESHOLD = 0.9
 
 
 @dataclass(frozen=True)
@@ -40,6 +45,9 @@ class LiveOptions:
         The prior and posterior's samples (:func:`promp.infer`).
     min_observed : int
         Rows a movement needs before its first prediction.
+    decide : CommitRule or None
+        Commit to a primitive in each movement by this rule (:mod:`promp.live.commitment`);
+        None: no commitment.
 
     Raises
     ------
@@ -57,6 +65,7 @@ class LiveOptions:
     max_movement_s: float = MAX_MOVEMENT_S
     n_points: int | None = None
     min_observed: int = 2
+    decide: CommitRule | None = None
 
     def __post_init__(self) -> None:
         if self.start not in STARTS:

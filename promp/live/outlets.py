@@ -13,7 +13,8 @@ the predictor's LSL clock (a reader's time correction maps it to its own), and j
   ``phase_high`` (the share observed, 90 % interval), ``duration``, ``duration_low``,
   ``duration_high`` (s, the whole movement), ``remaining``, ``remaining_low``,
   ``remaining_high`` (s left after the stamp), ``primitive`` (the recognised one's index),
-  ``n_observed`` (samples observed).
+  ``n_observed`` (samples observed), ``committed`` (with ``--decide``, the index of the
+  primitive the movement committed to; -1 before it commits, and without ``--decide``).
 * ``NAME-remainder`` (type ``Trajectory``), with ``--remainder MODALITY``: per prediction one
   **chunk**, every row stamped alike: ``seq``, ``movement``, ``index`` and ``count`` (the row's
   place in the chunk, its number of rows), ``after`` (s after the stamp: ``1/rate, 2/rate,
@@ -21,7 +22,9 @@ the predictor's LSL clock (a reader's time correction maps it to its own), and j
   standard deviation per column (``x``, ``y``, ``z``, ``x_std``...). The row with ``index ==
   count - 1`` is the predicted end.
 * ``NAME-events`` (type ``Markers``, strings): ``movement N started``, ``movement N ended
-  (REASON)``, and each change of an input's condition (``stream 'MocapHand': stalled ...``).
+  (REASON)``, with ``--decide`` ``movement N committed to 'NAME' at T s (P % observed, p
+  PROB)`` (once a movement), and each change of an input's condition (``stream
+  'MocapHand': stalled ...``).
 
 A session publishes through two sinks (:mod:`promp.live.sinks`), each on its own thread:
 :class:`PredictionSink` (the predictions' outlets) and :class:`EventSink` (the events outlet),
@@ -58,10 +61,10 @@ __all__ = [
 TIMING_LABELS = (
     "seq", "movement", "start", "elapsed", "phase", "phase_low", "phase_high", "duration",
     "duration_low", "duration_high", "remaining", "remaining_low", "remaining_high",
-    "primitive", "n_observed",
+    "primitive", "n_observed", "committed",
 )  # fmt: skip
 TIMING_UNITS = ("count", "count", "s", "s", "share", "share", "share", "s", "s", "s", "s", "s",
-                "s", "index", "count")  # fmt: skip
+                "s", "index", "count", "index")  # fmt: skip
 
 
 def outlet_specs(model: ProMPModel, out: str, remainder: str | None) -> dict[str, OutletSpec]:
@@ -101,6 +104,7 @@ def timing_row(p: LivePrediction) -> np.ndarray:
         p.seq, p.movement, p.start, p.elapsed, phase.value, phase.low, phase.high,
         duration.value, duration.low, duration.high, remaining.value, remaining.low,
         remaining.high, p.inference.index, p.n_observed,
+        -1 if p.committed is None else p.committed.index,
     ], dtype=float)  # fmt: skip
 
 

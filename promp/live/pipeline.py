@@ -23,7 +23,9 @@ waited are dropped (their rows could only have been given once it came back). Ea
 events come from what arrived (a condition that changed, a marker, a boundary), and it
 predicts at most once per boundary and once for the movement going on. The prediction
 given last on an ended movement is on its final rows: an end that cut the movement back to
-fewer rows than its latest prediction saw is predicted once more.
+fewer rows than its latest prediction saw is predicted once more. With ``options.decide``,
+each prediction also updates the commit rule of its movement (:mod:`promp.live.commitment`):
+the one that commits adds one ``decision`` event to the step's events.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
+from promp.live.commitment import Committing
 from promp.live.options import LiveOptions, live_inputs
 from promp.live.predictor import LivePrediction, OnlinePredictor, observed_columns
 from promp.live.segmenter import Belief, Boundary, Movement, Segmenter, StillRule
@@ -100,6 +103,8 @@ class PipelineState:
         Each input's newest sample (the session's clock; the session's start before any).
     lagging : frozenset of str
         The inputs said to lag (see the module docstring).
+    committing : Committing or None
+        With ``--decide``, the commit rule's state in the latest prediction's movement.
     """
 
     source: Source
@@ -112,6 +117,7 @@ class PipelineState:
     prediction: LivePrediction | None = None
     newest: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     lagging: frozenset[str] = frozenset()
+    committing: Committing | None = None
 
 
 StepOutputs = tuple[PipelineState, tuple[LiveEvent, ...], tuple[Boundary, ...],
@@ -143,8 +149,10 @@ def build(model: ProMPModel, inputs: Sequence, options: LiveOptions, now: float 
     predictor = OnlinePredictor(model, columns, options.alpha_method, options.remainder,
                                 options.remainder_rate, options.n_points)  # fmt: skip
     newest = MappingProxyType(dict.fromkeys(names, float(now)))  # none yet: since the start
+    committing = None if options.decide is None else \
+        Committing(options.decide, tuple(p.name for p in model.primitives))  # fmt: skip
     return PipelineState(source, timebase, segmenter, predictor, options.min_observed,
-                         float(options.max_movement_s), newest=newest)
+                         float(options.max_movement_s), newest=newest, committing=committing)
 
 
 def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
@@ -229,7 +237,19 @@ def _predict(state: PipelineState, movement: Movement, predictions: list[LivePre
         prediction = state.predictor.predict(movement.number, movement.times, movement.values)
     except ValueError as exc:
         events.append(LiveEvent(float(movement.times[-1]), f"no prediction: {exc}"))
+        if state.committing is not None:  # an update without a prediction breaks the run
+            missed = state.committing.missed(movement.number,
+                                             float(movement.times[-1] - movement.times[0]))
+            state = dataclasses.replace(state, committing=missed)
         return state
+    if state.committing is not None:
+        p = prediction
+        committing, made = state.committing.update(p.movement, p.elapsed, p.probabilities,
+                                                   p.phase.value, p.last)  # fmt: skip
+        prediction = dataclasses.replace(prediction, committed=committing.commitment)
+        state = dataclasses.replace(state, committing=committing)
+        if made is not None:
+            events.append(made.event())
     predictions.append(prediction)
     return dataclasses.replace(state, prediction=prediction)
 

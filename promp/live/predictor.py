@@ -22,6 +22,7 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,6 +31,9 @@ from promp.evidence.evidence import Evidence, Inference
 from promp.evidence.speed import ALPHA_METHODS
 from promp.inference import Observation, trajectory_at
 from promp.model import ProMPModel
+
+if TYPE_CHECKING:
+    from promp.live.commitment import Commitment
 
 __all__ = ["LivePrediction", "observed_columns", "OnlinePredictor", "Remainder", "REMAINDER_HZ"]
 
@@ -77,6 +81,9 @@ class LivePrediction:
     remainder : Remainder or None
     compute_s : float
         The time the inference took.
+    committed : Commitment or None
+        With ``--decide``, the movement's commitment once made, by this prediction or an
+        earlier one (:mod:`promp.live.commitment`).
     """
 
     seq: int
@@ -87,6 +94,7 @@ class LivePrediction:
     inference: Inference
     remainder: Remainder | None
     compute_s: float
+    committed: Commitment | None = None
 
     @property
     def n_observed(self) -> int:

@@ -75,7 +75,9 @@ class LiveEvent:
     """Something that happened: a movement started or ended, a stream's condition changed.
 
     ``time`` in seconds on the session's clock; ``text`` one line (the events outlet's
-    sample, the status line's news)."""
+    sample, the status line's news); ``kind`` ``"decision"`` for a commitment to a primitive
+    (:mod:`promp.live.commitment`), empty for the rest."""
 
     time: float
     text: str
+    kind: str = ""

@@ -5,10 +5,12 @@ title too): the streams found on the network (name, type,
 rate, channels, host), the mapping from the workspace's modalities to streams and channels in
 the rig syntax (``hand=MocapHand:0,1,2@mm``, one a line; guessed from the streams found until
 the user edits it, *Guess* guesses again), how a movement starts (stillness, a marker stream
-chosen among those found, or the Begin / End buttons), Start / Stop, each input's condition and
-the session's news, and *Predictions out*: the same LSL streams as ``python -m promp.live``
-(probabilities, timing, the predicted remainder of a chosen modality at a stated rate, events),
-on while its checkbox is.
+chosen among those found, or the Begin / End buttons), *Commit to a primitive* (the commit
+rule on each movement, at the *Commit threshold*: :mod:`promp.live.commitment`), Start /
+Stop, each input's condition and the session's news (a commitment among them), and
+*Predictions out*: the same LSL streams as ``python -m promp.live`` (probabilities, timing,
+the predicted remainder of a chosen modality at a stated rate, events), on while its checkbox
+is.
 
 The callbacks only record presses; :meth:`LiveSection.step`, on the studio's loop, acts on them
 (:class:`app.live.lsl_source.LslSource`: a refused start is a notification and a red line,
@@ -34,6 +36,8 @@ from app.panels.infer.lsl_view import LslObserved
 from app.panels.infer.view_model import InferState
 from app.ui.context import Frame, PanelContext, PanelGui
 from promp.data import Layout
+from promp.decision import WINDOW_S
+from promp.live.options import DECIDE_THRESHOLD
 from robots.icub.layout import HAND
 
 __all__ = ["LiveControls", "LiveSection", "STATUS_PERIOD_S"]
@@ -67,6 +71,8 @@ class LiveControls:
     remainder: viser.GuiDropdownHandle
     rate: viser.GuiNumberHandle
     outputs: viser.GuiHtmlHandle
+    commit: viser.GuiCheckboxHandle
+    threshold: viser.GuiNumberHandle
 
 
 def build_controls(gui: PanelGui, layout: Layout) -> LiveControls:
@@ -82,6 +88,13 @@ def build_controls(gui: PanelGui, layout: Layout) -> LiveControls:
                                  "m or rad moving then still, a marker stream's 'start CLASS' "
                                  "and 'end CLASS', or the Begin / End buttons")  # fmt: skip
         markers = gui.add_dropdown("Marker stream", (NONE,), visible=False)
+        commit = gui.add_checkbox("Commit to a primitive", False,
+                                  hint="Run the commit rule (promp.CommitRule) on each "
+                                  "movement: the moment the robot would act (set at Start)")
+        threshold = gui.add_number("Commit threshold", DECIDE_THRESHOLD, min=0.01, max=0.99,
+                                   step=0.01, hint="Commit once the leading primitive's "
+                                   f"probability stays at or above this for {WINDOW_S:g} s",
+                                   visible=False)  # fmt: skip
         run = gui.add_button("Start", color="green", icon=viser.Icon.PLAYER_PLAY)
         movement = gui.add_button_group("Movement", ("Begin", "End"), visible=False)
         status = gui.add_html("")
@@ -98,7 +111,7 @@ def build_controls(gui: PanelGui, layout: Layout) -> LiveControls:
             rate = gui.add_number("Remainder rate (Hz)", 50.0, min=1.0, max=1000.0, step=1.0)
             outputs = gui.add_html("")
     return LiveControls(folder, streams, mapping, guess, start, markers, run, movement, status,
-                        publish, out, remainder, rate, outputs)  # fmt: skip
+                        publish, out, remainder, rate, outputs, commit, threshold)  # fmt: skip
 
 
 class LiveSection:
@@ -151,7 +164,8 @@ class LiveSection:
             c.run.label, c.run.color = label, "red" if running else "green"
             c.run.icon = viser.Icon.PLAYER_STOP_FILLED if running else viser.Icon.PLAYER_PLAY
         for handle, wanted in ((c.movement, running),
-                               (c.markers, STARTS[c.start.value] == "marker")):  # fmt: skip
+                               (c.markers, STARTS[c.start.value] == "marker"),
+                               (c.threshold, bool(c.commit.value))):  # fmt: skip
             if handle.visible != wanted:
                 handle.visible = wanted
         if frame.now >= self._next_status:
@@ -187,9 +201,10 @@ class LiveSection:
         # the dropdown (hidden unless movements start by markers) holds a stream all the same
         markers = c.markers.value if start == "marker" and c.markers.value != NONE else ""
         remainder = c.remainder.value if c.remainder.value != NONE else None
+        commit = float(c.threshold.value) if c.commit.value else None
         return LiveConfig(c.mapping.value, start, markers, state.alpha_method,
                           bool(c.publish.value), c.out.value, remainder,
-                          float(c.rate.value))  # fmt: skip
+                          float(c.rate.value), commit)  # fmt: skip
 
     def _start(self, snapshot: Snapshot, state: InferState) -> None:
         model, store = snapshot.inference_model, snapshot.store

@@ -12,7 +12,8 @@ from promp.live.session import LiveSnapshot
 from promp.live.status import Condition, StreamStatus
 from promp.live.transport import StreamDescription
 
-__all__ = ["CONDITION_COLORS", "outputs_html", "session_html", "streams_html"]
+__all__ = ["commitment_html", "CONDITION_COLORS", "outputs_html", "session_html",
+           "streams_html"]
 
 SMALL = "font-size:0.78em;line-height:1.45;padding-right:14px;box-sizing:border-box"
 CONDITION_COLORS = {
@@ -74,6 +75,9 @@ def session_html(snap: LiveSnapshot, now: float, rate: float, refused: str = "",
         last = f" (last: movement {snap.ended[-1].number})" if snap.ended else ""
         lines.append(f"Waiting for a movement to start{escape_html(start)}{last}")
     lines.append(f"Predictions: {snap.predictions} ({rate:.1f} a second)")
+    committed = commitment_html(snap)
+    if committed:
+        lines.append(committed)
     events = list(snap.events)[-EVENTS_SHOWN:][::-1]
     if events:
         lines.append('<span style="color:#555">' + "<br>".join(
@@ -82,6 +86,18 @@ def session_html(snap: LiveSnapshot, now: float, rate: float, refused: str = "",
     if refused:
         lines.insert(0, f'<span style="color:{RED}">{escape_html(refused)}</span>')
     return f'<div style="{SMALL}">' + "<br>".join(lines) + "</div>"
+
+
+def commitment_html(snap: LiveSnapshot) -> str:
+    """``committed to 'top' at 0.42 s (35 %)``: the commitment of the latest prediction's
+    movement, once made (empty before, and without the commit rule)."""
+    p = snap.prediction
+    c = None if p is None else p.committed
+    if c is None:
+        return ""
+    return (f'<span data-committed="{c.index}"><b>Movement {c.movement}: committed to '
+            f"{escape_html(c.primitive)}</b> at {c.time:.2f} s ({100.0 * c.phase:.0f} %), "
+            f"p {c.probability:.2f}</span>")  # fmt: skip
 
 
 def idle_html(refused: str) -> str:
