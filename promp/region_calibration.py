@@ -77,9 +77,14 @@ def calibrate(
         if len(demos) >= MIN_DEMOS:
             level = probability + (1.0 - probability) / len(demos)
             for modality in model.layout.modalities:
-                d2 = held_out_distances(model, prim, part, demos, modality.name)
+                # a pooled prior of one primitive's fewest demonstrations has no degree of
+                # freedom left without one of them: no factor (the region as drawn before)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    d2 = held_out_distances(model, prim, part, demos, modality.name)
                 radius = region_radius(probability, len(modality.columns))
-                scales[modality.name] = float(np.sqrt(np.quantile(d2, level)) / radius)
+                scale = float(np.sqrt(np.quantile(d2, level)) / radius)
+                if np.all(np.isfinite(d2)) and np.isfinite(scale) and scale > 0:
+                    scales[modality.name] = scale
         primitives.append(dataclasses.replace(prim, region_scale=scales))
     return dataclasses.replace(model, primitives=tuple(primitives))
 

@@ -204,3 +204,20 @@ def test_calibrating_again_gives_the_same_factors(model, data) -> None:
     again = calibrate(model, parts, data)
     for a, b in zip(model.primitives, again.primitives, strict=True):
         assert b.region_scale == a.region_scale
+
+
+def test_one_primitive_of_three_demonstrations_keeps_the_plain_region(tmp_path: Path) -> None:
+    """A workspace of one primitive of three takes: its pooled prior has no degree of freedom
+    left without one of them, so no factor (not an infinite one, which the file would refuse),
+    and the model saves and loads."""
+    from promp.data import sample_period_of
+    from tests.synthetic import LAYOUT as SYNTHETIC
+    from tests.synthetic import make_dataset
+
+    data = make_dataset(seed=1, n_demos=3)
+    one = {name: demos for name, demos in list(data.items())[:1]}
+    dt = sample_period_of([d for demos in one.values() for d in demos])
+    model = fit_with(one, SYNTHETIC, Settings(n_basis=5, width=1.0, noise_scale=1.5), dt)
+    assert model.primitives[0].region_scale == {}
+    save_model(tmp_path / "m.json", model)
+    assert load_model(tmp_path / "m.json").primitives[0].region_scale == {}
