@@ -4,12 +4,17 @@ inlets that hand them out, outlets that keep what was pushed, and a clock the te
 from __future__ import annotations
 
 import itertools
+from collections import deque
 
 import numpy as np
 
 from promp.data import Demonstration
+from promp.learn import fit
+from promp.live.sinks import CallbackSink, Output
 from promp.live.transport import OutletSpec, StreamDescription, StreamLost
+from promp.model import ProMPModel, Settings
 from tests.conftest import shared_set, uses_shared_data
+from tests.synthetic import LAYOUT, make_dataset
 
 _UIDS = itertools.count(1)
 
@@ -99,6 +104,35 @@ class FakeTransport:
     def outlet(self, spec: OutletSpec) -> FakeOutlet:
         self.outlets[spec.name] = FakeOutlet(spec)
         return self.outlets[spec.name]
+
+
+_MODEL: list[ProMPModel] = []
+
+
+def synthetic_model() -> ProMPModel:
+    """The synthetic hand and head model (primitives left and right; learned once, fixed
+    settings)."""
+    if not _MODEL:
+        settings = Settings(n_basis=7, width=1.0, noise_scale=1.5, duration_temperature=1.0)
+        _MODEL.append(fit(make_dataset(seed=5, n_demos=5), LAYOUT, settings))
+    return _MODEL[0]
+
+
+class Tap(CallbackSink):
+    """A lossless sink keeping every output the session gave its sinks, in order."""
+
+    lossless = True
+
+    def __init__(self) -> None:
+        super().__init__(lambda p: None, "tap")
+        self.outputs: deque[Output] = deque()
+
+    def view(self, output: Output) -> Output:
+        return output
+
+    def take(self, output: Output) -> tuple:
+        self.outputs.append(output)
+        return ()
 
 
 def held(demo: Demonstration, before_s: float, after_s: float) -> Demonstration:

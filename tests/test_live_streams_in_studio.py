@@ -250,16 +250,9 @@ def test_the_commit_rule_is_chosen_in_the_page_and_its_commitment_shown(
     page, studio, artifacts
 ) -> None:
     panel = infer_panel(studio)
-    c, live = panel.controls, panel.lsl.controls
+    live = panel.lsl.controls
     hand = Replayer(unique("CommitHand"))
-    choose(page, c.source, LSL)
-    if studio.live.running is not None:
-        click(page, "Stop")
-        wait_until(lambda: studio.live.running is None, what="the source stopped")
-    page.get_by_text(hand.name, exact=True).wait_for()
-    mapping = f"hand={hand.name}:hand_x,hand_y,hand_z"
-    row(page, "Mapping").locator("textarea").fill(mapping)
-    wait_until(lambda: live.mapping.value == mapping, what="the mapping typed")
+    mapped(page, studio, hand)
     assert not live.commit.value and not live.threshold.visible  # off by default
     row(page, "Commit to a primitive").locator("input").first.dispatch_event("click")
     wait_until(lambda: live.commit.value and live.threshold.visible, what="the rule chosen")
@@ -303,8 +296,8 @@ class Pusher(threading.Thread):
             self.outlet.push_sample(row, t + self.jump)
 
 
-def start_mapped(page, studio, hand: Replayer) -> None:
-    """The Live source (re)started on ``hand``, its three labelled channels mapped."""
+def mapped(page, studio, hand: Replayer) -> None:
+    """The Live source stopped, if it ran, and ``hand``'s three labelled channels mapped."""
     panel = infer_panel(studio)
     c, live = panel.controls, panel.lsl.controls
     choose(page, c.source, LSL)
@@ -315,6 +308,11 @@ def start_mapped(page, studio, hand: Replayer) -> None:
     mapping = f"hand={hand.name}:hand_x,hand_y,hand_z"
     row(page, "Mapping").locator("textarea").fill(mapping)
     wait_until(lambda: live.mapping.value == mapping, what="the mapping typed")
+
+
+def start_mapped(page, studio, hand: Replayer) -> None:
+    """The Live source (re)started on ``hand``, its three labelled channels mapped."""
+    mapped(page, studio, hand)
     click(page, "Start")
     page.locator(f'[data-stream="{hand.name}"][data-condition="ok"]').wait_for()
 

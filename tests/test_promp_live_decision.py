@@ -4,49 +4,19 @@ where the rule commits, and the ``committed`` channel of the timing outlet."""
 
 from __future__ import annotations
 
-from collections import deque
-
 import numpy as np
 
 from promp.decision import CommitRule
-from promp.learn import fit
 from promp.live.commitment import DECISION, Commitment, Committing
 from promp.live.outlets import TIMING_LABELS, PredictionOutlets, outlet_specs
 from promp.live.session import LiveOptions, LiveSession
-from promp.live.sinks import CallbackSink, Output
 from promp.live.status import LiveEvent
-from promp.model import ProMPModel, Settings
-from tests.live_fakes import FakeStream, FakeTransport, replay
-from tests.synthetic import LAYOUT, make_dataset
+from tests.live_fakes import FakeStream, FakeTransport, Tap, replay, synthetic_model
+from tests.synthetic import make_dataset
 
 RULE = CommitRule(threshold=0.95, window=0.1)
 COMMITTED = TIMING_LABELS.index("committed")
-_MODEL: list[ProMPModel] = []
-
-
-def model() -> ProMPModel:
-    """The synthetic model (primitives left and right, hand and head), learned once."""
-    if not _MODEL:
-        settings = Settings(n_basis=7, width=1.0, noise_scale=1.5, duration_temperature=1.0)
-        _MODEL.append(fit(make_dataset(seed=5, n_demos=5), LAYOUT, settings))
-    return _MODEL[0]
-
-
-class Tap(CallbackSink):
-    """A lossless sink keeping every step's outputs, in order."""
-
-    lossless = True
-
-    def __init__(self) -> None:
-        super().__init__(lambda p: None, "tap")
-        self.outputs: deque[Output] = deque()
-
-    def view(self, output: Output) -> Output:
-        return output
-
-    def take(self, output: Output) -> tuple:
-        self.outputs.append(output)
-        return ()
+model = synthetic_model
 
 
 class Run:

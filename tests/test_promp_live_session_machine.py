@@ -30,19 +30,17 @@ from numpy.testing import assert_allclose
 
 from promp.data import Layout
 from promp.evidence.pipeline import infer
-from promp.learn import fit
 from promp.live.journal import read_journal
 from promp.live.predictor import LivePrediction
 from promp.live.recorder import Recorder
 from promp.live.segmenter import HISTORY_S
 from promp.live.session import LiveOptions, LiveSession
-from promp.live.sinks import QUEUE_OUTPUTS, CallbackSink, Output
+from promp.live.sinks import QUEUE_OUTPUTS, Output
 from promp.live.source import RATE_WINDOW_S
 from promp.live.timebase import KEEP_S
-from promp.model import ProMPModel, Settings
+from promp.model import ProMPModel
 from promp.observation import Observation
-from tests.live_fakes import FakeStream, FakeTransport
-from tests.synthetic import LAYOUT, make_dataset
+from tests.live_fakes import FakeStream, FakeTransport, Tap, synthetic_model
 
 EXAMPLES = int(os.environ.get("LIVE_MACHINE_EXAMPLES", "12"))
 STEPS = 30
@@ -51,32 +49,7 @@ RATES = (25.0, 50.0, 100.0, 250.0)  # what the senders run at (Hz); the fastest 
 MAX_CHUNK = 400  # the most samples one rule delivers at once (a backlog)
 TOLERANCE = 1e-9  # absolute, the predictor's documented agreement with the offline engine
 RTOL = 1e-8  # and relative: a refined speed may land ~1e-10 apart (see the kept example)
-_MODEL: list[ProMPModel] = []
-
-
-def model() -> ProMPModel:
-    """The synthetic hand and head model (learned once, fixed settings)."""
-    if not _MODEL:
-        settings_ = Settings(n_basis=7, width=1.0, noise_scale=1.5, duration_temperature=1.0)
-        _MODEL.append(fit(make_dataset(seed=5, n_demos=5), LAYOUT, settings_))
-    return _MODEL[0]
-
-
-class Tap(CallbackSink):
-    """A lossless sink keeping every output the session gave its sinks."""
-
-    lossless = True
-
-    def __init__(self) -> None:
-        super().__init__(lambda p: None, "tap")
-        self.outputs: deque[Output] = deque()
-
-    def view(self, output: Output) -> Output:
-        return output
-
-    def take(self, output: Output) -> tuple:
-        self.outputs.append(output)
-        return ()
+model = synthetic_model
 
 
 class Sender:
