@@ -90,12 +90,35 @@ def noise_terms(
     primitive: Primitive, dims: np.ndarray, elapsed: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """:class:`WhitenedSums`' ``group`` and ``logdet_k`` of the samples at ``elapsed`` (n,)."""
-    group = np.empty(dims.shape[0], dtype=int)
-    logdet_k = np.empty(dims.shape[0])
-    for index, (tau, cols) in enumerate(noise_groups(primitive, dims).items()):
-        group[cols] = index
-        logdet_k[cols] = log_det_correlation(elapsed, tau)
-    return group, logdet_k
+    return _NoiseTerms.of(primitive, dims, elapsed).terms
+
+
+@dataclass(frozen=True, eq=False)
+class _NoiseTerms:
+    """What the noise of ``primitive`` makes of one observation, whatever the candidate speed:
+    its groups ({tau: positions in dims}, :func:`promp.noise.noise_groups`), each observed
+    dimension's group and ``log det K`` (:class:`WhitenedSums`' ``group``, ``logdet_k``)."""
+
+    groups: dict[float, np.ndarray]
+    taus: np.ndarray  # (G,), the groups' correlation times in order
+    group: np.ndarray
+    logdet_k: np.ndarray
+
+    @property
+    def terms(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.group, self.logdet_k
+
+    @classmethod
+    def of(cls, primitive: Primitive, dims: np.ndarray, elapsed: np.ndarray) -> _NoiseTerms:
+        groups = noise_groups(primitive, dims)
+        group = np.empty(dims.shape[0], dtype=int)
+        logdet_k = np.empty(dims.shape[0])
+        for index, (tau, cols) in enumerate(groups.items()):
+            group[cols] = index
+            logdet_k[cols] = log_det_correlation(elapsed, tau)
+        for array in (group, logdet_k):
+            array.setflags(write=False)  # shared by every sums of the observation
+        return cls(groups, np.array(list(groups), dtype=float), group, logdet_k)
 
 
 @dataclass(frozen=True)
@@ -200,6 +223,15 @@ class ObservationSums:
         self.kept = KeptSums() if kept is None else kept
         self._generation = self.kept.adopt(self.elapsed, self.values)
         self._key = tuple(dims.tolist())
+        self._noise: dict[Primitive, _NoiseTerms] = {}  # computed once per primitive
+
+    def _noise_terms(self, primitive: Primitive) -> _NoiseTerms:
+        """The noise's terms of this observation under ``primitive`` (computed on first use:
+        they do not depend on the candidate speed)."""
+        got = self._noise.get(primitive)
+        if got is None:
+            got = self._noise[primitive] = _NoiseTerms.of(primitive, self.dims, self.elapsed)
+        return got
 
     def __call__(
         self, primitive: Primitive, alphas: np.ndarray, durations: np.ndarray
@@ -232,7 +264,7 @@ class ObservationSums:
         ones plus the new samples' terms (:meth:`rows`); the others (``starts == 0``) from
         every sample (:meth:`dense`)."""
         n, m = self.elapsed.shape[0], self.model.basis.n_basis
-        group, logdet_k = noise_terms(primitive, self.dims, self.elapsed)
+        group, logdet_k = self._noise_terms(primitive).terms
         gram = np.empty((alphas.shape[0], int(group.max()) + 1, m, m))
         proj = np.empty((alphas.shape[0], self.dims.shape[0], m))
         rr = np.empty((alphas.shape[0], self.dims.shape[0]))
@@ -261,22 +293,18 @@ class ObservationSums:
         n_cand, n_do = alphas.shape[0], dims.shape[0]
         psi = model.phase_basis(elapsed, durations)  # (A, n, M)
         mu = primitive.mean_at(alphas).reshape(n_cand, model.n_dims, m)[:, dims]  # (A, Do, M)
-        groups = noise_groups(primitive, dims)
-        gram = np.empty((n_cand, len(groups), m, m))
-        group = np.empty(n_do, dtype=int)
+        noise = self._noise_terms(primitive)
+        gram = np.empty((n_cand, len(noise.groups), m, m))
         proj = np.empty((n_cand, n_do, m))
         rr = np.empty((n_cand, n_do))
-        logdet_k = np.empty(n_do)
-        for index, (tau, cols) in enumerate(groups.items()):
-            psi_w, logdet = whiten(elapsed, tau, psi)
+        for index, (tau, cols) in enumerate(noise.groups.items()):
+            psi_w, _ = whiten(elapsed, tau, psi)
             y_w, _ = whiten(elapsed, tau, values[:, cols])
             resid = y_w[None] - psi_w @ mu[:, cols].transpose(0, 2, 1)  # (A, n, Dg)
             gram[:, index] = psi_w.transpose(0, 2, 1) @ psi_w
-            group[cols] = index
             proj[:, cols] = (psi_w.transpose(0, 2, 1) @ resid).transpose(0, 2, 1)
             rr[:, cols] = (resid**2).sum(axis=1)
-            logdet_k[cols] = logdet
-        return WhitenedSums(gram, group, proj, rr, logdet_k, elapsed.shape[0])
+        return WhitenedSums(gram, noise.group, proj, rr, noise.logdet_k, elapsed.shape[0])
 
 
     def rows(
@@ -294,9 +322,8 @@ class ObservationSums:
         model, dims, elapsed = self.model, self.dims, self.elapsed
         m = model.basis.n_basis
         n_cand, n_do = alphas.shape[0], dims.shape[0]
-        groups = noise_groups(primitive, dims)
-        taus = np.array(list(groups))
-        group, logdet_k = noise_terms(primitive, dims, elapsed)
+        noise = self._noise_terms(primitive)
+        groups, taus, (group, logdet_k) = noise.groups, noise.taus, noise.terms
         times = elapsed[start - 1 :]  # from the sample before the part, for its whitening
         psi = model.basis.columns(times[None, :] / durations[:, None])  # (A, M, k + 1)
         mu = primitive.mean_at(alphas).reshape(n_cand, model.n_dims, m)[:, dims]  # (A, Do, M)
