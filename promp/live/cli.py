@@ -88,6 +88,14 @@ def parser() -> argparse.ArgumentParser:
                    help="also record each movement as a CSV demonstration in DIR/<class>/ "
                    "(the class its start marker names, else 'live'); journals in "
                    "DIR/.journals keep what a kill would lose, recovered at the next start")
+    p.add_argument("--rerun", default=None, metavar="FILE.rrd",
+                   help="also keep the session as a Rerun recording (a new file; the 'rerun' "
+                   "extra): every movement's rows, each prediction's probabilities, phase, "
+                   "time left and remainder, and the events, on LSL time; open it with: "
+                   "rerun FILE.rrd")
+    p.add_argument("--mcap", default=None, metavar="FILE.mcap",
+                   help="the same as MCAP with Foxglove's schemas, for Foxglove, PlotJuggler "
+                   "and ROS 2 tools (a new file; the 'mcap' extra)")
     p.add_argument("--wait", type=float, default=30.0, metavar="S",
                    help="how long to wait at the start for every input's stream (default 30 s;"
                    " then it stops, listing the streams found)")
@@ -125,11 +133,15 @@ def main(argv: list[str] | None = None) -> int:
         specs = outlet_specs(model, args.out, args.remainder)
         build(model, args.inputs, options)  # every refusal, before anything is opened
         columns = live_columns(model, args.inputs)
+        viewers = _viewer_sinks(model, args)
         recorder = _recorder(args.record, columns) if args.record else None
     except ValueError as exc:
         return _fail(str(exc))
     session = LiveSession(model, args.inputs, transport, options,
-                          outlets=PredictionOutlets(specs, transport.outlet), recorder=recorder)
+                          outlets=PredictionOutlets(specs, transport.outlet), recorder=recorder,
+                          sinks=viewers)  # fmt: skip
+    for sink in viewers:
+        print(f"keeping the session as a {sink.name}: {sink.path}", flush=True)
     # Ctrl-C and a service manager's stop end it cleanly, even when started with SIGINT
     # ignored (a background job of a shell script inherits that)
     signal.signal(signal.SIGINT, _interrupt)
@@ -208,6 +220,29 @@ def _recorder(folder: Path, columns: tuple[str, ...]):
               flush=True)  # fmt: skip
     prefix = time.strftime("live-%Y%m%d-%H%M%S")
     return Recorder(folder / ".journals", columns, prefix, output=folder)
+
+
+def _viewer_sinks(model, args) -> list:
+    """The ``--rerun`` and ``--mcap`` sinks (:mod:`promp.live.viewer_sink`), both checked
+    before either file is made.
+
+    Raises
+    ------
+    ValueError
+        A file that exists or has another suffix, a missing extra.
+    """
+    from promp.live.options import live_inputs
+    from promp.live.viewer_sink import ViewerSink
+    from promp.viewers.formats import writer_for
+    from promp.viewers.new_file import check_new
+
+    asked = [(path, suffix) for path, suffix in ((args.rerun, ".rrd"), (args.mcap, ".mcap"))
+             if path is not None]  # fmt: skip
+    for path, suffix in asked:
+        check_new(path, suffix)
+        writer_for(suffix)
+    inputs = live_inputs(model, args.inputs)
+    return [ViewerSink(path, model, inputs) for path, _ in asked]
 
 
 def _wait_for_inputs(session, wait: float) -> bool:
