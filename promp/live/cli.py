@@ -43,16 +43,17 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--model", required=True, type=Path, metavar="FILE",
                    help="the model: a JSON file written by the studio's Export model or "
                    "promp.io.save_model")
-    p.add_argument("--in", dest="inputs", action="append", required=True,
+    p.add_argument("--in", dest="inputs", action="append", default=None,
                    metavar="NAME=STREAM:CHANNEL,...[@UNIT]",
                    help="an observed modality of the model and where it comes from, repeated "
                    "for each: STREAM is a stream's name, type=TYPE or source_id=ID; CHANNELs "
                    "are channel labels or indices 0,1,...; @mm, @cm and @deg are converted "
                    "to metres and radians (the channels' own units are, when the stream says "
                    "them). E.g. hand=MocapHand:0,1,2@mm")
-    p.add_argument("--out", required=True, metavar="NAME",
+    p.add_argument("--out", default=None, metavar="NAME",
                    help="the outputs' name: the streams NAME-probabilities, NAME-timing, "
-                   "NAME-events and, with --remainder, NAME-remainder")
+                   "NAME-events and, with --remainder, NAME-remainder (required, as --in is, "
+                   "unless --replay)")
     p.add_argument("--remainder", default=None, metavar="MODALITY",
                    help="publish the predicted remainder of this modality of the model "
                    "(observed or not), e.g. hand")
@@ -88,14 +89,7 @@ def parser() -> argparse.ArgumentParser:
                    help="also record each movement as a CSV demonstration in DIR/<class>/ "
                    "(the class its start marker names, else 'live'); journals in "
                    "DIR/.journals keep what a kill would lose, recovered at the next start")
-    p.add_argument("--rerun", default=None, metavar="FILE.rrd",
-                   help="also keep the session as a Rerun recording (a new file; the 'rerun' "
-                   "extra): every movement's rows, each prediction's probabilities, phase, "
-                   "time left and remainder, and the events, on LSL time; open it with: "
-                   "rerun FILE.rrd")
-    p.add_argument("--mcap", default=None, metavar="FILE.mcap",
-                   help="the same as MCAP with Foxglove's schemas, for Foxglove, PlotJuggler "
-                   "and ROS 2 tools (a new file; the 'mcap' extra)")
+    _file_arguments(p)
     p.add_argument("--wait", type=float, default=30.0, metavar="S",
                    help="how long to wait at the start for every input's stream (default 30 s;"
                    " then it stops, listing the streams found)")
@@ -107,8 +101,34 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _file_arguments(p: argparse.ArgumentParser) -> None:
+    """The files a session is kept in: viewer files, and a session file and its replay."""
+    p.add_argument("--rerun", default=None, metavar="FILE.rrd",
+                   help="also keep the session as a Rerun recording (a new file; the 'rerun' "
+                   "extra): every movement's rows, each prediction's probabilities, phase, "
+                   "time left and remainder, and the events, on LSL time; open it with: "
+                   "rerun FILE.rrd")
+    p.add_argument("--mcap", default=None, metavar="FILE.mcap",
+                   help="the same as MCAP with Foxglove's schemas, for Foxglove, PlotJuggler "
+                   "and ROS 2 tools (a new file; the 'mcap' extra)")
+    p.add_argument("--session", default=None, metavar="FILE.mcap",
+                   help="record the session to replay it bit for bit (a new MCAP file, made "
+                   "from its journal FOLDER/.sessions/NAME.journal when the session ends; a "
+                   "journal a kill left in that folder is recovered into FOLDER/recovered/)")
+    p.add_argument("--replay", default=None, metavar="FILE.mcap",
+                   help="replay a --session file through the predictor of --model at its "
+                   "timing, and check its predictions against the recorded ones (no stream "
+                   "is read or published; --rerun/--mcap keep the replay)")
+    p.add_argument("--fast", action="store_true",
+                   help="with --replay: as fast as it goes, not at the recorded timing")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    if args.replay is not None:
+        return _replay(args)
+    if not args.inputs or args.out is None:
+        return _fail("--in and --out are required (unless --replay)")
     if args.lsl_config is not None:
         if not args.lsl_config.is_file():
             return _fail(f"--lsl-config: {args.lsl_config} is not a file")
@@ -134,12 +154,15 @@ def main(argv: list[str] | None = None) -> int:
         build(model, args.inputs, options)  # every refusal, before anything is opened
         columns = live_columns(model, args.inputs)
         viewers = _viewer_sinks(model, args)
+        start = transport.clock()
+        if args.session is not None:
+            viewers.append(_session_sink(model, args, options, start))
         recorder = _recorder(args.record, columns) if args.record else None
     except ValueError as exc:
         return _fail(str(exc))
     session = LiveSession(model, args.inputs, transport, options,
                           outlets=PredictionOutlets(specs, transport.outlet), recorder=recorder,
-                          sinks=viewers)  # fmt: skip
+                          sinks=viewers, now=start)  # fmt: skip
     for sink in viewers:
         print(f"keeping the session as a {sink.name}: {sink.path}", flush=True)
     # Ctrl-C and a service manager's stop end it cleanly, even when started with SIGINT
@@ -243,6 +266,61 @@ def _viewer_sinks(model, args) -> list:
         writer_for(suffix)
     inputs = live_inputs(model, args.inputs)
     return [ViewerSink(path, model, inputs) for path, _ in asked]
+
+
+def _session_sink(model, args, options, start: float):
+    """``--session``: the journals a kill left in its folder recovered, then its sink."""
+    from promp.live.session_file import SessionSink, recover_sessions
+    from promp.viewers.new_file import check_new
+
+    path = check_new(args.session, ".mcap")
+    for journal, got in recover_sessions(path.parent):
+        if isinstance(got, str):
+            print(f"a session journal left by a kill cannot be read: {journal}: {got}",
+                  flush=True)  # fmt: skip
+        else:
+            print(f"recovered an interrupted session: {got}", flush=True)
+    return SessionSink(path, model, args.inputs, options, start)
+
+
+def _replay(args) -> int:
+    """``--replay FILE --model M``: the summary as the last line (JSON); 0 when every
+    prediction is the recorded one, 1 when one differs, 2 when it cannot be replayed."""
+    from promp.io import load_model
+    from promp.live.options import live_inputs
+    from promp.live.session_file import read_session, replay_session
+
+    try:
+        model = load_model(args.model)
+        header = read_session(args.replay).header
+        inputs = live_inputs(model, header["inputs"])
+        args.inputs = header["inputs"]
+        viewers = _viewer_sinks(model, args)
+    except ValueError as exc:
+        return _fail(str(exc))
+
+    def deliver(output) -> None:
+        for sink in viewers:
+            part = sink.view(output)
+            if part is not None:
+                sink.take(part)
+
+    started = time.monotonic()
+    try:
+        replayed = replay_session(model, args.replay, paced=not args.fast, on_output=deliver)
+    except ValueError as exc:
+        return _fail(str(exc))
+    finally:
+        for sink in viewers:
+            sink.close()
+    for event in replayed.events:
+        print(f"{event.time:.3f} {event.text}", flush=True)
+    summary = {"steps": replayed.steps, "predictions": len(replayed.predictions),
+               "recorded_predictions": len(replayed.recorded), "equal": replayed.equal,
+               "difference": replayed.difference, "inputs": [i.name for i in inputs],
+               "seconds": round(time.monotonic() - started, 3)}  # fmt: skip
+    print(json.dumps(summary), flush=True)
+    return 0 if replayed.equal else 1
 
 
 def _wait_for_inputs(session, wait: float) -> bool:

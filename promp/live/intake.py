@@ -122,7 +122,7 @@ class Intake:
                 notes.append(LiveEvent(now, f"stream {inlet.description.name!r}: its inlet failed "
                                             f"({type(exc).__name__}: {exc}); closed"))  # fmt: skip
                 continue
-            pulled[feed] = Pulled(times, values)
+            pulled[feed] = Pulled(times, values, offset=float(inlet.offset()))
         calls = []
         while not self._calls.empty():
             item = self._calls.get()

@@ -28,11 +28,63 @@ import numpy as np
 from promp.data import Demonstration
 from promp.datasets import demo_from_csv
 
-__all__ = ["FSYNC_S", "Journal", "journals", "MAGIC", "read_journal", "SUFFIX"]
+__all__ = ["AppendFile", "FSYNC_S", "Journal", "journals", "MAGIC", "read_journal", "SUFFIX"]
 
 MAGIC = "# promp-live journal 1 "
 SUFFIX = ".journal"
 FSYNC_S = 1.0
+
+
+class AppendFile:
+    """A file created new (never over one) and only appended to (see the module docstring):
+    each :meth:`write` is one ``write`` to the operating system, acknowledged when it returns,
+    cut back on failure so the file ends with whole records; ``fsync``-ed every
+    :data:`FSYNC_S` and when closed. A recording's :class:`Journal` and a live session's
+    (:mod:`promp.live.session_file`) are both one."""
+
+    def __init__(self, path: Path, header: str):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
+        self._size = 0  # bytes acknowledged
+        self._synced = time.monotonic()
+        try:
+            self.write(header)
+            os.fsync(self._fd)
+        except Exception:  # the file it created holds nothing: it goes
+            os.close(self._fd)
+            self.path.unlink(missing_ok=True)
+            raise
+
+    def write(self, text: str) -> None:
+        """Append ``text`` (whole records); acknowledged when this returns."""
+        if self._fd < 0:
+            raise ValueError(f"{self.path}: the journal is closed")
+        data = text.encode("utf-8")
+        size = len(data)
+        try:
+            while data:
+                data = data[os.write(self._fd, data):]
+        except Exception:
+            try:  # what was written of it goes: the file ends with whole records
+                os.ftruncate(self._fd, self._size)
+            except OSError:
+                pass
+            raise
+        self._size += size
+        if time.monotonic() - self._synced > FSYNC_S:
+            os.fsync(self._fd)
+            self._synced = time.monotonic()
+
+    @property
+    def closed(self) -> bool:
+        return self._fd < 0
+
+    def close(self) -> None:
+        if self._fd >= 0:
+            os.fsync(self._fd)
+            os.close(self._fd)
+            self._fd = -1
 
 
 class Journal:
@@ -42,38 +94,16 @@ class Journal:
         self.path = Path(path)
         self.columns = tuple(columns)
         self.start = float(start)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
         header = {"name": name, "label": label, "start": self.start, "columns": list(columns)}
-        self._size = 0  # bytes of the header and the rows acknowledged
-        try:
-            self._write(f"{MAGIC}{json.dumps(header)}\n{','.join(('t', *self.columns))}\n")
-            os.fsync(self._fd)
-        except Exception:  # the file it created holds nothing: it goes
-            os.close(self._fd)
-            self.path.unlink(missing_ok=True)
-            raise
-        self._synced = time.monotonic()
+        self._file = AppendFile(
+            self.path, f"{MAGIC}{json.dumps(header)}\n{','.join(('t', *self.columns))}\n"
+        )
         self.acknowledged = 0
-
-    def _write(self, text: str) -> None:
-        data = text.encode("utf-8")
-        size = len(data)
-        try:
-            while data:
-                data = data[os.write(self._fd, data):]
-        except Exception:
-            try:  # what was written of it goes: the file ends with whole rows
-                os.ftruncate(self._fd, self._size)
-            except OSError:
-                pass
-            raise
-        self._size += size
 
     def append(self, times: np.ndarray, values: np.ndarray) -> int:
         """Append rows (times on the session's clock (n,), values (n, n_columns)); returns
         the rows acknowledged so far."""
-        if self._fd < 0:
+        if self._file.closed:
             raise ValueError(f"{self.path}: the journal is closed")
         times = np.asarray(times, dtype=float)
         if times.size == 0:
@@ -81,18 +111,12 @@ class Journal:
         buffer = io.StringIO()
         table = np.column_stack([times - self.start, np.asarray(values, dtype=float)])
         np.savetxt(buffer, table, delimiter=",", fmt="%.17g")
-        self._write(buffer.getvalue())
+        self._file.write(buffer.getvalue())
         self.acknowledged += int(times.shape[0])
-        if time.monotonic() - self._synced > FSYNC_S:
-            os.fsync(self._fd)
-            self._synced = time.monotonic()
         return self.acknowledged
 
     def close(self) -> None:
-        if self._fd >= 0:
-            os.fsync(self._fd)
-            os.close(self._fd)
-            self._fd = -1
+        self._file.close()
 
 
 def read_journal(path: Path) -> tuple[Demonstration, dict]:

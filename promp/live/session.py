@@ -84,6 +84,9 @@ class LiveSession:
         Called with each prediction, on its sink's thread (the studio's, a bench's probe).
     sinks : sequence of Sink
         Any other sinks.
+    now : float, optional
+        The session's start on the transport's clock (default: the clock, now); a session
+        file records it (:mod:`promp.live.session_file`).
     """
 
     def __init__(
@@ -96,11 +99,12 @@ class LiveSession:
         recorder=None,
         on_prediction: Callable[[LivePrediction], object] | None = None,
         sinks: Sequence[Sink] = (),
+        now: float | None = None,
     ):
         inputs = live_inputs(model, inputs)
         self.transport = transport
         self.state: PipelineState = build(model, inputs, options or LiveOptions(),
-                                          transport.clock())  # fmt: skip
+                                          transport.clock() if now is None else now)
         own = (lambda: outlets.source_ids) if outlets is not None else tuple
         self._intake = Intake(transport, self.state.source.wanted(), own)
         chosen: list[Sink] = []
@@ -175,9 +179,9 @@ class LiveSession:
             self._intake.settle(source.connected(), source.wanted())
         worked = bool(arrivals.opened or arrivals.calls or events or predictions
                       or any(len(p.times) for p in arrivals.pulled.values()))  # fmt: skip
-        if worked or boundaries:
+        if worked or boundaries:  # (a step that did neither changed nothing but the clock)
             self._sinks.offer(Output(now, events, boundaries, predictions,
-                                     self.state.segmenter.movement))  # fmt: skip
+                                     self.state.segmenter.movement, (arrivals,)))  # fmt: skip
         return bool(self._publish(now, events, boundaries, predictions, worked)) or worked
 
     def _publish(self, now: float, events=(), boundaries=(), predictions=(),

@@ -31,6 +31,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Protocol
 
+from promp.live.pipeline import Arrivals
 from promp.live.predictor import LivePrediction
 from promp.live.segmenter import Boundary, Movement
 from promp.live.status import LiveEvent
@@ -55,6 +56,9 @@ class Output:
     predictions : tuple of LivePrediction
     movement : Movement or None
         The movement going on after the step (all its rows so far).
+    arrivals : tuple of Arrivals
+        What the step (or the steps folded into this output) ran on: a session file's record
+        (:mod:`promp.live.session_file`).
     """
 
     time: float
@@ -62,12 +66,13 @@ class Output:
     boundaries: tuple[Boundary, ...] = ()
     predictions: tuple[LivePrediction, ...] = ()
     movement: Movement | None = None
+    arrivals: tuple[Arrivals, ...] = ()
 
     def then(self, later: Output) -> Output:
         """This output and ``later`` as one (the later movement going on)."""
         return Output(later.time, self.events + later.events,
                       self.boundaries + later.boundaries, self.predictions + later.predictions,
-                      later.movement)  # fmt: skip
+                      later.movement, self.arrivals + later.arrivals)  # fmt: skip
 
 
 class Sink(Protocol):
@@ -134,8 +139,7 @@ class SinkWorker:
                 folded = self._queue[-1].then(part)
                 ends = folded.boundaries
                 dropped = max(len(ends) - self.capacity, 0)
-                self._queue[-1] = Output(folded.time, folded.events, ends[dropped:],
-                                         folded.predictions, folded.movement)  # fmt: skip
+                self._queue[-1] = replace(folded, boundaries=ends[dropped:])
             else:  # the oldest goes: a live sink wants the latest
                 self._queue.popleft()
                 self._queue.append(part)

@@ -128,11 +128,13 @@ class Opened:
 @dataclass(frozen=True, eq=False)
 class Pulled:
     """What an inlet gave: ``times`` (n,) on the session's clock and ``values`` (n,
-    n_channels) (a marker stream's: n labels), or ``lost`` (its outlet is gone)."""
+    n_channels) (a marker stream's: n labels), or ``lost`` (its outlet is gone); ``offset``
+    the clock correction added to the sender's stamps (seconds; a session file keeps it)."""
 
     times: np.ndarray
     values: np.ndarray | list[str]
     lost: bool = False
+    offset: float = 0.0
     LOST: ClassVar[Pulled]
     NOTHING: ClassVar[Pulled]
 
