@@ -161,8 +161,10 @@ class TimeBase:
             if times.size == 1:  # one sample, exactly at the one new time: a step is needed
                 times, values = np.array([times[0], times[0] + 1.0]), np.vstack([values] * 2)
             streams.append(Stream(name, times, values, b.units or ("",) * values.shape[1]))
+        # the pauses were judged by push, with the senders' lateness: a pause it let through
+        # (a late sender catching up) is interpolated across, never refused here
         times, values = on_one_clock(streams, start, float(new[-1]), self.rate,
-                                     "the live time base", base=self.base)  # fmt: skip
+                                     "the live time base", base=self.base, gaps=False)
         fresh = times > self._given
         times, values = times[fresh], [v[fresh] for v in values]
         self._given = float(times[-1])

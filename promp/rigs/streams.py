@@ -402,6 +402,7 @@ def on_one_clock(
     rate: float | None,
     label: str,
     base: int | None = None,
+    gaps: bool = True,
 ) -> tuple[np.ndarray, list[np.ndarray]]:
     """The streams' values on one time base over ``[start, end]`` (seconds from the
     recording's start): the slowest stream's own times there (``rate`` None), or a grid at
@@ -410,7 +411,8 @@ def on_one_clock(
     time base fixes it once, :mod:`promp.live.timebase`, as a short slice of each stream may
     not tell which is the slowest). Every stream must cover ``[start, end]`` within the
     tolerance (:func:`common_span` with no share: a reader cuts the demonstration to its
-    :func:`common_span` first).
+    :func:`common_span` first). ``gaps`` False: the caller has judged the streams' pauses
+    itself (the live time base, which knows a late sender's lateness): none is refused here.
 
     Returns
     -------
@@ -448,7 +450,7 @@ def on_one_clock(
         first = max(int(np.searchsorted(s.times, lo, side="right")) - 1, 0)
         last = int(np.searchsorted(s.times, hi, side="left"))
         spans = np.diff(s.times[first : last + 1])
-        if spans.size and spans.max() > max(GAP_FACTOR * s.step, tolerance):
+        if gaps and spans.size and spans.max() > max(GAP_FACTOR * s.step, tolerance):
             i = first + int(np.argmax(spans))
             raise ValueError(
                 f"{label}: stream {s.name!r} stops at {s.times[i]:.3f} s and resumes at "
