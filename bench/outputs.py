@@ -166,8 +166,8 @@ def record_live(out: dict, key: str, model, dataset: dict, observed) -> None:
 
 def record_studio(out: dict, key: str) -> None:
     """The studio's Infer path on its simulated scenario, with and without via-points."""
-    from app.core.via_state import StudioViaPoint
-    from app.live.inference import demo_observation, inferred
+    from app.core.via_state import StudioViaPoint, by_primitive
+    from app.live.inference import inferred
     from robots.icub.layout import STUDIO_LAYOUT
     from robots.icub.scenario import generate_scenario
 
@@ -183,9 +183,10 @@ def record_studio(out: dict, key: str) -> None:
     for name, i, demo in trials(dataset):
         for observed in (("hand",), ("head",), ("hand", "head")):
             for percent in (30, 70):
-                obs = demo_observation(model, demo, percent, observed)
+                obs = Observation.first(model, demo, percent, observed)
                 for label, points in (("plain", ()), ("via", tuple(vias))):
-                    result = inferred(model, obs, "ml", truth=demo, via_points=points)
+                    shaping = by_primitive(points, model.layout)
+                    result = inferred(model, obs, "ml", truth=demo, via_points=shaping)
                     trial = f"{key}/{name}/{i}/{'+'.join(observed)}/{percent}/{label}"
                     record_inference(out, trial, result.inference)
                     out[f"{trial}/weights_mean"] = np.asarray(result.weights.mean)

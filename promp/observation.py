@@ -9,6 +9,7 @@ import numpy as np
 
 from promp.data import Demonstration, check_values
 from promp.model import ProMPModel
+from promp.timing import n_observed_for
 
 __all__ = ["Observation", "check_observation", "observed_dims"]
 
@@ -71,6 +72,58 @@ class Observation:
         dims = observed_dims(model, modalities)
         values = model.layout.extract(demo)[:n_observed, dims]
         return cls(demo.times[:n_observed], values, tuple(modalities))
+
+    @classmethod
+    def first(
+        cls, model: ProMPModel, demo: Demonstration, percent: float, modalities: Sequence[str]
+    ) -> Observation:
+        """The first ``percent`` % of ``demo`` in ``modalities``: its first
+        :func:`promp.timing.n_observed_for` samples (the evaluation's rule, and the studio's).
+
+        Raises
+        ------
+        ValueError
+            If ``percent`` is not in (0, 100], or a modality is unknown.
+        """
+        return cls.from_demo(model, demo, n_observed_for(percent, demo.n_samples), modalities)
+
+    @classmethod
+    def first_live(
+        cls,
+        times: np.ndarray,
+        values: np.ndarray,
+        percent: float,
+        modalities: Sequence[str],
+    ) -> Observation:
+        """The first ``percent`` % of a movement sampled as it happens, in ``modalities``.
+
+        The share is taken of every sample (:func:`promp.timing.n_observed_for`, as
+        :meth:`first`); a sample with a value missing (NaN: a sensor that saw nothing then,
+        a face not found) is then left out, and the times start at the first one kept.
+
+        Parameters
+        ----------
+        times : array, shape (n,)
+            Seconds, increasing.
+        values : array, shape (n, n_observed_dims)
+            The columns of ``modalities`` in the layout's order; NaN where missed.
+        percent : float
+            In (0, 100].
+        modalities : sequence of str
+
+        Raises
+        ------
+        ValueError
+            No sample, ``percent`` not in (0, 100], or a value missing in every sample of
+            the share.
+        """
+        times, values = np.asarray(times, dtype=float), np.asarray(values, dtype=float)
+        n_observed = n_observed_for(percent, times.shape[0])
+        keep = np.all(np.isfinite(values[:n_observed]), axis=1)
+        if not keep.any():
+            raise ValueError(f"every one of the first {n_observed} samples has a value missing")
+        kept = times[:n_observed][keep]
+        return cls(kept - kept[0], values[:n_observed][keep], tuple(modalities))
 
 
 def observed_dims(model: ProMPModel, modalities: Sequence[str]) -> np.ndarray:

@@ -6,6 +6,7 @@ demonstration's whole group (Hold out)."""
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 from collections.abc import Iterator
 from pathlib import Path
@@ -25,6 +26,7 @@ from app.panels.data.evaluation_section import summary
 from app.panels.data.results import grouped_markdown
 from app.panels.infer.view_model import InferState, choose_model
 from promp.data import Demonstration
+from promp.evaluate.groups import group_of, parse_group_by
 from tests.conftest import FITS, wait_until
 from tests.synthetic import LAYOUT, make_dataset
 
@@ -106,6 +108,40 @@ def test_the_group_choices_follow_the_sources(session, tmp_path) -> None:
         with pytest.raises(ValueError, match="group by: expected one of"):
             plan_evaluation(plain.store.state, [["hand"]], "ML", "50", "ours",
                             group_by="folder")  # fmt: skip
+
+
+def test_group_members_follow_the_methods_rule(session) -> None:
+    """The groups read once per sources are promp.evaluate.groups' own: every demonstration's
+    group and members at each folder level, those with no folder there in none."""
+    store = session.store.state
+    sources = DemoSources.of({**{(p, d): store.sources.path(p, d) for p, items
+                                 in store.demos.items() for d in (x.name for x in items)},
+                              ("left", "session0_left0"): "site/session0/left0"})  # fmt: skip
+    store = dataclasses.replace(store, sources=sources)
+    keys = [(p, d.name) for p, items in store.demos.items() for d in items]
+    assert sources.folder_groups is sources.folder_groups  # read once
+    for level in (1, 2):
+        rule = parse_group_by(str(level))
+        for primitive, demo in keys:
+            try:
+                group = group_of(sources.path(primitive, demo), rule)
+            except ValueError:
+                with pytest.raises(ValueError, match=f"no folder at level {level}"):
+                    group_members(store, primitive, demo, str(level))
+                continue
+            found, members = group_members(store, primitive, demo, str(level))
+            assert found == group
+            expected = []
+            for key in keys:
+                with contextlib.suppress(ValueError):
+                    if group_of(sources.path(*key), rule) == group:
+                        expected.append(key)
+            assert members == expected
+    assert group_members(store, "left", "session0_left0", "2") == (
+        "session0", [("left", "session0_left0")])
+    assert group_members(store, "left", "session0_left3", "folder")[0] == "session0"
+    with pytest.raises(ValueError, match="not by the pattern"):
+        group_members(store, "left", "session0_left0", r"session(\d)")
 
 
 def test_the_data_tab_evaluates_by_group_beside_leave_one_out(session) -> None:

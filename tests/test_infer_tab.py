@@ -13,14 +13,14 @@ import pytest
 from numpy.testing import assert_allclose
 
 from app.core.fits import FitCache, Training, held_out_training
-from app.live.inference import demo_observation, inferred
+from app.live.inference import inferred
 from app.live.replay import Replay
 from app.live.stream import LiveStream
 from app.ui.display import observed_choices
 from promp import metrics
 from promp.data import Demonstration
 from promp.evidence.pipeline import condition
-from promp.inference import predict
+from promp.inference import Observation, predict
 from promp.learn import fit
 from promp.model import Settings
 from promp.timing import n_observed_for
@@ -189,7 +189,7 @@ def test_recognises_every_held_out_demo_at_90_percent(scenario, chosen) -> None:
         for demo in demos:
             model = held_out_model(scenario, primitive, demo.name, chosen)
             for observed, alpha in settings:
-                obs = demo_observation(model, demo, 90, observed_choices(LAYOUT)[observed])
+                obs = Observation.first(model, demo, 90, observed_choices(LAYOUT)[observed])
                 result = inferred(model, obs, alpha, truth=demo).inference
                 if result.primitive != primitive:
                     wrong.append((demo.name, observed, alpha, result.primitive))
@@ -204,7 +204,7 @@ def test_recognises_every_held_out_demo_at_90_percent(scenario, chosen) -> None:
 def test_inference_geometry_and_errors(scenario, chosen) -> None:
     demo = scenario["direct"][7]
     model = held_out_model(scenario, "direct", demo.name, chosen)
-    obs = demo_observation(model, demo, 40, ("hand", "head"))
+    obs = Observation.first(model, demo, 40, ("hand", "head"))
     assert obs.n_observed == math.ceil(0.4 * demo.n_samples)
     result = inferred(model, obs, "ml", truth=demo)
     inference, future = result.inference, result.future
@@ -233,7 +233,7 @@ def test_inference_geometry_and_errors(scenario, chosen) -> None:
     assert_allclose(errors.goal, metrics.goal_error(truth, natural))
     assert_allclose(errors.duration, abs(inference.duration - demo.duration))
     # Nothing remains at 100 %: no remainder error; without the truth, no errors at all.
-    full = inferred(model, demo_observation(model, demo, 100, ("hand",)), "ml", truth=demo)
+    full = inferred(model, Observation.first(model, demo, 100, ("hand",)), "ml", truth=demo)
     assert math.isnan(full.inference.errors.position)
     assert math.isfinite(full.inference.errors.goal)
     live = inferred(model, obs, "model")
@@ -251,7 +251,7 @@ def test_the_speed_readout_says_what_each_number_is(scenario, chosen) -> None:
 
     demo = scenario["curved"][3]
     model = held_out_model(scenario, "curved", demo.name, chosen)
-    result = inferred(model, demo_observation(model, demo, 40, ("hand", "head")), "ml", truth=demo)
+    result = inferred(model, Observation.first(model, demo, 40, ("hand", "head")), "ml", truth=demo)
     inference, s_bar = result.inference, model.settings.s_bar
     text = alpha_text(result)
     found = re.fullmatch(r"speed α = ([0-9.]+) \(([0-9.]+) / ([0-9]+) samples\): ([0-9.]+) × "
@@ -282,7 +282,7 @@ def test_live_stream_observation(scenario) -> None:
     model = fit(scenario, LAYOUT, SETTINGS)
     for percent in (30, 100):
         live = stream.samples().observation(percent, ("hand", "head"), LAYOUT)
-        ref = demo_observation(model, demo, percent, ("hand", "head"))
+        ref = Observation.first(model, demo, percent, ("hand", "head"))
         assert_allclose(live.values, ref.values)
         assert_allclose(live.elapsed, ref.elapsed)
     # Samples without a face are left out when the head is observed, kept for the hand alone.

@@ -12,7 +12,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from app.core.fits import held_out_training
-from app.live.inference import demo_observation, inferred
+from app.live.inference import inferred
 from app.live.recognition_curve import (
     CurveCache,
     RecognitionCurve,
@@ -21,6 +21,7 @@ from app.live.recognition_curve import (
 )
 from app.panels.infer.recognition import TITLE, chart_data
 from app.ui.display import observed_choices
+from promp.inference import Observation
 from promp.learn import fit
 from promp.model import Settings
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
@@ -93,7 +94,7 @@ def test_the_curve_is_the_scrub_steps_probabilities_over_the_movement(scenario) 
     curve = recognition_curve(model, demo, observed, "ml", truth="curved")
     assert curve.probabilities.shape == (100, 2)
     for percent in (10, 45, 90):
-        step = inferred(model, demo_observation(model, demo, percent, observed), "ml", demo)
+        step = inferred(model, Observation.first(model, demo, percent, observed), "ml", demo)
         probabilities = step.inference.probabilities
         assert_allclose(curve.probabilities[percent - 1], probabilities, atol=1e-12)
     assert curve.right_from is not None and curve.right_from <= 60

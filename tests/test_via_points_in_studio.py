@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from app.core.via_state import checked
+from app.core.via_state import by_primitive, checked
 from app.live.inference import inferred
 from app.live.regions import TUBE_POINTS, prior_shape
 from app.panels.teach import TeachPanel
@@ -183,7 +183,8 @@ def test_in_infer_via_points_combine_with_the_observation() -> None:
     there = mean_position(model, plain.weights, HAND.name, phase) + np.array([0.0, 0.0, 0.02])
     point = checked(name, phase, there, 0.001, id=1)  # 1 mm: tight beside the posterior's
     other = checked("direct" if name == "curved" else "curved", 0.5, there, 0.001, id=2)
-    shaped = inferred(model, obs, "ml", truth=demo, via_points=(point, other))
+    shaped = inferred(model, obs, "ml", truth=demo,
+                      via_points=by_primitive((point, other), model.layout))
     assert shaped.via_points == (point,)  # the recognised primitive's only
     assert shaped.inference.primitive == name  # the recognition is the method's
     expected = condition_on_via_points(model, plain.inference.posterior,
@@ -286,7 +287,7 @@ def test_in_infer_the_errors_are_those_of_the_prediction_through_the_via_points(
     name, alpha = plain.inference.primitive, plain.inference.alpha
     there = mean_position(model, plain.weights, HAND.name, 0.8) + np.array([0.0, 0.03, 0.0])
     point = checked(name, 0.8, there, 0.002, id=1)
-    shaped = inferred(model, obs, "ml", truth=demo, via_points=(point,))
+    shaped = inferred(model, obs, "ml", truth=demo, via_points=by_primitive((point,), model.layout))
     natural = predict(model, shaped.weights, alpha)  # on the natural samples, as the method's
     assert shaped.errors == measure(model, natural, shaped.inference.timing, demo, obs.n_observed)
     assert shaped.errors.goal != plain.errors.goal
@@ -298,7 +299,8 @@ def test_in_infer_the_errors_are_those_of_the_prediction_through_the_via_points(
     )
     # A via-point moved (dragged): other errors.
     moved = checked(name, 0.8, there + np.array([0.0, 0.0, 0.04]), 0.002, id=1)
-    dragged = inferred(model, obs, "ml", truth=demo, via_points=(moved,))
+    dragged = inferred(model, obs, "ml", truth=demo,
+                       via_points=by_primitive((moved,), model.layout))
     assert dragged.errors.goal != shaped.errors.goal
 
 

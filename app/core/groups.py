@@ -7,7 +7,7 @@ and which demonstrations share a demonstration's group.
 from __future__ import annotations
 
 from app.core.store_state import Key, StoreState
-from promp.evaluate.groups import group_of, parse_group_by
+from promp.evaluate.groups import parse_group_by
 
 MAX_GROUP_LEVELS = 4  # the folder levels offered
 
@@ -47,16 +47,18 @@ def group_members(store: StoreState, primitive: str, demo: str, rule: str) -> tu
     Raises
     ------
     ValueError
-        The demonstration has no group under the rule (its path has no such folder).
+        The demonstration has no group under the rule (its path has no such folder), or the
+        rule is a pattern (the studio offers folder levels: :func:`group_choices`).
     """
-    parsed = parse_group_by(rule)
-    group = group_of(store.sources.path(primitive, demo), parsed)
-    members = []
-    for name, demos in store.demos.items():
-        for d in demos:
-            try:
-                if group_of(store.sources.path(name, d.name), parsed) == group:
-                    members.append((name, d.name))
-            except ValueError:
-                continue  # a take with no folder is in no group
+    level = parse_group_by(rule).level
+    if level < 1:
+        raise ValueError(f"a group is held out by its folder ('folder', a level), not by the "
+                         f"pattern {rule!r}")  # fmt: skip
+    groups = store.sources.folder_groups.get(level, {})  # read once per workspace state
+    group = groups.get((primitive, demo))
+    if group is None:
+        raise ValueError(f"{store.sources.path(primitive, demo)}: no folder at level {level} "
+                         "below its class folder, so no group to hold out")  # fmt: skip
+    members = [(name, d.name) for name, demos in store.demos.items() for d in demos
+               if groups.get((name, d.name)) == group]  # a take with no folder: in no group
     return group, members

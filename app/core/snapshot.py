@@ -14,6 +14,7 @@ from types import MappingProxyType
 
 from app.core.learner_state import LearnerState, resolved_settings
 from app.core.store_state import Key, StoreState
+from app.core.via_state import LayoutViaPoints, by_primitive
 from app.core.view_state import ImportedModel, ViewState
 from promp.data import Demonstration
 from promp.model import ProMPModel, Settings
@@ -85,6 +86,13 @@ class Snapshot:
         """The hidden demonstrations that the workspace holds."""
         keys = {(p, d.name) for p, items in self.store.demos.items() for d in items}
         return self.view.hidden & keys
+
+    @cached_property
+    def via_points(self) -> LayoutViaPoints:
+        """The view's via-points on the workspace's layout, as the studio draws them and as
+        the method takes them (:func:`app.core.via_state.by_primitive`: made once a frame, for
+        whichever inference asks; the model inferred with has the workspace's layout)."""
+        return by_primitive(self.view.via_points, self.store.layout)
 
     @property
     def primitive(self) -> str | None:

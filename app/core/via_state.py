@@ -11,8 +11,9 @@ is dragged or retyped, so a row of the list and its handle in 3D stay the same o
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
@@ -91,14 +92,27 @@ def of_primitive(points: Sequence[StudioViaPoint], primitive: str | None) -> tup
     return tuple(p for p in points if p.primitive == primitive)
 
 
-def by_primitive(points: Sequence[StudioViaPoint], layout: Layout) -> dict[str, tuple]:
-    """Each primitive's via-points of ``points`` on ``layout``'s hand
-    (:meth:`StudioViaPoint.for_model`), in the order they were added; none when ``layout`` has
-    no hand. What :meth:`promp.evidence.Evidence.infer` takes: it uses the recognised
+@dataclass(frozen=True, eq=False)
+class LayoutViaPoints:
+    """The via-points on one layout, by primitive, in the order they were added: as the
+    studio draws them (``studio``) and as the method takes them (``method``: on the layout's
+    hand, :meth:`StudioViaPoint.for_model`); none of either when the layout has no hand.
+    What :meth:`promp.evidence.Evidence.infer` takes is ``method``: it uses the recognised
     primitive's."""
-    if HAND.name not in layout.names:
-        return {}
-    out: dict[str, tuple] = {}
+
+    studio: Mapping[str, tuple[StudioViaPoint, ...]]
+    method: Mapping[str, tuple[ViaPoint, ...]]
+
+
+NO_VIA_POINTS = LayoutViaPoints(MappingProxyType({}), MappingProxyType({}))
+
+
+def by_primitive(points: Sequence[StudioViaPoint], layout: Layout) -> LayoutViaPoints:
+    """``points`` on ``layout`` (see :class:`LayoutViaPoints`)."""
+    if HAND.name not in layout.names or not points:
+        return NO_VIA_POINTS
+    studio: dict[str, tuple] = {}
     for point in points:
-        out[point.primitive] = (*out.get(point.primitive, ()), point.for_model(layout))
-    return out
+        studio[point.primitive] = (*studio.get(point.primitive, ()), point)
+    method = {name: tuple(p.for_model(layout) for p in mine) for name, mine in studio.items()}
+    return LayoutViaPoints(MappingProxyType(studio), MappingProxyType(method))

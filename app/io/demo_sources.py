@@ -17,6 +17,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
+from types import MappingProxyType
+
+from promp.evaluate.groups import group_of, parse_group_by
 
 Key = tuple[str, str]  # (primitive, demonstration)
 
@@ -44,6 +47,24 @@ class DemoSources:
     def of(cls, paths: Mapping[Key, str]) -> DemoSources:
         """The sources ``{(primitive, demonstration): path}``."""
         return cls(tuple(sorted((p, d, str(path)) for (p, d), path in paths.items())))
+
+    @cached_property
+    def folder_groups(self) -> Mapping[int, Mapping[Key, str]]:
+        """``{level: {(primitive, demonstration): group}}``: the group of each demonstration
+        at every folder level of the paths (:func:`promp.evaluate.groups.group_of` under the
+        rule ``folder``, ``2``, ...; one with no folder at a level is in no group there). Read
+        once per sources, however often asked (the Infer tab's Hold out, at every frame)."""
+        depth = max((path.count("/") for _, _, path in self.entries), default=0)
+        levels: dict[int, Mapping[Key, str]] = {}
+        for level in range(1, depth + 1):
+            rule, groups = parse_group_by(str(level)), {}
+            for primitive, demo, path in self.entries:
+                try:
+                    groups[(primitive, demo)] = group_of(path, rule)
+                except ValueError:
+                    continue  # no folder at this level
+            levels[level] = MappingProxyType(groups)
+        return MappingProxyType(levels)
 
     def path(self, primitive: str, demo: str) -> str:
         """Where ``demo`` of ``primitive`` came from, below its class folder (its name when

@@ -15,13 +15,12 @@ model and the observation, is :mod:`app.panels.infer.view_model`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-from app.core.via_state import StudioViaPoint, by_primitive
+from app.core.via_state import NO_VIA_POINTS, LayoutViaPoints, StudioViaPoint
 from app.live.regions import PATH_POINTS, TUBE_POINTS, PositionView, positions
 from promp.data import Demonstration
 from promp.evidence import Evidence, Inference
@@ -29,7 +28,6 @@ from promp.evidence.pipeline import relative_speed
 from promp.inference import Gaussian, Observation, Posterior, Prediction, predict
 from promp.metrics import Errors, measure
 from promp.model import ProMPModel
-from promp.timing import n_observed_for
 from robots.icub.layout import HAND
 
 # What is observed, as Infer's Source names it: a held-out demonstration; the studio's own
@@ -135,11 +133,11 @@ def inferred(
     observation: Observation,
     alpha_method: str,
     truth: Demonstration | None = None,
-    via_points: tuple[StudioViaPoint, ...] = (),
+    via_points: LayoutViaPoints = NO_VIA_POINTS,
 ) -> InferResult:
     """Infer from ``observation`` (:meth:`promp.evidence.Evidence.infer`, predictions on
     ``TUBE_POINTS`` phases), the posterior shaped by the recognised primitive's via-points (of
-    ``via_points``, every primitive's, on the layout's hand: none without one).
+    ``via_points``, on the model's layout: :attr:`app.core.snapshot.Snapshot.via_points`).
 
     Parameters
     ----------
@@ -149,6 +147,7 @@ def inferred(
     alpha_method : {"ml", "model"}
     truth : Demonstration, optional
         The whole movement the observation was taken from (the errors are measured on it).
+    via_points : LayoutViaPoints, optional
 
     Raises
     ------
@@ -156,19 +155,8 @@ def inferred(
         From the engine: an unknown modality, an unknown alpha method, or an observation longer
         than every candidate duration.
     """
-    vias = by_primitive(via_points, model.layout)
     inference = Evidence(model, observation, alpha_method).infer(
-        vias, n_points=TUBE_POINTS, truth=truth, path_points=PATH_POINTS
+        via_points.method, n_points=TUBE_POINTS, truth=truth, path_points=PATH_POINTS
     )
-    recognised = inference.recognition.primitive
-    shaping = tuple(v for v in via_points if v.primitive == recognised) if vias else ()
+    shaping = via_points.studio.get(inference.recognition.primitive, ())
     return InferResult(model, observation, inference, truth, shaping)
-
-
-def demo_observation(
-    model: ProMPModel, demo: Demonstration, percent: float, modalities: Sequence[str]
-) -> Observation:
-    """The first ``ceil(percent / 100 * n)`` samples of ``demo`` in ``modalities``."""
-    return Observation.from_demo(
-        model, demo, n_observed_for(percent, demo.n_samples), tuple(modalities)
-    )

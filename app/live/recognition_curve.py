@@ -3,7 +3,7 @@ a test demonstration observed, and the earliest point from which the recognition
 (the paper's question: how early is it right?). Pure computation, no viser.
 
 :func:`recognition_curve` recognises the first ``p`` % of the demonstration for every ``p`` of
-a grid (the Infer tab's rule, :func:`app.live.inference.demo_observation`), with the model, observed
+a grid (the Infer tab's rule, :meth:`promp.inference.Observation.first`), with the model, observed
 modalities and alpha method of the Infer tab; a percentage the engine cannot explain (it raises
 ``ValueError``) has no probabilities (NaN) and counts as not right. :class:`CurveCache` keeps
 the curves already computed, by what they depend on.
@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.core.fits import LruCache
-from app.live.inference import demo_observation
 from promp.data import Demonstration
 from promp.evidence.pipeline import recognise
+from promp.inference import Observation
 from promp.model import ProMPModel
 
 PERCENTS = np.arange(1.0, 101.0)  # every whole percent: 100 recognitions, ~0.5 s
@@ -123,7 +123,7 @@ def recognition_curve(
         if between is not None:
             between()
         try:
-            observation = demo_observation(model, demo, percent, modalities)
+            observation = Observation.first(model, demo, percent, modalities)
             probabilities[i] = recognise(model, observation, alpha_method).probabilities
         except ValueError:  # nothing the model can explain: no probabilities there
             continue

@@ -17,7 +17,6 @@ import numpy as np
 
 from promp.data import Layout
 from promp.inference import Observation
-from promp.timing import n_observed_for
 from robots.icub.layout import HAND, HEAD
 
 MAX_SECONDS = 30.0
@@ -51,7 +50,8 @@ class StreamSamples:
         self, percent: float, modalities: Sequence[str], layout: Layout
     ) -> Observation:
         """The first ``ceil(percent / 100 * n)`` samples in ``modalities`` (of ``layout``);
-        samples without a face are dropped when the head is observed.
+        samples without a face are dropped when the head is observed
+        (:meth:`promp.inference.Observation.first_live`).
 
         Raises
         ------
@@ -60,29 +60,17 @@ class StreamSamples:
         """
         if len(self) == 0:
             raise ValueError("nothing observed yet: press Start observing and move the hand")
-        n_o = n_observed_for(percent, len(self))
-        times, hand, head = self.times[:n_o], self.hand[:n_o], self.head[:n_o]
-        columns = []
-        keep = np.ones(n_o, dtype=bool)
-        for name in layout.names:
-            if name not in modalities:
-                continue
-            if name == HAND.name:
-                columns.append(hand)
-            elif name == HEAD.name:
-                columns.append(head)
-                keep &= np.all(np.isfinite(head), axis=1)
-            else:
-                raise ValueError(f"the live stream has no modality {name!r}")
-        if not columns:
+        columns = {HAND.name: self.hand, HEAD.name: self.head}
+        names = tuple(m for m in layout.names if m in modalities)
+        unknown = [m for m in names if m not in columns]
+        if unknown:
+            raise ValueError(f"the live stream has no modality {unknown[0]!r}")
+        if not names:
             raise ValueError("choose at least one observed modality")
-        if not keep.any():
+        if HEAD.name in names and not np.all(np.isfinite(self.head), axis=1).any():
             raise ValueError("no face seen yet: the head cannot be observed")
-        kept = times[keep]
-        return Observation(
-            kept - kept[0], np.hstack(columns)[keep],
-            tuple(m for m in layout.names if m in modalities),
-        )  # fmt: skip
+        values = np.hstack([columns[m] for m in names])
+        return Observation.first_live(self.times, values, percent, names)
 
 
 EMPTY = StreamSamples(np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)))

@@ -30,7 +30,6 @@ from promp.recognition import label_noise, with_label_noise
 from promp.selection.candidates import BASIS_GRID, NOISE_GRID, WIDTH_GRID
 from promp.selection.region import within_region
 from promp.selection.trials import INNER_FOLDS, MAX_TRIALS, PERCENTS, Trial
-from promp.timing import n_observed_for
 
 __all__ = ["RULE", "cv_search", "score", "trial_losses"]
 
@@ -61,9 +60,7 @@ def trial_losses(
     """
     cache = {} if cache is None else cache
     if trial not in cache:
-        obs = Observation.from_demo(
-            model, demo, n_observed_for(trial.percent, demo.n_samples), trial.modalities
-        )
+        obs = Observation.first(model, demo, trial.percent, trial.modalities)
         quadratures, bound = [], math.log(longest_alpha(model, obs))
         for prior in priors:
             nodes, log_prior, log_mass = quadrature(prior, bound)

@@ -6,8 +6,9 @@ The model comes first (:func:`choose_model`): for a test demonstration, the mode
 without it (the learner fits it in the background: until then there is nothing to show, and
 the view says so) or an imported one (which cannot be refitted without it); for the live
 stream, the model inference uses. Then the early observation (the first samples of the
-demonstration, or of the live stream's samples) and one inference
-(:func:`app.live.inference.inferred`: a :class:`promp.evidence.Inference`, as it is drawn).
+demonstration, :meth:`promp.inference.Observation.first`, or of the live stream's samples)
+and one inference (:func:`app.live.inference.inferred`: a :class:`promp.evidence.Inference`,
+as it is drawn, shaped by the snapshot's via-points).
 """
 
 from __future__ import annotations
@@ -18,9 +19,10 @@ from dataclasses import dataclass
 from app.core.groups import group_members
 from app.core.learner import Learner
 from app.core.snapshot import Snapshot
-from app.live.inference import LIVE, LSL, InferResult, demo_observation, inferred
+from app.live.inference import LIVE, LSL, InferResult, inferred
 from app.live.recognition_curve import CurveRequest
 from app.live.stream import StreamSamples
+from promp.inference import Observation
 from promp.model import ProMPModel
 
 
@@ -191,27 +193,27 @@ def compute(
 ) -> InferView:
     """The view of ``state`` (observing ``modalities``; None: not a choice of this layout)
     with the model ``choice``, on ``snapshot`` (a test demonstration) or the live stream's
-    ``samples``."""
-    model, vias = choice.model, snapshot.view.via_points
+    ``samples``: the observation taken, then one inference."""
+    model = choice.model
     if modalities is None:
         return InferView(state, None, "choose the observed modalities", choice, samples=samples)
     if model is None:
         return InferView(state, None, choice.message, choice, samples=samples)
     try:
+        truth, curve = None, None
         if state.live:
             if samples is None:
                 raise ValueError("nothing observed yet: press Start observing and move the hand")
             observation = samples.observation(state.percent, modalities, model.layout)
-            result = inferred(model, observation, state.alpha_method, via_points=vias)
-            return InferView(state, result, "", choice, samples=samples)
-        demo = next(d for d in snapshot.store.demos[state.primitive] if d.name == state.demo)
-        curve = CurveRequest(
-            key=(choice.origin, state.primitive, state.demo, modalities, state.alpha_method),
-            model=model, demo=demo, modalities=modalities, alpha_method=state.alpha_method,
-            truth=state.primitive,
-        )  # fmt: skip
-        observation = demo_observation(model, demo, state.percent, modalities)
-        result = inferred(model, observation, state.alpha_method, truth=demo, via_points=vias)
-        return InferView(state, result, "", choice, curve)
+        else:
+            truth = next(d for d in snapshot.store.demos[state.primitive] if d.name == state.demo)
+            curve = CurveRequest(
+                key=(choice.origin, state.primitive, state.demo, modalities, state.alpha_method),
+                model=model, demo=truth, modalities=modalities, alpha_method=state.alpha_method,
+                truth=state.primitive,
+            )  # fmt: skip
+            observation = Observation.first(model, truth, state.percent, modalities)
+        result = inferred(model, observation, state.alpha_method, truth, snapshot.via_points)
+        return InferView(state, result, "", choice, curve, samples=samples)
     except ValueError as exc:
         return InferView(state, None, str(exc), choice, samples=samples)
