@@ -208,18 +208,20 @@ class LooScorer:
             scatter = part.residuals[:, cols].T @ part.residuals[:, cols]
             mine = truth == k
             direct = mine | ~held.rank_one  # the others: a rank-one downdate (_precisions)
-            own = np.where(mine[:, None, None], scatter[None] - held.drop, scatter[None])
+            own = np.where(  # the rows inverted directly
+                mine[direct, None, None], scatter[None] - held.drop[direct], scatter[None]
+            )
             a_full, b_full = part.weights_of(n, part.dof)
             loo = {d: part.weights_of(n - 1, int(d)) for d in np.unique(held.dof[mine])}
             a = np.array([loo[d][0] if t else a_full for d, t in zip(held.dof, mine, strict=True)])
             b = np.array([loo[d][1] if t else b_full for d, t in zip(held.dof, mine, strict=True)])
             if prior is not None:
                 sigma[direct, k] = (a[direct, None, None] * sigma0[direct]
-                                    + b[direct, None, None] * own[direct])
+                                    + b[direct, None, None] * own)
                 bases[k] = a_full * base0 + b_full * scatter
             else:  # a fixed shrinkage: the target part stays
                 target = prim.cov[np.ix_(cols, cols)] - b_full * scatter
-                sigma[direct, k] = target[None] + b[direct, None, None] * own[direct]
+                sigma[direct, k] = target[None] + b[direct, None, None] * own
                 bases[k] = target + b_full * scatter
             shares[k] = a_full
             if mine.any():  # the regression without the demonstration
