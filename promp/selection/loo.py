@@ -183,53 +183,15 @@ class LooScorer:
         truth = batch.truth
         held = _held_out(parts, model, truth, np.array(batch.demos), cols)
         means = np.empty((n_t, n_prims, n_a, p))
-        sigma = np.empty((n_t, n_prims, p, p))
-        # each primitive's covariance without a demonstration of another primitive: its
-        # covariance with the pooled scatter's degrees of freedom less one (``bases``), less a
-        # rank-one downdate of the pooled scatter (``downdate``: its vectors, zero without a
-        # pooled prior); see :func:`_precisions`
-        bases = np.empty((n_prims, p, p))
-        downdate = np.zeros((n_t, p))
-        shares = np.zeros(n_prims)  # each primitive's factor of the pooled covariance
-        prior = parts[0].prior
-        if prior is not None:
-            keep = prior.keep[cols]
-            scatter0 = prior.scatter[np.ix_(cols, cols)]
-            pooled = (scatter0[None] - held.drop) / (prior.dof - 1.0)
-            sigma0 = keep[:, None] * pooled * keep[None, :]
-            sigma0[:, np.arange(p), np.arange(p)] += prior.target_part[cols]
-            base0 = keep[:, None] * (scatter0 / (prior.dof - 1.0)) * keep[None, :]
-            base0[np.arange(p), np.arange(p)] += prior.target_part[cols]
-            downdate = keep * held.vector / math.sqrt(prior.dof - 1.0)
         for k, prim in enumerate(model.primitives):
-            part = parts[k]
             means[:, k] = prim.mean_at(np.exp(batch.log_alphas))[..., cols]
-            n = part.residuals.shape[0]
-            scatter = part.residuals[:, cols].T @ part.residuals[:, cols]
             mine = truth == k
-            direct = mine | ~held.rank_one  # the others: a rank-one downdate (_precisions)
-            own = np.where(  # the rows inverted directly
-                mine[direct, None, None], scatter[None] - held.drop[direct], scatter[None]
-            )
-            a_full, b_full = part.weights_of(n, part.dof)
-            loo = {d: part.weights_of(n - 1, int(d)) for d in np.unique(held.dof[mine])}
-            a = np.array([loo[d][0] if t else a_full for d, t in zip(held.dof, mine, strict=True)])
-            b = np.array([loo[d][1] if t else b_full for d, t in zip(held.dof, mine, strict=True)])
-            if prior is not None:
-                sigma[direct, k] = (a[direct, None, None] * sigma0[direct]
-                                    + b[direct, None, None] * own)
-                bases[k] = a_full * base0 + b_full * scatter
-            else:  # a fixed shrinkage: the target part stays
-                target = prim.cov[np.ix_(cols, cols)] - b_full * scatter
-                sigma[direct, k] = target[None] + b[direct, None, None] * own
-                bases[k] = target + b_full * scatter
-            shares[k] = a_full
             if mine.any():  # the regression without the demonstration
                 shift = batch.log_alphas[mine] - prim.log_alpha_mean  # (T_k, A)
                 means[mine, k] = (
                     held.mean[mine][:, None] + shift[..., None] * held.slope[mine][:, None]
                 )[..., cols]
-        precision, logdet_sigma = _precisions(sigma, bases, shares, downdate, truth, held.rank_one)
+        precision, logdet_sigma = _prior_precisions(model, parts, held, truth, cols)
         means = means.reshape(n_t, n_prims, n_a, n_do, m)
         proj = cross[:, None] - np.einsum("tadmn,tkadn->tkadm", gram, means)  # Psi^T K^-1 r
         rr = (
@@ -238,6 +200,59 @@ class LooScorer:
             + np.einsum("tkadm,tadmn,tkadn->tkad", means, gram, means)
         )
         return precision, logdet_sigma, gram, proj, rr
+
+
+def _prior_precisions(
+    model: ProMPModel,
+    parts: Sequence[FitParts],
+    held: _HeldOut,
+    truth: np.ndarray,
+    cols: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every primitive's prior precision of the observed weights ``cols`` (p,) and its log
+    determinant, without each trial's demonstration (its own primitive's scatter and degrees
+    of freedom, and the pooled prior every primitive borrows from): (T, K, p, p), (T, K).
+
+    The covariances inverted directly are built here (``sigma``); every other primitive's is
+    its covariance with the pooled scatter's degrees of freedom less one (``bases``) less a
+    rank-one downdate of the pooled scatter (``downdate``, zero without a pooled prior), which
+    :func:`_precisions` applies."""
+    n_t, n_prims, p = truth.shape[0], len(model.primitives), cols.shape[0]
+    sigma = np.empty((n_t, n_prims, p, p))
+    bases = np.empty((n_prims, p, p))
+    downdate = np.zeros((n_t, p))
+    shares = np.zeros(n_prims)  # each primitive's factor of the pooled covariance
+    prior = parts[0].prior
+    if prior is not None:
+        keep = prior.keep[cols]
+        scatter0 = prior.scatter[np.ix_(cols, cols)]
+        pooled = (scatter0[None] - held.drop) / (prior.dof - 1.0)
+        sigma0 = keep[:, None] * pooled * keep[None, :]
+        sigma0[:, np.arange(p), np.arange(p)] += prior.target_part[cols]
+        base0 = keep[:, None] * (scatter0 / (prior.dof - 1.0)) * keep[None, :]
+        base0[np.arange(p), np.arange(p)] += prior.target_part[cols]
+        downdate = keep * held.vector / math.sqrt(prior.dof - 1.0)
+    for k, (prim, part) in enumerate(zip(model.primitives, parts, strict=True)):
+        n = part.residuals.shape[0]
+        scatter = part.residuals[:, cols].T @ part.residuals[:, cols]
+        mine = truth == k
+        direct = mine | ~held.rank_one  # the others: a rank-one downdate (_precisions)
+        own = np.where(  # the rows inverted directly
+            mine[direct, None, None], scatter[None] - held.drop[direct], scatter[None]
+        )
+        a_full, b_full = part.weights_of(n, part.dof)
+        loo = {d: part.weights_of(n - 1, int(d)) for d in np.unique(held.dof[mine])}
+        a = np.array([loo[d][0] if t else a_full for d, t in zip(held.dof, mine, strict=True)])
+        b = np.array([loo[d][1] if t else b_full for d, t in zip(held.dof, mine, strict=True)])
+        if prior is not None:
+            sigma[direct, k] = a[direct, None, None] * sigma0[direct] + b[direct, None, None] * own
+            bases[k] = a_full * base0 + b_full * scatter
+        else:  # a fixed shrinkage: the target part stays
+            target = prim.cov[np.ix_(cols, cols)] - b_full * scatter
+            sigma[direct, k] = target[None] + b[direct, None, None] * own
+            bases[k] = target + b_full * scatter
+        shares[k] = a_full
+    return _precisions(sigma, bases, shares, downdate, truth, held.rank_one)
 
 
 # Below this, Sherman-Morrison's denominator ``1 - u^T Sigma^-1 u`` (the share of the
