@@ -277,7 +277,7 @@ def _precisions(
     ``shares[k] * d d^T`` (``d = downdate[t]``, the held-out demonstration's residual in the
     pooled scatter): one inversion per primitive and batch, then Sherman-Morrison and the
     determinant lemma per trial, ``O(p^2)`` instead of ``O(p^3)`` (K - 1 of every K
-    inversions: a third of a fold's CPU on the 70 x 15 set went to them). The same numbers up
+    inversions: a quarter of a fold's CPU on the 70 x 15 set went to them). The same numbers up
     to rounding (the test against refits and the engine's likelihood covers both paths)."""
     n_t, n_prims = sigma.shape[:2]
     precision = np.empty_like(sigma)
