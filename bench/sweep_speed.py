@@ -11,13 +11,16 @@ One run, this machine:
 2. **The evaluation** (``--cli``): ``python -m promp.evaluate`` on that set, every modality
    observed, ML, the default percentages, every core, automatic and given: wall seconds
    (goal: the automatic run within 60 s) with the load average beside them (the machine is
-   shared: a loaded machine stretches the wall clock, not the CPU ratio of 1.).
+   shared: a loaded machine stretches the wall clock, not the CPU ratio of 1.). With
+   ``--cli-jobs 1`` the folds run in this process and its CPU seconds are reported too
+   (``cli_cpu_s_*``): the measure a shared machine keeps; two idle cores cannot take less
+   than half of it.
 
 With ``--data FOLDER`` (a set in the records format, e.g. /work/shared/data/lab-records-heights)
 1. is measured on that set instead (2. is the synthetic set's alone).
 
-Run: ``.venv/bin/python bench/sweep_speed.py [--folds 10] [--cli] [--data FOLDER]``. The last
-line is one JSON object.
+Run: ``.venv/bin/python bench/sweep_speed.py [--folds 10] [--cli [--cli-jobs 1]]
+[--data FOLDER]``. The last line is one JSON object.
 """
 
 from __future__ import annotations
@@ -82,6 +85,8 @@ def main() -> None:
     parser.add_argument("--folds", type=int, default=10)
     parser.add_argument("--cli", action="store_true", help="also time the whole evaluation")
     parser.add_argument("--data", type=Path, help="a set in the records format (for 1.)")
+    parser.add_argument("--cli-jobs", type=int, default=-1,
+                        help="the evaluation's --jobs (1: in this process, its CPU reported)")
     args = parser.parse_args()
     if args.data is not None and args.cli:
         parser.error("--cli times the synthetic set: give --data or --cli, not both")
@@ -98,11 +103,14 @@ def main() -> None:
         print(f"1. per fold: automatic {out['cpu_s_per_fold_auto']} s CPU, given "
               f"{out['cpu_s_per_fold_given']} s: x{out['cpu_ratio']} (goal <= 2)")  # fmt: skip
         if args.cli:
-            common = [*MODALITY_ARGS, "--observe", ",".join(MODALITIES), "--alpha", "ml"]
+            common = [*MODALITY_ARGS, "--observe", ",".join(MODALITIES), "--alpha", "ml",
+                      "--jobs", str(args.cli_jobs)]  # fmt: skip
             for name, extra in (("given", GIVEN_ARGS), ("auto", [])):
-                load = os.getloadavg()[0]
+                load, cpu = os.getloadavg()[0], time.process_time()
                 _, seconds = run_cli(folder, extra, common, Path(tmp) / f"{name}.json", "csv")
                 out[f"cli_s_{name}"], out[f"cli_load_{name}"] = round(seconds, 1), round(load, 2)
+                if args.cli_jobs == 1:
+                    out[f"cli_cpu_s_{name}"] = round(time.process_time() - cpu, 1)
             out["cli_ratio"] = round(out["cli_s_auto"] / out["cli_s_given"], 2)
             out["cli_goal_met"] = out["cli_s_auto"] <= GOAL_S
             print(f"2. evaluation: automatic {out['cli_s_auto']} s (load {out['cli_load_auto']}),"

@@ -23,12 +23,13 @@ from __future__ import annotations
 
 import copy
 import functools
+import weakref
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from promp._recent import recent
+from promp._recent import per_object, recent
 from promp.alpha_model import AlphaModel, resample_uniform
 from promp.covariance import (
     MIN_SHRINKAGE,
@@ -179,10 +180,25 @@ def learned_stillness(demos: Sequence[Demonstration], layout: Layout
     for modality in layout.modalities:
         if modality.unit in ("m", "rad"):
             dims = layout.dims([modality.name])
-            parts = np.array([still_parts(d.times, [(layout.extract(d)[:, dims], modality.unit)])
+            parts = np.array([_still_parts_of(d, layout, modality.name, dims, modality.unit)
                               for d in demos]).reshape(len(demos), 3)  # fmt: skip
             out[modality.name] = dict(zip(STILL_PARTS, parts.T, strict=True))
     return out
+
+
+def _still_parts_of(demo: Demonstration, layout: Layout, name: str, dims: np.ndarray,
+                    unit: str) -> tuple[float, float, float]:  # fmt: skip
+    """:func:`promp.stillness.still_parts` of one modality of ``demo``, computed once per
+    demonstration and layout: every candidate basis of a choice, the final fit and every fold
+    of an evaluation learn the same demonstrations' stillness (computed again each time, it
+    was ~8 % of a fold's CPU on the 70 x 15 set)."""
+    return per_object(
+        _STILLNESS, demo, (layout, name),
+        lambda: still_parts(demo.times, [(layout.extract(demo)[:, dims], unit)]),
+    )  # fmt: skip
+
+
+_STILLNESS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def fit_with(
@@ -191,13 +207,16 @@ def fit_with(
     settings: Settings,
     dt: float,
     alpha_models: bool = True,
+    regions: bool = True,
 ) -> ProMPModel:
     """:func:`promp.learn.fit` with every setting given (no choice) and the sample period
     ``dt`` (s); without ``alpha_models`` the primitives have no Eq. 7 models (they are not
-    needed to recognise with the "ml" alpha). Each primitive's region is calibrated on its
-    own demonstrations left out in turn (:func:`promp.region_calibration.calibrate`)."""
+    needed to recognise with the "ml" alpha). With ``regions`` each primitive's region is
+    calibrated on its own demonstrations left out in turn
+    (:func:`promp.region_calibration.calibrate`); without, it keeps no factor (the drawn
+    region's; nothing recognised or predicted reads it)."""
     model, parts = fit_parts(dataset, layout, settings, dt, alpha_models)
-    return calibrate(model, parts, dataset)
+    return calibrate(model, parts, dataset) if regions else model
 
 
 def fit_parts(

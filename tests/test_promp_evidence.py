@@ -16,6 +16,7 @@ from promp.datasets import RECORD_COLUMNS, guess_layout, load_records_dataset
 from promp.evidence import Evidence
 from promp.evidence.pipeline import infer, recognise
 from promp.evidence.speed import N_NODES, N_REFINE, AlphaPrior, anchored_nodes
+from promp.evidence.weight_space import equilibrated_precision
 from promp.inference import Observation
 from promp.learn import fit
 from tests.conftest import shared_set
@@ -268,3 +269,22 @@ def test_an_evidence_refuses_what_it_cannot_answer() -> None:
         Evidence(model, obs, duration=0.1)
     with pytest.raises(ValueError, match="gaze"):
         Evidence(model, Observation(obs.times, obs.values, ("gaze",)))
+
+
+@pytest.mark.parametrize("size", [6, 70])
+def test_the_equilibrated_precision_of_a_stack_is_each_covariances_inverse(size: int) -> None:
+    """``equilibrated_precision`` of a (2, 3, P, P) stack whose dimensions' units are nine
+    orders of magnitude apart: each precision is its covariance's inverse, exactly symmetric,
+    and the log determinant numpy's; the stack is left as it was."""
+    rng = np.random.default_rng(size)
+    units = np.exp(rng.uniform(np.log(1e-6), np.log(1e3), size))
+    factors = rng.standard_normal((2, 3, size, 2 * size)) * units[:, None]
+    sigma = factors @ factors.swapaxes(-1, -2) / (2 * size)
+    before = sigma.copy()
+    precision, logdet = equilibrated_precision(sigma)
+    assert precision.shape == sigma.shape and logdet.shape == (2, 3)
+    assert np.array_equal(precision, precision.swapaxes(-1, -2))
+    scaled = units[:, None] * (precision @ sigma) / units[None, :]  # the identity, unit-free
+    assert_allclose(scaled, np.broadcast_to(np.eye(size), scaled.shape), atol=1e-8)
+    assert_allclose(logdet, np.linalg.slogdet(sigma)[1], rtol=1e-12, atol=1e-9)
+    assert np.array_equal(sigma, before)

@@ -221,3 +221,22 @@ def test_one_primitive_of_three_demonstrations_keeps_the_plain_region(tmp_path: 
     assert model.primitives[0].region_scale == {}
     save_model(tmp_path / "m.json", model)
     assert load_model(tmp_path / "m.json").primitives[0].region_scale == {}
+
+
+def test_a_fit_without_regions_is_the_same_model_with_no_calibration(data) -> None:
+    """``fit(..., regions=False)`` (the evaluation's folds, which draw nothing) skips the
+    calibration alone: the same primitives to the last bit, none with a factor; and the
+    evaluation's ``ours`` fits that way."""
+    from promp.evaluate.methods import ProMPEngine
+    from promp.learn import fit
+
+    plain = fit(data, LAYOUT, SETTINGS, sample_period=1.0 / RATE, regions=False)
+    model = fit(data, LAYOUT, SETTINGS, sample_period=1.0 / RATE)
+    assert all(p.region_scale for p in model.primitives)
+    assert not any(p.region_scale for p in plain.primitives)
+    for ours, calibrated in zip(plain.primitives, model.primitives, strict=True):
+        assert np.array_equal(ours.mean, calibrated.mean)
+        assert np.array_equal(ours.cov_factor, calibrated.cov_factor)
+    method = ProMPEngine(LAYOUT, SETTINGS)
+    method.fit(data, 1.0 / RATE)
+    assert not any(p.region_scale for p in method.model.primitives)

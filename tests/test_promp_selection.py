@@ -183,10 +183,11 @@ def test_the_inner_folds_keep_two_demonstrations_and_ignore_the_primitives_order
     assert key == [(back[t.primitive], t.demo, t.fold, t.percent, t.modalities) for t in again]
 
 
+@pytest.mark.parametrize("inverted", [False, True])
 @pytest.mark.parametrize("one_at_a_time", [False, True])
 @pytest.mark.parametrize("shrinkage", [None, 0.3])
 def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(
-    monkeypatch, shrinkage, one_at_a_time
+    monkeypatch, shrinkage, one_at_a_time, inverted
 ) -> None:
     """:func:`promp.selection.loo_score` (every trial of a modality set at once, padded,
     whitened, every primitive at every node) against the engine's own Eq. 6
@@ -194,7 +195,9 @@ def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(
     true primitive is the downdated one, with the same nodes and quadrature weights, and those
     weights against :func:`promp.evidence.speed.quadrature_weights` over
     :meth:`AlphaPrior.span`. Both ways of
-    factorising the bordered matrices: as one stack, and one at a time (many weights)."""
+    factorising the bordered matrices: as one stack, and one at a time (many weights); the
+    other primitives' precisions downdated by Sherman-Morrison, or (``inverted``, the path of
+    an update that cancels) each inverted anew."""
     import dataclasses as dc
     import math
 
@@ -208,6 +211,7 @@ def test_the_batched_leave_one_out_score_equals_the_engine_likelihood(
 
     monkeypatch.setattr(batches, "LOO_ROWS", 10_000)  # every sample: the engine's input
     monkeypatch.setattr(loo, "_LOOP_WEIGHTS", 1 if one_at_a_time else 10_000)
+    monkeypatch.setattr(loo, "_LEAST_DENOMINATOR", 2.0 if inverted else 1e-6)  # (it is <= 1)
     dataset = make_dataset(seed=7, n_demos=5)
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
     settings = Settings(n_basis=6, width=1.0, noise_scale=1.0, shrinkage=shrinkage)

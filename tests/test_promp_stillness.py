@@ -10,6 +10,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
+from promp.data import Demonstration
+from promp.fitting import learned_stillness
 from promp.live.segmenter import Segmenter, StillRule
 from promp.live.timebase import Rows
 from promp.stillness import (
@@ -22,8 +24,10 @@ from promp.stillness import (
     moving_spans,
     pause_bound,
     speed,
+    still_parts,
 )
 from tests.conftest import SHARED_DATA
+from tests.synthetic import COLUMNS, LAYOUT
 
 SETS = ("lab-records-heights", "lab-records-flt", "lab-records-flt-shapes")
 
@@ -233,3 +237,26 @@ def test_a_twitch_shorter_than_the_minimum_is_never_started() -> None:
         assert len(moving_spans(times, [(values, "m")])) == found
         assert [e.kind for e, _, _ in events] + [e.kind for e in tail] == \
             ["start", "end"] * found  # fmt: skip
+
+
+def test_a_fit_learns_each_modalitys_stillness_of_each_demonstration_every_time() -> None:
+    """``promp.fitting.learned_stillness`` keeps each demonstration's parts once computed (every
+    candidate basis of a choice and every fold of an evaluation learn them again): what it
+    returns, the first time and from what it kept, is :func:`still_parts` of each modality's own
+    columns, here the hand still for its first 0.6 s and the head for its first 1.2 s."""
+    times = np.arange(0.0, 3.0, 0.02)
+    demos = []
+    for shift in (0.0, 0.1):
+        values = np.zeros((times.size, len(COLUMNS)))
+        values[:, :3] = np.clip((times - 0.6 - shift) / 0.8, 0.0, 1.0)[:, None] * 0.3
+        values[:, 3:] = np.clip((times - 1.2 - shift) / 0.8, 0.0, 1.0)[:, None] * 0.5
+        demos.append(Demonstration(times, values, COLUMNS))
+    expected = {
+        name: np.array([still_parts(times, [(d.values[:, cols], unit)]) for d in demos]).T
+        for name, cols, unit in (("hand", slice(0, 3), "m"), ("head", slice(3, 6), "rad"))
+    }
+    assert expected["hand"][0, 0] < expected["head"][0, 0]  # the two modalities differ
+    for _ in range(2):  # computed, then kept
+        learned = learned_stillness(demos, LAYOUT)
+        for name, parts in expected.items():
+            assert_allclose([learned[name][p] for p in ("lead", "pause", "trail")], parts)

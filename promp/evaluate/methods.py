@@ -67,7 +67,9 @@ class ProMPEngine:
         self.model: ProMPModel | None = None
 
     def fit(self, dataset: Mapping[str, Sequence[Demonstration]], sample_period: float) -> None:
-        self.model = fit(dataset, self.layout, self.settings, sample_period=sample_period)
+        # the drawn region's calibration is for the studio: nothing here reads it
+        self.model = fit(dataset, self.layout, self.settings, sample_period=sample_period,
+                         regions=False)  # fmt: skip
 
     def infer(
         self, demo: Demonstration, n_observed: int, observe: Sequence[str], alpha_method: str

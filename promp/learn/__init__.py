@@ -27,6 +27,7 @@ def fit(
     settings: Settings | None = None,
     sample_period: float | None = None,
     previous: Mapping | None = None,
+    regions: bool = True,
 ) -> ProMPModel:
     """Learn one primitive per entry of ``dataset`` ({primitive name: demonstrations}).
 
@@ -54,6 +55,10 @@ def fit(
     previous : mapping, optional
         The ``report["settings"]`` of a fit of nearly the same demonstrations (the studio's
         refit after a demonstration was added or deleted), which the choice may keep.
+    regions : bool, default True
+        Calibrate each primitive's drawn region on its demonstrations left out in turn
+        (:attr:`~promp.model.Primitive.region_scale`, :mod:`promp.region_calibration`).
+        Recognition and prediction never read it: the evaluation's folds skip it.
 
     Returns
     -------
@@ -88,5 +93,5 @@ def fit(
     else:
         choice = {"rule": "given (n_basis, width, noise_scale and duration_temperature set "
                   "explicitly)"}  # fmt: skip
-    model = fit_with(dataset, layout, settings, dt)
+    model = fit_with(dataset, layout, settings, dt, regions=regions)
     return dataclasses.replace(model, report={"settings": choice, **model.report})
