@@ -20,16 +20,17 @@ as killed, as mutmut counts it (the mutant made the tests run far past their tim
 loop is a change the tests noticed).
 
 Excluded (the rule, decided from the mutant's code, not from its fate): a mutant equal to the
-original function once every message in it is blanked. A message is an argument written as a
-string literal or an f-string of: the exception of a ``raise`` statement; a call to ``print``,
-``warnings.warn`` or a logger's ``debug``/``info``/``warning``/``error``/``exception``/
-``critical``; ``LiveEvent`` (a live session's event), its text only (the second argument or
-``text=``: the event's time and kind are not messages). So a message's text changed
-(``"XX...XX"``), or replaced by ``None``, is excluded; the exception's type, the event's kind,
-a ``print``'s stream or of anything computed (``print(json.dumps(summary))``) is not. Tests
-assert what happened (numbers, states, an event's kind and fields), not the wording. Every
-other string (a key, a kind, a file name, a header, a unit, a detail that is parsed back) is
-not excluded.
+original function once every message in it is blanked. The messages are the arguments of the
+exception in a ``raise`` statement, of ``warnings.warn`` and of a logger's ``debug``/``info``/
+``warning``/``error``/``exception``/``critical``; the text of a ``LiveEvent`` (a live
+session's event: its second argument or ``text=``; its time and kind are not messages); and
+the arguments of ``print`` written as a string literal or an f-string. So a message's text
+changed (``"XX...XX"``), a message replaced by ``None`` or dropped, is excluded; the
+exception's type, the event's time or kind, what ``print`` writes when it is computed
+(``print(json.dumps(summary))``) or where it writes, is not. Tests assert what happened
+(numbers, states, an event's kind and fields), not the wording. Every other string (a key, a
+kind, a file name, a header, a unit, a detail that is parsed back, a message built into a
+variable before it reaches a call) is not excluded.
 
 Install mutmut once (it is not a dependency of the tests, and CI does not run this):
 ``.venv/bin/python -m pip install -e '.[mutation]'``.
@@ -122,21 +123,24 @@ def _is_text(node: ast.AST) -> bool:
 
 def _message_paths(function: ast.AST) -> set[tuple]:
     """Where the messages of ``function`` are: the paths (fields and indices from the function)
-    of the string or f-string arguments of a raised exception, of print, warn and a logger's
-    methods, and of LiveEvent's text (its second argument or ``text=``)."""
+    of the arguments of a raised exception, of ``warn`` and a logger's methods, of LiveEvent's
+    text (its second argument or ``text=``), and the string or f-string arguments of print."""
     paths: set[tuple] = set()
 
     def visit(node: ast.AST, path: tuple) -> None:
-        calls = []
+        call, at = None, path
         if isinstance(node, ast.Raise) and isinstance(node.exc, ast.Call):
-            calls.append((node.exc, path + ("exc",), None))
+            call, at = node.exc, path + ("exc",)
         elif isinstance(node, ast.Call) and _call_name(node) in MESSAGE_CALLS:
-            calls.append((node, path, 1 if _call_name(node) == "LiveEvent" else None))
-        for call, at, only in calls:
-            paths.update(at + ("args", i) for i, a in enumerate(call.args)
-                         if (only is None or i == only) and _is_text(a))
+            call = node
+        if call is not None:
+            name = _call_name(call) if call is node else "raise"
+            for i, a in enumerate(call.args):
+                if (name == "LiveEvent" and i != 1) or (name == "print" and not _is_text(a)):
+                    continue
+                paths.add(at + ("args", i))
             paths.update(at + ("keywords", i, "value") for i, k in enumerate(call.keywords)
-                         if k.arg == "text" and only is not None and _is_text(k.value))
+                         if name == "LiveEvent" and k.arg == "text")
         for field, value in ast.iter_fields(node):
             if isinstance(value, ast.AST):
                 visit(value, path + (field,))
