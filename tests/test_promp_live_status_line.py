@@ -77,3 +77,13 @@ def test_without_a_movement_the_line_says_it_waits(snap) -> None:
     assert line.startswith("waiting")
     later = replace(snap, movement=replace(snap.movement, number=snap.movement.number + 1))
     assert "phase" not in status_line(later, 0.0)  # the prediction was of another movement
+
+
+def test_a_stream_s_line_gives_how_long_its_condition_lasts_and_its_detail() -> None:
+    status = StreamStatus("Hand", Condition.STALLED, 100.0, "no sample")
+    seconds = re.search(rf"for {NUMBER} s", status.message(101.46))
+    assert seconds and float(seconds.group(1)) == 1.5
+    assert "(no sample)" in status.message(101.46)
+    assert float(re.search(rf"for {NUMBER} s", status.message(99.0)).group(1)) == 0.0
+    bare = StreamStatus("Hand", Condition.VANISHED, 100.0).message(100.25)
+    assert "(" not in bare and float(re.search(rf"for {NUMBER} s", bare).group(1)) == 0.2

@@ -1,0 +1,60 @@
+"""A live session's threads (promp.live.session.SessionThreads): the loop steps until stopped
+and a failing step is said, not fatal; the resolver looks for the streams again and again, a
+failing look said too; start twice starts once; stop ends both."""
+
+from __future__ import annotations
+
+import threading
+
+from promp.live.session import SessionThreads
+from tests.conftest import wait_until
+
+
+class Intake:
+    """What the threads use of the session's intake: looks and notes, counted."""
+
+    def __init__(self, fail_looks: int = 0):
+        self.looks, self.notes, self.fail_looks = [], [], fail_looks
+
+    def look(self, wait: float) -> None:
+        self.looks.append(wait)
+        if len(self.looks) <= self.fail_looks:
+            raise OSError("no network")
+
+    def note(self, text: str) -> None:
+        self.notes.append(text)
+
+
+def test_the_loop_steps_until_stopped_and_a_failing_step_is_said() -> None:
+    steps = []
+
+    def step() -> bool:
+        steps.append(threading.current_thread().name)
+        if len(steps) == 3:
+            raise RuntimeError("a defect")
+        return len(steps) % 2 == 0
+
+    intake = Intake()
+    threads = SessionThreads(step, intake)
+    threads.start()
+    threads.start()  # already running: no second pair of threads
+    wait_until(lambda: len(steps) >= 6, what="six steps")
+    threads.stop()
+    done = len(steps)
+    assert set(steps) == {"live-session"}
+    assert len(intake.notes) == 1 and "RuntimeError" in intake.notes[0]
+    assert intake.looks and all(w > 0 for w in intake.looks)
+    assert not any(t.name.startswith("live-") for t in threading.enumerate())
+    assert len(steps) == done  # stopped: no step after
+
+
+def test_a_failing_look_is_said_and_looked_again() -> None:
+    intake = Intake(fail_looks=2)
+    threads = SessionThreads(lambda: False, intake)
+    threads.start()
+    wait_until(lambda: len(intake.looks) >= 3, what="three looks")
+    threads.stop()
+    assert len(intake.notes) == 2 and all("OSError" in n for n in intake.notes)
+    threads.start()  # stopped threads start again
+    wait_until(lambda: len(intake.looks) >= 4, what="a look after the restart")
+    threads.stop()
