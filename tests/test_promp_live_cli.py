@@ -132,3 +132,80 @@ def test_the_command_predicts_publishes_records_and_stops_cleanly(tmp_path) -> N
     assert np.all(np.isin(np.round(recorded.values[:, 0] * 1000.0, 9),
                           np.round(values[:, 0], 9)))  # fmt: skip
     assert list((tmp_path / "takes" / ".journals").glob("*")) == []
+
+
+def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monkeypatch,
+                                                                  capsys) -> None:  # fmt: skip
+    """The command itself (its waits, its report, its summary) over the fake network: a
+    movement between the markers ``start right`` and ``end right``, then Ctrl-C."""
+    import threading
+
+    from promp.live import lsl
+    from tests.conftest import wait_until
+    from tests.live_fakes import FakeStream, FakeTransport, synthetic_model
+    from tests.synthetic import make_dataset
+
+    class Opening(FakeTransport):
+        opened: set = set()
+
+        def open(self, description):
+            self.opened.add(description.uid)
+            return super().open(description)
+
+    transport = Opening()
+    hand = transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
+    cue = transport.add(FakeStream("Cues", ("label",), rate=0.0, type="Markers", markers=True))
+    monkeypatch.setattr(lsl, "LslTransport", lambda: transport)
+    save_model(tmp_path / "model.json", synthetic_model())
+    demo = make_dataset(seed=11, n_demos=1)["right"][0]
+    values = demo.select(["x", "y", "z"])
+    record = tmp_path / "takes"
+    (record / ".journals").mkdir(parents=True)
+    (record / ".journals" / "old.journal").write_text("not a journal")  # said, left alone
+    from promp.live.journal import Journal
+
+    killed = Journal(record / ".journals" / "live-1.journal", ("x", "y", "z"), "take-9", "", 0.0)
+    killed.append(demo.times[:7], values[:7])  # a recording a kill interrupted
+    killed.close()
+
+    def feed() -> None:
+        wait_until(lambda: "robot-probabilities" in transport.outlets, what="the outlets")
+        wait_until(lambda: len(transport.opened) == 2, what="the inlets")
+        times = transport.now + 0.1 + demo.times - demo.times[0]
+        rest = times[-1] + 0.02 * np.arange(1, 26)  # half a second still after the end
+        transport.now = rest[-1] + 0.01
+        cue.push([times[0]], ["start right"])  # one burst: a movement and its markers
+        hand.push(np.concatenate([times, rest]), np.vstack([values] + [values[-1:]] * 25))
+        cue.push([times[-1]], ["end right"])
+        wait_until(lambda: list(record.glob("right/*.csv")), what="the recorded movement")
+        if running:  # Ctrl-C for the command, never for pytest once the command has ended
+            os.kill(os.getpid(), signal.SIGINT)
+
+    handlers = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    running = [True]
+    feeder = threading.Thread(target=feed, daemon=True)
+    feeder.start()
+    try:
+        code = main(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                     "--out", "robot", "--start", "marker", "--markers", "Cues",
+                     "--record", str(record), "--status-every", "0.05", "--wait", "600"])
+    finally:
+        running.clear()
+        signal.signal(signal.SIGINT, handlers[0])
+        signal.signal(signal.SIGTERM, handlers[1])
+    feeder.join(timeout=60.0)
+    assert code == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    summary = json.loads(lines[-1])
+    assert summary["movements"] == 1
+    assert summary["received"]["Hand"] == demo.n_samples + 25
+    assert summary["left_out"]["Hand"] == 0
+    pushed = transport.outlets["robot-probabilities"].pushed
+    assert summary["predictions"] == len(pushed) >= 1  # one burst: at least one prediction
+    assert 0 < summary["infer_ms_p50"] <= summary["infer_ms_p99"]
+    assert sum(line.startswith("found ") for line in lines) == 2
+    (take,) = record.glob("right/*.csv")
+    assert abs(read_csv_demo(take).n_samples - demo.n_samples) <= 1  # the marked rows
+    assert (record / ".journals" / "old.journal").exists()
+    assert read_csv_demo(record / "recovered" / "take-9.csv").n_samples == 7
+    assert not (record / ".journals" / "live-1.journal").exists()
