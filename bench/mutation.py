@@ -76,10 +76,11 @@ DEFAULT_DESELECT = [
     "tests/test_promp_live_movements.py::test_each_guided_take_from_a_busy_sender_is_one_movement_recognised_as_offline",
     "tests/test_promp_live_movements.py::test_a_pause_longer_than_any_learned_ends_the_movement",
 ]
-# Hypothesis draws the same examples for every mutant (the clean run passed on them): a
-# property test that found a fault of the code itself in one mutant's run would otherwise
-# "kill" it, and the examples it saved would "kill" those after it.
-PYTEST_ARGS = ["--hypothesis-seed=0"]
+# Hypothesis (tests/conftest.py's profile "mutation") draws the same examples for every mutant
+# (the clean run passed on them: a fault of the code itself found in one mutant's run would
+# otherwise "kill" it, and the examples saved would "kill" those after it), and does not shrink
+# a failing example (minutes of shrinking per killed mutant, up to mutmut's time limit).
+PYTEST_ARGS = ["--hypothesis-profile=mutation"]
 # Calls whose arguments are messages for a reader (see the module's docstring).
 MESSAGE_CALLS = {"print", "LiveEvent", "warn", "debug", "info", "warning", "error", "exception",
                  "critical"}
