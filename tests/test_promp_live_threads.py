@@ -15,9 +15,11 @@ class Intake:
 
     def __init__(self, fail_looks: int = 0):
         self.looks, self.notes, self.fail_looks = [], [], fail_looks
+        self.threads: set = set()
 
     def look(self, wait: float) -> None:
         self.looks.append(wait)
+        self.threads.add(threading.current_thread())
         if len(self.looks) <= self.fail_looks:
             raise OSError("no network")
 
@@ -26,10 +28,11 @@ class Intake:
 
 
 def test_the_loop_steps_until_stopped_and_a_failing_step_is_said() -> None:
-    steps = []
+    steps, seen = [], set()
 
     def step() -> bool:
         steps.append((threading.current_thread().name, threading.get_ident()))
+        seen.add(threading.current_thread())
         if len(steps) == 3:
             raise RuntimeError("a defect")
         return len(steps) % 2 == 0
@@ -45,7 +48,8 @@ def test_the_loop_steps_until_stopped_and_a_failing_step_is_said() -> None:
     assert len({ident for _, ident in steps}) == 1  # one loop, however often started
     assert len(intake.notes) == 1 and "RuntimeError" in intake.notes[0]
     assert intake.looks and all(w > 0 for w in intake.looks)
-    assert not any(t.name.startswith("live-") for t in threading.enumerate())
+    assert {t.name for t in intake.threads} == {"live-resolver"}
+    assert not any(t.is_alive() for t in seen | intake.threads)  # both ended
     assert len(steps) == done  # stopped: no step after
 
 
