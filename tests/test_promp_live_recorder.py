@@ -139,3 +139,17 @@ def test_a_demonstration_as_a_movement_keeps_its_rows() -> None:
     assert_array_equal(movement.times, demo.times)
     assert_array_equal(movement.values, demo.values)
     assert movement_of(demo, 1).label == ""
+
+
+def test_releasing_a_movement_removes_its_journal_and_leaves_the_one_under_way(tmp_path) -> None:
+    recorder = Recorder(tmp_path, ("x", "y", "z"))
+    recorder.release(5)  # no journal of movement 5: nothing to do
+    recorder.append(Movement(1, "", TIMES[:10], VALUES[:10]))
+    journal = recorder.journal_path(1)
+    recorder.release(2)  # another movement's: movement 1's journal stays open, where it was
+    assert journal.exists()
+    assert recorder.append(Movement(1, "", TIMES[:30], VALUES[:30])) == 30
+    assert read_journal(journal)[0].n_samples == 30
+    recorder.release(1)
+    assert not journal.exists() and list(tmp_path.iterdir()) == []
+    assert recorder.append(Movement(2, "", TIMES[:4], VALUES[:4])) == 4  # a new journal
