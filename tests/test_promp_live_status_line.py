@@ -75,6 +75,10 @@ def test_without_a_movement_the_line_says_it_waits(snap) -> None:
     line = status_line(replace(snap, movement=None), 0.0)
     assert "movement" in line and "rows" not in line and "phase" not in line
     assert line.startswith("waiting")
+    empty = replace(snap.movement, times=snap.movement.times[:0], values=snap.movement.values[:0])
+    line = status_line(replace(snap, movement=empty), 0.0)
+    found = re.search(rf"\({NUMBER} s, (\d+) rows\)", line)
+    assert found and float(found.group(1)) == 0.0 and int(found.group(2)) == 0  # begun, no row yet
     later = replace(snap, movement=replace(snap.movement, number=snap.movement.number + 1))
     assert "phase" not in status_line(later, 0.0)  # the prediction was of another movement
 
