@@ -23,9 +23,11 @@ Excluded (the rule, decided from the mutant's code, not from its fate): a mutant
 original function once every message in it is blanked. The messages are the arguments of the
 exception in a ``raise`` statement, of ``warnings.warn`` and of a logger's ``debug``/``info``/
 ``warning``/``error``/``exception``/``critical``; the text of a ``LiveEvent`` (a live
-session's event: its second argument or ``text=``; its time and kind are not messages); and
-the arguments of ``print`` written as a string literal or an f-string. So a message's text
-changed (``"XX...XX"``), a message replaced by ``None`` or dropped, is excluded; the
+session's event: its second argument or ``text=``; its time and kind are not messages); the
+arguments of ``print`` written as a string literal or an f-string; and the texts only a
+command's ``--help`` shows (the keywords ``help``, ``description``, ``epilog``, ``metavar``,
+``prog`` of any call: argparse's). So a message's text changed (``"XX...XX"``), a message
+replaced by ``None`` or dropped, is excluded; the
 exception's type, the event's time or kind, what ``print`` writes when it is computed
 (``print(json.dumps(summary))``) or where it writes, is not. Tests assert what happened
 (numbers, states, an event's kind and fields), not the wording. Every other string (a key, a
@@ -84,6 +86,8 @@ PYTEST_ARGS = ["--hypothesis-profile=mutation"]
 # Calls whose arguments are messages for a reader (see the module's docstring).
 MESSAGE_CALLS = {"print", "LiveEvent", "warn", "debug", "info", "warning", "error", "exception",
                  "critical"}
+# Keywords whose text only a command's --help shows (argparse's).
+HELP_KEYWORDS = {"help", "description", "epilog", "metavar", "prog"}
 KILLED = {"killed", "caught by type check", "segfault"}
 
 
@@ -132,7 +136,8 @@ def _is_text(node: ast.AST) -> bool:
 def _message_paths(function: ast.AST) -> set[tuple]:
     """Where the messages of ``function`` are: the paths (fields and indices from the function)
     of the arguments of a raised exception, of ``warn`` and a logger's methods, of LiveEvent's
-    text (its second argument or ``text=``), and the string or f-string arguments of print."""
+    text (its second argument or ``text=``), the string or f-string arguments of print, and
+    the help texts (:data:`HELP_KEYWORDS`) of any call."""
     paths: set[tuple] = set()
 
     def visit(node: ast.AST, path: tuple) -> None:
@@ -149,6 +154,9 @@ def _message_paths(function: ast.AST) -> set[tuple]:
                 paths.add(at + ("args", i))
             paths.update(at + ("keywords", i, "value") for i, k in enumerate(call.keywords)
                          if name == "LiveEvent" and k.arg == "text")
+        if isinstance(node, ast.Call):
+            paths.update(path + ("keywords", i, "value") for i, k in enumerate(node.keywords)
+                         if k.arg in HELP_KEYWORDS)
         for field, value in ast.iter_fields(node):
             if isinstance(value, ast.AST):
                 visit(value, path + (field,))

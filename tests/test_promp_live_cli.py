@@ -209,3 +209,46 @@ def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monk
     assert (record / ".journals" / "old.journal").exists()
     assert read_csv_demo(record / "recovered" / "take-9.csv").n_samples == 7
     assert not (record / ".journals" / "live-1.journal").exists()
+
+
+def test_the_options_parse_to_their_types_and_defaults_and_three_are_required() -> None:
+    from pathlib import Path
+
+    from promp.live.predictor import REMAINDER_HZ
+    from promp.live.segmenter import MAX_MOVEMENT_S
+
+    needed = ["--model", "m.json", "--in", "hand=H:0,1,2", "--in", "head=G:0,1,2", "--out", "r"]
+    args = parser().parse_args(needed)
+    assert args.model == Path("m.json") and args.inputs == ["hand=H:0,1,2", "head=G:0,1,2"]
+    assert (args.out, args.remainder, args.rate, args.start, args.markers) == (
+        "r", None, REMAINDER_HZ, "still", "", )  # fmt: skip
+    assert (args.alpha_method, args.time_base, args.max_movement, args.decide) == (
+        "ml", None, MAX_MOVEMENT_S, False)  # fmt: skip
+    assert (args.decide_threshold, args.decide_window, args.record, args.lsl_config) == (
+        None, None, None, None)  # fmt: skip
+    assert (args.wait, args.status_every) == (30.0, 1.0)  # the defaults --help states
+    given = parser().parse_args(needed + [
+        "--rate", "25", "--time-base", "100", "--max-movement", "4", "--decide",
+        "--decide-threshold", "0.8", "--decide-window", "0.2", "--wait", "5",
+        "--status-every", "0.5", "--record", "takes", "--lsl-config", "lsl.cfg",
+        "--start", "marker", "--markers", "Cues", "--alpha-method", "model",
+        "--remainder", "hand"])  # fmt: skip
+    assert (given.rate, given.time_base, given.max_movement, given.decide_threshold,
+            given.decide_window, given.wait, given.status_every) == (
+        25.0, 100.0, 4.0, 0.8, 0.2, 5.0, 0.5)  # fmt: skip
+    assert all(type(v) is float for v in (given.rate, given.time_base, given.max_movement,
+                                          given.decide_threshold, given.decide_window,
+                                          given.wait, given.status_every))  # fmt: skip
+    assert given.record == Path("takes") and given.lsl_config == Path("lsl.cfg")
+    assert (given.start, given.markers, given.alpha_method, given.remainder, given.decide) == (
+        "marker", "Cues", "model", "hand", True)  # fmt: skip
+    for left_out in ("--model", "--in", "--out"):
+        i = needed.index(left_out)
+        rest = needed[:i] + needed[i + 2:]
+        if left_out == "--in":
+            rest = [a for a in rest if not a.startswith(("hand=", "head=")) and a != "--in"]
+        with pytest.raises(SystemExit):
+            parser().parse_args(rest)
+    for bad in (["--start", "call"], ["--alpha-method", "mean"], ["--rate", "fast"]):
+        with pytest.raises(SystemExit):
+            parser().parse_args(needed + bad)
