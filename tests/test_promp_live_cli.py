@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -168,9 +169,16 @@ def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monk
     killed.append(demo.times[:7], values[:7])  # a recording a kill interrupted
     killed.close()
 
+    from promp.live import status_line as status_line_module
+
+    lines_made: list = []  # the command's status lines: its report loop is running
+    real_line = status_line_module.status_line
+    monkeypatch.setattr(status_line_module, "status_line",
+                        lambda snap, rate: lines_made.append(snap) or real_line(snap, rate))
+
     def feed() -> None:
-        wait_until(lambda: "robot-probabilities" in transport.outlets, what="the outlets")
-        wait_until(lambda: len(transport.opened) == 2, what="the inlets")
+        wait_until(lambda: lines_made, what="the command's first status line")
+        assert len(transport.opened) == 2
         times = transport.now + 0.1 + demo.times - demo.times[0]
         rest = times[-1] + 0.02 * np.arange(1, 26)  # half a second still after the end
         transport.now = rest[-1] + 0.01
@@ -178,6 +186,8 @@ def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monk
         hand.push(np.concatenate([times, rest]), np.vstack([values] + [values[-1:]] * 25))
         cue.push([times[-1]], ["end right"])
         wait_until(lambda: list(record.glob("right/*.csv")), what="the recorded movement")
+        seen = len(lines_made)
+        wait_until(lambda: len(lines_made) >= seen + 2, what="two status lines after it")
         if running:  # Ctrl-C for the command, never for pytest once the command has ended
             os.kill(os.getpid(), signal.SIGINT)
 
@@ -204,6 +214,11 @@ def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monk
     assert summary["predictions"] == len(pushed) >= 1  # one burst: at least one prediction
     assert 0 < summary["infer_ms_p50"] <= summary["infer_ms_p99"]
     assert sum(line.startswith("found ") for line in lines) == 2
+    assert sum("predictions/s" in line for line in lines) == len(lines_made)
+    # each event once, as the events outlet carried it (time to the millisecond, text)
+    published = [f"{stamp:.3f} {row[0]}" for row, stamp in transport.outlets["robot-events"].pushed]
+    printed = [line for line in lines if re.match(r"\d+\.\d{3} ", line)]
+    assert len(printed) >= 3 and printed == published[:len(printed)]
     (take,) = record.glob("right/*.csv")
     assert abs(read_csv_demo(take).n_samples - demo.n_samples) <= 1  # the marked rows
     assert (record / ".journals" / "old.journal").exists()
