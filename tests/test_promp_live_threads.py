@@ -6,8 +6,19 @@ from __future__ import annotations
 
 import threading
 
+import pytest
+
+import promp.live.session
 from promp.live.session import SessionThreads
 from tests.conftest import wait_until
+
+
+@pytest.fixture(autouse=True)
+def short_pauses(monkeypatch):
+    """The pauses after a failure and between looks, short: the same loops, run faster (a
+    mutant that breaks them then costs mutation testing seconds, not minutes)."""
+    for name in ("ERROR_PAUSE_S", "FIND_EVERY_S", "FIND_WAIT_S"):
+        monkeypatch.setattr(promp.live.session, name, 0.01)
 
 
 class Intake:
