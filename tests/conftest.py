@@ -24,7 +24,14 @@ import pytest
 # LSL keeps every test's streams on this machine (before pylsl is imported anywhere).
 os.environ["LSLAPICFG"] = str(Path(__file__).resolve().parent / "lsl_loopback.cfg")
 
+from hypothesis import Phase, settings  # noqa: E402
+
 from app.core.fits import FitCache  # noqa: E402
+
+# bench/mutation.py's profile (``--hypothesis-profile=mutation``): the same examples for every
+# mutant, none saved or replayed, and a failing one not shrunk (a failure is all it needs)
+settings.register_profile("mutation", derandomize=True, database=None,
+                          phases=(Phase.explicit, Phase.generate))  # fmt: skip
 
 # The fits of the tests' sessions and studios, shared (the studio injects a cache: one per
 # studio by default). Many tests open the same workspaces: their fits are learned once.

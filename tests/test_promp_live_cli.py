@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -132,3 +133,137 @@ def test_the_command_predicts_publishes_records_and_stops_cleanly(tmp_path) -> N
     assert np.all(np.isin(np.round(recorded.values[:, 0] * 1000.0, 9),
                           np.round(values[:, 0], 9)))  # fmt: skip
     assert list((tmp_path / "takes" / ".journals").glob("*")) == []
+
+
+def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monkeypatch,
+                                                                  capsys) -> None:  # fmt: skip
+    """The command itself (its waits, its report, its summary) over the fake network: a
+    movement between the markers ``start right`` and ``end right``, then Ctrl-C."""
+    import threading
+
+    from promp.live import lsl
+    from tests.conftest import wait_until
+    from tests.live_fakes import FakeStream, FakeTransport, synthetic_model
+    from tests.synthetic import make_dataset
+
+    class Opening(FakeTransport):
+        opened: set = set()
+
+        def open(self, description):
+            self.opened.add(description.uid)
+            return super().open(description)
+
+    transport = Opening()
+    hand = transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
+    cue = transport.add(FakeStream("Cues", ("label",), rate=0.0, type="Markers", markers=True))
+    monkeypatch.setattr(lsl, "LslTransport", lambda: transport)
+    save_model(tmp_path / "model.json", synthetic_model())
+    demo = make_dataset(seed=11, n_demos=1)["right"][0]
+    values = demo.select(["x", "y", "z"])
+    record = tmp_path / "takes"
+    (record / ".journals").mkdir(parents=True)
+    (record / ".journals" / "old.journal").write_text("not a journal")  # said, left alone
+    from promp.live.journal import Journal
+
+    killed = Journal(record / ".journals" / "live-1.journal", ("x", "y", "z"), "take-9", "", 0.0)
+    killed.append(demo.times[:7], values[:7])  # a recording a kill interrupted
+    killed.close()
+
+    from promp.live import status_line as status_line_module
+
+    lines_made: list = []  # the command's status lines: its report loop is running
+    real_line = status_line_module.status_line
+    monkeypatch.setattr(status_line_module, "status_line",
+                        lambda snap, rate: lines_made.append(snap) or real_line(snap, rate))
+
+    def feed() -> None:
+        wait_until(lambda: lines_made, what="the command's first status line")
+        assert len(transport.opened) == 2
+        times = transport.now + 0.1 + demo.times - demo.times[0]
+        rest = times[-1] + 0.02 * np.arange(1, 26)  # half a second still after the end
+        transport.now = rest[-1] + 0.01
+        cue.push([times[0]], ["start right"])  # one burst: a movement and its markers
+        hand.push(np.concatenate([times, rest]), np.vstack([values] + [values[-1:]] * 25))
+        cue.push([times[-1]], ["end right"])
+        wait_until(lambda: list(record.glob("right/*.csv")), what="the recorded movement")
+        seen = len(lines_made)
+        wait_until(lambda: len(lines_made) >= seen + 2, what="two status lines after it")
+        if running:  # Ctrl-C for the command, never for pytest once the command has ended
+            os.kill(os.getpid(), signal.SIGINT)
+
+    handlers = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    running = [True]
+    feeder = threading.Thread(target=feed, daemon=True)
+    feeder.start()
+    try:
+        code = main(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                     "--out", "robot", "--start", "marker", "--markers", "Cues",
+                     "--record", str(record), "--status-every", "0.05", "--wait", "600"])
+    finally:
+        running.clear()
+        signal.signal(signal.SIGINT, handlers[0])
+        signal.signal(signal.SIGTERM, handlers[1])
+    feeder.join(timeout=60.0)
+    assert code == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    summary = json.loads(lines[-1])
+    assert summary["movements"] == 1
+    assert summary["received"]["Hand"] == demo.n_samples + 25
+    assert summary["left_out"]["Hand"] == 0
+    pushed = transport.outlets["robot-probabilities"].pushed
+    assert summary["predictions"] == len(pushed) >= 1  # one burst: at least one prediction
+    assert 0 < summary["infer_ms_p50"] <= summary["infer_ms_p99"]
+    assert sum(line.startswith("found ") for line in lines) == 2
+    assert sum("predictions/s" in line for line in lines) == len(lines_made)
+    # each event once, as the events outlet carried it (time to the millisecond, text)
+    published = [f"{stamp:.3f} {row[0]}" for row, stamp in transport.outlets["robot-events"].pushed]
+    printed = [line for line in lines if re.match(r"\d+\.\d{3} ", line)]
+    assert len(printed) >= 3 and printed == published[:len(printed)]
+    (take,) = record.glob("right/*.csv")
+    assert abs(read_csv_demo(take).n_samples - demo.n_samples) <= 1  # the marked rows
+    assert (record / ".journals" / "old.journal").exists()
+    assert read_csv_demo(record / "recovered" / "take-9.csv").n_samples == 7
+    assert not (record / ".journals" / "live-1.journal").exists()
+
+
+def test_the_options_parse_to_their_types_and_defaults_and_three_are_required() -> None:
+    from pathlib import Path
+
+    from promp.live.predictor import REMAINDER_HZ
+    from promp.live.segmenter import MAX_MOVEMENT_S
+
+    needed = ["--model", "m.json", "--in", "hand=H:0,1,2", "--in", "head=G:0,1,2", "--out", "r"]
+    args = parser().parse_args(needed)
+    assert args.model == Path("m.json") and args.inputs == ["hand=H:0,1,2", "head=G:0,1,2"]
+    assert (args.out, args.remainder, args.rate, args.start, args.markers) == (
+        "r", None, REMAINDER_HZ, "still", "", )  # fmt: skip
+    assert (args.alpha_method, args.time_base, args.max_movement, args.decide) == (
+        "ml", None, MAX_MOVEMENT_S, False)  # fmt: skip
+    assert (args.decide_threshold, args.decide_window, args.record, args.lsl_config) == (
+        None, None, None, None)  # fmt: skip
+    assert (args.wait, args.status_every) == (30.0, 1.0)  # the defaults --help states
+    given = parser().parse_args(needed + [
+        "--rate", "25", "--time-base", "100", "--max-movement", "4", "--decide",
+        "--decide-threshold", "0.8", "--decide-window", "0.2", "--wait", "5",
+        "--status-every", "0.5", "--record", "takes", "--lsl-config", "lsl.cfg",
+        "--start", "marker", "--markers", "Cues", "--alpha-method", "model",
+        "--remainder", "hand"])  # fmt: skip
+    assert (given.rate, given.time_base, given.max_movement, given.decide_threshold,
+            given.decide_window, given.wait, given.status_every) == (
+        25.0, 100.0, 4.0, 0.8, 0.2, 5.0, 0.5)  # fmt: skip
+    assert all(type(v) is float for v in (given.rate, given.time_base, given.max_movement,
+                                          given.decide_threshold, given.decide_window,
+                                          given.wait, given.status_every))  # fmt: skip
+    assert given.record == Path("takes") and given.lsl_config == Path("lsl.cfg")
+    assert (given.start, given.markers, given.alpha_method, given.remainder, given.decide) == (
+        "marker", "Cues", "model", "hand", True)  # fmt: skip
+    for left_out in ("--model", "--in", "--out"):
+        i = needed.index(left_out)
+        rest = needed[:i] + needed[i + 2:]
+        if left_out == "--in":
+            rest = [a for a in rest if not a.startswith(("hand=", "head=")) and a != "--in"]
+        with pytest.raises(SystemExit):
+            parser().parse_args(rest)
+    for bad in (["--start", "call"], ["--alpha-method", "mean"], ["--rate", "fast"]):
+        with pytest.raises(SystemExit):
+            parser().parse_args(needed + bad)

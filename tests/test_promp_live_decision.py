@@ -140,3 +140,31 @@ def test_a_failed_prediction_breaks_the_run_and_a_cut_back_one_is_not_taken() ->
     assert again is None and c.commitment == made
     c, made = c.update(2, 0.00, sure[::-1], 0.0, 11.00)
     assert made is None and c.commitment is None and c.movement == 2
+
+
+def test_an_update_or_a_failure_at_the_same_time_as_the_last_is_taken() -> None:
+    """Only an earlier time is cut back: a prediction at the same time as the last counts (a
+    window of 0 commits on it), and so does a failure (the run begins again)."""
+    sure = np.array([0.05, 0.95])
+    c = Committing(CommitRule(threshold=0.9, window=0.0), ("a", "b"))
+    c, made = c.update(1, 0.5, np.array([0.5, 0.5]), 0.5, 10.5)
+    assert made is None
+    c, made = c.update(1, 0.5, sure, 0.5, 10.5)
+    assert made is not None and (made.index, made.primitive) == (1, "b")
+    c = Committing(RULE, ("a", "b"))
+    c, _ = c.update(1, 0.0, sure, 0.0, 10.0)
+    c = c.missed(1, 0.0)
+    c, made = c.update(1, 0.1, sure, 0.1, 10.1)
+    assert made is None  # the run began again at 0.1 s
+
+
+def test_a_failure_after_the_commitment_keeps_it() -> None:
+    sure = np.array([0.95, 0.05])
+    c = Committing(RULE, ("a", "b"))
+    c, _ = c.update(1, 0.0, sure, 0.0, 10.0)
+    c, made = c.update(1, 0.1, sure, 0.5, 10.1)
+    assert made is not None
+    c = c.missed(1, 0.2)
+    assert c.commitment == made and c.movement == 1
+    c, again = c.update(1, 0.3, sure, 0.6, 10.3)
+    assert c.commitment == made and c.state is not None

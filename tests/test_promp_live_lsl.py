@@ -187,3 +187,23 @@ def test_the_robot_side_reader_waits_for_a_predictor_that_is_not_there_yet() -> 
         _, err = reader.communicate(timeout=30)
     assert lines == [f"waiting for the stream absent-{UNIQUE}-probabilities\n"] * 2
     assert "Traceback" not in err
+
+
+def test_lsl_available_says_whether_it_loads_and_passes_on_why_not(monkeypatch) -> None:
+    from promp.live import lsl_available
+    from promp.live.transport import LSLUnavailable
+
+    assert lsl_available() == (True, "")
+    refusal = LSLUnavailable("liblsl cannot be loaded here")
+
+    class Refusing:
+        @staticmethod
+        def find_spec(name, path=None, target=None):
+            if name == "promp.live.lsl":
+                raise refusal
+            return None
+
+    monkeypatch.delitem(sys.modules, "promp.live.lsl")
+    monkeypatch.delattr("promp.live.lsl", raising=False)
+    monkeypatch.setattr(sys, "meta_path", [Refusing(), *sys.meta_path])
+    assert lsl_available() == (False, str(refusal))

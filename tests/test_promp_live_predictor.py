@@ -116,11 +116,15 @@ def test_the_remainder_runs_at_its_rate_to_the_predicted_end() -> None:
     session = session_with(model, ["hand=MocapHand:0,1,2"], transport, start="still",
                            remainder="hand", remainder_rate=50.0)  # fmt: skip
     replay(session, transport, stream, demo.times, demo.select(["x", "y", "z"]))
+    assert len(session.predictions) >= 10, "no movement predicted: the test would check nothing"
     for p in session.predictions[::10]:
         r = p.remainder
         inference = p.inference
         left = max(inference.duration - inference.observed_until, 0.0)
+        assert (r.modality, r.columns) == ("hand", ("x", "y", "z"))
         assert r.after[-1] == left and np.all(np.diff(r.after[:-1]) > 0.0199)
+        if left > 0.02:  # the steps run up to the end: the last one within a step of it
+            assert r.after.size >= 2 and left - 0.02 - 1e-12 <= r.after[-2] < left
         assert_allclose(r.after[:-1], np.arange(1, r.after.size) / 50.0)
         phases = np.clip((inference.observed_until + r.after) / inference.duration, 0, 1)
         mean, std = trajectory_at(model, inference.posterior, inference.alpha, phases)

@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
 
+from promp.data import Demonstration
 from promp.datasets import demo_to_csv
 from promp.live.journal import Journal, read_journal
-from promp.live.recorder import Recorder, recover
+from promp.live.recorder import Recorder, free_path, movement_of, recover
 from promp.live.segmenter import Movement
 from tests.conftest import REPO
 
@@ -102,3 +103,53 @@ def test_a_kill_during_a_recording_loses_nothing_acknowledged(tmp_path) -> None:
     n = demo.n_samples
     assert_array_equal(demo.times, TIMES[:n] - TIMES[0])
     assert_array_equal(demo.values, VALUES[:n])
+
+
+def test_journals_left_behind_are_recovered_oldest_first_and_a_bad_one_says_why(tmp_path) -> None:
+    for number, n in ((2, 30), (1, 12)):
+        journal = Journal(tmp_path / f"b-{number}.journal", ("x", "y", "z"), f"take-{number}",
+                          "", TIMES[0])  # fmt: skip
+        journal.append(TIMES[:n], VALUES[:n])
+        journal.close()
+    (tmp_path / "a-0.journal").write_text("t,x\n0,1\n")  # not a journal
+    for age, name in enumerate(("b-2.journal", "b-1.journal", "a-0.journal")):  # oldest first
+        os.utime(tmp_path / name, (1e9 + age, 1e9 + age))
+    found = recover(tmp_path)
+    assert [path.name for path, _ in found] == ["b-2.journal", "b-1.journal", "a-0.journal"]
+    assert [d.n_samples for _, d in found[:2]] == [30, 12]
+    path, reason = found[2]
+    with pytest.raises(ValueError) as refused:
+        read_journal(path)
+    assert reason == str(refused.value)
+    assert recover(tmp_path / "absent") == []
+
+
+def test_a_free_path_counts_past_every_existing_file(tmp_path) -> None:
+    target = tmp_path / "take.csv"
+    assert free_path(target) == target
+    target.write_text("")
+    (tmp_path / "take-2.csv").write_text("")
+    assert free_path(target) == tmp_path / "take-3.csv"
+
+
+def test_a_demonstration_as_a_movement_keeps_its_rows() -> None:
+    demo = Demonstration(TIMES[:40] - TIMES[0], VALUES[:40], ("x", "y", "z"), "d")
+    movement = movement_of(demo, 4, "left")
+    assert (movement.number, movement.label, len(movement)) == (4, "left", 40)
+    assert_array_equal(movement.times, demo.times)
+    assert_array_equal(movement.values, demo.values)
+    assert movement_of(demo, 1).label == ""
+
+
+def test_releasing_a_movement_removes_its_journal_and_leaves_the_one_under_way(tmp_path) -> None:
+    recorder = Recorder(tmp_path, ("x", "y", "z"))
+    recorder.release(5)  # no journal of movement 5: nothing to do
+    recorder.append(Movement(1, "", TIMES[:10], VALUES[:10]))
+    journal = recorder.journal_path(1)
+    recorder.release(2)  # another movement's: movement 1's journal stays open, where it was
+    assert journal.exists()
+    assert recorder.append(Movement(1, "", TIMES[:30], VALUES[:30])) == 30
+    assert read_journal(journal)[0].n_samples == 30
+    recorder.release(1)
+    assert not journal.exists() and list(tmp_path.iterdir()) == []
+    assert recorder.append(Movement(2, "", TIMES[:4], VALUES[:4])) == 4  # a new journal

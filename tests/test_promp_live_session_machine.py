@@ -23,6 +23,7 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, rule
@@ -409,4 +410,21 @@ def test_a_prediction_after_a_stall_and_its_backlog_is_the_offline_one() -> None
     state.stall(seconds=1.0, steps=1, stream="Head", then=0.0)
     state.memory_is_bounded()
     assert state.checked > checked  # the prediction after the backlog
+    state.teardown()
+
+
+@pytest.mark.xfail(strict=True, raises=ValueError, reason="open: the time base misses a gap of "
+                   "the head after its rate changed, and on_one_clock refuses the rows")
+def test_a_stall_after_a_rate_change_is_a_gap_the_time_base_sees() -> None:
+    """Found (2026-11-28, while the mutation bench ran the machine): the head's rate changes
+    from 50 to 250 Hz, then it stalls for 2 s; the time base does not take the pause for a gap
+    and gives rows across it, which the XDF reader's on_one_clock refuses (a ValueError out of
+    the session's step). Not fixed yet: this test says so until it is."""
+    state = LiveSessionMachine()
+    state.open_session(start="still", hand_rate=25.0, head_rate=50.0)
+    for _ in range(3):
+        state.markers(labels=["start"], then=0.0)
+    state.rate_change(rate=250.0, stream="Head", then=0.0)
+    state.long_stall(moving=False, seconds=2.0, stream="Head", then=0.3878886815088102)
+    state.rate_change(rate=25.0, stream="Hand", then=0.10027715958783515)
     state.teardown()

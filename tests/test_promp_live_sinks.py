@@ -306,3 +306,18 @@ def test_a_failing_events_outlet_does_not_hang_the_session() -> None:
     assert said == ["sink 'events outlet' failed: OSError: the events outlet is down"]
     assert len(transport.outlets["icub-probabilities"].pushed) == snap.predictions
     session.close()
+
+
+def test_two_outputs_folded_keep_everything_in_order_and_the_later_state() -> None:
+    from promp.live.segmenter import Movement
+    from promp.live.sinks import Output
+    from promp.live.status import LiveEvent
+
+    first = Output(1.0, (LiveEvent(1.0, "a"),), ("b1",), ("p1", "p2"),
+                   Movement(1, "", np.zeros(2), np.zeros((2, 3))))  # fmt: skip
+    later = Output(2.5, (LiveEvent(2.0, "b", "decision"),), ("b2",), ("p3",), None)
+    both = first.then(later)
+    assert both.time == 2.5 and both.movement is None
+    assert [e.time for e in both.events] == [1.0, 2.0] and both.events[1].kind == "decision"
+    assert both.boundaries == ("b1", "b2") and both.predictions == ("p1", "p2", "p3")
+    assert later.then(first).movement is first.movement

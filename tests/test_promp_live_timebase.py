@@ -3,7 +3,10 @@ equal to the XDF reader's :func:`promp.rigs.streams.on_one_clock` over the whole
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from promp.live.timebase import TimeBase
@@ -96,3 +99,122 @@ def test_a_gap_is_said_and_no_row_lies_inside_it() -> None:
     assert "paused" in message and "'hand'" in message
     later = base.advance()
     assert first.times[-1] < 0.5 and later.times[0] >= 2.0
+
+
+def test_a_rate_must_be_a_positive_finite_number_of_hz() -> None:
+    for bad in (0.0, -50.0, math.inf, math.nan):
+        with pytest.raises(ValueError):
+            TimeBase(["hand"], [3], rate=bad)
+    assert TimeBase(["hand"], [3], rate=0.5).rate == 0.5
+    with pytest.raises(ValueError):
+        TimeBase(["hand", "head"], [3])  # a width for each input
+
+
+def test_the_base_is_the_lowest_declared_rate_else_the_longest_step() -> None:
+    base = TimeBase(["hand", "head"], [1, 1])
+    base.push("hand", np.arange(10) * 0.01, np.zeros((10, 1)), ("m",))  # steps 0.01 s
+    base.push("head", np.arange(10) * 0.1, np.zeros((10, 1)), ("rad",))  # steps 0.1 s
+    base.choose_base({"hand": 0.5, "head": 200.0})  # declared: hand is the slower
+    assert base.base == 0
+    base.choose_base({"hand": 0.5})  # one rate unknown: the steps decide
+    assert base.base == 1
+    base.choose_base({})
+    assert base.base == 1
+
+
+def test_an_angle_is_interpolated_through_its_unwrapped_path() -> None:
+    base = TimeBase(["head", "hand"], [1, 1])
+    base.push("head", np.array([0.0, 0.01, 0.02, 0.03]), np.array([[3.0], [3.1], [-3.1], [-3.0]]),
+              ("rad",))
+    base.push("hand", np.array([0.0, 0.015, 0.03]), np.zeros((3, 1)), ("m",))
+    rows = base.advance({"head": 100.0, "hand": 10.0})
+    assert_allclose(rows.times, [0.0, 0.015, 0.03])
+    # halfway between 3.1 and -3.1 rad the head crossed pi, not 0
+    assert_allclose(np.abs(rows.values[1, 0]), np.pi, atol=0.05)
+
+
+def test_a_pause_beyond_ten_steps_and_the_recent_lateness_is_a_gap() -> None:
+    t = np.arange(20) * 0.01
+
+    def after(pause, late=None, rate=0.0):
+        base = TimeBase(["hand"], [1])
+        base.push("hand", t, t[:, None], ("m",), rate=rate)
+        more = t[-1] + pause + np.arange(3) * 0.01
+        if late is None:
+            return base.push("hand", more, more[:, None], ("m",), rate=rate)
+        return base.push("hand", more, more[:, None], ("m",), rate=rate, late=late)
+
+    assert after(0.3) and not after(0.05)  # ten steps of 0.01 s: 0.1 s
+    assert not after(0.3, late=0.25) and after(0.3, late=0.1)
+    assert after(0.3, late=-1.0)  # a negative lateness is none
+    # a declared rate sets the step: 0.15 s is a gap at 100 Hz, not at 50 Hz
+    assert after(0.15, rate=100.0) and not after(0.15, rate=50.0)
+
+
+def test_a_declared_rate_is_the_step_even_when_the_samples_disagree() -> None:
+    base = TimeBase(["hand"], [1])
+    t = np.array([0.0, 0.1, 0.2])  # 10 Hz so far
+    base.push("hand", t, t[:, None], ("m",), rate=1.0)
+    assert base.push("hand", np.array([1.5]), np.array([[1.5]]), ("m",), rate=1.0) == ""
+    base = TimeBase(["hand"], [1])
+    base.push("hand", t, t[:, None], ("m",), rate=100.0)
+    assert base.push("hand", np.array([0.5]), np.array([[0.5]]), ("m",), rate=100.0)
+
+
+def test_a_gap_among_the_first_samples_or_after_two_is_said() -> None:
+    base = TimeBase(["hand"], [1])
+    t = np.array([0.0, 1.0, 1.01, 1.02])
+    assert base.push("hand", t, t[:, None], ("m",), rate=100.0)
+    base = TimeBase(["hand"], [1])
+    base.push("hand", np.array([0.0, 0.01]), np.zeros((2, 1)), ("m",), rate=100.0)
+    assert base.push("hand", np.array([1.0]), np.zeros((1, 1)), ("m",), rate=100.0)
+
+
+def test_after_a_gap_the_rows_are_exactly_the_samples_after_it() -> None:
+    base = TimeBase(["hand"], [1])
+    t = np.arange(50) * 0.01
+    base.push("hand", t, t[:, None], ("m",))
+    assert_array_equal(base.advance().times, t)
+    later = 2.0 + t
+    assert base.push("hand", later, later[:, None], ("m",))
+    rows = base.advance()
+    assert_array_equal(rows.times, later)
+    assert_array_equal(rows.values[:, 0], later)
+
+
+def test_a_restarted_input_forgets_its_samples() -> None:
+    base = TimeBase(["hand", "head"], [2, 1])
+    base.push("hand", np.arange(5) * 0.1, np.ones((5, 2)), ("m", "m"))
+    base.push("head", np.arange(5) * 0.1, np.ones((5, 1)), ("rad",))
+    base.restart("hand")
+    assert base.advance({"hand": 10.0, "head": 10.0}) is None  # hand has no sample now
+    base.push("hand", 1.0 + np.arange(3) * 0.1, 2 * np.ones((3, 2)), ("m", "m"))
+    base.push("head", 0.5 + np.arange(8) * 0.1, np.ones((8, 1)), ("rad",))
+    rows = base.advance({"hand": 10.0, "head": 10.0})
+    assert rows.times[0] >= 1.0 - 1e-9 and rows.values.shape[1] == 3
+    assert_allclose(rows.values[:, :2], 2.0)
+
+
+def test_a_grid_starts_and_ends_on_its_multiples_and_gives_each_once() -> None:
+    base = TimeBase(["hand"], [1], rate=50.0)
+    t = 1.0 + np.arange(11) * 0.01  # 1.00 to 1.10: grid times 1.00, 1.02, ..., 1.10
+    base.push("hand", t[:6], t[:6, None], ("m",))
+    first = base.advance()
+    base.push("hand", t[6:], t[6:, None], ("m",))
+    second = base.advance()
+    times = np.concatenate([first.times, second.times])
+    assert_allclose(times, 1.0 + np.arange(6) * 0.02, atol=1e-12)
+    assert_allclose(np.concatenate([first.values, second.values])[:, 0], times, atol=1e-12)
+
+
+def test_the_base_is_chosen_once_every_input_has_two_samples() -> None:
+    base = TimeBase(["hand", "head"], [1, 1])
+    t = np.arange(30) * 0.01
+    base.push("hand", t, t[:, None], ("m",))
+    base.push("head", t[:1], t[:1, None], ("rad",))
+    assert base.advance() is None and base.base is None
+    fast = 0.001 * np.arange(1, 290)  # head is the faster input (steps 1 ms)
+    base.push("head", fast, fast[:, None], ("rad",))
+    rows = base.advance()
+    assert base.base == 0  # hand's steps are the longest
+    assert np.all(np.diff(rows.times) > 0.009)
