@@ -59,7 +59,8 @@ from promp.model import ProMPModel
 from promp.viewers.new_file import check_new, write_new
 
 __all__ = [
-    "decode_arrivals", "encode_arrivals", "FORMAT", "journal_for", "MAGIC", "model_sha256",
+    "decode_arrivals", "encode_arrivals", "FORMAT", "journal_for", "JOURNALS", "MAGIC",
+    "model_sha256", "TOPICS",
     "prediction_record", "read_session", "recover_sessions", "Replayed", "replay_session",
     "SessionRecord", "SessionSink", "write_session_file",
 ]  # fmt: skip

@@ -40,7 +40,7 @@ from promp.viewers.formats import writer_for
 from promp.viewers.new_file import check_new
 from promp.viewers.scene_log import Event, Item, Note, SceneLog, Series, Stamp, Strips, Timeline
 
-__all__ = ["LSL_TIME", "session_log", "SessionItems", "ViewerSink"]
+__all__ = ["LSL_TIME", "NAME", "REMAINDER_COLOR", "session_log", "SessionItems", "ViewerSink"]
 
 LSL_TIME = Timeline("lsl_time", "seconds",
                     "the LSL clock (local_clock) of the predictor's machine, seconds")  # fmt: skip

@@ -294,7 +294,8 @@ def _precisions(
         w = u @ base  # (T_o, p): Sigma_k^-1 u
         denominator = 1.0 - np.einsum("tp,tp->t", w, u)  # (T_o,) > 0: Sigma stays positive
         precision[others, k] = base[None] + w[:, :, None] * (w / denominator[:, None])[:, None, :]
-        logdet[others, k] = base_logdet + np.log(denominator)
+        # (a denominator under the bound is replaced below: its log is not taken)
+        logdet[others, k] = base_logdet + np.log(np.maximum(denominator, _LEAST_DENOMINATOR))
         close = others[denominator < _LEAST_DENOMINATOR]  # the update cancels: inverted anew
         if close.size:
             lost = u[denominator < _LEAST_DENOMINATOR]
