@@ -13,7 +13,10 @@ Measured per movement that commits (one machine, one ``local_clock``): from the 
 sample that made the rule commit (the committing prediction's latest observed sample,
 :attr:`promp.live.commitment.Commitment.at`, matched to the pushed stamps) to the first call
 of the arm's ``move_hand_to`` by the take-over (the Replay's ``move_hand``, wrapped here),
-``latency_ms_p50`` and ``latency_ms_p99``; how many movements committed and were taken over;
+``latency_ms_p50`` and ``latency_ms_p99``, split into ``predicted_ms_*`` (from that push to
+the committing prediction in the session's snapshot, when the source wakes the studio's
+loop: :attr:`app.live.lsl_source.LslSource.on_commitment`) and ``loop_ms_*`` (from there to
+the first step); how many movements committed and were taken over;
 the load average.
 
 Target on this 2-core machine: p99 <= 50 ms. Every LSL stream stays on the loopback
@@ -107,6 +110,13 @@ def main(movements: int = 40) -> dict:
                 return move(target)
 
             replay.move_hand = timed
+            wake, ready = studio.live.on_commitment, []
+
+            def noted():  # the committing prediction is in the session's snapshot
+                ready.append(pylsl.local_clock())
+                wake()
+
+            studio.live.on_commitment = noted
             takes = [d for k in range(HELD_OUT) for demos in replayed.values()
                      for d in demos[k:k + 1]]  # fmt: skip
             stamps, pushes = [], []
@@ -128,15 +138,20 @@ def main(movements: int = 40) -> dict:
         finally:
             studio.stop()
     stamps_a, pushes_a = np.array(stamps), np.array(pushes)
-    latencies, unmatched = [], 0
-    for first, started in firsts.values():
+    latencies, parts, unmatched = [], [], 0
+    for (first, started), shown in zip(firsts.values(), ready, strict=False):
         at = started.commitment.at
         i = int(np.argmin(np.abs(stamps_a - at)))
         if abs(stamps_a[i] - at) > 1e-3:  # not a pushed sample's stamp (re-anchored clock)
             unmatched += 1
             continue
         latencies.append(1e3 * (first - pushes_a[i]))
-    lat = np.array(latencies)
+        parts.append((1e3 * (shown - pushes_a[i]), 1e3 * (first - shown)))
+    lat, parts = np.array(latencies), np.array(parts).reshape(-1, 2)
+
+    def p(values, q):
+        return round(float(np.percentile(values, q)), 1) if values.size else None
+
     return {
         "movements_pushed": movements,
         "movements_ended": ended,
@@ -145,6 +160,8 @@ def main(movements: int = 40) -> dict:
         "latency_ms_p50": round(float(np.percentile(lat, 50)), 1) if lat.size else None,
         "latency_ms_p99": round(float(np.percentile(lat, 99)), 1) if lat.size else None,
         "latency_ms_max": round(float(lat.max()), 1) if lat.size else None,
+        "predicted_ms_p50": p(parts[:, 0], 50), "predicted_ms_p99": p(parts[:, 0], 99),
+        "loop_ms_p50": p(parts[:, 1], 50), "loop_ms_p99": p(parts[:, 1], 99),
         "replay_s": round(replay_s, 1),
         "load_average": [round(x, 2) for x in os.getloadavg()],
     }

@@ -42,6 +42,7 @@ from robots.icub.placement import Placement
 __all__ = ["LiveConfig", "LslSource", "Running", "SCAN_EVERY_S", "STARTS", "SwitchedOutlets"]
 
 SCAN_EVERY_S = 0.5
+COMMIT_WAKE_WAIT_S = 0.02  # the longest a commitment's wake-up waits for the snapshot
 STARTS = {"stillness": "still", "marker stream": "marker", "Begin / End buttons": "call"}
 
 
@@ -158,6 +159,9 @@ class LslSource:
         self._numbers = itertools.count(1)
         self.outlets = SwitchedOutlets()
         self.running: Running | None = None
+        # Called (from a sink's thread) once the prediction that committed is in the session's
+        # snapshot: the studio wakes its loop, so the arm's take-over waits for no frame.
+        self.on_commitment: Callable[[], object] | None = None
 
     @property
     def available(self) -> bool:
@@ -251,13 +255,29 @@ class LslSource:
                 recorder = TakeRecorder(Path(workspace) / JOURNALS_DIR,
                                         live_columns(model, check.inputs), names, prefix)
             session = LiveSession(model, check.inputs, transport, options, outlets=self.outlets,
-                                  recorder=recorder)  # fmt: skip
+                                  recorder=recorder, on_prediction=(
+                                      self._predicted if rule is not None else None))  # fmt: skip
             if specs is not None:
                 self.outlets.set(_outlets(specs, self.transport()))
             session.start()
             self.running = Running(session, model, config, check, number, time.monotonic(),
                                    recorder)  # fmt: skip
             return self.running
+
+    def _predicted(self, prediction: LivePrediction) -> None:
+        """A sink's thread: the prediction that committed, once the snapshot holds it (the
+        sinks are offered a step's outputs just before its snapshot is published), calls
+        :attr:`on_commitment`."""
+        made, call = prediction.committed, self.on_commitment
+        if made is None or made.at != prediction.last or call is None:
+            return
+        deadline = time.monotonic() + COMMIT_WAKE_WAIT_S
+        while (running := self.running) is not None and time.monotonic() < deadline:
+            shown = running.session.snapshot().prediction
+            if shown is not None and shown.seq >= prediction.seq:
+                break
+            time.sleep(0.0002)
+        call()
 
     def stop(self) -> None:
         """Stop the session (its outlets vanish; a take under way stays in its journal)."""
