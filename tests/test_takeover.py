@@ -102,3 +102,25 @@ def test_the_reason_says_a_missing_hand_before_a_missing_rule():
     assert unavailable(("hand",), commits=False) == NO_RULE
     assert unavailable(("human", "emg"), commits=False) == NO_HAND
     assert "'hand'" in NO_HAND and "Commit to a primitive" in NO_RULE
+
+
+def test_without_a_robot_hand_the_checkbox_is_disabled_and_says_why():
+    """The Infer tab's Robot takes over (app.panels.infer.takeover_section), on a workspace
+    without 'hand': disabled, its hint and status line giving the reason; with one, enabled."""
+    from types import SimpleNamespace
+
+    from app.live.lsl_source import LslSource
+    from app.panels.infer.takeover_section import TAKEOVER_HINT, TakeOverSection
+    from app.ui.text import escape_html
+
+    box = SimpleNamespace(value=True, disabled=False, hint=TAKEOVER_HINT)
+    status = SimpleNamespace(content="")
+    playback = SimpleNamespace(held=False)
+    section = TakeOverSection(LslSource(transport=lambda: None), box, status, playback)
+    section.step(None, ("human", "emg"))
+    assert box.disabled and box.hint == f"Unavailable: {NO_HAND}"
+    assert 'data-takeover="unavailable"' in status.content
+    assert escape_html(NO_HAND) in status.content
+    section.step(None, ("hand", "head"))
+    assert not box.disabled and box.hint == TAKEOVER_HINT
+    assert 'data-takeover="waiting"' in status.content
