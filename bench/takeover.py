@@ -16,7 +16,8 @@ of the arm's ``move_hand_to`` by the take-over (the Replay's ``move_hand``, wrap
 ``latency_ms_p50`` and ``latency_ms_p99``, split into ``predicted_ms_*`` (from that push to
 the committing prediction in the session's snapshot, when the source wakes the studio's
 loop: :attr:`app.live.lsl_source.LslSource.on_commitment`) and ``loop_ms_*`` (from there to
-the first step); how many movements committed and were taken over;
+the first step; ``in_frame_ms_*``: of which from the start of the frame that took the step);
+how many movements committed and were taken over;
 the load average.
 
 Target on this 2-core machine: p99 <= 50 ms. Every LSL stream stays on the loopback
@@ -100,13 +101,14 @@ def main(movements: int = 40) -> dict:
             wait(lambda: running.session.snapshot().statuses[0].condition is Condition.OK,
                  "the session to find the stream")  # fmt: skip
             replay = panel.playback.replay
-            move, firsts = replay.move_hand, {}
+            move, firsts, in_frame = replay.move_hand, {}, []
 
             def timed(target):
                 now = pylsl.local_clock()
                 started = panel.takeover.state.started
                 if started is not None and started.movement not in firsts:
                     firsts[started.movement] = (now, started)
+                    in_frame.append(1e3 * (time.perf_counter() - studio.loop.frame_starts[-1]))
                 return move(target)
 
             replay.move_hand = timed
@@ -162,6 +164,7 @@ def main(movements: int = 40) -> dict:
         "latency_ms_max": round(float(lat.max()), 1) if lat.size else None,
         "predicted_ms_p50": p(parts[:, 0], 50), "predicted_ms_p99": p(parts[:, 0], 99),
         "loop_ms_p50": p(parts[:, 1], 50), "loop_ms_p99": p(parts[:, 1], 99),
+        "in_frame_ms_p50": p(np.array(in_frame), 50), "in_frame_ms_p99": p(np.array(in_frame), 99),
         "replay_s": round(replay_s, 1),
         "load_average": [round(x, 2) for x in os.getloadavg()],
     }
