@@ -15,7 +15,7 @@ sample that made the rule commit (the committing prediction's latest observed sa
 of the arm's ``move_hand_to`` by the take-over (the Replay's ``move_hand``, wrapped here),
 ``latency_ms_p50`` and ``latency_ms_p99``, split into ``predicted_ms_*`` (from that push to
 the committing prediction in the session's snapshot, when the source wakes the studio's
-loop: :attr:`app.live.lsl_source.LslSource.on_commitment`) and ``loop_ms_*`` (from there to
+loop: :class:`app.live.lsl_source.CommitmentWake`) and ``loop_ms_*`` (from there to
 the first step; ``in_frame_ms_*``: of which from the start of the frame that took the step);
 how many movements committed and were taken over;
 the load average.
@@ -112,13 +112,13 @@ def main(movements: int = 40) -> dict:
                 return move(target)
 
             replay.move_hand = timed
-            wake, ready = studio.live.on_commitment, []
+            wake, ready = studio.live.on_commitment.call, []
 
             def noted():  # the committing prediction is in the session's snapshot
                 ready.append(pylsl.local_clock())
                 wake()
 
-            studio.live.on_commitment = noted
+            studio.live.on_commitment.call = noted
             takes = [d for k in range(HELD_OUT) for demos in replayed.values()
                      for d in demos[k:k + 1]]  # fmt: skip
             stamps, pushes = [], []
