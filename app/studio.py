@@ -93,6 +93,7 @@ class Studio:
         self.notices: collections.deque[tuple[str, str, str]] = collections.deque(maxlen=256)
         self.loop = FrameLoop(self._frame, self._frame_failed)
         self.live = LslSource()  # the live source over LSL, shared by Infer and Teach
+        self.live.on_commitment.call = self.loop.wake  # the robot takes over at once
 
     @property
     def port(self) -> int:

@@ -372,3 +372,17 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
     finally:
         session.close()
     return ended, predictions, [(pushed[a:b], start + due[a:b]) for a, b in spans]
+
+
+def robot_side_code(document: str, test: str, what: str, name: str) -> str:
+    """The python block of ``docs/DOCUMENT`` marked ``<!-- run by tests/TEST: WHAT ...-->``
+    (a robot-side reader of the predictor's streams), for the outputs ``name``."""
+    import re
+
+    from tests.conftest import REPO
+
+    text = (REPO / "docs" / document).read_text()
+    mark = rf"<!-- run by tests/{re.escape(test)}: {re.escape(what)}[^\n]*-->"
+    code = re.search(mark + r"\n```python\n(.*?)```", text, re.S).group(1)
+    assert code.count('NAME = "icub"') == 1
+    return code.replace('NAME = "icub"', f"NAME = {name!r}")

@@ -4,7 +4,8 @@ its real rate and 2.5 times faster) is listed, its mapping guessed, a wrong one 
 right one started; each movement's prediction reaches the bars and the 3D view and equals
 promp.evidence.infer on the samples pushed, and the studio's published streams carry the
 same numbers; injected faults show their status in the page; a movement recorded in Teach's
-Live takes lands in the workspace; the commit rule chosen in the page says its commitment."""
+Live takes lands in the workspace; the commit rule chosen in the page says its commitment;
+with Robot takes over, the arm finishes a committed movement along its predicted remainder."""
 
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ from tests.browser import (
     open_tab,
     screenshot,
 )
-from tests.conftest import PageSpec, StudioSpec, wait_frames, wait_until
+from tests.conftest import REPO, PageSpec, StudioSpec, wait_frames, wait_until
 from tests.live_fakes import flt_dataset, flt_workspace, held, offset_in
 
 pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
@@ -411,3 +412,124 @@ def test_a_live_movement_recorded_in_teach_lands_in_the_workspace(page, studio, 
     assert journals.is_dir() and not [p for p in journals.rglob("*") if p.is_file()]  # released
     click(page, "Stop")
     wait_until(lambda: studio.live.running is None, what="the source stopped")
+
+
+def read_events(name: str, into: list, stop: threading.Event) -> threading.Event:
+    """Read the studio's ``name``-events markers into ``into``."""
+    ready = threading.Event()
+
+    def run() -> None:
+        (info,) = pylsl.resolve_byprop("name", f"{name}-events", 1, 60.0)
+        inlet = pylsl.StreamInlet(info, max_buflen=60, recover=False)
+        inlet.open_stream(30.0)
+        ready.set()
+        while not stop.is_set():
+            samples, _ = inlet.pull_chunk(timeout=0.05)
+            into.extend(s[0] for s in samples)
+
+    threading.Thread(target=run, daemon=True).start()
+    return ready
+
+
+def distance_to_path(points: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """Each point's (n, 3) distance to the polyline ``path`` (m, 3), metres."""
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    t = np.einsum("pmk,mk->pm", points[:, None] - a, ab) / np.maximum(
+        np.einsum("mk,mk->m", ab, ab), 1e-18)
+    closest = a + np.clip(t, 0.0, 1.0)[..., None] * ab
+    return np.linalg.norm(points[:, None] - closest, axis=2).min(axis=1)
+
+
+def test_the_robot_takes_over_a_committed_movement_along_its_predicted_remainder(
+    page, studio, artifacts
+) -> None:
+    """With Commit to a primitive and Robot takes over ticked, the movement commits, the
+    decision is published, and the arm's hand goes along the remainder of the prediction the
+    take-over started from (each commanded target on it, each hand position reached within
+    IK's reach of it, ending at its predicted end), not where it was, nor at another
+    primitive's end; later predictions of the movement do not move it elsewhere."""
+    from app.live.inference import InferResult
+    from app.live.replay import Phase
+
+    panel = infer_panel(studio)
+    live, arm, replay = panel.lsl.controls, panel.ctx.arm, panel.playback.replay
+    hand = Replayer(unique("TakeOverHand"))
+    mapped(page, studio, hand)
+    assert not live.takeover.value and not live.takeover.disabled  # off by default, available
+    for label, handle in (("Commit to a primitive", live.commit),
+                          ("Robot takes over", live.takeover)):  # fmt: skip
+        if not handle.value:
+            row(page, label).locator("input").first.dispatch_event("click")
+            wait_until(lambda h=handle: h.value, what=f"{label} ticked")
+    out = unique("takeover-out")
+    name_field = row(page, "Streams' name").locator("input").first
+    if not name_field.is_visible():  # the folder is closed (an earlier test may have opened it)
+        page.get_by_text("Predictions out (LSL)", exact=True).first.dispatch_event("click")
+    name_field.fill(out)
+    wait_until(lambda: live.out.value == out, what="the outputs' name typed")
+    if not live.publish.value:
+        row(page, "Publish predictions").locator("input").first.dispatch_event("click")
+        wait_until(lambda: live.publish.value, what="publishing on")
+    click(page, "Start")
+    page.locator(f'[data-stream="{hand.name}"][data-condition="ok"]').wait_for()
+    page.locator('[data-takeover="waiting"]').wait_for()
+    events: list = []
+    stop = threading.Event()
+    assert read_events(out, events, stop).wait(60.0)
+    commanded: list = []  # (target, hand reached) of every step the arm was commanded
+    move = replay.move_hand
+
+    def recorded(target):
+        result = move(target)
+        commanded.append((np.array(target, dtype=float), arm.hand_position()))
+        return result
+
+    replay.move_hand = recorded
+    before = arm.hand_position()
+    try:
+        hand.push(top_demo(1.0).select(["x", "y", "z"]) * 1000.0)
+        start = wait_until(lambda: panel.takeover.state.started, what="the robot taking over")
+        c = start.commitment
+        assert c is not None and c.movement == start.prediction.movement
+        wait_until(lambda: any(f"movement {c.movement} committed to {c.primitive!r}" in e
+                               for e in events), what="the decision event published")
+        wait_until(lambda: replay.phase is Phase.FINISHED, what="the take-over played out")
+        shown = page.locator(f'[data-takeover="{c.movement}"]')
+        shown.wait_for()
+        text = " ".join(shown.inner_text().split())
+        assert text.startswith(f"Movement {c.movement}: the robot takes over (committed to "
+                               f"{c.primitive!r} at {c.time:.2f} s")  # fmt: skip
+        wait_until(lambda: len(studio.live.running.session.snapshot().ended) >= 1,
+                   what="the movement's end")  # the predictions after it came and went
+        wait_frames(studio)
+        screenshot(page, REPO / "docs" / "takeover.png")
+    finally:
+        stop.set()
+        replay.move_hand = move
+    model = studio.live.running.model
+    p = start.prediction
+    future = InferResult(model, p.observation, p.inference).future
+    path = future.hand
+    assert_allclose(replay.positions, path, rtol=0, atol=0)  # the committed path, kept
+    later = studio.live.running.session.snapshot().prediction
+    assert later.seq > p.seq  # later predictions of the movement came, and changed nothing
+    targets = np.array([t for t, _ in commanded])
+    reached = np.array([h for _, h in commanded])
+    assert len(commanded) >= 3  # its start, on the way (frames: the load), its end
+    assert_allclose(targets[0], path[0], rtol=0, atol=1e-12)  # first step: onto its start
+    assert_allclose(targets[-1], path[-1], rtol=0, atol=1e-12)  # last: its predicted end
+    assert distance_to_path(targets, path).max() < 1e-9  # every target on the path
+    assert distance_to_path(reached, path).max() < 0.01  # every pose reached: within 1 cm
+    length = np.linalg.norm(np.diff(path, axis=0), axis=1).sum()
+    end = arm.hand_position()
+    assert np.linalg.norm(end - path[-1]) < 0.01 < 0.5 * length  # at the predicted end
+    assert np.linalg.norm(end - before) > 0.5 * np.linalg.norm(path[-1] - before)
+    # nearer the committed primitive's taught ends than any other primitive's
+    ends = {name: np.median([d.select(["x", "y", "z"])[-1] for d in demos], axis=0)
+            for name, demos in store(studio).demos.items()}  # fmt: skip
+    away = {name: float(np.linalg.norm(end - e)) for name, e in ends.items()}
+    assert min(away, key=away.get) == c.primitive
+    assert all(a > 0.05 for name, a in away.items() if name != c.primitive)
+    studio.live.stop()
+    wait_until(lambda: live.run.label == "Start", what="stopped")

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import ast
 import os
-import re
 import subprocess
 import sys
 import time
@@ -21,7 +20,7 @@ from promp.evidence.pipeline import infer
 from promp.inference import Observation
 from promp.live.status import Condition
 from tests.conftest import REPO, wait_until
-from tests.live_fakes import flt_dataset, hand_model, held
+from tests.live_fakes import flt_dataset, hand_model, held, robot_side_code
 
 pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
 
@@ -34,11 +33,7 @@ UNIQUE = f"{os.getpid()}-{time.monotonic_ns() % 10**9}"  # other runs on this ma
 
 def reader_code(name: str) -> str:
     """docs/live.md's robot-side reader, for the outputs ``name``."""
-    text = (REPO / "docs" / "live.md").read_text()
-    mark = r"<!-- run by tests/test_promp_live_lsl.py: the robot-side reader[^\n]*-->"
-    code = re.search(mark + r"\n```python\n(.*?)```", text, re.S).group(1)
-    assert code.count('NAME = "icub"') == 1
-    return code.replace('NAME = "icub"', f"NAME = {name!r}")
+    return robot_side_code("live.md", "test_promp_live_lsl.py", "the robot-side reader", name)
 
 
 def hand_outlet(name: str):

@@ -3,8 +3,9 @@
 :class:`FrameLoop` owns the thread, the tasks other threads ask it to run at its next frame
 (:meth:`FrameLoop.call`), and what it has done: the start times of the latest frames and the
 count of whole frames run (a test that checks that nothing happened waits for frames, not for a
-time). What a frame does is the studio's (:meth:`app.studio.Studio.step`); a frame that raises is
-reported to ``failed`` and the loop goes on.
+time). :meth:`FrameLoop.wake` runs the next frame at once (a live commitment the arm acts on
+waits for no frame period). What a frame does is the studio's (:meth:`app.studio.Studio.step`);
+a frame that raises is reported to ``failed`` and the loop goes on.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ class FrameLoop:
         self.frames_done = 0  # whole frames run
         self._tasks: collections.deque[Callable[[], None]] = collections.deque()
         self._stop = threading.Event()
+        self._wake = threading.Event()
         self._thread = threading.Thread(target=self._run, name="studio-loop", daemon=True)
 
     def start(self) -> None:
@@ -51,6 +53,10 @@ class FrameLoop:
     def call(self, task: Callable[[], None]) -> None:
         """Run ``task()`` on the loop's thread at its next frame (from any thread)."""
         self._tasks.append(task)
+
+    def wake(self) -> None:
+        """Run the next frame now rather than at the next period (from any thread)."""
+        self._wake.set()
 
     def run_tasks(self) -> None:
         """The tasks asked for so far, in order (from the frame)."""
@@ -70,10 +76,12 @@ class FrameLoop:
                 self.step()
             except Exception as exc:  # a bug in one frame must not end the loop
                 self.failed(exc)
-            self._stop.wait(max(0.0, self.period - (time.perf_counter() - start)))
+            self._wake.wait(max(0.0, self.period - (time.perf_counter() - start)))
+            self._wake.clear()
 
     def stop(self) -> None:
         """Stop after the frame under way (waits up to 5 s for it)."""
         self._stop.set()
+        self._wake.set()
         if self._thread.is_alive():
             self._thread.join(timeout=5.0)

@@ -39,9 +39,11 @@ from promp.model import ProMPModel
 from robots.icub.layout import HAND
 from robots.icub.placement import Placement
 
-__all__ = ["LiveConfig", "LslSource", "Running", "SCAN_EVERY_S", "STARTS", "SwitchedOutlets"]
+__all__ = ["CommitmentWake", "LiveConfig", "LslSource", "Running", "SCAN_EVERY_S", "STARTS",
+           "SwitchedOutlets"]
 
 SCAN_EVERY_S = 0.5
+COMMIT_WAKE_WAIT_S = 0.02  # the longest a commitment's wake-up waits for the snapshot
 STARTS = {"stillness": "still", "marker stream": "marker", "Begin / End buttons": "call"}
 
 
@@ -94,6 +96,35 @@ class Running:
     number: int
     started: float
     recorder: TakeRecorder | None
+
+
+class CommitmentWake:
+    """The session's prediction callback (a sink's thread): the prediction that committed,
+    once the session's snapshot holds it (the sinks are offered a step's outputs just before
+    its snapshot is published), calls ``call()``: the studio wakes its loop, so the arm's
+    take-over waits for no frame period.
+
+    Parameters
+    ----------
+    running : callable
+        The source's :class:`Running` session now (None: stopped).
+    """
+
+    def __init__(self, running: Callable[[], Running | None]) -> None:
+        self.running = running
+        self.call: Callable[[], object] | None = None
+
+    def __call__(self, prediction: LivePrediction) -> None:
+        made, call = prediction.committed, self.call
+        if made is None or made.at != prediction.last or call is None:
+            return
+        deadline = time.monotonic() + COMMIT_WAKE_WAIT_S
+        while (running := self.running()) is not None and time.monotonic() < deadline:
+            shown = running.session.snapshot().prediction
+            if shown is not None and shown.seq >= prediction.seq:
+                break
+            time.sleep(0.0002)
+        call()
 
 
 class SwitchedOutlets:
@@ -158,6 +189,8 @@ class LslSource:
         self._numbers = itertools.count(1)
         self.outlets = SwitchedOutlets()
         self.running: Running | None = None
+        # the studio's loop woken at a commitment (its call set by the studio)
+        self.on_commitment = CommitmentWake(lambda: self.running)
 
     @property
     def available(self) -> bool:
@@ -250,8 +283,9 @@ class LslSource:
                 prefix = time.strftime(f"live-%Y%m%d-%H%M%S-{number}")
                 recorder = TakeRecorder(Path(workspace) / JOURNALS_DIR,
                                         live_columns(model, check.inputs), names, prefix)
+            woken = self.on_commitment if rule is not None else None
             session = LiveSession(model, check.inputs, transport, options, outlets=self.outlets,
-                                  recorder=recorder)  # fmt: skip
+                                  recorder=recorder, on_prediction=woken)  # fmt: skip
             if specs is not None:
                 self.outlets.set(_outlets(specs, self.transport()))
             session.start()

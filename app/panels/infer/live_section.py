@@ -6,7 +6,8 @@ rate, channels, host), the mapping from the workspace's modalities to streams an
 the rig syntax (``hand=MocapHand:0,1,2@mm``, one a line; guessed from the streams found until
 the user edits it, *Guess* guesses again), how a movement starts (stillness, a marker stream
 chosen among those found, or the Begin / End buttons), *Commit to a primitive* (the commit
-rule on each movement, at the *Commit threshold*: :mod:`promp.live.commitment`), Start /
+rule on each movement, at the *Commit threshold*: :mod:`promp.live.commitment`), *Robot takes
+over* (:mod:`app.panels.infer.takeover_section`), Start /
 Stop, each input's condition and the session's news (a commitment among them), and
 *Predictions out*: the same LSL streams as ``python -m promp.live`` (probabilities, timing,
 the predicted remainder of a chosen modality at a stated rate, events), on while its checkbox
@@ -33,6 +34,7 @@ from app.live.lsl_mapping import guess_mapping, selector_text
 from app.live.lsl_source import STARTS, LiveConfig, LslSource
 from app.panels.infer.live_status import idle_html, outputs_html, session_html, streams_html
 from app.panels.infer.lsl_view import LslObserved
+from app.panels.infer.takeover_section import TAKEOVER_HINT
 from app.panels.infer.view_model import InferState
 from app.ui.context import Frame, PanelContext, PanelGui
 from promp.data import Layout
@@ -73,6 +75,8 @@ class LiveControls:
     outputs: viser.GuiHtmlHandle
     commit: viser.GuiCheckboxHandle
     threshold: viser.GuiNumberHandle
+    takeover: viser.GuiCheckboxHandle
+    takeover_status: viser.GuiHtmlHandle
 
 
 def build_controls(gui: PanelGui, layout: Layout) -> LiveControls:
@@ -95,6 +99,8 @@ def build_controls(gui: PanelGui, layout: Layout) -> LiveControls:
                                    step=0.01, hint="Commit once the leading primitive's "
                                    f"probability stays at or above this for {WINDOW_S:g} s",
                                    visible=False)  # fmt: skip
+        takeover = gui.add_checkbox("Robot takes over", False, hint=TAKEOVER_HINT)
+        takeover_status = gui.add_html("")
         run = gui.add_button("Start", color="green", icon=viser.Icon.PLAYER_PLAY)
         movement = gui.add_button_group("Movement", ("Begin", "End"), visible=False)
         status = gui.add_html("")
@@ -111,7 +117,8 @@ def build_controls(gui: PanelGui, layout: Layout) -> LiveControls:
             rate = gui.add_number("Remainder rate (Hz)", 50.0, min=1.0, max=1000.0, step=1.0)
             outputs = gui.add_html("")
     return LiveControls(folder, streams, mapping, guess, start, markers, run, movement, status,
-                        publish, out, remainder, rate, outputs, commit, threshold)  # fmt: skip
+                        publish, out, remainder, rate, outputs, commit, threshold, takeover,
+                        takeover_status)  # fmt: skip
 
 
 class LiveSection:

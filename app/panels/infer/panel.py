@@ -6,7 +6,8 @@ alpha method, and scrubs the observed percentage. Everything follows the slider:
 tube, the predicted future path and its end point (drawn by the scene), the probability of each
 primitive, the predicted and true durations, the errors (:mod:`app.panels.infer.readout`), and
 the per-dimension charts. "Play" then lets the robot finish the
-movement (:mod:`app.panels.infer.replay_section`); "Export view to" Rerun or MCAP downloads
+movement (:mod:`app.panels.infer.replay_section`), and, live, the robot takes over a committed
+movement (:mod:`app.panels.infer.takeover_section`); "Export view to" Rerun or MCAP downloads
 what the tab shows (:mod:`app.panels.infer.viewer_export`).
 
 The panel is a view: at every frame :meth:`InferPanel.step` reads its controls into an
@@ -55,6 +56,7 @@ from app.panels.infer.readout import (
 from app.panels.infer.recognition import LIVE_NOTE, TITLE, X_RANGE, RecognitionChart
 from app.panels.infer.replay_section import ReplaySection
 from app.panels.infer.shaping import InferShaping
+from app.panels.infer.takeover_section import TakeOverSection
 from app.panels.infer.view_model import (
     InferState,
     InferView,
@@ -131,6 +133,9 @@ class InferPanel:
         self.controls = InferControls(**handles, **build_display(gui, ctx.view))
         c = self.controls
         self.playback = ReplaySection(ctx, c.replay_bar)
+        live = self.lsl.controls
+        self.takeover = TakeOverSection(ctx.live, live.takeover, live.takeover_status,
+                                        self.playback)  # fmt: skip
         c.live_button.on_click(lambda _: self._pressed.append("live"))
         c.live_clear.on_click(lambda _: self._pressed.append("clear"))
         c.replay_buttons.on_click(lambda event: self._pressed.append(str(event.target.value)))
@@ -146,6 +151,7 @@ class InferPanel:
         state = read_state(self.controls)
         self._run_pressed(state)
         observed = self.lsl.step(frame, state)
+        self.takeover.step(observed, tuple(snapshot.store.layout.names))  # before the drawing
         samples = observed if state.lsl else self._observe(frame, state)
         choice = choose_model(state, snapshot, self.ctx.learner)
         # The view is computed again when one of its inputs changed (ViewInputs.same); a

@@ -6,6 +6,11 @@ move the arm's hand along it from the observation point, and the progress bar fo
 user taking the hand (a drag in 3D) releases the arm. The panel owns the buttons and says
 which was pressed (:meth:`ReplaySection.press`): it stops observing the live stream before a
 replay moves the hand.
+
+The robot taking over a live movement (:mod:`app.panels.infer.takeover_section`) plays the
+committed prediction's path at once and **holds** it (:meth:`ReplaySection.take_over`): the
+predictions that follow are shown, but the arm keeps to the path it committed to, until the
+user takes the hand, the next take-over, or :meth:`ReplaySection.let_go`.
 """
 
 from __future__ import annotations
@@ -32,6 +37,27 @@ class ReplaySection:
         self.ctx = ctx
         self.bar = bar
         self.replay = Replay(ctx.arm.move_hand_to)
+        self.held = False  # a take-over's path, kept whatever the next inferences
+
+    def take_over(self, times, hand) -> None:
+        """Play the path ``times`` (m,) s, ``hand`` (m, 3) m now, from where the hand is (the
+        first step goes onto its start), and hold it (see the module docstring).
+
+        Raises
+        ------
+        ValueError
+            A path :meth:`app.live.replay.Replay.load` refuses (nothing moves then).
+        """
+        self.held = False
+        self.replay.release()
+        self.replay.load(times - times[0], hand)
+        self.replay.play()
+        self.held = True
+        self._show_progress()
+
+    def let_go(self) -> None:
+        """The next inference's path is loaded again (the arm stays where it is)."""
+        self.held = False
 
     def press(self, command: str) -> None:
         """Run ``command`` ("Play", "Pause" or "Reset"); a replay without a path is a
@@ -50,7 +76,9 @@ class ReplaySection:
 
     def load(self, result: InferResult | None) -> None:
         """The path of ``result``'s prediction (none without a result, a hand path or a
-        remaining movement)."""
+        remaining movement); nothing while a take-over holds the arm."""
+        if self.held:
+            return
         future = result.future if result is not None else None
         if future is None or result.inference.remaining < 1e-3:
             self.replay.clear()
@@ -62,6 +90,7 @@ class ReplaySection:
         """One frame: the hand released when the user took it, else moved on while playing."""
         if self.replay.phase is not Phase.IDLE and self.ctx.arm.dragging:
             self.replay.release()  # the user took the hand
+            self.held = False
         if self.replay.step():
             self._show_progress()
 
