@@ -226,7 +226,7 @@ def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monk
     assert not (record / ".journals" / "live-1.journal").exists()
 
 
-def test_the_options_parse_to_their_types_and_defaults_and_three_are_required() -> None:
+def test_the_options_parse_to_their_types_and_defaults_and_three_are_required(capsys) -> None:
     from pathlib import Path
 
     from promp.live.predictor import REMAINDER_HZ
@@ -257,13 +257,17 @@ def test_the_options_parse_to_their_types_and_defaults_and_three_are_required() 
     assert given.record == Path("takes") and given.lsl_config == Path("lsl.cfg")
     assert (given.start, given.markers, given.alpha_method, given.remainder, given.decide) == (
         "marker", "Cues", "model", "hand", True)  # fmt: skip
-    for left_out in ("--model", "--in", "--out"):
+    assert (given.session, given.replay, given.fast, given.rerun, given.mcap) == (
+        None, None, False, None, None)  # fmt: skip
+    with pytest.raises(SystemExit):  # the model, always
+        parser().parse_args(needed[2:])
+    for left_out in ("--in", "--out"):  # the inputs and the outputs, unless --replay
         i = needed.index(left_out)
         rest = needed[:i] + needed[i + 2:]
         if left_out == "--in":
             rest = [a for a in rest if not a.startswith(("hand=", "head=")) and a != "--in"]
-        with pytest.raises(SystemExit):
-            parser().parse_args(rest)
+        assert main(rest) == 2
+        assert "--in and --out are required" in capsys.readouterr().err
     for bad in (["--start", "call"], ["--alpha-method", "mean"], ["--rate", "fast"]):
         with pytest.raises(SystemExit):
             parser().parse_args(needed + bad)
