@@ -21,7 +21,6 @@ callback for each prediction (a bench's probe), and any other :class:`promp.live
 
 from __future__ import annotations
 
-import sys
 import threading
 import traceback
 from collections.abc import Callable, Sequence
@@ -46,7 +45,6 @@ __all__ = [
     "EVENTS_KEPT",
     "FIND_EVERY_S",
     "FIND_WAIT_S",
-    "HANDOFF_S",
     "IDLE_S",
     "live_columns",
     "LiveOptions",
@@ -56,7 +54,6 @@ __all__ = [
 ]
 
 IDLE_S = 0.002  # the loop's pause when nothing arrived
-HANDOFF_S = 0.0005  # the longest a sink's thread waits for the interpreter while the step runs
 ERROR_PAUSE_S = 0.5
 FIND_EVERY_S = 0.5  # how often the resolver looks (for the missing streams, and the list)
 FIND_WAIT_S = 0.5
@@ -222,11 +219,6 @@ class SessionThreads:
     def start(self) -> None:
         if self._threads:
             return
-        # A prediction handed to a sink's thread waits for the interpreter's lock, which the
-        # loop holds while it computes the next one: up to the switch interval (5 ms by
-        # default, a third of a step), on every prediction published. The process that runs a
-        # session switches threads at most HANDOFF_S apart (never made longer).
-        sys.setswitchinterval(min(sys.getswitchinterval(), HANDOFF_S))
         self._stop.clear()
         self._threads = [threading.Thread(target=self._loop, name="live-session", daemon=True),
                          threading.Thread(target=self._resolve, name="live-resolver",
