@@ -289,6 +289,9 @@ def test_the_preview_puts_the_guessed_mapping_to_edit(studio, tmp_path) -> None:
     from tests import rig_files as rf
 
     section = importer(studio)
+    # the workspace the test before made is scored in the background (its index written):
+    # settled first, so that what is compared is what the previews would write
+    wait_until(lambda: studio.session.learner.idle, what="the learner, idle")
     inputs, before = section.inputs, tree_hash(studio.workspace)
     assert section.receive(None, "late.zip", icub_dump_zip(tmp_path / "late", 1.5)) is None
     assert inputs.modalities.value == DUMP_GUESS and inputs.modalities.visible

@@ -66,6 +66,7 @@ class Learner:
         self._fitting: HeldOutKey | None = None  # the held-out model being fitted
         self._asked = (-1, 0)  # (learn_version, request) of the latest refit asked for
         self._closed = False
+        self._running = False  # a job taken and not finished (its results not yet told)
         self._thread = threading.Thread(target=self._work, name="learner", daemon=True)
         self._thread.start()
 
@@ -187,10 +188,23 @@ class Learner:
                     self._fitting = job[0]
                 else:
                     run, job = self._run_scoring, (scorings.pending, scorings.pending.next())
+                self._running = True
             try:
                 run(*job)
             except Exception:  # a bug in one job must not end the worker
                 traceback.print_exc()
+            finally:
+                with self._wake:
+                    self._running = False
+
+    @property
+    def idle(self) -> bool:
+        """Nothing asked for is left to do: no refit, scoring or held-out fit queued or
+        running (what it writes, the scores in the workspace's index, is written)."""
+        with self._wake:
+            s = self._scorings
+            return not (self._running or self._refit is not None or self._held_out is not None
+                        or s.takes or s.pending)  # fmt: skip
 
     def _run_refit(self, request: int, version: int, training: Training, reuse: bool) -> None:
         fitted = self.fits.fit(training, reuse)
