@@ -20,7 +20,8 @@ method gives:
 
 ``compare A.npz B.npz`` prints the largest absolute difference of each kind of number and
 fails (exit code 1) when one exceeds ``--atol`` (1e-9), or when a key is in one record only.
-Log-likelihoods and log-evidences (sums of up to ~1e4 nats) are compared to ``--rtol-log``
+Log-likelihoods (``log_likelihoods``, ``loglik``, ``scaled``) and log-evidences (sums of up to ~1e4
+nats) are compared to ``--rtol-log``
 (1e-11) of their size as well::
 
     .venv/bin/python bench/outputs.py record /work/evidence-baseline/outputs.npz
@@ -50,7 +51,7 @@ from promp.learn import fit  # noqa: E402
 SHARED = REPO.parent / "shared" / "data"
 SETS = ("lab-records-heights", "lab-records-flt", "lab-records-flt-shapes")
 PERCENTS = (20, 40, 60, 80, 100)
-LOG_KINDS = ("log_likelihoods", "log_evidence", "scaled")
+LOG_KINDS = ("log_likelihoods", "log_evidence", "scaled", "loglik")
 
 
 def record_inference(out: dict, key: str, result) -> None:

@@ -25,7 +25,7 @@ from promp.scale import RELATIVE_FLOOR
 from promp.weights import WeightFits
 
 __all__ = [
-    "correlation_steps", "estimate_noise", "log_det_correlation", "noise_groups", "whiten"
+    "correlation_steps", "estimate_noise", "noise_groups", "whiten"
 ]  # fmt: skip
 
 
@@ -52,14 +52,6 @@ def whiten(elapsed: np.ndarray, tau: float, x: np.ndarray) -> tuple[np.ndarray, 
     out = np.array(x, dtype=float, copy=True)
     out[..., 1:, :] = (x[..., 1:, :] - rho[:, None] * x[..., :-1, :]) / scale[:, None]
     return out, float(2.0 * np.log(scale).sum())
-
-
-def log_det_correlation(elapsed: np.ndarray, tau: float) -> float:
-    """``log det K`` of the noise correlation at the samples ``elapsed`` (n,) (:func:`whiten`'s
-    second value)."""
-    if tau <= 0 or elapsed.shape[0] < 2:
-        return 0.0
-    return float(2.0 * np.log(_steps(elapsed, tau)[1]).sum())
 
 
 def correlation_steps(elapsed: np.ndarray, taus: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

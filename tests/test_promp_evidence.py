@@ -288,3 +288,33 @@ def test_the_equilibrated_precision_of_a_stack_is_each_covariances_inverse(size:
     assert_allclose(scaled, np.broadcast_to(np.eye(size), scaled.shape), atol=1e-8)
     assert_allclose(logdet, np.linalg.slogdet(sigma)[1], rtol=1e-12, atol=1e-9)
     assert np.array_equal(sigma, before)
+
+
+def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation() -> None:
+    """KeptSums.take: each candidate's sums from the latest length that holds it and is not
+    longer than the observation, whether the candidates' rows are in one stored batch or in
+    several; none after the observation was replaced."""
+    from promp.evidence.sums import KeptSums, WhitenedSums
+
+    def sums(n: int, alphas: list[float]) -> WhitenedSums:
+        a = np.array(alphas)  # each number says its candidate and its length
+        return WhitenedSums(gram=(a * 10 + n)[:, None, None, None] * np.ones((1, 1, 2, 2)),
+                            group=np.zeros(1, dtype=int), proj=(a * 10 + n)[:, None, None]
+                            * np.ones((1, 1, 2)), rr=(a * 10 + n)[:, None], logdet_k=np.zeros(1),
+                            n=n)  # fmt: skip
+
+    kept = KeptSums()
+    generation = kept.adopt(np.arange(9.0), np.zeros((9, 1)))
+    kept.store(generation, ("k",), np.array([1.0, 2.0, 3.0]), sums(4, [1.0, 2.0, 3.0]))
+    kept.store(generation, ("k",), np.array([2.0, 5.0]), sums(6, [2.0, 5.0]))
+    found = kept.take(generation, ("k",), np.array([3.0, 2.0, 7.0, 5.0, 1.0]), n=8)
+    assert found.starts.tolist() == [4, 6, 0, 6, 4]
+    assert found.rr[:, 0].tolist() == [34.0, 26.0, 56.0, 14.0]  # the rows of the found, in order
+    assert found.gram[:, 0, 0, 0].tolist() == found.proj[:, 0, 0].tolist() == [34, 26, 56, 14]
+    one = kept.take(generation, ("k",), np.array([5.0, 2.0]), n=8)  # one batch
+    assert one.starts.tolist() == [6, 6] and one.rr[:, 0].tolist() == [56.0, 26.0]
+    shorter = kept.take(generation, ("k",), np.array([2.0, 5.0]), n=5)  # not the length-6 rows
+    assert shorter.starts.tolist() == [4, 0] and shorter.rr[:, 0].tolist() == [24.0]
+    assert kept.take(generation, ("other",), np.array([2.0]), n=8).starts.tolist() == [0]
+    replaced = kept.adopt(np.arange(9.0), np.ones((9, 1)))
+    assert kept.take(replaced, ("k",), np.array([2.0]), n=8).starts.tolist() == [0]

@@ -45,10 +45,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp.model import Primitive, ProMPModel
-from promp.noise import correlation_steps, log_det_correlation, noise_groups, whiten
+from promp.noise import correlation_steps, noise_groups
 from promp.observation import Observation
 
-__all__ = ["KeptSums", "ObservationSums", "WhitenedSums", "noise_terms"]
+__all__ = ["KeptSums", "ObservationSums", "WhitenedSums"]
 
 
 @dataclass(frozen=True)
@@ -86,23 +86,18 @@ def _whitened(x: np.ndarray, rho: np.ndarray, scale: np.ndarray) -> np.ndarray:
     return (x[..., 1:] - rho * x[..., :-1]) / scale
 
 
-def noise_terms(
-    primitive: Primitive, dims: np.ndarray, elapsed: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """:class:`WhitenedSums`' ``group`` and ``logdet_k`` of the samples at ``elapsed`` (n,)."""
-    return _NoiseTerms.of(primitive, dims, elapsed).terms
-
-
 @dataclass(frozen=True, eq=False)
 class _NoiseTerms:
     """What the noise of ``primitive`` makes of one observation, whatever the candidate speed:
     its groups ({tau: positions in dims}, :func:`promp.noise.noise_groups`), each observed
-    dimension's group and ``log det K`` (:class:`WhitenedSums`' ``group``, ``logdet_k``)."""
+    dimension's group and ``log det K`` (:class:`WhitenedSums`' ``group``, ``logdet_k``), and
+    the whitening's steps between the samples (:func:`promp.noise.correlation_steps`)."""
 
     groups: dict[float, np.ndarray]
-    taus: np.ndarray  # (G,), the groups' correlation times in order
     group: np.ndarray
     logdet_k: np.ndarray
+    rho: np.ndarray  # (G, n - 1)
+    scale: np.ndarray  # (G, n - 1)
 
     @property
     def terms(self) -> tuple[np.ndarray, np.ndarray]:
@@ -111,24 +106,39 @@ class _NoiseTerms:
     @classmethod
     def of(cls, primitive: Primitive, dims: np.ndarray, elapsed: np.ndarray) -> _NoiseTerms:
         groups = noise_groups(primitive, dims)
+        rho, scale = correlation_steps(elapsed, np.array(list(groups), dtype=float))
         group = np.empty(dims.shape[0], dtype=int)
         logdet_k = np.empty(dims.shape[0])
         for index, (tau, cols) in enumerate(groups.items()):
             group[cols] = index
-            logdet_k[cols] = log_det_correlation(elapsed, tau)
-        for array in (group, logdet_k):
+            logdet_k[cols] = 2.0 * np.log(scale[index]).sum() if tau > 0 else 0.0
+        for array in (group, logdet_k, rho, scale):
             array.setflags(write=False)  # shared by every sums of the observation
-        return cls(groups, np.array(list(groups), dtype=float), group, logdet_k)
+        return cls(groups, group, logdet_k, rho, scale)
 
 
 @dataclass(frozen=True)
 class _Kept:
-    """One candidate's sums over the first ``n`` samples (:class:`WhitenedSums`' rows)."""
+    """The sums of the candidates ``alphas`` over the first ``n`` samples, stored together
+    (:class:`WhitenedSums`' arrays, read-only); ``row`` maps a candidate to its row."""
 
     n: int
-    gram: np.ndarray  # (n_groups, M, M)
-    proj: np.ndarray  # (Do, M)
-    rr: np.ndarray  # (Do,)
+    row: dict[float, int]
+    gram: np.ndarray  # (A, n_groups, M, M)
+    proj: np.ndarray  # (A, Do, M)
+    rr: np.ndarray  # (A, Do)
+
+
+@dataclass(frozen=True)
+class _Found:
+    """What :meth:`KeptSums.take` found of A candidates: ``starts`` (A,), the samples each
+    one's sums are kept over (0: none), and those sums (rows of the candidates with
+    ``starts > 0``, in order)."""
+
+    starts: np.ndarray
+    gram: np.ndarray
+    proj: np.ndarray
+    rr: np.ndarray
 
 
 class KeptSums:
@@ -141,7 +151,7 @@ class KeptSums:
         self._elapsed = np.zeros(0)
         self._values = np.zeros((0, 0))
         self._generation = 0  # counts the observations it started again from
-        self._entries: dict[tuple, _Kept] = {}
+        self._kept: dict[tuple, list[_Kept]] = {}  # per key, the latest stored last
         self._latest = 0  # the length of the observation the latest sums were stored for
         self._previous = 0  # and of the one before
 
@@ -151,8 +161,9 @@ class KeptSums:
         return int(self._elapsed.shape[0])
 
     def __len__(self) -> int:
-        """Candidates whose sums are kept."""
-        return len(self._entries)
+        """Candidates whose sums are kept (at their latest length)."""
+        with self._lock:
+            return sum(len({a for k in ks for a in k.row}) for ks in self._kept.values())
 
     def adopt(self, elapsed: np.ndarray, values: np.ndarray) -> int:
         """Compare an observation with the one seen: start again unless one extends the
@@ -167,33 +178,49 @@ class KeptSums:
             )
             if not same:
                 self._generation += 1
-                self._entries.clear()
+                self._kept.clear()
                 self._latest = self._previous = 0
             if not same or elapsed.shape[0] > seen:
                 self._elapsed, self._values = elapsed.copy(), values.copy()
             return self._generation
 
-    def take(self, generation: int, key: tuple, alphas: np.ndarray) -> list[_Kept | None]:
-        """The sums kept of each of ``alphas`` (A,) under ``key`` (None where there are
-        none, or where the observation was replaced since ``generation``)."""
+    def take(self, generation: int, key: tuple, alphas: np.ndarray, n: int) -> _Found:
+        """The sums kept under ``key`` of each of ``alphas`` (A,) over at most ``n`` samples,
+        the longest kept (none where the observation was replaced since ``generation``)."""
+        starts = np.zeros(alphas.shape[0], dtype=int)
         with self._lock:
-            if generation != self._generation:
-                return [None] * alphas.shape[0]
-            return [self._entries.get((*key, a)) for a in alphas.tolist()]
+            stored = self._kept.get(key, []) if generation == self._generation else []
+        picks: list[tuple[_Kept, int]] = []
+        for i, a in enumerate(alphas.tolist()):
+            for block in reversed(stored):  # the latest first
+                row = block.row.get(a)
+                if row is not None and block.n <= n:
+                    starts[i] = block.n
+                    picks.append((block, row))
+                    break
+        if not picks:
+            return _Found(starts, *(np.zeros(0),) * 3)
+        if all(block is picks[0][0] for block, _ in picks):  # the usual case: one block
+            rows = [row for _, row in picks]
+            block = picks[0][0]
+            return _Found(starts, block.gram[rows], block.proj[rows], block.rr[rows])
+        return _Found(starts, *(np.stack([getattr(b, f)[r] for b, r in picks])
+                               for f in ("gram", "proj", "rr")))  # fmt: skip
 
     def store(self, generation: int, key: tuple, alphas: np.ndarray, sums: WhitenedSums) -> None:
         """Keep the candidates' sums, unless the observation was replaced meanwhile or a
         longer one was seen; forget those of two updates ago."""
         n = sums.n
+        block = _Kept(n, {a: i for i, a in enumerate(alphas.tolist())},
+                      sums.gram, sums.proj, sums.rr)  # fmt: skip
         with self._lock:
             if generation != self._generation or n < self._latest:
                 return
             if n > self._latest:
                 self._previous, self._latest = self._latest, n
-                self._entries = {k: e for k, e in self._entries.items()
-                                 if e.n >= self._previous}  # fmt: skip
-            for i, a in enumerate(alphas.tolist()):
-                self._entries[(*key, a)] = _Kept(n, sums.gram[i], sums.proj[i], sums.rr[i])
+                self._kept = {k: [b for b in bs if b.n >= self._previous]
+                              for k, bs in self._kept.items()}  # fmt: skip
+            self._kept.setdefault(key, []).append(block)
 
 
 class ObservationSums:
@@ -224,13 +251,19 @@ class ObservationSums:
         self._generation = self.kept.adopt(self.elapsed, self.values)
         self._key = tuple(dims.tolist())
         self._noise: dict[Primitive, _NoiseTerms] = {}  # computed once per primitive
+        self._noise_of: dict[bytes, _NoiseTerms] = {}  # and per correlation times
 
     def _noise_terms(self, primitive: Primitive) -> _NoiseTerms:
         """The noise's terms of this observation under ``primitive`` (computed on first use:
-        they do not depend on the candidate speed)."""
+        they do not depend on the candidate speed, only on the dimensions' correlation
+        times)."""
         got = self._noise.get(primitive)
-        if got is None:
-            got = self._noise[primitive] = _NoiseTerms.of(primitive, self.dims, self.elapsed)
+        if got is None:  # primitives whose noise has the same correlation times share them
+            taus = primitive.noise_tau[self.dims].tobytes()
+            got = self._noise_of.get(taus)
+            if got is None:
+                got = self._noise_of[taus] = _NoiseTerms.of(primitive, self.dims, self.elapsed)
+            self._noise[primitive] = got
         return got
 
     def __call__(
@@ -240,30 +273,23 @@ class ObservationSums:
         (each at least as long as the observation): those kept of a shorter observation
         extended by the new samples' terms, the others from every sample; kept in turn."""
         key = (primitive, self._key)
-        kept = self.kept.take(self._generation, key, alphas)
-        n = self.elapsed.shape[0]
-        starts = np.array([e.n if e is not None and e.n <= n else 0 for e in kept], dtype=int)
-        if not starts.any():
+        found = self.kept.take(self._generation, key, alphas, self.elapsed.shape[0])
+        if not found.starts.any():
             sums = self.dense(primitive, alphas, durations)
         else:
-            sums = self._extended(primitive, alphas, durations, kept, starts)
+            sums = self._extended(primitive, alphas, durations, found)
         for array in (sums.gram, sums.proj, sums.rr):
             array.setflags(write=False)  # rows of it are kept: read, never written
         self.kept.store(self._generation, key, alphas, sums)
         return sums
 
     def _extended(
-        self,
-        primitive: Primitive,
-        alphas: np.ndarray,
-        durations: np.ndarray,
-        kept: list[_Kept | None],
-        starts: np.ndarray,
+        self, primitive: Primitive, alphas: np.ndarray, durations: np.ndarray, found: _Found
     ) -> WhitenedSums:
-        """The sums of candidates kept over their first ``starts`` samples (A,): the kept
-        ones plus the new samples' terms (:meth:`rows`); the others (``starts == 0``) from
-        every sample (:meth:`dense`)."""
-        n, m = self.elapsed.shape[0], self.model.basis.n_basis
+        """The sums of candidates kept over their first ``found.starts`` samples (A,): the
+        kept ones plus the new samples' terms (:meth:`rows`); the others (``starts == 0``)
+        from every sample (:meth:`dense`)."""
+        n, m, starts = self.elapsed.shape[0], self.model.basis.n_basis, found.starts
         group, logdet_k = self._noise_terms(primitive).terms
         gram = np.empty((alphas.shape[0], int(group.max()) + 1, m, m))
         proj = np.empty((alphas.shape[0], self.dims.shape[0], m))
@@ -276,67 +302,72 @@ class ObservationSums:
                 some = (primitive, alphas[which], durations[which])
                 part = self.dense(*some) if start == 0 else self.rows(*some, start)
                 gram[which], proj[which], rr[which] = part.gram, part.proj, part.rr
-            if start > 0:  # the sums of the samples before
-                gram[which] += np.stack([kept[i].gram for i in which])
-                proj[which] += np.stack([kept[i].proj for i in which])
-                rr[which] += np.stack([kept[i].rr for i in which])
+        had = starts > 0  # and the sums of the samples before, kept
+        gram[had] += found.gram
+        proj[had] += found.proj
+        rr[had] += found.rr
         return WhitenedSums(gram, group, proj, rr, logdet_k, n)
 
     def dense(
         self, primitive: Primitive, alphas: np.ndarray, durations: np.ndarray
     ) -> WhitenedSums:
         """:class:`WhitenedSums` of the observation from all its samples at once: the basis at
-        the observed phases from the model's cache (:class:`promp.basis.PhaseBasisCache`),
-        whitened one noise group at a time."""
-        model, dims, elapsed, values = self.model, self.dims, self.elapsed, self.values
-        m = model.basis.n_basis
-        n_cand, n_do = alphas.shape[0], dims.shape[0]
-        psi = model.phase_basis(elapsed, durations)  # (A, n, M)
-        mu = primitive.mean_at(alphas).reshape(n_cand, model.n_dims, m)[:, dims]  # (A, Do, M)
-        noise = self._noise_terms(primitive)
-        gram = np.empty((n_cand, len(noise.groups), m, m))
-        proj = np.empty((n_cand, n_do, m))
-        rr = np.empty((n_cand, n_do))
-        for index, (tau, cols) in enumerate(noise.groups.items()):
-            psi_w, _ = whiten(elapsed, tau, psi)
-            y_w, _ = whiten(elapsed, tau, values[:, cols])
-            resid = y_w[None] - psi_w @ mu[:, cols].transpose(0, 2, 1)  # (A, n, Dg)
-            gram[:, index] = psi_w.transpose(0, 2, 1) @ psi_w
-            proj[:, cols] = (psi_w.transpose(0, 2, 1) @ resid).transpose(0, 2, 1)
-            rr[:, cols] = (resid**2).sum(axis=1)
-        return WhitenedSums(gram, noise.group, proj, rr, noise.logdet_k, elapsed.shape[0])
-
+        the observed phases from the model's cache (:class:`promp.basis.PhaseBasisCache`);
+        the terms of the first sample (whitened as it is) and those of the others
+        (:meth:`_terms`)."""
+        psi = self.model.phase_basis(self.elapsed, durations).swapaxes(-1, -2)  # (A, M, n)
+        mu = self._mean(primitive, alphas)
+        sums = self._terms(primitive, mu, psi, 0)
+        first = psi[..., 0]  # (A, M): the first sample's row, the same in every group
+        resid = self.values[0][None, :] - np.einsum("adm,am->ad", mu, first)  # (A, Do)
+        sums.gram[...] += (first[:, :, None] * first[:, None, :])[:, None]
+        sums.proj[...] += resid[:, :, None] * first[:, None, :]
+        sums.rr[...] += resid**2
+        return sums
 
     def rows(
         self, primitive: Primitive, alphas: np.ndarray, durations: np.ndarray, start: int
     ) -> WhitenedSums:
         """The terms of the samples ``start, ..., n - 1`` (0 < start < n) in the sums of
-        :class:`WhitenedSums`; ``group`` and ``logdet_k`` of all n samples.
+        :class:`WhitenedSums`; ``group`` and ``logdet_k`` of all n samples (:meth:`_terms`,
+        with the basis, :meth:`promp.basis.RBFBasis.columns`, from the sample before)."""
+        times = self.elapsed[start - 1 :]  # from the sample before the part, for its whitening
+        psi = self.model.basis.columns(times[None, :] / durations[:, None])  # (A, M, k + 1)
+        return self._terms(primitive, self._mean(primitive, alphas), psi, start)
 
-        The numbers of :meth:`dense` but for the order of the additions: the basis
-        (:meth:`promp.basis.RBFBasis.columns`) and its whitening for every noise group at once
-        (the steps of :func:`promp.noise.whiten`), with the samples along the contiguous axis,
+    def _mean(self, primitive: Primitive, alphas: np.ndarray) -> np.ndarray:
+        """The prior mean weights of the observed dimensions at ``alphas`` (A,): (A, Do, M)."""
+        model = self.model
+        mean = primitive.mean_at(alphas).reshape(alphas.shape[0], model.n_dims, -1)
+        return mean[:, self.dims]
+
+    def _terms(
+        self, primitive: Primitive, mu: np.ndarray, psi: np.ndarray, start: int
+    ) -> WhitenedSums:
+        """The whitened rows' terms of the samples ``max(start, 1), ..., n - 1`` in the sums
+        of :class:`WhitenedSums` (``group`` and ``logdet_k`` of all n samples), from the prior
+        mean weights ``mu`` (A, Do, M) and the basis ``psi`` (A, M, k + 1) at the samples
+        ``max(start - 1, 0), ..., n - 1`` (each row is whitened with the sample before it).
+
+        The numbers of :func:`promp.noise.whiten` but for the order of the additions: the
+        whitening for every noise group at once, with the samples along the contiguous axis,
         so that a sample costs a few operations per candidate, and a call a few dozen numpy
         operations whatever the number of samples.
         """
-        model, dims, elapsed = self.model, self.dims, self.elapsed
-        m = model.basis.n_basis
-        n_cand, n_do = alphas.shape[0], dims.shape[0]
+        lead = max(start - 1, 0)
+        n_cand, m = mu.shape[0], mu.shape[2]
         noise = self._noise_terms(primitive)
-        groups, taus, (group, logdet_k) = noise.groups, noise.taus, noise.terms
-        times = elapsed[start - 1 :]  # from the sample before the part, for its whitening
-        psi = model.basis.columns(times[None, :] / durations[:, None])  # (A, M, k + 1)
-        mu = primitive.mean_at(alphas).reshape(n_cand, model.n_dims, m)[:, dims]  # (A, Do, M)
-        rho, scale = correlation_steps(times, taus)  # (G, k)
+        groups, (group, logdet_k) = noise.groups, noise.terms
+        rho, scale = noise.rho[:, lead:], noise.scale[:, lead:]  # (G, k)
         # the whitened basis of every group (A, G, M, k), and the whitened values (Do, k)
         psi_w = _whitened(psi[:, None], rho[:, None], scale[:, None])
-        y_w = _whitened(self.values[start - 1 :].T, rho[group], scale[group])
+        y_w = _whitened(self.values[lead:].T, rho[group], scale[group])
         gram = psi_w @ psi_w.swapaxes(-1, -2)  # (A, G, M, M)
-        proj = np.empty((n_cand, n_do, m))
-        rr = np.empty((n_cand, n_do))
+        proj = np.empty((n_cand, self.dims.shape[0], m))
+        rr = np.empty((n_cand, self.dims.shape[0]))
         for index, cols in enumerate(groups.values()):
             basis = psi_w[:, index]  # (A, M, k)
             resid = y_w[cols] - mu[:, cols] @ basis  # (A, Dg, k)
             proj[:, cols] = resid @ basis.swapaxes(-1, -2)
             rr[:, cols] = np.einsum("adk,adk->ad", resid, resid)
-        return WhitenedSums(gram, group, proj, rr, logdet_k, elapsed.shape[0])
+        return WhitenedSums(gram, group, proj, rr, logdet_k, self.elapsed.shape[0])

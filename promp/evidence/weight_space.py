@@ -34,6 +34,8 @@ __all__ = [
     "log_likelihoods", "observed_precision",
 ]  # fmt: skip
 
+_CHUNK = 8  # candidates' matrices filled at once, then factorised one by one (in the cache)
+
 
 def equilibrated_precision(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(Sigma^-1, log det Sigma)`` of a covariance or a stack of them (..., P, P) whose units
@@ -170,17 +172,17 @@ def log_likelihoods(
     proj, rr = sums.proj, sums.rr  # Psi^T K^-1 (y - Psi mu), (y - Psi mu)^T K^-1 (y - Psi mu)
     precision, logdet_sigma = observed_precision(primitive, dims)
     inv_s2 = 1.0 / noise_var  # (L, Do)
-    # One matrix at a time in one buffer, which stays in the cache: a stack of them, filled
-    # at once then factorised, is ~25 % slower at P ~ 180 (each matrix leaves the cache
-    # between its filling and its factorisation).
-    # LAPACK reads and overwrites one triangle of the buffer (the C array's upper one, its
+    # _CHUNK matrices at a time in one buffer, which stays in the cache: a stack of all of
+    # them, filled at once then factorised, is ~25 % slower at P ~ 180 (each matrix leaves
+    # the cache between its filling and its factorisation), and one at a time spends more
+    # on numpy's calls than a few at once (~10 % at P ~ 85).
+    # LAPACK reads and overwrites one triangle of each matrix (the C array's upper one, its
     # Fortran transpose's lower): the bordered matrix is written there alone.
-    buffer = np.empty((p + 1, p + 1))
-    blocks = diagonal_blocks(buffer[None], n_do, m)[0]  # (Do, M, M), a view
-    border = buffer[:, p]  # the last column: b, then the corner
-    factorised = np.diagonal(buffer)  # the factor's diagonal once factorised, a view
-    fortran = buffer.T
+    chunk = min(_CHUNK, n_cand)
+    stack = np.empty((chunk, p + 1, p + 1))
+    blocks = diagonal_blocks(stack, n_do, m)  # (chunk, Do, M, M), a view
     diag = np.empty((n_levels, n_cand, p + 1))
+    potrf = lapack.dpotrf
     for level in range(n_levels):
         # [[Sigma_o^-1 + A^T R^-1 A, b], [b^T, r^T R^-1 r + 1]]: the last diagonal of its
         # Cholesky factor squared is r^T S^-1 r + 1 (the Schur complement).
@@ -188,13 +190,15 @@ def log_likelihoods(
         bordered = np.empty((n_cand, p + 1))  # each candidate's last column
         bordered[:, :p] = (inv_s2[level, :, None] * proj).reshape(n_cand, p)
         bordered[:, p] = rr @ inv_s2[level] + 1.0
-        for a in range(n_cand):
-            buffer[...] = precision  # (whole rows: faster than filling the top-left block)
-            blocks += scaled[a]
-            border[...] = bordered[a]
-            if lapack.dpotrf(fortran, lower=1, clean=0, overwrite_a=1)[1] != 0:
-                raise np.linalg.LinAlgError("Matrix is not positive definite")
-            diag[level, a] = factorised
+        for first in range(0, n_cand, chunk):
+            k = min(chunk, n_cand - first)
+            stack[:k] = precision  # (whole rows: faster than filling the top-left block)
+            blocks[:k] += scaled[first : first + k]
+            stack[:k, :, p] = bordered[first : first + k]
+            for matrix in stack[:k]:
+                if potrf(matrix.T, 1, 0, 1)[1] != 0:  # lower, not cleaned, in place
+                    raise np.linalg.LinAlgError("Matrix is not positive definite")
+            diag[level, first : first + k] = np.diagonal(stack[:k], axis1=1, axis2=2)
     quad = diag[..., p] ** 2 - 1.0
     logdet = 2.0 * np.log(diag[..., :p]).sum(-1) + logdet_sigma
     logdet_r = (sums.n * np.log(noise_var) + sums.logdet_k).sum(-1)  # (L,)
