@@ -28,6 +28,7 @@ from promp.timing import check_alpha, duration_from_alpha, n_samples_from_alpha
 
 __all__ = [
     "Gaussian", "Observation", "Posterior", "Prediction", "condition_dense", "observation_basis",
+    "observed_duration",
     "per_dimension", "predict", "trajectory_at"
 ]  # fmt: skip
 
@@ -84,6 +85,17 @@ def observation_basis(model: ProMPModel, obs: Observation, alpha: float) -> np.n
     ValueError
         If the observation lasts longer than the duration ``alpha`` predicts.
     """
+    return model.basis(obs.elapsed / observed_duration(model, obs, alpha))
+
+
+def observed_duration(model: ProMPModel, obs: Observation, alpha: float) -> float:
+    """The duration (s) that ``alpha`` predicts, checked to hold the observation.
+
+    Raises
+    ------
+    ValueError
+        alpha <= 0, or the observation lasts longer than that duration.
+    """
     check_alpha(alpha)
     duration = float(duration_from_alpha(alpha, model.sample_period, model.settings.s_bar))
     if obs.elapsed[-1] > duration * (1.0 + 1e-9):
@@ -91,7 +103,7 @@ def observation_basis(model: ProMPModel, obs: Observation, alpha: float) -> np.n
             f"the observation ({obs.elapsed[-1]:.3f} s) is longer than the predicted duration "
             f"({duration:.3f} s) for alpha = {alpha:.4g}"
         )
-    return model.basis(obs.elapsed / duration)
+    return duration
 
 
 def condition_dense(

@@ -56,7 +56,7 @@ from promp.inference import (
     Gaussian,
     Posterior,
     condition_dense,
-    observation_basis,
+    observed_duration,
     predict,
 )
 from promp.metrics import measure
@@ -258,8 +258,7 @@ class Evidence:
             alpha <= 0, or an observation longer than alpha's duration.
         """
         model = self.model
-        observation_basis(model, self.observation, alpha)  # validates alpha against it
-        duration = float(duration_from_alpha(alpha, model.sample_period, model.settings.s_bar))
+        duration = observed_duration(model, self.observation, alpha)  # alpha checked
         sums = self._sums(primitive, np.array([float(alpha)]), np.array([duration]))
         mean, blocks = woodbury.posterior(sums, primitive, self.dims, alpha)
 

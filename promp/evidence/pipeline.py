@@ -19,7 +19,7 @@ from promp.data import Demonstration
 from promp.evidence.evidence import Evidence
 from promp.evidence.inference import Inference
 from promp.evidence.speed import AlphaMethod
-from promp.inference import Gaussian, Posterior, condition_dense, observation_basis
+from promp.inference import Gaussian, Posterior, condition_dense, observed_duration
 from promp.model import Primitive, ProMPModel
 from promp.observation import Observation, check_observation
 from promp.recognition import Recognition
@@ -156,7 +156,7 @@ def condition(
     if prior is None:
         return Evidence(model, obs).condition(primitive, alpha)
     check_observation(model, obs)
-    observation_basis(model, obs, alpha)  # validates alpha against the observation
+    observed_duration(model, obs, alpha)  # validates alpha against the observation
     mean, cov = condition_dense(model, primitive, obs, alpha, prior, None)
     return Posterior(mean, Gaussian(mean, cov).blocks(model.n_dims), lambda: cov)
 
