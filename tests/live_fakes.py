@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 from collections import deque
+from typing import NamedTuple
 
 import numpy as np
 
@@ -166,6 +167,52 @@ def replay(session, transport: FakeTransport, stream: FakeStream, times, values,
         session.step()
     session.flush()  # the sinks (the predictions' callback, a recorder) have all of it
     return stamps
+
+
+
+class BeganAndEnded(NamedTuple):
+    """What :func:`begun_and_ended` ran: the session (still open), its fake network, the
+    ``Hand`` stream and the movements replayed (in order)."""
+
+    session: object
+    transport: FakeTransport
+    stream: FakeStream
+    demos: list[Demonstration]
+
+
+def begun_and_ended(
+    model: ProMPModel,
+    options,
+    classes=("right", "left"),
+    inputs=None,
+    transport: FakeTransport | None = None,
+    **session_args,
+) -> BeganAndEnded:
+    """A stepped session (``options``, ``start="call"``) on a fake network (``transport``, or a
+    new one) streaming ``Hand`` (x, y, z at 50 Hz) into ``inputs`` (default the hand on its
+    channels 0, 1, 2), that observed an unseen movement (``make_dataset(seed=11, n_demos=1)``)
+    of each of ``classes`` in turn, each between a Begin and an End call, the clock moved 0.1 s
+    and the session stepped and flushed after each End. ``session_args`` go to
+    :class:`LiveSession` (outlets, sinks, on_prediction)."""
+    from promp.live.session import LiveSession
+
+    transport = FakeTransport() if transport is None else transport
+    stream = transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
+    session = LiveSession(model, ["hand=Hand:0,1,2"] if inputs is None else inputs, transport,
+                          options, **session_args)  # fmt: skip
+    session.connect()
+    session.step()
+    unseen = make_dataset(seed=11, n_demos=1)
+    demos = [unseen[name][0] for name in classes]
+    for demo in demos:
+        session.begin()
+        replay(session, transport, stream, demo.times - demo.times[0],
+               demo.select(["x", "y", "z"]))  # fmt: skip
+        session.end()
+        transport.now += 0.1
+        session.step()
+        session.flush()
+    return BeganAndEnded(session, transport, stream, demos)
 
 
 # ---------------------------------------------------------------------------- shared data
