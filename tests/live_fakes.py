@@ -362,14 +362,13 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
     0.1-0.35 s now and then and pushes its backlog at once (:func:`late_pushes`). Returns the
     session's ended movements, the predictions and, per take, the push times and due times of
     its samples (session clock)."""
-    import time
-
     import pylsl
 
     from promp.live.lsl import LslTransport
     from promp.live.session import LiveOptions, LiveSession
     from promp.live.status import Condition
     from tests.conftest import wait_until
+    from tests.lsl_push import hand_outlet, push_when_due
 
     rows, spans = [], []
     n = 0
@@ -382,13 +381,7 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
         spans.append((first, first + demo.n_samples))
         n += xyz.shape[0]
     table = np.vstack(rows) * 1000.0
-    info = pylsl.StreamInfo(name, "Mocap", 3, rate, pylsl.cf_double64, f"src-{name}")
-    channels = info.desc().append_child("channels")
-    for label in ("hx", "hy", "hz"):
-        channel = channels.append_child("channel")
-        channel.append_child_value("label", label)
-        channel.append_child_value("unit", "mm")
-    outlet = pylsl.StreamOutlet(info)
+    outlet = hand_outlet(name, rate=rate)
     predictions = []
 
     def predicted(p):
@@ -406,13 +399,7 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
         due = np.arange(table.shape[0]) / rate
         pushes = late_pushes(due, rng) if late else due
         start = pylsl.local_clock() + 0.1
-        pushed = np.empty(table.shape[0])
-        for k in range(table.shape[0]):
-            delay = start + pushes[k] - pylsl.local_clock()
-            if delay > 0:
-                time.sleep(delay)
-            outlet.push_sample(table[k].tolist())
-            pushed[k] = pylsl.local_clock()
+        pushed = push_when_due(outlet, table, start + pushes)  # stamped at their push
         wait_until(lambda: session.snapshot().movement is None, timeout=60.0,
                    what="the last movement's end")  # fmt: skip
         ended = list(session.snapshot().ended)
