@@ -24,7 +24,6 @@ sys.path.insert(0, str(REPO))
 
 import numpy as np  # noqa: E402
 
-from promp.data import Layout, Modality  # noqa: E402
 from promp.datasets import load_records_dataset  # noqa: E402
 from promp.evidence import weight_space, woodbury  # noqa: E402
 from promp.evidence.evidence import Evidence  # noqa: E402
@@ -33,13 +32,8 @@ from promp.learn import fit  # noqa: E402
 from promp.model import Settings  # noqa: E402
 from promp.timing import duration_from_alpha  # noqa: E402
 
-DATA = REPO.parent / "shared" / "data" / "lab-records-flt"
-LAYOUT = Layout((
-    Modality("hand", ("x", "y", "z"), unit="m"),
-    Modality("device", ("device_x", "device_y", "device_z"), unit="m"),
-    Modality("force", ("fx", "fy", "fz"), unit="N"),
-    Modality("moment", ("mx", "my", "mz"), unit="Nm"),
-))  # fmt: skip
+sys.path.insert(0, str(REPO / "bench"))
+from live import DATA, LAYOUT  # noqa: E402  (the four modalities of lab-records-flt)
 
 
 def best_of(f, rounds: int = 5, n: int = 10) -> float:

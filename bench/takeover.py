@@ -81,7 +81,7 @@ def main(movements: int = 40) -> dict:
     from app.studio import Studio
     from promp.live.status import Condition
     from tests.live_fakes import held
-    from tests.test_promp_live_lsl import hand_outlet
+    from tests.lsl_push import hand_outlet
 
     name = f"BenchTakeOver-{os.getpid()}"
     with tempfile.TemporaryDirectory() as tmp:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 from collections import deque
+from typing import NamedTuple
 
 import numpy as np
 
@@ -168,6 +169,52 @@ def replay(session, transport: FakeTransport, stream: FakeStream, times, values,
     return stamps
 
 
+
+class BeganAndEnded(NamedTuple):
+    """What :func:`begun_and_ended` ran: the session (still open), its fake network, the
+    ``Hand`` stream and the movements replayed (in order)."""
+
+    session: object
+    transport: FakeTransport
+    stream: FakeStream
+    demos: list[Demonstration]
+
+
+def begun_and_ended(
+    model: ProMPModel,
+    options,
+    classes=("right", "left"),
+    inputs=None,
+    transport: FakeTransport | None = None,
+    **session_args,
+) -> BeganAndEnded:
+    """A stepped session (``options``, ``start="call"``) on a fake network (``transport``, or a
+    new one) streaming ``Hand`` (x, y, z at 50 Hz) into ``inputs`` (default the hand on its
+    channels 0, 1, 2), that observed an unseen movement (``make_dataset(seed=11, n_demos=1)``)
+    of each of ``classes`` in turn, each between a Begin and an End call, the clock moved 0.1 s
+    and the session stepped and flushed after each End. ``session_args`` go to
+    :class:`LiveSession` (outlets, sinks, on_prediction)."""
+    from promp.live.session import LiveSession
+
+    transport = FakeTransport() if transport is None else transport
+    stream = transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
+    session = LiveSession(model, ["hand=Hand:0,1,2"] if inputs is None else inputs, transport,
+                          options, **session_args)  # fmt: skip
+    session.connect()
+    session.step()
+    unseen = make_dataset(seed=11, n_demos=1)
+    demos = [unseen[name][0] for name in classes]
+    for demo in demos:
+        session.begin()
+        replay(session, transport, stream, demo.times - demo.times[0],
+               demo.select(["x", "y", "z"]))  # fmt: skip
+        session.end()
+        transport.now += 0.1
+        session.step()
+        session.flush()
+    return BeganAndEnded(session, transport, stream, demos)
+
+
 # ---------------------------------------------------------------------------- shared data
 
 _CACHE: dict = {}
@@ -315,14 +362,13 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
     0.1-0.35 s now and then and pushes its backlog at once (:func:`late_pushes`). Returns the
     session's ended movements, the predictions and, per take, the push times and due times of
     its samples (session clock)."""
-    import time
-
     import pylsl
 
     from promp.live.lsl import LslTransport
     from promp.live.session import LiveOptions, LiveSession
     from promp.live.status import Condition
     from tests.conftest import wait_until
+    from tests.lsl_push import hand_outlet, push_when_due
 
     rows, spans = [], []
     n = 0
@@ -335,13 +381,7 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
         spans.append((first, first + demo.n_samples))
         n += xyz.shape[0]
     table = np.vstack(rows) * 1000.0
-    info = pylsl.StreamInfo(name, "Mocap", 3, rate, pylsl.cf_double64, f"src-{name}")
-    channels = info.desc().append_child("channels")
-    for label in ("hx", "hy", "hz"):
-        channel = channels.append_child("channel")
-        channel.append_child_value("label", label)
-        channel.append_child_value("unit", "mm")
-    outlet = pylsl.StreamOutlet(info)
+    outlet = hand_outlet(name, rate=rate)
     predictions = []
 
     def predicted(p):
@@ -359,13 +399,7 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
         due = np.arange(table.shape[0]) / rate
         pushes = late_pushes(due, rng) if late else due
         start = pylsl.local_clock() + 0.1
-        pushed = np.empty(table.shape[0])
-        for k in range(table.shape[0]):
-            delay = start + pushes[k] - pylsl.local_clock()
-            if delay > 0:
-                time.sleep(delay)
-            outlet.push_sample(table[k].tolist())
-            pushed[k] = pylsl.local_clock()
+        pushed = push_when_due(outlet, table, start + pushes)  # stamped at their push
         wait_until(lambda: session.snapshot().movement is None, timeout=60.0,
                    what="the last movement's end")  # fmt: skip
         ended = list(session.snapshot().ended)

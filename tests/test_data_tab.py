@@ -181,6 +181,69 @@ def test_results_zip_holds_what_the_command_line_writes(tmp_path) -> None:
     assert results_filename("../").startswith("evaluation-workspace-")
 
 
+def test_an_export_draws_its_figures_while_a_kept_run_draws_its_own(tmp_path, monkeypatch):
+    """Export results is not held up by another evaluation's run being kept (drawn by the runs
+    section's saver): neither drawing waits for the other. (Behind one lock, a busy machine's
+    export waited for the figures of every evaluation kept before it.)"""
+    from app.panels.data.results_zip import draw_figures
+    from promp.evaluate import plots
+
+    job = fake_job()
+    report, result, dataset = job.report(), job.outcome.result, job.plan.dataset
+    drawing, release = threading.Event(), threading.Event()
+    real = plots.reliability_diagram
+
+    def held(*args, **kwargs):  # the saver stops after its first figure until released
+        if threading.current_thread().name == "data-run-save":
+            drawing.set()
+            release.wait()
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(plots, "reliability_diagram", held)
+    saver = threading.Thread(target=draw_figures, name="data-run-save", daemon=True,
+                             args=(tmp_path / "run", report, result, dataset, LAYOUT))  # fmt: skip
+    saver.start()
+    exported: list[bytes] = []
+    try:
+        wait_until(drawing.is_set, what="the kept run's figures being drawn")
+        threading.Thread(target=lambda: exported.append(results_zip(report, result, dataset,
+                                                                    LAYOUT)),
+                         daemon=True).start()  # fmt: skip
+        wait_until(lambda: exported, what="the export, while the kept run's are drawn")
+    finally:
+        release.set()
+        saver.join()
+    written = write_figures(tmp_path / "cli", result, dataset, LAYOUT, "ours")
+    with zipfile.ZipFile(io.BytesIO(exported[0])) as z:
+        figures = sorted(n for n in z.namelist() if n.startswith("figures/"))
+    assert figures == sorted(f"figures/{p.name}" for p in written)
+    assert sorted(p.name for p in (tmp_path / "run").iterdir()) == sorted(p.name for p in written)
+
+
+def test_an_evaluation_s_figures_are_drawn_once_for_its_run_and_its_export(tmp_path, monkeypatch):
+    """The run kept and Export results of one evaluation take one drawing of its figures (the
+    second to ask waits for it): what ``--plots`` writes, byte for byte."""
+    import app.panels.data.results_zip as module
+
+    drawings = []
+    real = module.draw_figures
+    monkeypatch.setattr(module, "draw_figures", lambda *args: drawings.append(1) or real(*args))
+    job = fake_job()
+    taken: list[dict] = []
+    askers = [threading.Thread(target=lambda: taken.append(job.figures())) for _ in range(2)]
+    for asker in askers:
+        asker.start()
+    for asker in askers:
+        asker.join()
+    content = results_zip(job.report(), job.outcome.result, job.plan.dataset, LAYOUT,
+                          job.figures)  # fmt: skip
+    assert len(drawings) == 1 and taken[0] is taken[1]
+    written = write_figures(tmp_path, job.outcome.result, job.plan.dataset, LAYOUT, "ours")
+    with zipfile.ZipFile(io.BytesIO(content)) as z:
+        figures = {n: z.read(n) for n in z.namelist() if n.startswith("figures/")}
+    assert figures == {f"figures/{p.name}": p.read_bytes() for p in written}
+
+
 def test_failed_trials_list_every_misrecognised_trial() -> None:
     job = fake_job()
     trials = failed_trials(job.outcome.result, job.plan.dataset)
@@ -679,6 +742,9 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
 def evaluated(page, studio):
     """A small evaluation run from the GUI (hand + head, ML, 10 and 40 % observed: at 10 %
     some held-out demonstrations are recognised as another primitive); its job."""
+    # the evaluations of the test before are kept as runs in the background (their figures
+    # drawn): done first, so that the export measured is this one's alone, whatever the load
+    until(lambda: panel_of(studio).runs.idle, what="the runs of the evaluations before kept")
     panel = panel_of(studio).evaluation
     previous = panel._job
     percents = percents_input(page, panel)

@@ -36,6 +36,8 @@ from tests.live_fakes import flt_dataset, flt_workspace, held, offset_in
 
 pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
 
+from tests.lsl_push import hand_outlet, push_when_due  # noqa: E402
+
 pytestmark = pytest.mark.browser
 
 _COUNT = itertools.count(1)
@@ -73,14 +75,7 @@ class Replayer:
 
     def __init__(self, name: str, n_channels: int = 3):
         self.name = name
-        info = pylsl.StreamInfo(name, "Mocap", n_channels, 100.0, pylsl.cf_double64,
-                                f"src-{name}")  # fmt: skip
-        channels = info.desc().append_child("channels")
-        for label in (LABELS + ("extra_1", "extra_2"))[:n_channels]:
-            channel = channels.append_child("channel")
-            channel.append_child_value("label", label)
-            channel.append_child_value("unit", "mm")
-        self.outlet = pylsl.StreamOutlet(info)
+        self.outlet = hand_outlet(name, (LABELS + ("extra_1", "extra_2"))[:n_channels])
         self.last = pylsl.local_clock()
         self.sent: list[tuple[np.ndarray, np.ndarray]] = []  # (stamps, values in m) pushed
 
@@ -95,9 +90,7 @@ class Replayer:
         pushed (plus ``jump``); their stamps."""
         start = max(pylsl.local_clock(), self.last) + 0.02
         stamps = start + step * np.arange(values_mm.shape[0])
-        for k in range(stamps.size):
-            time.sleep(max(0.0, stamps[k] - pylsl.local_clock()))
-            self.outlet.push_sample(values_mm[k].tolist(), stamps[k] + jump)
+        push_when_due(self.outlet, values_mm, stamps, stamps + jump)
         self.last = stamps[-1] + jump
         self.sent.append((stamps + jump, values_mm / 1000.0))
         return stamps + jump

@@ -28,6 +28,8 @@ from tests.live_fakes import flt_dataset, flt_workspace, held, offset_in
 
 pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
 
+from tests.lsl_push import hand_outlet  # noqa: E402
+
 NAME = f"KilledHand-{os.getpid()}-{time.monotonic_ns() % 10**9}"  # unique per run and worker
 LABELS = ("hand_x", "hand_y", "hand_z")
 
@@ -51,16 +53,6 @@ def row(page, label: str):
     return page.locator("label", has_text=label).first.locator(
         "xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]"
     )
-
-
-def hand_outlet():
-    info = pylsl.StreamInfo(NAME, "Mocap", 3, 100.0, pylsl.cf_double64, f"src-{NAME}")
-    channels = info.desc().append_child("channels")
-    for label in LABELS:
-        channel = channels.append_child("channel")
-        channel.append_child_value("label", label)
-        channel.append_child_value("unit", "mm")
-    return pylsl.StreamOutlet(info)
 
 
 def start_recording(page) -> str:
@@ -102,7 +94,7 @@ def test_sigkill_during_a_live_take_loses_nothing_acknowledged(browser, tmp_path
     fine = np.linspace(0, demo.n_samples - 1, 2 * demo.n_samples)  # twice slower: a window
     values_m = np.column_stack([np.interp(fine, np.arange(demo.n_samples), column)
                                 for column in demo.select(["x", "y", "z"]).T])  # fmt: skip
-    outlet = hand_outlet()
+    outlet = hand_outlet(NAME, LABELS)
     stop = threading.Event()
     stamps: list[float] = []
 

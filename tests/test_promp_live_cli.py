@@ -10,7 +10,6 @@ import re
 import signal
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -22,6 +21,8 @@ from tests.conftest import REPO
 from tests.live_fakes import flt_dataset, hand_model, held
 
 pylsl = pytest.importorskip("pylsl")
+
+from tests.lsl_push import hand_outlet, push_when_due  # noqa: E402
 
 
 def test_help_documents_every_option(capsys) -> None:
@@ -88,8 +89,7 @@ def test_the_command_predicts_publishes_records_and_stops_cleanly(tmp_path) -> N
     model = hand_model()
     save_model(tmp_path / "model.json", model)
     name, out = f"CliHand-{os.getpid()}", f"cli-{os.getpid()}"
-    info = pylsl.StreamInfo(name, "Mocap", 3, 100.0, pylsl.cf_double64, f"src-{name}")
-    outlet = pylsl.StreamOutlet(info)
+    outlet = hand_outlet(name)
     command = [sys.executable, "-m", "promp.live", "--model", str(tmp_path / "model.json"),
                "--in", f"hand={name}:0,1,2@mm", "--out", out, "--remainder", "hand",
                "--record", str(tmp_path / "takes"), "--status-every", "0.2",
@@ -104,10 +104,8 @@ def test_the_command_predicts_publishes_records_and_stops_cleanly(tmp_path) -> N
         assert outlet.wait_for_consumers(30.0)
         demo = held(flt_dataset()["front"][0], 0.6, 0.9)
         values = demo.select(["x", "y", "z"]) * 1000.0
-        start = pylsl.local_clock() + 0.05
-        for k in range(demo.n_samples):
-            time.sleep(max(0.0, start + demo.times[k] - pylsl.local_clock()))
-            outlet.push_sample(values[k].tolist(), start + demo.times[k])
+        stamps = pylsl.local_clock() + 0.05 + demo.times
+        push_when_due(outlet, values, stamps, stamps)
         lines = []
         while not any("movement 1 ended" in line for line in lines):
             line = process.stdout.readline()

@@ -9,10 +9,9 @@ import numpy as np
 from promp.decision import CommitRule
 from promp.live.commitment import DECISION, Commitment, Committing
 from promp.live.outlets import TIMING_LABELS, PredictionOutlets, outlet_specs
-from promp.live.session import LiveOptions, LiveSession
+from promp.live.session import LiveOptions
 from promp.live.status import LiveEvent
-from tests.live_fakes import FakeStream, FakeTransport, Tap, replay, synthetic_model
-from tests.synthetic import make_dataset
+from tests.live_fakes import FakeTransport, Tap, begun_and_ended, synthetic_model
 
 RULE = CommitRule(threshold=0.95, window=0.1)
 COMMITTED = TIMING_LABELS.index("committed")
@@ -25,24 +24,10 @@ class Run:
 
     def __init__(self, decide: CommitRule | None, classes=("right", "left")):
         self.transport = FakeTransport()
-        stream = self.transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
         outlets = PredictionOutlets(outlet_specs(model(), "robot", None), self.transport.outlet)
         self.tap = Tap()
-        session = LiveSession(model(), ["hand=Hand:0,1,2"], self.transport,
-                              LiveOptions(start="call", decide=decide), outlets=outlets,
-                              sinks=[self.tap])  # fmt: skip
-        session.connect()
-        session.step()
-        unseen = make_dataset(seed=11, n_demos=1)
-        for name in classes:
-            demo = unseen[name][0]
-            session.begin()
-            replay(session, self.transport, stream, demo.times - demo.times[0],
-                   demo.select(["x", "y", "z"]))  # fmt: skip
-            session.end()
-            self.transport.now += 0.1
-            session.step()
-            session.flush()
+        begun_and_ended(model(), LiveOptions(start="call", decide=decide), classes,
+                        transport=self.transport, outlets=outlets, sinks=[self.tap])  # fmt: skip
         self.outputs = list(self.tap.outputs)
         self.predictions = [p for o in self.outputs for p in o.predictions]
         self.events = [e for o in self.outputs for e in o.events]

@@ -27,6 +27,7 @@ pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
 from promp.live.lsl import LslTransport  # noqa: E402
 from promp.live.outlets import PredictionOutlets, outlet_specs  # noqa: E402
 from promp.live.session import LiveOptions, LiveSession  # noqa: E402
+from tests.lsl_push import hand_outlet, push_when_due  # noqa: E402
 
 UNIQUE = f"{os.getpid()}-{time.monotonic_ns() % 10**9}"  # other runs on this machine
 
@@ -34,16 +35,6 @@ UNIQUE = f"{os.getpid()}-{time.monotonic_ns() % 10**9}"  # other runs on this ma
 def reader_code(name: str) -> str:
     """docs/live.md's robot-side reader, for the outputs ``name``."""
     return robot_side_code("live.md", "test_promp_live_lsl.py", "the robot-side reader", name)
-
-
-def hand_outlet(name: str):
-    info = pylsl.StreamInfo(name, "Mocap", 3, 100.0, pylsl.cf_double64, f"src-{name}")
-    channels = info.desc().append_child("channels")
-    for label in ("hx", "hy", "hz"):
-        channel = channels.append_child("channel")
-        channel.append_child_value("label", label)
-        channel.append_child_value("unit", "mm")
-    return pylsl.StreamOutlet(info)
 
 
 @pytest.mark.parametrize("speed", [1.0, 2.5])
@@ -69,9 +60,7 @@ def test_a_replayed_demonstration_is_predicted_live_and_published(speed) -> None
         values_mm = demo.select(["x", "y", "z"]) * 1000.0
         start = pylsl.local_clock() + 0.05
         stamps = start + demo.times / speed  # faster: the partner moves 2.5 times as fast
-        for k in range(stamps.size):
-            time.sleep(max(0.0, stamps[k] - pylsl.local_clock()))
-            outlet.push_sample(values_mm[k].tolist(), stamps[k])
+        push_when_due(outlet, values_mm, stamps, stamps)
         wait_until(lambda: session.snapshot().ended, what="the movement's end (stillness)")
         assert session.flush()  # the callback had every prediction up to the end
         (movement,) = session.snapshot().ended

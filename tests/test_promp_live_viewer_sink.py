@@ -10,9 +10,8 @@ import pytest
 
 from promp.io import save_model
 from promp.live.options import live_inputs
-from promp.live.session import LiveOptions, LiveSession
-from tests.live_fakes import FakeStream, FakeTransport, Tap, replay, synthetic_model
-from tests.synthetic import make_dataset
+from promp.live.session import LiveOptions
+from tests.live_fakes import Tap, begun_and_ended, replay, synthetic_model
 from tests.viewer_readers import json_series, read_mcap, read_rrd
 
 pytest.importorskip("rerun")
@@ -27,26 +26,14 @@ def kept_session(folder):
     from promp.live.viewer_sink import ViewerSink
 
     model = synthetic_model()
-    transport = FakeTransport()
-    stream = transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
     inputs = live_inputs(model, ["hand=Hand:0,1,2"])
     files = [ViewerSink(folder / "session.rrd", model, inputs),
              ViewerSink(folder / "session.mcap", model, inputs)]  # fmt: skip
     tap = Tap()
-    session = LiveSession(model, inputs, transport, LiveOptions(start="call", remainder="hand"),
-                          sinks=[*files, tap])  # fmt: skip
-    session.connect()
-    session.step()
-    unseen = make_dataset(seed=11, n_demos=1)
-    for name in ("left", "right"):
-        demo = unseen[name][0]
-        session.begin()
-        replay(session, transport, stream, demo.times - demo.times[0],
-               demo.select(["x", "y", "z"]))  # fmt: skip
-        session.end()
-        transport.now += 0.1
-        session.step()
-    rest = demo.select(["x", "y", "z"])[-1:]  # rows past the last end, which waits for them
+    session, transport, stream, demos = begun_and_ended(
+        model, LiveOptions(start="call", remainder="hand"), ("left", "right"), inputs,
+        sinks=[*files, tap])  # fmt: skip
+    rest = demos[-1].select(["x", "y", "z"])[-1:]  # rows past the last end, which waits for them
     replay(session, transport, stream, np.arange(10) * 0.02, np.repeat(rest, 10, axis=0))
     session.close()
     return model, list(tap.outputs)

@@ -27,7 +27,7 @@ pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
 from promp.live.lsl import LslTransport  # noqa: E402
 from promp.live.outlets import PredictionOutlets, outlet_specs  # noqa: E402
 from promp.live.session import LiveOptions, LiveSession  # noqa: E402
-from tests.test_promp_live_lsl import hand_outlet  # noqa: E402
+from tests.lsl_push import hand_outlet, push_when_due  # noqa: E402
 
 UNIQUE = f"{os.getpid()}-{time.monotonic_ns() % 10**9}"  # other runs on this machine
 
@@ -65,9 +65,7 @@ def test_the_robot_side_controller_follows_the_committed_remainder_once() -> Non
         assert outlet.wait_for_consumers(30.0)
         values_mm = demo.select(["x", "y", "z"]) * 1000.0
         stamps = pylsl.local_clock() + 0.05 + demo.times
-        for k in range(stamps.size):
-            time.sleep(max(0.0, stamps[k] - pylsl.local_clock()))
-            outlet.push_sample(values_mm[k].tolist(), stamps[k])
+        push_when_due(outlet, values_mm, stamps, stamps)
         wait_until(lambda: session.snapshot().ended, what="the movement's end (stillness)")
         assert session.flush()
         committing = next(p for p in predictions if p.committed is not None)

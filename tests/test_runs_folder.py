@@ -278,7 +278,9 @@ def test_the_results_export_holds_a_confusion_matrix_per_percentage(job) -> None
 def test_the_section_keeps_an_ended_evaluation_and_a_cancelled_one_as_partial(tmp_path: Path):
     """Without a browser: the Saved runs section saves each evaluation once it has ended (a
     cancelled one with results marked partial, one without results not at all), under the
-    name typed or its default, and lists it."""
+    name typed or its default, and lists it; it is not idle while a run is being kept."""
+    import threading
+
     import viser
 
     from app.io.net import free_port
@@ -299,12 +301,18 @@ def test_the_section_keeps_an_ended_evaluation_and_a_cancelled_one_as_partial(tm
             evaluation._job = job
             runs.step(snapshot)  # seen running: its name
             runs.step(snapshot)  # seen ended: saved on a worker
-            if runs.saver is not None:
-                runs.saver.join(60)
+            wait_until(lambda: runs.idle, what="the run kept")
 
         done = fake_job()
         done.plan = replace(done.plan, source=str(store.state.workspace.root))
-        end(done, "")
+        drawing, drawn = threading.Event(), done.figures
+        done.figures = lambda: drawing.wait() and drawn()  # its figures held until it is seen
+        evaluation._job = done
+        runs.step(snapshot)
+        runs.step(snapshot)
+        assert runs.savers[-1].is_alive() and not runs.idle  # its run being kept
+        drawing.set()
+        end(done, "")  # seen again: kept once
         cancelled = fake_job()
         cancelled.plan = replace(cancelled.plan, source=done.plan.source)
         cancelled.outcome = replace(cancelled.outcome, cancelled=True)
@@ -312,9 +320,9 @@ def test_the_section_keeps_an_ended_evaluation_and_a_cancelled_one_as_partial(tm
         nothing = fake_job()
         nothing.plan = replace(nothing.plan, source=done.plan.source)
         nothing.outcome = replace(nothing.outcome, cancelled=True, result=None)
-        saver = runs.saver
+        savers = list(runs.savers)
         end(nothing, "nothing")
-        assert runs.saver is saver  # nothing to keep
+        assert runs.savers == savers  # nothing to keep
 
         def listed(count: int):  # the folder is read on a worker: the loop polls for it
             runs.step(snapshot)

@@ -11,33 +11,17 @@ import pytest
 
 from app.live.takeover import NO_HAND, NO_RULE, TakeOver, unavailable
 from promp.decision import CommitRule
-from promp.live.session import LiveOptions, LiveSession
-from tests.live_fakes import FakeStream, FakeTransport, replay, synthetic_model
-from tests.synthetic import make_dataset
+from promp.live.session import LiveOptions
+from tests.live_fakes import begun_and_ended, synthetic_model
 
 
 @pytest.fixture(scope="module")
 def predictions():
     """Every prediction of a session committing (CommitRule 0.95 for 0.1 s) on two unseen
     movements, begun and ended by calls."""
-    transport = FakeTransport()
-    stream = transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
     made: list = []
-    session = LiveSession(synthetic_model(), ["hand=Hand:0,1,2"], transport,
-                          LiveOptions(start="call", decide=CommitRule(0.95, 0.1)),
-                          on_prediction=made.append)  # fmt: skip
-    session.connect()
-    session.step()
-    unseen = make_dataset(seed=11, n_demos=1)
-    for name in ("right", "left"):
-        demo = unseen[name][0]
-        session.begin()
-        replay(session, transport, stream, demo.times - demo.times[0],
-               demo.select(["x", "y", "z"]))  # fmt: skip
-        session.end()
-        transport.now += 0.1
-        session.step()
-        session.flush()
+    begun_and_ended(synthetic_model(), LiveOptions(start="call", decide=CommitRule(0.95, 0.1)),
+                    ("right", "left"), on_prediction=made.append)  # fmt: skip
     movements = sorted({p.movement for p in made})
     assert len(movements) == 2
     for m in movements:  # each commits part-way: predictions before and after

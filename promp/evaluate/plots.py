@@ -36,16 +36,17 @@ def figures_unavailable() -> str:
     return ""
 
 
-def _pyplot():
+def _figure(width: float, height: float):
+    """A new figure of ``width`` x ``height`` inches, made without pyplot: pyplot keeps its
+    figures in global state, a figure made by matplotlib's ``Figure`` is its caller's alone
+    (matplotlib's advice for servers: the studio draws a run kept in the background while an
+    export draws its own, at once)."""
     reason = figures_unavailable()
     if reason:
         raise ValueError(reason)
-    import matplotlib
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return Figure(figsize=(width, height))
 
 
 MAX_COLUMNS = 4  # panels per row of a figure: at 3.2 in and 100 dpi, at most 1,280 px wide
@@ -64,12 +65,13 @@ def column_units(layout: Layout) -> list[tuple[float, str]]:
     return [display_unit(m) for m in layout.modalities for _ in m.columns]
 
 
-def grid(plt, n_panels: int, size: float = 3.2):
-    """A figure of ``n_panels`` panels, at most :data:`MAX_COLUMNS` per row; the unused ones
-    hidden. Returns (figure, flat list of the used axes)."""
+def grid(n_panels: int, size: float = 3.2):
+    """A figure of ``n_panels`` panels, at most :data:`MAX_COLUMNS` per row, ``size`` inches
+    each; the unused ones hidden. Returns (figure, flat list of the used axes)."""
     columns = min(n_panels, MAX_COLUMNS)
     rows = -(-n_panels // columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(size * columns, size * rows), squeeze=False)
+    fig = _figure(size * columns, size * rows)
+    axes = fig.subplots(rows, columns, squeeze=False)
     flat = list(axes.reshape(-1))
     for ax in flat[n_panels:]:
         ax.set_visible(False)
@@ -119,8 +121,8 @@ def curves(rows: list[dict], path: Path, method: str, position: Modality | None 
     """Recognition errors, position error (in ``position``'s display unit, cm by default) and
     NRMSE(posterior) - NRMSE(prior) against %."""
     scale, unit = display_unit(position) if position is not None else (100.0, "cm")
-    plt = _pyplot()
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
+    fig = _figure(15, 4.2)
+    axes = fig.subplots(1, 3)
     trials = rows[0]["trials"] if rows else 0
     for label, (x, y) in _series(rows, lambda r: r["recognition_errors"]).items():
         axes[0].plot(x, y, "o-", label=label)
@@ -145,15 +147,14 @@ def curves(rows: list[dict], path: Path, method: str, position: Modality | None 
     fig.suptitle(f"leave-one-out, method {method}")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def reliability_diagram(trials: list[Trial], n_primitives: int, path: Path, method: str) -> None:
     """Predicted probability against observed frequency, per alpha method (all observed
     percentages together; a failed trial counts as a uniform guess), of the trials of
     ``method``."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(5.2, 5))
+    fig = _figure(5.2, 5)
+    ax = fig.subplots()
     ax.plot([0, 1], [0, 1], color="0.6", lw=1, ls="--", label="calibrated")
     for alpha_method in sorted({t.alpha_method for t in trials}):
         chosen = [t for t in trials if t.alpha_method == alpha_method]
@@ -181,12 +182,10 @@ def reliability_diagram(trials: list[Trial], n_primitives: int, path: Path, meth
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def example(trial: Trial, dataset: Dataset, layout: Layout, path: Path) -> None:
     """One inference like Figs. 4, 7, 9: observed samples, prior and posterior bands, truth."""
-    plt = _pyplot()
     names = list(dataset)  # demo names repeat across primitives: look in the right one
     demo = next(d for d in dataset[names[trial.primitive]] if d.name == trial.demo)
     truth = layout.extract(demo)
@@ -195,7 +194,7 @@ def example(trial: Trial, dataset: Dataset, layout: Layout, path: Path) -> None:
     inf = trial.inferred
     t_pred = np.linspace(0.0, inf.duration, inf.posterior_mean.shape[0])
     observed = set(layout.dims(trial.observed).tolist())
-    fig, axes = grid(plt, layout.n_dims)
+    fig, axes = grid(layout.n_dims)
     for d, (ax, (scale, unit)) in enumerate(zip(axes, column_units(layout), strict=True)):
         for mean, std, colour, alpha, label in (
             (inf.prior_mean, inf.prior_std, "tab:blue", 0.2, "prior +-2 sd"),
@@ -221,17 +220,15 @@ def example(trial: Trial, dataset: Dataset, layout: Layout, path: Path) -> None:
     )
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def confusion_figure(matrices: Sequence[Mapping], path: Path, method: str) -> None:
     """The confusion matrices of one (observed modalities, alpha method), one panel per
     percentage: rows the true primitive, columns the recognised one (the last column: the
     trials the method failed on), counts written in the cells."""
-    plt = _pyplot()
     labels = list(matrices[0]["primitives"])
     size = max(3.2, 0.45 * len(labels) + 1.6)
-    fig, axes = grid(plt, len(matrices), size)
+    fig, axes = grid(len(matrices), size)
     for ax, matrix in zip(axes, matrices, strict=True):
         counts = np.array(matrix["counts"])
         ax.imshow(counts, cmap="Blues", vmin=0, vmax=max(int(counts.sum(1).max()), 1))
@@ -251,7 +248,6 @@ def confusion_figure(matrices: Sequence[Mapping], path: Path, method: str) -> No
                  fontsize=10)  # fmt: skip
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def _short(name: str, limit: int = 18) -> str:
@@ -323,9 +319,11 @@ def decision_figure(
     accuracy and 1 - earliness against the threshold in decades of doubt, the median threshold
     chosen without each trial dotted. ``rows``, the headline, and ``curve``, in-sample, are
     :func:`promp.evaluate.decisions.decide`'s."""
-    plt = _pyplot()
-    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.6))
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig = _figure(12, 4.6)
+    left, right = fig.subplots(1, 2)
+    import matplotlib  # there: _figure said why not when it is missing
+
+    colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     named = len({str(r["method"]) for r in rows}) > 1
     for i, row in enumerate(rows):
         key = (row["method"], tuple(row["observed"]), row["alpha_method"])
@@ -365,4 +363,3 @@ def decision_figure(
     fig.suptitle(f"when the robot acts, {title}: commit once p >= threshold for {window:g} s")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)

@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from app.panels.data.evaluation_plan import METHOD, EvaluationPlan
+from app.panels.data.results_zip import drawn_figures
 from app.ui.display import ALPHA_LABELS
 from app.ui.text import escape
 from promp.evaluate.decisions import Decisions, decide
@@ -106,6 +107,8 @@ class EvaluationJob:
         self.outcome: EvaluationOutcome | None = None
         self.cancel = threading.Event()
         self._thread = threading.Thread(target=self.run, name="data-evaluation", daemon=True)
+        self._figures: dict[str, bytes] | None = None
+        self._drawing = threading.Lock()  # one drawing, for its run kept and its export
 
     def start(self) -> None:
         """Run the sweep in the job's background thread."""
@@ -231,6 +234,23 @@ class EvaluationJob:
             f"{methods}observed {escape(observed)}, alpha {alphas}, "
             f"{', '.join(f'{p:g}' for p in plan.percents)} %{acts}."
         )
+
+    def figures(self) -> dict[str, bytes]:
+        """The finished sweep's figures (PNG bytes by file name, as ``--plots`` names them),
+        drawn once: the first to ask (the run being kept, or Export results) draws them, a
+        second waits for that drawing and takes it.
+
+        Raises
+        ------
+        ValueError
+            As :meth:`report`, or when matplotlib is missing
+            (:func:`promp.evaluate.plots.figures_unavailable`).
+        """
+        with self._drawing:
+            if self._figures is None:
+                self._figures = drawn_figures(self.report(), self.outcome.result,
+                                              self.plan.dataset, self.plan.layout)  # fmt: skip
+            return self._figures
 
     def report(self) -> dict:
         """The finished sweep's report, as ``python -m promp.evaluate --json`` writes it

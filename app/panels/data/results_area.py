@@ -100,7 +100,8 @@ class ResultsArea:
                 "yellow",
             )
             return None
-        content = results_zip(job.report(), job.outcome.result, job.plan.dataset, job.plan.layout)
+        content = results_zip(job.report(), job.outcome.result, job.plan.dataset, job.plan.layout,
+                              job.figures)  # drawn once, for its run kept and here  # fmt: skip
         filename = results_filename(Path(job.plan.source).name)
         if client is not None:
             client.send_file_download(filename, content, save_immediately=True)

@@ -21,9 +21,8 @@ from __future__ import annotations
 import io
 import re
 import tempfile
-import threading
 import zipfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from app.io.exchange import export_filename
@@ -35,8 +34,6 @@ from promp.evaluate.sweep import SweepResult
 
 JSON_NAME, CSV_NAME, TRIALS_NAME, FIGURES = "results.json", "results.csv", "trials.csv", "figures"
 DECISIONS_NAME = "decisions.csv"
-# pyplot keeps its figures in global state: two exports at once draw one after the other.
-_PYPLOT = threading.Lock()
 
 
 def results_zip(
@@ -44,6 +41,7 @@ def results_zip(
     result: SweepResult,
     dataset: Mapping[str, Sequence[Demonstration]],
     layout: Layout,
+    figures: Callable[[], Mapping[str, bytes]] | None = None,
 ) -> bytes:
     """The zip of one finished sweep (see the module docstring).
 
@@ -57,6 +55,10 @@ def results_zip(
     dataset : mapping of str to list of Demonstration
         What was swept (the example figures draw the true demonstration).
     layout : Layout
+    figures : callable, optional
+        The sweep's figures, drawn once for all who want them
+        (:meth:`app.panels.data.evaluation.EvaluationJob.figures`: PNG bytes by file name);
+        by default drawn here (:func:`drawn_figures`).
     """
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
@@ -67,11 +69,24 @@ def results_zip(
         if decisions is not None:
             archive.writestr(DECISIONS_NAME, decisions_csv(decisions.rows, decisions.curve))
         if not figures_unavailable():  # else the tables go alone: the export says why
-            with tempfile.TemporaryDirectory(prefix="evaluation-figures-") as folder:
-                for path in draw_figures(Path(folder), report, result, dataset, layout):
-                    archive.write(path, f"{FIGURES}/{path.name}",
-                                  compress_type=zipfile.ZIP_STORED)  # fmt: skip
+            drawn = figures() if figures is not None else drawn_figures(report, result, dataset,
+                                                                        layout)  # fmt: skip
+            for name, png in drawn.items():
+                archive.writestr(f"{FIGURES}/{name}", png, compress_type=zipfile.ZIP_STORED)
     return buffer.getvalue()
+
+
+def drawn_figures(
+    report: Mapping,
+    result: SweepResult,
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+) -> dict[str, bytes]:
+    """:func:`draw_figures` in a temporary folder: the PNGs' bytes by file name, in the order
+    drawn."""
+    with tempfile.TemporaryDirectory(prefix="evaluation-figures-") as folder:
+        paths = draw_figures(Path(folder), report, result, dataset, layout)
+        return {path.name: path.read_bytes() for path in paths}
 
 
 def draw_figures(
@@ -83,11 +98,10 @@ def draw_figures(
 ) -> list[Path]:
     """The figures of ``python -m promp.evaluate --plots`` in ``folder`` (curves, reliability,
     a confusion matrix per percentage for each series, examples, and when each method would
-    act if the report judged it); their paths. One drawing at a time: pyplot keeps its figures
-    in global state."""
-    with _PYPLOT:
-        return write_figures(Path(folder), result, dataset, layout, report["settings"]["method"],
-                             decisions_of(report))  # fmt: skip
+    act if the report judged it); their paths. Drawings run at once, none waits for another
+    (an export while a run is kept): each figure is its drawer's own, not pyplot's."""
+    return write_figures(Path(folder), result, dataset, layout, report["settings"]["method"],
+                         decisions_of(report))  # fmt: skip
 
 
 def results_filename(workspace: str, when: float | None = None) -> str:

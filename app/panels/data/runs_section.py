@@ -31,7 +31,6 @@ from app.io.trash import TrashEntry
 from app.panels.data.evaluation import EvaluationJob
 from app.panels.data.evaluation_plan import METHOD, EvaluationPlan
 from app.panels.data.evaluation_section import EvaluationSection
-from app.panels.data.results_zip import draw_figures
 from app.panels.data.runs_text import NO_RUN, comparison_markdown, describe, run_choices, runs_table
 from app.ui.context import PanelContext
 from app.ui.display import ALPHA_LABELS, observed_label
@@ -84,7 +83,7 @@ class RunsSection:
         self._scanner = RunsScanner(SCAN_SECONDS)
         self._watched: EvaluationJob | None = None  # the evaluation to save once it ends
         self._name = ""
-        self.saver: threading.Thread | None = None
+        self.savers: list[threading.Thread] = []  # the runs being kept (the last, the latest)
         gui = ctx.gui
         with gui.add_folder("Saved runs"):
             summary = gui.add_markdown("")
@@ -148,9 +147,10 @@ class RunsSection:
             if outcome.result is not None and outcome.result.rows:  # done, or cancelled with rows
                 # Into the workspace it evaluated, even if another is shown now.
                 where = Path(job.plan.source) if job.plan.source else root
-                self.saver = threading.Thread(target=self.save, args=(job, name, where),
-                                              name="data-run-save", daemon=True)  # fmt: skip
-                self.saver.start()
+                saver = threading.Thread(target=self.save, args=(job, name, where),
+                                         name="data-run-save", daemon=True)  # fmt: skip
+                saver.start()
+                self.savers = [t for t in self.savers if t.is_alive()] + [saver]
 
     def save(self, job: EvaluationJob, name: str, root: Path) -> Run | None:
         """Write the ended ``job`` as a run of the workspace at ``root`` (blocking)."""
@@ -161,7 +161,9 @@ class RunsSection:
                             "yellow")  # fmt: skip
                 return
             try:
-                draw_figures(folder, report, job.outcome.result, job.plan.dataset, job.plan.layout)
+                folder.mkdir(parents=True, exist_ok=True)
+                for file, png in job.figures().items():  # drawn once, for the export too
+                    (folder / file).write_bytes(png)
             except Exception:  # a figure that cannot be drawn must not lose the run's tables
                 traceback.print_exc()
 
@@ -292,7 +294,14 @@ class RunsSection:
         c.comparison.content = text
         return text
 
+    @property
+    def idle(self) -> bool:
+        """No run is being kept: every evaluation that ended with results is written (its
+        figures drawn), or could not be."""
+        return not any(t.is_alive() for t in self.savers)
+
     def close(self) -> None:
-        """Let a run being written finish (it is renamed into place whole, or not at all)."""
-        if self.saver is not None:
-            self.saver.join(timeout=30.0)
+        """Let the runs being written finish (each is renamed into place whole, or not at
+        all)."""
+        for saver in self.savers:
+            saver.join(timeout=30.0)
