@@ -516,7 +516,9 @@ def test_the_robot_takes_over_a_committed_movement_along_its_predicted_remainder
     assert distance_to_path(reached, path).max() < 0.01  # every pose reached: within 1 cm
     length = np.linalg.norm(np.diff(path, axis=0), axis=1).sum()
     end = arm.hand_position()
-    assert np.linalg.norm(end - path[-1]) < 0.01 < 0.5 * length  # at the predicted end
+    # at the predicted end: within 1 cm, and within half the path's length (a busy machine
+    # commits later in the movement, and leaves a shorter path to play)
+    assert length > 0 and np.linalg.norm(end - path[-1]) < min(0.01, 0.5 * length)
     assert np.linalg.norm(end - before) > 0.5 * np.linalg.norm(path[-1] - before)
     # nearer the committed primitive's taught ends than any other primitive's
     ends = {name: np.median([d.select(["x", "y", "z"])[-1] for d in demos], axis=0)
