@@ -11,7 +11,8 @@ anything changed since it last drew.
 **Bounded.** A movement keeps at most :data:`MAX_POINTS` points: once full, every other point
 is dropped and from then on only every ``stride``-th prediction is kept (the stride doubles at
 each halving), so a long movement keeps its whole shape at an even density in fixed memory.
-The latest prediction is always the curve's last point, kept or not.
+The latest prediction is always the curve's last point, kept or not, and the prediction that
+committed is always kept (the commitment's mark stands at its time).
 """
 
 from __future__ import annotations
@@ -90,6 +91,9 @@ class LiveCurves:
         self._count = 0  # predictions of the movement
         self._stride = 1
         self._committed: Commitment | None = None
+        self._pinned: tuple | None = None  # the committing prediction's row
+        self._numbers: list[int] = []  # each kept row's prediction number in the movement
+        self._pinned_n = -1
         self._curve = self._make()
 
     def add(self, predictions: Iterable[LivePrediction]) -> None:
@@ -102,17 +106,24 @@ class LiveCurves:
     def _add(self, p: LivePrediction) -> None:
         if p.movement != self._movement:
             self._movement, self._rows, self._count, self._stride = p.movement, [], 0, 1
-            self._committed, self._latest = None, None
+            self._committed, self._latest, self._pinned = None, None, None
+            self._numbers, self._pinned_n = [], -1
         row = (float(p.elapsed), float(p.phase.value), np.array(p.probabilities, dtype=float))
-        if self._rows and row[0] <= self._rows[-1][0]:
+        if self._latest is not None and row[0] <= self._latest[0]:
             # a movement's last prediction on rows cut back by its still end is earlier on
             # its clock: the curve goes forward in time, as the commit rule does
             row = None
-        elif self._count % self._stride == 0:
+        elif self._count % self._stride == 0 or _commits(p):
             self._rows.append(row)
+            self._numbers.append(self._count)
+            if _commits(p):  # the committing prediction stays: the mark stands there
+                self._pinned, self._pinned_n = row, self._count
             if len(self._rows) >= self.max_points:
-                self._rows = self._rows[::2]
-                self._stride *= 2
+                self._stride *= 2  # by the predictions' numbers: even, the pinned one aside
+                self._rows = [r for r, n in zip(self._rows, self._numbers, strict=True)
+                              if n % self._stride == 0 or r is self._pinned]  # fmt: skip
+                self._numbers = [n for n in self._numbers if n % self._stride == 0 or
+                                 n == self._pinned_n]  # fmt: skip
         self._count += 1
         if row is not None:
             self._latest = row
@@ -135,6 +146,11 @@ class LiveCurves:
     def curve(self) -> LiveCurve:
         """The latest (immutable; the same object until a prediction is added)."""
         return self._curve
+
+
+def _commits(p: LivePrediction) -> bool:
+    """Whether ``p`` is the prediction that committed (its latest sample the commitment's)."""
+    return p.committed is not None and p.committed.at == p.last
 
 
 class CurveSink:

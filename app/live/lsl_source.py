@@ -14,7 +14,8 @@ stream once, reads its description and closes it, so that the list and the guess
 can name channels as the stream labels them. Where liblsl cannot load,
 :attr:`LslSource.unavailable` says so and what to do, and nothing starts. The session has its
 own threads; the studio's loop reads its immutable :class:`promp.live.session.LiveSnapshot`
-(:meth:`LslSource.snapshot`) without a lock.
+(its ``running.session.snapshot()``) without a lock. A session file replayed
+(:mod:`app.live.session_replay`, :meth:`LslSource.replay`) stands in a live session's place.
 """
 
 from __future__ import annotations

@@ -113,7 +113,12 @@ class LiveChart:
         if state == self._shown:
             return
         self._shown = state
-        with self.ctx.atomic():
+        self.note.content = commit_text(curve, rule)
+        self.note.visible = True
+        if not curve.times.size:  # (series set without their data break uPlot's axes)
+            self.chart.visible = False
+            return
+        with self.ctx.atomic():  # the series, the range and the data together
             if series_key != self._series_key:
                 self._series_key = series_key
                 self.chart.series = self._series(curve, colors)
@@ -122,11 +127,8 @@ class LiveChart:
                 self._range = (0.0, end)
                 self.chart.scales = {"x": {"time": False, "range": self._range},
                                      "y": {"range": (0.0, 100.0)}}  # fmt: skip
-            if curve.times.size:
-                self.chart.data = live_chart_data(curve)
-            self.chart.visible = bool(curve.times.size)
-            self.note.visible = True
-        self.note.content = commit_text(curve, rule)
+            self.chart.data = live_chart_data(curve)
+            self.chart.visible = True
 
     def _series(self, curve: LiveCurve, colors) -> tuple[dict, ...]:
         lines = [{"label": name, "stroke": css(color), "width": 2, "points": {"show": False}}
