@@ -131,12 +131,43 @@ def test_a_session_file_replays_in_the_live_source_bit_for_bit(recorded) -> None
     assert source.running is None and path.read_bytes() == kept
 
 
-def test_a_replay_stops_at_stop_while_it_waits_for_the_recorded_timing(recorded) -> None:
-    path, model, _ = recorded
+@pytest.fixture(scope="module")
+def hour_apart(tmp_path_factory):
+    """A session file of two movements an hour apart on the session's clock."""
+    from promp.live.options import LiveOptions
+    from promp.live.session import LiveSession
+    from promp.live.session_file import SessionSink
+    from tests.live_fakes import FakeStream, replay
+    from tests.synthetic import make_dataset
+
+    path = tmp_path_factory.mktemp("hour") / "hour.mcap"
+    model, transport = synthetic_model(), FakeTransport()
+    inputs, options = ["hand=Hand:0,1,2"], LiveOptions(start="still")
+    sink = SessionSink(path, model, inputs, options, transport.clock())
+    session = LiveSession(model, inputs, transport, options, sinks=[sink], now=transport.clock())
+    stream = transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
+    session.connect()
+    session.step()
+    for name in ("left", "right"):
+        values = make_dataset(seed=11, n_demos=1)[name][0].select(["x", "y", "z"])
+        rows = np.vstack([np.repeat(values[:1], 40, axis=0), values,
+                          np.repeat(values[-1:], 60, axis=0)])  # fmt: skip
+        replay(session, transport, stream, np.arange(len(rows)) * 0.02, rows)
+        transport.now += 3600.0
+    session.close()
+    return path, model
+
+
+def test_a_replay_at_the_recorded_timing_ends_at_stop_during_an_hour_s_wait(hour_apart) -> None:
+    from promp.live.session_file import read_session
+
+    path, model = hour_apart
+    times = [r["now"] for r in read_session(path).of("a")]
+    before = int(np.argmax(np.diff(times))) + 1  # the steps before the hour's wait
     source = LslSource(transport=FakeTransport)
     replay = source.replay(model, path, fast=False).replay
-    wait_until(lambda: replay.steps > 0, what="the first step")
-    source.stop()
+    wait_until(lambda: replay.steps == before, what="the steps before the hour replayed")
+    source.stop()  # (waits up to 10 s for the replay's thread: not an hour)
     assert replay.done and replay.result.stopped and not replay.result.equal
 
 
