@@ -301,8 +301,9 @@ class LiveSection:
         else:
             snap = running.session.snapshot()
             prediction, model = snap.prediction, running.model
-            note = "the session's at Start"
-            if snapshot.inference_model is not model:
+            note = ("the session file's (recorded with it)" if running.replay is not None
+                    else "the session's at Start")  # fmt: skip
+            if running.replay is None and snapshot.inference_model is not model:
                 note += " (the workspace's has changed since: Stop and Start to use it)"
             message = "" if prediction is not None else _waiting(snap)
             movement = (running.number, prediction.movement if prediction else 0)
