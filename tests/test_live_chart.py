@@ -131,6 +131,26 @@ def test_a_session_file_replays_in_the_live_source_bit_for_bit(recorded) -> None
     assert source.running is None and path.read_bytes() == kept
 
 
+def test_a_replayed_prediction_on_other_phases_is_drawn_on_the_tube_s(recorded) -> None:
+    """The command's predictions are on the model's own samples; the 3D tube's mesh has
+    TUBE_POINTS rings: the view draws them there, every number the same."""
+    from app.live.inference import TUBE_POINTS
+    from app.panels.infer.lsl_view import LslObserved, lsl_view, on_tube_phases
+    from app.panels.infer.view_model import LSL, InferState
+
+    path, model, predictions = recorded
+    p = predictions[-1]
+    assert p.inference.prediction.mean.shape[0] != TUBE_POINTS  # (the command's default)
+    state = InferState(source=LSL, primitive="", demo="", observed="", alpha_method="ml",
+                       percent=100, show_3d=True, priors="", hold_out=None)  # fmt: skip
+    result = lsl_view(state, LslObserved(p, model)).result
+    shown = result.inference
+    assert shown.prediction.mean.shape[0] == shown.prior.mean.shape[0] == TUBE_POINTS
+    assert shown.probabilities is p.inference.probabilities and shown.timing is p.inference.timing
+    assert_array_equal(shown.prediction.mean[[0, -1]], p.inference.prediction.mean[[0, -1]])
+    assert on_tube_phases(model, shown) is shown  # as it is when on the tube's phases
+
+
 @pytest.fixture(scope="module")
 def hour_apart(tmp_path_factory):
     """A session file of two movements an hour apart on the session's clock."""

@@ -212,7 +212,7 @@ def cli_session(studio, tmp_path_factory):
 
 
 def test_a_session_recorded_by_the_command_replays_in_the_page_bit_for_bit(
-    page, studio, cli_session
+    page, studio, cli_session, artifacts
 ) -> None:
     panel = infer_panel(studio)
     stopped(page, studio)
@@ -243,6 +243,8 @@ def test_a_session_recorded_by_the_command_replays_in_the_page_bit_for_bit(
     made = last.committed
     assert made is not None and made.primitive == committed[0]["committed"]
     page.get_by_text(f"committed to '{made.primitive}' at {made.time:.2f} s").first.wait_for()
+    shown.evaluate("e => e.scrollIntoView({block: 'center'})")
+    screenshot(page, artifacts / "infer_session_replay.png")
     # a live start is refused while the replay is shown: Start reads Stop
     assert panel.lsl.controls.run.label == "Stop" and panel.lsl.replay.controls.replay.disabled
     stopped(page, studio)
