@@ -17,6 +17,7 @@ import sys
 import numpy as np
 import pytest
 
+from app.live.inference import TUBE_POINTS
 from app.panels.infer.live_chart import LIVE_TITLE
 from app.panels.infer.session_replay_section import TITLE as REPLAY_TITLE
 from app.panels.infer.view_model import LSL
@@ -240,6 +241,10 @@ def test_a_session_recorded_by_the_command_replays_in_the_page_bit_for_bit(
                       what="the last replayed prediction shown")  # fmt: skip
     wait_until(lambda: studio.scene.inference.drawn.result is view.result,
                what="the replayed prediction drawn in 3D")  # fmt: skip
+    # the command's predictions are on the model's own samples: drawn on the tube's rings
+    assert studio.scene.inference.has_shape
+    assert view.result.prediction.mean.shape[0] == TUBE_POINTS
+    assert view.result.inference.probabilities is last.probabilities
     made = last.committed
     assert made is not None and made.primitive == committed[0]["committed"]
     page.get_by_text(f"committed to '{made.primitive}' at {made.time:.2f} s").first.wait_for()
@@ -247,5 +252,6 @@ def test_a_session_recorded_by_the_command_replays_in_the_page_bit_for_bit(
     screenshot(page, artifacts / "infer_session_replay.png")
     # a live start is refused while the replay is shown: Start reads Stop
     assert panel.lsl.controls.run.label == "Stop" and panel.lsl.replay.controls.replay.disabled
+    assert not panel.lsl.controls.movement.visible  # a replay's movements are the recorded
     stopped(page, studio)
     assert cli_session.read_bytes() == kept  # only read

@@ -174,7 +174,9 @@ class LiveSection:
         if c.run.label != label:
             c.run.label, c.run.color = label, "red" if running else "green"
             c.run.icon = viser.Icon.PLAYER_STOP_FILLED if running else viser.Icon.PLAYER_PLAY
-        for handle, wanted in ((c.movement, running),
+        current = self.source.running
+        live = current is not None and current.replay is None  # (a replay's are recorded)
+        for handle, wanted in ((c.movement, live),
                                (c.markers, STARTS[c.start.value] == "marker"),
                                (c.threshold, bool(c.commit.value))):  # fmt: skip
             if handle.visible != wanted:
