@@ -5,8 +5,8 @@ started, and the moment the commit rule committed. Pure, no viser.
 A live session publishes 30 to 100 predictions a second and the studio's loop runs at 60
 frames a second: the loop would miss some, so the session (or a replay) hands every prediction
 to :meth:`LiveCurves.add` from its own thread (:class:`CurveSink`), and the loop reads an
-immutable :class:`LiveCurve` (:meth:`LiveCurves.curve`), whose ``version`` says whether
-anything changed since it last drew.
+immutable :class:`LiveCurve` (:meth:`LiveCurves.curve`, made when asked for, at most once
+a frame), whose ``version`` says whether anything changed since it last drew.
 
 **Bounded.** A movement keeps at most :data:`MAX_POINTS` points: once full, every other point
 is dropped and from then on only every ``stride``-th prediction is kept (the stride doubles at
@@ -101,7 +101,6 @@ class LiveCurves:
         with self._lock:
             for p in predictions:
                 self._add(p)
-            self._curve = self._make()
 
     def _add(self, p: LivePrediction) -> None:
         if p.movement != self._movement:
@@ -144,8 +143,12 @@ class LiveCurves:
                          probabilities, self._committed, self._count)  # fmt: skip
 
     def curve(self) -> LiveCurve:
-        """The latest (immutable; the same object until a prediction is added)."""
-        return self._curve
+        """The latest (immutable; the same object until a prediction is added). Made when
+        asked for (the loop asks once a frame; predictions may come faster)."""
+        with self._lock:
+            if self._curve.version != self._version:
+                self._curve = self._make()
+            return self._curve
 
 
 def _commits(p: LivePrediction) -> bool:
