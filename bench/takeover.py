@@ -15,7 +15,7 @@ sample that made the rule commit (the committing prediction's latest observed sa
 of the arm's ``move_hand_to`` by the take-over (the Replay's ``move_hand``, wrapped here),
 ``latency_ms_p50`` and ``latency_ms_p99``, split into ``predicted_ms_*`` (from that push to
 the committing prediction in the session's snapshot, when the source wakes the studio's
-loop: :class:`app.live.lsl_source.CommitmentWake`) and ``loop_ms_*`` (from there to
+loop: :class:`app.live.session_outputs.CommitmentWake`) and ``loop_ms_*`` (from there to
 the first step; ``in_frame_ms_*``: of which from the start of the frame that took the step);
 how many movements committed and were taken over;
 the load average.

@@ -14,7 +14,8 @@ stream once, reads its description and closes it, so that the list and the guess
 can name channels as the stream labels them. Where liblsl cannot load,
 :attr:`LslSource.unavailable` says so and what to do, and nothing starts. The session has its
 own threads; the studio's loop reads its immutable :class:`promp.live.session.LiveSnapshot`
-(:meth:`LslSource.snapshot`) without a lock.
+(its ``running.session.snapshot()``) without a lock. A session file replayed
+(:mod:`app.live.session_replay`, :meth:`LslSource.replay`) stands in a live session's place.
 """
 
 from __future__ import annotations
@@ -27,23 +28,23 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from app.live.inference import TUBE_POINTS
+from app.live.live_curve import CurveSink, LiveCurves
 from app.live.live_takes import JOURNALS_DIR, TakeRecorder
 from app.live.lsl_mapping import MappingCheck, parse_mapping, safe_out_name
 from app.live.lsl_placement import PlacedTransport
+from app.live.session_outputs import CommitmentWake, SwitchedOutlets
+from app.live.session_replay import SessionReplay, read_header
 from promp.decision import CommitRule
-from promp.live.predictor import LivePrediction
-from promp.live.session import LiveOptions, LiveSession, LiveSnapshot, live_columns
-from promp.live.status import LiveEvent
+from promp.live.session import LiveOptions, LiveSession, live_columns
 from promp.live.transport import Selector, StreamDescription, Transport
 from promp.model import ProMPModel
 from robots.icub.layout import HAND
 from robots.icub.placement import Placement
 
 __all__ = ["CommitmentWake", "LiveConfig", "LslSource", "Running", "SCAN_EVERY_S", "STARTS",
-           "SwitchedOutlets"]
+           "SwitchedOutlets"]  # (the first and the last: app.live.session_outputs)
 
 SCAN_EVERY_S = 0.5
-COMMIT_WAKE_WAIT_S = 0.02  # the longest a commitment's wake-up waits for the snapshot
 STARTS = {"stillness": "still", "marker stream": "marker", "Begin / End buttons": "call"}
 
 
@@ -87,78 +88,22 @@ class LiveConfig:
 @dataclass(frozen=True, eq=False)
 class Running:
     """A session started: with which model and configuration, its checked mapping, its
-    number (counts the studio's sessions) and start time (monotonic)."""
+    number (counts the studio's sessions) and start time (monotonic), and the recognition
+    chart's curves of its movements; ``session`` is a :class:`SessionReplay` when a session
+    file is replayed."""
 
-    session: LiveSession
+    session: LiveSession | SessionReplay
     model: ProMPModel
     config: LiveConfig
     check: MappingCheck
     number: int
     started: float
     recorder: TakeRecorder | None
+    curves: LiveCurves | None = None
 
-
-class CommitmentWake:
-    """The session's prediction callback (a sink's thread): the prediction that committed,
-    once the session's snapshot holds it (the sinks are offered a step's outputs just before
-    its snapshot is published), calls ``call()``: the studio wakes its loop, so the arm's
-    take-over waits for no frame period.
-
-    Parameters
-    ----------
-    running : callable
-        The source's :class:`Running` session now (None: stopped).
-    """
-
-    def __init__(self, running: Callable[[], Running | None]) -> None:
-        self.running = running
-        self.call: Callable[[], object] | None = None
-
-    def __call__(self, prediction: LivePrediction) -> None:
-        made, call = prediction.committed, self.call
-        if made is None or made.at != prediction.last or call is None:
-            return
-        deadline = time.monotonic() + COMMIT_WAKE_WAIT_S
-        while (running := self.running()) is not None and time.monotonic() < deadline:
-            shown = running.session.snapshot().prediction
-            if shown is not None and shown.seq >= prediction.seq:
-                break
-            time.sleep(0.0002)
-        call()
-
-
-class SwitchedOutlets:
-    """The session's outlets sink, switched on and off while it runs (another thread may be
-    publishing meanwhile: a lock keeps each push whole)."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._outlets = None
-        self.names: tuple[str, ...] = ()
-        self.source_ids: tuple[str, ...] = ()
-
-    def set(self, outlets) -> None:
-        """Publish through ``outlets`` (a :class:`promp.live.outlets.PredictionOutlets`), or
-        nothing (None); the previous ones are closed (their streams vanish)."""
-        with self._lock:
-            old, self._outlets = self._outlets, outlets
-            self.names = tuple(s.name for s in outlets.specs.values()) if outlets else ()
-            self.source_ids = outlets.source_ids if outlets else ()
-        if old is not None:
-            old.close()
-
-    def publish(self, prediction: LivePrediction) -> None:
-        with self._lock:
-            if self._outlets is not None:
-                self._outlets.publish(prediction)
-
-    def event(self, event: LiveEvent) -> None:
-        with self._lock:
-            if self._outlets is not None:
-                self._outlets.event(event)
-
-    def close(self) -> None:
-        self.set(None)
+    @property
+    def replay(self) -> SessionReplay | None:
+        return self.session if isinstance(self.session, SessionReplay) else None
 
 
 class LslSource:
@@ -233,10 +178,6 @@ class LslSource:
         found = running.session.snapshot().found if running is not None else self._found
         return tuple(self._described.get(s.uid, s) for s in found)
 
-    def snapshot(self) -> LiveSnapshot | None:
-        running = self.running
-        return running.session.snapshot() if running is not None else None
-
     # ------------------------------------------------------------------ start, stop
 
     def start(
@@ -254,13 +195,16 @@ class LslSource:
         Raises
         ------
         ValueError
-            LSL is unavailable, a session runs already, or the configuration is refused (the
-            mapping, the marker stream, the outputs' name): nothing starts.
+            LSL is unavailable, a session runs already (live or replayed), or the
+            configuration is refused (the mapping, the marker stream, the outputs' name):
+            nothing starts.
         """
         with self._lock:
             transport = self.transport()
             if self.running is not None:
-                raise ValueError("the live source is running already: Stop it first")
+                what = "a session file is being replayed" if self.running.replay else \
+                    "the live source is running already"  # fmt: skip
+                raise ValueError(f"{what}: Stop it first")
             check = parse_mapping(config.mapping, model, self.found())
             if config.start not in STARTS.values():
                 raise ValueError(f"unknown movement start {config.start!r}")
@@ -284,13 +228,38 @@ class LslSource:
                 recorder = TakeRecorder(Path(workspace) / JOURNALS_DIR,
                                         live_columns(model, check.inputs), names, prefix)
             woken = self.on_commitment if rule is not None else None
+            curves = LiveCurves(model.names)
             session = LiveSession(model, check.inputs, transport, options, outlets=self.outlets,
-                                  recorder=recorder, on_prediction=woken)  # fmt: skip
+                                  recorder=recorder, on_prediction=woken,
+                                  sinks=[CurveSink(curves)])  # fmt: skip
             if specs is not None:
                 self.outlets.set(_outlets(specs, self.transport()))
             session.start()
             self.running = Running(session, model, config, check, number, time.monotonic(),
-                                   recorder)  # fmt: skip
+                                   recorder, curves)  # fmt: skip
+            return self.running
+
+    def replay(self, model: ProMPModel, path: Path | str, fast: bool = False) -> Running:
+        """Replay the session file ``path`` (recorded with ``model``) in place of a live
+        session (:mod:`app.live.session_replay`), at its timing or ``fast``.
+
+        Raises
+        ------
+        ValueError
+            A session runs (live or replayed), or the file is refused: nothing starts.
+        """
+        with self._lock:
+            if self.running is not None:
+                raise ValueError("the live source is running: Stop it first (a replay and "
+                                 "live streams do not run together)")  # fmt: skip
+            header = read_header(model, path)
+            curves = LiveCurves(model.names)
+            replay = SessionReplay(model, header, fast, (CurveSink(curves).take,))
+            config = LiveConfig("\n".join(i.modality.spec() for i in header.inputs), header.start,
+                                commit=header.commit)  # fmt: skip
+            self.running = Running(replay, model, config, MappingCheck(header.inputs, ()),
+                                   next(self._numbers), time.monotonic(), None, curves)
+            replay.start()
             return self.running
 
     def stop(self) -> None:

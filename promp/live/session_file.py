@@ -60,7 +60,7 @@ from promp.viewers.new_file import check_new, write_new
 
 __all__ = [
     "decode_arrivals", "encode_arrivals", "FORMAT", "journal_for", "JOURNALS", "MAGIC",
-    "model_sha256", "TOPICS",
+    "check_recorded_with", "model_sha256", "TOPICS",
     "prediction_record", "read_session", "recover_sessions", "Replayed", "replay_session",
     "SessionRecord", "SessionSink", "write_session_file",
 ]  # fmt: skip
@@ -373,11 +373,34 @@ class Replayed:
         return not self.difference
 
 
+def check_recorded_with(model: ProMPModel, header: dict, path: Path | str) -> None:
+    """Refuse ``model`` unless the session file ``path`` (its ``header``) was recorded with
+    it, and its inputs' mappings unless ``model`` observes them.
+
+    Raises
+    ------
+    ValueError
+        Another model (both SHA-256s named: its predictions could not be the same), or
+        inputs the model has no modality for.
+    """
+    from promp.live.options import live_inputs
+
+    ours, theirs = model_sha256(model), str(header.get("model_sha256", ""))
+    if ours != theirs:
+        raise ValueError(f"{path} was recorded with another model (SHA-256 {theirs[:12]}..., "
+                         f"this one's is {ours[:12]}...): its predictions cannot be "
+                         "reproduced with this one")  # fmt: skip
+    live_inputs(model, header["inputs"])
+
+
 def replay_session(model: ProMPModel, path: Path | str, paced: bool = False,
-                   on_output: Callable[[Output], object] | None = None) -> Replayed:  # fmt: skip
+                   on_output: Callable[[Output], object] | None = None,
+                   sleep: Callable[[float], object] = time.sleep) -> Replayed:  # fmt: skip
     """The session file ``path`` replayed through the pipeline of ``model`` (module
     docstring): at the recorded timing with ``paced``, else as fast as it goes; each step's
-    :class:`promp.live.sinks.Output` handed to ``on_output`` (a viewer file's sink).
+    :class:`promp.live.sinks.Output` handed to ``on_output`` (a viewer file's sink, the
+    studio's view). ``sleep(seconds)`` waits between paced steps (the studio's replay waits on
+    its Stop, and its ``on_output`` raises to end the replay there).
 
     Raises
     ------
@@ -386,17 +409,14 @@ def replay_session(model: ProMPModel, path: Path | str, paced: bool = False,
     """
     session = read_session(path)
     header = session.header
-    if model_sha256(model) != header["model_sha256"]:
-        raise ValueError(f"{path} was recorded with another model (SHA-256 "
-                         f"{header['model_sha256'][:12]}...): its predictions cannot be "
-                         "reproduced with this one")  # fmt: skip
+    check_recorded_with(model, header, path)
     state = build(model, header["inputs"], _options(header["options"]), float(header["start"]))
     predictions, events = [], []
     arrivals = [decode_arrivals(r) for r in session.of("a")]
     began, first = time.monotonic(), arrivals[0].now if arrivals else 0.0
     for a in arrivals:
         if paced:
-            time.sleep(max(0.0, (a.now - first) - (time.monotonic() - began)))
+            sleep(max(0.0, (a.now - first) - (time.monotonic() - began)))
         state, stepped, boundaries, made = step(state, a)
         predictions += made
         events += stepped

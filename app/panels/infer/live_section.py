@@ -34,6 +34,7 @@ from app.live.lsl_mapping import guess_mapping, selector_text
 from app.live.lsl_source import STARTS, LiveConfig, LslSource
 from app.panels.infer.live_status import idle_html, outputs_html, session_html, streams_html
 from app.panels.infer.lsl_view import LslObserved
+from app.panels.infer.session_replay_section import SessionReplaySection
 from app.panels.infer.takeover_section import TAKEOVER_HINT
 from app.panels.infer.view_model import InferState
 from app.ui.context import Frame, PanelContext, PanelGui
@@ -128,6 +129,8 @@ class LiveSection:
         self.ctx = ctx
         self.source: LslSource = ctx.live
         self.controls = c = build_controls(ctx.gui, layout)
+        with c.folder:
+            self.replay = SessionReplaySection(ctx, self.source)
         self._layout = layout
         self._pressed: list[str] = []
         self._edited = False  # the user typed a mapping: no guess over it
@@ -165,12 +168,15 @@ class LiveSection:
             self._act(press, snapshot, state)
         self._show_found()
         self._publish()
+        self.replay.step(snapshot)
         running = self.source.running is not None
         label = "Stop" if running else "Start"
         if c.run.label != label:
             c.run.label, c.run.color = label, "red" if running else "green"
             c.run.icon = viser.Icon.PLAYER_STOP_FILLED if running else viser.Icon.PLAYER_PLAY
-        for handle, wanted in ((c.movement, running),
+        current = self.source.running
+        live = current is not None and current.replay is None  # (a replay's are recorded)
+        for handle, wanted in ((c.movement, live),
                                (c.markers, STARTS[c.start.value] == "marker"),
                                (c.threshold, bool(c.commit.value))):  # fmt: skip
             if handle.visible != wanted:
@@ -233,8 +239,9 @@ class LiveSection:
         """Publishing switched on or off (or renamed) while the session runs."""
         c = self.controls
         wanted = (bool(c.publish.value), str(c.out.value))
-        if self.source.running is None or wanted == self._published:
-            return
+        running = self.source.running
+        if running is None or running.replay is not None or wanted == self._published:
+            return  # (a replay publishes nothing)
         self._published = wanted
         try:
             self.source.publish(*wanted)
@@ -267,7 +274,7 @@ class LiveSection:
 
     def _show_status(self) -> None:
         c, running = self.controls, self.source.running
-        snap = self.source.snapshot()
+        snap = running.session.snapshot() if running is not None else None
         if running is None or snap is None:
             html = idle_html(self._refused)
         else:
@@ -277,7 +284,9 @@ class LiveSection:
                 self._rates.popleft()
             t0, n0 = self._rates[0]
             rate = (snap.predictions - n0) / (now - t0) if now > t0 else 0.0
-            html = session_html(snap, self.source.transport().clock(), rate, self._refused,
+            # a replay's clock is the recorded one, at its latest step
+            now = snap.time if running.replay is not None else self.source.transport().clock()
+            html = session_html(snap, now, rate, self._refused,
                                 START_WORDS[running.config.start])  # fmt: skip
         if c.status.content != html:
             c.status.content = html
@@ -294,8 +303,9 @@ class LiveSection:
         else:
             snap = running.session.snapshot()
             prediction, model = snap.prediction, running.model
-            note = "the session's at Start"
-            if snapshot.inference_model is not model:
+            note = ("the session file's (recorded with it)" if running.replay is not None
+                    else "the session's at Start")  # fmt: skip
+            if running.replay is None and snapshot.inference_model is not model:
                 note += " (the workspace's has changed since: Stop and Start to use it)"
             message = "" if prediction is not None else _waiting(snap)
             movement = (running.number, prediction.movement if prediction else 0)
@@ -304,9 +314,6 @@ class LiveSection:
                 or model is not old.model):  # fmt: skip
             self._observed = LslObserved(prediction, model, note, message, movement)
         return self._observed
-
-    def close(self) -> None:
-        """Nothing of its own: the studio stops the source."""
 
 
 def _waiting(snap) -> str:

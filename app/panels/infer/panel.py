@@ -167,6 +167,7 @@ class InferPanel:
             self._show(frame, state, choice, samples)
         self.playback.step()
         self.recognition.show(state.percent)
+        self.recognition.live.step(state.lsl, self.ctx.live.running)
         shown, style = self._shown, snapshot.view.tube_style
         drawn = shown.result if shown.in_3d else None
         layer = self.ctx.inference_layer  # the one that says what it draws (.drawn)
@@ -187,7 +188,7 @@ class InferPanel:
             previous is None or previous.message != view.message
         ) and not view.message.startswith("learning a model"):
             self.ctx.notify("Cannot infer", view.message, color="yellow")
-        self.recognition.request(view.curve, LIVE_NOTE if state.live else "")
+        self.recognition.request(view.curve, LIVE_NOTE if state.live and not state.lsl else "")
         result, c = view.result, self.controls
         color = self._color(result.inference.primitive) if result is not None else DEFAULT_COLOR
         # One group of messages: the browser applies bars, charts and status together.

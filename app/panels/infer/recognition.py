@@ -11,9 +11,9 @@ settings. Moving the slider only moves the cursor.
 A click on the chart moves the slider there: the page's script (``static/studio.js``) turns it
 into a click on the slider's track at the same percentage.
 
-uPlot shares one x array between all series, so the cursor and the marker are vertical
-segments drawn by a series that holds values at two equal x entries inserted in the grid (and
-NaN elsewhere, where nothing is drawn); every other series is interpolated there.
+The cursor and the marker are vertical segments (:mod:`app.panels.infer.probability_series`).
+During a live session (the LSL source) this chart is hidden and its :attr:`RecognitionChart.live`
+(:mod:`app.panels.infer.live_chart`), built under it, shows the live movement instead.
 """
 
 from __future__ import annotations
@@ -23,6 +23,8 @@ from collections.abc import Callable, Hashable
 import numpy as np
 
 from app.live.recognition_curve import CurveRequest, CurveWorker, RecognitionCurve
+from app.panels.infer.live_chart import LiveChart
+from app.panels.infer.probability_series import marked_series
 from app.ui.charts import chart_axes, css
 from app.ui.context import PanelContext
 from app.ui.text import escape
@@ -38,25 +40,7 @@ LIVE_NOTE = "Recognition over the whole movement: for a test demonstration."
 def chart_data(curve: RecognitionCurve, cursor: float) -> tuple[np.ndarray, ...]:
     """uPlot's arrays: the x grid (percent) with the cursor's and the marker's x inserted
     twice each, then each primitive's probability (%), the cursor and the marker segments."""
-    marks = [cursor] + ([curve.right_from] if curve.right_from is not None else [])
-    grid = curve.percents
-    x = np.sort(np.concatenate([grid, np.repeat(marks, 2)]), kind="stable")
-    series = []
-    for k in range(len(curve.names)):
-        p = 100.0 * curve.probabilities[:, k]
-        ok = np.isfinite(p)
-        column = np.full(x.shape, np.nan)
-        if ok.any():
-            inside = (x >= grid[ok][0]) & (x <= grid[ok][-1])
-            column[inside] = np.interp(x[inside], grid[ok], p[ok])
-        series.append(column)
-    for mark in (cursor, curve.right_from):
-        column = np.full(x.shape, np.nan)
-        if mark is not None:
-            first = int(np.searchsorted(x, mark, side="left"))
-            column[first], column[first + 1] = 0.0, 100.0
-        series.append(column)
-    return (x, *series)
+    return marked_series(curve.percents, curve.probabilities, [cursor, curve.right_from])
 
 
 def right_text(curve: RecognitionCurve) -> str:
@@ -100,6 +84,7 @@ class RecognitionChart:
             visible=False,
         )
         self.note = gui.add_markdown("")
+        self.live = LiveChart(ctx, color_of)  # in its place during a live session
 
     # ------------------------------------------------------------------ the loop
 
