@@ -55,6 +55,7 @@ import copy
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -85,7 +86,24 @@ DEFAULT_DESELECT = [
 # (the clean run passed on them: a fault of the code itself found in one mutant's run would
 # otherwise "kill" it, and the examples saved would "kill" those after it), and does not shrink
 # a failing example (minutes of shrinking per killed mutant, up to mutmut's time limit).
-PYTEST_ARGS = ["--hypothesis-profile=mutation"]
+PYTEST_ARGS = ["--hypothesis-profile=mutation", "-p", "mutation_select"]
+# The tests a mutant of these modules runs (bench/mutation_select.py; the others run every
+# test that reaches the function mutated). The pipeline's core is reached by nearly every live
+# test, through a session: its mutants run the tests written for it, not all (a survivor of
+# `step` ran 134 tests, over a minute under load, for each mutant).
+MODULE_TESTS = {
+    "promp.live.pipeline": ["tests/test_promp_live_pipeline.py",
+                            "tests/test_promp_live_session_machine.py",
+                            "tests/test_promp_live_faults.py",
+                            "tests/test_promp_live_decision.py"],
+    "promp.live.intake": ["tests/test_promp_live_intake.py", "tests/test_promp_live_faults.py",
+                          "tests/test_promp_live_threads.py"],
+}
+# mutmut's time limit on a mutant: (its tests' time in the clean run + CONSTANT) x MULTIPLIER
+# seconds of wall time (mutmut's defaults 1 and 15: a mutant of the pipeline's step that loops
+# forever held the run 19 minutes). A mutant that runs past it counts as caught (timeout).
+TIMEOUT_MULTIPLIER = 3.0
+TIMEOUT_CONSTANT = 10.0
 # Calls whose arguments are messages for a reader (see the module's docstring).
 MESSAGE_CALLS = {"print", "LiveEvent", "warn", "debug", "info", "warning", "error", "exception",
                  "critical"}
@@ -94,7 +112,8 @@ HELP_KEYWORDS = {"help", "description", "epilog", "metavar", "prog"}
 KILLED = {"killed", "caught by type check", "segfault"}
 
 
-def mutmut_config(paths: list[str], tests: list[str], deselect: list[str]) -> str:
+def mutmut_config(paths: list[str], tests: list[str], deselect: list[str],
+                  timeout_multiplier: float = TIMEOUT_MULTIPLIER) -> str:
     """The ``[tool.mutmut]`` table: mutate ``paths`` (files or folders), run ``tests`` but the
     ``deselect``-ed ones (pytest node ids)."""
     packages = sorted({Path(p).parts[0] for p in paths})
@@ -102,23 +121,29 @@ def mutmut_config(paths: list[str], tests: list[str], deselect: list[str]) -> st
     return "\n".join([
         "", "[tool.mutmut]",
         f"source_paths = {json.dumps(packages)}",
-        'also_copy = ["docs/"]',
+        'also_copy = ["docs/", "mutation_select.py", "mutation_tests.json"]',
         f"only_mutate = {json.dumps(only)}",
+        f"timeout_multiplier = {float(timeout_multiplier)}",
+        f"timeout_constant = {TIMEOUT_CONSTANT}",
         f"pytest_add_cli_args_test_selection = {json.dumps(tests)}",
         f"pytest_add_cli_args = {json.dumps(PYTEST_ARGS + [f'--deselect={d}' for d in deselect])}",
         ""])
 
 
 def copy_repository(workdir: Path, paths: list[str], tests: list[str],
-                    deselect: list[str]) -> None:
-    """The packages of ``paths``, the tests, the docs and pyproject.toml (with the table)."""
+                    deselect: list[str], timeout_multiplier: float = TIMEOUT_MULTIPLIER) -> None:
+    """The packages of ``paths``, the tests, the docs, pyproject.toml (with the table) and the
+    plugin choosing a module's tests (:data:`MODULE_TESTS`) with its map."""
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
     for top in sorted({Path(p).parts[0] for p in paths} | {"tests", "docs"}):
         shutil.copytree(REPO / top, workdir / top, ignore=ignore)
+    shutil.copy(REPO / "bench" / "mutation_select.py", workdir / "mutation_select.py")
+    (workdir / "mutation_tests.json").write_text(json.dumps(MODULE_TESTS, indent=1))
     text = (REPO / "pyproject.toml").read_text()
     if "[tool.mutmut]" in text:
         raise ValueError("pyproject.toml has a [tool.mutmut] table: this script writes its own")
-    (workdir / "pyproject.toml").write_text(text + mutmut_config(paths, tests, deselect))
+    (workdir / "pyproject.toml").write_text(
+        text + mutmut_config(paths, tests, deselect, timeout_multiplier))
 
 
 def _functions(tree: ast.AST) -> dict[str, ast.FunctionDef | ast.AsyncFunctionDef]:
@@ -240,7 +265,7 @@ def print_table(scores: dict[str, dict]) -> None:
 
 
 def main(paths: list[str], tests: list[str], deselect: list[str], max_children: int | None,
-         workdir: Path | None) -> dict:
+         workdir: Path | None, timeout_multiplier: float = TIMEOUT_MULTIPLIER) -> dict:
     started = time.monotonic()
     tests = sorted({str(t.relative_to(REPO)) for pattern in tests for t in REPO.glob(pattern)})
     if not tests:
@@ -251,7 +276,7 @@ def main(paths: list[str], tests: list[str], deselect: list[str], max_children: 
         raise ValueError(f"--workdir {workdir} exists: name a new folder")
     workdir.mkdir(parents=True, exist_ok=True)
     try:
-        copy_repository(workdir, paths, tests, deselect)
+        copy_repository(workdir, paths, tests, deselect, timeout_multiplier)
         env = dict(os.environ)
         env.setdefault("STUDIO_SHARED_DATA", str(REPO.parent / "shared" / "data"))
         command = [str(Path(sys.executable).with_name("mutmut")), "run"]
@@ -259,8 +284,17 @@ def main(paths: list[str], tests: list[str], deselect: list[str], max_children: 
             command += ["--max-children", str(max_children)]
         log = workdir / "mutmut.log"
         with log.open("w") as out:
-            done = subprocess.run(command, cwd=workdir, env=env, stdout=out,
-                                  stderr=subprocess.STDOUT)
+            # its own process group: stopping this script (Ctrl-C, SIGTERM) stops mutmut and
+            # the mutant it runs, not only this process
+            done = subprocess.Popen(command, cwd=workdir, env=env, stdout=out,
+                                    stderr=subprocess.STDOUT, start_new_session=True)
+            signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+            try:
+                done.wait()
+            finally:
+                if done.poll() is None:
+                    os.killpg(done.pid, signal.SIGKILL)
+                    done.wait()
         if done.returncode != 0:
             sys.stdout.write(log.read_text()[-4000:])
             raise SystemExit(f"mutmut failed ({done.returncode}); its output: {log}")
@@ -285,6 +319,8 @@ if __name__ == "__main__":
                         help="test node ids left out (default: the list in this script)")
     parser.add_argument("--max-children", type=int, default=None,
                         help="mutants tested at once (mutmut's default: the number of cores)")
+    parser.add_argument("--timeout-multiplier", type=float, default=TIMEOUT_MULTIPLIER,
+                        help="mutmut's time limit per mutant, times its tests' clean time")
     parser.add_argument("--workdir", type=Path, default=None,
                         help="a new folder to run in and keep (default: a temporary one)")
     parser.add_argument("--report", type=Path, default=None, metavar="WORKDIR",
@@ -295,4 +331,5 @@ if __name__ == "__main__":
         print_table(scores)
         print(json.dumps(scores))
         raise SystemExit(0)
-    main(args.paths, args.tests, args.deselect, args.max_children, args.workdir)
+    main(args.paths, args.tests, args.deselect, args.max_children, args.workdir,
+         args.timeout_multiplier)
