@@ -5,6 +5,7 @@ once, each prediction's probabilities, phase, time left and remainder, each even
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from numpy.testing import assert_allclose
 
 from promp.live.options import LiveOptions, live_inputs
@@ -115,3 +116,21 @@ def test_each_event_is_an_event_item_at_its_time():
     assert [(i.path, i.at.timeline, i.at.value) for i in made] == [
         ("events", LSL_TIME.name, 1.5), ("events", LSL_TIME.name, 2.5)]
     assert all(isinstance(i, Event) for i in made)
+
+
+def test_a_viewer_file_is_made_in_new_folders_and_each_format_s_sink_is_named_apart(tmp_path):
+    pytest.importorskip("rerun")
+    pytest.importorskip("foxglove")
+    from promp.live.viewer_sink import ViewerSink, session_log
+
+    model = synthetic_model()
+    inputs = live_inputs(model, INPUTS)
+    sinks = [ViewerSink(tmp_path / "a" / "b" / "run.rrd", model, inputs),
+             ViewerSink(tmp_path / "c" / "d" / "run.MCAP", model, inputs)]  # fmt: skip
+    for sink in sinks:
+        sink.close()
+        assert sink.path.exists() and sink.path.stat().st_size > 0
+    names = [s.name for s in sinks]
+    assert all(isinstance(n, str) and n for n in names) and len(set(names)) == 2
+    declared = items_of(model).declared()
+    assert session_log(declared).items == tuple(declared)

@@ -1,0 +1,112 @@
+"""The LSL transport (promp.live.lsl) on the loopback (tests/lsl_loopback.cfg): a stream's
+description as its info tells it, an outlet found, opened and pulled (samples on this
+machine's clock, in order, with their values; markers as text), an outlet's refusals. Each
+wait is for a state (the stream listed, the samples arrived), with a generous deadline."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from promp.live.transport import OutletSpec
+
+pylsl = pytest.importorskip("pylsl")
+lsl = pytest.importorskip("promp.live.lsl")
+
+DEADLINE_S = 30.0
+
+
+def info_with(labels=None, units=None, n=3, fmt=None):
+    info = pylsl.StreamInfo("Hand", "Mocap", n, 100.0, fmt or pylsl.cf_double64, "src-1")
+    if labels is not None:
+        channels = info.desc().append_child("channels")
+        for label, unit in zip(labels, units, strict=True):
+            channel = channels.append_child("channel")
+            channel.append_child_value("label", label)
+            channel.append_child_value("unit", unit)
+    return info
+
+
+def test_a_description_is_what_the_info_tells():
+    d = lsl.describe(info_with(("x", "y", "z"), ("mm", "mm", "mm")))
+    assert (d.name, d.type, d.source_id, d.rate, d.format) == ("Hand", "Mocap", "src-1", 100.0,
+                                                              "double64")  # fmt: skip
+    assert d.labels == ("x", "y", "z") and d.units == ("mm", "mm", "mm")
+    assert lsl.describe(info_with(fmt=pylsl.cf_float32)).format == "float32"
+    assert lsl.describe(info_with(fmt=pylsl.cf_string, n=1)).is_markers
+
+
+def test_channels_not_all_described_are_unnamed():
+    assert lsl.describe(info_with()).labels == ("", "", "")
+    short = lsl.describe(info_with(("x", "y"), ("m", "m")))  # 2 of 3 described
+    assert short.labels == ("", "", "") and short.units == ("", "", "")
+    longer = info_with(("a", "b", "c", "d"), ("1", "2", "3", "4"))
+    assert lsl.describe(longer).labels == ("a", "b", "c")  # the first n
+
+
+def test_an_outlet_is_double64_or_string():
+    with pytest.raises(ValueError):
+        lsl.LslOutlet(OutletSpec("X", "T", "s", ("a",), ("",), format="float32"))
+
+
+def found(transport, name: str):
+    deadline = time.monotonic() + DEADLINE_S
+    while time.monotonic() < deadline:
+        streams = [s for s in transport.find(0.5) if s.name == name]
+        if streams:
+            return streams[0]
+    raise AssertionError(f"{name} not found in {DEADLINE_S} s")
+
+
+def pulled(inlet, n: int):
+    times, values = [], []
+    deadline = time.monotonic() + DEADLINE_S
+    while len(times) < n and time.monotonic() < deadline:
+        t, v = inlet.pull()
+        times += list(t)
+        values += list(v)
+        time.sleep(0.01)
+    return np.asarray(times), values
+
+
+def test_an_outlet_is_found_opened_and_pulled_on_this_machine_s_clock():
+    transport = lsl.LslTransport()
+    name = f"promp-test-{time.monotonic_ns()}"
+    spec = OutletSpec(name, "Mocap", "promp-test", ("x", "y"), ("m", "m"), rate=50.0)
+    outlet = lsl.LslOutlet(spec)
+    stream = found(transport, name)
+    assert stream.rate == 50.0 and stream.source_id == "promp-test" and stream.uid
+    inlet = transport.open(stream)
+    d = inlet.description  # the full info: the channels' description too
+    assert d.uid == stream.uid and d.labels == ("x", "y") and d.units == ("m", "m")
+    assert outlet.wait_for_consumers(DEADLINE_S)
+    now = transport.clock()
+    rows = np.array([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
+    outlet.push(rows, now)
+    times, values = pulled(inlet, 3)
+    assert len(times) == 3
+    np.testing.assert_array_equal(np.asarray(values), rows)
+    assert np.allclose(times, now + inlet.offset(), atol=1e-6)
+    assert abs(inlet.offset()) < 1.0  # the same machine
+    empty_t, empty_v = inlet.pull()
+    assert empty_t.size == 0 and np.asarray(empty_v).shape == (0, 2)
+    inlet.close()
+    inlet.close()  # twice: nothing left to close
+    outlet.close()
+
+
+def test_markers_are_pulled_as_text():
+    transport = lsl.LslTransport()
+    name = f"promp-marks-{time.monotonic_ns()}"
+    outlet = lsl.LslOutlet(OutletSpec(name, "Markers", "promp-test", ("label",), ("",),
+                                      format="string"))  # fmt: skip
+    stream = found(transport, name)
+    assert stream.is_markers
+    inlet = transport.open(stream)
+    assert outlet.wait_for_consumers(DEADLINE_S)
+    outlet.push(["start left", 7], transport.clock())
+    _, labels = pulled(inlet, 2)
+    assert labels == ["start left", "7"]
+    outlet.close()
