@@ -4,7 +4,11 @@ By default it mutates ``promp/live/`` and runs the tests that exercise it (the f
 ``tests/test_promp_live_*.py`` and ``tests/test_promp_stillness.py``); ``--paths`` and
 ``--tests`` name others (``--paths promp/inference.py --tests tests/test_promp_inference.py``).
 Each mutant runs only the tests that reach the function it changes (mutmut's per-function
-selection, recorded in a first, clean run of the tests).
+selection, recorded in a first, clean run of the tests), fastest first, up to the first that
+fails; a mutant of a module of :data:`MODULE_TESTS` only those of its module's test files
+(``bench/mutation_select.py``: the pipeline's core is reached by every live test). A mutant
+that runs past ``(its tests' clean time + 10 s) x --timeout-multiplier`` (3) is stopped and
+counted as caught (mutmut's default, 15 times, let one endless loop hold the run 19 minutes).
 
 The run happens in a temporary copy of the repository (the packages the paths are in,
 ``tests/``, ``docs/`` and ``pyproject.toml``, into which the ``[tool.mutmut]`` table is
@@ -38,13 +42,12 @@ Install mutmut once (it is not a dependency of the tests, and CI does not run th
 ``.venv/bin/python -m pip install -e '.[mutation]'``.
 
 Run: ``.venv/bin/python bench/mutation.py [--paths promp/live] [--tests FILE ...]
-[--deselect NODE_ID ...] [--max-children N] [--workdir DIR]``; ``--report DIR`` prints the
-scores of a kept run's folder (one stopped early: its mutants not checked yet are counted
-apart). The goal is 60 minutes on the
-2 cores; under the shared machine's load it has not been met yet (docs/reliability.md). The
-last line is one JSON object: ``{module: {total, killed, timeout,
-survived, no_tests, excluded, score}, ..., "minutes": M, "load_average": [1, 5, 15 min]}``
-(the load when it ends).
+[--deselect NODE_ID ...] [--max-children N] [--timeout-multiplier X] [--workdir DIR]``;
+``--report DIR`` prints the scores of a kept run's folder (one stopped early: its mutants
+not checked yet are counted apart). The goal is 60 minutes on the 2 cores; under the shared
+machine's load it has not been met yet (docs/reliability.md). The last line is one JSON
+object: ``{module: {total, killed, timeout, survived, no_tests, excluded, score}, ...,
+"minutes": M, "load_average": [1, 5, 15 min]}`` (the load when it ends).
 """
 
 from __future__ import annotations
@@ -96,8 +99,13 @@ MODULE_TESTS = {
                             "tests/test_promp_live_session_machine.py",
                             "tests/test_promp_live_faults.py",
                             "tests/test_promp_live_decision.py"],
-    "promp.live.intake": ["tests/test_promp_live_intake.py", "tests/test_promp_live_faults.py",
-                          "tests/test_promp_live_threads.py"],
+    "promp.live.intake": ["tests/test_promp_live_intake.py",
+                          "tests/test_promp_live_session_runner.py",
+                          "tests/test_promp_live_faults.py", "tests/test_promp_live_threads.py"],
+    "promp.live.session": ["tests/test_promp_live_session_runner.py",
+                           "tests/test_promp_live_threads.py", "tests/test_promp_live_sinks.py",
+                           "tests/test_promp_live_faults.py",
+                           "tests/test_promp_live_session_machine.py"],
 }
 # mutmut's time limit on a mutant: (its tests' time in the clean run + CONSTANT) x MULTIPLIER
 # seconds of wall time (mutmut's defaults 1 and 15: a mutant of the pipeline's step that loops

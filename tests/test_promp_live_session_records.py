@@ -119,6 +119,8 @@ def recorded_journal(folder, options=None):
     arrivals, events, predictions = predicted(decide=rule)
     assert predictions[0].committed is not None
     assert sink.view(Output(0.0)) is None
+    for alone in (Output(0.0, predictions=tuple(predictions)), Output(0.0, events=tuple(events))):
+        assert sink.view(alone) is alone
     outputs = [Output(0.0, arrivals=(arrivals[0],)),
                Output(0.4, events, (), predictions, None, (arrivals[1],))]  # fmt: skip
     for output in outputs:

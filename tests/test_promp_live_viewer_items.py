@@ -134,3 +134,24 @@ def test_a_viewer_file_is_made_in_new_folders_and_each_format_s_sink_is_named_ap
     assert all(isinstance(n, str) and n for n in names) and len(set(names)) == 2
     declared = items_of(model).declared()
     assert session_log(declared).items == tuple(declared)
+
+
+def test_a_viewer_sink_takes_only_busy_outputs_and_its_mcap_file_grows_as_it_takes(tmp_path):
+    pytest.importorskip("foxglove")
+    from promp.live.viewer_sink import ViewerSink
+
+    model, first, second = predicted_session()
+    sink = ViewerSink(tmp_path / "run.mcap", model, live_inputs(model, INPUTS))
+    assert sink.view(Output(1.0)) is None
+    for busy in (Output(1.0, movement=first.movement), Output(1.0, boundaries=second.boundaries),
+                 Output(1.0, predictions=first.predictions), Output(1.0, events=first.events)):
+        assert sink.view(busy) is busy
+    size = sink.path.stat().st_size
+    sink.take(first)
+    grown = sink.path.stat().st_size
+    assert grown > size  # written as it runs, not held until the end
+    sink.close()
+    assert "mcap" in sink.name.lower()
+    rrd = ViewerSink(tmp_path / "run.rrd", model, live_inputs(model, INPUTS))
+    rrd.close()
+    assert "rerun" in rrd.name.lower() and "rerun" not in sink.name.lower()
