@@ -146,7 +146,9 @@ def copy_repository(workdir: Path, paths: list[str], tests: list[str],
     for top in sorted({Path(p).parts[0] for p in paths} | {"tests", "docs"}):
         shutil.copytree(REPO / top, workdir / top, ignore=ignore)
     shutil.copy(REPO / "bench" / "mutation_select.py", workdir / "mutation_select.py")
-    (workdir / "mutation_tests.json").write_text(json.dumps(MODULE_TESTS, indent=1))
+    chosen = {"tests": MODULE_TESTS, "timeout_multiplier": float(timeout_multiplier),
+              "timeout_constant": TIMEOUT_CONSTANT}  # fmt: skip
+    (workdir / "mutation_tests.json").write_text(json.dumps(chosen, indent=1))
     text = (REPO / "pyproject.toml").read_text()
     if "[tool.mutmut]" in text:
         raise ValueError("pyproject.toml has a [tool.mutmut] table: this script writes its own")

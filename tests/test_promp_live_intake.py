@@ -83,7 +83,8 @@ def test_several_matching_streams_open_none_and_say_so():
     intake = Intake(transport, (wanted(0, "Hand"),))
     intake.look(0.1)
     [entry] = opened_by(intake)
-    assert entry.stream is None and entry.problem
+    assert entry.stream is None
+    assert all(s.description.summary() in entry.problem for s in transport.streams)  # both
     assert intake.arrivals(1.0).pulled == {}
 
 
@@ -104,20 +105,26 @@ def test_a_stream_that_vanishes_before_it_opens_is_said_with_its_description():
     stream = transport.add(FakeStream("Hand", ("x",)))
 
     def lost(description):
-        raise StreamLost("gone")
+        raise StreamLost("the outlet went away")
 
     transport.open = lost
     intake = Intake(transport, (wanted(0, "Hand"),))
     intake.look(0.1)
     [entry] = opened_by(intake)
-    assert entry.stream.uid == stream.description.uid and entry.problem
+    assert entry.stream.uid == stream.description.uid
+    assert "the outlet went away" in entry.problem  # why, as the transport said it
     assert intake.arrivals(1.0).pulled == {}
 
 
-def test_a_look_that_finds_nothing_wanted_queues_nothing():
+def test_a_look_that_finds_nothing_wanted_queues_nothing_and_waits_as_told():
     transport = FakeTransport()
+    waits = []
+    find = transport.find
+    transport.find = lambda wait: waits.append(wait) or find(wait)
     intake = Intake(transport, (wanted(0, "Hand"),))
-    intake.look(0.1)
+    assert intake.found == ()  # nothing looked for yet
+    intake.look(0.25)
+    assert waits == [0.25]
     assert intake.found == ()
     assert intake.arrivals(1.0).opened == ()
 
