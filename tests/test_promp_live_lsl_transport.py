@@ -100,13 +100,16 @@ def test_an_outlet_is_found_opened_and_pulled_on_this_machine_s_clock():
 def test_markers_are_pulled_as_text():
     transport = lsl.LslTransport()
     name = f"promp-marks-{time.monotonic_ns()}"
-    outlet = lsl.LslOutlet(OutletSpec(name, "Markers", "promp-test", ("label",), ("",),
-                                      format="string"))  # fmt: skip
+    outlet = transport.outlet(OutletSpec(name, "Markers", "promp-test", ("label",), ("",),
+                                         format="string"))  # fmt: skip
     stream = found(transport, name)
     assert stream.is_markers
     inlet = transport.open(stream)
     assert outlet.wait_for_consumers(DEADLINE_S)
-    outlet.push(["start left", 7], transport.clock())
+    before = lsl.local_clock()
+    now = transport.clock()
+    assert isinstance(before, float) and before <= now  # the same clock, LSL's
+    outlet.push(["start left", 7], now)
     _, labels = pulled(inlet, 2)
     assert labels == ["start left", "7"]
     outlet.close()

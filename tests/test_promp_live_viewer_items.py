@@ -80,6 +80,34 @@ def test_each_movement_s_rows_are_written_once_across_outputs():
     assert [i for i in items.of(second) if i.path.startswith("inputs/")] == []  # all written
 
 
+def test_every_item_written_later_has_the_label_and_unit_its_series_was_declared_with():
+    model, first, second = predicted_session()
+    items = items_of(model)
+    declared = {s.path: (s.label, s.unit) for s in items.declared() if isinstance(s, Series)}
+    written = [i for o in (first, second) for i in items.of(o) if isinstance(i, Series)]
+    assert {i.path for i in written} == set(declared)
+    assert all((i.label, i.unit) == declared[i.path] for i in written)
+
+
+def test_a_movement_ended_and_the_next_begun_in_one_output_both_give_their_rows():
+    model, first, _ = predicted_session()
+    items = items_of(model)
+    items.of(first)  # movement 1's first 40 rows
+    state = build(model, INPUTS, LiveOptions(start="call"), now=0.0)
+    streams = [FakeStream(n, ("a", "b", "c"), rate=100.0).description for n in ("Hand", "Head")]
+    state, *_ = step(state, Arrivals(0.0, tuple(Opened(i, d) for i, d in enumerate(streams))))
+    t = np.arange(1, 61) / 100
+    v = np.column_stack([np.sin(t), np.cos(t), t]) * 0.1
+    state, events, boundaries, predictions = step(state, Arrivals(
+        0.6, calls=(Call("start", 0.0), Call("start", 0.45)),
+        pulled={0: Pulled(t, v), 1: Pulled(t, v)}))
+    both = Output(0.6, events, boundaries, predictions, state.segmenter.movement)
+    ended = [b.movement for b in boundaries if b.movement is not None]
+    assert [m.number for m in ended] == [1] and both.movement.number == 2
+    rows = [i for i in items_of(model).of(both) if i.path == "inputs/hand/x"]
+    assert [len(r.times) for r in rows] == [len(ended[0]), len(both.movement)]
+
+
 def test_a_prediction_gives_its_probabilities_phase_time_left_and_remainder_at_its_last_row():
     model, first, _ = predicted_session()
     [p] = first.predictions
