@@ -61,6 +61,7 @@ def test_the_loop_steps_until_stopped_and_a_failing_step_is_said() -> None:
     assert intake.looks and all(w > 0 for w in intake.looks)
     assert {t.name for t in intake.threads} == {"live-resolver"}
     assert not any(t.is_alive() for t in seen | intake.threads)  # both ended
+    assert all(t.daemon for t in seen | intake.threads)  # never keep the process alive
     assert len(steps) == done  # stopped: no step after
 
 
