@@ -75,3 +75,22 @@ def test_a_failing_look_is_said_and_looked_again() -> None:
     threads.start()  # stopped threads start again
     wait_until(lambda: len(intake.looks) >= 4, what="a look after the restart")
     threads.stop()
+
+
+def test_a_step_that_worked_is_followed_by_the_next_at_once(monkeypatch) -> None:
+    monkeypatch.setattr(promp.live.session, "IDLE_S", 3600.0)  # an idle pause would hang it
+    steps = []
+
+    def step() -> bool:
+        steps.append(1)
+        return len(steps) > 1 and len(steps) < 5  # idle once, then four that worked
+
+    threads = SessionThreads(step, Intake())
+    threads.start()
+    wait_until(lambda: len(steps) >= 1, what="the first step")
+    threads.stop()  # interrupts the idle pause after the first (idle) step
+    assert len(steps) == 1
+    steps.append(1)  # the next step works: no pause
+    threads.start()
+    wait_until(lambda: len(steps) >= 5, what="the steps that worked, one after the other")
+    threads.stop()
