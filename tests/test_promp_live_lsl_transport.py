@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from promp.live.transport import OutletSpec
+from promp.live.transport import OutletSpec, StreamLost
 
 pylsl = pytest.importorskip("pylsl")
 lsl = pytest.importorskip("promp.live.lsl")
@@ -113,3 +113,38 @@ def test_markers_are_pulled_as_text():
     _, labels = pulled(inlet, 2)
     assert labels == ["start left", "7"]
     outlet.close()
+
+
+def opened_pair(name: str):
+    transport = lsl.LslTransport()
+    outlet = transport.outlet(OutletSpec(name, "Mocap", "promp-test", ("x",), ("m",), rate=10.0))
+    inlet = transport.open(found(transport, name))
+    assert outlet.wait_for_consumers(DEADLINE_S)
+    return transport, outlet, inlet
+
+
+def test_the_clock_correction_is_renewed_only_when_it_moves_more_than_its_step():
+    transport, outlet, inlet = opened_pair(f"promp-offset-{time.monotonic_ns()}")
+    estimates = iter([lsl.OFFSET_STEP_S, 0.5, 0.5 + lsl.OFFSET_STEP_S / 2])
+    inlet._offset = 0.0
+    inlet._inlet.time_correction = lambda timeout=None: next(estimates)
+    inlet.pull()
+    assert inlet.offset() == 0.0  # a move of exactly the step: kept
+    now = transport.clock()
+    outlet.push([[1.0]], now)
+    times, _ = pulled(inlet, 1)
+    assert inlet.offset() == 0.5 and times.tolist() == [pytest.approx(now + 0.5, abs=1e-9)]
+    inlet.pull()
+    assert inlet.offset() == 0.5  # a wobble under the step: the samples are not shifted
+    outlet.close()
+
+
+def test_a_closed_outlet_s_inlet_says_its_stream_is_lost():
+    transport, outlet, inlet = opened_pair(f"promp-lost-{time.monotonic_ns()}")
+    outlet.close()
+    deadline = time.monotonic() + DEADLINE_S
+    with pytest.raises(StreamLost):
+        while time.monotonic() < deadline:
+            inlet.pull()
+            time.sleep(0.05)
+    inlet.close()
