@@ -82,7 +82,7 @@ def test_an_outlet_is_found_opened_and_pulled_on_this_machine_s_clock():
     d = inlet.description  # the full info: the channels' description too
     assert d.uid == stream.uid and d.labels == ("x", "y") and d.units == ("m", "m")
     assert outlet.wait_for_consumers(DEADLINE_S)
-    now = transport.clock()
+    now = transport.clock() - 5.0  # stamped by the sender, not when it was pushed
     rows = np.array([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
     outlet.push(rows, now)
     times, values = pulled(inlet, 3)
@@ -117,7 +117,7 @@ def test_markers_are_pulled_as_text():
 
 def opened_pair(name: str):
     transport = lsl.LslTransport()
-    outlet = transport.outlet(OutletSpec(name, "Mocap", "promp-test", ("x",), ("m",), rate=10.0))
+    outlet = transport.outlet(OutletSpec(name, "Mocap", "promp-test", ("x",), ("m",), rate=100.0))
     inlet = transport.open(found(transport, name))
     assert outlet.wait_for_consumers(DEADLINE_S)
     return transport, outlet, inlet
@@ -125,15 +125,17 @@ def opened_pair(name: str):
 
 def test_the_clock_correction_is_renewed_only_when_it_moves_more_than_its_step():
     transport, outlet, inlet = opened_pair(f"promp-offset-{time.monotonic_ns()}")
-    estimates = iter([lsl.OFFSET_STEP_S, 0.5, 0.5 + lsl.OFFSET_STEP_S / 2])
+    estimate = [lsl.OFFSET_STEP_S]  # LSL's estimate of the sender's clock offset, s
     inlet._offset = 0.0
-    inlet._inlet.time_correction = lambda timeout=None: next(estimates)
+    inlet._inlet.time_correction = lambda timeout=None: estimate[0]
     inlet.pull()
     assert inlet.offset() == 0.0  # a move of exactly the step: kept
+    estimate[0] = 0.5
     now = transport.clock()
     outlet.push([[1.0]], now)
     times, _ = pulled(inlet, 1)
     assert inlet.offset() == 0.5 and times.tolist() == [pytest.approx(now + 0.5, abs=1e-9)]
+    estimate[0] = 0.5 + lsl.OFFSET_STEP_S / 2
     inlet.pull()
     assert inlet.offset() == 0.5  # a wobble under the step: the samples are not shifted
     outlet.close()
@@ -148,3 +150,16 @@ def test_a_closed_outlet_s_inlet_says_its_stream_is_lost():
             inlet.pull()
             time.sleep(0.05)
     inlet.close()
+
+
+def test_a_pull_takes_every_sample_waiting_however_many():
+    transport, outlet, inlet = opened_pair(f"promp-many-{time.monotonic_ns()}")
+    for n in (1, 4100):  # one sample; more than one chunk of the inlet's (4096)
+        rows = np.arange(n, dtype=float)[:, None]
+        outlet.push(rows, transport.clock())
+        deadline = time.monotonic() + DEADLINE_S
+        while inlet._inlet.samples_available() < n and time.monotonic() < deadline:
+            time.sleep(0.01)
+        times, values = inlet.pull()
+        assert times.size == n and np.array_equal(values, rows)
+    outlet.close()
