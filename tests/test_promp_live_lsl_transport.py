@@ -163,3 +163,19 @@ def test_a_pull_takes_every_sample_waiting_however_many():
         times, values = inlet.pull()
         assert times.size == n and np.array_equal(values, rows)
     outlet.close()
+
+
+def test_the_first_look_waits_for_the_resolver_s_first_answers():
+    transport = lsl.LslTransport()
+    transport.find(0.3)
+    assert lsl.local_clock() >= transport._since + 0.3  # (a lower bound: load only adds)
+
+
+def test_a_stream_another_look_found_is_opened_by_its_uid():
+    name = f"promp-uid-{time.monotonic_ns()}"
+    outlet = lsl.LslOutlet(OutletSpec(name, "Mocap", "promp-test", ("x",), ("m",), rate=100.0))
+    stream = found(lsl.LslTransport(), name)
+    inlet = lsl.LslTransport().open(stream)  # a transport that never looked: resolved by uid
+    assert inlet.description.uid == stream.uid
+    inlet.close()
+    outlet.close()
