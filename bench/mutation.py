@@ -232,6 +232,16 @@ def message_only(original: ast.AST, mutant: ast.AST) -> bool:
         _blanked(original, paths) == _blanked(mutant, paths)  # fmt: skip
 
 
+def _read_json(path: Path) -> dict:
+    """``path``'s JSON, read again if mutmut was writing it (a running run's report)."""
+    for _ in range(9):
+        try:
+            return json.loads(path.read_text())
+        except json.JSONDecodeError:
+            time.sleep(0.2)
+    return json.loads(path.read_text())
+
+
 def module_scores(workdir: Path) -> dict[str, dict]:
     """Per mutated module: the counts of mutmut's verdicts, the excluded mutants, the score."""
     from mutmut.stats import status_by_exit_code
@@ -243,7 +253,7 @@ def module_scores(workdir: Path) -> dict[str, dict]:
         functions = _functions(ast.parse(source.read_text()))
         verdicts: Counter[str] = Counter()
         excluded = 0
-        for key, code in json.loads(meta.read_text())["exit_code_by_key"].items():
+        for key, code in _read_json(meta)["exit_code_by_key"].items():
             name = key.removeprefix(module.removesuffix(".__init__") + ".")
             original = functions[name.rsplit("__mutmut_", 1)[0] + "__mutmut_orig"]
             if message_only(original, functions[name]):
@@ -253,11 +263,14 @@ def module_scores(workdir: Path) -> dict[str, dict]:
             verdicts["killed" if status in KILLED else status.replace(" ", "_")] += 1
         total = sum(verdicts.values()) + excluded
         caught = verdicts["killed"] + verdicts["timeout"]
+        pending = verdicts["not_checked"]  # a run stopped early: scored on what it checked
         scores[module] = {"total": total, "killed": verdicts["killed"],
                           "timeout": verdicts["timeout"], "survived": verdicts["survived"],
                           "no_tests": verdicts["no_tests"], "excluded": excluded,
-                          "score": round(caught / max(total - excluded, 1), 3)}
-        other = set(verdicts) - {"killed", "timeout", "survived", "no_tests"}
+                          "score": round(caught / max(total - excluded - pending, 1), 3)}
+        if pending:
+            scores[module]["not_checked"] = pending
+        other = set(verdicts) - {"killed", "timeout", "survived", "no_tests", "not_checked"}
         if other:
             scores[module]["other"] = {k: verdicts[k] for k in sorted(other)}
     return scores
@@ -270,8 +283,9 @@ def print_table(scores: dict[str, dict]) -> None:
     for module, s in scores.items():
         print(f"{module:<32} {s['total']:>6} {s['killed']:>6} {s['timeout']:>7} "
               f"{s['survived']:>8} {s['no_tests']:>7} {s['excluded']:>8} {s['score']:>6.1%}")
-        if s.get("other"):
-            print(f"{'':<32} and {s['other']}")
+        if s.get("other") or s.get("not_checked"):
+            print(f"{'':<32} and {s.get('other', {})}, not checked: {s.get('not_checked', 0)} "
+                  "(the score is of those checked)")
 
 
 def main(paths: list[str], tests: list[str], deselect: list[str], max_children: int | None,
