@@ -5,6 +5,7 @@ wait is for a state (the stream listed, the samples arrived), with a generous de
 
 from __future__ import annotations
 
+import socket
 import time
 
 import numpy as np
@@ -46,9 +47,11 @@ def test_channels_not_all_described_are_unnamed():
     assert lsl.describe(longer).labels == ("a", "b", "c")  # the first n
 
 
-def test_an_outlet_is_double64_or_string():
+def test_an_outlet_is_double64_or_string_with_a_unit_per_label():
     with pytest.raises(ValueError):
         lsl.LslOutlet(OutletSpec("X", "T", "s", ("a",), ("",), format="float32"))
+    with pytest.raises(ValueError):
+        lsl.LslOutlet(OutletSpec("X", "T", "s", ("a", "b"), ("m",)))
 
 
 def found(transport, name: str):
@@ -81,6 +84,8 @@ def test_an_outlet_is_found_opened_and_pulled_on_this_machine_s_clock():
     inlet = transport.open(stream)
     d = inlet.description  # the full info: the channels' description too
     assert d.uid == stream.uid and d.labels == ("x", "y") and d.units == ("m", "m")
+    assert d.host == socket.gethostname()
+    assert inlet._inlet.info().desc().child_value("producer") == "promp.live"
     assert outlet.wait_for_consumers(DEADLINE_S)
     now = transport.clock() - 5.0  # stamped by the sender, not when it was pushed
     rows = np.array([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
