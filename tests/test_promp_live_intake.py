@@ -214,3 +214,16 @@ def test_closing_closes_every_inlet_and_those_opened_but_not_yet_taken():
     intake.close()
     assert held.closed and [i.closed for i in inlets] == [True]
     assert intake.arrivals(2.0).pulled == {} and intake.arrivals(2.0).opened == ()
+
+
+def test_a_look_that_finds_a_feed_again_still_opens_the_next_feeds():
+    transport = FakeTransport()
+    a = transport.add(FakeStream("A", ("x",)))
+    intake = Intake(transport, (wanted(0, "A"), wanted(1, "B")))
+    intake.look(0.1)
+    assert [o.feed for o in opened_by(intake)] == [0]
+    b = transport.add(FakeStream("B", ("x",)))
+    intake.look(0.1)  # A again (its inlet kept, the new one closed), and B
+    assert [(o.feed, o.stream.uid) for o in opened_by(intake)] == [(1, b.description.uid)]
+    assert intake._inlets[0].description.uid == a.description.uid
+    assert sorted(intake.arrivals(2.0).pulled) == [0, 1]
