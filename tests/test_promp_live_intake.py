@@ -40,6 +40,8 @@ def test_a_look_opens_each_wanted_stream_and_the_step_pulls_it():
     np.testing.assert_array_equal(arrivals.pulled[0].times, [1.0, 1.01])
     np.testing.assert_array_equal(arrivals.pulled[0].values, [[1.0, 2.0], [3.0, 4.0]])
     assert not arrivals.pulled[0].lost and arrivals.pulled[0].offset == 0.0
+    intake._inlets[0].offset = lambda: 0.25  # the transport's clock correction, kept
+    assert intake.arrivals(5.5).pulled[0].offset == 0.25
     assert list(arrivals.pulled[1].values) == ["start left"]
     # opened once: the next step has nothing new opened, and pulls what came since
     hand.push([1.02], [[5.0, 6.0]])

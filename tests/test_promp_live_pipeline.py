@@ -5,6 +5,8 @@ samples, the losses, the pauses and the markers that arrive."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -34,7 +36,7 @@ def started(inputs=("hand=Hand:0,1,2",), streams=(("Hand", 3),), **options):
                     for name, k in streams]  # fmt: skip
     state, events, _, _ = step(state, Arrivals(0.0, tuple(Opened(i, d) for i, d in
                                                           enumerate(descriptions))))
-    assert len(events) == len(descriptions)
+    assert [e.time for e in events] == [0.0] * len(descriptions)  # each stream opened, now
     return state
 
 
@@ -204,10 +206,11 @@ def test_a_failed_prediction_is_said_and_the_commit_rule_told_of_the_miss(monkey
     state = started(decide=CommitRule(0.9))
     missed = []
     committing = state.committing
+    after = dataclasses.replace(committing)  # the rule's state after the miss
 
     def miss(number, elapsed):
         missed.append((number, elapsed))
-        return committing
+        return after
 
     def refuse(number, times, values):
         raise ValueError("refused")
@@ -220,6 +223,7 @@ def test_a_failed_prediction_is_said_and_the_commit_rule_told_of_the_miss(monkey
     assert predictions == () and state.prediction is None
     assert [e.time for e in events] == [0.0, pytest.approx(0.3)]
     assert missed == [(1, pytest.approx(0.29))]  # its first row to its last
+    assert state.committing is after
     assert state.predicted == (1, 30)
 
 
