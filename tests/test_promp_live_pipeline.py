@@ -27,13 +27,14 @@ def motion(t0: float, n: int, rate: float = RATE) -> tuple[np.ndarray, np.ndarra
     return t, np.column_stack([np.sin(t), np.cos(t), t]) * 0.1
 
 
-def started(inputs=("hand=Hand:0,1,2",), streams=(("Hand", 3),), **options):
-    """A pipeline with its streams opened at 0 (a Record button starts movements unless
-    ``options`` say otherwise)."""
+def started(inputs=("hand=Hand:0,1,2",), streams=(("Hand", 3),), rates=None, **options):
+    """A pipeline with its streams opened at 0 (declaring ``rates``, default :data:`RATE`;
+    a Record button starts movements unless ``options`` say otherwise)."""
     options = {"start": "call", **options}
     state = build(synthetic_model(), list(inputs), LiveOptions(**options), now=0.0)
-    descriptions = [FakeStream(name, [f"c{i}" for i in range(k)], rate=RATE).description
-                    for name, k in streams]  # fmt: skip
+    rates = rates or [RATE] * len(streams)
+    descriptions = [FakeStream(name, [f"c{i}" for i in range(k)], rate=rate).description
+                    for (name, k), rate in zip(streams, rates, strict=True)]  # fmt: skip
     state, events, _, _ = step(state, Arrivals(0.0, tuple(Opened(i, d) for i, d in
                                                           enumerate(descriptions))))
     assert [e.time for e in events] == [0.0] * len(descriptions)  # each stream opened, now
@@ -249,3 +250,49 @@ def test_a_marker_s_label_is_quoted_and_cut_to_its_limit():
     assert shown("a" * 60) == repr("a" * 60)
     assert shown("a" * 61) == repr("a" * 60 + "...")
     assert shown("abcdef", limit=3) == repr("abc...")
+
+
+def test_a_record_call_s_label_is_its_movement_s():
+    state = started()
+    t, v = motion(0.0, 30)
+    state, *_ = step(state, Arrivals(0.3, calls=(Call("start", 0.0, "left"),),
+                                     pulled={0: Pulled(t, v)}))  # fmt: skip
+    _, _, [end], _ = step(state, Arrivals(0.4, calls=(Call("end", 0.2),)))
+    assert end.movement.label == "left"
+
+
+def test_two_inputs_lost_or_paused_in_one_step_end_the_movement_once():
+    for second in ("lost", "paused"):
+        state = two_inputs()
+        t, v = motion(0.0, 30)
+        state, *_ = step(state, Arrivals(0.3, calls=(Call("start", 0.0),),
+                                         pulled={0: Pulled(t, v), 1: Pulled(t, v)}))  # fmt: skip
+        if second == "lost":
+            pulled = {0: Pulled.LOST, 1: Pulled.LOST}
+        else:
+            t, v = motion(0.6, 5)  # both silent for 0.3 s, ten times their step
+            pulled = {0: Pulled(t, v), 1: Pulled(t, v)}
+        _, _, boundaries, _ = step(state, Arrivals(0.7, pulled=pulled))
+        assert [(b.kind, b.number) for b in boundaries] == [("end", 1)], second
+
+
+def test_a_pause_is_judged_by_the_stream_s_declared_rate():
+    state = started()  # the stream declares 100 Hz
+    t = np.arange(1, 26) * 0.02  # but sends at 50 Hz
+    v = np.column_stack([np.sin(t), np.cos(t), t]) * 0.1
+    state, *_ = step(state, Arrivals(0.5, calls=(Call("start", 0.0),), pulled={0: Pulled(t, v)}))
+    t = 0.65 + np.arange(10) * 0.02  # 0.15 s: over ten declared steps, under ten sent ones
+    v = np.column_stack([np.sin(t), np.cos(t), t]) * 0.1
+    _, _, boundaries, _ = step(state, Arrivals(float(t[-1]), pulled={0: Pulled(t, v)}))
+    assert [b.kind for b in boundaries] == ["end"]
+
+
+def test_the_rows_are_on_the_input_declared_slowest():
+    state = started(inputs=("hand=Hand:0,1,2", "head=Head:0,1,2"),
+                    streams=(("Hand", 3), ("Head", 3)), rates=(100.0, 50.0))  # fmt: skip
+    th, vh = motion(0.0, 25, rate=50.0)  # declared 100 Hz, sent at 50
+    tv, vv = motion(0.0, 50, rate=100.0)  # declared 50 Hz, sent at 100
+    state, *_ = step(state, Arrivals(0.5, calls=(Call("start", 0.0),),
+                                     pulled={0: Pulled(th, vh), 1: Pulled(tv, vv)}))  # fmt: skip
+    assert state.timebase.base == 1  # the head's, declared slower
+    np.testing.assert_allclose(np.diff(state.segmenter.movement.times), 0.01)
