@@ -296,3 +296,14 @@ def test_the_rows_are_on_the_input_declared_slowest():
                                      pulled={0: Pulled(th, vh), 1: Pulled(tv, vv)}))  # fmt: skip
     assert state.timebase.base == 1  # the head's, declared slower
     np.testing.assert_allclose(np.diff(state.segmenter.movement.times), 0.01)
+
+
+def test_a_movement_begun_and_ended_in_one_step_is_predicted_and_decided_once():
+    state = started(decide=CommitRule(0.5, window=0.0))  # commits at its first prediction
+    t, v = motion(0.0, 50)
+    state, events, boundaries, predictions = step(state, Arrivals(
+        0.5, calls=(Call("start", 0.0), Call("end", 0.3)), pulled={0: Pulled(t, v)}))
+    assert [b.kind for b in boundaries] == ["start", "end"]
+    [p] = predictions
+    assert p.n_observed == len(boundaries[1].movement) and p.committed is not None
+    assert [e.kind for e in events].count("decision") == 1
