@@ -13,7 +13,7 @@ import pytest
 from promp.live.commitment import CommitRule
 from promp.live.options import LiveOptions
 from promp.live.pipeline import Arrivals, Call, belief, build, shown, step
-from promp.live.segmenter import Belief
+from promp.live.segmenter import Belief, StillRule
 from promp.live.source import Opened, Pulled
 from promp.live.status import LiveEvent
 from tests.live_fakes import FakeStream, synthetic_model
@@ -50,6 +50,10 @@ def test_build_keeps_the_options_the_step_needs():
     assert dict(state.newest) == {"hand": 12.0}
     assert state.committing is None and state.prediction is None
     assert list(state.timebase.names) == ["hand"]
+    assert [s.since for s in state.source.statuses()] == [12.0]  # waiting since the start
+    assert state.timebase.rate is None
+    assert build(model, ["hand=Hand:0,1,2"], LiveOptions(rate=50.0)).timebase.rate == 50.0
+    assert state.segmenter.rule == StillRule.of(model, ["hand"])  # what the hand learned
     decided = build(model, ["hand=Hand:0,1,2"], LiveOptions(decide=CommitRule(0.9)))
     assert decided.committing is not None
 
@@ -178,6 +182,7 @@ def test_an_input_silent_longer_than_a_movement_lags_and_its_wait_ends():
     t, v = motion(1.1, 20)
     state, events, boundaries, _ = step(state, Arrivals(1.3, pulled={0: Pulled(t, v)}))
     assert state.lagging == frozenset({"head"})
+    assert dict(state.newest) == {"hand": pytest.approx(1.3), "head": 0.2}
     assert [e.time for e in events] == [pytest.approx(1.3), pytest.approx(0.2)]  # lag, end
     assert [b.kind for b in boundaries] == ["end"]
     assert state.timebase._buffers["hand"].times.size == 0  # no longer waits
@@ -307,3 +312,16 @@ def test_a_movement_begun_and_ended_in_one_step_is_predicted_and_decided_once():
     [p] = predictions
     assert p.n_observed == len(boundaries[1].movement) and p.committed is not None
     assert [e.kind for e in events].count("decision") == 1
+
+
+def test_an_input_lags_only_past_a_movement_s_longest():
+    state = two_inputs()  # max_movement_s 1.0
+    t, v = motion(0.0, 25)  # both up to 0.25 s
+    state, *_ = step(state, Arrivals(0.25, pulled={0: Pulled(t, v), 1: Pulled(t, v)}))
+    t, v = motion(0.25, 100)  # the hand alone, up to 1.25 s: exactly 1.0 s ahead
+    state, *_ = step(state, Arrivals(1.25, pulled={0: Pulled(t, v)}))
+    assert dict(state.newest) == {"hand": 1.25, "head": 0.25}
+    assert state.lagging == frozenset()
+    t, v = motion(1.25, 1)
+    state, *_ = step(state, Arrivals(1.26, pulled={0: Pulled(t, v)}))
+    assert state.lagging == frozenset({"head"})
