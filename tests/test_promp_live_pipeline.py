@@ -54,6 +54,11 @@ def test_build_keeps_the_options_the_step_needs():
     assert state.timebase.rate is None
     assert build(model, ["hand=Hand:0,1,2"], LiveOptions(rate=50.0)).timebase.rate == 50.0
     assert state.segmenter.rule == StillRule.of(model, ["hand"])  # what the hand learned
+    head = build(model, ["head=Head:0,1,2"], LiveOptions(remainder="head", n_points=9,
+                                                         remainder_rate=20.0))  # fmt: skip
+    assert head.segmenter.rule == StillRule.of(model, ["head"])  # angles are watched too
+    p = head.predictor
+    assert (p.remainder, p.n_points, p.rate) == ("head", 9, 20.0)
     decided = build(model, ["hand=Hand:0,1,2"], LiveOptions(decide=CommitRule(0.9)))
     assert decided.committing is not None
 
