@@ -52,7 +52,8 @@ def test_build_keeps_the_options_the_step_needs():
     assert list(state.timebase.names) == ["hand"]
     assert [s.since for s in state.source.statuses()] == [12.0]  # waiting since the start
     assert state.timebase.rate is None
-    assert build(model, ["hand=Hand:0,1,2"], LiveOptions(rate=50.0)).timebase.rate == 50.0
+    at_rate = build(model, ["hand=Hand:0,1,2"], LiveOptions(rate=50.0))
+    assert at_rate.timebase.rate == 50.0 and dict(at_rate.newest) == {"hand": 0.0}  # from 0
     assert state.segmenter.rule == StillRule.of(model, ["hand"])  # what the hand learned
     head = build(model, ["head=Head:0,1,2"], LiveOptions(remainder="head", n_points=9,
                                                          remainder_rate=20.0))  # fmt: skip
