@@ -96,5 +96,5 @@ def test_a_step_that_worked_is_followed_by_the_next_at_once(monkeypatch) -> None
     assert len(steps) == 1
     steps.append(1)  # the next step works: no pause
     threads.start()
-    wait_until(lambda: len(steps) >= 5, timeout=DEADLINE_S, what="the steps that worked, one after the other")
+    wait_until(lambda: len(steps) >= 5, timeout=DEADLINE_S, what="the steps that worked")
     threads.stop()
