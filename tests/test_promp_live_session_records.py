@@ -7,6 +7,7 @@ names what differs. Small hand-made records, no session running."""
 from __future__ import annotations
 
 import json
+import time
 
 import numpy as np
 import pytest
@@ -285,3 +286,12 @@ def test_a_journal_with_a_byte_that_is_not_utf8_is_still_recovered(tmp_path):
     [(_, made)] = recover_sessions(tmp_path)
     [(kind, record)] = read_session(made).records
     assert kind == "e" and record["time"] == 1.0
+
+
+def test_a_paced_replay_keeps_the_recorded_timing_and_predictions(tmp_path):
+    model, sink, *_ = recorded_journal(tmp_path)
+    sink.close()
+    began = time.monotonic()
+    replayed = replay_session(model, tmp_path / "run.mcap", paced=True)
+    assert time.monotonic() - began >= 0.4  # its steps 0.4 s apart (a lower bound)
+    assert replayed.equal and replayed.steps == 2
