@@ -4,7 +4,11 @@ By default it mutates ``promp/live/`` and runs the tests that exercise it (the f
 ``tests/test_promp_live_*.py`` and ``tests/test_promp_stillness.py``); ``--paths`` and
 ``--tests`` name others (``--paths promp/inference.py --tests tests/test_promp_inference.py``).
 Each mutant runs only the tests that reach the function it changes (mutmut's per-function
-selection, recorded in a first, clean run of the tests).
+selection, recorded in a first, clean run of the tests), fastest first, up to the first that
+fails; a mutant of a module of :data:`MODULE_TESTS` only those of its module's test files
+(``bench/mutation_select.py``: the pipeline's core is reached by every live test). A mutant
+that runs past ``(its tests' clean time + 10 s) x --timeout-multiplier`` (3) is stopped and
+counted as caught (mutmut's default, 15 times, let one endless loop hold the run 19 minutes).
 
 The run happens in a temporary copy of the repository (the packages the paths are in,
 ``tests/``, ``docs/`` and ``pyproject.toml``, into which the ``[tool.mutmut]`` table is
@@ -38,13 +42,12 @@ Install mutmut once (it is not a dependency of the tests, and CI does not run th
 ``.venv/bin/python -m pip install -e '.[mutation]'``.
 
 Run: ``.venv/bin/python bench/mutation.py [--paths promp/live] [--tests FILE ...]
-[--deselect NODE_ID ...] [--max-children N] [--workdir DIR]``; ``--report DIR`` prints the
-scores of a kept run's folder (one stopped early: its mutants not checked yet are counted
-apart). The goal is 60 minutes on the
-2 cores; under the shared machine's load it has not been met yet (docs/reliability.md). The
-last line is one JSON object: ``{module: {total, killed, timeout,
-survived, no_tests, excluded, score}, ..., "minutes": M, "load_average": [1, 5, 15 min]}``
-(the load when it ends).
+[--deselect NODE_ID ...] [--max-children N] [--timeout-multiplier X] [--workdir DIR]``;
+``--report DIR`` prints the scores of a kept run's folder (one stopped early: its mutants
+not checked yet are counted apart). The goal is 60 minutes on the 2 cores; under the shared
+machine's load it has not been met yet (docs/reliability.md). The last line is one JSON
+object: ``{module: {total, killed, timeout, survived, no_tests, excluded, score}, ...,
+"minutes": M, "load_average": [1, 5, 15 min]}`` (the load when it ends).
 """
 
 from __future__ import annotations
@@ -55,6 +58,7 @@ import copy
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -85,7 +89,29 @@ DEFAULT_DESELECT = [
 # (the clean run passed on them: a fault of the code itself found in one mutant's run would
 # otherwise "kill" it, and the examples saved would "kill" those after it), and does not shrink
 # a failing example (minutes of shrinking per killed mutant, up to mutmut's time limit).
-PYTEST_ARGS = ["--hypothesis-profile=mutation"]
+PYTEST_ARGS = ["--hypothesis-profile=mutation", "-p", "mutation_select"]
+# The tests a mutant of these modules runs (bench/mutation_select.py; the others run every
+# test that reaches the function mutated). The pipeline's core is reached by nearly every live
+# test, through a session: its mutants run the tests written for it, not all (a survivor of
+# `step` ran 134 tests, over a minute under load, for each mutant).
+MODULE_TESTS = {
+    "promp.live.pipeline": ["tests/test_promp_live_pipeline.py",
+                            "tests/test_promp_live_session_machine.py",
+                            "tests/test_promp_live_faults.py",
+                            "tests/test_promp_live_decision.py"],
+    "promp.live.intake": ["tests/test_promp_live_intake.py",
+                          "tests/test_promp_live_session_runner.py",
+                          "tests/test_promp_live_faults.py", "tests/test_promp_live_threads.py"],
+    "promp.live.session": ["tests/test_promp_live_session_runner.py",
+                           "tests/test_promp_live_threads.py", "tests/test_promp_live_sinks.py",
+                           "tests/test_promp_live_faults.py",
+                           "tests/test_promp_live_session_machine.py"],
+}
+# mutmut's time limit on a mutant: (its tests' time in the clean run + CONSTANT) x MULTIPLIER
+# seconds of wall time (mutmut's defaults 1 and 15: a mutant of the pipeline's step that loops
+# forever held the run 19 minutes). A mutant that runs past it counts as caught (timeout).
+TIMEOUT_MULTIPLIER = 3.0
+TIMEOUT_CONSTANT = 10.0
 # Calls whose arguments are messages for a reader (see the module's docstring).
 MESSAGE_CALLS = {"print", "LiveEvent", "warn", "debug", "info", "warning", "error", "exception",
                  "critical"}
@@ -94,7 +120,8 @@ HELP_KEYWORDS = {"help", "description", "epilog", "metavar", "prog"}
 KILLED = {"killed", "caught by type check", "segfault"}
 
 
-def mutmut_config(paths: list[str], tests: list[str], deselect: list[str]) -> str:
+def mutmut_config(paths: list[str], tests: list[str], deselect: list[str],
+                  timeout_multiplier: float = TIMEOUT_MULTIPLIER) -> str:
     """The ``[tool.mutmut]`` table: mutate ``paths`` (files or folders), run ``tests`` but the
     ``deselect``-ed ones (pytest node ids)."""
     packages = sorted({Path(p).parts[0] for p in paths})
@@ -102,23 +129,31 @@ def mutmut_config(paths: list[str], tests: list[str], deselect: list[str]) -> st
     return "\n".join([
         "", "[tool.mutmut]",
         f"source_paths = {json.dumps(packages)}",
-        'also_copy = ["docs/"]',
+        'also_copy = ["docs/", "mutation_select.py", "mutation_tests.json"]',
         f"only_mutate = {json.dumps(only)}",
+        f"timeout_multiplier = {float(timeout_multiplier)}",
+        f"timeout_constant = {TIMEOUT_CONSTANT}",
         f"pytest_add_cli_args_test_selection = {json.dumps(tests)}",
         f"pytest_add_cli_args = {json.dumps(PYTEST_ARGS + [f'--deselect={d}' for d in deselect])}",
         ""])
 
 
 def copy_repository(workdir: Path, paths: list[str], tests: list[str],
-                    deselect: list[str]) -> None:
-    """The packages of ``paths``, the tests, the docs and pyproject.toml (with the table)."""
+                    deselect: list[str], timeout_multiplier: float = TIMEOUT_MULTIPLIER) -> None:
+    """The packages of ``paths``, the tests, the docs, pyproject.toml (with the table) and the
+    plugin choosing a module's tests (:data:`MODULE_TESTS`) with its map."""
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
     for top in sorted({Path(p).parts[0] for p in paths} | {"tests", "docs"}):
         shutil.copytree(REPO / top, workdir / top, ignore=ignore)
+    shutil.copy(REPO / "bench" / "mutation_select.py", workdir / "mutation_select.py")
+    chosen = {"tests": MODULE_TESTS, "timeout_multiplier": float(timeout_multiplier),
+              "timeout_constant": TIMEOUT_CONSTANT}  # fmt: skip
+    (workdir / "mutation_tests.json").write_text(json.dumps(chosen, indent=1))
     text = (REPO / "pyproject.toml").read_text()
     if "[tool.mutmut]" in text:
         raise ValueError("pyproject.toml has a [tool.mutmut] table: this script writes its own")
-    (workdir / "pyproject.toml").write_text(text + mutmut_config(paths, tests, deselect))
+    (workdir / "pyproject.toml").write_text(
+        text + mutmut_config(paths, tests, deselect, timeout_multiplier))
 
 
 def _functions(tree: ast.AST) -> dict[str, ast.FunctionDef | ast.AsyncFunctionDef]:
@@ -197,6 +232,16 @@ def message_only(original: ast.AST, mutant: ast.AST) -> bool:
         _blanked(original, paths) == _blanked(mutant, paths)  # fmt: skip
 
 
+def _read_json(path: Path) -> dict:
+    """``path``'s JSON, read again if mutmut was writing it (a running run's report)."""
+    for _ in range(9):
+        try:
+            return json.loads(path.read_text())
+        except json.JSONDecodeError:
+            time.sleep(0.2)
+    return json.loads(path.read_text())
+
+
 def module_scores(workdir: Path) -> dict[str, dict]:
     """Per mutated module: the counts of mutmut's verdicts, the excluded mutants, the score."""
     from mutmut.stats import status_by_exit_code
@@ -208,7 +253,7 @@ def module_scores(workdir: Path) -> dict[str, dict]:
         functions = _functions(ast.parse(source.read_text()))
         verdicts: Counter[str] = Counter()
         excluded = 0
-        for key, code in json.loads(meta.read_text())["exit_code_by_key"].items():
+        for key, code in _read_json(meta)["exit_code_by_key"].items():
             name = key.removeprefix(module.removesuffix(".__init__") + ".")
             original = functions[name.rsplit("__mutmut_", 1)[0] + "__mutmut_orig"]
             if message_only(original, functions[name]):
@@ -218,11 +263,14 @@ def module_scores(workdir: Path) -> dict[str, dict]:
             verdicts["killed" if status in KILLED else status.replace(" ", "_")] += 1
         total = sum(verdicts.values()) + excluded
         caught = verdicts["killed"] + verdicts["timeout"]
+        pending = verdicts["not_checked"]  # a run stopped early: scored on what it checked
         scores[module] = {"total": total, "killed": verdicts["killed"],
                           "timeout": verdicts["timeout"], "survived": verdicts["survived"],
                           "no_tests": verdicts["no_tests"], "excluded": excluded,
-                          "score": round(caught / max(total - excluded, 1), 3)}
-        other = set(verdicts) - {"killed", "timeout", "survived", "no_tests"}
+                          "score": round(caught / max(total - excluded - pending, 1), 3)}
+        if pending:
+            scores[module]["not_checked"] = pending
+        other = set(verdicts) - {"killed", "timeout", "survived", "no_tests", "not_checked"}
         if other:
             scores[module]["other"] = {k: verdicts[k] for k in sorted(other)}
     return scores
@@ -235,12 +283,13 @@ def print_table(scores: dict[str, dict]) -> None:
     for module, s in scores.items():
         print(f"{module:<32} {s['total']:>6} {s['killed']:>6} {s['timeout']:>7} "
               f"{s['survived']:>8} {s['no_tests']:>7} {s['excluded']:>8} {s['score']:>6.1%}")
-        if s.get("other"):
-            print(f"{'':<32} and {s['other']}")
+        if s.get("other") or s.get("not_checked"):
+            print(f"{'':<32} and {s.get('other', {})}, not checked: {s.get('not_checked', 0)} "
+                  "(the score is of those checked)")
 
 
 def main(paths: list[str], tests: list[str], deselect: list[str], max_children: int | None,
-         workdir: Path | None) -> dict:
+         workdir: Path | None, timeout_multiplier: float = TIMEOUT_MULTIPLIER) -> dict:
     started = time.monotonic()
     tests = sorted({str(t.relative_to(REPO)) for pattern in tests for t in REPO.glob(pattern)})
     if not tests:
@@ -251,7 +300,7 @@ def main(paths: list[str], tests: list[str], deselect: list[str], max_children: 
         raise ValueError(f"--workdir {workdir} exists: name a new folder")
     workdir.mkdir(parents=True, exist_ok=True)
     try:
-        copy_repository(workdir, paths, tests, deselect)
+        copy_repository(workdir, paths, tests, deselect, timeout_multiplier)
         env = dict(os.environ)
         env.setdefault("STUDIO_SHARED_DATA", str(REPO.parent / "shared" / "data"))
         command = [str(Path(sys.executable).with_name("mutmut")), "run"]
@@ -259,8 +308,17 @@ def main(paths: list[str], tests: list[str], deselect: list[str], max_children: 
             command += ["--max-children", str(max_children)]
         log = workdir / "mutmut.log"
         with log.open("w") as out:
-            done = subprocess.run(command, cwd=workdir, env=env, stdout=out,
-                                  stderr=subprocess.STDOUT)
+            # its own process group: stopping this script (Ctrl-C, SIGTERM) stops mutmut and
+            # the mutant it runs, not only this process
+            done = subprocess.Popen(command, cwd=workdir, env=env, stdout=out,
+                                    stderr=subprocess.STDOUT, start_new_session=True)
+            signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+            try:
+                done.wait()
+            finally:
+                if done.poll() is None:
+                    os.killpg(done.pid, signal.SIGKILL)
+                    done.wait()
         if done.returncode != 0:
             sys.stdout.write(log.read_text()[-4000:])
             raise SystemExit(f"mutmut failed ({done.returncode}); its output: {log}")
@@ -285,6 +343,8 @@ if __name__ == "__main__":
                         help="test node ids left out (default: the list in this script)")
     parser.add_argument("--max-children", type=int, default=None,
                         help="mutants tested at once (mutmut's default: the number of cores)")
+    parser.add_argument("--timeout-multiplier", type=float, default=TIMEOUT_MULTIPLIER,
+                        help="mutmut's time limit per mutant, times its tests' clean time")
     parser.add_argument("--workdir", type=Path, default=None,
                         help="a new folder to run in and keep (default: a temporary one)")
     parser.add_argument("--report", type=Path, default=None, metavar="WORKDIR",
@@ -295,4 +355,5 @@ if __name__ == "__main__":
         print_table(scores)
         print(json.dumps(scores))
         raise SystemExit(0)
-    main(args.paths, args.tests, args.deselect, args.max_children, args.workdir)
+    main(args.paths, args.tests, args.deselect, args.max_children, args.workdir,
+         args.timeout_multiplier)

@@ -12,6 +12,10 @@ import promp.live.session
 from promp.live.session import SessionThreads
 from tests.conftest import wait_until
 
+# How long a thread may take to do what the test waits for: generous for a loaded machine,
+# short beside the 30 s default (a mutant that stops a thread costs mutation testing this).
+DEADLINE_S = 10.0
+
 
 @pytest.fixture(autouse=True)
 def short_pauses(monkeypatch):
@@ -52,7 +56,7 @@ def test_the_loop_steps_until_stopped_and_a_failing_step_is_said() -> None:
     threads = SessionThreads(step, intake)
     threads.start()
     threads.start()  # already running: no second pair of threads
-    wait_until(lambda: len(steps) >= 6, what="six steps")
+    wait_until(lambda: len(steps) >= 6, timeout=DEADLINE_S, what="six steps")
     threads.stop()
     done = len(steps)
     assert {name for name, _ in steps} == {"live-session"}
@@ -61,6 +65,7 @@ def test_the_loop_steps_until_stopped_and_a_failing_step_is_said() -> None:
     assert intake.looks and all(w > 0 for w in intake.looks)
     assert {t.name for t in intake.threads} == {"live-resolver"}
     assert not any(t.is_alive() for t in seen | intake.threads)  # both ended
+    assert all(t.daemon for t in seen | intake.threads)  # never keep the process alive
     assert len(steps) == done  # stopped: no step after
 
 
@@ -68,9 +73,28 @@ def test_a_failing_look_is_said_and_looked_again() -> None:
     intake = Intake(fail_looks=2)
     threads = SessionThreads(lambda: False, intake)
     threads.start()
-    wait_until(lambda: len(intake.looks) >= 3, what="three looks")
+    wait_until(lambda: len(intake.looks) >= 3, timeout=DEADLINE_S, what="three looks")
     threads.stop()
     assert len(intake.notes) == 2 and all("OSError" in n for n in intake.notes)
     threads.start()  # stopped threads start again
-    wait_until(lambda: len(intake.looks) >= 4, what="a look after the restart")
+    wait_until(lambda: len(intake.looks) >= 4, timeout=DEADLINE_S, what="a look after the restart")
+    threads.stop()
+
+
+def test_a_step_that_worked_is_followed_by_the_next_at_once(monkeypatch) -> None:
+    monkeypatch.setattr(promp.live.session, "IDLE_S", 3600.0)  # an idle pause would hang it
+    steps = []
+
+    def step() -> bool:
+        steps.append(1)
+        return len(steps) > 1 and len(steps) < 5  # idle once, then four that worked
+
+    threads = SessionThreads(step, Intake())
+    threads.start()
+    wait_until(lambda: len(steps) >= 1, timeout=DEADLINE_S, what="the first step")
+    threads.stop()  # interrupts the idle pause after the first (idle) step
+    assert len(steps) == 1
+    steps.append(1)  # the next step works: no pause
+    threads.start()
+    wait_until(lambda: len(steps) >= 5, timeout=DEADLINE_S, what="the steps that worked")
     threads.stop()

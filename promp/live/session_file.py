@@ -256,7 +256,7 @@ def _read_journal(path: Path) -> SessionRecord:
         try:
             record = json.loads(line)
             records.append((record.pop("k"), record))
-        except (json.JSONDecodeError, KeyError, AttributeError) as exc:
+        except (json.JSONDecodeError, KeyError, AttributeError, TypeError) as exc:
             raise ValueError(f"{path}: line {number} is not a record ({exc})") from None
     return SessionRecord(header, tuple(records))
 

@@ -1,0 +1,54 @@
+"""A pytest plugin for bench/mutation.py: a mutant of a module runs only that module's tests.
+
+mutmut runs, for each mutant, the tests its first clean run saw reach the mutated function.
+A function of the pipeline's core is reached by nearly every live test (a session steps it),
+so each of its mutants that survives runs them all (a minute under load). bench/mutation.py
+copies this file into mutmut's folder with ``mutation_tests.json``, a map of a module
+(``promp.live.pipeline``) to the test files that test it; while mutmut runs a mutant of a
+module in the map (``MUTANT_UNDER_TEST``), the tests of other files are deselected (those of
+the module's files that reach the function still run, fastest first, as mutmut orders them).
+A mutant of a module not in the map runs every test that reaches it. None selected: pytest
+exits 5, which mutmut counts as "no tests" (not caught).
+
+mutmut's time limit on a mutant comes from the time of every test that reaches it; for a
+module of the map the limit is the one of the tests it runs: ``(their clean time + constant) x
+multiplier`` (both in the map's file, as bench/mutation.py passes them to mutmut), after which
+the mutant's process ends with mutmut's exit code for a timeout (36: caught).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+from pathlib import Path
+
+MAP = Path(__file__).with_name("mutation_tests.json")
+TIMEOUT_EXIT = 36  # mutmut's exit code for a mutant that ran past its time (a timeout)
+
+
+def files_for(mutant: str, tests: dict[str, list[str]]) -> list[str] | None:
+    """The test files of the module ``mutant`` belongs to (the longest module of ``tests``
+    its name starts with), or None."""
+    modules = [m for m in tests if mutant.startswith(m + ".")]
+    return tests[max(modules, key=len)] if modules else None
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    mutant = os.environ.get("MUTANT_UNDER_TEST", "")
+    if "__mutmut_" not in mutant or not MAP.exists():
+        return
+    chosen = json.loads(MAP.read_text())
+    files = files_for(mutant, chosen["tests"])
+    if files is None:
+        return
+    keep = [i for i in items if i.nodeid.split("::")[0] in files]
+    if len(keep) < len(items):
+        config.hook.pytest_deselected(items=[i for i in items if i not in keep])
+        items[:] = keep
+    stats = Path("mutmut-stats.json")  # mutmut's, in its folder (the tests' working one)
+    durations = json.loads(stats.read_text())["duration_by_test"] if stats.exists() else {}
+    limit = (sum(durations.get(i.nodeid, 1.0) for i in keep) + chosen["timeout_constant"]) \
+        * chosen["timeout_multiplier"]  # fmt: skip
+    signal.signal(signal.SIGALRM, lambda *_: os._exit(TIMEOUT_EXIT))
+    signal.setitimer(signal.ITIMER_REAL, limit)

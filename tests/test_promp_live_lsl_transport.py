@@ -1,0 +1,186 @@
+"""The LSL transport (promp.live.lsl) on the loopback (tests/lsl_loopback.cfg): a stream's
+description as its info tells it, an outlet found, opened and pulled (samples on this
+machine's clock, in order, with their values; markers as text), an outlet's refusals. Each
+wait is for a state (the stream listed, the samples arrived), with a generous deadline."""
+
+from __future__ import annotations
+
+import socket
+import time
+
+import numpy as np
+import pytest
+
+from promp.live.transport import OutletSpec, StreamLost
+
+pylsl = pytest.importorskip("pylsl")
+lsl = pytest.importorskip("promp.live.lsl")
+
+DEADLINE_S = 30.0
+
+
+def info_with(labels=None, units=None, n=3, fmt=None):
+    info = pylsl.StreamInfo("Hand", "Mocap", n, 100.0, fmt or pylsl.cf_double64, "src-1")
+    if labels is not None:
+        channels = info.desc().append_child("channels")
+        for label, unit in zip(labels, units, strict=True):
+            channel = channels.append_child("channel")
+            channel.append_child_value("label", label)
+            channel.append_child_value("unit", unit)
+    return info
+
+
+def test_a_description_is_what_the_info_tells():
+    d = lsl.describe(info_with(("x", "y", "z"), ("mm", "mm", "mm")))
+    assert (d.name, d.type, d.source_id, d.rate, d.format) == ("Hand", "Mocap", "src-1", 100.0,
+                                                              "double64")  # fmt: skip
+    assert d.labels == ("x", "y", "z") and d.units == ("mm", "mm", "mm")
+    assert lsl.describe(info_with(fmt=pylsl.cf_float32)).format == "float32"
+    assert lsl.describe(info_with(fmt=pylsl.cf_string, n=1)).is_markers
+
+
+def test_channels_not_all_described_are_unnamed():
+    assert lsl.describe(info_with()).labels == ("", "", "")
+    short = lsl.describe(info_with(("x", "y"), ("m", "m")))  # 2 of 3 described
+    assert short.labels == ("", "", "") and short.units == ("", "", "")
+    longer = info_with(("a", "b", "c", "d"), ("1", "2", "3", "4"))
+    assert lsl.describe(longer).labels == ("a", "b", "c")  # the first n
+
+
+def test_an_outlet_is_double64_or_string_with_a_unit_per_label():
+    with pytest.raises(ValueError):
+        lsl.LslOutlet(OutletSpec("X", "T", "s", ("a",), ("",), format="float32"))
+    with pytest.raises(ValueError):
+        lsl.LslOutlet(OutletSpec("X", "T", "s", ("a", "b"), ("m",)))
+
+
+def found(transport, name: str):
+    deadline = time.monotonic() + DEADLINE_S
+    while time.monotonic() < deadline:
+        streams = [s for s in transport.find(0.5) if s.name == name]
+        if streams:
+            return streams[0]
+    raise AssertionError(f"{name} not found in {DEADLINE_S} s")
+
+
+def pulled(inlet, n: int):
+    times, values = [], []
+    deadline = time.monotonic() + DEADLINE_S
+    while len(times) < n and time.monotonic() < deadline:
+        t, v = inlet.pull()
+        times += list(t)
+        values += list(v)
+        time.sleep(0.01)
+    return np.asarray(times), values
+
+
+def test_an_outlet_is_found_opened_and_pulled_on_this_machine_s_clock():
+    transport = lsl.LslTransport()
+    name = f"promp-test-{time.monotonic_ns()}"
+    spec = OutletSpec(name, "Mocap", "promp-test", ("x", "y"), ("m", "m"), rate=50.0)
+    outlet = lsl.LslOutlet(spec)
+    stream = found(transport, name)
+    assert stream.rate == 50.0 and stream.source_id == "promp-test" and stream.uid
+    inlet = transport.open(stream)
+    d = inlet.description  # the full info: the channels' description too
+    assert d.uid == stream.uid and d.labels == ("x", "y") and d.units == ("m", "m")
+    assert d.host == socket.gethostname()
+    assert inlet._inlet.info().desc().child_value("producer") == "promp.live"
+    assert outlet.wait_for_consumers(DEADLINE_S)
+    now = transport.clock() - 5.0  # stamped by the sender, not when it was pushed
+    rows = np.array([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
+    outlet.push(rows, now)
+    times, values = pulled(inlet, 3)
+    assert len(times) == 3
+    np.testing.assert_array_equal(np.asarray(values), rows)
+    assert np.allclose(times, now + inlet.offset(), atol=1e-6)
+    assert abs(inlet.offset()) < 1.0  # the same machine
+    empty_t, empty_v = inlet.pull()
+    assert empty_t.size == 0 and np.asarray(empty_v).shape == (0, 2)
+    inlet.close()
+    inlet.close()  # twice: nothing left to close
+    outlet.close()
+
+
+def test_markers_are_pulled_as_text():
+    transport = lsl.LslTransport()
+    name = f"promp-marks-{time.monotonic_ns()}"
+    outlet = transport.outlet(OutletSpec(name, "Markers", "promp-test", ("label",), ("",),
+                                         format="string"))  # fmt: skip
+    stream = found(transport, name)
+    assert stream.is_markers
+    inlet = transport.open(stream)
+    assert outlet.wait_for_consumers(DEADLINE_S)
+    before = lsl.local_clock()
+    now = transport.clock()
+    assert isinstance(before, float) and before <= now  # the same clock, LSL's
+    outlet.push(["start left", 7], now)
+    _, labels = pulled(inlet, 2)
+    assert labels == ["start left", "7"]
+    outlet.close()
+
+
+def opened_pair(name: str):
+    transport = lsl.LslTransport()
+    outlet = transport.outlet(OutletSpec(name, "Mocap", "promp-test", ("x",), ("m",), rate=100.0))
+    inlet = transport.open(found(transport, name))
+    assert outlet.wait_for_consumers(DEADLINE_S)
+    return transport, outlet, inlet
+
+
+def test_the_clock_correction_is_renewed_only_when_it_moves_more_than_its_step():
+    transport, outlet, inlet = opened_pair(f"promp-offset-{time.monotonic_ns()}")
+    estimate = [lsl.OFFSET_STEP_S]  # LSL's estimate of the sender's clock offset, s
+    inlet._offset = 0.0
+    inlet._inlet.time_correction = lambda timeout=None: estimate[0]
+    inlet.pull()
+    assert inlet.offset() == 0.0  # a move of exactly the step: kept
+    estimate[0] = 0.5
+    now = transport.clock()
+    outlet.push([[1.0]], now)
+    times, _ = pulled(inlet, 1)
+    assert inlet.offset() == 0.5 and times.tolist() == [pytest.approx(now + 0.5, abs=1e-9)]
+    estimate[0] = 0.5 + lsl.OFFSET_STEP_S / 2
+    inlet.pull()
+    assert inlet.offset() == 0.5  # a wobble under the step: the samples are not shifted
+    outlet.close()
+
+
+def test_a_closed_outlet_s_inlet_says_its_stream_is_lost():
+    transport, outlet, inlet = opened_pair(f"promp-lost-{time.monotonic_ns()}")
+    outlet.close()
+    deadline = time.monotonic() + DEADLINE_S
+    with pytest.raises(StreamLost):
+        while time.monotonic() < deadline:
+            inlet.pull()
+            time.sleep(0.05)
+    inlet.close()
+
+
+def test_a_pull_takes_every_sample_waiting_however_many():
+    transport, outlet, inlet = opened_pair(f"promp-many-{time.monotonic_ns()}")
+    for n in (1, 4100):  # one sample; more than one chunk of the inlet's (4096)
+        rows = np.arange(n, dtype=float)[:, None]
+        outlet.push(rows, transport.clock())
+        deadline = time.monotonic() + DEADLINE_S
+        while inlet._inlet.samples_available() < n and time.monotonic() < deadline:
+            time.sleep(0.01)
+        times, values = inlet.pull()
+        assert times.size == n and np.array_equal(values, rows)
+    outlet.close()
+
+
+def test_the_first_look_waits_for_the_resolver_s_first_answers():
+    transport = lsl.LslTransport()
+    transport.find(0.3)
+    assert lsl.local_clock() >= transport._since + 0.3  # (a lower bound: load only adds)
+
+
+def test_a_stream_another_look_found_is_opened_by_its_uid():
+    name = f"promp-uid-{time.monotonic_ns()}"
+    outlet = lsl.LslOutlet(OutletSpec(name, "Mocap", "promp-test", ("x",), ("m",), rate=100.0))
+    stream = found(lsl.LslTransport(), name)
+    inlet = lsl.LslTransport().open(stream)  # a transport that never looked: resolved by uid
+    assert inlet.description.uid == stream.uid
+    inlet.close()
+    outlet.close()
