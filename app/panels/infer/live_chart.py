@@ -12,14 +12,18 @@ axis ends at the next half second past the latest prediction; each prediction's 
 share is in the readout, and the commitment's in the note.
 
 The curves come from :class:`app.live.live_curve.LiveCurves` (every prediction, bounded); the
-chart draws a curve's new ``version`` once (at most once a frame) and sets its series only
-when the primitives, their colours or the committed one change. The offline chart
+chart draws a curve's new ``version`` at most every :data:`REDRAW_S` (a commitment, new
+primitives or colours at once) and sets its series only when the primitives, their colours or
+the committed one change: redrawing it at every frame (~90 predictions a second) took the
+frame loop's time from the 3-D view and the take-over (`bench/live_studio.py`,
+`bench/takeover.py`). The offline chart
 (:mod:`app.panels.infer.recognition`) is hidden meanwhile.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 
 import numpy as np
@@ -35,6 +39,7 @@ __all__ = ["LIVE_TITLE", "LiveChart", "commit_text", "live_chart_data", "x_end"]
 
 LIVE_TITLE = "Live: recognition probability vs time in the movement"
 X_STEP_S = 0.5
+REDRAW_S = 0.2  # the chart's new points at most five times a second
 EMPTY = "The live movement's predictions are drawn here as they come."
 
 
@@ -78,6 +83,7 @@ class LiveChart:
         self._series_key: tuple | None = None
         self._shown: tuple | None = None
         self._range = (0.0, X_STEP_S)
+        self._drawn_at = -math.inf  # time.monotonic() of the last drawing
         gui = ctx.gui
         self.chart = gui.add_uplot(
             data=(np.array(self._range), np.zeros(2)),
@@ -112,9 +118,15 @@ class LiveChart:
         state = (curve.version, rule, series_key)
         if state == self._shown:
             return
-        self._shown = state
-        self.note.content = commit_text(curve, rule)
-        self.note.visible = True
+        now = time.monotonic()
+        if (self._shown is not None and state[1:] == self._shown[1:]
+                and now - self._drawn_at < REDRAW_S):  # only new points: soon  # fmt: skip
+            return
+        self._shown, self._drawn_at = state, now
+        text = commit_text(curve, rule)
+        if text != self.note.content or not self.note.visible:
+            self.note.content = text
+            self.note.visible = True
         if not curve.times.size:  # (series set without their data break uPlot's axes)
             self.chart.visible = False
             return
