@@ -154,7 +154,8 @@ def _factorise(matrix: np.ndarray) -> None:
     numpy.linalg.LinAlgError
         The matrix is not positive definite.
     """
-    _, info = lapack.dpotrf(matrix.T, lower=1, clean=0, overwrite_a=1)
+    _, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower, not cleaned, in place (positional:
+    # keywords cost f2py ~1 us a call, and the likelihood factorises ~100 matrices an update)
     if info != 0:
         raise np.linalg.LinAlgError("Matrix is not positive definite")
 
@@ -182,7 +183,6 @@ def log_likelihoods(
     stack = np.empty((chunk, p + 1, p + 1))
     blocks = diagonal_blocks(stack, n_do, m)  # (chunk, Do, M, M), a view
     diag = np.empty((n_levels, n_cand, p + 1))
-    potrf = lapack.dpotrf
     for level in range(n_levels):
         # [[Sigma_o^-1 + A^T R^-1 A, b], [b^T, r^T R^-1 r + 1]]: the last diagonal of its
         # Cholesky factor squared is r^T S^-1 r + 1 (the Schur complement).
@@ -195,10 +195,7 @@ def log_likelihoods(
             stack[:k] = precision  # (whole rows: faster than filling the top-left block)
             blocks[:k] += scaled[first : first + k]
             stack[:k, :, p] = bordered[first : first + k]
-            for matrix in stack[:k]:
-                if potrf(matrix.T, 1, 0, 1)[1] != 0:  # lower, not cleaned, in place
-                    raise np.linalg.LinAlgError("Matrix is not positive definite")
-            diag[level, first : first + k] = np.diagonal(stack[:k], axis1=1, axis2=2)
+            diag[level, first : first + k] = cholesky_diagonals(stack[:k])
     quad = diag[..., p] ** 2 - 1.0
     logdet = 2.0 * np.log(diag[..., :p]).sum(-1) + logdet_sigma
     logdet_r = (sums.n * np.log(noise_var) + sums.logdet_k).sum(-1)  # (L,)
