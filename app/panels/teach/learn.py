@@ -61,6 +61,9 @@ class LearnSection:
         self._changed_at: float | None = None
         self._shown: tuple = ()  # what the settings and the status were drawn from
         self._refit: tuple[float, int] | None = None  # a refit seen since, its whole seconds
+        # What each control was last set to from the store. A control is set again only when
+        # that changes: a user's choice that reached the control while the frame drew keeps.
+        self._displayed: dict[str, object] = {}
         settings = ctx.store.state.learning_settings()
         shown = settings.with_fallback()
         gui = ctx.gui
@@ -104,7 +107,9 @@ class LearnSection:
         for handle in (self.automatic, *self.sliders, self.shrinkage):
             handle.on_update(self._moved)
 
-    def _moved(self, _event) -> None:
+    def _moved(self, event) -> None:
+        if event.client is None:  # the section's own assignment (viser calls back at once)
+            return
         self._changed_at = time.monotonic()
 
     def step(self, frame: Frame) -> None:
@@ -154,7 +159,7 @@ class LearnSection:
             )  # fmt: skip
         except (ValueError, OSError) as exc:
             self.ctx.notify("Cannot change the learning settings", str(exc), "red")
-            self._shown = ()  # the stored settings again
+            self._shown, self._displayed = (), {}  # the stored settings again
 
     def _show_settings(self, snapshot: Snapshot) -> None:
         settings = snapshot.store.learning_settings()
@@ -162,16 +167,22 @@ class LearnSection:
         # What the latest fit chose where the data chooses (the fallback values until then).
         model = snapshot.model
         chosen = settings.with_fallback() if model is None else model.settings
-        self.automatic.value = automatic
+        self._display("Automatic", self.automatic, automatic)
         for handle, name in zip(self.sliders, FALLBACK, strict=True):
             handle.disabled = automatic
             value = getattr(settings, name)
-            handle.value = getattr(chosen, name) if value is None else value
+            self._display(name, handle, getattr(chosen, name) if value is None else value)
         label = shrinkage_label(settings.shrinkage)
         if label not in self.shrinkage.options:
             self.shrinkage.options = (*self.shrinkage.options, label)
-        self.shrinkage.value = label
-        self._changed_at = None  # these assignments ran the callbacks
+        self._display("shrinkage", self.shrinkage, label)
+
+    def _display(self, key: str, handle, value) -> None:
+        """Set ``handle`` to ``value`` when the store's value for it changed since last shown."""
+        if key in self._displayed and self._displayed[key] == value:
+            return
+        self._displayed[key] = value
+        handle.value = value
 
 
 def fit_text(snapshot: Snapshot, refit_s: float | None = None) -> str:
