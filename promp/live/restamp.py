@@ -6,17 +6,22 @@ time, then pushes its backlog at once, and the stamps show a pause (0.1-0.35 s o
 machine) followed by a burst of samples microseconds apart. The samples were taken at the
 stream's rate all along. For a stream that declares a rate, :class:`Respread` puts such a burst
 back: a stamp is when the sample was pushed, never before it was taken, and samples are one
-step apart, so each sample of a burst (samples closer than :data:`BURST_SHARE` of a step after
-a pause of more than :data:`PAUSE_STEPS` steps) is placed one step before the next one (the
-burst's last keeps its stamp), and never at or before the stream's previous sample (a burst
-longer than its pause explains is spread evenly after it). A stream that runs faster than it
-declares is judged at the rate it runs (the median step of its last :data:`RUN_GAPS` samples
-given, once it gave that many and when it is under :data:`RUN_SHARE` of the declared step):
-its samples after a pause are not a burst, and it is left as it is.
+step apart, so each sample of a burst is placed one step before the next one (the burst's last
+keeps its stamp), and never at or before the stream's previous sample (a burst longer than its
+pause explains is spread evenly after it). A burst follows a pause of more than
+:data:`PAUSE_STEPS` steps: it is the most samples after it that came, on average, closer than
+:data:`BURST_SHARE` of a step. On average, because a busy machine also preempts the sender
+while it pushes its backlog: a burst with a hole of a few milliseconds (under a quarter of a
+step per sample so far) is still one. A stream that runs faster than it declares is judged at
+the rate it runs (the median step of its last :data:`RUN_GAPS` samples given, once it gave that
+many and when it is under :data:`RUN_SHARE` of the declared step): its samples after a pause
+are not a burst, and it is left as it is.
 
 A burst is held until it is whole (as many samples as were due during its pause), so that it
 is re-spread whole whatever the chunks it arrives in; one that stays short of that is given
-once nothing came for :data:`QUIET_S` (or two steps), or after as long as its pause. How far
+once nothing came for :data:`QUIET_S` (or two steps), or after as long as its pause, and the
+samples after a pause are given at once when three or more came at the rate (a sender that
+paused and resumed on time; their steps over :data:`RUN_SHARE` of a step on average). How far
 samples were moved back in the last :data:`LATE_WINDOW_S` is the stream's recent lateness
 (:meth:`Respread.lateness`): the time base judges a pause in the stamps against the stream's
 rate and this lateness (:mod:`promp.live.timebase`).
@@ -34,8 +39,8 @@ import numpy as np
 __all__ = ["BURST_SHARE", "QUIET_S", "LATE_WINDOW_S", "PAUSE_STEPS", "RUN_GAPS", "RUN_SHARE",
            "Respread"]
 
-BURST_SHARE = 0.25  # samples closer than a quarter of a step are a burst (a backlog pushed
-# at once is microseconds apart; a stream replayed up to 4x faster than it declares is not one)
+BURST_SHARE = 0.25  # samples closer than a quarter of a step on average are a burst (a backlog
+# pushed at once is microseconds apart; a stream replayed up to 4x faster than it declares is not)
 QUIET_S = 0.05  # a burst short of its backlog is given once nothing came for this long
 PAUSE_STEPS = 2.0  # a burst follows a pause longer than this many steps
 LATE_WINDOW_S = 10.0
@@ -117,30 +122,16 @@ class Respread:
             return np.zeros(0), np.zeros((0, self._width()))
         step = self.step
         gaps = np.diff(np.concatenate([[self._last], times]))
-        close = gaps < BURST_SHARE * step
-        # a burst: samples close together after a pause of more than PAUSE_STEPS steps (the
-        # step of a stream faster than it declares is the one it runs at: see ``step``)
-        paused = np.isfinite(gaps) & (gaps > PAUSE_STEPS * step)  # not the stream's first
-        starts = [j for j in np.flatnonzero(paused).tolist()
-                  if j + 1 == times.size or close[j + 1]]  # fmt: skip (alone: more may come)
+        pauses = self._pauses(times, gaps, step)
         held = times.size
-        if starts and close[starts[-1] + 1:].all():  # the last burst may go on
-            tail = starts[-1]
-            owed = gaps[tail] / step  # the samples due during its pause: the whole backlog
-            quiet = max(2.0 * step, QUIET_S)
-            whole = times.size - tail >= owed - 0.5
-            given_up = now - self._heard >= quiet or now - self._since >= gaps[tail] + quiet
-            if not (whole or given_up):
-                held = tail  # it waits, to be re-spread whole
+        if pauses and self._may_go_on(times[pauses[-1][0]:], gaps[pauses[-1][0]], step, now):
+            held = pauses[-1][0]  # it waits, to be re-spread whole
         out = times[:held].copy()
-        for j in starts:
-            if j >= held:
+        for j, k in pauses:
+            if k > held:
                 break
-            k = j + 1
-            while k < held and close[k]:
-                k += 1
-            previous = out[j - 1] if j else self._last
-            out[j:k] = self._spread(times[j:k], previous)
+            if k - j > 1:  # a burst
+                out[j:k] = self._spread(times[j:k], out[j - 1] if j else self._last)
         if held:
             given = out[:held] if not math.isfinite(self._last) else \
                 np.concatenate([[self._last], out[:held]])  # fmt: skip
@@ -155,6 +146,37 @@ class Respread:
         elif held:
             self._since = now  # a new burst held (one held already stays from its start)
         return given
+
+    @staticmethod
+    def _pauses(times: np.ndarray, gaps: np.ndarray, step: float) -> list[tuple[int, int]]:
+        """The pauses among ``times`` (``gaps``: from the sample before each), as [j, k): a
+        pause of more than :data:`PAUSE_STEPS` steps before ``times[j]``, and the burst after
+        it, ``times[j:k]``: the most samples that came, on average, closer than
+        :data:`BURST_SHARE` of a step (a backlog whose push was interrupted is still one);
+        none (``k == j + 1``) when the samples after the pause came at the rate."""
+        paused = np.flatnonzero(np.isfinite(gaps) & (gaps > PAUSE_STEPS * step))  # not the first
+        pauses: list[tuple[int, int]] = []
+        for j in paused.tolist():
+            if pauses and j < pauses[-1][1]:
+                continue  # a pause within a burst (the sender interrupted again)
+            span = times[j + 1:] - times[j]
+            fast = np.flatnonzero(BURST_SHARE * step * np.arange(1, span.size + 1) >= span)
+            pauses.append((j, j + 1 + (int(fast[-1]) + 1 if fast.size else 0)))
+        return pauses
+
+    def _may_go_on(self, after: np.ndarray, gap: float, step: float, now: float) -> bool:
+        """Whether the samples ``after`` a pause of ``gap`` seconds may be the start of a
+        backlog still coming: fewer than were due during the pause, the latest heard less
+        than a quiet time ago, held for less than the pause, and not coming at the rate (three
+        or more, their steps over :data:`RUN_SHARE` of a step on average)."""
+        count = after.size
+        quiet = max(2.0 * step, QUIET_S)
+        return (
+            count < gap / step - 0.5
+            and now - self._heard < quiet
+            and now - self._since < gap + quiet
+            and not (count >= 3 and after[-1] - after[0] >= RUN_SHARE * (count - 1) * step)
+        )
 
     def _spread(self, stamps: np.ndarray, previous: float) -> np.ndarray:
         """A burst's ``stamps`` (push times) as sample times: one step before the next at
