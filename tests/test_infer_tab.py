@@ -785,7 +785,7 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
         replay runs: a place found beforehand was once a click beside the button, under load).
         With ``done``, clicked again while ``done()`` stays false 10 s after a click: the button
         is redrawn as the replay runs, and a click on the element being replaced is lost (once
-        in a loaded full run the pause never came)."""
+        in a loaded full run the pause never came, once the play never started)."""
         for _ in range(12):
             press(page, page.get_by_role("button", name=name, exact=True))
             if done is None or wait_quietly(done, 10.0):
@@ -796,8 +796,12 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
     # must not depend on how busy the machine is.
     clock = ManualClock()
     panel.playback.replay.clock = clock
+
+    def started() -> bool:
+        return panel.playback.replay.playing or panel.playback.replay.finished
+
     try:
-        button("Play")
+        button("Play", started)
         wait_until(lambda: panel.playback.replay.playing, timeout=30, what="the replay to start")
         clock.now += 0.3 * result.inference.remaining
         wait_until(lambda: panel.playback.replay.progress > 0.0, timeout=30,
@@ -809,19 +813,18 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
         wait_frames(studio, 5)  # the loop steps the replay every frame: a paused one moves not
         assert_allclose(studio.arm.q, q_paused)
         assert panel.playback.replay.progress <= 0.35
-        button("Play")
+        button("Play", started)
         wait_until(lambda: panel.playback.replay.playing, timeout=30, what="the replay to resume")
         clock.now += result.inference.remaining
         wait_until(lambda: panel.playback.replay.finished, timeout=60, what="the end of the replay")
     finally:
         panel.playback.replay.clock = time.monotonic
     # Then in real time, from the start.
-    button("Reset")
+    button("Reset", lambda: panel.playback.replay.progress == 0.0)
     wait_until(lambda: panel.playback.replay.progress == 0.0, timeout=30, what="the rewind")
     sampler = ArmSampler(studio, panel)
     try:
-        button("Play")
-        wait_until(lambda: panel.playback.replay.playing, timeout=30, what="the replay to start")
+        button("Play", started)
         wait_until(lambda: panel.playback.replay.finished, timeout=60, what="the end of the replay")
     finally:
         sampler.stop()
