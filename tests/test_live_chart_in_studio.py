@@ -23,7 +23,14 @@ from app.panels.infer.session_replay_section import TITLE as REPLAY_TITLE
 from app.panels.infer.view_model import LSL
 from promp.io import load_model, save_model
 from promp.live.session_file import model_sha256, read_session
-from tests.browser import choose, click, close_notifications, notification, screenshot
+from tests.browser import (
+    choose,
+    click,
+    close_notifications,
+    notification,
+    screenshot,
+    set_camera,
+)
 from tests.conftest import REPO, wait_frames, wait_until
 from tests.live_fakes import hand_model
 from tests.test_live_streams_in_studio import (
@@ -57,9 +64,7 @@ def stopped(page, studio) -> None:
         wait_until(lambda: studio.live.running is None, what="the source stopped")
 
 
-def test_the_live_chart_marks_the_commitment_at_the_committing_prediction(
-    page, studio, artifacts
-) -> None:
+def test_the_live_chart_marks_the_commitment_at_the_committing_prediction(page, studio) -> None:
     panel = infer_panel(studio)
     live, chart = panel.lsl.controls, panel.recognition.live
     hand = Replayer(unique("ChartHand"))
@@ -213,7 +218,7 @@ def cli_session(studio, tmp_path_factory):
 
 
 def test_a_session_recorded_by_the_command_replays_in_the_page_bit_for_bit(
-    page, studio, cli_session, artifacts
+    page, studio, cli_session
 ) -> None:
     panel = infer_panel(studio)
     stopped(page, studio)
@@ -249,7 +254,9 @@ def test_a_session_recorded_by_the_command_replays_in_the_page_bit_for_bit(
     assert made is not None and made.primitive == committed[0]["committed"]
     page.get_by_text(f"committed to '{made.primitive}' at {made.time:.2f} s").first.wait_for()
     shown.evaluate("e => e.scrollIntoView({block: 'center'})")
-    screenshot(page, artifacts / "infer_session_replay.png")
+    set_camera(page.client, position=[-1.5, -0.9, 0.8], look_at=[-0.15, -0.1, 0.15])
+    wait_frames(studio)
+    screenshot(page, REPO / "docs" / "session_replay.png")
     # a live start is refused while the replay is shown: Start reads Stop
     assert panel.lsl.controls.run.label == "Stop" and panel.lsl.replay.controls.replay.disabled
     assert not panel.lsl.controls.movement.visible  # a replay's movements are the recorded
