@@ -11,8 +11,8 @@ its own threads (the pipeline of ``python -m promp.live``). Two variants:
 * ``guided+busy``: every take (learned from and replayed) slowed in its middle below the idle
   speed, as a guided arm slows near a waypoint (0.5-1 s learned from, 0.5-0.9 s replayed:
   :func:`tests.live_fakes.slowed_middle`), and pushed by a sender that sleeps 0.1-0.35 s now
-  and then and pushes its backlog at once, stamped at the push
-  (:func:`tests.live_fakes.late_pushes`).
+  and then and pushes its backlog at once, stamped at that push: a pause, then the backlog
+  20 us apart (:func:`tests.live_fakes.late_pushes`, :func:`tests.live_fakes.replay_over_lsl`).
 
 Printed per set and variant: ``takes``, ``movements`` (all the session found), ``one_each``
 (takes that gave exactly one movement), ``split_offline`` (replayed takes the stillness rule

@@ -358,8 +358,15 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
     (the hand in mm, ``rate`` Hz declared), each held still ``rest_s`` before and after (the
     hand jumps, in one step, from one take's end to the next one's start), into a
     :class:`LiveSession` on ``start="still"`` running on its threads. Each sample is pushed
-    when due, stamped at its push (LSL's default), by a sender that with ``late`` sleeps
-    0.1-0.35 s now and then and pushes its backlog at once (:func:`late_pushes`). Returns the
+    when due by a sender that with ``late`` sleeps 0.1-0.35 s now and then and pushes its
+    backlog at once (:func:`late_pushes`), stamped when that sender pushes it (what LSL's
+    default stamps: a pause, then the backlog microseconds apart). The stamps are those planned
+    pushes, not this process's actual ones: the sender here shares the session's process, and
+    on a loaded machine its own pushes wait for the session's threads (Python's lock) several
+    milliseconds each, a backlog then arriving at half its rate or slower, which no sender
+    pushing "at once" does (and which cannot be told from a stream that resumes faster than it
+    declares: ``promp.live.restamp``). A busy machine still delays when the samples arrive.
+    Returns the
     session's ended movements, the predictions and, per take, the push times and due times of
     its samples (session clock)."""
     import pylsl
@@ -399,7 +406,10 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
         due = np.arange(table.shape[0]) / rate
         pushes = late_pushes(due, rng) if late else due
         start = pylsl.local_clock() + 0.1
-        pushed = push_when_due(outlet, table, start + pushes)  # stamped at their push
+        planned = start + pushes
+        index = np.arange(planned.size)  # a backlog's samples pushed 20 us apart
+        first = np.maximum.accumulate(np.where(np.r_[True, np.diff(planned) > 0], index, 0))
+        pushed = push_when_due(outlet, table, planned, planned + 2e-5 * (index - first))
         wait_until(lambda: session.snapshot().movement is None, timeout=60.0,
                    what="the last movement's end")  # fmt: skip
         ended = list(session.snapshot().ended)
