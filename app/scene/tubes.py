@@ -22,7 +22,9 @@ demonstrations.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -60,20 +62,30 @@ def _frames(path: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         index = np.arange(n)
         nearest = np.interp(index, index[moving], index[moving]).round().astype(int)
         tangent = tangent[nearest] / norms[nearest][:, None]
-    normal = np.empty((n, 3))
-    seed = np.array([0.0, 0.0, 1.0]) if abs(tangent[0, 2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    current = np.cross(tangent[0], seed)
-    current /= np.linalg.norm(current)
-    for i in range(n):
-        current = current - tangent[i] * (current @ tangent[i])
-        length = np.linalg.norm(current)
+    seed = (0.0, 0.0, 1.0) if abs(tangent[0, 2]) < 0.9 else (1.0, 0.0, 0.0)
+    # The transport is sequential: on Python floats (numpy's per-call cost on 3-vectors made
+    # this loop most of a live frame's drawing, holding the interpreter's lock).
+    rows = tangent.tolist()
+    x, y, z = _cross(rows[0], seed)
+    length = math.sqrt(x * x + y * y + z * z)
+    x, y, z = x / length, y / length, z / length
+    normal = []
+    for t in rows:
+        along = x * t[0] + y * t[1] + z * t[2]
+        x, y, z = x - t[0] * along, y - t[1] * along, z - t[2] * along
+        length = math.sqrt(x * x + y * y + z * z)
         if length < 1e-9:  # tangent turned onto the normal: pick a fresh perpendicular
-            current = np.cross(tangent[i], seed)
-            length = np.linalg.norm(current)
-        current = current / length
-        normal[i] = current
+            x, y, z = _cross(t, seed)
+            length = math.sqrt(x * x + y * y + z * z)
+        x, y, z = x / length, y / length, z / length
+        normal.append((x, y, z))
+    normal = np.array(normal)
     binormal = np.cross(tangent, normal)
     return normal, binormal
+
+
+def _cross(a, b) -> tuple[float, float, float]:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 def tube_faces(n_points: int, ring: int = RING) -> np.ndarray:
@@ -93,13 +105,26 @@ def ring_spreads(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each ring's plane (n, 3, 2: the path's normal and binormal), and the eigenvalues (n, 2,
     ascending) and eigenvectors (n, 2, 2) of the covariance ``cov`` (n, 3, 3) projected on it,
-    the eigenvalues floored so that no ring is thinner than :data:`MIN_RADIUS` at ``radius``."""
-    normal, binormal = _frames(np.asarray(mean, dtype=float))
+    the eigenvalues floored so that no ring is thinner than :data:`MIN_RADIUS` at ``radius``
+    (read-only arrays: a frame asks for one region's several times, from the 3D view's tube
+    and the readout's widths, and gets the same answer without computing it again)."""
+    mean = np.ascontiguousarray(mean, dtype=float)
+    cov = np.ascontiguousarray(cov, dtype=float)
+    return _spreads(mean.tobytes(), mean.shape, cov.tobytes(), cov.shape, float(radius))
+
+
+@lru_cache(maxsize=16)
+def _spreads(mean: bytes, mean_shape: tuple, cov: bytes, cov_shape: tuple, radius: float
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    normal, binormal = _frames(np.frombuffer(mean).reshape(mean_shape))
     plane = np.stack([normal, binormal], axis=2)  # (n, 3, 2)
-    projected = plane.transpose(0, 2, 1) @ np.asarray(cov, dtype=float) @ plane  # (n, 2, 2)
-    values, vectors = np.linalg.eigh(projected)
+    projected = plane.transpose(0, 2, 1) @ np.frombuffer(cov).reshape(cov_shape) @ plane
+    values, vectors = np.linalg.eigh(projected)  # (n, 2), (n, 2, 2)
     floor = (MIN_RADIUS / max(radius, 1e-12)) ** 2
-    return plane, np.maximum(values, floor), vectors
+    spreads = (plane, np.maximum(values, floor), vectors)
+    for array in spreads:
+        array.flags.writeable = False
+    return spreads
 
 
 def ring_widths(region: SampleDistribution, probability: float) -> np.ndarray:

@@ -135,6 +135,22 @@ class ViewInputs:
             and self.via_points is old.via_points
         )  # fmt: skip
 
+    def newer_prediction(self, old: ViewInputs | None) -> bool:
+        """Only the LSL source's prediction changed since ``old``: a newer one of the same
+        movement, committed as the older was (or not), from the same model."""
+        if old is None or (self.state, self.message) != (old.state, old.message) or not (
+            self.demos is old.demos and self.primitives is old.primitives
+            and self.model is old.model and self.via_points is old.via_points
+        ):  # fmt: skip
+            return False
+        new, shown = self.samples, old.samples
+        if not self.state.lsl or new is None or shown is None:
+            return False
+        p, q = getattr(new, "prediction", None), getattr(shown, "prediction", None)
+        return (p is not None and q is not None and new.movement == shown.movement
+                and new.model is shown.model and (p.committed is None) == (q.committed is None)
+                and (new.note, new.message) == (shown.note, shown.message))  # fmt: skip
+
     def waits(self, old: ViewInputs | None, elsewhere: bool, view: InferView | None) -> bool:
         """The new view may wait for the tab to be in use (``elsewhere``: another tab is):
         only the workspace, the model or the via-points changed (not the controls, not the
