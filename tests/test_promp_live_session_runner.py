@@ -1,8 +1,11 @@
 """The live session's runner (promp.live.session.LiveSession), stepped by hand on the fake
 transport: what a step reports (worked or not), what it hands its sinks, when it publishes a
-new snapshot, the Record calls' times, the inlets it keeps and closes, what close says."""
+new snapshot, the Record calls (their times, as the sinks get them), the inlets it keeps and
+closes, what flush and close say of a failing sink, and when."""
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 
@@ -18,13 +21,14 @@ def moving(t0: float, n: int, rate: float = 100.0):
     return t, np.column_stack([np.sin(t), np.cos(t), t]) * 0.1
 
 
-def connected(**kwargs):
+def connected(sinks=(), **kwargs):
     transport = FakeTransport(now=10.0)
     stream = transport.add(FakeStream("Hand", ("x", "y", "z")))
     tap = Tap()
     predictions = []
     session = LiveSession(synthetic_model(), INPUTS, transport, LiveOptions(start="call"),
-                          on_prediction=predictions.append, sinks=[tap], **kwargs)  # fmt: skip
+                          on_prediction=predictions.append, sinks=[tap, *sinks],
+                          **kwargs)  # fmt: skip
     session.connect(0.0)
     assert session.step()  # the stream opened
     session.flush()
@@ -115,3 +119,105 @@ def test_close_closes_the_inlets_and_the_sinks_and_publishes_last():
     assert inlet.closed
     assert session.snapshot().version > before.version
     assert session.snapshot().time == transport.now
+
+
+class Broken:
+    """A sink that fails: each delivery once armed (after ``go`` is set), and its close."""
+
+    name, lossless = "broken", False
+
+    def __init__(self) -> None:
+        self.armed, self.go = False, threading.Event()
+
+    def view(self, output):
+        return output if self.armed else None
+
+    def take(self, output):
+        self.go.wait()
+        raise RuntimeError("disk full")
+
+    def close(self) -> None:
+        raise OSError("gone")
+
+
+class HoldsNews:
+    """A sink that holds the sinks' news (an output of events alone) until ``go`` is set."""
+
+    name, lossless = "holds news", True
+
+    def __init__(self) -> None:
+        self.go = threading.Event()
+
+    def view(self, output):
+        return output if output.events and not output.arrivals else None
+
+    def take(self, output):
+        self.go.wait()
+        return ()
+
+    def close(self) -> None:
+        self.go.set()
+
+
+def calls(tap):
+    return [(c.kind, c.time, c.label) for o in tap.outputs for a in o.arrivals for c in a.calls]
+
+
+def test_the_sinks_get_the_record_calls_as_made():
+    transport, stream, session, tap, _ = connected()
+    session.begin()  # no label: the movement has none
+    stream.push(*moving(10.0, 30))
+    transport.now = 10.3
+    session.step()
+    session.end(time=10.25)
+    transport.now = 10.4
+    session.step()
+    session.flush()
+    assert calls(tap) == [("start", 10.0, ""), ("end", 10.25, "")]
+    [start, end] = [b for o in tap.outputs for b in o.boundaries]
+    assert (end.kind, end.time, end.movement.label) == ("end", 10.25, "")
+
+
+def failing(*sinks):
+    """A connected session whose last step's output a :class:`Broken` sink will fail on, once
+    let go (nothing said of it yet); the events said so far."""
+    broken = Broken()
+    transport, stream, session, tap, _ = connected(sinks=[broken, *sinks])
+    broken.armed = True
+    stream.push(*moving(transport.now, 5))
+    transport.now += 0.05
+    session.step()
+    assert session.snapshot().sinks[2].failures == 0
+    return transport, session, tap, broken, session.snapshot().n_events
+
+
+def test_flush_says_a_sink_s_failure_at_its_own_time():
+    transport, session, tap, broken, n = failing()
+    transport.now += 1.0
+    broken.go.set()
+    assert session.flush()
+    snap = session.snapshot()
+    assert snap.sinks[2].failures == 1 and snap.sinks[2].failing
+    assert snap.n_events == n + 1 and snap.events[-1].time == transport.now
+    said = [e for o in tap.outputs if not o.arrivals for e in o.events]
+    assert said == [snap.events[-1]]  # said to the sinks too, before flush returned
+
+
+def test_flush_is_false_while_a_sink_has_not_delivered_what_it_said():
+    holds = HoldsNews()
+    transport, session, tap, broken, _ = failing(holds)
+    broken.go.set()
+    assert session.flush(timeout=1.0) is False  # the failure's news is held
+    holds.go.set()
+    assert session.flush()
+
+
+def test_close_says_what_failed_at_the_close_s_time():
+    transport, session, tap, broken, n = failing()
+    transport.now += 1.0
+    broken.go.set()  # its last delivery fails while closing, then its close
+    session.close()
+    snap = session.snapshot()
+    assert snap.sinks[2].failures == 1
+    assert snap.n_events == n + 2  # the close's failure and the delivery's
+    assert [e.time for e in snap.events[-2:]] == [transport.now] * 2

@@ -98,3 +98,17 @@ def test_a_step_that_worked_is_followed_by_the_next_at_once(monkeypatch) -> None
     threads.start()
     wait_until(lambda: len(steps) >= 5, timeout=DEADLINE_S, what="the steps that worked")
     threads.stop()
+
+
+def test_stopping_threads_never_started_or_stopped_already_does_nothing() -> None:
+    intake = Intake()
+    threads = SessionThreads(lambda: False, intake)
+    threads.stop()  # never started
+    threads.start()
+    wait_until(lambda: intake.looks, timeout=DEADLINE_S, what="a look")
+    threads.stop()
+    threads.stop()  # stopped already
+    looks = len(intake.looks)
+    threads.start()  # and they start again
+    wait_until(lambda: len(intake.looks) > looks, timeout=DEADLINE_S, what="a look after")
+    threads.stop()
