@@ -1,10 +1,12 @@
 """A live session's threads (promp.live.session.SessionThreads): the loop steps until stopped
 and a failing step is said, not fatal; the resolver looks for the streams again and again, a
-failing look said too; start twice starts once; stop ends both."""
+failing look said too; start twice starts once; stop ends both, and does nothing on
+threads stopped or never started; a failed step's note names the file and line it failed at."""
 
 from __future__ import annotations
 
 import threading
+from pathlib import Path
 
 import pytest
 
@@ -112,3 +114,17 @@ def test_stopping_threads_never_started_or_stopped_already_does_nothing() -> Non
     threads.start()  # and they start again
     wait_until(lambda: len(intake.looks) > looks, timeout=DEADLINE_S, what="a look after")
     threads.stop()
+
+
+def _fails() -> bool:
+    raise KeyError("deep in the step")
+
+
+def test_a_failing_step_s_note_names_where_it_failed() -> None:
+    intake = Intake()
+    threads = SessionThreads(lambda: _fails(), intake)  # raised a call below the step
+    threads.start()
+    wait_until(lambda: intake.notes, timeout=DEADLINE_S, what="the note of a failed step")
+    threads.stop()
+    where = f"{Path(__file__).name}:{_fails.__code__.co_firstlineno + 1}"
+    assert "KeyError" in intake.notes[0] and where in intake.notes[0]
