@@ -184,3 +184,18 @@ def test_a_stream_another_look_found_is_opened_by_its_uid():
     assert inlet.description.uid == stream.uid
     inlet.close()
     outlet.close()
+
+
+@pytest.mark.parametrize("fmt", ["int16", "float32"])
+def test_a_stream_s_samples_are_pulled_as_double_whatever_its_format(fmt):
+    name = f"promp-{fmt}-{time.monotonic_ns()}"
+    info = pylsl.StreamInfo(name, "Mocap", 2, 100.0, getattr(pylsl, f"cf_{fmt}"), "promp-test")
+    outlet = pylsl.StreamOutlet(info)  # another program's: any channel format
+    transport = lsl.LslTransport()
+    inlet = transport.open(found(transport, name))
+    assert outlet.wait_for_consumers(DEADLINE_S)
+    outlet.push_chunk([[1, -2], [300, 4]], transport.clock())
+    _, values = pulled(inlet, 2)
+    values = np.asarray(values)  # (the rows of the pulls, gathered)
+    assert values.dtype == np.float64 and values.tolist() == [[1.0, -2.0], [300.0, 4.0]]
+    inlet.close()
