@@ -199,3 +199,31 @@ def test_a_stream_s_samples_are_pulled_as_double_whatever_its_format(fmt):
     values = np.asarray(values)  # (the rows of the pulls, gathered)
     assert values.dtype == np.float64 and values.tolist() == [[1.0, -2.0], [300.0, 4.0]]
     inlet.close()
+
+
+def test_a_stream_the_transport_found_is_opened_without_asking_the_network_again(monkeypatch):
+    name = f"promp-known-{time.monotonic_ns()}"
+    outlet = lsl.LslOutlet(OutletSpec(name, "Mocap", "promp-test", ("x",), ("m",), rate=100.0))
+    transport = lsl.LslTransport()
+    stream = found(transport, name)
+    asked = []
+    monkeypatch.setattr(lsl.pylsl, "resolve_bypred", lambda *a, **k: asked.append(a) or [])
+    inlet = transport.open(stream)  # from the info of the look, even with the network silent
+    assert inlet.description.uid == stream.uid and asked == []
+    inlet.close()
+    outlet.close()
+
+
+def test_a_stream_not_found_by_a_look_is_asked_for_by_uid_for_a_bounded_time(monkeypatch):
+    asked = []
+
+    def resolve(predicate, minimum=1, timeout=pylsl.FOREVER):  # pylsl's, on a silent network
+        asked.append((predicate, minimum, timeout))
+        return []
+
+    monkeypatch.setattr(lsl.pylsl, "resolve_bypred", resolve)
+    stream = lsl.describe(info_with())  # another transport's look: uid "" here
+    with pytest.raises(StreamLost):
+        lsl.LslTransport().open(stream)
+    # the first answer is enough; no answer in OPEN_TIMEOUT_S: the stream is gone
+    assert asked == [(f"uid='{stream.uid}'", 1, lsl.OPEN_TIMEOUT_S)]
