@@ -5,6 +5,7 @@ wait is for a state (the stream listed, the samples arrived), with a generous de
 
 from __future__ import annotations
 
+import inspect
 import socket
 import time
 
@@ -227,3 +228,24 @@ def test_a_stream_not_found_by_a_look_is_asked_for_by_uid_for_a_bounded_time(mon
         lsl.LslTransport().open(stream)
     # the first answer is enough; no answer in OPEN_TIMEOUT_S: the stream is gone
     assert asked == [(f"uid='{stream.uid}'", 1, lsl.OPEN_TIMEOUT_S)]
+
+
+def test_a_pull_never_waits_for_lsl():
+    transport, outlet, inlet = opened_pair(f"promp-nowait-{time.monotonic_ns()}")
+    waits = []  # the timeout of each of LSL's calls a pull makes, as pylsl reads it
+
+    def spied(method):
+        def call(*args, **kwargs):
+            bound = inspect.signature(method).bind(*args, **kwargs)
+            bound.apply_defaults()
+            waits.append(bound.arguments["timeout"])
+            return method(*args, **kwargs)
+        return call
+
+    for name in ("time_correction", "pull_chunk"):
+        setattr(inlet._inlet, name, spied(getattr(inlet._inlet, name)))
+    inlet.pull()  # nothing there
+    outlet.push([[1.0], [2.0]], transport.clock())
+    times, _ = pulled(inlet, 2)
+    assert len(times) == 2 and len(waits) >= 4 and set(waits) == {0.0}
+    outlet.close()
