@@ -21,11 +21,14 @@ DEADLINE_S = 30.0
 
 
 def info_with(labels=None, units=None, n=3, fmt=None):
-    info = pylsl.StreamInfo("Hand", "Mocap", n, 100.0, fmt or pylsl.cf_double64, "src-1")
+    """An info of ``n`` channels; a label ``"*note"`` is an element among the channels that
+    is not one (another program's)."""
+    fmt = pylsl.cf_double64 if fmt is None else fmt
+    info = pylsl.StreamInfo("Hand", "Mocap", n, 100.0, fmt, "src-1")
     if labels is not None:
         channels = info.desc().append_child("channels")
         for label, unit in zip(labels, units, strict=True):
-            channel = channels.append_child("channel")
+            channel = channels.append_child(label[1:] if label[:1] == "*" else "channel")
             channel.append_child_value("label", label)
             channel.append_child_value("unit", unit)
     return info
@@ -38,6 +41,13 @@ def test_a_description_is_what_the_info_tells():
     assert d.labels == ("x", "y", "z") and d.units == ("mm", "mm", "mm")
     assert lsl.describe(info_with(fmt=pylsl.cf_float32)).format == "float32"
     assert lsl.describe(info_with(fmt=pylsl.cf_string, n=1)).is_markers
+    assert lsl.describe(info_with(fmt=pylsl.cf_undefined)).format == "undefined"
+
+
+def test_only_the_channel_elements_describe_the_channels():
+    labels, units = ("x", "*note", "y", "z"), ("mm", "", "mm", "rad")
+    d = lsl.describe(info_with(labels, units))
+    assert d.labels == ("x", "y", "z") and d.units == ("mm", "mm", "rad")
 
 
 def test_channels_not_all_described_are_unnamed():
@@ -175,6 +185,15 @@ def test_the_first_look_waits_for_the_resolver_s_first_answers():
     transport = lsl.LslTransport()
     transport.find(0.3)
     assert lsl.local_clock() >= transport._since + 0.3  # (a lower bound: load only adds)
+
+
+def test_a_look_that_may_not_wait_does_not_wait(monkeypatch):
+    slept = []
+    monkeypatch.setattr(lsl.time, "sleep", slept.append)
+    transport = lsl.LslTransport()
+    transport.find(0.0)
+    transport.find(-1.0)
+    assert slept == []
 
 
 def test_a_stream_another_look_found_is_opened_by_its_uid():
