@@ -10,7 +10,8 @@ import threading
 import numpy as np
 
 from promp.live.options import LiveOptions
-from promp.live.session import LiveSession
+from promp.live.session import FIND_WAIT_S, LiveSession
+from tests.conftest import wait_until
 from tests.live_fakes import FakeStream, FakeTransport, Tap, synthetic_model
 
 INPUTS = ["hand=Hand:0,1,2"]
@@ -51,6 +52,44 @@ def test_a_step_works_only_when_something_arrived_or_happened():
     assert len(tap.outputs) == offered + 1
     assert session.snapshot().version > first.version
     assert session.snapshot().counts["Hand"][0] == 5
+
+
+def test_a_step_that_only_took_a_record_call_worked():
+    transport, stream, session, tap, _ = connected()
+    session.end()  # no movement going on: nothing happens, but a call arrived
+    transport.now += 0.01
+    assert session.step() is True
+    session.flush()
+    assert calls(tap) == [("end", 10.0, "")]
+
+
+def test_the_session_starts_at_the_time_given_or_at_the_clock():
+    transport = FakeTransport(now=10.0)
+    given = LiveSession(synthetic_model(), INPUTS, transport, now=3.0)
+    assert dict(given.state.newest) == {"hand": 3.0}  # (no sample yet: since the start)
+    assert dict(LiveSession(synthetic_model(), INPUTS, transport).state.newest) == {"hand": 10.0}
+
+
+def test_connect_looks_as_long_as_it_is_told():
+    transport, stream, session, tap, _ = connected()
+    waits = []
+    transport.find = lambda wait: waits.append(wait) or FakeTransport.find(transport, wait)
+    session.connect(0.25)
+    session.connect()
+    assert waits == [0.25, FIND_WAIT_S]
+
+
+def test_a_started_session_finds_its_stream_and_steps_on_its_own_threads():
+    transport = FakeTransport(now=10.0)
+    stream = transport.add(FakeStream("Hand", ("x", "y", "z")))
+    session = LiveSession(synthetic_model(), INPUTS, transport, LiveOptions(start="call"))
+    stream.push(*moving(10.0, 5))
+    session.start()
+    try:
+        wait_until(lambda: session.snapshot().counts["Hand"][0] == 5, timeout=10.0,
+                   what="the samples read by the session's threads")  # fmt: skip
+    finally:
+        session.close()
 
 
 def test_record_calls_start_and_end_at_the_clock_or_at_the_time_given():
@@ -174,6 +213,7 @@ def test_the_sinks_get_the_record_calls_as_made():
     session.step()
     session.flush()
     assert calls(tap) == [("start", 10.0, ""), ("end", 10.25, "")]
+    assert [o.time for o in tap.outputs if o.arrivals][-2:] == [10.3, 10.4]  # the steps' clock
     [start, end] = [b for o in tap.outputs for b in o.boundaries]
     assert (end.kind, end.time, end.movement.label) == ("end", 10.25, "")
 
@@ -201,6 +241,16 @@ def test_flush_says_a_sink_s_failure_at_its_own_time():
     assert snap.n_events == n + 1 and snap.events[-1].time == transport.now
     said = [e for o in tap.outputs if not o.arrivals for e in o.events]
     assert said == [snap.events[-1]]  # said to the sinks too, before flush returned
+
+
+def test_a_step_says_a_sink_s_failure_at_its_own_time():
+    transport, session, tap, broken, n = failing()
+    broken.go.set()
+    assert session._sinks.flush(10.0)  # delivered (failed), not said yet
+    transport.now += 0.01  # (too soon for the stream to be late)
+    assert session.step() is True  # what changed of the sinks
+    snap = session.snapshot()
+    assert snap.n_events == n + 1 and snap.events[-1].time == transport.now
 
 
 def test_flush_is_false_while_a_sink_has_not_delivered_what_it_said():
