@@ -139,6 +139,24 @@ def test_a_lost_stream_s_inlet_is_closed_and_a_new_stream_is_read():
     assert session.snapshot().counts["Hand"][0] == 3
 
 
+def test_a_step_publishes_what_the_sinks_delivered_since_even_when_idle():
+    reading = []
+    holds = Holds(lambda o: bool(reading))
+    transport, stream, session, tap, _ = connected(sinks=[holds])
+    reading.append(True)
+    stream.push(*moving(10.0, 5))
+    transport.now += 0.05
+    assert session.step()
+    before = session.snapshot()
+    holds.go.set()
+    assert session._sinks.flush(10.0)  # delivered: the snapshot does not show it yet
+    transport.now += 0.01
+    assert session.step() is False  # nothing arrived, nothing happened
+    after = session.snapshot()
+    assert after.version > before.version and after.sinks == session._sinks.states()
+    assert after.sinks[2].delivered == before.sinks[2].delivered + 1
+
+
 def test_a_stream_found_but_not_opened_changes_the_snapshot_s_list():
     transport, stream, session, tap, _ = connected()
     before = session.snapshot()
@@ -179,16 +197,16 @@ class Broken:
         raise OSError("gone")
 
 
-class HoldsNews:
-    """A sink that holds the sinks' news (an output of events alone) until ``go`` is set."""
+class Holds:
+    """A sink that holds each output it reads (``reads(output)``) until ``go`` is set."""
 
-    name, lossless = "holds news", True
+    name, lossless = "holds", True
 
-    def __init__(self) -> None:
-        self.go = threading.Event()
+    def __init__(self, reads) -> None:
+        self.reads, self.go = reads, threading.Event()
 
     def view(self, output):
-        return output if output.events and not output.arrivals else None
+        return output if self.reads(output) else None
 
     def take(self, output):
         self.go.wait()
@@ -239,8 +257,8 @@ def test_flush_says_a_sink_s_failure_at_its_own_time():
     snap = session.snapshot()
     assert snap.sinks[2].failures == 1 and snap.sinks[2].failing
     assert snap.n_events == n + 1 and snap.events[-1].time == transport.now
-    said = [e for o in tap.outputs if not o.arrivals for e in o.events]
-    assert said == [snap.events[-1]]  # said to the sinks too, before flush returned
+    said = [o for o in tap.outputs if not o.arrivals]
+    assert [(o.time, o.events) for o in said] == [(transport.now, (snap.events[-1],))]
 
 
 def test_a_step_says_a_sink_s_failure_at_its_own_time():
@@ -254,7 +272,7 @@ def test_a_step_says_a_sink_s_failure_at_its_own_time():
 
 
 def test_flush_is_false_while_a_sink_has_not_delivered_what_it_said():
-    holds = HoldsNews()
+    holds = Holds(lambda o: o.events and not o.arrivals)  # the sinks' news
     transport, session, tap, broken, _ = failing(holds)
     broken.go.set()
     assert session.flush(timeout=1.0) is False  # the failure's news is held
