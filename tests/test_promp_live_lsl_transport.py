@@ -5,6 +5,7 @@ wait is for a state (the stream listed, the samples arrived), with a generous de
 
 from __future__ import annotations
 
+import inspect
 import socket
 import time
 
@@ -20,11 +21,14 @@ DEADLINE_S = 30.0
 
 
 def info_with(labels=None, units=None, n=3, fmt=None):
-    info = pylsl.StreamInfo("Hand", "Mocap", n, 100.0, fmt or pylsl.cf_double64, "src-1")
+    """An info of ``n`` channels; a label ``"*note"`` is an element among the channels that
+    is not one (another program's)."""
+    fmt = pylsl.cf_double64 if fmt is None else fmt
+    info = pylsl.StreamInfo("Hand", "Mocap", n, 100.0, fmt, "src-1")
     if labels is not None:
         channels = info.desc().append_child("channels")
         for label, unit in zip(labels, units, strict=True):
-            channel = channels.append_child("channel")
+            channel = channels.append_child(label[1:] if label[:1] == "*" else "channel")
             channel.append_child_value("label", label)
             channel.append_child_value("unit", unit)
     return info
@@ -37,6 +41,13 @@ def test_a_description_is_what_the_info_tells():
     assert d.labels == ("x", "y", "z") and d.units == ("mm", "mm", "mm")
     assert lsl.describe(info_with(fmt=pylsl.cf_float32)).format == "float32"
     assert lsl.describe(info_with(fmt=pylsl.cf_string, n=1)).is_markers
+    assert lsl.describe(info_with(fmt=pylsl.cf_undefined)).format == "undefined"
+
+
+def test_only_the_channel_elements_describe_the_channels():
+    labels, units = ("x", "*note", "y", "z"), ("mm", "", "mm", "rad")
+    d = lsl.describe(info_with(labels, units))
+    assert d.labels == ("x", "y", "z") and d.units == ("mm", "mm", "rad")
 
 
 def test_channels_not_all_described_are_unnamed():
@@ -176,6 +187,15 @@ def test_the_first_look_waits_for_the_resolver_s_first_answers():
     assert lsl.local_clock() >= transport._since + 0.3  # (a lower bound: load only adds)
 
 
+def test_a_look_that_may_not_wait_does_not_wait(monkeypatch):
+    slept = []
+    monkeypatch.setattr(lsl.time, "sleep", slept.append)
+    transport = lsl.LslTransport()
+    transport.find(0.0)
+    transport.find(-1.0)
+    assert slept == []
+
+
 def test_a_stream_another_look_found_is_opened_by_its_uid():
     name = f"promp-uid-{time.monotonic_ns()}"
     outlet = lsl.LslOutlet(OutletSpec(name, "Mocap", "promp-test", ("x",), ("m",), rate=100.0))
@@ -183,4 +203,68 @@ def test_a_stream_another_look_found_is_opened_by_its_uid():
     inlet = lsl.LslTransport().open(stream)  # a transport that never looked: resolved by uid
     assert inlet.description.uid == stream.uid
     inlet.close()
+    outlet.close()
+
+
+@pytest.mark.parametrize("fmt", ["int16", "float32"])
+def test_a_stream_s_samples_are_pulled_as_double_whatever_its_format(fmt):
+    name = f"promp-{fmt}-{time.monotonic_ns()}"
+    info = pylsl.StreamInfo(name, "Mocap", 2, 100.0, getattr(pylsl, f"cf_{fmt}"), "promp-test")
+    outlet = pylsl.StreamOutlet(info)  # another program's: any channel format
+    transport = lsl.LslTransport()
+    inlet = transport.open(found(transport, name))
+    assert outlet.wait_for_consumers(DEADLINE_S)
+    outlet.push_chunk([[1, -2], [300, 4]], transport.clock())
+    _, values = pulled(inlet, 2)
+    values = np.asarray(values)  # (the rows of the pulls, gathered)
+    assert values.dtype == np.float64 and values.tolist() == [[1.0, -2.0], [300.0, 4.0]]
+    inlet.close()
+
+
+def test_a_stream_the_transport_found_is_opened_without_asking_the_network_again(monkeypatch):
+    name = f"promp-known-{time.monotonic_ns()}"
+    outlet = lsl.LslOutlet(OutletSpec(name, "Mocap", "promp-test", ("x",), ("m",), rate=100.0))
+    transport = lsl.LslTransport()
+    stream = found(transport, name)
+    asked = []
+    monkeypatch.setattr(lsl.pylsl, "resolve_bypred", lambda *a, **k: asked.append(a) or [])
+    inlet = transport.open(stream)  # from the info of the look, even with the network silent
+    assert inlet.description.uid == stream.uid and asked == []
+    inlet.close()
+    outlet.close()
+
+
+def test_a_stream_not_found_by_a_look_is_asked_for_by_uid_for_a_bounded_time(monkeypatch):
+    asked = []
+
+    def resolve(predicate, minimum=1, timeout=pylsl.FOREVER):  # pylsl's, on a silent network
+        asked.append((predicate, minimum, timeout))
+        return []
+
+    monkeypatch.setattr(lsl.pylsl, "resolve_bypred", resolve)
+    stream = lsl.describe(info_with())  # another transport's look: uid "" here
+    with pytest.raises(StreamLost):
+        lsl.LslTransport().open(stream)
+    # the first answer is enough; no answer in OPEN_TIMEOUT_S: the stream is gone
+    assert asked == [(f"uid='{stream.uid}'", 1, lsl.OPEN_TIMEOUT_S)]
+
+
+def test_a_pull_never_waits_for_lsl():
+    transport, outlet, inlet = opened_pair(f"promp-nowait-{time.monotonic_ns()}")
+    waits = []  # the timeout of each of LSL's calls a pull makes, as pylsl reads it
+
+    def spied(method):
+        def call(*args, **kwargs):
+            bound = inspect.signature(method).bind(*args, **kwargs)
+            bound.apply_defaults()
+            waits.append(bound.arguments["timeout"])
+            return method(*args, **kwargs)
+        return call
+
+    for name in ("time_correction", "pull_chunk"):
+        setattr(inlet._inlet, name, spied(getattr(inlet._inlet, name)))
+    inlet.pull()  # nothing there
+    outlet.push([[1.0], [2.0]], transport.clock())
+    times, _ = pulled(inlet, 2)
+    assert len(times) == 2 and len(waits) >= 4 and set(waits) == {0.0}
     outlet.close()

@@ -1,10 +1,12 @@
 """A live session's threads (promp.live.session.SessionThreads): the loop steps until stopped
 and a failing step is said, not fatal; the resolver looks for the streams again and again, a
-failing look said too; start twice starts once; stop ends both."""
+failing look said too; start twice starts once; stop ends both, and does nothing on
+threads stopped or never started; a failed step's note names the file and line it failed at."""
 
 from __future__ import annotations
 
 import threading
+from pathlib import Path
 
 import pytest
 
@@ -98,3 +100,31 @@ def test_a_step_that_worked_is_followed_by_the_next_at_once(monkeypatch) -> None
     threads.start()
     wait_until(lambda: len(steps) >= 5, timeout=DEADLINE_S, what="the steps that worked")
     threads.stop()
+
+
+def test_stopping_threads_never_started_or_stopped_already_does_nothing() -> None:
+    intake = Intake()
+    threads = SessionThreads(lambda: False, intake)
+    threads.stop()  # never started
+    threads.start()
+    wait_until(lambda: intake.looks, timeout=DEADLINE_S, what="a look")
+    threads.stop()
+    threads.stop()  # stopped already
+    looks = len(intake.looks)
+    threads.start()  # and they start again
+    wait_until(lambda: len(intake.looks) > looks, timeout=DEADLINE_S, what="a look after")
+    threads.stop()
+
+
+def _fails() -> bool:
+    raise KeyError("deep in the step")
+
+
+def test_a_failing_step_s_note_names_where_it_failed() -> None:
+    intake = Intake()
+    threads = SessionThreads(lambda: _fails(), intake)  # raised a call below the step
+    threads.start()
+    wait_until(lambda: intake.notes, timeout=DEADLINE_S, what="the note of a failed step")
+    threads.stop()
+    where = f"{Path(__file__).name}:{_fails.__code__.co_firstlineno + 1}"
+    assert "KeyError" in intake.notes[0] and where in intake.notes[0]
