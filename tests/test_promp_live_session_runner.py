@@ -11,7 +11,7 @@ import numpy as np
 
 from promp.live.options import LiveOptions
 from promp.live.session import FIND_WAIT_S, LiveSession
-from tests.conftest import wait_until
+from tests.conftest import PATIENCE_S, wait_until
 from tests.live_fakes import FakeStream, FakeTransport, Tap, synthetic_model
 
 INPUTS = ["hand=Hand:0,1,2"]
@@ -149,7 +149,7 @@ def test_a_step_publishes_what_the_sinks_delivered_since_even_when_idle():
     assert session.step()
     before = session.snapshot()
     holds.go.set()
-    assert session._sinks.flush(10.0)  # delivered: the snapshot does not show it yet
+    assert session._sinks.flush(PATIENCE_S)  # delivered: the snapshot does not show it yet
     transport.now += 0.01
     assert session.step() is False  # nothing arrived, nothing happened
     after = session.snapshot()
@@ -264,7 +264,7 @@ def test_flush_says_a_sink_s_failure_at_its_own_time():
 def test_a_step_says_a_sink_s_failure_at_its_own_time():
     transport, session, tap, broken, n = failing()
     broken.go.set()
-    assert session._sinks.flush(10.0)  # delivered (failed), not said yet
+    assert session._sinks.flush(PATIENCE_S)  # delivered (failed), not said yet
     transport.now += 0.01  # (too soon for the stream to be late)
     assert session.step() is True  # what changed of the sinks
     snap = session.snapshot()
