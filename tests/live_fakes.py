@@ -430,3 +430,32 @@ def robot_side_code(document: str, test: str, what: str, name: str) -> str:
     code = re.search(mark + r"\n```python\n(.*?)```", text, re.S).group(1)
     assert code.count('NAME = "icub"') == 1
     return code.replace('NAME = "icub"', f"NAME = {name!r}")
+
+
+def one_ulp_changed(source, target) -> None:
+    """A copy at ``target`` of the session file ``source`` (MCAP) with its first recorded
+    prediction's phase moved by one ulp, everything else as recorded."""
+    import json
+
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with open(source, "rb") as read, open(target, "wb") as written:
+        reader = make_reader(read)
+        writer = Writer(written)
+        writer.start(profile="", library="test")
+        schema = writer.register_schema(name="x", encoding="jsonschema", data=b"{}")
+        channels: dict[str, int] = {}
+        for record in reader.iter_metadata():
+            writer.add_metadata(record.name, dict(record.metadata))
+        done = False
+        for _, channel, message in reader.iter_messages():
+            if channel.topic not in channels:
+                channels[channel.topic] = writer.register_channel(channel.topic, "json", schema)
+            data = json.loads(message.data)
+            if channel.topic == "/predictions" and not done:
+                data["phase"][0] = float(np.nextafter(data["phase"][0], 2.0))  # one ulp
+                done = True
+            writer.add_message(channels[channel.topic], message.log_time,
+                               json.dumps(data).encode(), message.publish_time)  # fmt: skip
+        writer.finish()

@@ -32,7 +32,7 @@ from tests.browser import (
     set_camera,
 )
 from tests.conftest import REPO, wait_frames, wait_until
-from tests.live_fakes import hand_model
+from tests.live_fakes import hand_model, one_ulp_changed
 from tests.test_live_streams_in_studio import (
     PAGE,
     STUDIO,
@@ -262,3 +262,24 @@ def test_a_session_recorded_by_the_command_replays_in_the_page_bit_for_bit(
     assert not panel.lsl.controls.movement.visible  # a replay's movements are the recorded
     stopped(page, studio)
     assert cli_session.read_bytes() == kept  # only read
+
+
+def test_a_session_file_whose_prediction_differs_is_said_in_red_with_the_difference(
+    page, studio, cli_session, tmp_path
+) -> None:
+    panel = infer_panel(studio)
+    stopped(page, studio)
+    changed = tmp_path / "changed.mcap"
+    one_ulp_changed(cli_session, changed)  # its first prediction's phase, by one ulp
+    kept = changed.read_bytes()
+    open_replay(page, panel)
+    give_path(page, panel, changed)
+    click(page, "Replay")
+    shown = page.locator('[data-replay="differs"]')
+    shown.wait_for()
+    text = " ".join(shown.inner_text().split())
+    assert text.startswith("Replayed changed.mcap: not the recorded predictions:")
+    assert "phase" in text  # the number that differs is named
+    assert not page.locator('[data-replay="equal"]').count()
+    stopped(page, studio)
+    assert changed.read_bytes() == kept  # only read

@@ -91,32 +91,12 @@ def test_a_replayed_session_gives_every_recorded_prediction_bit_for_bit(recorded
 
 
 def test_a_replay_notices_a_prediction_that_differs(recorded, tmp_path) -> None:
-    from mcap.reader import make_reader
-    from mcap.writer import Writer
-
     from promp.live.session_file import replay_session
+    from tests.live_fakes import one_ulp_changed
 
     folder, model, _ = recorded
     changed = tmp_path / "changed.mcap"
-    with open(folder / "session.mcap", "rb") as source, open(changed, "wb") as target:
-        reader = make_reader(source)
-        writer = Writer(target)
-        writer.start(profile="", library="test")
-        schema = writer.register_schema(name="x", encoding="jsonschema", data=b"{}")
-        channels: dict[str, int] = {}
-        for record in reader.iter_metadata():
-            writer.add_metadata(record.name, dict(record.metadata))
-        done = False
-        for _, channel, message in reader.iter_messages():
-            if channel.topic not in channels:
-                channels[channel.topic] = writer.register_channel(channel.topic, "json", schema)
-            data = json.loads(message.data)
-            if channel.topic == "/predictions" and not done:
-                data["phase"][0] = float(np.nextafter(data["phase"][0], 2.0))  # one ulp
-                done = True
-            writer.add_message(channels[channel.topic], message.log_time,
-                               json.dumps(data).encode(), message.publish_time)  # fmt: skip
-        writer.finish()
+    one_ulp_changed(folder / "session.mcap", changed)
     replayed = replay_session(model, changed)
     assert not replayed.equal and "phase" in replayed.difference
 
