@@ -509,7 +509,9 @@ def test_the_robot_takes_over_a_committed_movement_along_its_predicted_remainder
     assert later.seq > p.seq  # later predictions of the movement came, and changed nothing
     targets = np.array([t for t, _ in commanded])
     reached = np.array([h for _, h in commanded])
-    assert len(commanded) >= 3  # its start, on the way (frames: the load), its end
+    # its start and its end at least (the steps on the way are one a frame: a busy machine
+    # commits late, once at 99 % observed, and a remainder shorter than a frame has none)
+    assert len(commanded) >= 2
     assert_allclose(targets[0], path[0], rtol=0, atol=1e-12)  # first step: onto its start
     assert_allclose(targets[-1], path[-1], rtol=0, atol=1e-12)  # last: its predicted end
     assert distance_to_path(targets, path).max() < 1e-9  # every target on the path

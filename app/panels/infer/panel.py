@@ -28,11 +28,11 @@ of its samples (100 %: all of it, as it happens), taken at most 20 times a secon
 observing.
 
 The LSL source's predictions (30 to 100 a second) are drawn at most every
-:data:`LIVE_SHOW_S`: a newer prediction of the movement drawn waits until then, and the latest
-is always drawn at the first frame past it; a new movement, a commitment or anything else that
-changed is drawn at once. Drawing each one took most of the loop's time and held the
-interpreter's lock from the session's threads (the prediction and the robot's take-over
-waited on it).
+:data:`~app.panels.infer.view_model.LIVE_SHOW_S` (:class:`~app.panels.infer.view_model.Drawn`):
+a newer prediction of the movement drawn waits until then, and the latest is always drawn at
+the first frame past it; a new movement, a commitment or anything else that changed is drawn
+at once. Drawing each one took most of the loop's time and held the interpreter's lock from
+the session's threads (the prediction and the robot's take-over waited on it).
 """
 
 from __future__ import annotations
@@ -65,6 +65,7 @@ from app.panels.infer.replay_section import ReplaySection
 from app.panels.infer.shaping import InferShaping
 from app.panels.infer.takeover_section import TakeOverSection
 from app.panels.infer.view_model import (
+    Drawn,
     InferState,
     InferView,
     ModelChoice,
@@ -112,9 +113,6 @@ def read_state(c: InferControls) -> InferState:
     )  # fmt: skip
 
 
-LIVE_SHOW_S = 0.1  # the LSL source's predictions drawn at most ten times a second
-
-
 class InferPanel:
     """The Infer tab (see the module docstring). Built inside its tab's container."""
 
@@ -123,8 +121,7 @@ class InferPanel:
         self.live = LiveStream()
         self.view: InferView | None = None
         self.steps = StepTimes()
-        self._inputs: ViewInputs | None = None  # what the shown view was computed from
-        self._shown_at = -float("inf")  # when it was (the frame's clock)
+        self._drawn = Drawn()  # what the shown view was computed from, and when
         self._snapshot: Snapshot | None = None  # of the frame being shown (colours)
         self._shown = InferenceShown(None, DEFAULT_COLOR)
         self._pressed: list[str] = []  # live and replay buttons, until the next frame
@@ -171,11 +168,8 @@ class InferPanel:
         inputs = ViewInputs(state, choice.message, snapshot.store.demos,
                             snapshot.store.primitives, choice.model, samples,
                             snapshot.view.via_points)  # fmt: skip
-        if not inputs.same(self._inputs) and not inputs.waits(
-            self._inputs, frame.panel != INFER, self.view
-        ) and not (inputs.newer_prediction(self._inputs)
-                   and frame.now - self._shown_at < LIVE_SHOW_S):  # fmt: skip
-            self._inputs, self._shown_at = inputs, frame.now
+        if self._drawn.redraw(inputs, frame.now, frame.panel != INFER, self.view):
+            self._drawn = Drawn(inputs, frame.now)
             self._show(frame, state, choice, samples)
         self.playback.step()
         self.recognition.show(state.percent)

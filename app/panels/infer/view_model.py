@@ -13,6 +13,7 @@ as it is drawn, shaped by the snapshot's via-points).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Hashable
 from dataclasses import dataclass
 
@@ -24,6 +25,8 @@ from app.live.recognition_curve import CurveRequest
 from app.live.stream import StreamSamples
 from promp.inference import Observation
 from promp.model import ProMPModel
+
+LIVE_SHOW_S = 0.1  # the LSL source's predictions drawn at most ten times a second
 
 
 @dataclass(frozen=True)
@@ -159,6 +162,24 @@ class ViewInputs:
         if not elsewhere or old is None or view is None or self.state != old.state:
             return False
         return self.state.lsl or (self.samples is old.samples and view.result is not None)
+
+
+@dataclass(frozen=True)
+class Drawn:
+    """The inputs of the view the tab shows, and when it was computed (the frame's clock)."""
+
+    inputs: ViewInputs | None = None
+    at: float = -math.inf
+
+    def redraw(self, inputs: ViewInputs, now: float, elsewhere: bool,
+               view: InferView | None) -> bool:  # fmt: skip
+        """Whether the view of ``inputs`` is to be computed at ``now``: they changed, the tab
+        need not wait (:meth:`ViewInputs.waits`), and they are not only a newer prediction of
+        the LSL source less than :data:`LIVE_SHOW_S` after the view shown."""
+        old = self.inputs
+        return not inputs.same(old) and not inputs.waits(old, elsewhere, view) and not (
+            inputs.newer_prediction(old) and now - self.at < LIVE_SHOW_S
+        )  # fmt: skip
 
 
 def choose_model(state: InferState, snapshot: Snapshot, learner: Learner) -> ModelChoice:
