@@ -132,19 +132,18 @@ class ViewInputs:
 
     def same(self, old: ViewInputs | None) -> bool:
         """The view of ``old`` is the view of these inputs."""
+        return self._same_but_samples(old) and self.samples is old.samples
+
+    def _same_but_samples(self, old: ViewInputs | None) -> bool:
         return old is not None and (self.state, self.message) == (old.state, old.message) and (
             self.demos is old.demos and self.primitives is old.primitives
-            and self.model is old.model and self.samples is old.samples
-            and self.via_points is old.via_points
+            and self.model is old.model and self.via_points is old.via_points
         )  # fmt: skip
 
     def newer_prediction(self, old: ViewInputs | None) -> bool:
         """Only the LSL source's prediction changed since ``old``: a newer one of the same
         movement, committed as the older was (or not), from the same model."""
-        if old is None or (self.state, self.message) != (old.state, old.message) or not (
-            self.demos is old.demos and self.primitives is old.primitives
-            and self.model is old.model and self.via_points is old.via_points
-        ):  # fmt: skip
+        if not self._same_but_samples(old):
             return False
         new, shown = self.samples, old.samples
         if not self.state.lsl or new is None or shown is None:
