@@ -268,3 +268,34 @@ def test_a_pull_never_waits_for_lsl():
     times, _ = pulled(inlet, 2)
     assert len(times) == 2 and len(waits) >= 4 and set(waits) == {0.0}
     outlet.close()
+
+
+class _CountingOutlet:
+    """Records what :class:`lsl.LslOutlet` hands to liblsl, call by call."""
+
+    def __init__(self, info, chunk_size=0, max_buffered=360):
+        self.calls = []
+
+    def push_chunk(self, x, timestamp=0.0, pushthrough=True):
+        self.calls.append(("chunk", np.asarray(x).tolist(), list(timestamp), pushthrough))
+
+    def push_sample(self, x, timestamp=0.0, pushthrough=True):
+        self.calls.append(("sample", list(x), timestamp, pushthrough))
+
+
+@pytest.mark.parametrize("fmt, rows, sent", [
+    ("double64", np.arange(100.0).reshape(50, 2), np.arange(100.0).reshape(50, 2).tolist()),
+    ("string", ["start left", 7], [["start left"], ["7"]]),
+])  # fmt: skip
+def test_an_outlet_hands_a_push_to_liblsl_in_one_call_every_row_with_its_stamp(
+    monkeypatch, fmt, rows, sent
+):
+    # each call into liblsl gives up the interpreter's lock; a remainder of 50 rows pushed
+    # row by row waited for it 50 times behind a session thread that was inferring
+    monkeypatch.setattr(lsl.pylsl, "StreamOutlet", _CountingOutlet)
+    labels = ("a", "b") if fmt == "double64" else ("label",)
+    outlet = lsl.LslOutlet(OutletSpec("X", "T", "s", labels, ("",) * len(labels), format=fmt))
+    outlet.push(rows, 12.5)
+    assert outlet._outlet.calls == [("chunk", sent, [12.5] * len(sent), True)]
+    outlet.push(np.zeros((0, 2)) if fmt == "double64" else [], 13.0)  # nothing to push
+    assert len(outlet._outlet.calls) == 1
