@@ -13,11 +13,11 @@ predictor's previous updates did. Measured, median of ``--repeats``:
   path, what every update cost before the sums were kept);
 * ``update_ms``: the same by the movement's evidence extended by the last samples
   (:meth:`promp.evidence.Evidence.extended`);
-* ``statistics_ms``: the part of ``update_ms`` spent in the likelihood's sums (the evidence's
-  ``_sums``: the basis, the correlated-noise whitening, the sums), and ``whiten_rows``: the
-  rows (samples x candidate speeds) whitened in that update, by recognition (the new samples
-  of the candidates kept, every sample of a new candidate) and by the conditioning at the
-  estimated speed (every sample, one candidate).
+* ``statistics_ms``: the part of ``update_ms`` spent in the likelihood's sums
+  (:class:`promp.evidence.sums.ObservationSums`: the basis, the correlated-noise whitening,
+  the sums), and ``whiten_rows``: the rows (samples x candidate speeds) whitened in that
+  update, by recognition (the new samples of the candidates kept, every sample of a new
+  candidate) and by the conditioning at the estimated speed (every sample, one candidate).
 
 Each ``*_ratio`` is the figure at the longest length over the shortest: 1 means the cost
 does not grow with the movement. The updates agree with the dense inference within 1e-9
@@ -41,10 +41,10 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-import promp.evidence.evidence as evidence_module  # noqa: E402
 from promp.datasets import load_records_dataset  # noqa: E402
 from promp.evidence import Evidence  # noqa: E402
 from promp.evidence.pipeline import infer  # noqa: E402
+from promp.evidence.sums import ObservationSums  # noqa: E402
 from promp.inference import Observation  # noqa: E402
 from promp.learn import fit  # noqa: E402
 
@@ -79,8 +79,8 @@ def measure(model, rows: np.ndarray, repeats: int, rate: float) -> dict:
         evidence = evidence.extended(observation(rows, n - step, rate))
         evidence.infer()
         spent, rows_whitened = [0.0], [0]
-        original, row_sums = Evidence._sums, evidence_module.row_sums
-        dense_sums = evidence_module.dense_sums
+        original = ObservationSums.__call__
+        row_sums, dense_sums = ObservationSums.rows, ObservationSums.dense
 
         def timed(*args, original=original, spent=spent):
             began = time.perf_counter()
@@ -99,15 +99,15 @@ def measure(model, rows: np.ndarray, repeats: int, rate: float) -> dict:
             rows_whitened[0] += owner.elapsed.shape[0] * alphas.shape[0]
             return dense_sums(owner, primitive, alphas, durations)
 
-        Evidence._sums = timed
-        evidence_module.row_sums, evidence_module.dense_sums = counted, counted_dense
+        ObservationSums.__call__ = timed
+        ObservationSums.rows, ObservationSums.dense = counted, counted_dense
         try:
             began = time.perf_counter()
             result = evidence.extended(observation(rows, n, rate)).infer()
             update.append(time.perf_counter() - began)
         finally:
-            Evidence._sums = original
-            evidence_module.row_sums, evidence_module.dense_sums = row_sums, dense_sums
+            ObservationSums.__call__ = original
+            ObservationSums.rows, ObservationSums.dense = row_sums, dense_sums
         sums.append(spent[0])
         whitened.append(rows_whitened[0])
         diff = max(diff, float(np.abs(result.probabilities - reference.probabilities).max()))
