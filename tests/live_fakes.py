@@ -14,7 +14,7 @@ from promp.learn import fit
 from promp.live.sinks import CallbackSink, Output
 from promp.live.transport import OutletSpec, StreamDescription, StreamLost
 from promp.model import ProMPModel, Settings
-from tests.conftest import shared_set, uses_shared_data
+from tests.conftest import PATIENCE_S, shared_set, uses_shared_data
 from tests.synthetic import LAYOUT, make_dataset
 
 _UIDS = itertools.count(1)
@@ -402,7 +402,7 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
     try:
         wait_until(lambda: session.snapshot().statuses[0].condition is Condition.OK,
                    timeout=60.0, what="the session to find the replayed stream")  # fmt: skip
-        assert outlet.wait_for_consumers(30.0)
+        assert outlet.wait_for_consumers(PATIENCE_S)
         due = np.arange(table.shape[0]) / rate
         pushes = late_pushes(due, rng) if late else due
         start = pylsl.local_clock() + 0.1

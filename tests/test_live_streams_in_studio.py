@@ -31,7 +31,7 @@ from tests.browser import (
     open_tab,
     screenshot,
 )
-from tests.conftest import REPO, PageSpec, StudioSpec, wait_frames, wait_until
+from tests.conftest import PATIENCE_S, REPO, PageSpec, StudioSpec, wait_frames, wait_until
 from tests.live_fakes import flt_dataset, flt_workspace, held, offset_in
 
 pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
@@ -114,7 +114,7 @@ def read_published(name: str, into: list, stop: threading.Event) -> threading.Ev
     def run() -> None:
         inlets = {}
         for kind in ("timing", "probabilities"):
-            (info,) = pylsl.resolve_byprop("name", f"{name}-{kind}", 1, 60.0)
+            (info,) = pylsl.resolve_byprop("name", f"{name}-{kind}", 1, PATIENCE_S)
             inlets[kind] = pylsl.StreamInlet(info, max_buflen=60, recover=False)
             inlets[kind].open_stream(30.0)
         ready.set()
@@ -206,7 +206,7 @@ def test_a_replayed_demonstration_is_listed_mapped_started_and_predicted_in_the_
     page.get_by_text(f"Publishing {out}-probabilities").wait_for()
     published: list = []
     stop = threading.Event()
-    assert read_published(out, published, stop).wait(60.0)
+    assert read_published(out, published, stop).wait(PATIENCE_S)
     model = studio.live.running.model
     pushed = []
     try:
@@ -412,7 +412,7 @@ def read_events(name: str, into: list, stop: threading.Event) -> threading.Event
     ready = threading.Event()
 
     def run() -> None:
-        (info,) = pylsl.resolve_byprop("name", f"{name}-events", 1, 60.0)
+        (info,) = pylsl.resolve_byprop("name", f"{name}-events", 1, PATIENCE_S)
         inlet = pylsl.StreamInlet(info, max_buflen=60, recover=False)
         inlet.open_stream(30.0)
         ready.set()
@@ -469,7 +469,7 @@ def test_the_robot_takes_over_a_committed_movement_along_its_predicted_remainder
     page.locator('[data-takeover="waiting"]').wait_for()
     events: list = []
     stop = threading.Event()
-    assert read_events(out, events, stop).wait(60.0)
+    assert read_events(out, events, stop).wait(PATIENCE_S)
     commanded: list = []  # (target, hand reached) of every step the arm was commanded
     move = replay.move_hand
 

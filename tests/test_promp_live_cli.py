@@ -17,7 +17,7 @@ import pytest
 from promp.datasets import read_csv_demo
 from promp.io import save_model
 from promp.live.cli import main, parser
-from tests.conftest import REPO
+from tests.conftest import PATIENCE_S, REPO
 from tests.live_fakes import flt_dataset, hand_model, held
 
 pylsl = pytest.importorskip("pylsl")
@@ -97,11 +97,11 @@ def test_the_command_predicts_publishes_records_and_stops_cleanly(tmp_path) -> N
     process = subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE, text=True,
                                env={**os.environ, "PYTHONPATH": str(REPO)})  # fmt: skip
     try:
-        found = pylsl.resolve_byprop("name", f"{out}-timing", 1, 60.0)
+        found = pylsl.resolve_byprop("name", f"{out}-timing", 1, PATIENCE_S)
         assert found, "the command's outlets did not appear"
         timing = pylsl.StreamInlet(found[0])
-        timing.open_stream(30.0)
-        assert outlet.wait_for_consumers(30.0)
+        timing.open_stream(PATIENCE_S)
+        assert outlet.wait_for_consumers(PATIENCE_S)
         demo = held(flt_dataset()["front"][0], 0.6, 0.9)
         values = demo.select(["x", "y", "z"]) * 1000.0
         stamps = pylsl.local_clock() + 0.05 + demo.times

@@ -19,7 +19,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from promp.evidence.pipeline import infer
 from promp.inference import Observation
 from promp.live.status import Condition
-from tests.conftest import REPO, wait_until
+from tests.conftest import PATIENCE_S, REPO, wait_until
 from tests.live_fakes import flt_dataset, hand_model, held, robot_side_code
 
 pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
@@ -55,8 +55,8 @@ def test_a_replayed_demonstration_is_predicted_live_and_published(speed) -> None
     try:
         wait_until(lambda: session.snapshot().statuses[0].condition is Condition.OK,
                    what="the session to find the replayed stream")  # fmt: skip
-        assert outlets.wait_for_readers(30.0, ("probabilities", "remainder"))
-        assert outlet.wait_for_consumers(30.0)
+        assert outlets.wait_for_readers(PATIENCE_S, ("probabilities", "remainder"))
+        assert outlet.wait_for_consumers(PATIENCE_S)
         values_mm = demo.select(["x", "y", "z"]) * 1000.0
         start = pylsl.local_clock() + 0.05
         stamps = start + demo.times / speed  # faster: the partner moves 2.5 times as fast

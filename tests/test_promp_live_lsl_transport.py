@@ -13,11 +13,12 @@ import numpy as np
 import pytest
 
 from promp.live.transport import OutletSpec, StreamLost
+from tests.conftest import PATIENCE_S
 
 pylsl = pytest.importorskip("pylsl")
 lsl = pytest.importorskip("promp.live.lsl")
 
-DEADLINE_S = 30.0
+DEADLINE_S = PATIENCE_S  # a real stream's discovery on a loaded machine
 
 
 def info_with(labels=None, units=None, n=3, fmt=None):

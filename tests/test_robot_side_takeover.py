@@ -19,7 +19,7 @@ from numpy.testing import assert_array_equal
 
 from promp.decision import CommitRule
 from promp.live.status import Condition
-from tests.conftest import REPO, wait_until
+from tests.conftest import PATIENCE_S, REPO, wait_until
 from tests.live_fakes import flt_dataset, hand_model, held, robot_side_code
 
 pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
@@ -62,7 +62,7 @@ def test_the_robot_side_controller_follows_the_committed_remainder_once() -> Non
         wait_until(lambda: session.snapshot().statuses[0].condition is Condition.OK,
                    what="the session to find the replayed stream")  # fmt: skip
         assert outlets.wait_for_readers(60.0, ("timing", "remainder"))
-        assert outlet.wait_for_consumers(30.0)
+        assert outlet.wait_for_consumers(PATIENCE_S)
         values_mm = demo.select(["x", "y", "z"]) * 1000.0
         stamps = pylsl.local_clock() + 0.05 + demo.times
         push_when_due(outlet, values_mm, stamps, stamps)

@@ -19,7 +19,7 @@ from app.io.workspace import Workspace, WorkspaceData
 from app.io.workspace_index import PrimitiveEntry
 from app.studio import default_workspace
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT
-from tests.conftest import FITS, wait_until
+from tests.conftest import FITS, PATIENCE_S, wait_until
 
 COLUMNS = LAYOUT.columns
 
@@ -373,7 +373,7 @@ def test_refits_run_in_the_background_and_only_the_latest_is_adopted(session, mo
     monkeypatch.setattr(fits, "fit", gated)
     before, adopted = model(session), session.learner.state.request
     session.store.set_learning(8, 1.0)
-    assert started.wait(60), "the refit did not start"
+    assert started.wait(PATIENCE_S), "the refit did not start"
     assert model(session) is before and session.snapshot().refitting  # the previous meanwhile
     session.store.set_learning(9, 1.0)  # supersedes the refit in flight
     release.set()
@@ -406,7 +406,7 @@ def test_a_held_out_model_is_fitted_with_the_settings_its_refit_resolved(session
 
     monkeypatch.setattr(fits, "fit", gated)
     store.set_learning(9, 1.2)
-    assert started.wait(60), "the refit did not start"
+    assert started.wait(PATIENCE_S), "the refit did not start"
     snapshot = session.snapshot()
     assert snapshot.refitting and snapshot.learner.settings is resolved
     assert snapshot.resolved_settings().n_basis == 9  # the store's, while the refit runs
