@@ -35,13 +35,17 @@ lint: $(VENV)/.test-installed
 
 # Two workers (this machine's two cores), a test file each at a time: a file's studio and
 # page stay in one worker. Most of a browser test is waiting on the page, so the two overlap.
+# A worker that dies (killed, or a crash in a library) ends the run at once, naming its test:
+# pytest-xdist 3.8 replaces it but, with --dist loadfile, can then wait forever for work it
+# never hands out (pytest-dev/pytest-xdist#1378; seen here on 2026-11-29, a run hung 20 min).
+XDIST = -n 2 --dist loadfile --max-worker-restart=0
 test: lint
-	$(PY) -m pytest -n 2 --dist loadfile
+	$(PY) -m pytest $(XDIST)
 
 # The same without the tests marked `slow` (property tests over many inputs, the accuracy
 # check on the heights recordings): a quick check while working; `make test` runs them all.
 test-fast: lint
-	$(PY) -m pytest -n 2 --dist loadfile -m "not slow"
+	$(PY) -m pytest $(XDIST) -m "not slow"
 
 clean:
 	rm -rf $(VENV) artifacts .pytest_cache .ruff_cache
