@@ -267,3 +267,42 @@ def test_the_remainder_of_a_modality_not_observed_at_its_rate() -> None:
         assert_array_equal(r.mean, mean[:, 3:6])
         assert_array_equal(r.std, std[:, 3:6])
     assert r.after.size < 5  # the whole movement seen: its end is near
+
+
+def test_a_movement_s_updates_extend_one_evidence_and_a_new_movement_begins_another(
+        monkeypatch) -> None:  # fmt: skip
+    """The cost: each update of a movement extends the evidence of its earlier rows (built
+    again, the numbers are the same: only the count of evidences built tells)."""
+    import promp.live.predictor
+    from promp.live.predictor import OnlinePredictor
+
+    built = []
+
+    class Counted(promp.live.predictor.Evidence):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            built.append(self)
+
+    monkeypatch.setattr(promp.live.predictor, "Evidence", Counted)
+    model, demo = synthetic_model()
+    p = OnlinePredictor(model, {"hand": slice(0, 3), "head": slice(3, 6)})
+    for n in (10, 14, 18):
+        p.predict(1, demo.times[:n], demo.values[:n])
+    assert len(built) == 1
+    p.predict(2, demo.times[20:30], demo.values[20:30])
+    p.predict(2, demo.times[20:34], demo.values[20:34])
+    assert len(built) == 2
+
+
+def test_a_remainder_whose_end_falls_on_a_step_ends_once() -> None:
+    from types import SimpleNamespace as Of
+
+    from promp.live.predictor import OnlinePredictor
+
+    model, demo = synthetic_model()
+    p = OnlinePredictor(model, {"hand": slice(0, 3)}, remainder="hand", rate=20.0)
+    real = p.predict(1, demo.times[:15], demo.values[:15, :3]).inference
+    inference = Of(observed_until=0.5, duration=1.5, posterior=real.posterior, alpha=real.alpha)
+    r = p._remainder(inference)
+    assert_allclose(r.after, np.arange(1, 21) / 20.0)  # the end (1 s left) once, last
+    assert r.after[-1] == 1.0 and r.after.size == 20
