@@ -315,8 +315,12 @@ def test_two_outputs_folded_keep_everything_in_order_and_the_later_state() -> No
 
     first = Output(1.0, (LiveEvent(1.0, "a"),), ("b1",), ("p1", "p2"),
                    Movement(1, "", np.zeros(2), np.zeros((2, 3))))  # fmt: skip
-    later = Output(2.5, (LiveEvent(2.0, "b", "decision"),), ("b2",), ("p3",), None)
+    later = Output(2.5, (LiveEvent(2.0, "b", "decision"),), ("b2",), ("p3",), None,
+                   ("a2", "a3"))  # fmt: skip
+    first = Output(first.time, first.events, first.boundaries, first.predictions,
+                   first.movement, ("a1",))  # fmt: skip
     both = first.then(later)
+    assert both.arrivals == ("a1", "a2", "a3")
     assert both.time == 2.5 and both.movement is None
     assert [e.time for e in both.events] == [1.0, 2.0] and both.events[1].kind == "decision"
     assert both.boundaries == ("b1", "b2") and both.predictions == ("p1", "p2", "p3")
@@ -485,7 +489,7 @@ def test_the_sinks_say_each_change_once_and_close_every_sink() -> None:
     news = sinks.news(10.0, sinks.states())
     assert len(news) == 1 and "'b'" in news[0].text
     problems = sinks.close()
-    assert len(problems) == 1 and "'c'" in problems[0]
+    assert len(problems) == 1 and "'c'" in problems[0] and "OSError: no" in problems[0]
     assert (a.closed, b.closed) == (1, 1)
 
 
