@@ -153,6 +153,7 @@ def test_releasing_a_movement_removes_its_journal_and_leaves_the_one_under_way(t
     assert read_journal(journal)[0].n_samples == 30
     recorder.release(1)
     assert not journal.exists() and list(tmp_path.iterdir()) == []
+    assert recorder.acknowledged == 0  # its journal closed
     assert recorder.append(Movement(2, "", TIMES[:4], VALUES[:4])) == 4  # a new journal
 
 
@@ -199,6 +200,8 @@ def test_finishing_a_movement_too_short_or_kept_in_its_journal(tmp_path) -> None
     assert recorder.journal_path(2).exists()
     assert recorder.finish(Movement(2, "", TIMES[:1], VALUES[:1])) is None
     assert list((tmp_path / "j").iterdir()) == []  # one row: its journal removed
+    two = recorder.finish(Movement(6, "", TIMES[:2], VALUES[:2]))  # two rows: a demonstration
+    assert two.demo.n_samples == 2 and two.journal.exists()
     kept = recorder.finish(Movement(3, "", TIMES[5:9], VALUES[5:9]))  # no path, no output
     assert (kept.number, kept.label, kept.path) == (3, "", None)
     assert kept.journal == recorder.journal_path(3) and kept.journal.exists()
