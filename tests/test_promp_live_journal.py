@@ -42,6 +42,7 @@ class Disk:
         os.ftruncate(fd, size)
 
     def fsync(self, fd: int) -> None:
+        os.fstat(fd)  # an open file's descriptor
         self.synced.append(fd)
 
     def monotonic(self) -> float:
@@ -136,14 +137,17 @@ def test_a_journal_holds_its_header_and_rows_from_its_start(tmp_path) -> None:
     values = np.array([[1, 2], [3, 4], [5, 6]])  # integers: written as numbers
     assert journal.append([10.0, 10.25, 10.5], values) == 3
     assert journal.append([11.0 + 1e-13], [[0.1, 1 / 3]]) == 4
-    assert journal.acknowledged == 4
+    assert path.read_text().splitlines()[-1].endswith(",0.10000000000000001,0.33333333333333331")
+    assert journal.append([12.0], [[1e-7, -2.5e11]]) == 5
+    assert path.read_text().splitlines()[-1] == "2,9.9999999999999995e-08,-250000000000"
+    assert journal.acknowledged == 5
     journal.close()
     with pytest.raises(ValueError):
         journal.append([12.0], [[0.0, 0.0]])
     demo, read = read_journal(path)
     assert read == header and demo.name == "take-3" and demo.columns == ("x", "y")
-    assert_array_equal(demo.times, np.array([10.0, 10.25, 10.5, 11.0 + 1e-13]) - 10.0)
-    assert_array_equal(demo.values, [[1, 2], [3, 4], [5, 6], [0.1, 1 / 3]])
+    assert_array_equal(demo.times, np.array([10.0, 10.25, 10.5, 11.0 + 1e-13, 12.0]) - 10.0)
+    assert_array_equal(demo.values, [[1, 2], [3, 4], [5, 6], [0.1, 1 / 3], [1e-7, -2.5e11]])
     assert path.read_text().splitlines()[2] == "0,1,2"
 
 

@@ -159,6 +159,7 @@ def test_each_prediction_and_event_is_pushed_to_its_outlet_at_its_stamp() -> Non
     assert [s for _, s in pushed["robot-probabilities"]] == [101.25, 101.25]
     assert_array_equal(pushed["robot-probabilities"][0][0], [probabilities_row(Prediction())])
     assert_array_equal(pushed["robot-timing"][1][0], [timing_row(Prediction())])
+    assert [s for _, s in pushed["robot-timing"]] == [101.25, 101.25]
     ((rows, stamp),) = pushed["robot-remainder"]  # only the prediction with a remainder
     assert stamp == 101.25 and rows.shape == (2, 11)
     part = events.view(output)
