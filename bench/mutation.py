@@ -95,6 +95,15 @@ PYTEST_ARGS = ["--hypothesis-profile=mutation", "-p", "mutation_select"]
 # test, through a session: its mutants run the tests written for it, not all (a survivor of
 # `step` ran 134 tests, over a minute under load, for each mutant).
 MODULE_TESTS = {
+    # the sinks, recorder, journal, outlets and predictor: reached by every session's test too
+    "promp.live.sinks": ["tests/test_promp_live_sinks.py",
+                         "tests/test_promp_live_session_runner.py"],
+    "promp.live.recorder": ["tests/test_promp_live_recorder.py", "tests/test_promp_live_sinks.py"],
+    "promp.live.journal": ["tests/test_promp_live_journal.py", "tests/test_promp_live_recorder.py",
+                           "tests/test_promp_live_sinks.py"],
+    "promp.live.outlets": ["tests/test_promp_live_outlets.py", "tests/test_promp_live_sinks.py"],
+    "promp.live.predictor": ["tests/test_promp_live_predictor.py",
+                             "tests/test_promp_live_pipeline.py"],
     "promp.live.pipeline": ["tests/test_promp_live_pipeline.py",
                             "tests/test_promp_live_session_machine.py",
                             "tests/test_promp_live_faults.py",

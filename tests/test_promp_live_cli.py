@@ -4,12 +4,14 @@ published, recorded, and Ctrl-C ending it cleanly with its counts."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import re
 import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -133,12 +135,57 @@ def test_the_command_predicts_publishes_records_and_stops_cleanly(tmp_path) -> N
     assert list((tmp_path / "takes" / ".journals").glob("*")) == []
 
 
+class Flushed(io.StringIO):
+    """The command's stdout or stderr: notes each write and each flush (None)."""
+
+    def __init__(self):
+        super().__init__()
+        self.calls: list = []
+
+    def write(self, text: str) -> int:
+        self.calls.append(text)
+        return super().write(text)
+
+    def flush(self) -> None:
+        self.calls.append(None)
+
+    def lines(self) -> list[str]:
+        """The lines written, each checked to have been flushed as it ended."""
+        ends = [i for i, c in enumerate(self.calls) if c is not None and c.endswith("\n")]
+        assert all(i + 1 < len(self.calls) and self.calls[i + 1] is None for i in ends), \
+            "a line was not flushed as it was printed"  # fmt: skip
+        return self.getvalue().strip().splitlines()
+
+
+class FakeTime:
+    """The command's ``time``: ``monotonic`` a clock only ``sleep`` advances (by the seconds
+    asked and a little more, so that no sum of them is round), a real sleep of 1 ms so that
+    the session's threads run; the rest is the real module's."""
+
+    def __init__(self):
+        self.now = 5000.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds + 0.000123
+        time.sleep(0.001)
+
+    def __getattr__(self, name):
+        return getattr(time, name)
+
+
 def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monkeypatch,
                                                                   capsys) -> None:  # fmt: skip
     """The command itself (its waits, its report, its summary) over the fake network: a
-    movement between the markers ``start right`` and ``end right``, then Ctrl-C."""
+    movement between the markers ``start right`` and ``end right``, then Ctrl-C. The command's
+    clock is a fake one: each status line's rate is the predictions since the last over the
+    seconds since, and the summary's seconds those of that clock."""
     import threading
 
+    import promp.live.cli
+    import promp.live.session
     from promp.live import lsl
     from tests.conftest import wait_until
     from tests.live_fakes import FakeStream, FakeTransport, synthetic_model
@@ -169,19 +216,40 @@ def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monk
 
     from promp.live import status_line as status_line_module
 
+    clock = FakeTime()
+    monkeypatch.setattr(promp.live.cli, "time", clock)
+    made = []
+
+    class Kept(promp.live.session.LiveSession):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(promp.live.session, "LiveSession", Kept)
     lines_made: list = []  # the command's status lines: its report loop is running
+    rates: list = []  # each line's (predictions, rate, the command's clock)
     real_line = status_line_module.status_line
-    monkeypatch.setattr(status_line_module, "status_line",
-                        lambda snap, rate: lines_made.append(snap) or real_line(snap, rate))
+
+    def line(snap, rate):
+        lines_made.append(snap)
+        rates.append((snap.predictions, rate, clock.now))
+        return real_line(snap, rate)
+
+    monkeypatch.setattr(status_line_module, "status_line", line)
 
     def feed() -> None:
         wait_until(lambda: lines_made, what="the command's first status line")
         assert len(transport.opened) == 2
         times = transport.now + 0.1 + demo.times - demo.times[0]
         rest = times[-1] + 0.02 * np.arange(1, 26)  # half a second still after the end
+        half = times.size // 2  # two bursts: two predictions at least
+        transport.now = times[half] + 0.01
+        cue.push([times[0]], ["start right"])
+        hand.push(times[:half], values[:half])
+        wait_until(lambda: made[0].snapshot().predictions, what="a prediction of the start")
         transport.now = rest[-1] + 0.01
-        cue.push([times[0]], ["start right"])  # one burst: a movement and its markers
-        hand.push(np.concatenate([times, rest]), np.vstack([values] + [values[-1:]] * 25))
+        hand.push(np.concatenate([times[half:], rest]),
+                  np.vstack([values[half:]] + [values[-1:]] * 25))  # fmt: skip
         cue.push([times[-1]], ["end right"])
         wait_until(lambda: list(record.glob("right/*.csv")), what="the recorded movement")
         seen = len(lines_made)
@@ -193,6 +261,9 @@ def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monk
     running = [True]
     feeder = threading.Thread(target=feed, daemon=True)
     feeder.start()
+    out = Flushed()
+    monkeypatch.setattr(sys, "stdout", out)
+    began = clock.now
     try:
         code = main(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
                      "--out", "robot", "--start", "marker", "--markers", "Cues",
@@ -203,13 +274,25 @@ def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monk
         signal.signal(signal.SIGTERM, handlers[1])
     feeder.join(timeout=60.0)
     assert code == 0
-    lines = capsys.readouterr().out.strip().splitlines()
+    lines = out.lines()
     summary = json.loads(lines[-1])
+    # the status lines: a rate of the predictions since the last line (0 when none)
+    last_count, last_time = 0, began
+    for count, rate, now in rates:
+        assert now - last_time >= 0.05 and rate == (count - last_count) / (now - last_time)
+        last_count, last_time = count, now
+    assert any(r > 0 for _, r, _ in rates) and any(r == 0 for _, r, _ in rates)
+    assert 0 < summary["seconds"] == round(summary["seconds"], 3) <= round(clock.now - began, 3)
+    assert summary["seconds"] >= rates[-1][2] - rates[0][2]
+    ms = np.array(made[0].compute_s) * 1000.0
+    assert ms.size == summary["predictions"] >= 2
+    assert summary["infer_ms_p50"] == round(float(np.percentile(ms, 50)), 2)
+    assert summary["infer_ms_p99"] == round(float(np.percentile(ms, 99)), 2)
     assert summary["movements"] == 1
     assert summary["received"]["Hand"] == demo.n_samples + 25
     assert summary["left_out"]["Hand"] == 0
     pushed = transport.outlets["robot-probabilities"].pushed
-    assert summary["predictions"] == len(pushed) >= 1  # one burst: at least one prediction
+    assert summary["predictions"] == len(pushed) >= 2
     assert 0 < summary["infer_ms_p50"] <= summary["infer_ms_p99"]
     assert sum(line.startswith("found ") for line in lines) == 2
     assert sum("predictions/s" in line for line in lines) == len(lines_made)
@@ -269,3 +352,121 @@ def test_the_options_parse_to_their_types_and_defaults_and_three_are_required(ca
     for bad in (["--start", "call"], ["--alpha-method", "mean"], ["--rate", "fast"]):
         with pytest.raises(SystemExit):
             parser().parse_args(needed + bad)
+
+
+class Command:
+    """``main`` in this process over the fake network ``transport``, its clock a fake one,
+    each session it makes kept, ended (as by Ctrl-C) at its ``stop_after``-th status line."""
+
+    def __init__(self, monkeypatch, transport, stop_after: int = 1):
+        import promp.live.cli
+        import promp.live.session
+        from promp.live import lsl
+        from promp.live import status_line as status_line_module
+
+        self.made, self.rates, self.clock = [], [], FakeTime()
+        monkeypatch.setattr(lsl, "LslTransport", lambda: transport)
+        monkeypatch.setattr(promp.live.cli, "time", self.clock)
+        made = self.made
+
+        class Kept(promp.live.session.LiveSession):
+            def __init__(self, *args, **kwargs):
+                super().__init__(*args, **kwargs)
+                made.append((args, kwargs, self))
+
+        monkeypatch.setattr(promp.live.session, "LiveSession", Kept)
+
+        def line(snap, rate):
+            self.rates.append(rate)
+            if len(self.rates) >= stop_after:
+                raise KeyboardInterrupt
+            return "a status line"
+
+        monkeypatch.setattr(status_line_module, "status_line", line)
+        self.out, self.err = Flushed(), Flushed()
+        monkeypatch.setattr(sys, "stdout", self.out)
+        monkeypatch.setattr(sys, "stderr", self.err)
+
+    def __call__(self, argv: list[str]) -> int:
+        handlers = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+        try:
+            code = main(argv)
+            self.handlers = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+        finally:
+            signal.signal(signal.SIGINT, handlers[0])
+            signal.signal(signal.SIGTERM, handlers[1])
+        return code
+
+
+def test_the_command_gives_its_options_to_the_session_and_sums_up_a_quiet_run(
+        tmp_path, monkeypatch) -> None:  # fmt: skip
+    """Every option reaches the session (the outlets, the recorder, the commit rule, the LSL
+    configuration, the session file's start); a run that saw no movement sums up to nothing."""
+    import promp.live.cli
+    from promp.decision import CommitRule
+    from promp.live.options import LiveOptions
+    from promp.live.session_file import read_session
+    from tests.live_fakes import FakeStream, FakeTransport, synthetic_model
+
+    class Ticking(FakeTransport):
+        def clock(self) -> float:  # every reading a later time: which one was used shows
+            self.now += 0.001
+            return self.now
+
+    transport = Ticking()
+    transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
+    save_model(tmp_path / "model.json", synthetic_model())
+    config = tmp_path / "lsl.cfg"
+    config.write_text("[ports]\n")
+    monkeypatch.setenv("LSLAPICFG", "unchanged")
+    command = Command(monkeypatch, transport, stop_after=3)
+    code = command(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                    "--out", "robot", "--remainder", "head", "--rate", "25", "--time-base",
+                    "100", "--max-movement", "4", "--decide", "--decide-threshold", "0.8",
+                    "--decide-window", "0.2", "--alpha-method", "model", "--record",
+                    str(tmp_path / "takes"), "--lsl-config", str(config), "--wait", "600",
+                    "--status-every", "0.01", "--session", str(tmp_path / "s.mcap")])
+    assert code == 0
+    assert command.handlers == (promp.live.cli._interrupt, promp.live.cli._interrupt)
+    assert os.environ["LSLAPICFG"] == str(config.resolve())
+    ((args, kwargs, session),) = command.made
+    assert args[3] == LiveOptions(start="still", markers="", alpha_method="model",
+                                  remainder="head", remainder_rate=25.0, rate=100.0,
+                                  max_movement_s=4.0, decide=CommitRule(0.8, 0.2))  # fmt: skip
+    assert sorted(transport.outlets) == ["robot-events", "robot-probabilities",
+                                         "robot-remainder", "robot-timing"]  # fmt: skip
+    recorder = kwargs["recorder"]
+    assert recorder.folder == tmp_path / "takes" / ".journals"
+    assert re.fullmatch(r"live-\d{8}-\d{6}", recorder.prefix)
+    header = read_session(tmp_path / "s.mcap").header
+    assert header["start"] == session.state.newest["hand"]  # the session's own start
+    assert command.rates == [0.0, 0.0, 0.0]
+    summary = json.loads(command.out.lines()[-1])
+    assert summary["movements"] == summary["predictions"] == 0
+    assert summary["received"] == summary["left_out"] == {"Hand": 0}
+    assert "infer_ms_p50" not in summary and 0 < summary["seconds"] < 1.0
+    with pytest.raises(KeyboardInterrupt):
+        promp.live.cli._interrupt(signal.SIGTERM, None)
+
+
+def test_the_command_names_the_streams_it_could_not_find_and_closes_its_session(
+        tmp_path, monkeypatch) -> None:  # fmt: skip
+    from tests.live_fakes import FakeStream, FakeTransport, synthetic_model
+
+    transport = FakeTransport()
+    others = [transport.add(FakeStream(n, ("a", "b", "c"), rate=50.0)) for n in ("Eyes", "Gaze")]
+    save_model(tmp_path / "model.json", synthetic_model())
+    command = Command(monkeypatch, transport)
+    code = command(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                    "--in", "head=Tracker:0,1,2", "--out", "robot", "--wait", "2"])
+    assert code == 2 and command.rates == []
+    err = " ".join(command.err.lines())
+    for name in ("Hand", "Tracker", *(s.description.summary() for s in others)):
+        assert name in err
+    assert command.clock.now >= 5002.0  # it waited --wait seconds on its clock
+    ((_, _, session),) = command.made
+    assert not any(t.is_alive() for t in session._threads._threads)  # closed
+    none_found = Command(monkeypatch, FakeTransport())
+    assert none_found(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                       "--out", "robot", "--wait", "0"]) == 2
+    assert "Hand" in " ".join(none_found.err.lines())

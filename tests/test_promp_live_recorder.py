@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -152,4 +153,94 @@ def test_releasing_a_movement_removes_its_journal_and_leaves_the_one_under_way(t
     assert read_journal(journal)[0].n_samples == 30
     recorder.release(1)
     assert not journal.exists() and list(tmp_path.iterdir()) == []
+    assert recorder.acknowledged == 0  # its journal closed
     assert recorder.append(Movement(2, "", TIMES[:4], VALUES[:4])) == 4  # a new journal
+
+
+def test_a_recorder_s_prefix_names_and_its_folders() -> None:
+    for bad in ("", "a" * 41, "two words", "take/1", "täke"):
+        with pytest.raises(ValueError):
+            Recorder("j", ("x",), bad)
+    recorder = Recorder("j", ["x", "y"], "a_B-9" + "c" * 35, output="out")
+    assert recorder.columns == ("x", "y") and recorder.output == Path("out")
+    assert recorder.folder == Path("j") and Recorder("j", ("x",)).output is None
+    plain = Recorder("j", ("x",))
+    assert plain.prefix == "live" and plain.acknowledged == 0
+    assert (plain.name_of(7), plain.name_of(1234)) == ("live-007", "live-1234")
+    assert plain.journal_path(7) == Path("j") / "live-007.journal"
+
+
+def test_each_movement_has_a_journal_of_its_own_never_over_a_file(tmp_path) -> None:
+    recorder = Recorder(tmp_path, ("x", "y", "z"), "t")
+    assert recorder.append(Movement(1, "", TIMES[:0], VALUES[:0])) == 0
+    assert list(tmp_path.iterdir()) == []  # no rows: no journal
+    for name in ("t-001.journal", "t-001-1.journal"):
+        (tmp_path / name).write_text("another's")
+    assert recorder.append(Movement(1, "top", TIMES[:6], VALUES[:6])) == 6
+    first = recorder.journal_path(1)
+    assert first.name == "t-001-2.journal" and recorder.acknowledged == 6
+    assert recorder.append(Movement(1, "top", TIMES[:9], VALUES[:9])) == 9  # the new rows
+    assert recorder.append(Movement(2, "left", TIMES[9:12], VALUES[9:12])) == 3
+    assert recorder.journal_path(2).name == "t-002.journal"  # the stamp was movement 1's
+    demo, header = read_journal(first)  # closed when movement 2 began: whole
+    assert demo.n_samples == 9 and header["label"] == "top" and header["start"] == TIMES[0]
+    assert demo.name == "t-001" and demo.columns == ("x", "y", "z")
+    recorder.close()
+    recorder.close()
+    demo, header = read_journal(tmp_path / "t-002.journal")
+    assert demo.n_samples == 3 and header["label"] == "left" and header["start"] == TIMES[9]
+    assert recorder.acknowledged == 0
+    assert (tmp_path / "t-001.journal").read_text() == "another's"
+
+
+def test_finishing_a_movement_too_short_or_kept_in_its_journal(tmp_path) -> None:
+    recorder = Recorder(tmp_path / "j", ("x", "y", "z"))
+    assert recorder.finish(Movement(1, "", TIMES[:0], VALUES[:0])) is None
+    recorder.append(Movement(2, "", TIMES[:1], VALUES[:1]))
+    assert recorder.journal_path(2).exists()
+    assert recorder.finish(Movement(2, "", TIMES[:1], VALUES[:1])) is None
+    assert list((tmp_path / "j").iterdir()) == []  # one row: its journal removed
+    two = recorder.finish(Movement(6, "", TIMES[:2], VALUES[:2]))  # two rows: a demonstration
+    assert two.demo.n_samples == 2 and two.journal.exists()
+    kept = recorder.finish(Movement(3, "", TIMES[5:9], VALUES[5:9]))  # no path, no output
+    assert (kept.number, kept.label, kept.path) == (3, "", None)
+    assert kept.journal == recorder.journal_path(3) and kept.journal.exists()
+    assert kept.demo.name == "live-003" and kept.demo.columns == ("x", "y", "z")
+    assert_array_equal(kept.demo.times, TIMES[5:9] - TIMES[5])
+    assert_array_equal(kept.demo.values, VALUES[5:9])
+    assert read_journal(kept.journal)[0].n_samples == 4  # closed: whole
+    unlabelled = Recorder(tmp_path / "j", ("x", "y", "z"), output=str(tmp_path / "out"))
+    done = unlabelled.finish(Movement(4, "", TIMES[:3], VALUES[:3]))
+    assert done.path == tmp_path / "out" / "live" / "live-004.csv" and done.path.exists()
+    assert done.journal is None and not unlabelled.journal_path(4).exists()
+    given = unlabelled.finish(Movement(5, "top", TIMES[:3], VALUES[:3]), str(tmp_path / "g.csv"))
+    assert given.path == tmp_path / "g.csv" and given.path.exists()
+    assert not (tmp_path / "out" / "top").exists()
+
+
+def test_the_recorder_sink_finishes_each_ended_movement_then_journals_the_one_going_on(
+        tmp_path) -> None:  # fmt: skip
+    from promp.live.recorder import RecorderSink
+    from promp.live.segmenter import Boundary
+    from promp.live.sinks import Output
+
+    recorder = Recorder(tmp_path, ("x", "y", "z"))
+    sink = RecorderSink(recorder)
+    assert sink.name == "recorder" and sink.lossless
+    assert sink.view(Output(1.0, boundaries=(Boundary("start", 1, 1.0),))) is None
+    going = Movement(3, "", TIMES[:5], VALUES[:5])
+    ended = [Movement(1, "a", TIMES[:4], VALUES[:4]), Movement(2, "", TIMES[:1], VALUES[:1])]
+    ends = (Boundary("start", 3, 2.0),
+            *(Boundary("end", m.number, 2.0, "ended", m) for m in ended))  # fmt: skip
+    part = sink.view(Output(2.0, events=("e",), boundaries=ends, predictions=("p",),
+                            movement=going))  # fmt: skip
+    assert (part.time, part.boundaries, part.movement) == (2.0, ends[1:], going)
+    assert part.events == () and part.predictions == ()
+    only = sink.view(Output(3.0, boundaries=ends[1:]))
+    assert only.movement is None and only.boundaries == ends[1:]
+    kept = sink.take(part)
+    assert [r.number for r in kept] == [1]  # movement 2, one row: nothing to keep
+    assert recorder.acknowledged == 5 and recorder.journal_path(3).exists()
+    sink.close()
+    assert recorder.acknowledged == 0 and read_journal(recorder.journal_path(3))[0].n_samples == 5
+    assert sink.take(Output(4.0)) == []

@@ -315,9 +315,230 @@ def test_two_outputs_folded_keep_everything_in_order_and_the_later_state() -> No
 
     first = Output(1.0, (LiveEvent(1.0, "a"),), ("b1",), ("p1", "p2"),
                    Movement(1, "", np.zeros(2), np.zeros((2, 3))))  # fmt: skip
-    later = Output(2.5, (LiveEvent(2.0, "b", "decision"),), ("b2",), ("p3",), None)
+    later = Output(2.5, (LiveEvent(2.0, "b", "decision"),), ("b2",), ("p3",), None,
+                   ("a2", "a3"))  # fmt: skip
+    first = Output(first.time, first.events, first.boundaries, first.predictions,
+                   first.movement, ("a1",))  # fmt: skip
     both = first.then(later)
+    assert both.arrivals == ("a1", "a2", "a3")
     assert both.time == 2.5 and both.movement is None
     assert [e.time for e in both.events] == [1.0, 2.0] and both.events[1].kind == "decision"
     assert both.boundaries == ("b1", "b2") and both.predictions == ("p1", "p2", "p3")
     assert later.then(first).movement is first.movement
+
+
+# The workers and what is said of them, each alone (no session): a sink the test gates.
+
+class Gated:
+    """A sink whose ``take`` waits until the test opens its gate (``taking`` is set while it
+    waits), raises ``fail`` when set, and returns ``("kept", time)`` for each output."""
+
+    def __init__(self, name: str = "gated", lossless: bool = False, view=lambda o: o):
+        self.name, self.lossless, self._view = name, lossless, view
+        self.gate, self.taking = threading.Event(), threading.Event()
+        self.gate.set()
+        self.fail: Exception | None = None
+        self.taken: list = []
+        self.closed = 0
+
+    def view(self, output):
+        return self._view(output)
+
+    def take(self, output):
+        self.taking.set()
+        assert self.gate.wait(LIMIT_S), "the test never opened the gate"
+        if self.fail is not None:
+            raise self.fail
+        self.taken.append(output)
+        return [("kept", output.time)]
+
+    def close(self) -> None:
+        self.closed += 1
+
+
+def blocked(sink: Gated, worker) -> None:
+    """Close ``sink``'s gate and wait until its thread is inside ``take`` on output -1."""
+    from promp.live.sinks import Output
+
+    sink.gate.clear()
+    sink.taking.clear()
+    worker.offer(Output(-1.0))
+    assert sink.taking.wait(LIMIT_S)
+
+
+def test_a_lossy_worker_drops_its_oldest_outputs_and_counts_them() -> None:
+    from promp.live.sinks import Output, SinkState, SinkWorker
+
+    sink = Gated()
+    worker = SinkWorker(sink, capacity=2)
+    assert worker.capacity == 2 and worker.state() == SinkState("gated")
+    assert worker._thread.daemon and worker._thread.name == "live-sink-gated"
+    blocked(sink, worker)
+    worker.offer(Output(1.0))
+    s = worker.state()
+    assert (s.queued, s.full, s.dropped) == (1, False, 0) and s.healthy
+    worker.offer(Output(2.0))
+    s = worker.state()
+    assert (s.queued, s.full, s.dropped) == (2, True, 0) and not s.healthy
+    worker.offer(Output(3.0))
+    worker.offer(Output(4.0))
+    s = worker.state()
+    assert (s.queued, s.full, s.dropped) == (2, True, 2)
+    assert not worker.flush(0.01)  # blocked: not delivered
+    sink.gate.set()
+    assert worker.flush(LIMIT_S)
+    assert [o.time for o in sink.taken] == [-1.0, 3.0, 4.0]  # the latest two
+    s = worker.state()
+    assert (s.delivered, s.failures, s.queued, s.full, s.dropped) == (3, 0, 0, False, 2)
+    assert worker.kept() == [("kept", -1.0), ("kept", 3.0), ("kept", 4.0)]
+    assert worker.kept() == []
+    assert worker.stop(LIMIT_S) and not worker._thread.is_alive()
+
+
+def test_a_lossless_worker_folds_into_its_last_output_and_drops_only_ends_beyond_it() -> None:
+    from promp.live.sinks import Output, SinkWorker
+
+    sink = Gated(lossless=True)
+    worker = SinkWorker(sink, capacity=2)
+    blocked(sink, worker)
+    worker.offer(Output(1.0, boundaries=("a",), predictions=("p1",)))
+    worker.offer(Output(2.0, boundaries=("b",), predictions=("p2",)))
+    worker.offer(Output(3.0, boundaries=("c",), predictions=("p3",)))
+    s = worker.state()
+    assert (s.queued, s.full, s.dropped) == (2, True, 0)
+    worker.offer(Output(4.0, boundaries=("d", "e"), predictions=("p4",)))
+    s = worker.state()  # b, c, d, e folded: two ends past a capacity of 2 dropped
+    assert (s.queued, s.full, s.dropped) == (2, True, 2)
+    sink.gate.set()
+    assert worker.flush(LIMIT_S)
+    assert [o.time for o in sink.taken] == [-1.0, 1.0, 4.0]
+    assert sink.taken[2].boundaries == ("d", "e")
+    assert sink.taken[2].predictions == ("p2", "p3", "p4")
+    worker.stop(LIMIT_S)
+
+
+def test_a_worker_counts_failures_keeps_the_last_error_and_works_again() -> None:
+    from promp.live.sinks import Output, SinkWorker
+
+    sink = Gated()
+    worker = SinkWorker(sink)
+    assert worker.capacity == promp.live.sinks.QUEUE_OUTPUTS
+    sink.fail = OSError("down")
+    worker.offer(Output(1.0))
+    worker.offer(Output(2.0))
+    assert worker.flush(LIMIT_S)
+    s = worker.state()
+    assert (s.delivered, s.failures, s.failing, s.error) == (0, 2, True, "OSError: down")
+    assert not s.healthy and worker.kept() == []
+    sink.fail = None
+    worker.offer(Output(3.0))
+    assert worker.flush(LIMIT_S)
+    s = worker.state()
+    assert (s.delivered, s.failures, s.failing, s.error) == (1, 2, False, "OSError: down")
+    assert s.healthy and worker.kept() == [("kept", 3.0)]
+    worker.stop(LIMIT_S)
+
+
+def test_a_worker_queues_only_what_its_sink_reads_and_delivers_the_queue_when_stopped() -> None:
+    from promp.live.sinks import Output, SinkWorker
+
+    sink = Gated(view=lambda o: o if o.time > 0 else None)
+    worker = SinkWorker(sink)
+    sink.gate.clear()
+    worker.offer(Output(-5.0))  # not read: never queued
+    assert worker.state().queued == 0 and worker.flush(0.01)
+    worker.offer(Output(1.0))
+    assert sink.taking.wait(LIMIT_S)
+    worker.offer(Output(2.0))
+    assert not worker.stop(0.01)  # blocked: its thread goes on
+    sink.gate.set()
+    assert worker.stop(LIMIT_S)
+    assert [o.time for o in sink.taken] == [1.0, 2.0]
+
+
+def test_the_sinks_say_each_change_once_and_close_every_sink() -> None:
+    from promp.live.sinks import Output, Sinks
+
+    a, b, broken = Gated("a"), Gated("b"), Gated("c")
+
+    def refuse() -> None:
+        raise OSError("no")
+
+    broken.close = refuse
+    sinks = Sinks([a, b, broken], capacity=1)
+    assert [w.capacity for w in sinks.workers] == [1, 1, 1]
+    assert sinks.news(0.0) == []
+    a.fail = RuntimeError("x")
+    sinks.offer(Output(1.0))
+    assert sinks.flush()
+    assert [s.name for s in sinks.states()] == ["a", "b", "c"]
+    assert sorted(sinks.kept()) == [("kept", 1.0), ("kept", 1.0)]
+    news = sinks.news(7.0)
+    assert len(news) == 1 and news[0].time == 7.0 and news[0].kind == ""
+    assert "'a'" in news[0].text and "RuntimeError: x" in news[0].text
+    assert sinks.news(8.0) == []  # said once
+    a.fail = None
+    blocked(b, sinks.workers[1])
+    sinks.offer(Output(2.0))
+    assert sinks.workers[0].flush(LIMIT_S) and sinks.workers[2].flush(LIMIT_S)
+    assert not sinks.flush(0.01)
+    news = sinks.news(9.0)  # a works again, b fell behind
+    assert [("'a'" in e.text, "'b'" in e.text) for e in news] == [(True, False), (False, True)]
+    b.gate.set()
+    assert sinks.flush()
+    news = sinks.news(10.0, sinks.states())
+    assert len(news) == 1 and "'b'" in news[0].text
+    problems = sinks.close()
+    assert len(problems) == 1 and "'c'" in problems[0] and "OSError: no" in problems[0]
+    assert (a.closed, b.closed) == (1, 1)
+
+
+def test_closing_says_a_sink_that_does_not_finish_and_closes_the_others() -> None:
+    from promp.live.sinks import Sinks
+
+    a, stuck = Gated("a"), Gated("stuck")
+    sinks = Sinks([stuck, a])
+    blocked(stuck, sinks.workers[0])
+    problems = sinks.close(0.01)
+    assert len(problems) == 1 and "'stuck'" in problems[0]
+    assert (a.closed, stuck.closed) == (1, 1)
+    stuck.gate.set()
+    assert sinks.workers[0].stop(LIMIT_S)
+
+
+def test_what_is_said_of_a_sink_follows_its_state() -> None:
+    from promp.live.sinks import SinkState, _Said
+
+    said = _Said()
+    assert said.update(SinkState("s")) == []
+    assert len(said.update(SinkState("s", failures=1, failing=True, error="E: 1"))) == 1
+    assert said.update(SinkState("s", failures=2, failing=True, error="E: 1")) == []
+    changed = said.update(SinkState("s", failures=3, failing=True, error="E: 2"))
+    assert len(changed) == 1 and "E: 2" in changed[0]  # another error: said
+    again = said.update(SinkState("s", delivered=1, failures=3, error="E: 2"))
+    assert len(again) == 1 and "3" in again[0]
+    assert said.update(SinkState("s", delivered=2, failures=3, error="E: 2")) == []
+    both = said.update(SinkState("s", failures=4, failing=True, error="E: 2"))
+    assert len(both) == 1 and said.failing  # the same error, failing again after working
+    assert len(said.update(SinkState("s", failures=4, error="E: 2"))) == 1
+    behind = said.update(SinkState("s", failures=4, error="E: 2", dropped=5))
+    assert len(behind) == 1 and "5" in behind[0] and said.behind
+    assert said.update(SinkState("s", failures=4, error="E: 2", dropped=5, full=True)) == []
+    assert said.update(SinkState("s", failures=4, error="E: 2", dropped=6)) == []
+    up = said.update(SinkState("s", failures=4, error="E: 2", dropped=6))
+    assert len(up) == 1 and "6" in up[0] and not said.behind
+    assert len(said.update(SinkState("s", failures=4, error="E: 2", dropped=6,
+                                     full=True))) == 1  # fmt: skip
+
+
+def test_a_callback_sink_reads_only_predictions_and_hands_each_on() -> None:
+    from promp.live.sinks import Output
+
+    got = []
+    sink = CallbackSink(got.append)
+    assert sink.name == "prediction callback" and not sink.lossless
+    assert sink.view(Output(1.0, boundaries=("b",))) is None
+    part = sink.view(Output(2.0, boundaries=("b",), predictions=("p", "q")))
+    assert (part.time, part.boundaries, part.predictions) == (2.0, (), ("p", "q"))
+    assert sink.take(part) == () and got == ["p", "q"]
+    sink.close()
