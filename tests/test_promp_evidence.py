@@ -6,6 +6,7 @@ keeps; threads extending one evidence."""
 from __future__ import annotations
 
 import dataclasses
+import math
 import threading
 
 import numpy as np
@@ -318,3 +319,52 @@ def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation()
     assert kept.take(generation, ("other",), np.array([2.0]), n=8).starts.tolist() == [0]
     replaced = kept.adopt(np.arange(9.0), np.ones((9, 1)))
     assert kept.take(replaced, ("k",), np.array([2.0]), n=8).starts.tolist() == [0]
+
+
+def test_a_known_duration_scores_every_primitive_at_its_speed_alone() -> None:
+    """``Evidence(duration=...)`` (the evaluation's oracle row): each primitive's evidence is its
+    likelihood at the one speed of that duration, no prior; the recognition is the best of
+    them, at that speed. A duration the observation reaches within round-off is the
+    observation's own; a shorter or non-finite one is refused."""
+    from promp.model import Settings
+    from promp.recognition import label_noise, with_label_noise
+    from promp.timing import alpha_from_duration
+    from tests.synthetic import LAYOUT as SYNTHETIC
+    from tests.synthetic import make_dataset
+
+    model = fit(make_dataset(seed=3, n_demos=5), SYNTHETIC, Settings(n_basis=6, width=1.0,
+                                                                      noise_scale=1.5))  # fmt: skip
+    demo = make_dataset(seed=4, n_demos=3)[model.names[1]][0]
+    obs = Observation.from_demo(model, demo, 30, ["hand"])
+    dt, s_bar, elapsed = model.sample_period, model.settings.s_bar, float(obs.elapsed[-1])
+    for duration, at in ((demo.duration, demo.duration), (1.7 * demo.duration, 1.7 * demo.duration),
+                         (elapsed * (1.0 - 1e-12), elapsed)):  # fmt: skip
+        evidence = Evidence(model, obs, duration=duration)
+        reco = evidence.recognition
+        alpha = alpha_from_duration(at, dt, s_bar)
+        each = np.array([evidence.log_likelihoods(p, np.array([alpha]))[0]
+                         for p in model.primitives])  # fmt: skip
+        assert np.all(np.isfinite(each)) and len(set(each.tolist())) == len(each)
+        assert_allclose(reco.log_evidence, each, rtol=1e-12, atol=0)
+        assert reco.index == int(np.argmax(each)) and reco.primitive == model.names[reco.index]
+        assert reco.alpha == pytest.approx(alpha, rel=1e-12)
+        assert reco.alpha_method == "duration given"
+        for nodes, table, prior, ll in zip(reco.candidates, reco.log_likelihoods, reco.log_prior,
+                                           each, strict=True):  # fmt: skip
+            assert_allclose(nodes, [alpha], rtol=1e-12)
+            assert_allclose(table, [ll], rtol=1e-12)
+            assert prior.tolist() == [0.0]
+        want = with_label_noise(np.exp(each - each.max()) / np.exp(each - each.max()).sum(),
+                                label_noise(model))  # fmt: skip
+        assert_allclose(reco.probabilities, want, rtol=1e-9, atol=1e-15)
+    assert Evidence(model, obs, duration=demo.duration).recognition.index == 1  # its own
+    shorter = Observation.from_demo(model, demo, 20, ["hand"])
+    grown = Evidence(model, shorter, "model", duration=demo.duration).extended(obs)
+    assert grown.duration == demo.duration and grown.alpha_method == "model"  # both kept
+    assert grown.recognition.alpha_method == "duration given"
+    assert_allclose(grown.recognition.log_evidence,
+                    Evidence(model, obs, duration=demo.duration).recognition.log_evidence,
+                    rtol=1e-11)  # fmt: skip
+    for bad in (elapsed * (1.0 - 1e-6), math.nan, math.inf):
+        with pytest.raises(ValueError):
+            Evidence(model, obs, duration=bad)
