@@ -326,15 +326,10 @@ def test_a_known_duration_scores_every_primitive_at_its_speed_alone() -> None:
     likelihood at the one speed of that duration, no prior; the recognition is the best of
     them, at that speed. A duration the observation reaches within round-off is the
     observation's own; a shorter or non-finite one is refused."""
-    from promp.model import Settings
     from promp.recognition import label_noise, with_label_noise
     from promp.timing import alpha_from_duration
-    from tests.synthetic import LAYOUT as SYNTHETIC
-    from tests.synthetic import make_dataset
 
-    model = fit(make_dataset(seed=3, n_demos=5), SYNTHETIC, Settings(n_basis=6, width=1.0,
-                                                                      noise_scale=1.5))  # fmt: skip
-    demo = make_dataset(seed=4, n_demos=3)[model.names[1]][0]
+    model, demo = synthetic()
     obs = Observation.from_demo(model, demo, 30, ["hand"])
     dt, s_bar, elapsed = model.sample_period, model.settings.s_bar, float(obs.elapsed[-1])
     for duration, at in ((demo.duration, demo.duration), (1.7 * demo.duration, 1.7 * demo.duration),
@@ -368,3 +363,33 @@ def test_a_known_duration_scores_every_primitive_at_its_speed_alone() -> None:
     for bad in (elapsed * (1.0 - 1e-6), math.nan, math.inf):
         with pytest.raises(ValueError):
             Evidence(model, obs, duration=bad)
+
+
+def test_an_extended_evidence_shares_the_sums_kept() -> None:
+    """The evidence of the movement observed longer adds its candidates' sums to the same
+    store as the evidence it extends (``n_kept`` of both), and its numbers are those of an
+    evidence from scratch."""
+    model, demo = synthetic()
+    primitive = model.primitives[0]
+    first = Evidence(model, Observation.from_demo(model, demo, 20, ["hand"]))
+    alphas = np.exp(primitive.log_alpha_mean) * np.array([0.8, 1.0, 1.2])
+    first.log_likelihoods(primitive, alphas[:2])
+    assert first.n_kept == 2
+    obs = Observation.from_demo(model, demo, 30, ["hand"])
+    grown = first.extended(obs)
+    longer = grown.log_likelihoods(primitive, alphas[1:])
+    assert grown.n_kept == first.n_kept == 3  # one store: the first speed at 20, two at 30
+    assert_allclose(longer, Evidence(model, obs).log_likelihoods(primitive, alphas[1:]),
+                    rtol=1e-12)  # fmt: skip
+
+
+def synthetic():
+    """A small model of the synthetic demonstrations, and a demonstration of its second
+    primitive not among those it learned from."""
+    from promp.model import Settings
+    from tests.synthetic import LAYOUT as SYNTHETIC
+    from tests.synthetic import make_dataset
+
+    model = fit(make_dataset(seed=3, n_demos=5), SYNTHETIC, Settings(n_basis=6, width=1.0,
+                                                                      noise_scale=1.5))  # fmt: skip
+    return model, make_dataset(seed=4, n_demos=3)[model.names[1]][0]
