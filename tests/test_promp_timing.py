@@ -67,6 +67,23 @@ def test_a_phase_is_the_time_over_the_duration() -> None:
     assert_allclose(phases([0, 1, 3], 4.0), [0.0, 0.25, 0.75], rtol=0)
     assert_allclose(phases(np.array([0, 1, 2]), 2), [0.0, 0.5, 1.0], rtol=0)  # ints
     assert phases([5.0], 2.0)[0] == 2.5  # past the end: a phase above 1, not clipped
+    assert_allclose(phases([0.1, 0.25], 0.5), [0.2, 0.5], rtol=1e-15)  # a short movement
+
+
+def test_single_precision_input_is_computed_in_double() -> None:
+    """Samples counted, phases and a demonstration's phases are float64 whatever the input's
+    precision (a float32 recording or speed is not divided in float32)."""
+    alpha = np.array([0.3, 0.7], dtype=np.float32)
+    samples = n_samples_from_alpha(alpha, 100.0)
+    assert samples.dtype == np.float64
+    assert_allclose(samples, 100.0 / alpha.astype(float), rtol=1e-15)
+    elapsed = np.array([0.1, 0.3], dtype=np.float32)
+    assert phases(elapsed, 0.7).dtype == np.float64
+    assert_allclose(phases(elapsed, 0.7), elapsed.astype(float) / 0.7, rtol=1e-15)
+    times = np.array([1.0, 1.1, 2.3], dtype=np.float32)
+    assert demo_phases(times).dtype == np.float64
+    assert_allclose(demo_phases(times), (times.astype(float) - 1.0) / 1.2999999523162842,
+                    rtol=1e-15)  # fmt: skip
 
 
 @pytest.mark.parametrize("duration", [0.0, -1.0, math.nan, math.inf, -math.inf])
