@@ -94,6 +94,12 @@ def test_without_via_points_the_prior_comes_back_exactly(model) -> None:
     assert again is not gaussian
     assert_array_equal(again.mean, gaussian.mean)
     assert_array_equal(again.cov, gaussian.cov)
+    for dtype in (int, np.float32):  # a prior of integers or single precision: float64 back
+        n = model.n_dims * 6
+        given = Gaussian(np.arange(n).astype(dtype), np.eye(n, dtype=dtype))
+        back = condition_on_via_points(model, given, [])
+        assert back.mean.dtype == back.cov.dtype == np.float64
+        assert_array_equal(back.mean, given.mean)
 
 
 @pytest.mark.parametrize("n_observed", [1, 25])
@@ -279,3 +285,14 @@ def test_more_bad_input_is_a_clear_error(model) -> None:
             ViaPoint.isotropic(("x",), [0.0], 0.1, time=time)
     with pytest.raises(ValueError):
         ViaPoint((), [], np.zeros((0, 0)), phase=0.5)
+
+
+def test_values_of_any_shape_are_flattened_and_symmetry_is_checked_to_round_off() -> None:
+    """A point's values given as a row are its k values; its covariance is symmetric to a
+    relative 1e-9 (round-off passes, an asymmetry of 5e-9 of a 0.5 entry does not)."""
+    point = ViaPoint(("x", "y"), [[1.0, 2.0]], np.eye(2), phase=0.5)
+    assert point.values.shape == (2,)
+    assert_array_equal(point.values, [1.0, 2.0])
+    ViaPoint(("x", "y"), [0.0, 0.0], [[1.0, 0.5 * (1.0 + 1e-10)], [0.5, 1.0]], phase=0.5)
+    with pytest.raises(ValueError):
+        ViaPoint(("x", "y"), [0.0, 0.0], [[1.0, 0.5 + 5e-9], [0.5, 1.0]], phase=0.5)
