@@ -393,3 +393,23 @@ def synthetic():
     model = fit(make_dataset(seed=3, n_demos=5), SYNTHETIC, Settings(n_basis=6, width=1.0,
                                                                       noise_scale=1.5))  # fmt: skip
     return model, make_dataset(seed=4, n_demos=3)[model.names[1]][0]
+
+
+def test_the_sums_of_one_sample_extended_over_two_noise_groups_are_those_from_scratch() -> None:
+    """An evidence of the first sample alone, extended twice, with the hand's noise correlated
+    in time and the head's white (two noise groups): at the same speeds, the likelihoods from
+    the kept sums are those of evidences from scratch."""
+    model, demo = synthetic()
+    taus = np.array([0.05, 0.05, 0.05, 0.0, 0.0, 0.0])
+    model = dataclasses.replace(model, primitives=tuple(
+        dataclasses.replace(p, noise_tau=taus) for p in model.primitives))  # fmt: skip
+    primitive = model.primitives[1]
+    alphas = np.exp(primitive.log_alpha_mean) * np.array([0.7, 0.9, 1.1])
+    evidence = None
+    for n in (1, 12, 25):
+        obs = Observation.from_demo(model, demo, n, ["hand", "head"])
+        evidence = Evidence(model, obs) if evidence is None else evidence.extended(obs)
+        assert_allclose(evidence.log_likelihoods(primitive, alphas),
+                        Evidence(model, obs).log_likelihoods(primitive, alphas),
+                        rtol=1e-12, atol=1e-9)  # fmt: skip
+    assert evidence.n_kept == 3
