@@ -229,6 +229,9 @@ def test_an_inference_holds_the_via_points_posterior_and_every_positions_region(
     drawn = predict(model, expected, plain.alpha, 30)
     assert_allclose(shaped.prediction.mean, drawn.mean, rtol=0, atol=1e-12)
     assert_allclose(shaped.errors.position, plain.errors.position, rtol=0, atol=0)
+    natural = evidence.infer(points, truth=demo)  # at the predicted number of samples too
+    assert_allclose(natural.errors.position, evidence.infer(truth=demo).errors.position,
+                    rtol=0, atol=0)  # fmt: skip
     assert [p.modality for p in shaped.positions] == ["hand", "partner"]
     noise = sample_noise_var(model, model.primitives[shaped.index])
     phase = shaped.observed_until / shaped.duration
