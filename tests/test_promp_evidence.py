@@ -416,3 +416,23 @@ def test_the_sums_of_one_sample_extended_over_two_noise_groups_are_those_from_sc
                         Evidence(model, obs).log_likelihoods(primitive, alphas),
                         rtol=1e-12, atol=1e-9)  # fmt: skip
     assert evidence.n_kept == 3
+    from tests import dense_reference as dense  # the white head's log det K is 0, not more
+
+    assert_allclose(evidence.log_likelihoods(primitive, alphas),
+                    [dense.log_likelihood(model, primitive, obs, a) for a in alphas],
+                    rtol=1e-9, atol=1e-6)  # fmt: skip
+
+
+def test_the_sums_are_read_only() -> None:
+    """What :class:`promp.evidence.sums.ObservationSums` gives is kept and shared by later
+    evidences: every array of it is read-only."""
+    from promp.evidence.sums import ObservationSums
+    from promp.timing import duration_from_alpha
+
+    model, demo = synthetic()
+    obs = Observation.from_demo(model, demo, 20, ["hand"])
+    alphas = np.array([0.8, 1.0])
+    durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
+    sums = ObservationSums(model, obs, np.arange(3))(model.primitives[0], alphas, durations)
+    for array in (sums.gram, sums.proj, sums.rr, sums.group, sums.logdet_k):
+        assert not array.flags.writeable
