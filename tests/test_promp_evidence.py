@@ -229,6 +229,10 @@ def test_an_inference_holds_the_via_points_posterior_and_every_positions_region(
     drawn = predict(model, expected, plain.alpha, 30)
     assert_allclose(shaped.prediction.mean, drawn.mean, rtol=0, atol=1e-12)
     assert_allclose(shaped.errors.position, plain.errors.position, rtol=0, atol=0)
+    assert shaped.prior.times.shape == shaped.prediction.times.shape == (30,)  # n_points
+    assert_allclose(shaped.prior.mean, predict(model, model.primitives[shaped.index],
+                                               plain.alpha, 30).mean, rtol=0, atol=0)  # fmt: skip
+    assert evidence.infer(path_points=7).path_points == 7
     natural = evidence.infer(points, truth=demo)  # at the predicted number of samples too
     assert_allclose(natural.errors.position, evidence.infer(truth=demo).errors.position,
                     rtol=0, atol=0)  # fmt: skip
