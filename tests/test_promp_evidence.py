@@ -440,3 +440,22 @@ def test_the_sums_are_read_only() -> None:
     sums = ObservationSums(model, obs, np.arange(3))(model.primitives[0], alphas, durations)
     for array in (sums.gram, sums.proj, sums.rr, sums.group, sums.logdet_k):
         assert not array.flags.writeable
+
+
+def test_the_refined_speeds_surround_the_best_coarse_node() -> None:
+    """Recognition's quadrature refines around the coarse node of the largest likelihood
+    times prior density: every node it adds lies within one coarse step of it."""
+    from promp.evidence.speed import alpha_prior, longest_alpha
+
+    model, demo = synthetic()
+    obs = Observation.from_demo(model, demo, 30, ["hand"])
+    evidence = Evidence(model, obs)
+    bound = math.log(longest_alpha(model, obs))
+    for k, primitive in enumerate(model.primitives):
+        prior = alpha_prior(model, primitive, obs, "ml")
+        coarse = anchored_nodes(prior, bound)
+        score = evidence.log_likelihoods(primitive, np.exp(coarse)) + prior.logpdf(coarse)
+        best, step = coarse[int(np.argmax(score))], coarse[1] - coarse[0]
+        x = np.log(evidence.recognition.candidates[k])
+        fine = x[~np.isclose(x[:, None], coarse[None, :], rtol=0, atol=1e-12).any(axis=1)]
+        assert fine.size > 0 and np.all(np.abs(fine - best) < step * (1 + 1e-9))
