@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from types import SimpleNamespace
 
 import numpy as np
@@ -106,3 +107,15 @@ def test_a_mixed_prior_shares_its_mass_and_its_density_is_the_mixture() -> None:
     single = mixed.logpdf(x.astype(np.float32))  # single precision in, float64 out
     assert single.dtype == np.float64
     assert_allclose(single, mixed.logpdf(x.astype(np.float32).astype(float)), rtol=1e-15)
+
+
+def test_a_mixed_priors_mass_below_a_bound_is_the_mixtures() -> None:
+    """``logcdf``: the log of the weighted Student-t masses below the bound; no mass below
+    ``-inf``, said without a warning."""
+    mixed = AlphaPrior((0.1,), (0.3,), (5.0,), (1.0,)).mixed_with(0.4, 0.2, 3.0, 0.25)
+    for bound in (-0.5, 0.3, 1.2):
+        want = 0.75 * stats.t.cdf(bound, 5.0, 0.1, 0.3) + 0.25 * stats.t.cdf(bound, 3.0, 0.4, 0.2)
+        assert mixed.logcdf(bound) == pytest.approx(math.log(want), rel=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert mixed.logcdf(-math.inf) == -math.inf
