@@ -6,6 +6,7 @@ keeps; threads extending one evidence."""
 from __future__ import annotations
 
 import dataclasses
+import math
 import threading
 
 import numpy as np
@@ -228,6 +229,13 @@ def test_an_inference_holds_the_via_points_posterior_and_every_positions_region(
     drawn = predict(model, expected, plain.alpha, 30)
     assert_allclose(shaped.prediction.mean, drawn.mean, rtol=0, atol=1e-12)
     assert_allclose(shaped.errors.position, plain.errors.position, rtol=0, atol=0)
+    assert shaped.prior.times.shape == shaped.prediction.times.shape == (30,)  # n_points
+    assert_allclose(shaped.prior.mean, predict(model, model.primitives[shaped.index],
+                                               plain.alpha, 30).mean, rtol=0, atol=0)  # fmt: skip
+    assert evidence.infer(path_points=7).path_points == 7
+    natural = evidence.infer(points, truth=demo)  # at the predicted number of samples too
+    assert_allclose(natural.errors.position, evidence.infer(truth=demo).errors.position,
+                    rtol=0, atol=0)  # fmt: skip
     assert [p.modality for p in shaped.positions] == ["hand", "partner"]
     noise = sample_noise_var(model, model.primitives[shaped.index])
     phase = shaped.observed_until / shaped.duration
@@ -318,3 +326,136 @@ def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation()
     assert kept.take(generation, ("other",), np.array([2.0]), n=8).starts.tolist() == [0]
     replaced = kept.adopt(np.arange(9.0), np.ones((9, 1)))
     assert kept.take(replaced, ("k",), np.array([2.0]), n=8).starts.tolist() == [0]
+
+
+def test_a_known_duration_scores_every_primitive_at_its_speed_alone() -> None:
+    """``Evidence(duration=...)`` (the evaluation's oracle row): each primitive's evidence is its
+    likelihood at the one speed of that duration, no prior; the recognition is the best of
+    them, at that speed. A duration the observation reaches within round-off is the
+    observation's own; a shorter or non-finite one is refused."""
+    from promp.recognition import label_noise, with_label_noise
+    from promp.timing import alpha_from_duration
+
+    model, demo = synthetic()
+    obs = Observation.from_demo(model, demo, 30, ["hand"])
+    dt, s_bar, elapsed = model.sample_period, model.settings.s_bar, float(obs.elapsed[-1])
+    for duration, at in ((demo.duration, demo.duration), (1.7 * demo.duration, 1.7 * demo.duration),
+                         (elapsed * (1.0 - 1e-12), elapsed)):  # fmt: skip
+        evidence = Evidence(model, obs, duration=duration)
+        reco = evidence.recognition
+        alpha = alpha_from_duration(at, dt, s_bar)
+        each = np.array([evidence.log_likelihoods(p, np.array([alpha]))[0]
+                         for p in model.primitives])  # fmt: skip
+        assert np.all(np.isfinite(each)) and len(set(each.tolist())) == len(each)
+        assert_allclose(reco.log_evidence, each, rtol=1e-12, atol=0)
+        assert reco.index == int(np.argmax(each)) and reco.primitive == model.names[reco.index]
+        assert reco.alpha == pytest.approx(alpha, rel=1e-12)
+        assert reco.alpha_method == "duration given"
+        for nodes, table, prior, ll in zip(reco.candidates, reco.log_likelihoods, reco.log_prior,
+                                           each, strict=True):  # fmt: skip
+            assert_allclose(nodes, [alpha], rtol=1e-12)
+            assert_allclose(table, [ll], rtol=1e-12)
+            assert prior.tolist() == [0.0]
+        want = with_label_noise(np.exp(each - each.max()) / np.exp(each - each.max()).sum(),
+                                label_noise(model))  # fmt: skip
+        assert_allclose(reco.probabilities, want, rtol=1e-9, atol=1e-15)
+    assert Evidence(model, obs, duration=demo.duration).recognition.index == 1  # its own
+    shorter = Observation.from_demo(model, demo, 20, ["hand"])
+    grown = Evidence(model, shorter, "model", duration=demo.duration).extended(obs)
+    assert grown.duration == demo.duration and grown.alpha_method == "model"  # both kept
+    assert grown.recognition.alpha_method == "duration given"
+    assert_allclose(grown.recognition.log_evidence,
+                    Evidence(model, obs, duration=demo.duration).recognition.log_evidence,
+                    rtol=1e-11)  # fmt: skip
+    for bad in (elapsed * (1.0 - 1e-6), math.nan, math.inf):
+        with pytest.raises(ValueError):
+            Evidence(model, obs, duration=bad)
+
+
+def test_an_extended_evidence_shares_the_sums_kept() -> None:
+    """The evidence of the movement observed longer adds its candidates' sums to the same
+    store as the evidence it extends (``n_kept`` of both), and its numbers are those of an
+    evidence from scratch."""
+    model, demo = synthetic()
+    primitive = model.primitives[0]
+    first = Evidence(model, Observation.from_demo(model, demo, 20, ["hand"]))
+    alphas = np.exp(primitive.log_alpha_mean) * np.array([0.8, 1.0, 1.2])
+    first.log_likelihoods(primitive, alphas[:2])
+    assert first.n_kept == 2
+    obs = Observation.from_demo(model, demo, 30, ["hand"])
+    grown = first.extended(obs)
+    longer = grown.log_likelihoods(primitive, alphas[1:])
+    assert grown.n_kept == first.n_kept == 3  # one store: the first speed at 20, two at 30
+    assert_allclose(longer, Evidence(model, obs).log_likelihoods(primitive, alphas[1:]),
+                    rtol=1e-12)  # fmt: skip
+
+
+def synthetic():
+    """A small model of the synthetic demonstrations, and a demonstration of its second
+    primitive not among those it learned from."""
+    from promp.model import Settings
+    from tests.synthetic import LAYOUT as SYNTHETIC
+    from tests.synthetic import make_dataset
+
+    model = fit(make_dataset(seed=3, n_demos=5), SYNTHETIC, Settings(n_basis=6, width=1.0,
+                                                                      noise_scale=1.5))  # fmt: skip
+    return model, make_dataset(seed=4, n_demos=3)[model.names[1]][0]
+
+
+def test_the_sums_of_one_sample_extended_over_two_noise_groups_are_those_from_scratch() -> None:
+    """An evidence of the first sample alone, extended twice, with the hand's noise correlated
+    in time and the head's white (two noise groups): at the same speeds, the likelihoods from
+    the kept sums are those of evidences from scratch."""
+    model, demo = synthetic()
+    taus = np.array([0.05, 0.05, 0.05, 0.0, 0.0, 0.0])
+    model = dataclasses.replace(model, primitives=tuple(
+        dataclasses.replace(p, noise_tau=taus) for p in model.primitives))  # fmt: skip
+    primitive = model.primitives[1]
+    alphas = np.exp(primitive.log_alpha_mean) * np.array([0.7, 0.9, 1.1])
+    evidence = None
+    for n in (1, 12, 25):
+        obs = Observation.from_demo(model, demo, n, ["hand", "head"])
+        evidence = Evidence(model, obs) if evidence is None else evidence.extended(obs)
+        assert_allclose(evidence.log_likelihoods(primitive, alphas),
+                        Evidence(model, obs).log_likelihoods(primitive, alphas),
+                        rtol=1e-12, atol=1e-9)  # fmt: skip
+    assert evidence.n_kept == 3
+    from tests import dense_reference as dense  # the white head's log det K is 0, not more
+
+    assert_allclose(evidence.log_likelihoods(primitive, alphas),
+                    [dense.log_likelihood(model, primitive, obs, a) for a in alphas],
+                    rtol=1e-9, atol=1e-6)  # fmt: skip
+
+
+def test_the_sums_are_read_only() -> None:
+    """What :class:`promp.evidence.sums.ObservationSums` gives is kept and shared by later
+    evidences: every array of it is read-only."""
+    from promp.evidence.sums import ObservationSums
+    from promp.timing import duration_from_alpha
+
+    model, demo = synthetic()
+    obs = Observation.from_demo(model, demo, 20, ["hand"])
+    alphas = np.array([0.8, 1.0])
+    durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
+    sums = ObservationSums(model, obs, np.arange(3))(model.primitives[0], alphas, durations)
+    for array in (sums.gram, sums.proj, sums.rr, sums.group, sums.logdet_k):
+        assert not array.flags.writeable
+
+
+def test_the_refined_speeds_surround_the_best_coarse_node() -> None:
+    """Recognition's quadrature refines around the coarse node of the largest likelihood
+    times prior density: every node it adds lies within one coarse step of it."""
+    from promp.evidence.speed import alpha_prior, longest_alpha
+
+    model, demo = synthetic()
+    obs = Observation.from_demo(model, demo, 30, ["hand"])
+    evidence = Evidence(model, obs)
+    bound = math.log(longest_alpha(model, obs))
+    for k, primitive in enumerate(model.primitives):
+        prior = alpha_prior(model, primitive, obs, "ml")
+        coarse = anchored_nodes(prior, bound)
+        score = evidence.log_likelihoods(primitive, np.exp(coarse)) + prior.logpdf(coarse)
+        best, step = coarse[int(np.argmax(score))], coarse[1] - coarse[0]
+        x = np.log(evidence.recognition.candidates[k])
+        fine = x[~np.isclose(x[:, None], coarse[None, :], rtol=0, atol=1e-12).any(axis=1)]
+        assert fine.size > 0 and np.all(np.abs(fine - best) < step * (1 + 1e-9))

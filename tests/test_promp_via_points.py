@@ -94,6 +94,12 @@ def test_without_via_points_the_prior_comes_back_exactly(model) -> None:
     assert again is not gaussian
     assert_array_equal(again.mean, gaussian.mean)
     assert_array_equal(again.cov, gaussian.cov)
+    for dtype in (int, np.float32):  # a prior of integers or single precision: float64 back
+        n = model.n_dims * 6
+        given = Gaussian(np.arange(n).astype(dtype), np.eye(n, dtype=dtype))
+        back = condition_on_via_points(model, given, [])
+        assert back.mean.dtype == back.cov.dtype == np.float64
+        assert_array_equal(back.mean, given.mean)
 
 
 @pytest.mark.parametrize("n_observed", [1, 25])
@@ -186,3 +192,107 @@ def test_bad_input_is_a_clear_error(model) -> None:
         ViaPoint.isotropic(HAND, [0, 0, 0], 0.0, phase=0.5)
     with pytest.raises(ValueError, match="time must be >= 0"):
         ViaPoint.isotropic(HAND, [0, 0, 0], 0.01, time=-1.0)
+
+
+def test_a_via_point_keeps_what_it_was_given_read_only(model) -> None:
+    """The columns as a tuple of names, the values and covariance as float arrays that cannot
+    be written, a phase or time as a float; the edges of what is accepted: the phases 0 and 1,
+    the time 0."""
+    point = ViaPoint(["x", "z"], [1, 2], [[1, 0], [0, 4]], phase=1)
+    assert point.columns == ("x", "z") and isinstance(point.columns, tuple)
+    assert point.values.dtype == float and point.cov.dtype == float
+    assert_array_equal(point.values, [1.0, 2.0])
+    assert_array_equal(point.cov, [[1.0, 0.0], [0.0, 4.0]])
+    assert type(point.phase) is float and point.phase == 1.0 and point.time is None
+    for array in (point.values, point.cov):
+        with pytest.raises(ValueError):
+            array[0] = 5.0
+    assert ViaPoint.isotropic(("x",), [0.0], 0.1, phase=0).phase == 0.0
+    at_start = ViaPoint.isotropic(("x",), [0.0], 0.1, time=0)
+    assert type(at_start.time) is float and at_start.time == 0.0 and at_start.phase is None
+    assert at_start.phase_at(model, 1.0) == 0.0
+    assert_array_equal(ViaPoint.isotropic(HAND, [1, 2, 3], 0.5, phase=0.5).cov,
+                       0.25 * np.eye(3))  # fmt: skip
+
+
+def test_a_time_at_the_end_is_the_phase_1(model) -> None:
+    """A time equal to the movement's duration at alpha (or past it by round-off) is the phase
+    1 exactly; a little later is refused; a phase is the phase whatever alpha."""
+    alpha = typical(model.primitives[0])
+    duration = float(duration_from_alpha(alpha, model.sample_period, model.settings.s_bar))
+    assert ViaPoint.isotropic(("z",), [0.0], 0.1, time=duration).phase_at(model, alpha) == 1.0
+    for late in (duration * (1.0 + 5e-10), duration * (1.0 + 1e-9)):  # the bound itself too
+        assert ViaPoint.isotropic(("z",), [0.0], 0.1, time=late).phase_at(model, alpha) == 1.0
+    half = ViaPoint.isotropic(("z",), [0.0], 0.1, time=0.5 * duration)
+    assert half.phase_at(model, alpha) == pytest.approx(0.5, rel=1e-12)
+    with pytest.raises(ValueError):
+        ViaPoint.isotropic(("z",), [0.0], 0.1, time=duration * 1.001).phase_at(model, alpha)
+    assert ViaPoint.isotropic(("z",), [0.0], 0.1, phase=0.3).phase_at(model, None) == 0.3
+
+
+def test_the_design_places_each_column_in_its_block(model) -> None:
+    """``via_point_design``: a row per column of each point, the basis at the point's phase in
+    the block of its column's weights; the targets in order; the points' covariances on the
+    diagonal, blocks apart; none gives empty arrays."""
+    from promp.via_points import via_point_design
+
+    m, p = model.basis.n_basis, model.n_dims * model.basis.n_basis
+    cov = np.array([[0.04, 0.01], [0.01, 0.09]])
+    vias = [ViaPoint(("z", "x"), [1.0, 2.0], cov, phase=0.25),
+            ViaPoint.isotropic(("yaw",), [3.0], 0.5, phase=0.75)]  # fmt: skip
+    a, y, noise = via_point_design(model, vias)
+    columns = list(model.layout.columns)
+    want = np.zeros((3, p))
+    for row, (column, phase) in enumerate((("z", 0.25), ("x", 0.25), ("yaw", 0.75))):
+        d = columns.index(column)
+        want[row, d * m : (d + 1) * m] = model.basis(np.array([phase]))[0]
+    assert_array_equal(a, want)
+    assert_array_equal(y, [1.0, 2.0, 3.0])
+    assert_array_equal(noise, [[0.04, 0.01, 0.0], [0.01, 0.09, 0.0], [0.0, 0.0, 0.25]])
+    empty = via_point_design(model, [])
+    assert empty[0].shape == (0, p) and empty[1].shape == (0,) and empty[2].shape == (0, 0)
+
+
+def test_more_bad_input_is_a_clear_error(model) -> None:
+    """A bad speed even where no point needs it, a prior of another kind, a prior whose
+    covariance alone has the wrong size, variances that leave S not positive definite, a
+    non-finite standard deviation, values or covariance, a point given both ways or a
+    negative phase: each a ValueError."""
+    n = model.n_dims * model.basis.n_basis
+    point = ViaPoint.isotropic(("z",), [0.0], 0.01, phase=0.5)
+    for alpha in (0.0, -1.0, np.nan):
+        with pytest.raises(ValueError):
+            condition_on_via_points(model, Gaussian(np.zeros(n), np.eye(n)), [point], alpha)
+    with pytest.raises(ValueError):
+        condition_on_via_points(model, (np.zeros(n), np.eye(n)), [point], 1.0)
+    with pytest.raises(ValueError):
+        condition_on_via_points(model, Gaussian(np.zeros(n), np.eye(n - 1)), [], 1.0)
+    with pytest.raises(ValueError):  # a prior of negative variances: S = A Sigma A^T + R < 0
+        condition_on_via_points(model, Gaussian(np.zeros(n), -np.eye(n)), [point], 1.0)
+    for std in (np.nan, np.inf, -0.1):
+        with pytest.raises(ValueError):
+            ViaPoint.isotropic(HAND, [0, 0, 0], std, phase=0.5)
+    for bad in (dict(values=[0.0, np.nan]), dict(cov=[[1.0, 0.0], [0.0, np.inf]]),
+                dict(cov=np.eye(3)), dict(values=[0.0, 0.0, 0.0])):  # fmt: skip
+        given = {"values": [0.0, 0.0], "cov": np.eye(2), **bad}
+        with pytest.raises(ValueError):
+            ViaPoint(("x", "y"), given["values"], given["cov"], phase=0.5)
+    for phase in (-0.01, np.nan, np.inf):
+        with pytest.raises(ValueError):
+            ViaPoint.isotropic(("x",), [0.0], 0.1, phase=phase)
+    for time in (np.nan, np.inf):
+        with pytest.raises(ValueError):
+            ViaPoint.isotropic(("x",), [0.0], 0.1, time=time)
+    with pytest.raises(ValueError):
+        ViaPoint((), [], np.zeros((0, 0)), phase=0.5)
+
+
+def test_values_of_any_shape_are_flattened_and_symmetry_is_checked_to_round_off() -> None:
+    """A point's values given as a row are its k values; its covariance is symmetric to a
+    relative 1e-9 (round-off passes, an asymmetry of 5e-9 of a 0.5 entry does not)."""
+    point = ViaPoint(("x", "y"), [[1.0, 2.0]], np.eye(2), phase=0.5)
+    assert point.values.shape == (2,)
+    assert_array_equal(point.values, [1.0, 2.0])
+    ViaPoint(("x", "y"), [0.0, 0.0], [[1.0, 0.5 * (1.0 + 1e-10)], [0.5, 1.0]], phase=0.5)
+    with pytest.raises(ValueError):
+        ViaPoint(("x", "y"), [0.0, 0.0], [[1.0, 0.5 + 5e-9], [0.5, 1.0]], phase=0.5)

@@ -1,0 +1,121 @@
+"""promp.evidence.speed: the Eq. 7 speed from the early displacement (each observed modality's
+regression combined by inverse variance, clipped to the plausible speeds), the columns of a
+modality in an observation, a mixture of speed priors and its density."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy import stats
+
+from promp.data import Layout, Modality
+from promp.evidence.speed import AlphaPrior, longest_alpha, modality_columns, model_alpha
+from promp.inference import Observation
+from promp.learn import fit
+from promp.model import Settings
+from tests.synthetic import LAYOUT, make_dataset
+
+
+class Regression:
+    """A modality's Eq. 7 regression that answers ``(alpha, variance)`` and keeps what it was
+    asked (the displacement and the samples observed)."""
+
+    def __init__(self, alpha: float, var: float) -> None:
+        self.answer, self.asked = (alpha, var), []
+
+    def predict(self, delta: np.ndarray, n_observed: int) -> tuple[float, float]:
+        self.asked.append((np.array(delta), n_observed))
+        return self.answer
+
+
+@pytest.fixture(scope="module")
+def learned():
+    model = fit(make_dataset(seed=3, n_demos=5), LAYOUT, Settings(n_basis=6, width=1.0,
+                                                                  noise_scale=1.5))  # fmt: skip
+    demo = make_dataset(seed=4, n_demos=3)[model.names[0]][0]
+    return model, Observation.from_demo(model, demo, 30, ["hand", "head"])
+
+
+def with_regressions(primitive, alphas, hand, head):
+    """``primitive`` with the training speeds ``alphas`` and the regressions' answers."""
+    models = {"hand": Regression(*hand), "head": Regression(*head)}
+    return dataclasses.replace(primitive, alphas=np.array(alphas), alpha_models=models)
+
+
+def test_the_model_speed_is_each_regressions_estimate_weighted_by_its_precision(learned) -> None:
+    model, obs = learned
+    primitive = with_regressions(model.primitives[0], [0.8, 1.5], (1.0, 0.01), (2.0, 0.04))
+    assert longest_alpha(model, obs) > 3.0  # the clip's top is the training speeds' (2 x 1.5)
+    alpha, log_sd = model_alpha(model, primitive, obs)
+    assert alpha == pytest.approx((100.0 * 1.0 + 25.0 * 2.0) / 125.0, rel=1e-12)
+    assert log_sd == pytest.approx(math.sqrt(1.0 / 125.0) / alpha, rel=1e-12)  # delta method
+    n_obs = round(float(obs.elapsed[-1]) / model.sample_period) + 1
+    assert n_obs == 30
+    for name, cols in (("hand", [0, 1, 2]), ("head", [3, 4, 5])):
+        (delta, n), = primitive.alpha_models[name].asked
+        assert n == n_obs
+        assert_allclose(delta, obs.values[-1, cols] - obs.values[0, cols], rtol=0, atol=0)
+    # a regression of no error variance: its estimate alone (the variance floored at 1e-12)
+    exact = with_regressions(model.primitives[0], [0.8, 1.5], (1.0, 0.0), (2.0, 0.04))
+    alpha, log_sd = model_alpha(model, exact, obs)
+    assert alpha == pytest.approx(1.0, rel=1e-9)
+    assert log_sd == pytest.approx(1e-6, rel=1e-9)
+
+
+def test_the_model_speed_is_clipped_to_the_plausible_speeds(learned) -> None:
+    """Within half the slowest and twice the fastest training speed, and never faster than
+    the longest speed that still contains the observation."""
+    model, obs = learned
+    longest = longest_alpha(model, obs)
+    slow = with_regressions(model.primitives[0], [0.8, 1.5], (0.1, 0.01), (0.1, 0.01))
+    assert model_alpha(model, slow, obs)[0] == pytest.approx(0.4, rel=1e-12)
+    fast = with_regressions(model.primitives[0], [0.8, 1.5], (9.0, 0.01), (9.0, 0.01))
+    assert model_alpha(model, fast, obs)[0] == pytest.approx(3.0, rel=1e-12)
+    bound = with_regressions(model.primitives[0], [0.8, 0.6 * longest], (9.0, 0.01), (9.0, 0.01))
+    assert model_alpha(model, bound, obs)[0] == pytest.approx(longest, rel=1e-12)
+
+
+def test_a_modalitys_columns_follow_the_observed_ones_before_it() -> None:
+    partner = Modality("partner", ("px", "py"), unit="m")
+    model = SimpleNamespace(layout=Layout((*LAYOUT.modalities, partner)))
+    every = SimpleNamespace(modalities=("hand", "head", "partner"))
+    assert modality_columns(model, every, "partner").tolist() == [6, 7]
+    assert modality_columns(model, every, "head").tolist() == [3, 4, 5]
+    skipped = SimpleNamespace(modalities=("head", "partner"))  # the hand not observed
+    assert modality_columns(model, skipped, "partner").tolist() == [3, 4]
+    assert modality_columns(model, skipped, "head").tolist() == [0, 1, 2]
+    with pytest.raises(ValueError):
+        modality_columns(model, skipped, "hand")
+
+
+def test_a_mixed_prior_shares_its_mass_and_its_density_is_the_mixture() -> None:
+    prior = AlphaPrior((0.1,), (0.3,), (5.0,), (1.0,))
+    mixed = prior.mixed_with(0.4, 0.2, 3.0, 0.25)
+    assert mixed.locs == (0.1, 0.4) and mixed.scales == (0.3, 0.2) and mixed.dofs == (5.0, 3.0)
+    assert mixed.weights == pytest.approx((0.75, 0.25), rel=1e-15)
+    again = mixed.mixed_with(-0.2, 0.1, 2.0, 0.4)
+    assert again.weights == pytest.approx((0.45, 0.15, 0.4), rel=1e-15)
+    x = np.linspace(-1.0, 1.0, 9)
+    want = 0.75 * stats.t.pdf(x, 5.0, 0.1, 0.3) + 0.25 * stats.t.pdf(x, 3.0, 0.4, 0.2)
+    assert_allclose(np.exp(mixed.logpdf(x)), want, rtol=1e-12)
+    single = mixed.logpdf(x.astype(np.float32))  # single precision in, float64 out
+    assert single.dtype == np.float64
+    assert_allclose(single, mixed.logpdf(x.astype(np.float32).astype(float)), rtol=1e-15)
+
+
+def test_a_mixed_priors_mass_below_a_bound_is_the_mixtures() -> None:
+    """``logcdf``: the log of the weighted Student-t masses below the bound; no mass below
+    ``-inf``, said without a warning."""
+    mixed = AlphaPrior((0.1,), (0.3,), (5.0,), (1.0,)).mixed_with(0.4, 0.2, 3.0, 0.25)
+    for bound in (-0.5, 0.3, 1.2):
+        want = 0.75 * stats.t.cdf(bound, 5.0, 0.1, 0.3) + 0.25 * stats.t.cdf(bound, 3.0, 0.4, 0.2)
+        assert mixed.logcdf(bound) == pytest.approx(math.log(want), rel=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert mixed.logcdf(-math.inf) == -math.inf
