@@ -216,7 +216,8 @@ def condition_on_via_points(
     ------
     ValueError
         A primitive without alpha, alpha <= 0, a point the model cannot place (an unknown
-        column, a time after the end), or variances too small to compute with.
+        column, a time after the end), a prior that is not finite, or variances too small to
+        compute with.
     """
     if alpha is not None:
         check_alpha(alpha)
@@ -240,6 +241,9 @@ def condition_on_via_points(
         )
     if not via_points:
         return Gaussian(mean, cov)
+    if not (np.isfinite(mean).all() and np.isfinite(cov).all()):
+        raise ValueError("the prior's mean and covariance must be finite numbers (NaN or inf "
+                         "in them would make every conditioned weight NaN)")
     a, y, noise = via_point_design(model, via_points, alpha)
     a_cov = a @ cov  # (K, P)
     s = a_cov @ a.T + noise

@@ -296,3 +296,17 @@ def test_values_of_any_shape_are_flattened_and_symmetry_is_checked_to_round_off(
     ViaPoint(("x", "y"), [0.0, 0.0], [[1.0, 0.5 * (1.0 + 1e-10)], [0.5, 1.0]], phase=0.5)
     with pytest.raises(ValueError):
         ViaPoint(("x", "y"), [0.0, 0.0], [[1.0, 0.5 + 5e-9], [0.5, 1.0]], phase=0.5)
+
+
+@pytest.mark.parametrize("where", ["mean", "cov"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_prior_that_is_not_finite_is_refused_not_spread_to_every_weight(model, where, bad):
+    prim = model.primitives[0]
+    mean, cov = prim.mean_at(typical(prim)).copy(), prim.cov.copy()
+    (mean if where == "mean" else cov)[3] = bad
+    point = [ViaPoint.isotropic(HAND, [0.0, 0.0, 0.0], 0.01, phase=0.5)]
+    given = (mean.copy(), cov.copy())
+    with pytest.raises(ValueError, match="must be finite"):
+        condition_on_via_points(model, Gaussian(mean, cov), point)
+    np.testing.assert_array_equal(mean, given[0])  # nothing changed
+    np.testing.assert_array_equal(cov, given[1])
