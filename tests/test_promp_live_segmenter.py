@@ -109,6 +109,16 @@ def test_stillness_needs_an_input_in_metres_or_radians() -> None:
 # ---------------------------------------------------------------------------- the still rule
 
 
+def one_motion(n: int, first: int) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` rows at 100 Hz of a hand still but for 20 cm along y in the second from row
+    ``first``."""
+    times = np.arange(n) * 0.01
+    values = np.zeros((n, 3))
+    values[first:first + 100, 1] = np.linspace(0.0, 0.2, 100)
+    values[first + 100:, 1] = 0.2
+    return times, values
+
+
 @pytest.mark.parametrize("rule", [
     dict(pauses={"a": -0.1}), dict(pauses={"a": math.nan}), dict(pauses={"a": math.inf}),
     dict(before=-0.01), dict(after=math.inf), dict(before=math.nan),
@@ -171,10 +181,7 @@ def test_the_pause_allowed_follows_the_latest_prediction_of_the_movement() -> No
 
 
 def test_the_still_rule_keeps_its_stillness_before_and_after_the_motion() -> None:
-    times = np.arange(500) * 0.01
-    values = np.zeros((500, 3))
-    values[150:250, 1] = np.linspace(0.0, 0.2, 100)  # 20 cm in a second
-    values[250:, 1] = 0.2
+    times, values = one_motion(500, 150)
     rule = StillRule(before=0.3, after=0.05)
     seg = Segmenter("still", 3, HAND, rule=rule)
     events = MovingSpans(["m"], [3]).push(times, values, seg.allowed_pause())
@@ -191,10 +198,7 @@ def test_the_still_rule_keeps_its_stillness_before_and_after_the_motion() -> Non
 
 
 def test_a_call_overrides_the_still_rule_while_its_movement_goes_on() -> None:
-    times = np.arange(500) * 0.01
-    values = np.zeros((500, 3))
-    values[150:250, 1] = np.linspace(0.0, 0.2, 100)
-    values[250:, 1] = 0.2
+    times, values = one_motion(500, 150)
     seg = Segmenter("still", 3, HAND)
     seg.begin(0.5, "take")
     out = fed(seg, times[:200], values[:200])
@@ -294,10 +298,7 @@ def test_rows_before_a_movement_are_kept_for_a_late_marker_within_the_history() 
 
 
 def test_an_aborted_still_segmenter_starts_again_from_the_next_rows() -> None:
-    times = np.arange(400) * 0.01
-    values = np.zeros((400, 3))
-    values[100:200, 0] = np.linspace(0.0, 0.2, 100)
-    values[200:, 0] = 0.2
+    times, values = one_motion(400, 100)
     seg = Segmenter("still", 3, HAND)
     assert seg.feed(Rows(times[:50], values[:50])) == []
     assert seg.abort("input 'hand' broke off") == []  # nothing went on
