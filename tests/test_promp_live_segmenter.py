@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
 
-from promp.live.segmenter import HISTORY_S, Belief, Segmenter, StillRule
+from promp.live.segmenter import HISTORY_S, SLACK_S, Belief, Segmenter, StillRule
 from promp.live.timebase import Rows
 from promp.stillness import (
     MARGIN_S,
@@ -323,3 +323,44 @@ def test_a_start_ahead_of_the_rows_takes_no_row_before_it() -> None:
         out = fed(seg, times[10:], times[10:, None])
         assert [(b.kind, b.time) for b in out] == [("end", 0.8)]
         assert_array_equal(out[0].movement.times, times[50:81])
+
+
+def test_a_call_or_marker_within_the_slack_of_a_row_takes_it() -> None:
+    times = np.arange(12) * 0.25  # exact in binary: a row lies exactly at a call's slack
+    seg = Segmenter("call", 1)
+    seg.begin(0.25 + SLACK_S)
+    seg.end(0.75 - SLACK_S)
+    out = seg.feed(Rows(times, times[:, None]))
+    assert [b.kind for b in out] == ["start", "end"] and out[0].movement is None
+    assert_array_equal(out[1].movement.times, [0.25, 0.5, 0.75])
+    assert out[1].movement.label == ""  # a call names no class unless told
+
+
+def test_a_belief_about_another_movement_than_the_one_going_on_changes_nothing() -> None:
+    seg = Segmenter("still", 3, HAND, rule=StillRule({"a": 0.8, "b": 5.0}))
+    seg.feed(None, Belief(1, "a", 1.0))  # nothing goes on: movement 1 is not under way
+    assert seg.allowed_pause() == seg.longest_pause
+
+
+def test_the_still_rule_after_a_break_starts_from_the_rows_after_it() -> None:
+    times, values = one_motion(500, 150)  # moving from 1.5 s
+    seg = Segmenter("still", 3, HAND)
+    assert seg.feed(Rows(times[:160], values[:160])) == []  # 0.1 s of motion: not yet
+    assert seg.abort("input 'hand' broke off") == []
+    out = seg.feed(Rows(times[160:], values[160:]))
+    assert [(b.kind, b.number) for b in out] == [("start", 1), ("end", 1)]
+    assert out[0].time == times[160]  # not 0.1 s before the motion, before the break
+    ended = out[1].movement
+    assert ended.times[0] == times[160] and len(ended.values) == len(ended)
+    assert_array_equal(ended.values, values[160:160 + len(ended)])
+
+
+def test_a_movement_keeps_its_last_moving_row_when_nothing_is_kept_after() -> None:
+    times, values = one_motion(500, 150)
+    rule = StillRule(before=0.0, after=0.0)
+    seg = Segmenter("still", 3, HAND, rule=rule)
+    events = MovingSpans(["m"], [3]).push(times, values, seg.allowed_pause())
+    out = seg.feed(Rows(times, values))
+    assert out[1].time == events[1].last
+    assert out[1].movement.times[-1] == events[1].last
+    assert out[0].time == out[1].movement.times[0] == events[0].first

@@ -263,10 +263,14 @@ def test_a_rate_change_is_said_once_and_an_undeclared_rate_is_measured() -> None
     source = hand_and_grip()
     source.poll({0: rows(regular(1.0, 150))}, 2.5)
     assert source.nominal_rate("hand") == 100.0
-    events = source.poll({0: rows(regular(2.5, 125, 0.02))}, 5.0).events
+    events = source.poll({0: rows(regular(2.5, 63, 0.04))}, 5.0).events
     assert len(events) == 1 and condition(source) is Condition.RATE_CHANGED
-    assert source.nominal_rate("hand") == pytest.approx(50.0)
-    assert source.poll({0: rows(regular(5.0, 100, 0.02))}, 7.0).events == []
+    assert source.nominal_rate("hand") == pytest.approx(25.0)
+    batch = source.poll({0: rows(regular(5.02, 50, 0.04))}, 7.0)
+    assert batch.events == []
+    for start in (7.02, 7.42):  # the late sender's rule steps at 25 Hz: 0.04 s is no pause
+        batch = source.poll({0: rows(regular(start, 10, 0.04))}, start + 0.4)
+        assert batch.samples["hand"][0][-1] == regular(start, 10, 0.04)[-1]  # none held
     irregular = hand_and_grip(rate=0.0)
     assert irregular.nominal_rate("grip") == 0.0
     irregular.poll({0: rows(regular(1.0, 4, 0.04))}, 1.2)
