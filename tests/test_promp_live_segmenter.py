@@ -243,7 +243,8 @@ def test_a_start_while_a_movement_goes_on_ends_it_there() -> None:
         ("start", 1, 0.2), ("end", 1, 0.6), ("start", 2, 0.6)]  # fmt: skip
     assert_array_equal(out[1].movement.times, times[20:61])
     assert out[1].movement.label == "a" and out[1].movement.ended != ""
-    assert_array_equal(seg.movement.times, times[61:]) and seg.movement.label == "b"
+    assert_array_equal(seg.movement.times, times[61:])
+    assert seg.movement.label == "b"
     assert seg.movement.number == 2
 
 

@@ -93,7 +93,8 @@ def test_an_adopted_stream_is_read_converted_and_split_among_its_inputs() -> Non
     assert batch.events == [] and batch.broken == set() and batch.markers == []
     hand_times, hand, hand_units = batch.samples["hand"]
     grip_times, grip, grip_units = batch.samples["grip"]
-    assert_array_equal(hand_times, times) and assert_array_equal(grip_times, times)
+    assert_array_equal(hand_times, times)
+    assert_array_equal(grip_times, times)
     assert_allclose(hand, values[:, :3] * 1e-3)
     assert_allclose(grip, values[:, 3:])
     assert (hand_units, grip_units) == (("m", "m", "m"), ("N",))

@@ -218,3 +218,25 @@ def test_the_base_is_chosen_once_every_input_has_two_samples() -> None:
     rows = base.advance()
     assert base.base == 0  # hand's steps are the longest
     assert np.all(np.diff(rows.times) > 0.009)
+
+
+def test_a_grid_row_is_given_as_soon_as_every_input_covers_it() -> None:
+    base = TimeBase(["hand"], [1], rate=50.0)
+    t = 1.0 + np.arange(13) * 0.01
+    base.push("hand", t[:11], t[:11, None], ("m",))
+    assert_allclose(base.advance().times, 1.0 + np.arange(6) * 0.02, atol=1e-12)
+    base.push("hand", t[11:12], t[11:12, None], ("m",))  # 1.11: no new grid time
+    assert base.advance() is None
+    base.push("hand", t[12:], t[12:, None], ("m",))  # 1.12: the next one, alone
+    assert_allclose(base.advance().times, [1.12], atol=1e-12)
+
+
+def test_rows_come_once_every_input_has_two_samples_over_a_common_span() -> None:
+    base = TimeBase(["hand", "head"], [1, 1])
+    t = np.array([0.0, 0.1])
+    base.push("hand", t, t[:, None], ("m",))
+    base.push("head", t, 2 * t[:, None], ("rad",))
+    rows = base.advance()
+    assert_allclose(rows.times, t)
+    assert_allclose(rows.values, [[0.0, 0.0], [0.1, 0.2]])
+    assert base.base == 0
