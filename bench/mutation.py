@@ -115,6 +115,17 @@ MODULE_TESTS = {
                            "tests/test_promp_live_threads.py", "tests/test_promp_live_sinks.py",
                            "tests/test_promp_live_faults.py",
                            "tests/test_promp_live_session_machine.py"],
+    # reached by every session's test too: their survivors ran minutes of them each
+    "promp.live.segmenter": ["tests/test_promp_live_segmenter.py",
+                             "tests/test_promp_stillness.py"],
+    "promp.live.timebase": ["tests/test_promp_live_timebase.py",
+                            "tests/test_promp_live_pipeline.py"],
+    "promp.live.restamp": ["tests/test_promp_live_restamp.py", "tests/test_promp_live_source.py"],
+    "promp.live.source": ["tests/test_promp_live_source.py", "tests/test_promp_live_faults.py",
+                          "tests/test_promp_live_intake.py"],
+    "promp.live.inputs": ["tests/test_promp_live_inputs.py", "tests/test_promp_live_source.py"],
+    "promp.live.transport": ["tests/test_promp_live_transport.py",
+                             "tests/test_promp_live_lsl_transport.py"],
 }
 # mutmut's time limit on a mutant: (its tests' time in the clean run + CONSTANT) x MULTIPLIER
 # seconds of wall time (mutmut's defaults 1 and 15: a mutant of the pipeline's step that loops

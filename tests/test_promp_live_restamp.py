@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from numpy.testing import assert_array_equal
+from numpy.testing import assert_allclose, assert_array_equal
 
-from promp.live.restamp import Respread
+from promp.live.restamp import LATE_WINDOW_S, QUIET_S, RUN_GAPS, Respread
 from promp.live.timebase import TimeBase
 
 RATE = 100.0
@@ -125,3 +125,99 @@ def test_a_pause_the_sender_caught_up_is_no_gap_and_one_it_did_not_is(interrupte
         said = [base.push("hand", short[a:a + 7], np.zeros((short[a:a + 7].size, 3)),
                           ("m",) * 3, RATE, late) for a in range(0, short.size, 7)]  # fmt: skip
         assert sum(bool(s) for s in said) == expected
+
+
+# ---------------------------------------------------------------------------- one burst by hand
+
+
+def on_time(spread: Respread, start: float, n: int, step: float = 1 / RATE) -> np.ndarray:
+    """``n`` samples from ``start``, ``step`` apart, each added as it comes; those given."""
+    times = start + step * np.arange(n)
+    given = [spread.add(times[k:k + 1], np.array([[float(k)]]), times[k])[0] for k in range(n)]
+    return np.concatenate(given)
+
+
+def test_a_burst_is_put_back_one_step_before_the_next_its_last_keeping_its_stamp() -> None:
+    spread = Respread(RATE)
+    assert_array_equal(on_time(spread, 1.0, 30), 1.0 + np.arange(30) / RATE)  # up to 1.29
+    burst = 1.5 - 2.0**-16 * np.arange(21)[::-1]  # taken at 1.30 to 1.50, pushed at once
+    times, values = spread.add(burst, np.arange(21.0)[:, None], 1.5)
+    assert_allclose(times, 1.5 - (20 - np.arange(21)) / RATE, atol=1e-12)
+    assert_array_equal(values[:, 0], np.arange(21.0))
+    assert spread.lateness(1.5) == pytest.approx(burst[0] - times[0], abs=1e-12)
+    assert spread.lateness(1.5 + LATE_WINDOW_S) > 0  # within the window still
+    assert spread.lateness(1.5 + LATE_WINDOW_S + 0.01) == 0.0
+    spread.reset()
+    assert spread.lateness(1.5) == 0.0
+
+
+def test_a_burst_longer_than_its_pause_is_spread_evenly_after_the_last_sample() -> None:
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)  # up to 1.09
+    burst = 1.20 + 1e-5 * np.arange(30)  # 30 samples after a pause that held 10
+    times, _ = spread.add(burst, np.zeros((30, 1)), 1.2004)
+    even = 1.09 + (burst[-1] - 1.09) * np.arange(1, 31) / 30
+    assert_allclose(times, np.maximum(burst[-1] - (29 - np.arange(30)) / RATE, even),
+                    atol=1e-12)  # fmt: skip
+    assert times[0] > 1.09 and np.all(np.diff(times) > 0)
+
+
+def test_a_burst_short_of_its_backlog_waits_for_the_rest_then_for_a_quiet_time() -> None:
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)
+    part = 1.30 + 1e-5 * np.arange(5)  # 5 of the 21 due
+    assert spread.add(part, np.zeros((5, 1)), 1.3001)[0].size == 0  # held, to come whole
+    assert spread.release(1.3001 + QUIET_S - 0.001)[0].size == 0  # heard lately: may go on
+    rest = 1.33 + 1e-5 * np.arange(16)
+    times, _ = spread.add(rest, np.zeros((16, 1)), 1.3302)  # whole now: 21 due, 21 came
+    assert times.size == 21
+    assert_allclose(times, rest[-1] - (20 - np.arange(21)) / RATE, atol=1e-12)
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)
+    spread.add(part, np.zeros((5, 1)), 1.3001)
+    times, _ = spread.release(1.3001 + QUIET_S + 0.001)  # nothing for a quiet time: given
+    assert_allclose(times, part[-1] - (4 - np.arange(5)) / RATE, atol=1e-12)
+
+
+def test_a_burst_still_coming_is_given_after_as_long_as_its_pause() -> None:
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)  # up to 1.09: a pause of 0.21 s, then a burst that trickles in
+    sizes = []
+    for k in range(9):  # pushed microseconds apart, arriving every 0.04 s (a quiet time: 0.05)
+        stamp, now = 1.30 + 1e-5 * k, 1.30 + 0.04 * k
+        sizes.append(spread.add(np.array([stamp]), np.zeros((1, 1)), now)[0].size)
+    # held from 1.30 for the pause and a quiet time (0.26 s): given at 1.58, with the 8 so far
+    assert sizes == [0] * 7 + [8, 1]
+
+
+def test_samples_resumed_at_the_rate_after_a_pause_are_given_at_once() -> None:
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)
+    resumed = 1.30 + np.arange(3) / RATE  # three, a step apart: the sender resumed on time
+    assert spread.add(resumed[:1], np.zeros((1, 1)), 1.3)[0].size == 0  # one alone: may be a burst
+    assert spread.add(resumed[1:2], np.zeros((1, 1)), 1.31)[0].size == 0
+    times, _ = spread.add(resumed[2:], np.zeros((1, 1)), 1.32)
+    assert_array_equal(times, resumed)
+    assert spread.lateness(1.32) == 0.0
+
+
+def test_the_step_is_the_declared_one_unless_the_stream_runs_clearly_faster() -> None:
+    assert Respread(0.0).step == 0.0 and Respread(-5.0).step == 0.0
+    assert Respread(RATE).step == 1 / RATE
+    fast = Respread(RATE)
+    on_time(fast, 1.0, RUN_GAPS, 0.005)  # 31 steps given: not yet judged
+    assert fast.step == 1 / RATE
+    on_time(fast, 1.0 + RUN_GAPS * 0.005, 1, 0.005)
+    assert fast.step == pytest.approx(0.005)
+    jitter = Respread(RATE)
+    on_time(jitter, 1.0, RUN_GAPS + 1, 0.8 / RATE)  # over 3/4 of the step: its own rate
+    assert jitter.step == 1 / RATE
+
+
+def test_an_irregular_stream_is_given_as_it_comes_even_in_bursts() -> None:
+    spread = Respread(0.0)
+    times = np.array([1.0, 1.5, 1.50001, 1.50002])
+    got, values = spread.add(times, np.ones((4, 2)), 1.6)
+    assert_array_equal(got, times)
+    assert values.shape == (4, 2)
+    assert spread.release(2.0)[0].size == 0 and spread.lateness(2.0) == 0.0

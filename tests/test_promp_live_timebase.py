@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from promp.live.timebase import TimeBase
+from promp.live.timebase import KEEP_S, TimeBase
 from promp.rigs.streams import Stream, on_one_clock
 
 
@@ -168,6 +168,14 @@ def test_a_gap_among_the_first_samples_or_after_two_is_said() -> None:
     base = TimeBase(["hand"], [1])
     base.push("hand", np.array([0.0, 0.01]), np.zeros((2, 1)), ("m",), rate=100.0)
     assert base.push("hand", np.array([1.0]), np.zeros((1, 1)), ("m",), rate=100.0)
+    for first in (np.array([0.0]), np.array([0.0, 1.0])):  # two samples alone, at a rate
+        base = TimeBase(["hand"], [1])
+        said = [base.push("hand", first, np.zeros((first.size, 1)), ("m",), rate=100.0)]
+        if first.size == 1:
+            said.append(base.push("hand", np.array([1.0]), np.zeros((1, 1)), ("m",), 100.0))
+        assert said[-1]
+    base = TimeBase(["hand"], [1])  # without a rate, two samples are no gap: their step
+    assert base.push("hand", np.array([0.0, 1.0]), np.zeros((2, 1)), ("m",)) == ""
 
 
 def test_after_a_gap_the_rows_are_exactly_the_samples_after_it() -> None:
@@ -218,3 +226,59 @@ def test_the_base_is_chosen_once_every_input_has_two_samples() -> None:
     rows = base.advance()
     assert base.base == 0  # hand's steps are the longest
     assert np.all(np.diff(rows.times) > 0.009)
+
+
+def test_a_grid_row_is_given_as_soon_as_every_input_covers_it() -> None:
+    base = TimeBase(["hand"], [1], rate=50.0)
+    t = 1.0 + np.arange(13) * 0.01
+    base.push("hand", t[:11], t[:11, None], ("m",))
+    assert_allclose(base.advance().times, 1.0 + np.arange(6) * 0.02, atol=1e-12)
+    base.push("hand", t[11:12], t[11:12, None], ("m",))  # 1.11: no new grid time
+    assert base.advance() is None
+    base.push("hand", t[12:], t[12:, None], ("m",))  # 1.12: the next one, alone
+    assert_allclose(base.advance().times, [1.12], atol=1e-12)
+
+
+def test_rows_come_once_every_input_has_two_samples_over_a_common_span() -> None:
+    base = TimeBase(["hand", "head"], [1, 1])
+    t = np.array([0.0, 0.1])
+    base.push("hand", t, t[:, None], ("m",))
+    base.push("head", t, 2 * t[:, None], ("rad",))
+    rows = base.advance()
+    assert_allclose(rows.times, t)
+    assert_allclose(rows.values, [[0.0, 0.0], [0.1, 0.2]])
+    assert base.base == 0
+
+
+def test_a_pause_let_through_for_a_late_sender_is_interpolated_across() -> None:
+    base = TimeBase(["hand", "head"], [1, 1])
+    steady = np.arange(101) * 0.01  # the base, 100 Hz, to 1.0 s
+    fast = np.arange(41) * 0.01  # 100 Hz to 0.4 s, then 0.3 s without a sample
+    after = 0.7 + np.arange(31) * 0.01
+    base.push("hand", steady, steady[:, None], ("m",), rate=100.0)
+    assert base.push("head", fast, fast[:, None], ("rad",), rate=100.0) == ""
+    assert base.push("head", after, after[:, None], ("rad",), rate=100.0, late=0.35) == ""
+    rows = base.advance({"hand": 100.0, "head": 100.0})
+    assert_allclose(rows.times, steady)
+    assert_allclose(rows.values[:, 1], steady)  # inside the pause: from the samples around
+
+
+def test_an_input_without_units_is_put_on_the_clock() -> None:
+    base = TimeBase(["force"], [2])
+    t = np.arange(5) * 0.01
+    base.push("force", t, np.ones((5, 2)), ())
+    rows = base.advance()
+    assert_allclose(rows.times, t)
+    assert_allclose(rows.values, np.ones((5, 2)))
+
+
+def test_the_samples_kept_are_those_of_the_last_second_before_the_rows_given() -> None:
+    base = TimeBase(["hand", "head"], [1, 1])
+    t = np.arange(1000) * 0.01  # 10 s at 100 Hz
+    for a in range(0, 1000, 50):
+        base.push("hand", t[a:a + 50], t[a:a + 50, None], ("m",))
+        base.push("head", t[a:a + 50], t[a:a + 50, None], ("rad",))
+        base.advance({"hand": 100.0, "head": 100.0})
+    for name in ("hand", "head"):
+        kept = base._buffers[name].times
+        assert kept[0] == pytest.approx(t[-1] - KEEP_S, abs=0.015) and kept[-1] == t[-1]

@@ -199,6 +199,7 @@ class Segmenter:
         self._times = np.zeros(0)
         self._values = np.zeros((0, int(width)))
         self._first = 0  # the movement's first row in the buffer, when one goes on
+        self._from = -math.inf  # no row before this time belongs to it (a start ahead of them)
         self._open: tuple[int, str] | None = None  # (number, label) of the movement going on
         self._count = 0
         self._pending: list[tuple[float, str, str]] = []  # (time, "start"/"end", label)
@@ -253,6 +254,8 @@ class Segmenter:
             values = np.asarray(rows.values, dtype=float)
             self._times = np.concatenate([self._times, rows.times])
             self._values = np.concatenate([self._values, values])
+            if self._open is not None:  # a start the rows had not reached yet: from it on
+                self._first = max(self._first, int(np.searchsorted(self._times, self._from)))
             if self.start == "still":
                 events = self._spans.push(rows.times, values[:, self._columns],
                                           self.allowed_pause())  # fmt: skip
@@ -279,7 +282,7 @@ class Segmenter:
                 if self._open is not None:
                     out += self._close(time, "a new movement started")
                 first = int(np.searchsorted(self._times, time - SLACK_S, side="left"))
-                out += self._open_at(first, label, time)
+                out += self._open_at(first, label, time, time - SLACK_S)
             elif self._open is not None:
                 out += self._close(time, "end marker" if self.start == "marker" else "ended")
         return out
@@ -323,9 +326,12 @@ class Segmenter:
         stop = int(np.searchsorted(self._times, event.last + self.rule.after, side="right"))
         return self._close(event.last + self.rule.after, "still", stop)
 
-    def _open_at(self, first: int, label: str, time: float) -> list[Boundary]:
+    def _open_at(self, first: int, label: str, time: float,
+                 since: float = -math.inf) -> list[Boundary]:  # fmt: skip
+        """Movement ``self._count + 1`` starts at ``time``, at row ``first`` (rows not come yet:
+        the first at or after ``since``)."""
         self._count += 1
-        self._open, self._first = (self._count, label), first
+        self._open, self._first, self._from = (self._count, label), first, since
         return [Boundary("start", self._count, float(time))]
 
     def _close(self, time: float, reason: str, stop: int | None = None) -> list[Boundary]:

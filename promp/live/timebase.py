@@ -101,7 +101,7 @@ class TimeBase:
         gap = ""
         old = buf.times[-50:]
         joined = np.concatenate([old, times])
-        if joined.size > 2:
+        if joined.size >= 2:
             spans = np.diff(joined)
             step = 1.0 / rate if rate > 0 else float(np.median(spans))
             limit = GAP_FACTOR * step + max(late, 0.0)

@@ -79,7 +79,7 @@ class StreamDescription:
         return self.format == "string"
 
     def summary(self) -> str:
-        """``MocapHand (Mocap, 100 Hz, 3 channels, source vicon-1, on host lab-pc)``."""
+        """``MocapHand (Mocap, 100 Hz, 3 channels, source vicon-1, on lab-pc)``."""
         rate = "irregular" if self.rate <= 0 else f"{self.rate:g} Hz"
         kind = "markers" if self.is_markers else f"{self.n_channels} channels"
         source = f", source {self.source_id}" if self.source_id else ""
