@@ -49,6 +49,13 @@ RATES = (25.0, 50.0, 100.0, 250.0)  # what the senders run at (Hz); the fastest 
 MAX_CHUNK = 400  # the most samples one rule delivers at once (a backlog)
 TOLERANCE = 1e-9  # absolute, the predictor's documented agreement with the offline engine
 RTOL = 1e-8  # and relative: a refined speed may land ~1e-10 apart (see the kept example)
+# A log-likelihood summed in another order agrees to ~1e-11 of its size (bench/outputs.py's
+# rtol-log). The duration's median and bounds are quantiles of the speed posterior, whose
+# masses are exp(log-likelihood): they move by up to that many nats as a share of a node's
+# mass, so a movement the model explains badly (log-likelihoods of -2e6 nats after a stream
+# changed its channels) moves them by ~1e-8 relative, and the posterior drawn at the median
+# speed with them (see the kept example).
+LOG_RTOL = 1e-11
 model = synthetic_model
 
 
@@ -164,10 +171,16 @@ class LiveSessionMachine(RuleBasedStateMachine):
         close = {"rtol": RTOL, "atol": TOLERANCE}
         assert p.inference.index == offline.index
         assert_allclose(p.probabilities, offline.probabilities, **close)
+        # what depends on the speed posterior's quantiles (the duration, and the posterior
+        # drawn at its median) carries the log-likelihoods' round-off (LOG_RTOL)
+        carried = LOG_RTOL * largest_log_likelihood(offline)
         online, seen = p.duration, offline.timing.duration
         assert_allclose([online.value, online.low, online.high],
-                        [seen.value, seen.low, seen.high], **close)  # fmt: skip
-        assert_allclose(p.inference.posterior.mean, offline.posterior.mean, **close)
+                        [seen.value, seen.low, seen.high], rtol=RTOL + carried,
+                        atol=TOLERANCE)  # fmt: skip
+        mean = offline.posterior.mean
+        assert_allclose(p.inference.posterior.mean, mean, rtol=RTOL + carried,
+                        atol=TOLERANCE + carried * float(np.abs(mean).max()))  # fmt: skip
         self.checked += 1
 
     @invariant()
@@ -340,6 +353,12 @@ class LiveSessionMachine(RuleBasedStateMachine):
         self.step()
 
 
+def largest_log_likelihood(inference) -> float:
+    """The largest |log-likelihood| (nats) of any primitive at any speed node it scored."""
+    tables = [np.abs(t[np.isfinite(t)]) for t in inference.recognition.log_likelihoods]
+    return max((float(t.max()) for t in tables if t.size), default=0.0)
+
+
 def held_bytes(root) -> int:
     """Bytes of the arrays reachable from ``root`` (through attributes, containers), but the
     model's (constant) and the latest prediction's (an output, not a buffer: one, its size
@@ -425,4 +444,24 @@ def test_a_stall_after_a_rate_change_is_a_gap_the_time_base_sees() -> None:
     state.rate_change(rate=250.0, stream="Head", then=0.0)
     state.long_stall(moving=False, seconds=2.0, stream="Head", then=0.3878886815088102)
     state.rate_change(rate=25.0, stream="Hand", then=0.10027715958783515)
+    state.teardown()
+
+
+def test_a_movement_explained_badly_agrees_with_the_offline_one_to_its_likelihood_s_round_off():
+    """Found (2026-11-29): both streams change their channels, the hand twice. The online
+    log-likelihoods (about -2e6 nats) are the offline ones to 2.9e-11 of their size, and the
+    duration's low bound 6e-8 s from the offline one's (2.7e-8 relative): within the
+    round-off its quantile carries from log-likelihoods that large (LOG_RTOL)."""
+    state = LiveSessionMachine()
+    state.open_session(start="still", hand_rate=250.0, head_rate=250.0)
+    state.memory_is_bounded()
+    state.channel_change(stream="Head", then=0.05, width=2)
+    state.memory_is_bounded()
+    state.channel_change(stream="Hand", then=0.140625, width=2)
+    state.memory_is_bounded()
+    state.channel_change(stream="Hand", then=0.140625, width=2)
+    state.memory_is_bounded()
+    checked = state.checked
+    state.channel_change(stream="Head", then=0.828125, width=2)
+    assert state.checked > checked
     state.teardown()
