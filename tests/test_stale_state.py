@@ -197,17 +197,27 @@ def test_scrubbing_after_a_replay_moves_the_arm_with_the_prediction(studio, page
         ok = view is not None and view.result is not None and not view.state.live
         return view.result if ok and view.state.percent == percent else None
 
+    # the model stays the one shown while the replay plays: a refit ending meanwhile gives a
+    # new path (or, while it runs, none: the replay stops), and the end checked below is the
+    # shown prediction's
+    wait_until(lambda: studio.session.learner.idle, what="the learner, idle")
     controls.percent.value = 20
     early = wait_until(lambda: shown_at(20), timeout=120, what="the inference at 20 %")
     clock = ManualClock()
-    infer.playback.replay.clock = clock
+    replay = infer.playback.replay
+    replay.clock = clock
+
+    def replay_state() -> str:
+        return (f"the end of the replay ({replay.phase.value}, {replay.elapsed:.3f} of "
+                f"{replay.duration:.3f} s; the replay shown {infer.playback.replay is replay})")
+
     try:
         press(page, page.get_by_role("button", name="Play", exact=True))
-        wait_until(lambda: infer.playback.replay.playing, what="the replay to start")
+        wait_until(lambda: replay.playing, what="the replay to start")
         clock.now += 2 * early.inference.remaining
-        wait_until(lambda: infer.playback.replay.finished, timeout=60, what="the end of the replay")
+        wait_until(lambda: replay.finished, timeout=60, what=replay_state)
     finally:
-        infer.playback.replay.clock = time.monotonic
+        replay.clock = time.monotonic
     assert np.linalg.norm(studio.arm.hand_position() - early.future.hand[-1]) < 0.01
     # The slider moves the prediction: the arm, held by the replay, goes to its new start.
     slider = page.locator(f"[id='{controls.percent._impl.uuid}']")
