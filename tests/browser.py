@@ -9,6 +9,7 @@ import weakref
 from pathlib import Path
 
 import numpy as np
+import pytest
 import viser.transforms as vtf
 
 from tests.conftest import wait_until
@@ -39,6 +40,20 @@ def press(page, locator) -> None:
     locator.evaluate("e => e.scrollIntoView({block: 'nearest', inline: 'nearest'})")
     box = locator.bounding_box(timeout=120_000)
     page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+
+
+def press_until(page, locator, done, what: str, tries: int = 12) -> None:
+    """:func:`press` ``locator`` until ``done()``, pressing again while it stays false 10 s
+    after a press: an element the page redraws as the server updates it loses a click that
+    lands while it is replaced (seen under load with Source's dropdown)."""
+    for _ in range(tries):
+        press(page, locator)
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline:
+            if done():
+                return
+            time.sleep(0.1)
+    pytest.fail(f"{what}: pressed {tries} times, nothing happened")
 
 
 def open_tab(page, name: str, timeout: float = 120.0) -> None:

@@ -22,7 +22,14 @@ from promp.region import mean_position
 from promp.via_points import condition_on_via_points
 from robots.icub.layout import HAND, STUDIO_LAYOUT
 from robots.icub.scenario import generate_scenario
-from tests.browser import drag_gizmo, notification, press, set_camera, settled_screenshot
+from tests.browser import (
+    drag_gizmo,
+    notification,
+    press,
+    press_until,
+    set_camera,
+    settled_screenshot,
+)
 from tests.conftest import PageSpec, StudioSpec, wait_until
 
 STUDIO = StudioSpec(seed=3, n_demos=6, ready=lambda studio: studio.session.snapshot().model)
@@ -515,9 +522,9 @@ def test_the_infer_tab_marks_the_via_points_and_says_what_it_shows(studio, page,
         page.evaluate(SCROLL_TO_CHART_JS, hand[0]._impl.uuid)
         settled_screenshot(page, artifacts / "infer_via_points.png")
         press(page, page.get_by_text("Observation", exact=True).first)  # unfolded again
-        press(page, page.locator(f"[id='{infer.controls.source._impl.uuid}']"))
         options = page.get_by_role("option")
-        wait_until(lambda: options.count() == 3, timeout=60, what="Source's options")
+        press_until(page, page.locator(f"[id='{infer.controls.source._impl.uuid}']"),
+                    lambda: options.count() == 3, "Source's options listed")  # fmt: skip
         assert [options.nth(i).inner_text() for i in range(3)] == [TEST, LIVE, LSL]
         box = options.nth(2).bounding_box()  # the pointer off Source: no hint over the list
         page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
