@@ -459,3 +459,18 @@ def one_ulp_changed(source, target) -> None:
             writer.add_message(channels[channel.topic], message.log_time,
                                json.dumps(data).encode(), message.publish_time)  # fmt: skip
         writer.finish()
+
+
+def instances_made(monkeypatch, module, name: str) -> list:
+    """Replace the class ``module.name`` (for this test) with a subclass that records each
+    instance it makes, in the list returned."""
+    made: list = []
+    base = getattr(module, name)
+
+    class Recorded(base):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(module, name, Recorded)
+    return made

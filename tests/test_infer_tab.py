@@ -31,6 +31,7 @@ from tests.browser import (
     close_notifications,
     open_tab,
     press,
+    press_until,
     set_camera,
     settled_render,
     settled_screenshot,
@@ -761,17 +762,6 @@ class ArmSampler:
         self._thread.join()
 
 
-@pytest.mark.browser
-def wait_quietly(predicate, seconds: float) -> bool:
-    """Whether ``predicate()`` turns true within ``seconds`` (False, not a failure, if not)."""
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.05)
-    return bool(predicate())
-
-
 def test_replay_plays_in_the_browser(studio, page) -> None:
     panel = infer_panel(studio)
     controls = panel.controls
@@ -786,11 +776,11 @@ def test_replay_plays_in_the_browser(studio, page) -> None:
         With ``done``, clicked again while ``done()`` stays false 10 s after a click: the button
         is redrawn as the replay runs, and a click on the element being replaced is lost (once
         in a loaded full run the pause never came, once the play never started)."""
-        for _ in range(12):
-            press(page, page.get_by_role("button", name=name, exact=True))
-            if done is None or wait_quietly(done, 10.0):
-                return
-        pytest.fail(f"{name} pressed 12 times, nothing happened")
+        locator = page.get_by_role("button", name=name, exact=True)
+        if done is None:
+            press(page, locator)
+        else:
+            press_until(page, locator, done, name)
 
     # Pause and resume, on a clock the test moves: how far the replay gets between two clicks
     # must not depend on how busy the machine is.

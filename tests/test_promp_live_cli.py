@@ -20,7 +20,7 @@ from promp.datasets import read_csv_demo
 from promp.io import save_model
 from promp.live.cli import main, parser
 from tests.conftest import PATIENCE_S, REPO
-from tests.live_fakes import flt_dataset, hand_model, held
+from tests.live_fakes import flt_dataset, hand_model, held, instances_made
 
 pylsl = pytest.importorskip("pylsl")
 
@@ -218,14 +218,7 @@ def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monk
 
     clock = FakeTime()
     monkeypatch.setattr(promp.live.cli, "time", clock)
-    made = []
-
-    class Kept(promp.live.session.LiveSession):
-        def __init__(self, *args, **kwargs):
-            super().__init__(*args, **kwargs)
-            made.append(self)
-
-    monkeypatch.setattr(promp.live.session, "LiveSession", Kept)
+    made = instances_made(monkeypatch, promp.live.session, "LiveSession")
     lines_made: list = []  # the command's status lines: its report loop is running
     rates: list = []  # each line's (predictions, rate, the command's clock)
     real_line = status_line_module.status_line

@@ -18,6 +18,7 @@ from tests.live_fakes import (
     flt_dataset,
     hand_model,
     held,
+    instances_made,
     replay,
     session_with,
 )
@@ -276,14 +277,7 @@ def test_a_movement_s_updates_extend_one_evidence_and_a_new_movement_begins_anot
     import promp.live.predictor
     from promp.live.predictor import OnlinePredictor
 
-    built = []
-
-    class Counted(promp.live.predictor.Evidence):
-        def __init__(self, *args, **kwargs):
-            super().__init__(*args, **kwargs)
-            built.append(self)
-
-    monkeypatch.setattr(promp.live.predictor, "Evidence", Counted)
+    built = instances_made(monkeypatch, promp.live.predictor, "Evidence")
     model, demo = synthetic_model()
     p = OnlinePredictor(model, {"hand": slice(0, 3), "head": slice(3, 6)})
     for n in (10, 14, 18):
