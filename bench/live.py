@@ -67,6 +67,7 @@ sys.path.insert(0, str(REPO))
 
 import pylsl  # noqa: E402
 
+from bench.checkout import checkout  # noqa: E402
 from promp.data import Demonstration, Layout, Modality  # noqa: E402
 from promp.datasets import load_records_dataset  # noqa: E402
 from promp.evidence.pipeline import infer  # noqa: E402
@@ -366,21 +367,6 @@ def replayed(model_path: Path, plan: Plan, tmp: Path, repo: Path = REPO
     del outlet, markers  # the next run's streams have the same names
     print("\n".join(log.read_text().splitlines()[-4:]))
     return pushed, published, replay_s
-
-
-@contextmanager
-def checkout(commit: str) -> Iterator[Path]:
-    """A temporary ``git worktree`` of ``commit`` (the code before a change, run beside this
-    one's); removed on leaving."""
-    where = Path(tempfile.mkdtemp(prefix="bench-baseline-")) / "repo"
-    subprocess.run(["git", "worktree", "add", "--detach", str(where), commit], cwd=REPO,
-                   check=True, capture_output=True)  # fmt: skip
-    try:
-        yield where
-    finally:
-        subprocess.run(["git", "worktree", "remove", "--force", str(where)], cwd=REPO,
-                       check=False, capture_output=True)  # fmt: skip
-        where.parent.rmdir()
 
 
 def older_format(model) -> dict:

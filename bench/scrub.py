@@ -24,8 +24,14 @@ every update, but draw nothing. (Chromium pages were tried first: with software 
 same two cores, a page's key-press timer fired twice in 8 s, so they measured the pages, not
 the studio.)
 
-Run: ``.venv/bin/python bench/scrub.py [--browser | --load]``. The last line is one JSON
-object.
+With ``--baseline COMMIT``, the plain run (no browser, no load) of this tree and of ``COMMIT``
+(a temporary ``git worktree``, each side its own studio in its own process, the sides
+alternated ABBA for ``--rounds``): each side's medians and the ratio of this tree's median step
+to the baseline's, measured in one run (each side learns its own default workspace, as a user's
+studio does; the settings each chose are printed beside).
+
+Run: ``.venv/bin/python bench/scrub.py [--browser | --load | --baseline COMMIT [--rounds N]]``.
+The last line is one JSON object.
 """
 
 from __future__ import annotations
@@ -34,17 +40,20 @@ import argparse
 import json
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
 
 from app.core.fits import held_out_training  # noqa: E402
 from app.io.net import free_port  # noqa: E402
 from app.panels.infer import LIVE, InferPanel  # noqa: E402
 from app.studio import Studio  # noqa: E402
+from bench.checkout import checkout  # noqa: E402
 from promp.learn import fit  # noqa: E402
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT  # noqa: E402
 
@@ -91,6 +100,32 @@ def fill_live_buffer(panel: InferPanel) -> None:
     panel.live.clear()
     for t, row in zip(demo.times, values, strict=True):
         panel.live.append(1000.0 + float(t), row[:3], row[3:])
+
+
+def paired(baseline: str, rounds: int) -> None:
+    """This tree's plain run against ``baseline``'s, alternated ABBA (see the docstring)."""
+    runs: dict[str, list[dict]] = {"this": [], "baseline": []}
+    with checkout(baseline) as old:
+        sides = {"this": REPO, "baseline": old}
+        for r in range(rounds):
+            for name in list(sides) if r % 2 == 0 else list(reversed(sides)):
+                done = subprocess.run([sys.executable, "bench/scrub.py"], cwd=sides[name],
+                                      check=True, capture_output=True, text=True)  # fmt: skip
+                runs[name].append(json.loads(done.stdout.strip().splitlines()[-1]))
+                print(f"round {r + 1} {name:8s} median {runs[name][-1]['scrub_ms_median']:6.2f} "
+                      f"ms, live {runs[name][-1]['live_scrub_ms_median']:6.2f} ms "
+                      f"(load {os.getloadavg()[0]:.1f})", flush=True)  # fmt: skip
+    result: dict = {"baseline": baseline, "rounds": rounds}
+    for key in ("scrub_ms_median", "scrub_ms_p90", "live_scrub_ms_median"):
+        for name, side in runs.items():
+            result[f"{name}_{key}"] = round(statistics.median(run[key] for run in side), 3)
+        result[f"ratio_{key}"] = round(result[f"this_{key}"] / result[f"baseline_{key}"], 3)
+    result["load_average_1min"] = round(os.getloadavg()[0], 2)
+    this, base = result["this_scrub_ms_median"], result["baseline_scrub_ms_median"]
+    print(f"scrub step: this tree {this:.2f} ms, {baseline} {base:.2f} ms: ratio "
+          f"{result['ratio_scrub_ms_median']:.2f} "
+          f"(live {result['ratio_live_scrub_ms_median']:.2f})")
+    print(json.dumps(result))
 
 
 def main(browser: bool = False) -> None:
@@ -334,13 +369,17 @@ if __name__ == "__main__":
         "--load", action="store_true",
         help="two clients scrubbing at once while a recording runs",
     )  # fmt: skip
+    group.add_argument("--baseline", help="a commit to measure beside this tree, alternated")
+    parser.add_argument("--rounds", type=int, default=4, help="runs of each side (--baseline)")
     parser.add_argument("--seconds", type=float, default=20.0, help="how long --load scrubs")
     parser.add_argument("--clients", type=int, default=2, help="scrubbing clients for --load")
     parser.add_argument(
         "--rate", type=float, default=30.0, help="slider updates a second per --load client"
     )
     args = parser.parse_args()
-    if args.load:
+    if args.baseline:
+        paired(args.baseline, args.rounds)
+    elif args.load:
         under_load(args.seconds, args.clients, args.rate)
     else:
         main(browser=args.browser)
