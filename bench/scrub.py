@@ -24,11 +24,14 @@ every update, but draw nothing. (Chromium pages were tried first: with software 
 same two cores, a page's key-press timer fired twice in 8 s, so they measured the pages, not
 the studio.)
 
-With ``--baseline COMMIT``, the plain run (no browser, no load) of this tree and of ``COMMIT``
-(a temporary ``git worktree``, each side its own studio in its own process, the sides
-alternated ABBA for ``--rounds``): each side's medians and the ratio of this tree's median step
-to the baseline's, measured in one run (each side learns its own default workspace, as a user's
-studio does; the settings each chose are printed beside).
+With ``--baseline COMMIT``, the plain run (no browser, no load) of this script on this tree's
+code and on ``COMMIT``'s (a temporary ``git worktree``; each side its own studio in its own
+process, the sides alternated ABBA for ``--rounds``): each side's medians and the ratio of this
+tree's median step to the baseline's, measured in one run. Both sides are given the basis,
+width and noise scale that this tree's automatic rule chooses for the default workspace
+(``--given``, as the Teach tab gives them): a step's cost grows with the number of basis
+functions, and two commits' automatic rules may choose differently, which would measure the
+choice rather than the code.
 
 Run: ``.venv/bin/python bench/scrub.py [--browser | --load | --baseline COMMIT [--rounds N]]``.
 The last line is one JSON object.
@@ -47,7 +50,10 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
+# ``--code DIR`` (what --baseline passes): this script run on another checkout's code
+CODE = Path(sys.argv[sys.argv.index("--code") + 1]) if "--code" in sys.argv else REPO
+sys.path.insert(0, str(CODE))
+sys.path.insert(1, str(REPO))  # bench.checkout, if CODE has none
 
 from app.core.fits import held_out_training  # noqa: E402
 from app.io.net import free_port  # noqa: E402
@@ -102,20 +108,33 @@ def fill_live_buffer(panel: InferPanel) -> None:
         panel.live.append(1000.0 + float(t), row[:3], row[3:])
 
 
+def studio_settings() -> tuple[int, float, float]:
+    """The basis, width and noise scale this tree's automatic rule chooses for the studio's
+    default workspace (what ``--baseline`` gives both sides)."""
+    from robots.icub.scenario import generate_scenario
+
+    s = fit(generate_scenario(seed=0), LAYOUT).settings
+    return s.n_basis, s.width, s.noise_scale
+
+
 def paired(baseline: str, rounds: int) -> None:
-    """This tree's plain run against ``baseline``'s, alternated ABBA (see the docstring)."""
+    """This script on this tree's code and on ``baseline``'s, alternated ABBA, the settings
+    given (see the docstring)."""
     runs: dict[str, list[dict]] = {"this": [], "baseline": []}
+    given = studio_settings()
     with checkout(baseline) as old:
         sides = {"this": REPO, "baseline": old}
         for r in range(rounds):
             for name in list(sides) if r % 2 == 0 else list(reversed(sides)):
-                done = subprocess.run([sys.executable, "bench/scrub.py"], cwd=sides[name],
-                                      check=True, capture_output=True, text=True)  # fmt: skip
+                command = [sys.executable, str(Path(__file__).resolve()), "--code",
+                           str(sides[name]), "--given", ",".join(map(str, given))]  # fmt: skip
+                done = subprocess.run(command, cwd=sides[name], check=True, capture_output=True,
+                                      text=True)  # fmt: skip
                 runs[name].append(json.loads(done.stdout.strip().splitlines()[-1]))
                 print(f"round {r + 1} {name:8s} median {runs[name][-1]['scrub_ms_median']:6.2f} "
                       f"ms, live {runs[name][-1]['live_scrub_ms_median']:6.2f} ms "
                       f"(load {os.getloadavg()[0]:.1f})", flush=True)  # fmt: skip
-    result: dict = {"baseline": baseline, "rounds": rounds}
+    result: dict = {"baseline": baseline, "rounds": rounds, "given": given}
     for key in ("scrub_ms_median", "scrub_ms_p90", "live_scrub_ms_median"):
         for name, side in runs.items():
             result[f"{name}_{key}"] = round(statistics.median(run[key] for run in side), 3)
@@ -123,16 +142,34 @@ def paired(baseline: str, rounds: int) -> None:
     result["load_average_1min"] = round(os.getloadavg()[0], 2)
     this, base = result["this_scrub_ms_median"], result["baseline_scrub_ms_median"]
     print(f"scrub step: this tree {this:.2f} ms, {baseline} {base:.2f} ms: ratio "
-          f"{result['ratio_scrub_ms_median']:.2f} "
-          f"(live {result['ratio_live_scrub_ms_median']:.2f})")
+          f"{result['ratio_scrub_ms_median']:.2f} (live {result['ratio_live_scrub_ms_median']:.2f};"
+          f" both given the basis, width and noise scale {given})")
     print(json.dumps(result))
 
 
-def main(browser: bool = False) -> None:
+def give(studio: Studio, given: tuple[int, float, float]) -> None:
+    """The workspace's learning settings given (as the Teach tab gives them), and its model
+    refitted with them before the sweep."""
+    n_basis, width, noise_scale = given
+    studio.session.store.set_learning(n_basis, width, noise_scale=noise_scale)
+    deadline = time.monotonic() + 120.0
+    while True:
+        model = studio.session.snapshot().model
+        if model is not None and (model.settings.n_basis, model.settings.width,
+                                  model.settings.noise_scale) == given:  # fmt: skip
+            return
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"the workspace was not refitted with {given} within 120 s")
+        time.sleep(0.01)
+
+
+def main(browser: bool = False, given: tuple[int, float, float] | None = None) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         studio = Studio.start("127.0.0.1", free_port(), Path(tmp) / "workspace")
         pw = chromium = None
         try:
+            if given is not None:
+                give(studio, given)
             panel = next(p for p in studio.panels if isinstance(p, InferPanel))
             deadline = time.monotonic() + 60.0
             while panel.steps.count == 0 and time.monotonic() < deadline:
@@ -171,6 +208,8 @@ def main(browser: bool = False) -> None:
         "steps": len(test),
         "target_ms": TARGET_MS,
         "browser_connected": browser,
+        "code": str(Path(sys.modules[Studio.__module__].__file__).resolve().parents[1]),
+        "given": given,
         "load_average_1min": round(os.getloadavg()[0], 2),
         "cpus": os.cpu_count(),
     }
@@ -371,6 +410,8 @@ if __name__ == "__main__":
     )  # fmt: skip
     group.add_argument("--baseline", help="a commit to measure beside this tree, alternated")
     parser.add_argument("--rounds", type=int, default=4, help="runs of each side (--baseline)")
+    parser.add_argument("--given", help="N,WIDTH,NOISE_SCALE: the workspace's settings given")
+    parser.add_argument("--code", type=Path, help=argparse.SUPPRESS)
     parser.add_argument("--seconds", type=float, default=20.0, help="how long --load scrubs")
     parser.add_argument("--clients", type=int, default=2, help="scrubbing clients for --load")
     parser.add_argument(
@@ -382,4 +423,8 @@ if __name__ == "__main__":
     elif args.load:
         under_load(args.seconds, args.clients, args.rate)
     else:
-        main(browser=args.browser)
+        given = None
+        if args.given:
+            n, w, ns = args.given.split(",")
+            given = (int(n), float(w), float(ns))
+        main(browser=args.browser, given=given)
