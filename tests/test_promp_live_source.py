@@ -67,8 +67,10 @@ def test_a_source_needs_inputs_of_distinct_names_and_a_marker_stream_of_its_own(
         Source([hand, LiveInput.parse("hand=Other:0")])
     with pytest.raises(ValueError):
         Source([hand], markers=Selector.parse("Hand"))
-    source = Source([hand, LiveInput.parse("grip=Hand:3"), LiveInput.parse("head=Head:0")],
-                    markers=Selector.parse("type=Markers"), now=7.0)  # fmt: skip
+    grip, head = LiveInput.parse("grip=Hand:3"), LiveInput.parse("head=Head:0")
+    source = Source([hand, grip, head], markers=Selector.parse("type=Markers"), now=7.0)
+    assert source.inputs == (hand, grip, head)
+    assert all(isinstance(s.detail, str) and s.detail for s in source.statuses())
     wanted = source.wanted()
     assert [(w.feed, str(w.selector), w.markers, w.refused) for w in wanted] == [
         (0, "Hand", False, ""), (1, "Head", False, ""), (2, "type=Markers", True, "")]
@@ -110,6 +112,8 @@ def test_a_marker_streams_labels_are_markers_on_the_sessions_clock() -> None:
     assert batch.markers == [(2.0, "start top"), (3.5, "end top")]
     assert batch.samples == {} and source.counts()["Markers"] == (2, 0)
     assert condition(source, 1) is Condition.OK
+    batch = source.poll({1: Pulled.LOST}, 5.0)  # a marker stream lost breaks no input
+    assert batch.broken == set() and condition(source, 1) is Condition.VANISHED
 
 
 def test_a_stream_found_twice_keeps_the_first_and_comes_back_or_restarts() -> None:
@@ -150,6 +154,7 @@ def test_samples_of_the_wrong_shape_are_left_out_until_right_ones_come() -> None
     batch = source.poll({0: rows(regular(1.0, 3), width=2)}, 1.0)
     assert batch.samples == {} and len(batch.events) == 1
     assert condition(source) is Condition.WRONG_CHANNELS
+    assert isinstance(source.statuses()[0].detail, str) and source.statuses()[0].detail
     assert source.counts() == {"Hand": (3, 3)}
     source.poll({0: Pulled(np.array([[1.0, 1.01]]), np.ones((1, 4)))}, 1.0)  # times (1, 2)
     assert source.counts() == {"Hand": (4, 4)}
