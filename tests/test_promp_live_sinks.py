@@ -554,3 +554,44 @@ def test_a_callback_sink_reads_only_predictions_and_hands_each_on() -> None:
     assert (part.time, part.boundaries, part.predictions) == (2.0, (), ("p", "q"))
     assert sink.take(part) == () and got == ["p", "q"]
     sink.close()
+
+
+def test_a_worker_whose_queue_stayed_full_while_it_delivered_is_still_full() -> None:
+    from promp.live.sinks import Output, SinkWorker
+
+    sink = Gated()
+    worker = SinkWorker(sink, capacity=2)
+    blocked(sink, worker)
+    worker.offer(Output(1.0))
+    worker.offer(Output(2.0))  # full while -1 is delivered
+    second = threading.Event()
+    taken = sink.take
+
+    def take(output):  # -1 delivered: hold on the next output until the test looked
+        if output.time == 1.0:
+            sink.taking.set()
+            assert second.wait(LIMIT_S), "the test never let the second output go"
+        return taken(output)
+
+    sink.take = take
+    sink.taking.clear()
+    sink.gate.set()
+    assert waited(sink.taking.wait, worker)  # -1 delivered, 1.0 taken: 2.0 still queued
+    s = worker.state()
+    assert (s.delivered, s.queued, s.full) == (1, 2, True)
+    second.set()
+    assert waited(worker.flush, worker)
+    s = worker.state()
+    assert (s.delivered, s.queued, s.full) == (3, 0, False)
+    worker.stop(LIMIT_S)
+
+
+def test_the_sinks_news_read_the_states_given() -> None:
+    from promp.live.sinks import Sinks, SinkState
+
+    sinks = Sinks([Gated("a")])
+    failing = SinkState("a", failures=1, failing=True, error="OSError: full")
+    news = sinks.news(3.0, [failing])  # the worker itself is healthy
+    assert len(news) == 1 and news[0].time == 3.0
+    assert sinks.news(4.0, [failing]) == []
+    assert sinks.close() == []
