@@ -356,6 +356,17 @@ class Gated:
         self.closed += 1
 
 
+def waited(wait, worker) -> bool:
+    """``wait(seconds)`` (a worker's ``flush``, a sink's ``taking.wait``) until it is True or
+    ``LIMIT_S`` passed, failing as soon as the worker's thread has ended: a worker whose thread
+    died (an error in it) fails the test at once instead of holding it ``LIMIT_S``."""
+    for _ in range(int(LIMIT_S / 0.05)):
+        if wait(0.05):
+            return True
+        assert worker._thread.is_alive(), f"the thread of sink {worker.sink.name!r} ended"
+    return False
+
+
 def blocked(sink: Gated, worker) -> None:
     """Close ``sink``'s gate and wait until its thread is inside ``take`` on output -1."""
     from promp.live.sinks import Output
@@ -363,7 +374,7 @@ def blocked(sink: Gated, worker) -> None:
     sink.gate.clear()
     sink.taking.clear()
     worker.offer(Output(-1.0))
-    assert sink.taking.wait(LIMIT_S)
+    assert waited(sink.taking.wait, worker)
 
 
 def test_a_lossy_worker_drops_its_oldest_outputs_and_counts_them() -> None:
@@ -386,7 +397,7 @@ def test_a_lossy_worker_drops_its_oldest_outputs_and_counts_them() -> None:
     assert (s.queued, s.full, s.dropped) == (2, True, 2)
     assert not worker.flush(0.01)  # blocked: not delivered
     sink.gate.set()
-    assert worker.flush(LIMIT_S)
+    assert waited(worker.flush, worker)
     assert [o.time for o in sink.taken] == [-1.0, 3.0, 4.0]  # the latest two
     s = worker.state()
     assert (s.delivered, s.failures, s.queued, s.full, s.dropped) == (3, 0, 0, False, 2)
@@ -410,7 +421,7 @@ def test_a_lossless_worker_folds_into_its_last_output_and_drops_only_ends_beyond
     s = worker.state()  # b, c, d, e folded: two ends past a capacity of 2 dropped
     assert (s.queued, s.full, s.dropped) == (2, True, 2)
     sink.gate.set()
-    assert worker.flush(LIMIT_S)
+    assert waited(worker.flush, worker)
     assert [o.time for o in sink.taken] == [-1.0, 1.0, 4.0]
     assert sink.taken[2].boundaries == ("d", "e")
     assert sink.taken[2].predictions == ("p2", "p3", "p4")
@@ -426,13 +437,13 @@ def test_a_worker_counts_failures_keeps_the_last_error_and_works_again() -> None
     sink.fail = OSError("down")
     worker.offer(Output(1.0))
     worker.offer(Output(2.0))
-    assert worker.flush(LIMIT_S)
+    assert waited(worker.flush, worker)
     s = worker.state()
     assert (s.delivered, s.failures, s.failing, s.error) == (0, 2, True, "OSError: down")
     assert not s.healthy and worker.kept() == []
     sink.fail = None
     worker.offer(Output(3.0))
-    assert worker.flush(LIMIT_S)
+    assert waited(worker.flush, worker)
     s = worker.state()
     assert (s.delivered, s.failures, s.failing, s.error) == (1, 2, False, "OSError: down")
     assert s.healthy and worker.kept() == [("kept", 3.0)]
@@ -448,7 +459,7 @@ def test_a_worker_queues_only_what_its_sink_reads_and_delivers_the_queue_when_st
     worker.offer(Output(-5.0))  # not read: never queued
     assert worker.state().queued == 0 and worker.flush(0.01)
     worker.offer(Output(1.0))
-    assert sink.taking.wait(LIMIT_S)
+    assert waited(sink.taking.wait, worker)
     worker.offer(Output(2.0))
     assert not worker.stop(0.01)  # blocked: its thread goes on
     sink.gate.set()
@@ -480,7 +491,8 @@ def test_the_sinks_say_each_change_once_and_close_every_sink() -> None:
     a.fail = None
     blocked(b, sinks.workers[1])
     sinks.offer(Output(2.0))
-    assert sinks.workers[0].flush(LIMIT_S) and sinks.workers[2].flush(LIMIT_S)
+    assert waited(sinks.workers[0].flush, sinks.workers[0])
+    assert waited(sinks.workers[2].flush, sinks.workers[2])
     assert not sinks.flush(0.01)
     news = sinks.news(9.0)  # a works again, b fell behind
     assert [("'a'" in e.text, "'b'" in e.text) for e in news] == [(True, False), (False, True)]
@@ -542,3 +554,44 @@ def test_a_callback_sink_reads_only_predictions_and_hands_each_on() -> None:
     assert (part.time, part.boundaries, part.predictions) == (2.0, (), ("p", "q"))
     assert sink.take(part) == () and got == ["p", "q"]
     sink.close()
+
+
+def test_a_worker_whose_queue_stayed_full_while_it_delivered_is_still_full() -> None:
+    from promp.live.sinks import Output, SinkWorker
+
+    sink = Gated()
+    worker = SinkWorker(sink, capacity=2)
+    blocked(sink, worker)
+    worker.offer(Output(1.0))
+    worker.offer(Output(2.0))  # full while -1 is delivered
+    second = threading.Event()
+    taken = sink.take
+
+    def take(output):  # -1 delivered: hold on the next output until the test looked
+        if output.time == 1.0:
+            sink.taking.set()
+            assert second.wait(LIMIT_S), "the test never let the second output go"
+        return taken(output)
+
+    sink.take = take
+    sink.taking.clear()
+    sink.gate.set()
+    assert waited(sink.taking.wait, worker)  # -1 delivered, 1.0 taken: 2.0 still queued
+    s = worker.state()
+    assert (s.delivered, s.queued, s.full) == (1, 2, True)
+    second.set()
+    assert waited(worker.flush, worker)
+    s = worker.state()
+    assert (s.delivered, s.queued, s.full) == (3, 0, False)
+    worker.stop(LIMIT_S)
+
+
+def test_the_sinks_news_read_the_states_given() -> None:
+    from promp.live.sinks import Sinks, SinkState
+
+    sinks = Sinks([Gated("a")])
+    failing = SinkState("a", failures=1, failing=True, error="OSError: full")
+    news = sinks.news(3.0, [failing])  # the worker itself is healthy
+    assert len(news) == 1 and news[0].time == 3.0
+    assert sinks.news(4.0, [failing]) == []
+    assert sinks.close() == []

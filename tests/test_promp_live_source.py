@@ -67,8 +67,10 @@ def test_a_source_needs_inputs_of_distinct_names_and_a_marker_stream_of_its_own(
         Source([hand, LiveInput.parse("hand=Other:0")])
     with pytest.raises(ValueError):
         Source([hand], markers=Selector.parse("Hand"))
-    source = Source([hand, LiveInput.parse("grip=Hand:3"), LiveInput.parse("head=Head:0")],
-                    markers=Selector.parse("type=Markers"), now=7.0)  # fmt: skip
+    grip, head = LiveInput.parse("grip=Hand:3"), LiveInput.parse("head=Head:0")
+    source = Source([hand, grip, head], markers=Selector.parse("type=Markers"), now=7.0)
+    assert source.inputs == (hand, grip, head)
+    assert all(isinstance(s.detail, str) and s.detail for s in source.statuses())
     wanted = source.wanted()
     assert [(w.feed, str(w.selector), w.markers, w.refused) for w in wanted] == [
         (0, "Hand", False, ""), (1, "Head", False, ""), (2, "type=Markers", True, "")]
@@ -110,6 +112,8 @@ def test_a_marker_streams_labels_are_markers_on_the_sessions_clock() -> None:
     assert batch.markers == [(2.0, "start top"), (3.5, "end top")]
     assert batch.samples == {} and source.counts()["Markers"] == (2, 0)
     assert condition(source, 1) is Condition.OK
+    batch = source.poll({1: Pulled.LOST}, 5.0)  # a marker stream lost breaks no input
+    assert batch.broken == set() and condition(source, 1) is Condition.VANISHED
 
 
 def test_a_stream_found_twice_keeps_the_first_and_comes_back_or_restarts() -> None:
@@ -150,6 +154,7 @@ def test_samples_of_the_wrong_shape_are_left_out_until_right_ones_come() -> None
     batch = source.poll({0: rows(regular(1.0, 3), width=2)}, 1.0)
     assert batch.samples == {} and len(batch.events) == 1
     assert condition(source) is Condition.WRONG_CHANNELS
+    assert isinstance(source.statuses()[0].detail, str) and source.statuses()[0].detail
     assert source.counts() == {"Hand": (3, 3)}
     source.poll({0: Pulled(np.array([[1.0, 1.01]]), np.ones((1, 4)))}, 1.0)  # times (1, 2)
     assert source.counts() == {"Hand": (4, 4)}
@@ -309,3 +314,256 @@ def test_a_burst_short_of_its_backlog_is_given_once_nothing_more_comes() -> None
     batch = source.poll({}, 1.9)  # nothing more came: released
     assert_allclose(batch.samples["hand"][0], regular(1.76, 5), atol=2e-4)
     assert math.isfinite(batch.samples["hand"][0][-1])
+
+
+def hand_and_head(now=0.0) -> Source:
+    """Two streams (two feeds): ``hand`` of Hand (100 Hz) and ``head`` of Head (irregular)."""
+    source = Source([LiveInput.parse("hand=Hand:x,y,z"), LiveInput.parse("head=Head:0")], now=now)
+    source.adopt([Opened(0, stream("u-1")), Opened(1, stream("h-1", name="Head", rate=0.0))],
+                 now)  # fmt: skip
+    return source
+
+
+def test_a_clock_left_at_its_default_starts_the_statuses_at_zero() -> None:
+    source = Source([LiveInput.parse("hand=Hand:x,y,z")])
+    assert source.statuses()[0].since == 0.0
+
+
+def test_one_look_adopts_every_feed_it_opened_and_says_each() -> None:
+    inputs = [LiveInput.parse(text) for text in ("a=A:x,y,z", "b=B:x,y,z", "c=C:x,y,z")]
+    source = Source(inputs)
+    found = stream("c-1", name="C")
+    events = source.adopt([Opened(1, stream("b-1", labels="abcd")), Opened(2, found),
+                           Opened(0, None, "not found")], 1.0)  # fmt: skip
+    assert len(events) == 3 and [e.time for e in events] == [1.0, 1.0, 1.0]
+    assert [(s.stream, s.condition, s.since) for s in source.statuses()] == [
+        ("A", Condition.WAITING, 1.0), ("B", Condition.WRONG_CHANNELS, 1.0),
+        ("C", Condition.OK, 1.0)]  # fmt: skip
+    assert source.statuses()[2].detail == found.summary()
+    assert source.connected() == frozenset({2})
+    # a feed read already is skipped, the others of the same look still adopted
+    events = source.adopt([Opened(2, stream("c-2", name="C")), Opened(0, stream("a-1", name="A"))],
+                          2.0)  # fmt: skip
+    assert len(events) == 1 and source.connected() == frozenset({0, 2})
+    assert source.statuses()[2].since == 1.0  # the first one kept
+
+
+def test_a_stream_refused_after_it_vanished_restarts_when_a_right_one_comes() -> None:
+    source = Source([LiveInput.parse("hand=Hand:x,y,z")])
+    source.adopt([Opened(0, stream("u-1"))], 1.0)
+    source.poll({0: Pulled.LOST}, 2.0)
+    source.adopt([Opened(0, stream("u-2", labels=("a", "b", "c", "d")))], 3.0)
+    assert condition(source) is Condition.WRONG_CHANNELS
+    source.adopt([Opened(0, stream("u-3"))], 4.0)
+    assert condition(source) is Condition.RESTARTED
+
+
+def test_a_stream_without_a_uid_that_vanished_is_back() -> None:
+    source = Source([LiveInput.parse("hand=Hand:x,y,z")])
+    source.adopt([Opened(0, stream(""))], 1.0)
+    source.poll({0: Pulled.LOST}, 2.0)
+    source.adopt([Opened(0, stream(""))], 3.0)
+    assert condition(source) is Condition.BACK
+
+
+def test_each_feed_of_a_poll_is_read_and_its_events_all_kept() -> None:
+    source = Source([LiveInput.parse("hand=Hand:x,y,z"), LiveInput.parse("head=Head:0")])
+    source.adopt([Opened(1, stream("h-1", name="Head", rate=0.0))], 1.0)  # Hand not found
+    batch = source.poll({1: rows([1.0])}, 1.0)  # a feed not read before one that is
+    assert_array_equal(batch.samples["head"][0], [1.0])
+    source = hand_and_head()
+    batch = source.poll({1: rows([1.0])}, 1.0)  # a feed that gave nothing before one that did
+    assert_array_equal(batch.samples["head"][0], [1.0])
+    source.poll({0: rows([1.0])}, 1.0)
+    # the hand's stream lost, the head's stall checked: the hand's event stays
+    batch = source.poll({0: Pulled.LOST}, 1.1)
+    assert len(batch.events) == 1 and condition(source) is Condition.VANISHED
+    source = hand_and_head()  # the hand's samples of the wrong shape, then the head's lost
+    batch = source.poll({0: rows([1.0], width=2), 1: Pulled.LOST}, 1.0)
+    assert [e.time for e in batch.events] == [1.0, 1.0]
+    assert [condition(source, k) for k in (0, 1)] == [Condition.WRONG_CHANNELS,
+                                                      Condition.VANISHED]  # fmt: skip
+
+
+NAN = Pulled(np.array([1.1]), np.full((1, 4), np.nan))
+
+
+@pytest.mark.parametrize("fault, before, then, at, after", [
+    ("shape", [], rows([1.2], width=2), 1.2, Condition.WRONG_CHANNELS),
+    ("bad values", [], Pulled(np.array([1.2]), np.full((1, 4), np.nan)), 1.2,
+     Condition.BAD_VALUES),
+    ("usable again", [(rows([1.1], width=2), 1.1)], rows([1.2]), 1.2, Condition.OK),
+    ("clean again", [(NAN, 1.1), (rows([1.2]), 1.2)], rows([1.3]), 1.2 + CLEAN_S, Condition.OK),
+    ("jump", [], rows([9.0]), 1.2, Condition.CLOCK_JUMP),
+])  # fmt: skip
+def test_an_event_of_a_second_feed_keeps_the_firsts(fault, before, then, at, after) -> None:
+    source = hand_and_head()
+    source.poll({0: rows([1.0]), 1: rows([1.0])}, 1.0)
+    for pulled, now in before:
+        source.poll({0: rows([now]), 1: pulled}, now)
+    batch = source.poll({0: Pulled.LOST, 1: then}, at)
+    assert [e.time for e in batch.events] == [at, at]
+    assert condition(source, 0) is Condition.VANISHED
+    assert condition(source, 1) is after
+    assert source.statuses()[1].stream == "Head"
+
+
+def test_the_marker_streams_labels_are_counted_across_polls() -> None:
+    source = Source([LiveInput.parse("hand=Hand:0,1,2")], markers=Selector.parse("Markers"))
+    source.adopt([Opened(0, stream()), Opened(1, markers_stream())], 1.0)
+    source.poll({1: Pulled(np.array([2.0, 3.5]), ["start top", "end top"])}, 4.0)
+    source.poll({1: Pulled(np.array([4.0]), ["start top"])}, 4.5)
+    assert source.counts()["Markers"] == (3, 0)
+
+
+def test_three_inputs_of_one_stream_each_get_their_channels() -> None:
+    source = Source([LiveInput.parse("a=Hand:0"), LiveInput.parse("b=Hand:1,2"),
+                     LiveInput.parse("c=Hand:3")])  # fmt: skip
+    source.adopt([Opened(0, stream())], 1.0)
+    values = np.array([[1.0, 2.0, 3.0, 4.0]])
+    batch = source.poll({0: Pulled(np.array([1.0]), values)}, 1.0)
+    got = [batch.samples[n][1] for n in "abc"]  # Hand's x, y, z in mm
+    assert_allclose(np.concatenate(got, axis=1), [[1e-3, 2e-3, 3e-3, 4.0]])
+    assert [g.shape for g in got] == [(1, 1), (1, 2), (1, 1)]
+
+
+def test_a_value_at_the_largest_magnitude_is_kept() -> None:
+    from promp.data import MAX_MAGNITUDE
+
+    source = hand_and_grip()
+    values = np.full((1, 4), MAX_MAGNITUDE)  # the grip's newtons: not scaled
+    batch = source.poll({0: Pulled(np.array([1.0]), values)}, 1.0)
+    assert_array_equal(batch.samples["grip"][1], [[MAX_MAGNITUDE]])
+    assert condition(source) is Condition.OK
+
+
+def test_bad_values_said_again_keep_the_streams_name_and_clean_ends_them_at_clean_s() -> None:
+    source = hand_and_grip()
+    for now in (1.0, 1.5):
+        source.poll({0: Pulled(np.array([now]), np.full((1, 4), np.nan))}, now)
+    status = source.statuses()[0]
+    assert (status.stream, status.condition, status.since) == ("Hand", Condition.BAD_VALUES, 1.0)
+    source.poll({0: rows([2.0])}, 2.0)  # clean from 2.0
+    batch = source.poll({0: rows([2.01])}, 2.0 + CLEAN_S)  # clean exactly CLEAN_S: usable
+    status = source.statuses()[0]
+    assert (status.condition, status.since) == (Condition.OK, 2.0 + CLEAN_S)
+    assert isinstance(status.detail, str) and status.detail
+    assert [e.time for e in batch.events] == [2.0 + CLEAN_S]
+
+
+def test_usable_samples_after_the_wrong_shape_are_said_at_their_time() -> None:
+    source = hand_and_grip()
+    source.poll({0: rows([1.0], width=2)}, 1.0)
+    source.poll({0: rows([1.25])}, 1.25)
+    status = source.statuses()[0]
+    assert (status.condition, status.since) == (Condition.OK, 1.25)
+    assert isinstance(status.detail, str) and status.detail
+
+
+def test_a_stamp_exactly_jump_s_back_is_a_jump_and_one_exactly_jump_s_ahead_is_not() -> None:
+    source = hand_and_grip(rate=0.0)
+    source.poll({0: rows([1.0])}, 1.0)
+    batch = source.poll({0: rows([1.0 - JUMP_S])}, 1.0)
+    assert batch.broken == {"hand", "grip"} and condition(source) is Condition.CLOCK_JUMP
+    source = hand_and_grip(rate=0.0)
+    source.poll({0: rows([1.0])}, 1.0)
+    # 0.5 s of stamps in 0.25 s here, delivered on time: JUMP_S ahead, not beyond
+    batch = source.poll({0: rows([1.5])}, 1.25)
+    assert batch.broken == set() and condition(source) is Condition.OK
+
+
+def test_a_leap_ahead_within_a_poll_is_re_anchored_where_it_happens() -> None:
+    source = hand_and_grip()
+    source.poll({0: rows(regular(1.0, 3))}, 1.02)
+    times = np.concatenate([regular(1.03, 2), regular(5.0, 2)])
+    batch = source.poll({0: rows(times)}, 1.06)
+    assert_allclose(batch.samples["hand"][0], regular(1.03, 4), atol=1e-9)
+    assert batch.broken == {"hand", "grip"}
+
+
+def test_two_clock_jumps_add_up() -> None:
+    source = hand_and_grip()
+    source.poll({0: rows(regular(1.0, 3))}, 1.02)
+    source.poll({0: rows(regular(11.03, 3))}, 1.05)  # 10 s ahead
+    source.poll({0: rows(regular(31.06, 3))}, 1.08)  # 20 s more
+    batch = source.poll({0: rows(regular(31.09, 2))}, 1.1)
+    assert_allclose(batch.samples["hand"][0], regular(1.09, 2), atol=1e-9)
+    assert batch.broken == set() and batch.events == []  # no jump seen again
+
+
+def test_stamps_left_out_are_counted_in_each_poll() -> None:
+    source = hand_and_grip()
+    source.poll({0: rows([1.0, 1.01, 1.005, 1.01, 1.02])}, 1.0)
+    assert source.counts() == {"Hand": (5, 2)}
+
+
+def test_the_rate_is_measured_from_five_samples_over_half_the_window() -> None:
+    for times, rate in [([1.0, 1.25, 1.5, 1.75, 2.0], 4.0),  # span exactly half the window
+                        ([1.0, 2.25, 2.5, 2.75, 3.0], 4.0),  # exactly the window: all kept
+                        ([1.0, 1.25, 1.5, 1.75], 0.0)]:  # fmt: skip
+        source = hand_and_grip(rate=0.0)
+        source.poll({0: rows(times)}, times[-1])
+        assert source.nominal_rate("hand") == pytest.approx(rate), times
+
+
+def test_a_pause_of_exactly_stall_min_s_does_not_restart_the_rates_window() -> None:
+    source = hand_and_grip(rate=0.0)
+    source.poll({0: rows([1.0, 1.25, 1.5, 1.75])}, 1.75)
+    source.poll({0: rows([1.75 + STALL_MIN_S])}, 1.75 + STALL_MIN_S)
+    assert source.nominal_rate("hand") == pytest.approx(4.0)
+
+
+def test_a_rate_change_is_said_at_its_time_and_exactly_the_tolerance_is_none() -> None:
+    source = hand_and_grip()
+    source.poll({0: rows(regular(1.0, 150))}, 2.5)
+    events = source.poll({0: rows(regular(2.5, 63, 0.04))}, 5.0).events
+    assert [e.time for e in events] == [5.0] and source.statuses()[0].since == 5.0
+    exact = hand_and_grip(rate=1.6)  # 2 Hz is 25 % over
+    assert exact.poll({0: rows(regular(1.0, 5, 0.5))}, 3.0).events == []
+    assert exact.nominal_rate("hand") == 1.6
+
+
+def test_a_slow_declared_rate_that_changes_is_said_and_re_spreads_at_the_new_rate() -> None:
+    source = hand_and_grip(rate=1.0)
+    events = source.poll({0: rows(regular(1.0, 5, 0.25))}, 2.0).events  # 4 Hz, not 1
+    assert len(events) == 1 and condition(source) is Condition.RATE_CHANGED
+    assert source.nominal_rate("hand") == 4.0
+    burst = 3.0 + 1e-5 * np.arange(4)  # 1 s late: four 4 Hz samples pushed at once
+    batch = source.poll({0: rows(burst)}, 3.0)
+    assert_allclose(batch.samples["hand"][0], [2.25, 2.5, 2.75, 3.0], atol=1e-4)
+
+
+def test_an_undeclared_rate_that_changes_never_re_spreads_a_burst() -> None:
+    source = hand_and_grip(rate=0.0)
+    source.poll({0: rows(regular(1.0, 30, 0.04))}, 2.2)
+    assert source.nominal_rate("hand") == pytest.approx(25.0)
+    events = source.poll({0: rows(regular(2.2, 150, 0.01))}, 3.7).events
+    assert len(events) == 1 and source.nominal_rate("hand") == pytest.approx(100.0)
+    burst = 3.89 + 1e-5 * np.arange(20)
+    batch = source.poll({0: rows(burst)}, 3.9)
+    assert_array_equal(batch.samples["hand"][0], burst)
+
+
+def test_a_stall_is_said_at_exactly_its_limit_with_a_detail() -> None:
+    source = hand_and_grip()
+    source.poll({0: rows([1.0])}, 1.0)
+    source.poll({}, 1.0 + STALL_MIN_S)
+    status = source.statuses()[0]
+    assert status.condition is Condition.STALLED
+    assert isinstance(status.detail, str) and status.detail
+
+
+def test_a_rate_change_found_in_samples_released_by_an_idle_poll_is_said_at_its_time() -> None:
+    # 12.5 Hz where 100 Hz is declared, one sample every 8 polls of a 100 Hz session: each
+    # sample after such a pause is held (it may begin a backlog), then released by a poll
+    # that brought nothing; the change is seen in what such a poll released
+    source = hand_and_grip()
+    said = []
+    for i in range(400):
+        now = 1.0 + 0.01 * i
+        pulled = {0: rows([now])} if i % 8 == 0 else {}
+        said += [(e.time, now, bool(pulled)) for e in source.poll(pulled, now).events]
+    assert len(said) == 1 and condition(source) is Condition.RATE_CHANGED
+    time, now, brought = said[0]
+    assert time == now and not brought
+    assert source.nominal_rate("hand") == pytest.approx(12.5)
