@@ -116,6 +116,18 @@ def test_a_marker_streams_labels_are_markers_on_the_sessions_clock() -> None:
     assert batch.broken == set() and condition(source, 1) is Condition.VANISHED
 
 
+def test_a_marker_pull_of_more_stamps_than_labels_is_left_out_and_said_never_raised() -> None:
+    source = Source([LiveInput.parse("hand=Hand:0,1,2")], markers=Selector.parse("Markers"))
+    source.adopt([Opened(0, stream()), Opened(1, markers_stream())], 1.0)
+    for labels in (["start top"], ["start top", "end top", "start top"]):
+        batch = source.poll({1: Pulled(np.array([2.0, 3.5]), labels)}, 4.0)
+        assert batch.markers == [] and batch.broken == set()
+        assert len(batch.events) == 1 and condition(source, 1) is Condition.WRONG_CHANNELS
+    assert source.counts()["Markers"] == (4, 4)
+    batch = source.poll({1: Pulled(np.array([5.0]), ["end top"])}, 5.0)  # right again: kept
+    assert batch.markers == [(5.0, "end top")]
+
+
 def test_a_stream_found_twice_keeps_the_first_and_comes_back_or_restarts() -> None:
     source = Source([LiveInput.parse("hand=Hand:x,y,z")])
     source.adopt([Opened(0, stream("u-1")), Opened(0, stream("u-2"))], 1.0)

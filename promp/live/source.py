@@ -277,6 +277,12 @@ class Source:
                 continue
             if not feed.inputs:
                 feed.received += len(times)
+                if len(values) != len(times):  # no transport gives it; never raised out of here
+                    feed.left_out += len(times)
+                    batch.events += self._set(feed, Condition.WRONG_CHANNELS, now,
+                                              f"{len(times)} marker stamps with {len(values)} "
+                                              "labels: left out")  # fmt: skip
+                    continue
                 times = np.asarray(times, dtype=float) + feed.shift
                 batch.markers += [(float(t), str(v)) for t, v in zip(times, values, strict=True)]
                 feed.arrival = now
