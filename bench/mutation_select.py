@@ -30,6 +30,7 @@ import signal
 from pathlib import Path
 
 MAP = Path(__file__).with_name("mutation_tests.json")
+EXCLUDED = Path("mutation_excluded.json")  # per module, its mutants that change only messages
 TIMEOUT_EXIT = 36  # mutmut's exit code for a mutant that ran past its time (a timeout)
 
 
@@ -42,19 +43,46 @@ def files_for(mutant: str, tests: dict[str, list[str]]) -> list[str] | None:
 
 def excluded(mutant: str) -> bool:
     """Whether mutmut's ``mutant`` (``promp.live.cli.x_parser__mutmut_2``) changes only
-    messages, read in the mutated source of its module (the working folder's)."""
-    try:
-        from mutation_rules import _functions, message_only
-    except ImportError:  # not copied: every mutant runs
-        return False
+    messages: the names of its module's such mutants, found once in its mutated source (the
+    working folder's; seconds for a module of 900 mutants) and kept in :data:`EXCLUDED`."""
     module, name = mutant.rsplit(".", 1)
+    known = json.loads(EXCLUDED.read_text()) if EXCLUDED.exists() else {}
+    if module not in known:
+        known[module] = _message_only_mutants(module)
+        part = EXCLUDED.with_name(f"{EXCLUDED.name}.{os.getpid()}")
+        part.write_text(json.dumps(known))
+        part.replace(EXCLUDED)  # whole, for the next mutant's process
+    return name in known[module]
+
+
+def _message_only_mutants(module: str) -> list[str]:
+    try:
+        from mutation_rules import _blanked, _functions, _message_paths
+    except ImportError:  # not copied: every mutant runs
+        return []
     source = Path(*module.split(".")).with_suffix(".py")
     if not source.exists():
         source = Path(*module.split("."), "__init__.py")
     functions = _functions(ast.parse(source.read_text()))
-    original = functions.get(name.rsplit("__mutmut_", 1)[0] + "__mutmut_orig")
-    return original is not None and name in functions and \
-        message_only(original, functions[name])  # fmt: skip
+    found = []
+    for name, original in functions.items():  # message_only, each original blanked once
+        if not name.endswith("__mutmut_orig"):
+            continue
+        paths, stem = _message_paths(original), name.removesuffix("orig")
+        plain, blank = _blanked(original, set()), _blanked(original, paths)
+        found += [m for m, f in functions.items() if m.startswith(stem) and m != name
+                  and _blanked(f, set()) != plain and _blanked(f, paths) == blank]
+    return found
+
+
+def pytest_configure(config) -> None:
+    """In mutmut's first run of the tests (no mutant), the excluded mutants of every mutated
+    module, before any mutant's process (and its time limit) starts."""
+    if "__mutmut_" in os.environ.get("MUTANT_UNDER_TEST", "") or not MAP.exists():
+        return
+    for meta in sorted(Path().rglob("*.py.meta")):
+        module = ".".join(meta.with_suffix("").with_suffix("").parts)
+        excluded(module.removesuffix(".__init__") + ".x")
 
 
 def pytest_collection_modifyitems(config, items) -> None:
