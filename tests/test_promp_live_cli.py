@@ -472,6 +472,7 @@ def test_the_command_names_the_streams_it_could_not_find_and_closes_its_session(
     assert none_found(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
                        "--out", "robot", "--wait", "0"]) == 2
     assert "Hand" in " ".join(none_found.err.lines())
+    assert none_found.clock.now == 5000.0  # --wait 0: one look, no wait
 
 
 class Counting(FakeTime):
@@ -568,10 +569,7 @@ def test_the_command_replays_at_the_recorded_timing_unless_fast(session_file, mo
 
 def test_a_replay_that_differs_exits_1_and_one_that_cannot_be_made_2(
         session_file, tmp_path, capsys) -> None:  # fmt: skip
-    from promp.learn import fit
-    from promp.model import Settings
     from tests.live_fakes import one_ulp_changed
-    from tests.synthetic import LAYOUT, make_dataset
 
     folder, predictions, _ = session_file
     model = str(folder / "model.json")
@@ -587,9 +585,9 @@ def test_a_replay_that_differs_exits_1_and_one_that_cannot_be_made_2(
     captured = capsys.readouterr()
     assert captured.out == "" and str(junk) in captured.err
     other = tmp_path / "other.json"  # refused by the replay itself: the file's own model's hash
-    save_model(other, fit(make_dataset(seed=6, n_demos=5), LAYOUT,
-                          Settings(n_basis=7, width=1.0, noise_scale=1.5,
-                                   duration_temperature=1.0)))  # fmt: skip
+    changed_model = json.loads((folder / "model.json").read_text())
+    changed_model["primitives"][0]["mean"][0] += 1e-3
+    other.write_text(json.dumps(changed_model))
     assert main(["--replay", str(folder / "session.mcap"), "--model", str(other)]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and str(folder / "session.mcap") in captured.err
@@ -700,7 +698,8 @@ def test_the_missing_streams_and_those_found_are_listed_apart() -> None:
 
 def test_streams_found_by_the_end_of_the_wait_count(tmp_path, monkeypatch) -> None:
     """``--wait 0`` with every input's stream found as the wait begins: the run goes on (the
-    wait looks once more at its end; it said them missing before)."""
+    wait looks once more at its end; it said them missing before), its first status line at
+    the report's first turn."""
     import promp.live.session
     from promp.live.status import Condition
     from tests.conftest import wait_until
@@ -709,7 +708,9 @@ def test_streams_found_by_the_end_of_the_wait_count(tmp_path, monkeypatch) -> No
     save_model(tmp_path / "model.json", synthetic_model())
     transport = FakeTransport()
     transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
-    command = Command(monkeypatch, transport)
+    clock = FakeTime()
+    clock.now = 0.0  # the command's clock at 0 as it starts: its first status line at once
+    command = Command(monkeypatch, transport, clock=clock)
     start = promp.live.session.LiveSession.start  # the command's (kept) sessions
 
     def start_and_find(session) -> None:
@@ -720,5 +721,6 @@ def test_streams_found_by_the_end_of_the_wait_count(tmp_path, monkeypatch) -> No
 
     monkeypatch.setattr(promp.live.session.LiveSession, "start", start_and_find)
     assert command(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
-                    "--out", "robot", "--wait", "0"]) == 0
+                    "--out", "robot", "--wait", "0", "--status-every", "0.05"]) == 0
     assert command.rates == [0.0] and command.err.lines() == []
+    assert command.times == [0.05 + 0.000123]  # the report's first sleep, no wait before
