@@ -348,6 +348,8 @@ def test_the_options_parse_to_their_types_and_defaults_and_three_are_required(ca
             rest = [a for a in rest if not a.startswith(("hand=", "head=")) and a != "--in"]
         assert main(rest) == 2
         assert "--in and --out are required" in capsys.readouterr().err
+    chosen = parser().parse_args(needed + ["--start", "still", "--alpha-method", "ml"])
+    assert (chosen.start, chosen.alpha_method) == ("still", "ml")  # the defaults, given
     for bad in (["--start", "call"], ["--alpha-method", "mean"], ["--rate", "fast"]):
         with pytest.raises(SystemExit):
             parser().parse_args(needed + bad)
@@ -442,6 +444,7 @@ def test_the_command_gives_its_options_to_the_session_and_sums_up_a_quiet_run(
     assert re.fullmatch(r"live-\d{8}-\d{6}", recorder.prefix)
     header = read_session(tmp_path / "s.mcap").header
     assert header["start"] == session.state.newest["hand"]  # the session's own start
+    assert sum(str(tmp_path / "s.mcap") in line for line in command.out.lines()) == 1
     assert command.rates == [0.0, 0.0, 0.0]
     summary = json.loads(command.out.lines()[-1])
     assert summary["movements"] == summary["predictions"] == 0
@@ -724,3 +727,40 @@ def test_streams_found_by_the_end_of_the_wait_count(tmp_path, monkeypatch) -> No
                     "--out", "robot", "--wait", "0", "--status-every", "0.05"]) == 0
     assert command.rates == [0.0] and command.err.lines() == []
     assert command.times == [0.05 + 0.000123]  # the report's first sleep, no wait before
+    assert json.loads(command.out.lines()[-1])["seconds"] == 0.05  # 0.050123 s, to the ms
+
+
+def test_an_lsl_configuration_that_is_not_a_file_is_refused_before_anything(
+        tmp_path, monkeypatch) -> None:  # fmt: skip
+    from tests.live_fakes import FakeTransport, synthetic_model
+
+    save_model(tmp_path / "model.json", synthetic_model())
+    monkeypatch.setenv("LSLAPICFG", "unchanged")
+    for missing in (tmp_path / "none.cfg", tmp_path):  # nothing there, a folder
+        command = Command(monkeypatch, FakeTransport())
+        assert command(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                        "--out", "robot", "--lsl-config", str(missing)]) == 2
+        assert command.made == [] and str(missing) in " ".join(command.err.lines())
+        assert os.environ["LSLAPICFG"] == "unchanged"
+
+
+def test_where_the_lsl_transport_cannot_be_imported_its_reason_is_said(
+        tmp_path, monkeypatch) -> None:  # fmt: skip
+    """(liblsl missing: :mod:`promp.live.lsl` raises ImportError saying what to do.)"""
+    import types
+
+    from tests.live_fakes import synthetic_model
+
+    class Unloadable(types.ModuleType):
+        def __getattr__(self, name):
+            if name.startswith("__"):  # the import system's questions
+                raise AttributeError(name)
+            raise ImportError(f"no liblsl here, asked for {name}")
+
+    save_model(tmp_path / "model.json", synthetic_model())
+    monkeypatch.setitem(sys.modules, "promp.live.lsl", Unloadable("promp.live.lsl"))
+    err = Flushed()
+    monkeypatch.setattr(sys, "stderr", err)
+    assert main(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                 "--out", "robot"]) == 2
+    assert "no liblsl here, asked for LslTransport" in " ".join(err.lines())
