@@ -23,7 +23,8 @@ them, and excluded, and the score ``(killed + timeouts) / (total - excluded)``: 
 as killed, as mutmut counts it (the mutant made the tests run far past their time: an endless
 loop is a change the tests noticed).
 
-Excluded (the rule, decided from the mutant's code, not from its fate): a mutant equal to the
+Excluded (the rule, decided from the mutant's code, not from its fate, and not run: the
+plugin deselects every test of such a mutant): a mutant equal to the
 original function once every message in it is blanked. The messages are the arguments of the
 exception in a ``raise`` statement, of ``warnings.warn`` and of a logger's ``debug``/``info``/
 ``warning``/``error``/``exception``/``critical``; the text of a ``LiveEvent`` (a live
@@ -126,6 +127,10 @@ MODULE_TESTS = {
     "promp.live.inputs": ["tests/test_promp_live_inputs.py", "tests/test_promp_live_source.py"],
     "promp.live.transport": ["tests/test_promp_live_transport.py",
                              "tests/test_promp_live_lsl_transport.py"],
+    # the command: its own tests, in this process over the fake network (the replay of a
+    # session file too); the session file's test of the command replays a long recording
+    # (8 s, a module fixture's), for each mutant of the command's main
+    "promp.live.cli": ["tests/test_promp_live_cli.py", "tests/test_promp_live_viewer_sink.py"],
 }
 # mutmut's time limit on a mutant: (its tests' time in the clean run + CONSTANT) x MULTIPLIER
 # seconds of wall time (mutmut's defaults 1 and 15: a mutant of the pipeline's step that loops
@@ -149,7 +154,7 @@ def mutmut_config(paths: list[str], tests: list[str], deselect: list[str],
     return "\n".join([
         "", "[tool.mutmut]",
         f"source_paths = {json.dumps(packages)}",
-        'also_copy = ["docs/", "mutation_select.py", "mutation_tests.json"]',
+        'also_copy = ["docs/", "mutation_select.py", "mutation_rules.py", "mutation_tests.json"]',
         f"only_mutate = {json.dumps(only)}",
         f"timeout_multiplier = {float(timeout_multiplier)}",
         f"timeout_constant = {TIMEOUT_CONSTANT}",
@@ -166,6 +171,7 @@ def copy_repository(workdir: Path, paths: list[str], tests: list[str],
     for top in sorted({Path(p).parts[0] for p in paths} | {"tests", "docs"}):
         shutil.copytree(REPO / top, workdir / top, ignore=ignore)
     shutil.copy(REPO / "bench" / "mutation_select.py", workdir / "mutation_select.py")
+    shutil.copy(Path(__file__), workdir / "mutation_rules.py")  # the plugin's exclusion rule
     chosen = {"tests": MODULE_TESTS, "timeout_multiplier": float(timeout_multiplier),
               "timeout_constant": TIMEOUT_CONSTANT}  # fmt: skip
     (workdir / "mutation_tests.json").write_text(json.dumps(chosen, indent=1))

@@ -18,7 +18,7 @@ import pytest
 
 from promp.datasets import read_csv_demo
 from promp.io import save_model
-from promp.live.cli import main, parser
+from promp.live.cli import EXAMPLE, main, parser
 from tests.conftest import PATIENCE_S, REPO
 from tests.live_fakes import flt_dataset, hand_model, held, instances_made
 
@@ -36,6 +36,9 @@ def test_help_documents_every_option(capsys) -> None:
         for option in action.option_strings:
             assert option in text
     assert "NAME-probabilities" in text and "docs/live.md" in text
+    # the command's name, its example, and what each option takes
+    assert text.startswith("usage: python -m promp.live ") and " ".join(EXAMPLE.split()) in text
+    assert "--model FILE" in text and "--in NAME=STREAM:CHANNEL,...[@UNIT]" in text
 
 
 @pytest.mark.parametrize(("argv", "expected"), [
@@ -296,6 +299,9 @@ def test_the_command_in_this_process_predicts_records_and_sums_up(tmp_path, monk
     (take,) = record.glob("right/*.csv")
     assert abs(read_csv_demo(take).n_samples - demo.n_samples) <= 1  # the marked rows
     assert (record / ".journals" / "old.journal").exists()
+    said = [line for line in lines if str(record / ".journals" / "old.journal") in line]
+    assert len(said) == 1 and said[0] not in printed  # the unreadable journal, named once
+    assert sum(str(record / "recovered" / "take-9.csv") in line for line in lines) == 1
     assert read_csv_demo(record / "recovered" / "take-9.csv").n_samples == 7
     assert not (record / ".journals" / "live-1.journal").exists()
 
@@ -342,6 +348,8 @@ def test_the_options_parse_to_their_types_and_defaults_and_three_are_required(ca
             rest = [a for a in rest if not a.startswith(("hand=", "head=")) and a != "--in"]
         assert main(rest) == 2
         assert "--in and --out are required" in capsys.readouterr().err
+    chosen = parser().parse_args(needed + ["--start", "still", "--alpha-method", "ml"])
+    assert (chosen.start, chosen.alpha_method) == ("still", "ml")  # the defaults, given
     for bad in (["--start", "call"], ["--alpha-method", "mean"], ["--rate", "fast"]):
         with pytest.raises(SystemExit):
             parser().parse_args(needed + bad)
@@ -349,15 +357,17 @@ def test_the_options_parse_to_their_types_and_defaults_and_three_are_required(ca
 
 class Command:
     """``main`` in this process over the fake network ``transport``, its clock a fake one,
-    each session it makes kept, ended (as by Ctrl-C) at its ``stop_after``-th status line."""
+    each session it makes kept, ended (as by Ctrl-C) at its ``stop_after``-th status line (each
+    line's rate and time kept); ``clock`` another fake clock."""
 
-    def __init__(self, monkeypatch, transport, stop_after: int = 1):
+    def __init__(self, monkeypatch, transport, stop_after: int = 1, clock=None):
         import promp.live.cli
         import promp.live.session
         from promp.live import lsl
         from promp.live import status_line as status_line_module
 
-        self.made, self.rates, self.clock = [], [], FakeTime()
+        self.made, self.rates, self.times = [], [], []
+        self.clock = FakeTime() if clock is None else clock
         monkeypatch.setattr(lsl, "LslTransport", lambda: transport)
         monkeypatch.setattr(promp.live.cli, "time", self.clock)
         made = self.made
@@ -371,6 +381,7 @@ class Command:
 
         def line(snap, rate):
             self.rates.append(rate)
+            self.times.append(self.clock.now)
             if len(self.rates) >= stop_after:
                 raise KeyboardInterrupt
             return "a status line"
@@ -433,6 +444,7 @@ def test_the_command_gives_its_options_to_the_session_and_sums_up_a_quiet_run(
     assert re.fullmatch(r"live-\d{8}-\d{6}", recorder.prefix)
     header = read_session(tmp_path / "s.mcap").header
     assert header["start"] == session.state.newest["hand"]  # the session's own start
+    assert sum(str(tmp_path / "s.mcap") in line for line in command.out.lines()) == 1
     assert command.rates == [0.0, 0.0, 0.0]
     summary = json.loads(command.out.lines()[-1])
     assert summary["movements"] == summary["predictions"] == 0
@@ -463,3 +475,292 @@ def test_the_command_names_the_streams_it_could_not_find_and_closes_its_session(
     assert none_found(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
                        "--out", "robot", "--wait", "0"]) == 2
     assert "Hand" in " ".join(none_found.err.lines())
+    assert none_found.clock.now == 5000.0  # --wait 0: one look, no wait
+
+
+class Counting(FakeTime):
+    """The command's ``time`` for a replay: ``monotonic`` a clock each reading of which is
+    1.23456 s after the last (a replay's seconds are its two readings' difference)."""
+
+    def monotonic(self) -> float:
+        self.now += 1.23456
+        return self.now
+
+
+@pytest.fixture(scope="module")
+def session_file(tmp_path_factory):
+    """One unseen movement (Begin / End) recorded to a session file by a session on the fake
+    network; its model's file beside it; the predictions and events the session gave."""
+    from promp.io import load_model
+    from promp.live.options import LiveOptions
+    from promp.live.session_file import SessionSink
+    from tests.live_fakes import FakeTransport, Tap, begun_and_ended, synthetic_model
+
+    folder = tmp_path_factory.mktemp("replayed")
+    save_model(folder / "model.json", synthetic_model())
+    model = load_model(folder / "model.json")  # as the command loads it
+    transport, options = FakeTransport(), LiveOptions(start="call", remainder="hand")
+    start = transport.clock()
+    tap = Tap()
+    sink = SessionSink(folder / "session.mcap", model, ["hand=Hand:0,1,2"], options, start)
+    begun_and_ended(model, options, ("right",), transport=transport, sinks=[sink, tap],
+                    now=start).session.close()  # fmt: skip
+    return folder, [p for o in tap.outputs for p in o.predictions], \
+        [e for o in tap.outputs for e in o.events]  # fmt: skip
+
+
+def replaying(monkeypatch) -> list[dict]:
+    """The calls of the command to the replay (its keywords), each made with no real wait."""
+    from promp.live import session_file
+
+    calls, real = [], session_file.replay_session
+
+    def spy(model, path, **kwargs):
+        calls.append(kwargs)
+        return real(model, path, **kwargs, sleep=lambda seconds: None)
+
+    monkeypatch.setattr(session_file, "replay_session", spy)
+    return calls
+
+
+def test_the_command_replays_a_session_file_into_viewer_files_and_sums_it_up(
+        session_file, tmp_path, monkeypatch) -> None:  # fmt: skip
+    """``--replay FILE --model M --fast --rerun --mcap``: exit 0, every recorded prediction
+    given again, each event printed as recorded, the replay kept in both viewer files, and
+    the summary's counts and seconds (the command's clock)."""
+    import promp.live.cli
+    from tests.live_fakes import synthetic_model
+    from tests.viewer_readers import json_series, read_mcap, read_rrd
+
+    pytest.importorskip("rerun")
+    pytest.importorskip("foxglove")
+    folder, predictions, events = session_file
+    calls = replaying(monkeypatch)
+    monkeypatch.setattr(promp.live.cli, "time", Counting())
+    out = Flushed()
+    monkeypatch.setattr(sys, "stdout", out)
+    rrd, mcap = tmp_path / "kept.rrd", tmp_path / "kept.mcap"
+    assert main(["--replay", str(folder / "session.mcap"), "--model", str(folder / "model.json"),
+                 "--fast", "--rerun", str(rrd), "--mcap", str(mcap)]) == 0  # fmt: skip
+    assert [set(c) for c in calls] == [{"paced", "on_output"}] and calls[0]["paced"] is False
+    lines = out.lines()
+    summary = json.loads(lines[-1])
+    assert len(predictions) >= 2 and events
+    assert summary == {"steps": summary["steps"], "predictions": len(predictions),
+                       "recorded_predictions": len(predictions), "equal": True,
+                       "difference": "", "inputs": ["hand"], "seconds": 1.235}  # fmt: skip
+    assert summary["steps"] > len(predictions)
+    assert lines[:-1] == [f"{e.time:.3f} {e.text}" for e in events]
+    messages, _ = read_mcap(mcap)
+    name = synthetic_model().primitives[0].name
+    _, p0 = json_series(messages, f"/predictions/probability/{name}", "lsl_time")
+    np.testing.assert_array_equal(p0, [p.probabilities[0] for p in predictions])
+    assert sorted(m.message.message for m in messages if m.topic == "/events") == \
+        sorted(e.text for e in events)  # fmt: skip
+    assert len(read_rrd(rrd)[f"predictions/probability/{name}"].rows) == len(predictions)
+
+
+def test_the_command_replays_at_the_recorded_timing_unless_fast(session_file, monkeypatch,
+                                                                capsys) -> None:  # fmt: skip
+    folder, _, _ = session_file
+    calls = replaying(monkeypatch)
+    assert main(["--replay", str(folder / "session.mcap"), "--model",
+                 str(folder / "model.json")]) == 0  # fmt: skip
+    assert calls[0]["paced"] is True
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["equal"] is True
+
+
+def test_a_replay_that_differs_exits_1_and_one_that_cannot_be_made_2(
+        session_file, tmp_path, capsys) -> None:  # fmt: skip
+    from tests.live_fakes import one_ulp_changed
+
+    folder, predictions, _ = session_file
+    model = str(folder / "model.json")
+    changed = tmp_path / "changed.mcap"
+    one_ulp_changed(folder / "session.mcap", changed)
+    assert main(["--replay", str(changed), "--model", model, "--fast"]) == 1
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["equal"] is False and "phase" in summary["difference"]
+    assert summary["predictions"] == summary["recorded_predictions"] == len(predictions)
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"not an mcap file")
+    assert main(["--replay", str(junk), "--model", model, "--fast"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and str(junk) in captured.err
+    other = tmp_path / "other.json"  # refused by the replay itself: the file's own model's hash
+    changed_model = json.loads((folder / "model.json").read_text())
+    changed_model["primitives"][0]["mean"][0] += 1e-3
+    other.write_text(json.dumps(changed_model))
+    assert main(["--replay", str(folder / "session.mcap"), "--model", str(other)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and str(folder / "session.mcap") in captured.err
+
+
+def test_the_command_recovers_the_session_journals_a_kill_left_and_names_each(
+        tmp_path, monkeypatch) -> None:  # fmt: skip
+    """``--session FOLDER/NEW.mcap``: a journal a kill left in FOLDER/.sessions is made into
+    FOLDER/recovered/, one that cannot be read is left; a line names each."""
+    from promp.live.options import LiveOptions
+    from promp.live.session_file import SessionSink, read_session
+    from tests.live_fakes import FakeStream, FakeTransport, synthetic_model
+
+    save_model(tmp_path / "model.json", synthetic_model())
+    killed = SessionSink(tmp_path / "old.mcap", synthetic_model(), ["hand=Hand:0,1,2"],
+                         LiveOptions(), 3.0)  # never closed: its journal is left  # fmt: skip
+    bad = killed.journal.with_name("bad.journal")
+    bad.write_text("not a journal")
+    transport = FakeTransport()
+    transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
+    command = Command(monkeypatch, transport)
+    assert command(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                    "--out", "robot", "--wait", "600", "--session",
+                    str(tmp_path / "new.mcap")]) == 0  # fmt: skip
+    recovered = tmp_path / "recovered" / "old.mcap"
+    assert read_session(recovered).header["start"] == 3.0 and bad.exists()
+    lines = command.out.lines()
+    assert sum(str(recovered) in line for line in lines) == 1
+    assert sum(str(bad) in line for line in lines) == 1
+    assert not killed.journal.exists() and (tmp_path / "new.mcap").exists()
+
+
+def test_a_viewer_file_of_another_suffix_is_refused_before_a_session_starts(
+        tmp_path, monkeypatch) -> None:  # fmt: skip
+    from tests.live_fakes import FakeTransport, synthetic_model
+
+    save_model(tmp_path / "model.json", synthetic_model())
+    for option, name in (("--mcap", "kept.rrd"), ("--rerun", "kept.mcap"),
+                         ("--session", "kept.rrd")):  # fmt: skip
+        command = Command(monkeypatch, FakeTransport())
+        assert command(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                        "--out", "robot", "--wait", "600", option,
+                        str(tmp_path / name)]) == 2  # fmt: skip
+        assert command.made == [] and str(tmp_path / name) in " ".join(command.err.lines())
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.json"]
+
+
+class Stepping(FakeTime):
+    """A fake clock whose every sleep is 1/16 s (binary: sums of it are exact); Ctrl-C for
+    the command at a sleep once ``until()`` is true."""
+
+    def __init__(self, until=lambda: False):
+        super().__init__()
+        self.until = until
+
+    def sleep(self, seconds: float) -> None:
+        if self.until():
+            raise KeyboardInterrupt
+        self.now += 0.0625
+        time.sleep(0.001)
+
+
+@pytest.mark.parametrize("every", [0.125, 0.0])
+def test_a_status_line_comes_every_status_every_seconds_and_none_with_0(
+        tmp_path, monkeypatch, every) -> None:  # fmt: skip
+    """The status lines of ``--status-every S`` are S apart on the command's clock (the run
+    ended at the 12th), none at 0 (the run ended 2 s after its streams were found)."""
+    from tests.live_fakes import FakeStream, FakeTransport, synthetic_model
+
+    save_model(tmp_path / "model.json", synthetic_model())
+    transport = FakeTransport()
+    transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
+    found: list = []
+
+    def two_seconds_after_found() -> bool:
+        if not found and command.made and command.made[0][2].snapshot().found:
+            found.append(clock.now)
+        return bool(found) and clock.now >= found[0] + 2.0
+
+    clock = Stepping(two_seconds_after_found)
+    command = Command(monkeypatch, transport, stop_after=12, clock=clock)
+    assert command(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                    "--out", "robot", "--wait", "600", "--status-every", str(every)]) == 0
+    assert json.loads(command.out.lines()[-1])["predictions"] == 0
+    if every == 0:
+        assert found and command.times == []
+    else:
+        assert len(command.times) == 12 and set(np.diff(command.times)) == {every}
+
+
+def test_the_missing_streams_and_those_found_are_listed_apart() -> None:
+    from types import SimpleNamespace as Fake
+
+    from promp.live.cli import _missing_message
+
+    def message(found: list[str]) -> str:
+        statuses = [Fake(stream="Hand", detail="not found", healthy=False),
+                    Fake(stream="Head", detail="refused", healthy=False),
+                    Fake(stream="Eyes", detail="ok", healthy=True)]  # fmt: skip
+        snap = Fake(statuses=statuses, found=[Fake(summary=lambda n=n: n) for n in found])
+        return _missing_message(Fake(snapshot=lambda: snap))
+
+    text = message(["'Eyes' (3 ch)", "'Gaze' (2 ch)"])
+    assert "Hand (not found), Head (refused) " in text and "Eyes (ok)" not in text
+    assert text.endswith(" 'Eyes' (3 ch); 'Gaze' (2 ch)")
+    assert message([]).endswith(" none")
+
+
+def test_streams_found_by_the_end_of_the_wait_count(tmp_path, monkeypatch) -> None:
+    """``--wait 0`` with every input's stream found as the wait begins: the run goes on (the
+    wait looks once more at its end; it said them missing before), its first status line at
+    the report's first turn."""
+    import promp.live.session
+    from promp.live.status import Condition
+    from tests.conftest import wait_until
+    from tests.live_fakes import FakeStream, FakeTransport, synthetic_model
+
+    save_model(tmp_path / "model.json", synthetic_model())
+    transport = FakeTransport()
+    transport.add(FakeStream("Hand", ("x", "y", "z"), rate=50.0))
+    clock = FakeTime()
+    clock.now = 0.0  # the command's clock at 0 as it starts: its first status line at once
+    command = Command(monkeypatch, transport, clock=clock)
+    start = promp.live.session.LiveSession.start  # the command's (kept) sessions
+
+    def start_and_find(session) -> None:
+        start(session)
+        wait_until(lambda: all(s.condition is not Condition.WAITING
+                               for s in session.snapshot().statuses),
+                   what="the stream found")  # fmt: skip
+
+    monkeypatch.setattr(promp.live.session.LiveSession, "start", start_and_find)
+    assert command(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                    "--out", "robot", "--wait", "0", "--status-every", "0.05"]) == 0
+    assert command.rates == [0.0] and command.err.lines() == []
+    assert command.times == [0.05 + 0.000123]  # the report's first sleep, no wait before
+    assert json.loads(command.out.lines()[-1])["seconds"] == 0.05  # 0.050123 s, to the ms
+
+
+def test_an_lsl_configuration_that_is_not_a_file_is_refused_before_anything(
+        tmp_path, monkeypatch) -> None:  # fmt: skip
+    from tests.live_fakes import FakeTransport, synthetic_model
+
+    save_model(tmp_path / "model.json", synthetic_model())
+    monkeypatch.setenv("LSLAPICFG", "unchanged")
+    for missing in (tmp_path / "none.cfg", tmp_path):  # nothing there, a folder
+        command = Command(monkeypatch, FakeTransport())
+        assert command(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                        "--out", "robot", "--lsl-config", str(missing)]) == 2
+        assert command.made == [] and str(missing) in " ".join(command.err.lines())
+        assert os.environ["LSLAPICFG"] == "unchanged"
+
+
+def test_where_the_lsl_transport_cannot_be_imported_its_reason_is_said(
+        tmp_path, monkeypatch) -> None:  # fmt: skip
+    """(liblsl missing: :mod:`promp.live.lsl` raises ImportError saying what to do.)"""
+    import types
+
+    from tests.live_fakes import synthetic_model
+
+    class Unloadable(types.ModuleType):
+        def __getattr__(self, name):
+            if name.startswith("__"):  # the import system's questions
+                raise AttributeError(name)
+            raise ImportError(f"no liblsl here, asked for {name}")
+
+    save_model(tmp_path / "model.json", synthetic_model())
+    monkeypatch.setitem(sys.modules, "promp.live.lsl", Unloadable("promp.live.lsl"))
+    err = Flushed()
+    monkeypatch.setattr(sys, "stderr", err)
+    assert main(["--model", str(tmp_path / "model.json"), "--in", "hand=Hand:0,1,2",
+                 "--out", "robot"]) == 2
+    assert "no liblsl here, asked for LslTransport" in " ".join(err.lines())

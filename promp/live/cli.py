@@ -327,12 +327,13 @@ def _wait_for_inputs(session, wait: float) -> bool:
     from promp.live.status import Condition
 
     deadline = time.monotonic() + wait
-    while time.monotonic() < deadline:
+    while True:  # a last look at the deadline: a stream found during the last wait counts
         statuses = session.snapshot().statuses
         if all(s.condition is not Condition.WAITING for s in statuses):
             return True
+        if time.monotonic() >= deadline:
+            return False
         time.sleep(0.05)
-    return False
 
 
 def _missing_message(session) -> str:
