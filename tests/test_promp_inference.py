@@ -359,3 +359,18 @@ print(json.dumps(seen))
         "before": [2], "imported": [1], "after inferences on two threads": [1],
         "the program's own limit": [2],
     }  # fmt: skip
+
+
+def test_the_relative_speed_is_the_prediction_over_the_primitives_typical_speed(model) -> None:
+    """``relative_speed``: the prediction's alpha over the recognised primitive's geometric
+    mean training speed (exp of the mean log alpha of its demonstrations), for a movement of
+    each primitive (their typical speeds differ)."""
+    from promp.evidence.pipeline import relative_speed
+
+    typical = [np.exp(np.mean(np.log(p.alphas))) for p in model.primitives]
+    assert not np.isclose(typical[0], typical[1])
+    demos = make_dataset(seed=5, n_demos=1)
+    for k, name in enumerate(model.names):
+        result = infer(model, Observation.from_demo(model, demos[name][0], 30, ["hand"]))
+        assert result.index == k
+        assert_allclose(relative_speed(model, result), result.alpha / typical[k], rtol=1e-12)
