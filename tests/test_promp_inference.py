@@ -374,3 +374,27 @@ def test_the_relative_speed_is_the_prediction_over_the_primitives_typical_speed(
         result = infer(model, Observation.from_demo(model, demos[name][0], 30, ["hand"]))
         assert result.index == k
         assert_allclose(relative_speed(model, result), result.alpha / typical[k], rtol=1e-12)
+
+
+def test_conditioning_on_an_explicit_prior_refuses_what_the_structured_update_refuses(
+    model, test_demo
+) -> None:
+    """``condition(..., prior=...)`` (the dense update) refuses as the evidence's does: a
+    speed of 0, an observation longer than the speed's duration, columns that do not match
+    the modalities; and its posterior's blocks are its covariance's."""
+    prim = model.primitives[0]
+    prior = Gaussian(prim.mean_at(1.0), prim.cov)
+    obs = Observation.from_demo(model, test_demo, 5, ["hand"])
+    with pytest.raises(ValueError, match="alpha"):
+        condition(model, prim, obs, 0.0, prior=prior)
+    long_obs = Observation.from_demo(model, test_demo, test_demo.n_samples, ["hand"])
+    with pytest.raises(ValueError, match="longer than the predicted duration"):
+        condition(model, prim, long_obs, 10.0, prior=prior)
+    with pytest.raises(ValueError, match="columns"):
+        condition(model, prim, Observation(obs.times, obs.values, ("hand", "head")), 1.0,
+                  prior=prior)  # fmt: skip
+    posterior = condition(model, prim, obs, 1.0, prior=prior)
+    m = posterior.mean.shape[0] // model.n_dims
+    for d, block in enumerate(posterior.blocks(model.n_dims)):
+        assert_allclose(block, posterior.cov[d * m:(d + 1) * m, d * m:(d + 1) * m], rtol=0,
+                        atol=0)  # fmt: skip
