@@ -71,6 +71,7 @@ def test_both_forms_of_the_likelihood_match_dense_brute_force(
         sums = evidence._sums(prim, alphas, durations)
         form = woodbury if form == "woodbury" else weight_space
         fast = form.log_likelihoods(sums, prim, dims, noise)
+        assert fast.shape == (2, alphas.shape[0])  # (levels, candidates)
         for level, factor in enumerate((1.0, 2.0)):
             louder = dataclasses.replace(prim, noise_var=prim.noise_var * factor)
             slow = [dense.log_likelihood(model, louder, obs, a) for a in alphas]
@@ -91,6 +92,24 @@ def test_conditioning_matches_dense_brute_force(model, test_demo, modalities, n_
     # The structured per-dimension blocks and the on-demand full covariance.
     dense_blocks = np.stack([cov[d * 6 : (d + 1) * 6, d * 6 : (d + 1) * 6] for d in range(6)])
     assert_allclose(post.blocks(6), dense_blocks, atol=1e-9 * scale)
+    assert_allclose(post.cov, cov, atol=1e-9 * scale)
+
+
+def test_conditioning_with_more_demonstrations_than_observed_weights_matches_dense() -> None:
+    """The posterior (Eq. 8) of a primitive learned from more demonstrations than the
+    observed weights (12 against 3 dimensions x 3 basis functions): its factor ``U`` has more
+    columns than the observed rows, and every column counts for the unobserved weights."""
+    few = fit(make_dataset(seed=2, n_demos=12), LAYOUT, Settings(n_basis=3, width=1.0,
+                                                                 noise_scale=1.5))  # fmt: skip
+    prim = few.primitives[0]
+    assert prim.cov_factor.shape[1] > 3 * 3
+    demo = make_dataset(seed=6, n_demos=1)[few.names[0]][0]
+    obs = Observation.from_demo(few, demo, 20, ["hand"])
+    alpha = float(prim.alphas.min())
+    post = condition(few, prim, obs, alpha)
+    mean, cov = dense.condition(few, prim, obs, alpha)
+    scale = np.abs(prim.cov).max()
+    assert_allclose(post.mean, mean, atol=1e-9)
     assert_allclose(post.cov, cov, atol=1e-9 * scale)
 
 
