@@ -78,6 +78,29 @@ def test_both_forms_of_the_likelihood_match_dense_brute_force(
             assert_allclose(fast[level], slow, rtol=1e-9, atol=1e-6)
 
 
+def test_the_woodbury_terms_of_several_noise_levels_are_each_levels_own(model, test_demo) -> None:
+    """``woodbury.woodbury`` at two noise levels at once: every term of each level is the one
+    computed at that level alone (the likelihood asks one level at a time; the terms take
+    any number)."""
+    from promp.evidence import woodbury
+    from promp.evidence.evidence import Evidence
+    from promp.timing import duration_from_alpha
+
+    obs = Observation.from_demo(model, test_demo, 20, ["hand", "head"])
+    evidence = Evidence(model, obs)
+    prim, dims = model.primitives[0], evidence.dims
+    alphas = prim.alphas[:3]
+    durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
+    rot = woodbury.rotate(evidence._sums(prim, alphas, durations), prim, dims)
+    levels = prim.noise_var[dims][None, :] * np.array([[1.0], [3.0]])
+    both = woodbury.woodbury(rot, levels)
+    for level in range(2):
+        alone = woodbury.woodbury(rot, levels[level:level + 1])
+        for name in ("c", "g_hat", "rr", "h_hat", "h_diag", "utu", "v", "logdet_b"):
+            assert_allclose(getattr(both, name)[level], getattr(alone, name)[0], rtol=1e-12,
+                            atol=0, err_msg=name)  # fmt: skip
+
+
 @pytest.mark.parametrize("modalities", [["hand"], ["head"], ["hand", "head"]])
 @pytest.mark.parametrize("n_observed", [1, 3, 15, 60])
 def test_conditioning_matches_dense_brute_force(model, test_demo, modalities, n_observed) -> None:
