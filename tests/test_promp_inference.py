@@ -440,3 +440,22 @@ def test_conditioning_on_an_explicit_prior_refuses_what_the_structured_update_re
     for d, block in enumerate(posterior.blocks(model.n_dims)):
         assert_allclose(block, posterior.cov[d * m:(d + 1) * m, d * m:(d + 1) * m], rtol=0,
                         atol=0)  # fmt: skip
+
+
+def test_infer_passes_its_samples_via_points_and_truth_to_the_evidence(model, test_demo) -> None:
+    """``infer``: the prediction on ``n_points`` samples, made to pass through ``via_points``,
+    measured against ``truth``: the evidence's inference with the same arguments."""
+    from promp.evidence.evidence import Evidence
+    from promp.via_points import ViaPoint
+
+    obs = Observation.from_demo(model, test_demo, 20, ["hand"])
+    plain = infer(model, obs)
+    target = plain.mean_at("hand", 0.9) + [0.0, 0.02, 0.0]
+    points = (ViaPoint.isotropic(("x", "y", "z"), target, 0.001, phase=0.9),)
+    result = infer(model, obs, n_points=25, truth=test_demo, via_points=points)
+    expected = Evidence(model, obs).infer(points, n_points=25, truth=test_demo)
+    assert result.prediction.times.shape == (25,) != plain.prediction.times.shape
+    assert result.via_points == points and result.errors is not None
+    assert_allclose(result.weights.mean, expected.weights.mean, rtol=0, atol=0)
+    assert_allclose(result.prediction.mean, expected.prediction.mean, rtol=0, atol=0)
+    assert not np.allclose(result.weights.mean, plain.weights.mean)
