@@ -459,3 +459,89 @@ def test_the_refined_speeds_surround_the_best_coarse_node() -> None:
         x = np.log(evidence.recognition.candidates[k])
         fine = x[~np.isclose(x[:, None], coarse[None, :], rtol=0, atol=1e-12).any(axis=1)]
         assert fine.size > 0 and np.all(np.abs(fine - best) < step * (1 + 1e-9))
+
+
+def test_the_weight_space_form_is_chosen_from_a_rank_of_a_fifth_of_the_observed_weights() -> None:
+    """``cheaper_than_woodbury``: the Woodbury form while the factor's rank is under a fifth
+    of the observed weights (bench/likelihood_forms.py), the weight-space form from there on."""
+    from promp.evidence.weight_space import cheaper_than_woodbury
+
+    assert [cheaper_than_woodbury(100, r) for r in (1, 19, 20, 21, 100)] == [
+        False, False, True, True, True]  # fmt: skip
+    assert cheaper_than_woodbury(5, 1) and not cheaper_than_woodbury(6, 1)
+
+
+def test_the_observed_precision_is_the_observed_weights_inverse_bordered_and_read_only() -> None:
+    """``observed_precision``: the inverse of the observed dimensions' block of the prior
+    covariance, bordered by a zero row and column, with its log determinant; read-only (the
+    threads of one evidence share it) and computed once per primitive and dimensions."""
+    from promp.evidence.weight_space import observed_precision
+
+    model, _ = synthetic()
+    primitive = model.primitives[0]
+    dims = np.array([3, 5])
+    m = model.settings.n_basis
+    rows = np.concatenate([np.arange(d * m, (d + 1) * m) for d in dims])
+    sigma = primitive.cov[np.ix_(rows, rows)]
+    padded, logdet = observed_precision(primitive, dims)
+    assert padded.shape == (2 * m + 1, 2 * m + 1) and not padded.flags.writeable
+    inverse = np.linalg.inv(sigma)  # (a condition number of ~3e10: compared to its size)
+    assert_allclose(padded[:-1, :-1], inverse, rtol=0, atol=1e-8 * np.abs(inverse).max())
+    assert not padded[-1].any() and not padded[:, -1].any()
+    assert_allclose(logdet, np.linalg.slogdet(sigma)[1], rtol=1e-12)
+    assert observed_precision(primitive, dims)[0] is padded
+
+
+def test_the_diagonal_blocks_are_a_writable_view_of_each_matrix() -> None:
+    """``diagonal_blocks``: the leading ``size x size`` blocks of the diagonal of every matrix
+    of a stack, shape (A, n_blocks, size, size), written through to the stack."""
+    from promp.evidence.weight_space import diagonal_blocks
+
+    matrices = np.arange(3 * 7 * 7, dtype=float).reshape(3, 7, 7)
+    blocks = diagonal_blocks(matrices, 2, 3)
+    assert blocks.shape == (3, 2, 3, 3)
+    for a in range(3):
+        for b in range(2):
+            assert np.array_equal(blocks[a, b], matrices[a, 3 * b:3 * b + 3, 3 * b:3 * b + 3])
+    blocks[1, 1] += 1000.0
+    assert matrices[1, 4, 5] == 1 * 49 + 4 * 7 + 5 + 1000.0 and matrices[1, 6, 6] < 1000.0
+
+
+def test_an_inference_says_its_primitive_speed_duration_and_the_share_observed() -> None:
+    """``Inference``'s properties: the recognition's primitive and probabilities, the timing's
+    speed, the prediction's duration, the observation's length, the seconds left (none once
+    the observation is as long as the prediction) and the share observed (at most 1; 1 for
+    a prediction of no duration)."""
+    model, demo = synthetic()
+    first = Observation.from_demo(model, demo, 30, ["hand"])
+    obs = Observation(first.times + 5.0, first.values, first.modalities)  # a clock's seconds
+    result = Evidence(model, obs).infer()
+    assert result.index == result.recognition.index and result.index in (0, 1)
+    assert result.primitive == model.names[result.index] == result.recognition.primitive
+    assert result.alpha == result.timing.alpha and result.probabilities is not None
+    assert result.probabilities is result.recognition.probabilities
+    assert result.observed_until == obs.times[-1] - obs.times[0] > 0
+    assert result.duration == result.prediction.times[-1] > result.observed_until
+    assert result.remaining == result.duration - result.observed_until
+    assert result.observed_phase == result.observed_until / result.duration < 1.0
+    whole = Observation.from_demo(model, demo, demo.n_samples, ["hand"])
+    longer = dataclasses.replace(result, observation=Observation(
+        whole.times * 2.0 * result.duration / whole.elapsed[-1], whole.values, whole.modalities))
+    assert longer.observed_until > longer.duration
+    assert longer.remaining == 0.0 and longer.observed_phase == 1.0
+    instant = dataclasses.replace(result, prediction=dataclasses.replace(
+        result.prediction, times=np.zeros(1)))
+    assert instant.duration == 0.0 and instant.observed_phase == 1.0
+    assert instant.remaining == 0.0
+
+
+def test_the_equilibrated_precision_of_float32_covariances_is_computed_in_float64() -> None:
+    """``equilibrated_precision`` of a float32 stack: the numbers of the same values in float64
+    (scales, logarithms and all), not float32's seven digits."""
+    rng = np.random.default_rng(2)
+    factors = rng.standard_normal((2, 5, 9))
+    sigma = (factors @ factors.swapaxes(-1, -2)).astype(np.float32)
+    precision, logdet = equilibrated_precision(sigma)
+    expected, expected_logdet = equilibrated_precision(sigma.astype(float))
+    assert precision.dtype == logdet.dtype == np.float64
+    assert np.array_equal(precision, expected) and np.array_equal(logdet, expected_logdet)

@@ -71,10 +71,34 @@ def test_both_forms_of_the_likelihood_match_dense_brute_force(
         sums = evidence._sums(prim, alphas, durations)
         form = woodbury if form == "woodbury" else weight_space
         fast = form.log_likelihoods(sums, prim, dims, noise)
+        assert fast.shape == (2, alphas.shape[0])  # (levels, candidates)
         for level, factor in enumerate((1.0, 2.0)):
             louder = dataclasses.replace(prim, noise_var=prim.noise_var * factor)
             slow = [dense.log_likelihood(model, louder, obs, a) for a in alphas]
             assert_allclose(fast[level], slow, rtol=1e-9, atol=1e-6)
+
+
+def test_the_woodbury_terms_of_several_noise_levels_are_each_levels_own(model, test_demo) -> None:
+    """``woodbury.woodbury`` at two noise levels at once: every term of each level is the one
+    computed at that level alone (the likelihood asks one level at a time; the terms take
+    any number)."""
+    from promp.evidence import woodbury
+    from promp.evidence.evidence import Evidence
+    from promp.timing import duration_from_alpha
+
+    obs = Observation.from_demo(model, test_demo, 20, ["hand", "head"])
+    evidence = Evidence(model, obs)
+    prim, dims = model.primitives[0], evidence.dims
+    alphas = prim.alphas[:3]
+    durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
+    rot = woodbury.rotate(evidence._sums(prim, alphas, durations), prim, dims)
+    levels = prim.noise_var[dims][None, :] * np.array([[1.0], [3.0]])
+    both = woodbury.woodbury(rot, levels)
+    for level in range(2):
+        alone = woodbury.woodbury(rot, levels[level:level + 1])
+        for name in ("c", "g_hat", "rr", "h_hat", "h_diag", "utu", "v", "logdet_b"):
+            assert_allclose(getattr(both, name)[level], getattr(alone, name)[0], rtol=1e-12,
+                            atol=0, err_msg=name)  # fmt: skip
 
 
 @pytest.mark.parametrize("modalities", [["hand"], ["head"], ["hand", "head"]])
@@ -91,6 +115,24 @@ def test_conditioning_matches_dense_brute_force(model, test_demo, modalities, n_
     # The structured per-dimension blocks and the on-demand full covariance.
     dense_blocks = np.stack([cov[d * 6 : (d + 1) * 6, d * 6 : (d + 1) * 6] for d in range(6)])
     assert_allclose(post.blocks(6), dense_blocks, atol=1e-9 * scale)
+    assert_allclose(post.cov, cov, atol=1e-9 * scale)
+
+
+def test_conditioning_with_more_demonstrations_than_observed_weights_matches_dense() -> None:
+    """The posterior (Eq. 8) of a primitive learned from more demonstrations than the
+    observed weights (12 against 3 dimensions x 3 basis functions): its factor ``U`` has more
+    columns than the observed rows, and every column counts for the unobserved weights."""
+    few = fit(make_dataset(seed=2, n_demos=12), LAYOUT, Settings(n_basis=3, width=1.0,
+                                                                 noise_scale=1.5))  # fmt: skip
+    prim = few.primitives[0]
+    assert prim.cov_factor.shape[1] > 3 * 3
+    demo = make_dataset(seed=6, n_demos=1)[few.names[0]][0]
+    obs = Observation.from_demo(few, demo, 20, ["hand"])
+    alpha = float(prim.alphas.min())
+    post = condition(few, prim, obs, alpha)
+    mean, cov = dense.condition(few, prim, obs, alpha)
+    scale = np.abs(prim.cov).max()
+    assert_allclose(post.mean, mean, atol=1e-9)
     assert_allclose(post.cov, cov, atol=1e-9 * scale)
 
 
@@ -359,3 +401,61 @@ print(json.dumps(seen))
         "before": [2], "imported": [1], "after inferences on two threads": [1],
         "the program's own limit": [2],
     }  # fmt: skip
+
+
+def test_the_relative_speed_is_the_prediction_over_the_primitives_typical_speed(model) -> None:
+    """``relative_speed``: the prediction's alpha over the recognised primitive's geometric
+    mean training speed (exp of the mean log alpha of its demonstrations), for a movement of
+    each primitive (their typical speeds differ)."""
+    from promp.evidence.pipeline import relative_speed
+
+    typical = [np.exp(np.mean(np.log(p.alphas))) for p in model.primitives]
+    assert not np.isclose(typical[0], typical[1])
+    demos = make_dataset(seed=5, n_demos=1)
+    for k, name in enumerate(model.names):
+        result = infer(model, Observation.from_demo(model, demos[name][0], 30, ["hand"]))
+        assert result.index == k
+        assert_allclose(relative_speed(model, result), result.alpha / typical[k], rtol=1e-12)
+
+
+def test_conditioning_on_an_explicit_prior_refuses_what_the_structured_update_refuses(
+    model, test_demo
+) -> None:
+    """``condition(..., prior=...)`` (the dense update) refuses as the evidence's does: a
+    speed of 0, an observation longer than the speed's duration, columns that do not match
+    the modalities; and its posterior's blocks are its covariance's."""
+    prim = model.primitives[0]
+    prior = Gaussian(prim.mean_at(1.0), prim.cov)
+    obs = Observation.from_demo(model, test_demo, 5, ["hand"])
+    with pytest.raises(ValueError, match="alpha"):
+        condition(model, prim, obs, 0.0, prior=prior)
+    long_obs = Observation.from_demo(model, test_demo, test_demo.n_samples, ["hand"])
+    with pytest.raises(ValueError, match="longer than the predicted duration"):
+        condition(model, prim, long_obs, 10.0, prior=prior)
+    with pytest.raises(ValueError, match="columns"):
+        condition(model, prim, Observation(obs.times, obs.values, ("hand", "head")), 1.0,
+                  prior=prior)  # fmt: skip
+    posterior = condition(model, prim, obs, 1.0, prior=prior)
+    m = posterior.mean.shape[0] // model.n_dims
+    for d, block in enumerate(posterior.blocks(model.n_dims)):
+        assert_allclose(block, posterior.cov[d * m:(d + 1) * m, d * m:(d + 1) * m], rtol=0,
+                        atol=0)  # fmt: skip
+
+
+def test_infer_passes_its_samples_via_points_and_truth_to_the_evidence(model, test_demo) -> None:
+    """``infer``: the prediction on ``n_points`` samples, made to pass through ``via_points``,
+    measured against ``truth``: the evidence's inference with the same arguments."""
+    from promp.evidence.evidence import Evidence
+    from promp.via_points import ViaPoint
+
+    obs = Observation.from_demo(model, test_demo, 20, ["hand"])
+    plain = infer(model, obs)
+    target = plain.mean_at("hand", 0.9) + [0.0, 0.02, 0.0]
+    points = (ViaPoint.isotropic(("x", "y", "z"), target, 0.001, phase=0.9),)
+    result = infer(model, obs, n_points=25, truth=test_demo, via_points=points)
+    expected = Evidence(model, obs).infer(points, n_points=25, truth=test_demo)
+    assert result.prediction.times.shape == (25,) != plain.prediction.times.shape
+    assert result.via_points == points and result.errors is not None
+    assert_allclose(result.weights.mean, expected.weights.mean, rtol=0, atol=0)
+    assert_allclose(result.prediction.mean, expected.prediction.mean, rtol=0, atol=0)
+    assert not np.allclose(result.weights.mean, plain.weights.mean)
