@@ -545,3 +545,28 @@ def test_the_equilibrated_precision_of_float32_covariances_is_computed_in_float6
     expected, expected_logdet = equilibrated_precision(sigma.astype(float))
     assert precision.dtype == logdet.dtype == np.float64
     assert np.array_equal(precision, expected) and np.array_equal(logdet, expected_logdet)
+
+
+def test_an_inferences_regions_carry_the_recognised_primitives_sample_noise() -> None:
+    """Each primitive may have its own noise (a model file, an older fit): the region drawn
+    is the recognised primitive's weights with *its* samples' noise, not the first one's."""
+    from promp.model import Settings
+    from promp.region import sample_distribution, sample_noise_var
+    from tests.synthetic import LAYOUT, make_dataset
+
+    dataset = make_dataset(seed=3, n_demos=6)
+    model = fit(dataset, LAYOUT, Settings(n_basis=6, width=1.0, noise_scale=1.5))
+    demo = dataset[model.names[1]][0]
+    louder = dataclasses.replace(model.primitives[1], noise_var=9.0 * model.primitives[1].noise_var)
+    model = dataclasses.replace(model, primitives=(model.primitives[0], louder))
+    inference = Evidence(model, Observation.from_demo(model, demo, 40, ["hand"])).infer()
+    assert inference.index == 1
+    noise = sample_noise_var(model, louder)
+    (hand,) = [p for p in inference.positions if p.modality == "hand"]
+    dims = model.layout.dims(["hand"])
+    phases = np.linspace(0.0, 1.0, hand.region.mean.shape[0])
+    region = sample_distribution(model, inference.weights, dims, phases, noise)
+    assert_allclose(hand.region.cov, region.cov, rtol=0, atol=1e-12)
+    first = sample_distribution(model, inference.weights, dims, phases,
+                                sample_noise_var(model, model.primitives[0]))  # fmt: skip
+    assert not np.allclose(hand.region.cov, first.cov, rtol=1e-6, atol=0)
