@@ -301,7 +301,8 @@ def test_the_equilibrated_precision_of_a_stack_is_each_covariances_inverse(size:
 def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation() -> None:
     """KeptSums.take: each candidate's sums from the latest length that holds it and is not
     longer than the observation, whether the candidates' rows are in one stored batch or in
-    several; none after the observation was replaced."""
+    several, or as long as the observation; none after the observation was replaced, not even
+    those stored since for the observation that replaced it."""
     from promp.evidence.sums import KeptSums, WhitenedSums
 
     def sums(n: int, alphas: list[float]) -> WhitenedSums:
@@ -323,9 +324,15 @@ def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation()
     assert one.starts.tolist() == [6, 6] and one.rr[:, 0].tolist() == [56.0, 26.0]
     shorter = kept.take(generation, ("k",), np.array([2.0, 5.0]), n=5)  # not the length-6 rows
     assert shorter.starts.tolist() == [4, 0] and shorter.rr[:, 0].tolist() == [24.0]
+    same = kept.take(generation, ("k",), np.array([5.0]), n=6)  # as long as the observation
+    assert same.starts.tolist() == [6] and same.rr[:, 0].tolist() == [56.0]
     assert kept.take(generation, ("other",), np.array([2.0]), n=8).starts.tolist() == [0]
     replaced = kept.adopt(np.arange(9.0), np.ones((9, 1)))
     assert kept.take(replaced, ("k",), np.array([2.0]), n=8).starts.tolist() == [0]
+    kept.store(replaced, ("k",), np.array([2.0]), sums(3, [2.0]))  # the new observation's
+    assert kept.take(replaced, ("k",), np.array([2.0]), n=8).starts.tolist() == [3]
+    stale = kept.take(generation, ("k",), np.array([2.0]), n=8)  # a sums of the one replaced
+    assert stale.starts.tolist() == [0] and stale.rr.size == 0
 
 
 def test_a_known_duration_scores_every_primitive_at_its_speed_alone() -> None:

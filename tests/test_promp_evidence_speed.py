@@ -15,7 +15,14 @@ from numpy.testing import assert_allclose
 from scipy import stats
 
 from promp.data import Layout, Modality
-from promp.evidence.speed import AlphaPrior, longest_alpha, modality_columns, model_alpha
+from promp.evidence.speed import (
+    TAIL,
+    AlphaPrior,
+    alpha_prior,
+    longest_alpha,
+    modality_columns,
+    model_alpha,
+)
 from promp.inference import Observation
 from promp.learn import fit
 from promp.model import Settings
@@ -119,3 +126,43 @@ def test_a_mixed_priors_mass_below_a_bound_is_the_mixtures() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert mixed.logcdf(-math.inf) == -math.inf
+
+
+def test_the_quadrature_range_is_the_central_mass_truncated_at_the_bound() -> None:
+    """``span``: from the lowest to the highest end of its components' central masses
+    (:data:`TAIL` left out at each end), cut at the bound; a bound at or below the lowest end
+    (every plausible speed ends too early): the ``4 max(scale)`` just below the bound."""
+    mixed = AlphaPrior((0.1,), (0.3,), (5.0,), (1.0,)).mixed_with(0.4, 0.2, 3.0, 0.25)
+    lo = min(0.1 + 0.3 * stats.t.ppf(TAIL, 5.0), 0.4 + 0.2 * stats.t.ppf(TAIL, 3.0))
+    hi = max(0.1 + 0.3 * stats.t.ppf(1 - TAIL, 5.0), 0.4 + 0.2 * stats.t.ppf(1 - TAIL, 3.0))
+    assert mixed.span(math.inf) == pytest.approx((lo, hi), rel=1e-9)
+    assert mixed.span(0.5) == pytest.approx((lo, 0.5), rel=1e-9)
+    at_lo = mixed.span(math.inf)[0]  # exactly the lowest end
+    for bound in (at_lo, lo - 1.0):
+        assert mixed.span(bound) == pytest.approx((bound - 4.0 * 0.3, bound), rel=1e-12)
+
+
+def test_the_speed_prior_is_kept_per_s_bar_and_the_model_half_is_never_narrow(learned) -> None:
+    """``alpha_prior``: the training speeds' prior is computed once per primitive and ``s_bar``
+    (a model of another ``s_bar`` sharing the primitive gets its own); with
+    ``alpha_method="model"`` half of the mass is a Student-t at the Eq. 7 speed, of the
+    regression's error in log alpha but never narrower than a quarter of the training prior's
+    scale."""
+    model, obs = learned
+    s_bar = model.settings.s_bar
+    exact = with_regressions(model.primitives[0], [1.0, 1.0], (1.2, 0.0), (1.2, 0.0))
+    trained = alpha_prior(model, exact, obs, "ml")  # one speed: the scale is its floor
+    assert trained.scales == pytest.approx((1.0 / s_bar,), rel=1e-12)
+    other = dataclasses.replace(model, settings=dataclasses.replace(model.settings,
+                                                                    s_bar=2.0 * s_bar))  # fmt: skip
+    assert alpha_prior(other, exact, obs, "ml").scales == pytest.approx((0.5 / s_bar,), rel=1e-12)
+    assert alpha_prior(model, exact, obs, "ml") is trained
+    mixed = alpha_prior(model, exact, obs, "model")
+    assert mixed.locs == pytest.approx((0.0, math.log(1.2)), abs=1e-12)
+    assert mixed.weights == pytest.approx((0.5, 0.5), rel=1e-15)
+    assert mixed.dofs == (trained.dofs[0],) * 2
+    assert mixed.scales[1] == pytest.approx(trained.scales[0] / 4, rel=1e-12)  # the floor
+    loose = with_regressions(model.primitives[0], [1.0, 1.0], (1.2, 1.0), (1.2, 1.0))
+    assert alpha_prior(model, loose, obs, "model").scales[1] == pytest.approx(
+        model_alpha(model, loose, obs)[1], rel=1e-12)  # fmt: skip
+    assert model_alpha(model, loose, obs)[1] > trained.scales[0]
