@@ -449,6 +449,46 @@ def test_the_sums_are_read_only() -> None:
         assert not array.flags.writeable
 
 
+def test_the_sums_of_a_longer_observation_add_its_new_samples_to_those_kept(monkeypatch) -> None:
+    """:class:`promp.evidence.sums.ObservationSums` sharing the store of a shorter observation
+    of the movement: at the speeds kept, only the new samples' terms are computed (from the
+    sample before them), the numbers those from every sample; another primitive at the same
+    speeds gets its own sums, from every sample."""
+    from promp.evidence.sums import ObservationSums
+    from promp.timing import duration_from_alpha
+
+    model, demo = synthetic()
+    dims, alphas = np.arange(3), np.array([0.8, 1.0])
+    durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
+    first, second = model.primitives[:2]
+    short = Observation.from_demo(model, demo, 20, ["hand"])
+    obs = Observation.from_demo(model, demo, 30, ["hand"])
+    kept = ObservationSums(model, short, dims)
+    kept(first, alphas, durations)
+    calls = []
+
+    def spying(name: str):
+        original = getattr(ObservationSums, name)
+
+        def spy(self, primitive, *args):  # which primitive, and from which sample
+            calls.append((name, primitive.name, *args[2:]))
+            return original(self, primitive, *args)
+
+        return spy
+
+    for name in ("dense", "rows"):
+        monkeypatch.setattr(ObservationSums, name, spying(name))
+    grown = ObservationSums(model, obs, dims, kept.kept)
+    for primitive, want in ((first, [("rows", first.name, 20)]),
+                            (second, [("dense", second.name)])):  # fmt: skip
+        calls.clear()
+        sums = grown(primitive, alphas, durations)
+        assert calls == want
+        scratch = ObservationSums(model, obs, dims)(primitive, alphas, durations)
+        for field in ("gram", "proj", "rr"):
+            assert_allclose(getattr(sums, field), getattr(scratch, field), rtol=1e-11, atol=1e-9)
+
+
 def test_the_refined_speeds_surround_the_best_coarse_node() -> None:
     """Recognition's quadrature refines around the coarse node of the largest likelihood
     times prior density: every node it adds lies within one coarse step of it."""
