@@ -301,8 +301,9 @@ def test_the_equilibrated_precision_of_a_stack_is_each_covariances_inverse(size:
 def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation() -> None:
     """KeptSums.take: each candidate's sums from the latest length that holds it and is not
     longer than the observation, whether the candidates' rows are in one stored batch or in
-    several, or as long as the observation; none after the observation was replaced, not even
-    those stored since for the observation that replaced it."""
+    several, or as long as the observation; none for an observation replaced since (not those
+    stored for the one that replaced it), and the sums computed for an observation replaced
+    since are not stored."""
     from promp.evidence.sums import KeptSums, WhitenedSums
 
     def sums(n: int, alphas: list[float]) -> WhitenedSums:
@@ -333,6 +334,8 @@ def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation()
     assert kept.take(replaced, ("k",), np.array([2.0]), n=8).starts.tolist() == [3]
     stale = kept.take(generation, ("k",), np.array([2.0]), n=8)  # a sums of the one replaced
     assert stale.starts.tolist() == [0] and stale.rr.size == 0
+    kept.store(generation, ("late",), np.array([2.0]), sums(8, [2.0]))  # computed for it
+    assert kept.take(replaced, ("late",), np.array([2.0]), n=8).starts.tolist() == [0]
 
 
 def test_a_known_duration_scores_every_primitive_at_its_speed_alone() -> None:
