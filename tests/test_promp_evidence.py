@@ -314,9 +314,12 @@ def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation()
                             n=n)  # fmt: skip
 
     kept = KeptSums()
+    assert kept.n_observed == len(kept) == 0
     generation = kept.adopt(np.arange(9.0), np.zeros((9, 1)))
     kept.store(generation, ("k",), np.array([1.0, 2.0, 3.0]), sums(4, [1.0, 2.0, 3.0]))
     kept.store(generation, ("k",), np.array([2.0, 5.0]), sums(6, [2.0, 5.0]))
+    kept.store(generation, ("j",), np.array([7.0]), sums(6, [7.0]))  # the same length again
+    assert kept.take(generation, ("j",), np.array([7.0]), n=8).starts.tolist() == [6]
     found = kept.take(generation, ("k",), np.array([3.0, 2.0, 7.0, 5.0, 1.0]), n=8)
     assert found.starts.tolist() == [4, 6, 0, 6, 4]
     assert found.rr[:, 0].tolist() == [34.0, 26.0, 56.0, 14.0]  # the rows of the found, in order
@@ -456,7 +459,7 @@ def test_the_sums_of_a_longer_observation_add_its_new_samples_to_those_kept(monk
     """:class:`promp.evidence.sums.ObservationSums` sharing the store of a shorter observation
     of the movement: at the speeds kept, only the new samples' terms are computed (from the
     sample before them), the numbers those from every sample; another primitive at the same
-    speeds gets its own sums, from every sample."""
+    speeds, or the same samples read as other dimensions, get their own sums."""
     from promp.evidence.sums import ObservationSums
     from promp.timing import duration_from_alpha
 
@@ -490,6 +493,9 @@ def test_the_sums_of_a_longer_observation_add_its_new_samples_to_those_kept(monk
         scratch = ObservationSums(model, obs, dims)(primitive, alphas, durations)
         for field in ("gram", "proj", "rr"):
             assert_allclose(getattr(sums, field), getattr(scratch, field), rtol=1e-11, atol=1e-9)
+    other = ObservationSums(model, obs, dims + 3, kept.kept)  # the same samples as the head's
+    scratch = ObservationSums(model, obs, dims + 3)(first, alphas, durations)
+    assert_allclose(other(first, alphas, durations).rr, scratch.rr, rtol=1e-11, atol=1e-9)
 
 
 def test_the_refined_speeds_surround_the_best_coarse_node() -> None:
