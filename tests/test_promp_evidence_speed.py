@@ -16,12 +16,15 @@ from scipy import stats
 
 from promp.data import Layout, Modality
 from promp.evidence.speed import (
+    N_NODES,
     TAIL,
     AlphaPrior,
     alpha_prior,
+    anchored_nodes,
     longest_alpha,
     modality_columns,
     model_alpha,
+    refined_nodes,
 )
 from promp.inference import Observation
 from promp.learn import fit
@@ -166,3 +169,35 @@ def test_the_speed_prior_is_kept_per_s_bar_and_the_model_half_is_never_narrow(le
     assert alpha_prior(model, loose, obs, "model").scales[1] == pytest.approx(
         model_alpha(model, loose, obs)[1], rel=1e-12)  # fmt: skip
     assert model_alpha(model, loose, obs)[1] > trained.scales[0]
+
+
+def test_a_bound_at_or_below_the_priors_range_gives_the_half_step_lattice_below_it() -> None:
+    """``anchored_nodes`` when every plausible speed ends too early (the bound at or below the
+    lowest end of the prior's range, a prior of positive or negative log alpha): the nodes of
+    the lattice of the same origin and half the step that lie within ``4 max(scale)`` below
+    the bound and more than half a (half) step below it, then the bound itself."""
+    for loc in (3.0, -3.0):
+        prior = AlphaPrior((loc,), (0.1,), (5.0,), (1.0,))
+        lo, hi = prior.span(math.inf)
+        half = (hi - lo) / (N_NODES - 1) / 2
+        for bound in (lo, lo - 0.05):
+            lattice = lo + half * np.arange(math.ceil((bound - 4 * 0.1 - lo) / half), 1)
+            want = np.append(lattice[lattice < bound - 0.5 * half], bound)
+            nodes = anchored_nodes(prior, bound)
+            assert nodes.size == want.size > 20
+            assert_allclose(nodes, want, rtol=0, atol=1e-12)
+
+
+def test_the_refined_nodes_split_the_coarse_steps_around_the_best_node() -> None:
+    """``refined_nodes``: the quarter steps within one coarse step either side of the best
+    node (seven points, the best one left out), only those strictly inside the coarse range
+    (a last gap shorter than the step: the bound's); wherever the nodes lie."""
+    nodes = np.array([0.0, 0.25, 0.5, 0.75, 0.9375])  # the last gap three quarters of a step
+    quarter = np.array([-3, -2, -1, 1, 2, 3]) * 0.0625
+    assert refined_nodes(nodes, 2).tolist() == (0.5 + quarter).tolist()
+    assert refined_nodes(nodes, 1).tolist() == (0.25 + quarter).tolist()
+    assert refined_nodes(nodes, 0).tolist() == quarter[3:].tolist()
+    assert refined_nodes(nodes, 3).tolist() == (0.75 + quarter[:5]).tolist()  # not 0.9375
+    assert refined_nodes(nodes, 4).tolist() == (0.9375 + quarter[:3]).tolist()
+    far = refined_nodes(4096.0 + nodes / 16, 2)  # large log alphas, a fine step: the same
+    assert far.tolist() == (4096.0 + (0.5 + quarter) / 16).tolist()
