@@ -25,10 +25,12 @@ from promp.evidence.speed import (
     modality_columns,
     model_alpha,
     refined_nodes,
+    speed_prior,
 )
 from promp.inference import Observation
 from promp.learn import fit
 from promp.model import Settings
+from promp.timing import duration_from_alpha
 from tests.synthetic import LAYOUT, make_dataset
 
 
@@ -201,3 +203,48 @@ def test_the_refined_nodes_split_the_coarse_steps_around_the_best_node() -> None
     assert refined_nodes(nodes, 4).tolist() == (0.9375 + quarter[:3]).tolist()
     far = refined_nodes(4096.0 + nodes / 16, 2)  # large log alphas, a fine step: the same
     assert far.tolist() == (4096.0 + (0.5 + quarter) / 16).tolist()
+
+
+def test_the_speed_prior_of_one_two_or_many_training_speeds() -> None:
+    """``speed_prior``: one speed, the scale of one sample's worth of duration and one degree
+    of freedom; two, their standard deviation (n - 1 in the denominator) inflated by
+    ``sqrt(1 + 1/n)``; rows of speeds, each row its own prior."""
+    loc, scale, dof = speed_prior(np.log([2.0]), 100.0)
+    assert (float(loc), float(scale), float(dof)) == pytest.approx((math.log(2.0), 0.02, 1.0))
+    loc, scale, dof = speed_prior(np.log([1.0, 2.0]), 100.0)
+    assert float(scale) == pytest.approx(math.log(2.0) / math.sqrt(2.0) * math.sqrt(1.5))
+    assert float(dof) == 1.0
+    rows = np.log([[1.0, 1.5, 2.0], [1.0, 1.01, 1.4]])
+    for row, each in zip(rows, zip(*speed_prior(rows, 100.0), strict=True), strict=True):
+        assert_allclose(each, speed_prior(row, 100.0), rtol=1e-15)
+    assert speed_prior(rows, 100.0)[1][0] != speed_prior(rows, 100.0)[1][1]
+
+
+def test_a_prior_whose_components_do_not_match_is_refused() -> None:
+    """An ``AlphaPrior`` with more locations than scales has no density: an error, not a
+    density of its first components."""
+    broken = AlphaPrior((0.1, 0.4), (0.3,), (5.0,), (1.0,))
+    with pytest.raises(ValueError):
+        broken.logpdf(np.zeros(3))
+
+
+def test_the_longest_speed_lasts_exactly_the_observation(learned) -> None:
+    model, obs = learned
+    longest = longest_alpha(model, obs)
+    assert longest == pytest.approx(model.settings.s_bar / 30, rel=1e-12)  # 30 samples seen
+    assert duration_from_alpha(longest, model.sample_period, model.settings.s_bar) == (
+        pytest.approx(float(obs.elapsed[-1]), rel=1e-12))  # fmt: skip
+
+
+def test_a_node_half_a_step_below_the_bound_is_dropped() -> None:
+    """``anchored_nodes``: the lattice's nodes more than half a step below the bound are kept;
+    one exactly half a step below is dropped (the last gap one and a half steps, not half)."""
+    prior = AlphaPrior((0.1,), (0.3,), (5.0,), (1.0,))
+    lo, hi = prior.span(math.inf)
+    lattice, step = np.linspace(lo, hi, N_NODES), (hi - lo) / (N_NODES - 1)
+    exact = [j for j in range(1, N_NODES - 2)
+             if (lattice[j] + 0.5 * step) - 0.5 * step == lattice[j]]  # fmt: skip
+    assert exact  # a node that is half a step below its bound to the last bit
+    j = exact[0]
+    nodes = anchored_nodes(prior, lattice[j] + 0.5 * step)
+    assert nodes[:-1].tolist() == lattice[:j].tolist()
