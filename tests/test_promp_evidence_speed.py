@@ -21,9 +21,12 @@ from promp.evidence.speed import (
     AlphaPrior,
     alpha_prior,
     anchored_nodes,
+    logsumexp,
+    logsumexp_rows,
     longest_alpha,
     modality_columns,
     model_alpha,
+    quadrature_weights,
     refined_nodes,
     speed_prior,
 )
@@ -248,3 +251,29 @@ def test_a_node_half_a_step_below_the_bound_is_dropped() -> None:
     j = exact[0]
     nodes = anchored_nodes(prior, lattice[j] + 0.5 * step)
     assert nodes[:-1].tolist() == lattice[:j].tolist()
+
+
+def test_the_quadrature_weights_are_trapezoids_normalised_to_the_prior_mass() -> None:
+    """``quadrature_weights``: each node's log prior plus the log of its trapezoid width (half
+    the distance between its neighbours; an end's, its one gap), shifted so that they sum to
+    the mass below the bound; one node alone carries the whole mass."""
+    nodes, log_prior = np.array([0.0, 0.5, 1.5]), np.array([-1.0, -0.5, -2.0])
+    weights = quadrature_weights(nodes, log_prior, -0.3)
+    assert logsumexp(weights) == pytest.approx(-0.3, rel=1e-12)
+    assert_allclose(weights - weights[0], log_prior - log_prior[0]
+                    + np.log(np.array([0.5, 0.75, 1.0]) / 0.5), rtol=1e-12)  # fmt: skip
+    assert_allclose(quadrature_weights(np.array([0.2]), np.array([-1.0]), -0.3), [-0.3],
+                    rtol=1e-12)  # fmt: skip
+
+
+def test_single_precision_speeds_and_values_are_read_in_double() -> None:
+    """``AlphaPrior.from_alphas`` and ``logsumexp_rows`` compute in float64 whatever they are
+    given."""
+    alphas = np.array([0.8, 1.3, 0.95], dtype=np.float32)
+    assert AlphaPrior.from_alphas(alphas, 100.0) == AlphaPrior.from_alphas(alphas.astype(float),
+                                                                           100.0)  # fmt: skip
+    assert AlphaPrior.from_alphas(alphas, 100.0).dofs == (2.0,)
+    values = np.array([[0.1, -3.0, 2.5]], dtype=np.float32)
+    rows = logsumexp_rows(values)
+    assert rows.dtype == np.float64
+    assert rows.tolist() == logsumexp_rows(values.astype(float)).tolist()
