@@ -277,3 +277,9 @@ def test_single_precision_speeds_and_values_are_read_in_double() -> None:
     rows = logsumexp_rows(values)
     assert rows.dtype == np.float64
     assert rows.tolist() == logsumexp_rows(values.astype(float)).tolist()
+
+
+def test_rows_of_nothing_sum_to_nothing_row_by_row() -> None:
+    """``logsumexp_rows`` of an empty last axis: ``-inf`` for each row, in the rows' shape."""
+    empty = logsumexp_rows(np.empty((2, 3, 0)))
+    assert empty.shape == (2, 3) and np.all(empty == -np.inf)
