@@ -1,6 +1,7 @@
 """promp.evidence.speed: the Eq. 7 speed from the early displacement (each observed modality's
 regression combined by inverse variance, clipped to the plausible speeds), the columns of a
-modality in an observation, a mixture of speed priors and its density."""
+modality in an observation, a mixture of speed priors and its density, the speed prior of the
+training speeds, the quadrature's range, nodes, refined nodes and weights, and logsumexp."""
 
 from __future__ import annotations
 
