@@ -42,7 +42,7 @@ variable before it reaches a call) is not excluded.
 Install mutmut once (it is not a dependency of the tests, and CI does not run this):
 ``.venv/bin/python -m pip install -e '.[mutation]'``.
 
-Run: ``.venv/bin/python bench/mutation.py [--paths promp/live] [--tests FILE ...]
+Run: ``.venv/bin/python bench/mutation.py [--paths promp/live] [--tests FILE|FILE::TEST ...]
 [--deselect NODE_ID ...] [--max-children N] [--timeout-multiplier X] [--workdir DIR]``;
 ``--report DIR`` prints the scores of a kept run's folder (one stopped early: its mutants
 not checked yet are counted apart). The goal is 60 minutes on the 2 cores; under the shared
@@ -314,12 +314,24 @@ def print_table(scores: dict[str, dict]) -> None:
                   "(the score is of those checked)")
 
 
+def selected_tests(patterns: list[str]) -> list[str]:
+    """The test files of ``patterns`` (globs from the repository), and the tests named by a
+    node id (``FILE::NAME``, kept as given: a glob of ``FILE`` alone would match nothing and
+    drop it). A pattern that matches no file is an error."""
+    chosen: set[str] = set()
+    for pattern in patterns:
+        file, sep, node = pattern.partition("::")
+        found = [str(t.relative_to(REPO)) for t in REPO.glob(file)]
+        if not found:
+            raise ValueError(f"--tests {pattern!r} matches no test file")
+        chosen.update(f"{f}{sep}{node}" for f in found)
+    return sorted(chosen)
+
+
 def main(paths: list[str], tests: list[str], deselect: list[str], max_children: int | None,
          workdir: Path | None, timeout_multiplier: float = TIMEOUT_MULTIPLIER) -> dict:
     started = time.monotonic()
-    tests = sorted({str(t.relative_to(REPO)) for pattern in tests for t in REPO.glob(pattern)})
-    if not tests:
-        raise ValueError("--tests matches no test file")
+    tests = selected_tests(tests)
     keep = workdir is not None
     workdir = workdir or Path(tempfile.mkdtemp(prefix="mutation-"))
     if keep and workdir.exists():
@@ -364,7 +376,7 @@ if __name__ == "__main__":
     parser.add_argument("--paths", nargs="+", default=DEFAULT_PATHS,
                         help="files or folders to mutate, relative to the repository")
     parser.add_argument("--tests", nargs="+", default=DEFAULT_TESTS,
-                        help="test files (glob patterns, relative to the repository)")
+                        help="test files (globs, relative to the repository) or FILE::TEST")
     parser.add_argument("--deselect", nargs="*", default=DEFAULT_DESELECT,
                         help="test node ids left out (default: the list in this script)")
     parser.add_argument("--max-children", type=int, default=None,

@@ -301,7 +301,9 @@ def test_the_equilibrated_precision_of_a_stack_is_each_covariances_inverse(size:
 def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation() -> None:
     """KeptSums.take: each candidate's sums from the latest length that holds it and is not
     longer than the observation, whether the candidates' rows are in one stored batch or in
-    several; none after the observation was replaced."""
+    several, or as long as the observation; none for an observation replaced since (not those
+    stored for the one that replaced it), and the sums computed for an observation replaced
+    since are not stored."""
     from promp.evidence.sums import KeptSums, WhitenedSums
 
     def sums(n: int, alphas: list[float]) -> WhitenedSums:
@@ -312,9 +314,12 @@ def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation()
                             n=n)  # fmt: skip
 
     kept = KeptSums()
+    assert kept.n_observed == len(kept) == 0
     generation = kept.adopt(np.arange(9.0), np.zeros((9, 1)))
     kept.store(generation, ("k",), np.array([1.0, 2.0, 3.0]), sums(4, [1.0, 2.0, 3.0]))
     kept.store(generation, ("k",), np.array([2.0, 5.0]), sums(6, [2.0, 5.0]))
+    kept.store(generation, ("j",), np.array([7.0]), sums(6, [7.0]))  # the same length again
+    assert kept.take(generation, ("j",), np.array([7.0]), n=8).starts.tolist() == [6]
     found = kept.take(generation, ("k",), np.array([3.0, 2.0, 7.0, 5.0, 1.0]), n=8)
     assert found.starts.tolist() == [4, 6, 0, 6, 4]
     assert found.rr[:, 0].tolist() == [34.0, 26.0, 56.0, 14.0]  # the rows of the found, in order
@@ -323,9 +328,17 @@ def test_kept_sums_give_each_candidate_its_longest_sums_within_the_observation()
     assert one.starts.tolist() == [6, 6] and one.rr[:, 0].tolist() == [56.0, 26.0]
     shorter = kept.take(generation, ("k",), np.array([2.0, 5.0]), n=5)  # not the length-6 rows
     assert shorter.starts.tolist() == [4, 0] and shorter.rr[:, 0].tolist() == [24.0]
+    same = kept.take(generation, ("k",), np.array([5.0]), n=6)  # as long as the observation
+    assert same.starts.tolist() == [6] and same.rr[:, 0].tolist() == [56.0]
     assert kept.take(generation, ("other",), np.array([2.0]), n=8).starts.tolist() == [0]
     replaced = kept.adopt(np.arange(9.0), np.ones((9, 1)))
     assert kept.take(replaced, ("k",), np.array([2.0]), n=8).starts.tolist() == [0]
+    kept.store(replaced, ("k",), np.array([2.0]), sums(3, [2.0]))  # the new observation's
+    assert kept.take(replaced, ("k",), np.array([2.0]), n=8).starts.tolist() == [3]
+    stale = kept.take(generation, ("k",), np.array([2.0]), n=8)  # a sums of the one replaced
+    assert stale.starts.tolist() == [0] and stale.rr.size == 0
+    kept.store(generation, ("late",), np.array([2.0]), sums(8, [2.0]))  # computed for it
+    assert kept.take(replaced, ("late",), np.array([2.0]), n=8).starts.tolist() == [0]
 
 
 def test_a_known_duration_scores_every_primitive_at_its_speed_alone() -> None:
@@ -440,6 +453,49 @@ def test_the_sums_are_read_only() -> None:
     sums = ObservationSums(model, obs, np.arange(3))(model.primitives[0], alphas, durations)
     for array in (sums.gram, sums.proj, sums.rr, sums.group, sums.logdet_k):
         assert not array.flags.writeable
+
+
+def test_the_sums_of_a_longer_observation_add_its_new_samples_to_those_kept(monkeypatch) -> None:
+    """:class:`promp.evidence.sums.ObservationSums` sharing the store of a shorter observation
+    of the movement: at the speeds kept, only the new samples' terms are computed (from the
+    sample before them), the numbers those from every sample; another primitive at the same
+    speeds, or the same samples read as other dimensions, get their own sums."""
+    from promp.evidence.sums import ObservationSums
+    from promp.timing import duration_from_alpha
+
+    model, demo = synthetic()
+    dims, alphas = np.arange(3), np.array([0.8, 1.0])
+    durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
+    first, second = model.primitives[:2]
+    short = Observation.from_demo(model, demo, 20, ["hand"])
+    obs = Observation.from_demo(model, demo, 30, ["hand"])
+    kept = ObservationSums(model, short, dims)
+    kept(first, alphas, durations)
+    calls = []
+
+    def spying(name: str):
+        original = getattr(ObservationSums, name)
+
+        def spy(self, primitive, *args):  # which primitive, and from which sample
+            calls.append((name, primitive.name, *args[2:]))
+            return original(self, primitive, *args)
+
+        return spy
+
+    for name in ("dense", "rows"):
+        monkeypatch.setattr(ObservationSums, name, spying(name))
+    grown = ObservationSums(model, obs, dims, kept.kept)
+    for primitive, want in ((first, [("rows", first.name, 20)]),
+                            (second, [("dense", second.name)])):  # fmt: skip
+        calls.clear()
+        sums = grown(primitive, alphas, durations)
+        assert calls == want
+        scratch = ObservationSums(model, obs, dims)(primitive, alphas, durations)
+        for field in ("gram", "proj", "rr"):
+            assert_allclose(getattr(sums, field), getattr(scratch, field), rtol=1e-11, atol=1e-9)
+    other = ObservationSums(model, obs, dims + 3, kept.kept)  # the same samples as the head's
+    scratch = ObservationSums(model, obs, dims + 3)(first, alphas, durations)
+    assert_allclose(other(first, alphas, durations).rr, scratch.rr, rtol=1e-11, atol=1e-9)
 
 
 def test_the_refined_speeds_surround_the_best_coarse_node() -> None:

@@ -1,6 +1,7 @@
 """promp.evidence.speed: the Eq. 7 speed from the early displacement (each observed modality's
 regression combined by inverse variance, clipped to the plausible speeds), the columns of a
-modality in an observation, a mixture of speed priors and its density."""
+modality in an observation, a mixture of speed priors and its density, the speed prior of the
+training speeds, the quadrature's range, nodes, refined nodes and weights, and logsumexp."""
 
 from __future__ import annotations
 
@@ -15,10 +16,25 @@ from numpy.testing import assert_allclose
 from scipy import stats
 
 from promp.data import Layout, Modality
-from promp.evidence.speed import AlphaPrior, longest_alpha, modality_columns, model_alpha
+from promp.evidence.speed import (
+    N_NODES,
+    TAIL,
+    AlphaPrior,
+    alpha_prior,
+    anchored_nodes,
+    logsumexp,
+    logsumexp_rows,
+    longest_alpha,
+    modality_columns,
+    model_alpha,
+    quadrature_weights,
+    refined_nodes,
+    speed_prior,
+)
 from promp.inference import Observation
 from promp.learn import fit
 from promp.model import Settings
+from promp.timing import duration_from_alpha
 from tests.synthetic import LAYOUT, make_dataset
 
 
@@ -119,3 +135,152 @@ def test_a_mixed_priors_mass_below_a_bound_is_the_mixtures() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert mixed.logcdf(-math.inf) == -math.inf
+
+
+def test_the_quadrature_range_is_the_central_mass_truncated_at_the_bound() -> None:
+    """``span``: from the lowest to the highest end of its components' central masses
+    (:data:`TAIL` left out at each end), cut at the bound; a bound at or below the lowest end
+    (every plausible speed ends too early): the ``4 max(scale)`` just below the bound."""
+    mixed = AlphaPrior((0.1,), (0.3,), (5.0,), (1.0,)).mixed_with(0.4, 0.2, 3.0, 0.25)
+    lo = min(0.1 + 0.3 * stats.t.ppf(TAIL, 5.0), 0.4 + 0.2 * stats.t.ppf(TAIL, 3.0))
+    hi = max(0.1 + 0.3 * stats.t.ppf(1 - TAIL, 5.0), 0.4 + 0.2 * stats.t.ppf(1 - TAIL, 3.0))
+    assert mixed.span(math.inf) == pytest.approx((lo, hi), rel=1e-9)
+    assert mixed.span(0.5) == pytest.approx((lo, 0.5), rel=1e-9)
+    at_lo = mixed.span(math.inf)[0]  # exactly the lowest end
+    for bound in (at_lo, lo - 1.0):
+        assert mixed.span(bound) == pytest.approx((bound - 4.0 * 0.3, bound), rel=1e-12)
+
+
+def test_the_speed_prior_is_kept_per_s_bar_and_the_model_half_is_never_narrow(learned) -> None:
+    """``alpha_prior``: the training speeds' prior is computed once per primitive and ``s_bar``
+    (a model of another ``s_bar`` sharing the primitive gets its own); with
+    ``alpha_method="model"`` half of the mass is a Student-t at the Eq. 7 speed, of the
+    regression's error in log alpha but never narrower than a quarter of the training prior's
+    scale."""
+    model, obs = learned
+    s_bar = model.settings.s_bar
+    exact = with_regressions(model.primitives[0], [1.0, 1.0], (1.2, 0.0), (1.2, 0.0))
+    trained = alpha_prior(model, exact, obs, "ml")  # one speed: the scale is its floor
+    assert trained.scales == pytest.approx((1.0 / s_bar,), rel=1e-12)
+    other = dataclasses.replace(model, settings=dataclasses.replace(model.settings,
+                                                                    s_bar=2.0 * s_bar))  # fmt: skip
+    assert alpha_prior(other, exact, obs, "ml").scales == pytest.approx((0.5 / s_bar,), rel=1e-12)
+    assert alpha_prior(model, exact, obs, "ml") is trained
+    mixed = alpha_prior(model, exact, obs, "model")
+    assert mixed.locs == pytest.approx((0.0, math.log(1.2)), abs=1e-12)
+    assert mixed.weights == pytest.approx((0.5, 0.5), rel=1e-15)
+    assert mixed.dofs == (trained.dofs[0],) * 2
+    assert mixed.scales[1] == pytest.approx(trained.scales[0] / 4, rel=1e-12)  # the floor
+    loose = with_regressions(model.primitives[0], [1.0, 1.0], (1.2, 1.0), (1.2, 1.0))
+    assert alpha_prior(model, loose, obs, "model").scales[1] == pytest.approx(
+        model_alpha(model, loose, obs)[1], rel=1e-12)  # fmt: skip
+    assert model_alpha(model, loose, obs)[1] > trained.scales[0]
+
+
+def test_a_bound_at_or_below_the_priors_range_gives_the_half_step_lattice_below_it() -> None:
+    """``anchored_nodes`` when every plausible speed ends too early (the bound at or below the
+    lowest end of the prior's range, a prior of positive or negative log alpha): the nodes of
+    the lattice of the same origin and half the step that lie within ``4 max(scale)`` below
+    the bound and more than half a (half) step below it, then the bound itself."""
+    for loc in (3.0, -3.0):
+        prior = AlphaPrior((loc,), (0.1,), (5.0,), (1.0,))
+        lo, hi = prior.span(math.inf)
+        half = (hi - lo) / (N_NODES - 1) / 2
+        for bound in (lo, lo - 0.05):
+            lattice = lo + half * np.arange(math.ceil((bound - 4 * 0.1 - lo) / half), 1)
+            want = np.append(lattice[lattice < bound - 0.5 * half], bound)
+            nodes = anchored_nodes(prior, bound)
+            assert nodes.size == want.size > 20
+            assert_allclose(nodes, want, rtol=0, atol=1e-12)
+
+
+def test_the_refined_nodes_split_the_coarse_steps_around_the_best_node() -> None:
+    """``refined_nodes``: the quarter steps within one coarse step either side of the best
+    node (seven points, the best one left out), only those strictly inside the coarse range
+    (a last gap shorter than the step: the bound's); wherever the nodes lie."""
+    nodes = np.array([0.0, 0.25, 0.5, 0.75, 0.9375])  # the last gap three quarters of a step
+    quarter = np.array([-3, -2, -1, 1, 2, 3]) * 0.0625
+    assert refined_nodes(nodes, 2).tolist() == (0.5 + quarter).tolist()
+    assert refined_nodes(nodes, 1).tolist() == (0.25 + quarter).tolist()
+    assert refined_nodes(nodes, 0).tolist() == quarter[3:].tolist()
+    assert refined_nodes(nodes, 3).tolist() == (0.75 + quarter[:5]).tolist()  # not 0.9375
+    assert refined_nodes(nodes, 4).tolist() == (0.9375 + quarter[:3]).tolist()
+    far = refined_nodes(4096.0 + nodes / 16, 2)  # large log alphas, a fine step: the same
+    assert far.tolist() == (4096.0 + (0.5 + quarter) / 16).tolist()
+
+
+def test_the_speed_prior_of_one_two_or_many_training_speeds() -> None:
+    """``speed_prior``: one speed, the scale of one sample's worth of duration and one degree
+    of freedom; two, their standard deviation (n - 1 in the denominator) inflated by
+    ``sqrt(1 + 1/n)``; rows of speeds, each row its own prior."""
+    loc, scale, dof = speed_prior(np.log([2.0]), 100.0)
+    assert (float(loc), float(scale), float(dof)) == pytest.approx((math.log(2.0), 0.02, 1.0))
+    loc, scale, dof = speed_prior(np.log([1.0, 2.0]), 100.0)
+    assert float(scale) == pytest.approx(math.log(2.0) / math.sqrt(2.0) * math.sqrt(1.5))
+    assert float(dof) == 1.0
+    rows = np.log([[1.0, 1.5, 2.0], [1.0, 1.01, 1.4]])
+    for row, each in zip(rows, zip(*speed_prior(rows, 100.0), strict=True), strict=True):
+        assert_allclose(each, speed_prior(row, 100.0), rtol=1e-15)
+    assert speed_prior(rows, 100.0)[1][0] != speed_prior(rows, 100.0)[1][1]
+
+
+def test_a_prior_whose_components_do_not_match_is_refused() -> None:
+    """An ``AlphaPrior`` with more locations than scales has no density: an error, not a
+    density of its first components."""
+    broken = AlphaPrior((0.1, 0.4), (0.3,), (5.0,), (1.0,))
+    with pytest.raises(ValueError):
+        broken.logpdf(np.zeros(3))
+
+
+def test_the_longest_speed_lasts_exactly_the_observation(learned) -> None:
+    model, obs = learned
+    longest = longest_alpha(model, obs)
+    assert longest == pytest.approx(model.settings.s_bar / 30, rel=1e-12)  # 30 samples seen
+    assert duration_from_alpha(longest, model.sample_period, model.settings.s_bar) == (
+        pytest.approx(float(obs.elapsed[-1]), rel=1e-12))  # fmt: skip
+
+
+def test_a_node_half_a_step_below_the_bound_is_dropped() -> None:
+    """``anchored_nodes``: the lattice's nodes more than half a step below the bound are kept;
+    one exactly half a step below is dropped (the last gap one and a half steps, not half)."""
+    prior = AlphaPrior((0.1,), (0.3,), (5.0,), (1.0,))
+    lo, hi = prior.span(math.inf)
+    lattice, step = np.linspace(lo, hi, N_NODES), (hi - lo) / (N_NODES - 1)
+    exact = [j for j in range(1, N_NODES - 2)
+             if (lattice[j] + 0.5 * step) - 0.5 * step == lattice[j]]  # fmt: skip
+    assert exact  # a node that is half a step below its bound to the last bit
+    j = exact[0]
+    nodes = anchored_nodes(prior, lattice[j] + 0.5 * step)
+    assert nodes[:-1].tolist() == lattice[:j].tolist()
+
+
+def test_the_quadrature_weights_are_trapezoids_normalised_to_the_prior_mass() -> None:
+    """``quadrature_weights``: each node's log prior plus the log of its trapezoid width (half
+    the distance between its neighbours; an end's, its one gap), shifted so that they sum to
+    the mass below the bound; one node alone carries the whole mass."""
+    nodes, log_prior = np.array([0.0, 0.5, 1.5]), np.array([-1.0, -0.5, -2.0])
+    weights = quadrature_weights(nodes, log_prior, -0.3)
+    assert logsumexp(weights) == pytest.approx(-0.3, rel=1e-12)
+    assert_allclose(weights - weights[0], log_prior - log_prior[0]
+                    + np.log(np.array([0.5, 0.75, 1.0]) / 0.5), rtol=1e-12)  # fmt: skip
+    assert_allclose(quadrature_weights(np.array([0.2]), np.array([-1.0]), -0.3), [-0.3],
+                    rtol=1e-12)  # fmt: skip
+
+
+def test_single_precision_speeds_and_values_are_read_in_double() -> None:
+    """``AlphaPrior.from_alphas`` and ``logsumexp_rows`` compute in float64 whatever they are
+    given."""
+    alphas = np.array([0.8, 1.3, 0.95], dtype=np.float32)
+    assert AlphaPrior.from_alphas(alphas, 100.0) == AlphaPrior.from_alphas(alphas.astype(float),
+                                                                           100.0)  # fmt: skip
+    assert AlphaPrior.from_alphas(alphas, 100.0).dofs == (2.0,)
+    values = np.array([[0.1, -3.0, 2.5]], dtype=np.float32)
+    rows = logsumexp_rows(values)
+    assert rows.dtype == np.float64
+    assert rows.tolist() == logsumexp_rows(values.astype(float)).tolist()
+
+
+def test_rows_of_nothing_sum_to_nothing_row_by_row() -> None:
+    """``logsumexp_rows`` of an empty last axis: ``-inf`` for each row, in the rows' shape."""
+    empty = logsumexp_rows(np.empty((2, 3, 0)))
+    assert empty.shape == (2, 3) and np.all(empty == -np.inf)
