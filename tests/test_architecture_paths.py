@@ -199,9 +199,23 @@ def test_one_take_calls_the_documented_path(traced) -> None:
                 f"version {learner.learn_version} of {state.learn_version}, {learner.n_demos} "
                 f"demonstrations; error {learner.error})")  # fmt: skip
 
-    wait_until(lambda: not np.allclose(np.array(tubes["curved"].vertices), before), timeout=120,
-               what=why)  # fmt: skip
     name = store.state.demos["curved"][-1].name
+
+    def redrawn() -> bool:
+        return not np.allclose(np.array(tubes["curved"].vertices), before)
+
+    def flagged_for_its_length() -> bool:
+        return {f.kind for f in store.state.findings_of("curved", name)} == {"duration"}
+
+    # On a busy machine the 16 steps above may take so long that the take lasts over twice the
+    # others (8.5 s against 3.9 s, seen in a busy-core CI run): the checks rightly flag it and
+    # leave it out, and the prior is not redrawn. A researcher who knows why the take is long
+    # keeps it (Teach's "learn from it anyway"), and so does this test; any other finding
+    # still leaves it out and fails the test.
+    wait_until(lambda: redrawn() or flagged_for_its_length(), timeout=120, what=why)
+    if not redrawn() and flagged_for_its_length():
+        store.set_kept("curved", name, True)
+    wait_until(redrawn, timeout=120, what=why)
     wait_until(lambda: (("curved", name) in studio.session.snapshot().typicality),
                timeout=120, what="the take's typicality")  # fmt: skip
     wait_until(lambda: name in record.controls.status.content, what="the take's outcome shown")
