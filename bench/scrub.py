@@ -110,11 +110,12 @@ def fill_live_buffer(panel: InferPanel) -> None:
 
 def studio_settings() -> tuple[int, float, float]:
     """The basis, width and noise scale this tree's automatic rule chooses for the studio's
-    default workspace (what ``--baseline`` gives both sides)."""
-    from robots.icub.scenario import generate_scenario
+    default workspace (:func:`bench.infer_step.chosen_settings`; what ``--baseline`` gives
+    both sides)."""
+    from bench.infer_step import chosen_settings
 
-    s = fit(generate_scenario(seed=0), LAYOUT).settings
-    return s.n_basis, s.width, s.noise_scale
+    s = chosen_settings()
+    return s["n_basis"], s["width"], s["noise_scale"]
 
 
 def paired(baseline: str, rounds: int) -> None:
