@@ -74,6 +74,7 @@ from promp.evidence.pipeline import infer  # noqa: E402
 from promp.inference import Observation, trajectory_at  # noqa: E402
 from promp.io import model_to_dict, save_model  # noqa: E402
 from promp.learn import fit  # noqa: E402
+from promp.live.lsl import new_outlet, open_inlet, release  # noqa: E402
 
 DATA = REPO.parent / "shared" / "data" / "lab-records-flt"
 RATE_HZ = 250.0
@@ -188,25 +189,25 @@ def _read(name: str, into: dict, kind: str, stop: threading.Event, ready: thread
     info = pylsl.resolve_byprop("name", name, 1, STARTUP_S)  # a busy machine starts it slowly
     if not info:
         raise RuntimeError(f"the predictor's stream {name} did not appear")
-    inlet = pylsl.StreamInlet(info[0], max_buflen=360, recover=False)
-    inlet.open_stream(10.0)
+    inlet = open_inlet(info[0], 10.0, max_buflen=360, recover=False)
     ready.set()
-    while not stop.is_set():
-        try:
-            rows, _ = inlet.pull_chunk(timeout=0.02, max_samples=4096, min_samples=1)
-        except pylsl.util.LostError:  # the predictor stopped
-            return
-        if not rows:
-            continue
-        now = pylsl.local_clock()
-        for row in rows:
-            row = np.asarray(row, dtype=float)
-            p = into.setdefault(int(row[0]), Published(int(row[0])))
-            p.received = max(p.received, now)
-            if kind == "remainder":
-                p.remainder.append(row)
-            else:
-                setattr(p, kind, row)
+    try:
+        while not stop.is_set():
+            try:
+                rows, _ = inlet.pull_chunk(timeout=0.02, max_samples=4096, min_samples=1)
+            except pylsl.util.LostError:  # the predictor stopped
+                return
+            now = pylsl.local_clock()
+            for row in rows:
+                row = np.asarray(row, dtype=float)
+                p = into.setdefault(int(row[0]), Published(int(row[0])))
+                p.received = max(p.received, now)
+                if kind == "remainder":
+                    p.remainder.append(row)
+                else:
+                    setattr(p, kind, row)
+    finally:
+        release(inlet)
 
 
 @contextmanager
@@ -348,7 +349,7 @@ def bench_outlets():
         c.append_child_value("label", label)
         c.append_child_value("unit", unit)
     markers = pylsl.StreamInfo(MARKERS, "Markers", 1, 0, pylsl.cf_string, MARKERS)
-    return pylsl.StreamOutlet(info), pylsl.StreamOutlet(markers)
+    return new_outlet(info), new_outlet(markers)
 
 
 def replayed(model_path: Path, plan: Plan, tmp: Path, repo: Path = REPO
@@ -364,7 +365,8 @@ def replayed(model_path: Path, plan: Plan, tmp: Path, repo: Path = REPO
         began = time.monotonic()
         pushed = replay(plan, outlet, markers)
         replay_s = time.monotonic() - began
-    del outlet, markers  # the next run's streams have the same names
+    release(outlet)  # the next run's streams have the same names
+    release(markers)
     print("\n".join(log.read_text().splitlines()[-4:]))
     return pushed, published, replay_s
 

@@ -81,7 +81,7 @@ def main(movements: int = 40) -> dict:
     from app.studio import Studio
     from promp.live.status import Condition
     from tests.live_fakes import held
-    from tests.lsl_push import hand_outlet
+    from tests.lsl_push import hand_outlet, release_all
 
     name = f"BenchTakeOver-{os.getpid()}"
     with tempfile.TemporaryDirectory() as tmp:
@@ -139,6 +139,7 @@ def main(movements: int = 40) -> dict:
             ended = len(running.session.snapshot().ended)
         finally:
             studio.stop()
+            release_all()  # the hand's outlet, destroyed now (promp.live.lsl's docstring)
     stamps_a, pushes_a = np.array(stamps), np.array(pushes)
     latencies, parts, unmatched = [], [], 0
     for (first, started), shown in zip(firsts.values(), ready, strict=False):

@@ -14,6 +14,7 @@ clone has none). CI reruns ``-m data`` with ``STUDIO_SHARED_DATA`` pointed at an
 from __future__ import annotations
 
 import os
+import sys
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -114,6 +115,16 @@ def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Co
             f"NOTE: browser tests were skipped: {CHROMIUM} not found (apt-get install -y chromium)",
             yellow=True,
         )
+
+
+@pytest.fixture(autouse=True)
+def _lsl_released() -> Iterator[None]:
+    """The LSL outlets and inlets a test made (tests/lsl_push.py) destroyed when it ends,
+    under promp.live.lsl's lock, not later by the garbage collector."""
+    yield
+    made = sys.modules.get("tests.lsl_push")
+    if made is not None:
+        made.release_all()
 
 
 @pytest.fixture(scope="session")

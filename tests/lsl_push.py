@@ -1,6 +1,12 @@
 """A sender on real LSL (the loopback, tests/lsl_loopback.cfg) for the live tests: an outlet
 of the hand in millimetres, and the loop that pushes recorded rows through it as they come due.
-Import it after ``pytest.importorskip("pylsl")``."""
+Import it after ``pytest.importorskip("pylsl")``.
+
+The tests' outlets and inlets live in the process of the sessions and studios they test, so
+they are made, opened and destroyed under :data:`promp.live.lsl.LIFECYCLE` (liblsl crashes
+when an outlet dies while another thread opens an inlet: the module docstring of
+:mod:`promp.live.lsl`): by :func:`outlet`, :func:`inlet` and :func:`release`, and whatever a
+test left is released when it ends (``tests/conftest.py``), never by the garbage collector."""
 
 from __future__ import annotations
 
@@ -9,6 +15,30 @@ from collections.abc import Sequence
 
 import numpy as np
 import pylsl
+
+from promp.live.lsl import new_outlet, open_inlet, release
+
+__all__ = ["hand_outlet", "inlet", "outlet", "push_when_due", "release", "release_all"]
+MADE: list[pylsl.StreamOutlet | pylsl.StreamInlet] = []  # what the test under way made
+
+
+def outlet(info: pylsl.StreamInfo) -> pylsl.StreamOutlet:
+    """An outlet of ``info``, released at the latest when the test ends."""
+    MADE.append(new_outlet(info))
+    return MADE[-1]
+
+
+def inlet(info: pylsl.StreamInfo, timeout: float, **options) -> pylsl.StreamInlet:
+    """An inlet of ``info``, its stream opened (within ``timeout`` s), released at the latest
+    when the test ends."""
+    MADE.append(open_inlet(info, timeout, **options))
+    return MADE[-1]
+
+
+def release_all() -> None:
+    """Release every outlet and inlet the test made (the last made first)."""
+    while MADE:
+        release(MADE.pop())
 
 
 def hand_outlet(name: str, labels: Sequence[str] = ("hx", "hy", "hz"),
@@ -21,7 +51,7 @@ def hand_outlet(name: str, labels: Sequence[str] = ("hx", "hy", "hz"),
         channel = channels.append_child("channel")
         channel.append_child_value("label", label)
         channel.append_child_value("unit", "mm")
-    return pylsl.StreamOutlet(info)
+    return outlet(info)
 
 
 def push_when_due(outlet: pylsl.StreamOutlet, rows: np.ndarray, due: np.ndarray,

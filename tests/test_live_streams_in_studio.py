@@ -36,7 +36,8 @@ from tests.live_fakes import flt_dataset, flt_workspace, held, offset_in
 
 pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
 
-from tests.lsl_push import hand_outlet, push_when_due  # noqa: E402
+from tests import lsl_push  # noqa: E402
+from tests.lsl_push import hand_outlet, push_when_due, release  # noqa: E402
 
 pytestmark = pytest.mark.browser
 
@@ -115,8 +116,7 @@ def read_published(name: str, into: list, stop: threading.Event) -> threading.Ev
         inlets = {}
         for kind in ("timing", "probabilities"):
             (info,) = pylsl.resolve_byprop("name", f"{name}-{kind}", 1, PATIENCE_S)
-            inlets[kind] = pylsl.StreamInlet(info, max_buflen=60, recover=False)
-            inlets[kind].open_stream(30.0)
+            inlets[kind] = lsl_push.inlet(info, 30.0, max_buflen=60, recover=False)
         ready.set()
         rows: dict = {}
         while not stop.is_set():
@@ -316,8 +316,8 @@ def test_faults_of_a_stream_show_their_status_and_nothing_breaks(page, studio, a
     # stillness, so the session opens no marker stream (it once read the studio's own events
     # back, each event the next marker, until the memory ran out).
     cues_name = unique("Cues")
-    cues = pylsl.StreamOutlet(pylsl.StreamInfo(cues_name, "Markers", 1, 0, pylsl.cf_string,
-                                               f"src-{cues_name}"))  # fmt: skip
+    cues = lsl_push.outlet(pylsl.StreamInfo(cues_name, "Markers", 1, 0, pylsl.cf_string,
+                                            f"src-{cues_name}"))  # fmt: skip
     markers = infer_panel(studio).lsl.controls.markers
     wait_until(lambda: any(cues_name in o for o in markers.options), what="the cues listed")
     faulty = Replayer(unique("FaultyHand"))
@@ -350,11 +350,11 @@ def test_faults_of_a_stream_show_their_status_and_nothing_breaks(page, studio, a
     finally:
         pusher.stop.set()
         pusher.join()
-    del faulty.outlet, pusher.outlet
+    release(faulty.outlet)
     shows("vanished")
     two = Replayer(faulty.name, n_channels=2)  # the same name, without the mapping's channels
     shows("wrong channels", "hand_z")
-    del two
+    release(two.outlet)
     back = Replayer(faulty.name)
     shows("restarted")
     start = len(studio.live.running.session.snapshot().ended)
@@ -363,7 +363,7 @@ def test_faults_of_a_stream_show_their_status_and_nothing_breaks(page, studio, a
     assert studio.live.running is not None and studio.loop.frames_done > 0
     assert not [n for n in studio.notices if n[0] == "Internal error"]
     assert not [e for e in studio.live.running.session.snapshot().events if "marker" in e.text]
-    del cues
+    release(cues)
     assert len(studio.live.running.session.snapshot().ended) >= start
     click(page, "Stop")
     wait_until(lambda: studio.live.running is None, what="the source stopped")
@@ -413,8 +413,7 @@ def read_events(name: str, into: list, stop: threading.Event) -> threading.Event
 
     def run() -> None:
         (info,) = pylsl.resolve_byprop("name", f"{name}-events", 1, PATIENCE_S)
-        inlet = pylsl.StreamInlet(info, max_buflen=60, recover=False)
-        inlet.open_stream(30.0)
+        inlet = lsl_push.inlet(info, 30.0, max_buflen=60, recover=False)
         ready.set()
         while not stop.is_set():
             samples, _ = inlet.pull_chunk(timeout=0.05)

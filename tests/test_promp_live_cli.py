@@ -24,6 +24,7 @@ from tests.live_fakes import flt_dataset, hand_model, held, instances_made
 
 pylsl = pytest.importorskip("pylsl")
 
+from tests import lsl_push  # noqa: E402
 from tests.lsl_push import hand_outlet, push_when_due  # noqa: E402
 
 
@@ -104,8 +105,7 @@ def test_the_command_predicts_publishes_records_and_stops_cleanly(tmp_path) -> N
     try:
         found = pylsl.resolve_byprop("name", f"{out}-timing", 1, PATIENCE_S)
         assert found, "the command's outlets did not appear"
-        timing = pylsl.StreamInlet(found[0])
-        timing.open_stream(PATIENCE_S)
+        timing = lsl_push.inlet(found[0], PATIENCE_S)
         assert outlet.wait_for_consumers(PATIENCE_S)
         demo = held(flt_dataset()["front"][0], 0.6, 0.9)
         values = demo.select(["x", "y", "z"]) * 1000.0

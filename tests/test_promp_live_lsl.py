@@ -27,7 +27,7 @@ pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
 from promp.live.lsl import LslTransport  # noqa: E402
 from promp.live.outlets import PredictionOutlets, outlet_specs  # noqa: E402
 from promp.live.session import LiveOptions, LiveSession  # noqa: E402
-from tests.lsl_push import hand_outlet, push_when_due  # noqa: E402
+from tests.lsl_push import hand_outlet, push_when_due, release  # noqa: E402
 
 UNIQUE = f"{os.getpid()}-{time.monotonic_ns() % 10**9}"  # other runs on this machine
 
@@ -113,7 +113,7 @@ def test_a_vanished_stream_is_found_again_when_it_restarts() -> None:
     try:
         status = lambda: session.snapshot().statuses[0].condition  # noqa: E731
         wait_until(lambda: status() is Condition.OK, what="the stream found")
-        del outlet
+        release(outlet)
         wait_until(lambda: status() is Condition.VANISHED, what="the stream vanished")
         outlet = hand_outlet(name)
         wait_until(lambda: status() is Condition.RESTARTED, what="the stream found again")

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import inspect
 import socket
+import threading
 import time
 
 import numpy as np
@@ -17,6 +18,7 @@ from tests.conftest import PATIENCE_S
 
 pylsl = pytest.importorskip("pylsl")
 lsl = pytest.importorskip("promp.live.lsl")
+from tests import lsl_push  # noqa: E402
 
 DEADLINE_S = PATIENCE_S  # a real stream's discovery on a loaded machine
 
@@ -211,7 +213,7 @@ def test_a_stream_another_look_found_is_opened_by_its_uid():
 def test_a_stream_s_samples_are_pulled_as_double_whatever_its_format(fmt):
     name = f"promp-{fmt}-{time.monotonic_ns()}"
     info = pylsl.StreamInfo(name, "Mocap", 2, 100.0, getattr(pylsl, f"cf_{fmt}"), "promp-test")
-    outlet = pylsl.StreamOutlet(info)  # another program's: any channel format
+    outlet = lsl_push.outlet(info)  # another program's: any channel format
     transport = lsl.LslTransport()
     inlet = transport.open(found(transport, name))
     assert outlet.wait_for_consumers(DEADLINE_S)
@@ -276,6 +278,7 @@ class _CountingOutlet:
 
     def __init__(self, info, chunk_size=0, max_buffered=360):
         self.calls = []
+        self.obj = 1  # open (a handle liblsl never sees: the test does not close it)
 
     def push_chunk(self, x, timestamp=0.0, pushthrough=True):
         self.calls.append(("chunk", np.asarray(x).tolist(), list(timestamp), pushthrough))
@@ -300,3 +303,64 @@ def test_an_outlet_hands_a_push_to_liblsl_in_one_call_every_row_with_its_stamp(
     assert outlet._outlet.calls == [("chunk", sent, [12.5] * len(sent), True)]
     outlet.push(np.zeros((0, 2)) if fmt == "double64" else [], 13.0)  # nothing to push
     assert len(outlet._outlet.calls) == 1
+
+
+def held_elsewhere(lock) -> tuple[threading.Event, threading.Event]:
+    """``lock`` taken by another thread until the second event is set (the first: taken)."""
+    taken, free = threading.Event(), threading.Event()
+
+    def hold() -> None:
+        with lock:
+            taken.set()
+            free.wait()
+
+    threading.Thread(target=hold, daemon=True).start()
+    assert taken.wait(DEADLINE_S)
+    return taken, free
+
+
+def test_an_outlet_is_destroyed_only_while_no_inlet_of_this_process_is_being_opened():
+    # liblsl crashes when an outlet dies while another thread opens an inlet on it
+    # (bench/lsl_lifecycle.py): a close waits for the opening under way, then destroys it
+    outlet = lsl.LslOutlet(OutletSpec(f"promp-life-{time.monotonic_ns()}", "Mocap", "t", ("x",),
+                                      ("m",), rate=100.0))  # fmt: skip
+    _, free = held_elsewhere(lsl.LIFECYCLE)  # an inlet being opened
+    closed = threading.Event()
+    threading.Thread(target=lambda: (outlet.close(), closed.set()), daemon=True).start()
+    assert not closed.wait(0.3)
+    free.set()
+    assert closed.wait(DEADLINE_S)
+    assert not outlet._outlet.obj  # destroyed now, not by the garbage collector later
+    with pytest.raises(ValueError, match="is closed"):
+        outlet.push([[1.0]], 0.0)  # a clear error, not liblsl on a freed handle
+    assert outlet.wait_for_consumers(1.0) is False
+    outlet.close()  # twice: nothing
+
+
+def test_an_inlet_is_opened_under_the_lifecycle_lock_and_destroyed_when_closed(monkeypatch):
+    transport, outlet, inlet = opened_pair(f"promp-life-in-{time.monotonic_ns()}")
+    inlet.close()
+    assert not inlet._inlet.obj
+    with pytest.raises(StreamLost, match="closed"):
+        inlet.pull()
+    inlet.close()  # twice: nothing
+    free_while_opening = []
+    opening = pylsl.StreamInlet.open_stream
+
+    def probe() -> None:  # from another thread: is the lock free?
+        free = lsl.LIFECYCLE.acquire(False)
+        if free:
+            lsl.LIFECYCLE.release()
+        free_while_opening.append(free)
+
+    def spied(self, timeout=pylsl.FOREVER):
+        asked = threading.Thread(target=probe)
+        asked.start()
+        asked.join()
+        return opening(self, timeout)
+
+    monkeypatch.setattr(pylsl.StreamInlet, "open_stream", spied)
+    again = transport.open(found(transport, outlet._name))
+    assert free_while_opening == [False]
+    again.close()
+    outlet.close()

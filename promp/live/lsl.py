@@ -11,10 +11,24 @@ Times: a sample's time is its sender's stamp plus the inlet's clock correction
 every stream is on this machine's ``local_clock``. The correction applied is renewed when the
 estimate moves by more than :data:`OFFSET_STEP_S`: a wobble of a few microseconds of the
 estimate would otherwise shift the samples of one movement against each other.
+
+Lifetimes: liblsl 1.16-1.18 (pylsl 1.18.6 ships 1.18.0) can crash the process (a segmentation
+fault in ``lsl_destroy_outlet``) when an outlet of this process is destroyed while another
+thread of this process opens an inlet, the race of sccn/liblsl#220 (fixed upstream by #289, in
+no wheel yet). The studio is such a process: its scan opens an inlet on every new stream it
+finds, its own outlets included, and a session's stop destroys them. So every inlet's opening
+and destruction and every outlet's creation and destruction here hold one lock,
+:data:`LIFECYCLE`, and each is destroyed when it is closed, by :func:`release`, never later by
+the garbage collector at a moment nobody chose. Code beside the studio in its process (the
+tests' senders and readers) makes and releases its own through :func:`new_outlet`,
+:func:`open_inlet` and :func:`release`. ``bench/lsl_lifecycle.py`` reproduces the crash
+without the lock.
 """
 
 from __future__ import annotations
 
+import ctypes
+import threading
 import time
 
 import numpy as np
@@ -32,13 +46,17 @@ __all__ = [
     "FORGET_S",
     "FORMATS",
     "HOW_TO",
+    "LIFECYCLE",
     "local_clock",
     "LslInlet",
     "LslOutlet",
     "LslTransport",
     "MAX_BUFFER_S",
+    "new_outlet",
     "OFFSET_STEP_S",
+    "open_inlet",
     "OPEN_TIMEOUT_S",
+    "release",
 ]
 
 HOW_TO = (
@@ -69,6 +87,46 @@ FORMATS = {
     pylsl.cf_int64: "int64",
 }  # fmt: skip
 CHANNEL_FORMATS = {"double64": pylsl.cf_double64, "string": pylsl.cf_string}
+LIFECYCLE = threading.RLock()  # see the module docstring
+_DESTROY = {pylsl.StreamInlet: "lsl_destroy_inlet", pylsl.StreamOutlet: "lsl_destroy_outlet"}
+
+
+def new_outlet(info: pylsl.StreamInfo, **options) -> pylsl.StreamOutlet:
+    """A ``pylsl.StreamOutlet(info, **options)`` made under :data:`LIFECYCLE`; close it with
+    :func:`release`."""
+    with LIFECYCLE:
+        return pylsl.StreamOutlet(info, **options)
+
+
+def open_inlet(info: pylsl.StreamInfo, timeout: float, **options) -> pylsl.StreamInlet:
+    """A ``pylsl.StreamInlet(info, **options)`` whose stream is opened (waiting up to
+    ``timeout`` s), under :data:`LIFECYCLE`; close it with :func:`release`.
+
+    Raises
+    ------
+    pylsl.util.LostError, pylsl.util.TimeoutError
+        As ``open_stream`` does; the inlet is released first.
+    """
+    with LIFECYCLE:
+        inlet = pylsl.StreamInlet(info, **options)
+        try:
+            inlet.open_stream(timeout)
+        except BaseException:
+            release(inlet)
+            raise
+        return inlet
+
+
+def release(handle: pylsl.StreamInlet | pylsl.StreamOutlet) -> None:
+    """Destroy ``handle`` (an inlet or an outlet) now, under :data:`LIFECYCLE`; its later
+    ``__del__`` does nothing (liblsl deletes a null handle as nothing). An inlet is not closed
+    first: closing breaks the connection before liblsl's destructor raises its shutdown flag
+    (mne-tools/mne-lsl#565). Releasing twice does nothing."""
+    destroy = getattr(pylsl.lib.lib, _DESTROY[type(handle)])
+    with LIFECYCLE:
+        obj, handle.obj = handle.obj, ctypes.c_void_p()
+        if obj:
+            destroy(obj)
 
 
 def _channels(info: pylsl.StreamInfo) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -99,13 +157,16 @@ class LslInlet:
 
     def __init__(self, info: pylsl.StreamInfo):
         markers = info.channel_format() == pylsl.cf_string
-        self._inlet = pylsl.StreamInlet(
-            info, max_buflen=MAX_BUFFER_S, recover=False, as_numpy=not markers
-        )
         try:
-            self._inlet.open_stream(OPEN_TIMEOUT_S)
-            self.description = describe(self._inlet.info(OPEN_TIMEOUT_S))
-            self._offset = float(self._inlet.time_correction(OPEN_TIMEOUT_S))
+            with LIFECYCLE:
+                self._inlet = open_inlet(info, OPEN_TIMEOUT_S, max_buflen=MAX_BUFFER_S,
+                                         recover=False, as_numpy=not markers)  # fmt: skip
+                try:
+                    self.description = describe(self._inlet.info(OPEN_TIMEOUT_S))
+                    self._offset = float(self._inlet.time_correction(OPEN_TIMEOUT_S))
+                except BaseException:
+                    release(self._inlet)
+                    raise
         except LostError:
             raise StreamLost(f"stream {info.name()!r} vanished while it was opened") from None
         except pylsl.util.TimeoutError:
@@ -117,6 +178,8 @@ class LslInlet:
         return self._offset
 
     def pull(self) -> tuple[np.ndarray, np.ndarray | list[str]]:
+        if not self._inlet.obj:
+            raise StreamLost(f"stream {self.description.name!r}: its inlet is closed")
         try:
             estimate = float(self._inlet.time_correction(0.0))
             if abs(estimate - self._offset) > OFFSET_STEP_S:
@@ -140,10 +203,7 @@ class LslInlet:
         return times, np.concatenate([np.asarray(c, dtype=float) for c in chunks])
 
     def close(self) -> None:
-        try:
-            self._inlet.close_stream()
-        except Exception:  # closing a lost inlet: nothing left to close
-            pass
+        release(self._inlet)
 
 
 class LslOutlet:
@@ -162,8 +222,10 @@ class LslOutlet:
             channel.append_child_value("label", label)
             channel.append_child_value("unit", unit)
         info.desc().append_child_value("producer", "promp.live")
-        self._outlet = pylsl.StreamOutlet(info, chunk_size=0, max_buffered=MAX_BUFFER_S)
+        self._outlet = new_outlet(info, chunk_size=0, max_buffered=MAX_BUFFER_S)
         self._strings = spec.format == "string"
+        self._name = spec.name
+        self._using = threading.Lock()  # a sink's thread pushes, another may close
 
     def push(self, rows, stamp: float) -> None:
         """Push ``rows`` (each with ``stamp``) in one call to liblsl, through at once.
@@ -173,14 +235,29 @@ class LslOutlet:
         interpreter's switch interval (5 ms), so a remainder of 50 rows pushed row by row
         reached the readers tens of ms late (``bench/live.py``)."""
         rows = [[str(r)] for r in rows] if self._strings else np.asarray(rows, dtype=float)
-        if len(rows):
-            self._outlet.push_chunk(rows, [float(stamp)] * len(rows), pushthrough=True)
+        with self._using:
+            if not self._outlet.obj:
+                raise ValueError(f"the outlet {self._name!r} is closed")
+            if len(rows):
+                self._outlet.push_chunk(rows, [float(stamp)] * len(rows), pushthrough=True)
 
     def wait_for_consumers(self, timeout: float) -> bool:
-        return bool(self._outlet.wait_for_consumers(timeout))
+        """Whether a reader connected within ``timeout`` seconds (False once closed); waits
+        in slices, so that a close never waits long for it."""
+        deadline = time.monotonic() + timeout
+        while True:
+            with self._using:
+                left = max(deadline - time.monotonic(), 0.0)
+                if not self._outlet.obj:
+                    return False
+                if self._outlet.wait_for_consumers(min(left, 0.05)):
+                    return True
+            if left <= 0.05:
+                return False
 
     def close(self) -> None:
-        del self._outlet
+        with self._using:
+            release(self._outlet)
 
 
 class LslTransport:
