@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))  # this tree's promp, whichever is installed
 CONFIG = REPO / "tests" / "lsl_loopback.cfg"
 TYPE = "LifecycleBench"
 
