@@ -18,7 +18,8 @@ import pylsl
 
 from promp.live.lsl import new_outlet, open_inlet, release
 
-__all__ = ["hand_outlet", "inlet", "outlet", "push_when_due", "release", "release_all"]
+__all__ = ["hand_outlet", "inlet", "open_inlet", "outlet", "push_when_due", "release",
+           "release_all"]
 MADE: list[pylsl.StreamOutlet | pylsl.StreamInlet] = []  # what the test under way made
 
 
@@ -30,7 +31,8 @@ def outlet(info: pylsl.StreamInfo) -> pylsl.StreamOutlet:
 
 def inlet(info: pylsl.StreamInfo, timeout: float, **options) -> pylsl.StreamInlet:
     """An inlet of ``info``, its stream opened (within ``timeout`` s), released at the latest
-    when the test ends."""
+    when the test ends: for the test's own thread (a reader thread opens its inlet with
+    :func:`open_inlet` and releases it when it stops: never while it pulls)."""
     MADE.append(open_inlet(info, timeout, **options))
     return MADE[-1]
 

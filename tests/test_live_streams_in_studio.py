@@ -37,7 +37,7 @@ from tests.live_fakes import flt_dataset, flt_workspace, held, offset_in
 pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
 
 from tests import lsl_push  # noqa: E402
-from tests.lsl_push import hand_outlet, push_when_due, release  # noqa: E402
+from tests.lsl_push import hand_outlet, open_inlet, push_when_due, release  # noqa: E402
 
 pytestmark = pytest.mark.browser
 
@@ -114,18 +114,22 @@ def read_published(name: str, into: list, stop: threading.Event) -> threading.Ev
 
     def run() -> None:
         inlets = {}
-        for kind in ("timing", "probabilities"):
-            (info,) = pylsl.resolve_byprop("name", f"{name}-{kind}", 1, PATIENCE_S)
-            inlets[kind] = lsl_push.inlet(info, 30.0, max_buflen=60, recover=False)
-        ready.set()
-        rows: dict = {}
-        while not stop.is_set():
-            for kind, inlet in inlets.items():
-                samples, _ = inlet.pull_chunk(timeout=0.05)
-                for sample in samples:
-                    rows.setdefault(int(sample[0]), {})[kind] = np.array(sample)
-            for seq in sorted(s for s, r in rows.items() if len(r) == 2):
-                into.append(rows.pop(seq))
+        try:
+            for kind in ("timing", "probabilities"):
+                (info,) = pylsl.resolve_byprop("name", f"{name}-{kind}", 1, PATIENCE_S)
+                inlets[kind] = open_inlet(info, 30.0, max_buflen=60, recover=False)
+            ready.set()
+            rows: dict = {}
+            while not stop.is_set():
+                for kind, inlet in inlets.items():
+                    samples, _ = inlet.pull_chunk(timeout=0.05)
+                    for sample in samples:
+                        rows.setdefault(int(sample[0]), {})[kind] = np.array(sample)
+                for seq in sorted(s for s, r in rows.items() if len(r) == 2):
+                    into.append(rows.pop(seq))
+        finally:  # released by the thread that pulls from them, once it stopped
+            for inlet in inlets.values():
+                release(inlet)
 
     threading.Thread(target=run, daemon=True).start()
     return ready
@@ -413,11 +417,14 @@ def read_events(name: str, into: list, stop: threading.Event) -> threading.Event
 
     def run() -> None:
         (info,) = pylsl.resolve_byprop("name", f"{name}-events", 1, PATIENCE_S)
-        inlet = lsl_push.inlet(info, 30.0, max_buflen=60, recover=False)
+        inlet = open_inlet(info, 30.0, max_buflen=60, recover=False)
         ready.set()
-        while not stop.is_set():
-            samples, _ = inlet.pull_chunk(timeout=0.05)
-            into.extend(s[0] for s in samples)
+        try:
+            while not stop.is_set():
+                samples, _ = inlet.pull_chunk(timeout=0.05)
+                into.extend(s[0] for s in samples)
+        finally:  # released by the thread that pulls from it, once it stopped
+            release(inlet)
 
     threading.Thread(target=run, daemon=True).start()
     return ready
