@@ -107,6 +107,7 @@ class Evidence:
         duration: float | None = None,
         *,
         _kept: KeptSums | None = None,
+        _refined: dict[Primitive, np.ndarray] | None = None,
     ) -> None:
         self.dims = check_observation(model, observation)
         if alpha_method not in ALPHA_METHODS:
@@ -124,6 +125,10 @@ class Evidence:
         self._bound = math.log(longest_alpha(model, observation))  # log alpha, the fastest
         self._sums = ObservationSums(model, observation, self.dims, _kept)
         self._forms: dict[Primitive, object] = {}  # each primitive's likelihood form
+        # the refined nodes of each primitive: this evidence's (once its recognition is
+        # computed), and those of the evidence it extends (read, never written)
+        self._refined: dict[Primitive, np.ndarray] = {}
+        self._refined_before = {} if _refined is None else _refined
 
     def extended(self, observation: Observation) -> Evidence:
         """The evidence of ``observation``: the same movement observed longer (this one's
@@ -132,7 +137,7 @@ class Evidence:
         grows with the new samples. Threads may extend one evidence at once. An observation
         that does not extend this one is an evidence computed from every sample."""
         return Evidence(self.model, observation, self.alpha_method, self.duration,
-                        _kept=self._sums.kept)  # fmt: skip
+                        _kept=self._sums.kept, _refined=self._refined)  # fmt: skip
 
     @property
     def n_kept(self) -> int:
@@ -236,11 +241,24 @@ class Evidence:
         (log alpha, increasing), their log-likelihoods and log prior densities, and the
         log-evidence."""
         x, lp, log_mass = quadrature(prior, self._bound)  # (finite nodes: alphas > 0)
-        ll = self._log_likelihoods(primitive, np.exp(x))
+        # The refined nodes of the evidence this one extends are scored with the coarse ones:
+        # the same nodes again while the best node stays (one call instead of two); those
+        # that are not refined nodes now are left out.
+        guess = self._refined_before.get(primitive, x[:0])
+        guess = guess[(guess > x[0]) & (guess < x[-1])]
+        scored = self._log_likelihoods(primitive, np.exp(np.concatenate([x, guess])))
+        ll = scored[: x.shape[0]]
+        known = dict(zip(guess.tolist(), scored[x.shape[0] :], strict=True))
         fine = refined_nodes(x, int(np.argmax(ll + lp)))
+        self._refined[primitive] = fine
         if fine.size:
+            missing = np.array([f not in known for f in fine.tolist()])
+            fine_ll = np.empty(fine.shape[0])
+            if missing.any():
+                fine_ll[missing] = self._log_likelihoods(primitive, np.exp(fine[missing]))
+            fine_ll[~missing] = [known[f] for f in fine[~missing].tolist()]
             x = np.concatenate([x, fine])
-            ll = np.concatenate([ll, self._log_likelihoods(primitive, np.exp(fine))])
+            ll = np.concatenate([ll, fine_ll])
             lp = np.concatenate([lp, prior.logpdf(fine)])
             order = np.argsort(x)
             x, ll, lp = x[order], ll[order], lp[order]
