@@ -51,7 +51,7 @@ __all__ = ["CallbackSink", "CLOSE_S", "Output", "PROMPT_S", "QUEUE_OUTPUTS", "Si
 
 QUEUE_OUTPUTS = 256  # a sink may fall this many outputs behind (a second at 250 steps/s)
 CLOSE_S = 5.0  # how long closing waits for a sink to deliver what it has queued
-PROMPT_S = 0.005  # how long a step waits at most for its prompt sinks to deliver
+PROMPT_S = 0.002  # how long a step waits at most for its prompt sinks to deliver
 
 
 @dataclass(frozen=True, eq=False)
