@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -124,7 +124,7 @@ class Evidence:
         self.alpha_method, self.duration = alpha_method, duration
         self._bound = math.log(longest_alpha(model, observation))  # log alpha, the fastest
         self._sums = ObservationSums(model, observation, self.dims, _kept)
-        self._forms: dict[Primitive, object] = {}  # each primitive's likelihood form
+        self._forms: dict[Primitive, Callable[..., np.ndarray]] = {}  # likelihood forms
         # the refined nodes of each primitive: this evidence's (once its recognition is
         # computed), and those of the evidence it extends (read, never written)
         self._refined: dict[Primitive, np.ndarray] = {}
@@ -190,22 +190,23 @@ class Evidence:
             noise_var = noise_var * factors[:, dims]
         out = np.full((noise_var.shape[0], alphas.shape[0]), -np.inf)
         if valid.all():
-            out[...] = self._form(primitive).log_likelihoods(
-                self._sums(primitive, alphas, durations), primitive, dims, noise_var)
+            out[...] = self._form(primitive)(self._sums(primitive, alphas, durations),
+                                             primitive, dims, noise_var)  # fmt: skip
         elif valid.any():
             sums = self._sums(primitive, alphas[valid], durations[valid])
-            out[:, valid] = self._form(primitive).log_likelihoods(sums, primitive, dims,
-                                                                  noise_var)  # fmt: skip
+            out[:, valid] = self._form(primitive)(sums, primitive, dims, noise_var)
         return out if scaled else out[0]
 
-    def _form(self, primitive: Primitive):
-        """The cheaper exact form of ``primitive``'s likelihood for the observed dimensions
-        (:func:`promp.evidence.weight_space.cheaper_than_woodbury`), chosen once."""
+    def _form(self, primitive: Primitive) -> Callable[..., np.ndarray]:
+        """The ``log_likelihoods`` of the cheaper exact form of ``primitive``'s likelihood for
+        the observed dimensions (:func:`promp.evidence.weight_space.cheaper_than_woodbury`),
+        chosen once (the function kept, not its module: an evidence holds no module)."""
         form = self._forms.get(primitive)
         if form is None:
             u = primitive.observed_factor(self.dims)
             cheaper = weight_space.cheaper_than_woodbury(u.shape[0] * u.shape[1], u.shape[2])
-            form = self._forms[primitive] = weight_space if cheaper else woodbury
+            form = (weight_space if cheaper else woodbury).log_likelihoods
+            self._forms[primitive] = form
         return form
 
     @functools.cached_property
