@@ -626,3 +626,37 @@ def test_an_inferences_regions_carry_the_recognised_primitives_sample_noise() ->
     first = sample_distribution(model, inference.weights, dims, phases,
                                 sample_noise_var(model, model.primitives[0]))  # fmt: skip
     assert not np.allclose(hand.region.cov, first.cov, rtol=1e-6, atol=0)
+
+
+def test_an_extended_evidence_scores_the_refined_nodes_before_with_its_coarse_ones(
+    monkeypatch,
+) -> None:
+    """While a primitive's best coarse node stays, an extended evidence scores its refined
+    nodes in the same call as its coarse ones (those of the evidence it extends: one call of
+    the likelihood per primitive instead of two), with the numbers from scratch; a node that
+    is no longer a refined node is left out of its recognition."""
+    from promp.evidence import weight_space, woodbury
+
+    model, demo = synthetic()
+    first = Evidence(model, Observation.from_demo(model, demo, 20, ["hand"]))
+    before = first.recognition
+    obs = Observation.from_demo(model, demo, 21, ["hand"])
+    calls = []
+    for form in (weight_space, woodbury):
+        original = form.log_likelihoods
+        monkeypatch.setattr(form, "log_likelihoods",
+                            lambda *a, f=original: calls.append(a[0].proj.shape[0]) or f(*a))
+    grown = first.extended(obs).recognition
+    assert len(calls) == len(model.primitives)  # one call each
+    fresh = Evidence(model, obs).recognition
+    for k in range(len(model.primitives)):
+        assert_allclose(grown.candidates[k], fresh.candidates[k], rtol=0, atol=0)
+        assert_allclose(grown.candidates[k], before.candidates[k], rtol=0, atol=0)  # stayed
+        assert_allclose(grown.log_likelihoods[k], fresh.log_likelihoods[k], rtol=1e-12)
+    assert_allclose(grown.probabilities, fresh.probabilities, rtol=0, atol=1e-12)
+    # a guess that is not a refined node now: scored, but left out of the recognition
+    odd = Evidence(model, obs, _refined={p: np.log(c[1:2]) + 1e-3 for p, c in
+                                         zip(model.primitives, before.candidates, strict=True)})
+    assert_allclose(odd.recognition.log_evidence, fresh.log_evidence, rtol=1e-12)
+    for k in range(len(model.primitives)):
+        assert_allclose(odd.recognition.candidates[k], fresh.candidates[k], rtol=0, atol=0)

@@ -27,6 +27,7 @@ from promp.evidence.speed import (
     longest_alpha,
     modality_columns,
     model_alpha,
+    quadrature,
     quadrature_weights,
     refined_nodes,
     speed_prior,
@@ -192,6 +193,23 @@ def test_a_bound_at_or_below_the_priors_range_gives_the_half_step_lattice_below_
             nodes = anchored_nodes(prior, bound)
             assert nodes.size == want.size > 20
             assert_allclose(nodes, want, rtol=0, atol=1e-12)
+
+
+def test_the_quadrature_gives_the_priors_density_at_its_nodes_wherever_the_bound() -> None:
+    """``quadrature``: its nodes are ``anchored_nodes``, its log prior the prior's density at
+    each of them and its log mass the prior's mass below the bound, for a bound beyond the
+    lattice, on it, between two of its nodes, just inside it and below it, asked in any order
+    (the lattice's densities are computed once per prior and reused)."""
+    prior = AlphaPrior((0.2, -0.1), (0.15, 0.3), (6.0, 3.0), (0.7, 0.3))
+    lo, hi = prior.span(math.inf)
+    step = (hi - lo) / (N_NODES - 1)
+    bounds = (hi + 1.0, hi, lo + 10.5 * step, lo + 10 * step, lo + 0.7 * step, lo, lo - 0.3)
+    for bound in (*bounds, *reversed(bounds)):
+        nodes, log_prior, log_mass = quadrature(prior, bound)
+        assert_allclose(nodes, anchored_nodes(prior, bound), rtol=0, atol=0)
+        assert nodes[-1] == min(bound, hi) and nodes.size >= 2
+        assert_allclose(log_prior, prior.logpdf(nodes), rtol=1e-13, atol=0)
+        assert log_mass == prior.logcdf(bound)
 
 
 def test_the_refined_nodes_split_the_coarse_steps_around_the_best_node() -> None:

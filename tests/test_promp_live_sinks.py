@@ -595,3 +595,54 @@ def test_the_sinks_news_read_the_states_given() -> None:
     assert len(news) == 1 and news[0].time == 3.0
     assert sinks.news(4.0, [failing]) == []
     assert sinks.close() == []
+
+
+class Prompt(Gated):
+    """A gated sink that is waited for after each step (``prompt``)."""
+
+    prompt = True
+
+
+def test_settle_waits_for_a_prompt_sink_and_not_again_for_one_that_was_late() -> None:
+    import time
+
+    from promp.live.sinks import Output, Sinks
+
+    prompt, other = Prompt("prompt"), Gated("other")
+    sinks = Sinks([prompt, other])
+    worker, slow = sinks.workers
+    assert worker.prompt and not slow.prompt
+    blocked(other, slow)  # a sink that is not prompt is never waited for
+    prompt.gate.clear()
+    sinks.offer(Output(1.0))
+    assert waited(prompt.taking.wait, worker)
+    opener = threading.Timer(0.05, prompt.gate.set)  # opened while settle waits
+    opener.start()
+    assert sinks.settle(LIMIT_S)  # returns once delivered, though the other still holds
+    assert [o.time for o in prompt.taken] == [1.0] and worker.state().delivered == 1
+    assert not slow.flush(0.0)
+    # late: a settle that times out is not waited for again while the sink has a queue
+    prompt.gate.clear()
+    prompt.taking.clear()
+    sinks.offer(Output(2.0))
+    assert waited(prompt.taking.wait, worker)
+    assert not sinks.settle(0.0)
+    sinks.offer(Output(3.0))
+    result: list[bool] = []
+    waiter = threading.Thread(target=lambda: result.append(worker.settle(time.monotonic()
+                                                                         + 3600.0)))
+    waiter.start()
+    waiter.join(LIMIT_S)
+    assert not waiter.is_alive() and result == [False]  # it did not wait the hour
+    prompt.gate.set()
+    assert waited(worker.flush, worker)
+    assert worker.settle(time.monotonic()) and not worker._late  # caught up: waited again
+    other.gate.set()
+    assert waited(slow.flush, slow)
+    assert sinks.close() == []
+
+
+def test_the_prediction_outlets_are_a_prompt_sink() -> None:
+    from promp.live.outlets import EventSink, PredictionSink
+
+    assert PredictionSink.prompt and not getattr(EventSink, "prompt", False)

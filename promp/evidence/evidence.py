@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -63,7 +63,7 @@ from promp.metrics import measure
 from promp.model import Primitive, ProMPModel
 from promp.observation import Observation, check_observation
 from promp.recognition import Recognition, label_noise, with_label_noise
-from promp.timing import alpha_from_duration, check_alpha, duration_from_alpha
+from promp.timing import alpha_from_duration, check_alpha
 from promp.via_points import ViaPoint, condition_on_via_points
 
 __all__ = ["Evidence"]
@@ -107,6 +107,7 @@ class Evidence:
         duration: float | None = None,
         *,
         _kept: KeptSums | None = None,
+        _refined: dict[Primitive, np.ndarray] | None = None,
     ) -> None:
         self.dims = check_observation(model, observation)
         if alpha_method not in ALPHA_METHODS:
@@ -123,6 +124,11 @@ class Evidence:
         self.alpha_method, self.duration = alpha_method, duration
         self._bound = math.log(longest_alpha(model, observation))  # log alpha, the fastest
         self._sums = ObservationSums(model, observation, self.dims, _kept)
+        self._forms: dict[Primitive, Callable[..., np.ndarray]] = {}  # likelihood forms
+        # the refined nodes of each primitive: this evidence's (once its recognition is
+        # computed), and those of the evidence it extends (read, never written)
+        self._refined: dict[Primitive, np.ndarray] = {}
+        self._refined_before = {} if _refined is None else _refined
 
     def extended(self, observation: Observation) -> Evidence:
         """The evidence of ``observation``: the same movement observed longer (this one's
@@ -131,7 +137,7 @@ class Evidence:
         grows with the new samples. Threads may extend one evidence at once. An observation
         that does not extend this one is an evidence computed from every sample."""
         return Evidence(self.model, observation, self.alpha_method, self.duration,
-                        _kept=self._sums.kept)  # fmt: skip
+                        _kept=self._sums.kept, _refined=self._refined)  # fmt: skip
 
     @property
     def n_kept(self) -> int:
@@ -166,21 +172,42 @@ class Evidence:
         """
         alphas = np.atleast_1d(np.asarray(alphas, dtype=float))
         check_alpha(alphas)
+        return self._log_likelihoods(primitive, alphas, noise_factors)
+
+    def _log_likelihoods(
+        self, primitive: Primitive, alphas: np.ndarray, noise_factors: np.ndarray | None = None
+    ) -> np.ndarray:
+        """:meth:`log_likelihoods` at ``alphas`` (A,) known to be positive and finite (the
+        quadrature's nodes: checked once, by construction, rather than at every call)."""
         model, dims = self.model, self.dims
-        durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
+        durations = (model.settings.s_bar / alphas - 1.0) * model.sample_period  # (the
+        # arithmetic of promp.timing.duration_from_alpha)
         valid = self.elapsed[-1] <= durations * (1.0 + 1e-9)
         scaled = noise_factors is not None
-        factors = np.atleast_2d(np.asarray(noise_factors if scaled else np.ones(model.n_dims),
-                                           dtype=float))  # fmt: skip
-        out = np.full((factors.shape[0], alphas.shape[0]), -np.inf)
-        if valid.any():
-            noise_var = primitive.noise_var[dims][None, :] * factors[:, dims]
+        noise_var = primitive.noise_var[dims][None, :]
+        if scaled:
+            factors = np.atleast_2d(np.asarray(noise_factors, dtype=float))
+            noise_var = noise_var * factors[:, dims]
+        out = np.full((noise_var.shape[0], alphas.shape[0]), -np.inf)
+        if valid.all():
+            out[...] = self._form(primitive)(self._sums(primitive, alphas, durations),
+                                             primitive, dims, noise_var)  # fmt: skip
+        elif valid.any():
             sums = self._sums(primitive, alphas[valid], durations[valid])
-            u = primitive.observed_factor(dims)
-            cheaper = weight_space.cheaper_than_woodbury(u.shape[0] * u.shape[1], u.shape[2])
-            form = weight_space if cheaper else woodbury
-            out[:, valid] = form.log_likelihoods(sums, primitive, dims, noise_var)
+            out[:, valid] = self._form(primitive)(sums, primitive, dims, noise_var)
         return out if scaled else out[0]
+
+    def _form(self, primitive: Primitive) -> Callable[..., np.ndarray]:
+        """The ``log_likelihoods`` of the cheaper exact form of ``primitive``'s likelihood for
+        the observed dimensions (:func:`promp.evidence.weight_space.cheaper_than_woodbury`),
+        chosen once (the function kept, not its module: an evidence holds no module)."""
+        form = self._forms.get(primitive)
+        if form is None:
+            u = primitive.observed_factor(self.dims)
+            cheaper = weight_space.cheaper_than_woodbury(u.shape[0] * u.shape[1], u.shape[2])
+            form = (weight_space if cheaper else woodbury).log_likelihoods
+            self._forms[primitive] = form
+        return form
 
     @functools.cached_property
     def recognition(self) -> Recognition:
@@ -214,12 +241,25 @@ class Evidence:
         """The quadrature of ``primitive``'s likelihood over its speed ``prior``: the nodes
         (log alpha, increasing), their log-likelihoods and log prior densities, and the
         log-evidence."""
-        x, lp, log_mass = quadrature(prior, self._bound)
-        ll = self.log_likelihoods(primitive, np.exp(x))
+        x, lp, log_mass = quadrature(prior, self._bound)  # (finite nodes: alphas > 0)
+        # The refined nodes of the evidence this one extends are scored with the coarse ones:
+        # the same nodes again while the best node stays (one call instead of two); those
+        # that are not refined nodes now are left out.
+        guess = self._refined_before.get(primitive, x[:0])
+        guess = guess[(guess > x[0]) & (guess < x[-1])]
+        scored = self._log_likelihoods(primitive, np.exp(np.concatenate([x, guess])))
+        ll = scored[: x.shape[0]]
+        known = dict(zip(guess.tolist(), scored[x.shape[0] :], strict=True))
         fine = refined_nodes(x, int(np.argmax(ll + lp)))
+        self._refined[primitive] = fine
         if fine.size:
+            missing = np.array([f not in known for f in fine.tolist()])
+            fine_ll = np.empty(fine.shape[0])
+            if missing.any():
+                fine_ll[missing] = self._log_likelihoods(primitive, np.exp(fine[missing]))
+            fine_ll[~missing] = [known[f] for f in fine[~missing].tolist()]
             x = np.concatenate([x, fine])
-            ll = np.concatenate([ll, self.log_likelihoods(primitive, np.exp(fine))])
+            ll = np.concatenate([ll, fine_ll])
             lp = np.concatenate([lp, prior.logpdf(fine)])
             order = np.argsort(x)
             x, ll, lp = x[order], ll[order], lp[order]

@@ -31,6 +31,7 @@ range (:func:`central_range`), the weights (:func:`quadrature_weights`) and
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -250,9 +251,31 @@ def quadrature(prior: AlphaPrior, bound: float) -> tuple[np.ndarray, np.ndarray,
     """The coarse quadrature in log alpha: :data:`N_NODES` nodes over the prior's central mass,
     truncated at ``bound``, the log of the longest possible alpha (:func:`longest_alpha`;
     :func:`anchored_nodes`), their log prior densities, and the log of the prior mass below
-    the bound."""
-    nodes = anchored_nodes(prior, bound)
-    return nodes, prior.logpdf(nodes), prior.logcdf(bound)
+    the bound.
+
+    The lattice and its densities are computed once per prior (:func:`_lattice`): an update
+    of a live movement asks for the same prior at a new bound."""
+    lattice, density, step = _lattice(prior)
+    nodes, kept = _anchored(prior, bound, lattice, step)
+    if kept is None:  # the tail below the lattice: nodes of their own
+        log_prior = prior.logpdf(nodes)
+    elif kept.shape[0] == nodes.shape[0]:  # the whole lattice
+        log_prior = density.copy()
+    else:  # lattice nodes below the bound, and the bound
+        log_prior = np.append(density[kept], prior.logpdf(nodes[-1:]))
+    return nodes, log_prior, prior.logcdf(bound)
+
+
+@functools.lru_cache(maxsize=256)
+def _lattice(prior: AlphaPrior) -> tuple[np.ndarray, np.ndarray, float]:
+    """The untruncated lattice of ``prior`` (:data:`N_NODES` nodes over its central mass,
+    read-only), the log prior density there (read-only) and the lattice's step."""
+    lo, hi = prior.span(math.inf)
+    lattice = np.linspace(lo, hi, N_NODES)
+    density = prior.logpdf(lattice)
+    for array in (lattice, density):
+        array.setflags(write=False)  # shared by every quadrature of the prior
+    return lattice, density, (hi - lo) / (N_NODES - 1)
 
 
 def anchored_nodes(prior: AlphaPrior, bound: float) -> np.ndarray:
@@ -267,11 +290,20 @@ def anchored_nodes(prior: AlphaPrior, bound: float) -> np.ndarray:
     ends too early (the bound below the central mass), the nodes are those of a lattice of the same
     origin and half the step below it, within ``4 max(scale)`` of the bound.
     """
-    lo, hi = prior.span(math.inf)
-    lattice = np.linspace(lo, hi, N_NODES)
+    lattice, _, step = _lattice(prior)
+    return _anchored(prior, bound, lattice, step)[0]
+
+
+def _anchored(
+    prior: AlphaPrior, bound: float, lattice: np.ndarray, step: float
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`anchored_nodes` from the prior's ``lattice`` and its ``step``, and which of the
+    lattice's nodes they begin with (an index array; all of them when the bound lies beyond
+    it; None for the tail's own nodes)."""
+    lo, hi = float(lattice[0]), float(lattice[-1])
     if bound >= hi:
-        return lattice
-    step = (hi - lo) / (N_NODES - 1)
+        return lattice.copy(), np.arange(N_NODES)
+    kept: np.ndarray | None = None
     if bound <= lo:  # every plausible speed ends too early: the tail just below the bound
         step *= 0.5  # half the lattice's: as fine as the tail was
         floor = bound - 4.0 * max(prior.scales)
@@ -279,10 +311,12 @@ def anchored_nodes(prior: AlphaPrior, bound: float) -> np.ndarray:
         lattice = lo + k * step
         lattice = lattice[lattice >= floor]
     # the last gap between half a step and one and a half: the bound's weight steady
-    below = lattice[lattice < bound - 0.5 * step]
+    below = np.flatnonzero(lattice < bound - 0.5 * step)
     if below.size == 0:
-        below = lattice[:1]
-    return np.append(below, bound)
+        below = np.arange(1)
+    if bound > lo:
+        kept = below
+    return np.append(lattice[below], bound), kept
 
 
 def quadrature_weights(
@@ -314,6 +348,7 @@ def refined_nodes(nodes: np.ndarray, best: int) -> np.ndarray:
     least two: :func:`quadrature`) around ``nodes[best]``: equally spaced within one coarse
     step either side, strictly inside the coarse range, ``nodes[best]`` itself left out."""
     step = nodes[1] - nodes[0]
-    fine = np.linspace(nodes[best] - step, nodes[best] + step, N_REFINE + 2)[1:-1]
-    keep = (fine > nodes[0]) & (fine < nodes[-1])
-    return fine[keep & ~np.isclose(fine, nodes[best], rtol=0, atol=1e-9)]
+    centre = float(nodes[best])
+    fine = np.linspace(centre - step, centre + step, N_REFINE + 2)[1:-1]
+    keep = (fine > nodes[0]) & (fine < nodes[-1]) & (np.abs(fine - centre) > 1e-9)
+    return fine[keep]  # (the last test: numpy's isclose with atol 1e-9, without its checks)

@@ -172,6 +172,7 @@ class PredictionSink:
 
     name = "prediction outlets"
     lossless = False
+    prompt = True  # delivered before the next inference (promp.live.sinks: prompt sinks)
 
     def __init__(self, outlets: Publisher):
         self.outlets = outlets

@@ -179,6 +179,8 @@ class LiveSession:
         if worked or boundaries:  # (a step that did neither changed nothing but the clock)
             self._sinks.offer(Output(now, events, boundaries, predictions,
                                      self.state.segmenter.movement, (arrivals,)))  # fmt: skip
+            if predictions:  # out before the next inference (promp.live.sinks: prompt sinks)
+                self._sinks.settle()
         return bool(self._publish(now, events, boundaries, predictions, worked)) or worked
 
     def _publish(self, now: float, events=(), boundaries=(), predictions=(),

@@ -21,11 +21,21 @@ raises, blocks or finds the disk full never stalls the prediction:
 :class:`Sinks` holds the workers: :meth:`Sinks.news` gives the events of the sinks' changes
 since the last call (the runner says them after the step), :meth:`Sinks.flush` waits until
 every queue is empty, :meth:`Sinks.close` drains the queues and closes each sink.
+
+**Prompt sinks.** A sink whose ``prompt`` is True (the prediction outlets) is waited for after
+a step that offered it something, for at most :data:`PROMPT_S` (:meth:`Sinks.settle`), before
+the next step begins: its thread then delivers while the session's thread waits, instead of
+waiting for Python's interpreter lock behind the next inference (each call into liblsl gives
+the lock up, and getting it back from a thread that is inferring waits up to the switch
+interval: a prediction reached its readers up to 6 ms after it was made, ``bench/live.py``).
+The wait is bounded, and a sink that did not deliver within it is not waited for again until
+its queue is found empty: a sink that blocks delays the prediction by :data:`PROMPT_S` once.
 """
 
 from __future__ import annotations
 
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
@@ -36,11 +46,12 @@ from promp.live.predictor import LivePrediction
 from promp.live.segmenter import Boundary, Movement
 from promp.live.status import LiveEvent
 
-__all__ = ["CallbackSink", "CLOSE_S", "Output", "QUEUE_OUTPUTS", "Sink", "SinkState",
-           "Sinks", "SinkWorker"]  # fmt: skip
+__all__ = ["CallbackSink", "CLOSE_S", "Output", "PROMPT_S", "QUEUE_OUTPUTS", "Sink",
+           "SinkState", "Sinks", "SinkWorker"]  # fmt: skip
 
 QUEUE_OUTPUTS = 256  # a sink may fall this many outputs behind (a second at 250 steps/s)
 CLOSE_S = 5.0  # how long closing waits for a sink to deliver what it has queued
+PROMPT_S = 0.002  # how long a step waits at most for its prompt sinks to deliver
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,6 +91,7 @@ class Sink(Protocol):
 
     name: str  # how the events name it
     lossless: bool  # a full queue folds outputs (True) or drops the oldest (False)
+    # (optional) prompt: bool, waited for after each step that offers it something (True)
 
     def view(self, output: Output) -> Output | None:
         """The part of ``output`` this sink reads (None: nothing; not queued)."""
@@ -122,6 +134,8 @@ class SinkWorker:
         self._closing = False
         self._state = SinkState(sink.name)
         self._kept: list[object] = []
+        self.prompt = bool(getattr(sink, "prompt", False))
+        self._late = False  # a settle timed out: not waited for until its queue empties
         self._thread = threading.Thread(target=self._run, name=f"live-sink-{sink.name}",
                                         daemon=True)  # fmt: skip
         self._thread.start()
@@ -189,6 +203,20 @@ class SinkWorker:
         with self._cond:
             return self._cond.wait_for(lambda: not self._queue and not self._busy, timeout)
 
+    def settle(self, deadline: float) -> bool:
+        """Wait until everything queued was delivered, at most until ``deadline``
+        (:func:`time.monotonic`), unless the sink was late at the last settle and still has
+        something queued (module docstring: prompt sinks); whether it was delivered."""
+        with self._cond:
+            idle = not self._queue and not self._busy
+            if idle or (self._late and self._queue):
+                self._late = self._late and not idle
+                return idle
+            done = self._cond.wait_for(lambda: not self._queue and not self._busy,
+                                       max(deadline - time.monotonic(), 0.0))  # fmt: skip
+            self._late = not done
+            return done
+
     def stop(self, timeout: float) -> bool:
         """Deliver what is queued and end the thread; False if it is still busy after
         ``timeout`` seconds (a sink that blocks: its thread is left behind)."""
@@ -225,6 +253,12 @@ class Sinks:
             texts = self._said[state.name].update(state)
             events += [LiveEvent(now, f"sink {state.name!r} {t}") for t in texts]
         return events
+
+    def settle(self, timeout: float = PROMPT_S) -> bool:
+        """Wait, at most ``timeout`` seconds in all, until every prompt sink delivered what was
+        offered (module docstring: a sink late at its last settle is not waited for)."""
+        deadline = time.monotonic() + timeout
+        return all([w.settle(deadline) for w in self.workers if w.prompt])
 
     def flush(self, timeout: float = CLOSE_S) -> bool:
         """Wait until every sink delivered what was offered; False after ``timeout``."""
