@@ -30,6 +30,7 @@ from numpy.testing import assert_allclose
 
 from promp.data import Layout
 from promp.evidence.pipeline import infer
+from promp.evidence.speed import N_NODES, N_REFINE
 from promp.live.journal import read_journal
 from promp.live.predictor import LivePrediction
 from promp.live.recorder import Recorder
@@ -39,6 +40,7 @@ from promp.live.sinks import QUEUE_OUTPUTS, Output
 from promp.live.source import RATE_WINDOW_S
 from promp.live.timebase import KEEP_S
 from promp.model import ProMPModel
+from promp.noise import noise_groups
 from promp.observation import Observation
 from tests.live_fakes import FakeStream, FakeTransport, Tap, synthetic_model
 
@@ -185,21 +187,29 @@ class LiveSessionMachine(RuleBasedStateMachine):
 
     @invariant()
     def memory_is_bounded(self) -> None:
-        """The arrays the stages hold, by what each may hold at the fastest rate ``R`` with a
+        """The arrays each stage holds, by what it may hold at the fastest rate ``R`` with a
         backlog of ``C`` samples on top: the time base, each input's samples (channels and
         time) for :data:`KEEP_S` and the longest wait for a lagging input (a movement's
         longest, ``W``); the segmenter, the rows (6 columns and time) of a movement and the
         :data:`HISTORY_S` before it; the predictor, a movement's observation twice (its own,
-        and the sums' copy); the rate windows' stamps; and 64 kB of sums (fixed sizes)."""
+        and the sums' copy) and the sums it keeps (:func:`kept_sums_bytes`); the rate
+        windows' stamps; and 16 kB of small arrays. Each stage within its own bound: a sum
+        of bounds hid a time base holding 2.3 times its own (the hand's 31 s)."""
         if not hasattr(self, "session"):
             return
-        held = held_bytes(self.session.state)
+        state = self.session.state
         r, c, w = max(RATES), MAX_CHUNK, MAX_MOVEMENT_S
-        time_base = 2 * (3 + 1) * 8 * ((KEEP_S + w) * r + c)
-        segmenter = (6 + 1) * 8 * ((w + HISTORY_S) * r + c)
-        predictor = 2 * (6 + 1) * 8 * (w * r + c)
+        bounds = {
+            "timebase": 2 * (3 + 1) * 8 * ((KEEP_S + w) * r + c),
+            "segmenter": (6 + 1) * 8 * ((w + HISTORY_S) * r + c),
+            "predictor": 2 * (6 + 1) * 8 * (w * r + c) + kept_sums_bytes(model()),
+        }
+        for stage, bound in bounds.items():
+            held = held_bytes(getattr(state, stage))
+            assert held <= bound + 16e3, f"the {stage} holds {held} bytes"
         rates = 2 * 8 * RATE_WINDOW_S * r
-        assert held <= time_base + segmenter + predictor + rates + 64e3, f"{held} bytes held"
+        held = held_bytes(state)
+        assert held <= sum(bounds.values()) + rates + 16e3, f"{held} bytes held"
 
     # ------------------------------------------------------------------ what happens
 
@@ -359,6 +369,22 @@ def largest_log_likelihood(inference) -> float:
     return max((float(t.max()) for t in tables if t.size), default=0.0)
 
 
+def kept_sums_bytes(model: ProMPModel) -> float:
+    """What the predictor's kept sums may hold (:class:`promp.evidence.sums.KeptSums`): per
+    primitive, the candidates scored at the latest two lengths of the observation (the coarse
+    nodes, the refined ones, and the refined ones of the update before), each with
+    ``Psi^T K^-1 Psi`` of every noise group (G, M, M), its projections (Do, M) and ``r^T K^-1
+    r`` (Do), for every dimension observed."""
+    dims = np.arange(model.n_dims)
+    total = 0.0
+    for primitive in model.primitives:
+        m = primitive.mean.shape[0] // model.n_dims
+        g = len(noise_groups(primitive, dims))
+        per_candidate = g * m * m + dims.size * m + dims.size
+        total += 2 * (N_NODES + 1 + 2 * N_REFINE) * 8 * per_candidate
+    return total
+
+
 def held_bytes(root) -> int:
     """Bytes of the arrays reachable from ``root`` (through attributes, containers), but the
     model's (constant) and the latest prediction's (an output, not a buffer: one, its size
@@ -410,6 +436,24 @@ def test_the_rows_wait_for_a_silent_input_no_longer_than_a_movement_lasts() -> N
     texts = [e.text for e in state.session.snapshot().events]
     assert sum(t.startswith("input 'head' lags the others by over 4 s") for t in texts) == 1
     assert "movement 1 ended (input 'head' lags the others by over 4 s" in " ".join(texts)
+    state.teardown()
+
+
+def test_samples_that_can_never_be_in_a_row_are_not_kept() -> None:
+    """Found (2026-11-29, by a helper's run): the hand's clock jumps back twice (28 s), it
+    vanishes and comes back on its own clock, then the head is silent for 31 s. The head's
+    samples were dropped (the hand lagged), so no row came, and the time base, which forgot
+    samples only when rows came, kept the hand's 31 s (248 kB). A row needs every input from
+    its first sample on, or from after the latest of one whose samples were dropped: the
+    samples before are forgotten, rows or not (promp.live.timebase)."""
+    state = LiveSessionMachine()
+    state.open_session(start="call", hand_rate=250.0, head_rate=25.0)
+    state.time_jump(jump=-13.0, stream="Hand", then=0.0)
+    state.time_jump(jump=-15.0, stream="Hand", then=0.0)
+    state.vanish(stream="Hand", then=0.0)
+    state.appear(stream="Hand", then=0.0)
+    state.long_stall(moving=False, seconds=31.0, stream="Head", then=0.0)
+    state.memory_is_bounded()
     state.teardown()
 
 

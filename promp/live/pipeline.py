@@ -217,7 +217,7 @@ def _waited(state: PipelineState, samples: Mapping, events: list[LiveEvent],
         boundaries += state.segmenter.abort(reason)
     for name in state.timebase.names if lagging else ():
         if name not in lagging:
-            state.timebase.restart(name)
+            state.timebase.drop(name)
     return dataclasses.replace(state, newest=MappingProxyType(newest), lagging=lagging)
 
 

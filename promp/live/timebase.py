@@ -80,6 +80,9 @@ class TimeBase:
         self._buffers = {n: _Buffer(np.zeros(0), np.zeros((0, w)))
                          for n, w in zip(self.names, self.widths, strict=True)}  # fmt: skip
         self._given = -math.inf  # the time of the last row given
+        # each input's next samples come after this (its latest; -inf once its clock may
+        # have changed: a restart)
+        self._after = dict.fromkeys(self.names, -math.inf)
 
     def choose_base(self, rates: Mapping[str, float]) -> None:
         """Fix the input whose times are the rows' (``rates``: the nominal rates, 0 unknown;
@@ -114,11 +117,19 @@ class TimeBase:
                 times, values = times[i + 1 - old.size:], values[i + 1 - old.size:]
         buf.times = np.concatenate([buf.times, times])
         buf.values = np.concatenate([buf.values, values])
+        if times.size:
+            self._after[name] = float(times[-1])
         return gap
 
     def restart(self, name: str) -> None:
         """Forget input ``name``'s samples (it vanished, or its clock jumped): rows start
-        again after its next samples."""
+        again after its next samples, wherever its clock now is."""
+        self.drop(name)
+        self._after[name] = -math.inf
+
+    def drop(self, name: str) -> None:
+        """Forget input ``name``'s samples, its clock unchanged (they waited too long for
+        another input): its next samples come after them."""
         buf = self._buffers[name]
         buf.times, buf.values = np.zeros(0), np.zeros((0, buf.values.shape[1]))
 
@@ -127,6 +138,9 @@ class TimeBase:
 
         ``rates``: the inputs' nominal rates, to choose the base the first time."""
         buffers = [self._buffers[n] for n in self.names]
+        firsts = [b.times[0] if b.times.size else self._after[n]
+                  for n, b in zip(self.names, buffers, strict=True)]  # fmt: skip
+        self._forget_before(max(max(firsts), self._given))  # no row before, rows or not
         if any(b.times.size == 0 for b in buffers):
             return None
         if self.base is None and self.rate is None:
@@ -168,9 +182,20 @@ class TimeBase:
         fresh = times > self._given
         times, values = times[fresh], [v[fresh] for v in values]
         self._given = float(times[-1])
-        for b in buffers:
-            keep = int(np.searchsorted(b.times, self._given - KEEP_S, side="left"))
-            keep = min(keep, max(b.times.size - 2, 0))
-            b.times, b.values = b.times[keep:], b.values[keep:]
+        self._forget_before(self._given)
         return Rows(np.asarray(times, dtype=float), np.hstack(values))
+
+    def _forget_before(self, t: float) -> None:
+        """Keep each input's samples from :data:`KEEP_S` before ``t`` (s) on, at least its
+        last two: no row before ``t`` can be given. A row needs every input from its first
+        sample on (or, for an input whose samples were dropped, from after its latest), so
+        while one starts later than the others their earlier samples can never be in a row;
+        they were kept for as long as no row came (found by tests/test_promp_live_session_
+        machine.py: the hand's clock back by 28 s, then the head silent for 31 s, its samples
+        dropped: the hand's 31 s held, 248 kB)."""
+        for b in self._buffers.values():
+            keep = int(np.searchsorted(b.times, t - KEEP_S, side="left"))
+            keep = min(keep, max(b.times.size - 2, 0))
+            if keep:
+                b.times, b.values = b.times[keep:], b.values[keep:]
 
