@@ -479,6 +479,20 @@ def test_hide_and_delete_a_demonstration(studio, page) -> None:
 
 
 @pytest.mark.browser
+def wait_at_rest(studio, where: str) -> None:
+    """Until the hand moves less than 1 mm in 0.2 s: the arm follows a target over frames,
+    and on a busy machine it still moved after the call that set it returned (a take's still
+    ends came 0.3 s short of the 1.5 s the test waited for each)."""
+    seen = [studio.arm.hand_position()]
+
+    def at_rest() -> bool:
+        now = studio.arm.hand_position()
+        moved, seen[0] = float(np.linalg.norm(now - seen[0])), now
+        return moved < 1e-3
+
+    wait_until(at_rest, interval=0.2, what=f"the hand at rest {where}")
+
+
 def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
     studio, page
 ) -> None:
@@ -503,6 +517,7 @@ def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
     click(page, "Go to start")
     wait_until(lambda: np.linalg.norm(studio.arm.hand_position() - start) < 0.005,
                what="the hand at the start")  # fmt: skip
+    wait_at_rest(studio, "at the start")
     side_camera(client)
     # Space, with the 3D view focused (not a control), presses Record, then Stop.
     n_before = len(store(studio).demos["curved"])
@@ -511,6 +526,7 @@ def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
     wait_text(page, "● Recording into curved")
     wait_until(lambda: record.takes.recording().duration > 1.5, what="1.5 s of stillness")
     drag_hand(page, client, studio, UP, pixels=110)
+    wait_at_rest(studio, "after the drag")
     moved_until = record.takes.recording().duration
     wait_until(lambda: record.takes.recording().duration > moved_until + 1.5,
                what="1.5 s of stillness after the drag")  # fmt: skip

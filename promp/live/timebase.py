@@ -190,9 +190,9 @@ class TimeBase:
         last two: no row before ``t`` can be given. A row needs every input from its first
         sample on (or, for an input whose samples were dropped, from after its latest), so
         while one starts later than the others their earlier samples can never be in a row;
-        they were kept for as long as no row came (found by tests/test_promp_live_session_
-        machine.py: the hand's clock back by 28 s, then the head silent for 31 s, its samples
-        dropped: the hand's 31 s held, 248 kB)."""
+        they were kept for as long as no row came (found by the live session machine's test:
+        the hand's clock back by 28 s, then the head silent for 31 s, its samples dropped:
+        the hand's 31 s held, 248 kB)."""
         for b in self._buffers.values():
             keep = int(np.searchsorted(b.times, t - KEEP_S, side="left"))
             keep = min(keep, max(b.times.size - 2, 0))
