@@ -412,7 +412,10 @@ def paired(model, plan: Plan, tmp: Path, baseline: str, rounds: int, check_every
             [r["predictions_per_s"] for r in runs])), 1)  # fmt: skip
         dropped = [r["samples_dropped"] for r in runs]
         result[prefix + "samples_dropped"] = None if None in dropped else sum(dropped)
-        result[prefix + "agree_with_offline"] = min(r["agree_with_offline"] for r in runs)
+        # (the offline engine is this worktree's: the baseline's agreement says whether the
+        # two engines give the same numbers, 0 once the method changed, as its quadrature did)
+        agree = "agree_with_offline" if side == "current" else "agree_with_this_engine"
+        result[prefix + agree] = min(r["agree_with_offline"] for r in runs)
     result["ratio_p99"] = round(result["latency_ms_p99"] / result["baseline_latency_ms_p99"], 3)
     return result
 
