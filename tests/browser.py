@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import viser.transforms as vtf
+from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
 
 from tests.conftest import wait_until
 
@@ -81,13 +82,32 @@ def click(page, name: str) -> None:
     button.dispatch_event("click")
 
 
-def choose(page, handle, option: str) -> None:
-    """Pick ``option`` in a dropdown by mouse, as a user does (nothing when already chosen)."""
+def choose(page, handle, option: str, timeout: float = 180.0) -> None:
+    """Pick ``option`` in a dropdown by mouse, as a user does (nothing when already chosen).
+
+    Once the studio offers the option, the dropdown is opened and the option clicked; while
+    the option does not show within 10 s of opening (the list opened before the studio's new
+    options reached the page, or the click was lost to the page drawing the dropdown again: a
+    busy-core run of 2026-11-29 waited 120 s for a demonstration the list never showed), the
+    list is closed (Escape) and opened again, as a person would."""
     if handle.value == option:
         return
-    press(page, page.locator(f"[id='{handle._impl.uuid}']"))
-    press(page, page.get_by_role("option", name=option, exact=True))
-    wait_until(lambda: handle.value == option, timeout=60, what=f"{option!r} chosen")
+    wait_until(lambda: option in getattr(handle, "options", (option,)),
+               what=f"{option!r} offered by the studio")
+    dropdown = page.locator(f"[id='{handle._impl.uuid}']")
+    item = page.get_by_role("option", name=option, exact=True)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        press(page, dropdown)
+        try:
+            item.wait_for(state="visible", timeout=10_000)
+        except PlaywrightTimeoutError:
+            page.keyboard.press("Escape")
+            continue
+        press(page, item)
+        wait_until(lambda: handle.value == option, timeout=60, what=f"{option!r} chosen")
+        return
+    pytest.fail(f"{option!r} never shown in the dropdown within {timeout:.0f} s")
 
 
 def upload_file(page, button, name: str, content: bytes) -> None:

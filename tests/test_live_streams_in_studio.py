@@ -488,7 +488,8 @@ def test_the_robot_takes_over_a_committed_movement_along_its_predicted_remainder
     before = arm.hand_position()
     try:
         hand.push(top_demo(1.0).select(["x", "y", "z"]) * 1000.0)
-        start = wait_until(lambda: panel.takeover.state.started, what="the robot taking over")
+        start = wait_until(lambda: panel.takeover.state.started, what=lambda: (
+            f"the robot taking over; the session's events so far: {events[-12:]}"))  # fmt: skip
         c = start.commitment
         assert c is not None and c.movement == start.prediction.movement
         wait_until(lambda: any(f"movement {c.movement} committed to {c.primitive!r}" in e
