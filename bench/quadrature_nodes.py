@@ -57,6 +57,7 @@ from promp.learn import fit  # noqa: E402
 from promp.observation import Observation  # noqa: E402
 
 SHARED = REPO.parent / "shared" / "data"
+_REFINE = getattr(speed, "N_REFINE", None)  # the code's own refined nodes, where it fixes them
 SETS = ("lab-records-heights", "lab-records-flt", "lab-records-flt-shapes")
 PERCENTS = (20, 40, 60, 80, 100)
 
@@ -66,10 +67,8 @@ def nodes(n_nodes: int) -> None:
     call; the lattice cache cleared); the fine reference refines nothing (``N_REFINE`` 0, where
     the code has it; a code that refines by the peak's width refines as it does)."""
     speed.N_NODES = n_nodes
-    if hasattr(speed, "N_REFINE"):
-        if not hasattr(nodes, "refine"):
-            nodes.refine = speed.N_REFINE  # the code's own, kept for its runs
-        speed.N_REFINE = 0 if n_nodes > 200 else nodes.refine
+    if _REFINE is not None:
+        speed.N_REFINE = 0 if n_nodes > 200 else _REFINE
     speed._lattice.cache_clear()
 
 
