@@ -413,7 +413,8 @@ def paired(model, plan: Plan, tmp: Path, baseline: str, rounds: int, check_every
         dropped = [r["samples_dropped"] for r in runs]
         result[prefix + "samples_dropped"] = None if None in dropped else sum(dropped)
         # (the offline engine is this worktree's: the baseline's agreement says whether the
-        # two engines give the same numbers, 0 once the method changed, as its quadrature did)
+        # two engines give the same numbers, 0 once the method changed, as the quadrature of
+        # the branch wip/adaptive-quadrature did: docs/live.md)
         agree = "agree_with_offline" if side == "current" else "agree_with_this_engine"
         result[prefix + agree] = min(r["agree_with_offline"] for r in runs)
     result["ratio_p99"] = round(result["latency_ms_p99"] / result["baseline_latency_ms_p99"], 3)

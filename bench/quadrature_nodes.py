@@ -62,13 +62,13 @@ SETS = ("lab-records-heights", "lab-records-flt", "lab-records-flt-shapes")
 PERCENTS = (20, 40, 60, 80, 100)
 
 
-def nodes(n_nodes: int) -> None:
+def nodes(n_nodes: int, reference: bool = False) -> None:
     """Recognition's quadrature at ``n_nodes`` coarse nodes (the module's constant, read at each
-    call; the lattice cache cleared); the fine reference refines nothing (``N_REFINE`` 0, where
+    call; the lattice cache cleared); the ``reference`` refines nothing (``N_REFINE`` 0, where
     the code has it; a code that refines by the peak's width refines as it does)."""
     speed.N_NODES = n_nodes
     if _REFINE is not None:
-        speed.N_REFINE = 0 if n_nodes > 200 else _REFINE
+        speed.N_REFINE = 0 if reference else _REFINE
     speed._lattice.cache_clear()
 
 
@@ -105,7 +105,7 @@ def cases() -> list[tuple[str, object, list[Observation]]]:
 
 def measure(model, observations: list[Observation], reference: int, alpha_method: str) -> dict:
     coarse = speed.N_NODES
-    nodes(reference)
+    nodes(reference, reference=True)
     fine = []
     for obs in observations:
         evidence = Evidence(model, obs, alpha_method)

@@ -478,7 +478,6 @@ def test_hide_and_delete_a_demonstration(studio, page) -> None:
             ).read_bytes() == content  # fmt: skip
 
 
-@pytest.mark.browser
 def wait_at_rest(studio, where: str) -> None:
     """Until the hand moves less than 1 mm in 0.2 s: the arm follows a target over frames,
     and on a busy machine it still moved after the call that set it returned (a take's still
@@ -493,6 +492,7 @@ def wait_at_rest(studio, where: str) -> None:
     wait_until(at_rest, interval=0.2, what=f"the hand at rest {where}")
 
 
+@pytest.mark.browser
 def test_a_take_starts_at_the_ghost_loses_its_still_ends_and_can_be_discarded(
     studio, page
 ) -> None:
