@@ -26,7 +26,7 @@ from app.core.fits import FitCache
 from app.core.session import Session
 from app.io.workspace import FolderKind, WorkspaceData, inspect_folder
 from app.io.workspace_index import PALETTE, PrimitiveEntry
-from app.live.frame_loop import FrameLoop
+from app.live.frame_loop import FrameLoop, one_message_group
 from app.live.head import HeadInput, HeadSource, SimulatedPartner, StreamHeadSource
 from app.live.lsl_source import LslSource
 from app.panels.data import DataPanel
@@ -238,11 +238,11 @@ class Studio:
         """One frame: the tasks asked of the loop, the arm, the head, then one snapshot shown
         by every panel and drawn by the scene.
 
-        One message group per frame (``server.atomic()``): the browser applies the arm, the
-        panels' controls and the 3D view of one frame together, and viser's sender is woken
-        once per frame rather than once per message (measured with ``bench/scrub.py``: each
-        wake-up is a write to the event loop's pipe, ~7 a frame while scrubbing)."""
-        with self.server.atomic():
+        One message group per frame (:func:`one_message_group`): the browser applies the arm,
+        the panels' controls and the 3D view of one frame together, and viser's sender is
+        woken once per frame rather than once per message (measured with ``bench/scrub.py``:
+        each wake-up is a write to the event loop's pipe, ~7 a frame while scrubbing)."""
+        with one_message_group(self.server):
             self.loop.run_tasks()
             self.arm.step()
             hand = self.arm.hand_position()

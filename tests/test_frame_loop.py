@@ -3,7 +3,9 @@ robot taking over a live commitment waits for no frame period)."""
 
 from __future__ import annotations
 
-from app.live.frame_loop import FrameLoop
+import time
+
+from app.live.frame_loop import FrameLoop, one_message_group
 from tests.conftest import wait_until
 
 
@@ -19,3 +21,71 @@ def test_a_woken_loop_runs_its_next_frame_without_waiting_for_the_period() -> No
     finally:
         loop.stop()
     assert not failures and not loop._thread.is_alive()
+
+
+def test_frames_longer_than_the_period_leave_viser_a_turn_to_send() -> None:
+    """A frame holds viser's message group, and viser's sender takes messages only while no
+    group is open, a window (1/60 s) after it was woken. Frames that each take longer than the
+    period (a busy machine) ran back to back, the sender always looked inside one, and the
+    browser got nothing: a fresh-clone run under a busy core waited 120 s for a via-point's list
+    entry. A client on a websocket gets the frames' updates while they run: a window for most
+    frames (measured: 1 window in 3 s of 59 frames before; 48 of 47 after, with both cores busy)."""
+    import viser
+    from websockets.sync.client import connect
+
+    from app.io.net import free_port
+
+    port = free_port()
+    server = viser.ViserServer(host="127.0.0.1", port=port, verbose=False)
+    number = server.gui.add_number("frame", initial_value=0)
+
+    def slow_frame() -> None:
+        with one_message_group(server):
+            number.value = loop.frames_done + 1
+            time.sleep(0.05)  # three periods at 60 Hz
+
+    failures: list = []
+    loop = FrameLoop(slow_frame, failures.append)
+    try:
+        with connect(f"ws://127.0.0.1:{port}", subprotocols=[f"viser-v{viser.__version__}"],
+                     open_timeout=30) as client:  # fmt: skip
+            loop.start()
+            wait_until(lambda: loop.frames_done >= 1, what="a frame")
+            first, received = loop.frames_done, 0
+            while loop.frames_done - first < 40:
+                try:
+                    client.recv(timeout=1.0)
+                except TimeoutError:
+                    continue
+                received += 1
+            frames = loop.frames_done - first
+    finally:
+        loop.stop()
+        server.stop()
+    assert not failures
+    assert received >= frames / 4, f"{received} message windows in {frames} frames"
+
+
+def test_a_late_frame_is_followed_by_a_rest() -> None:
+    """However late a frame ends, the loop rests a share of its time before the next one: with
+    both cores busy, viser's sender woken by the flush got a window for 33-40 of 60 frames
+    without the rest, every frame with it."""
+    from app.live.frame_loop import MIN_REST_S, REST_SHARE
+
+    spans: list[tuple[float, float]] = []
+
+    def late_frame() -> None:
+        start = time.perf_counter()
+        time.sleep(0.03)  # two periods at 60 Hz
+        spans.append((start, time.perf_counter()))
+
+    failures: list = []
+    loop = FrameLoop(late_frame, failures.append)
+    loop.start()
+    try:
+        wait_until(lambda: len(spans) >= 6, what="six frames")
+    finally:
+        loop.stop()
+    assert not failures
+    for (start, end), (following, _) in zip(spans[:-1], spans[1:], strict=True):
+        assert following - end >= max(MIN_REST_S, REST_SHARE * (end - start)) * 0.99

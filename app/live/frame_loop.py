@@ -11,12 +11,36 @@ a frame that raises is reported to ``failed`` and the loop goes on.
 from __future__ import annotations
 
 import collections
+import contextlib
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+
+import viser
 
 LOOP_HZ = 60.0
 FRAMES_KEPT = 4096  # the latest frames' start times (about a minute at 60 Hz)
+# The rest after a frame, however late it ends: at least this share of the frame's own time and
+# at least MIN_REST_S. A frame holds viser's message group (:func:`one_message_group`) and viser's
+# sender only takes messages while no group is open: frames run back to back (each longer than
+# the period, as on a busy machine) left it no turn. With both cores busy, frames of 50 ms sent
+# a window after 33-40 of 60 frames without the rest, after every frame with it.
+REST_SHARE = 0.25
+MIN_REST_S = 0.002
+
+
+@contextlib.contextmanager
+def one_message_group(server: viser.ViserServer) -> Iterator[None]:
+    """What is sent inside, applied by the browser together (``server.atomic()``), and handed
+    to viser's sender at once when the group closes (``server.flush()``).
+
+    Viser's sender looks for messages a window (1/60 s) after it was last woken, and takes none
+    while a group is open. Woken when a frame's group closed, it looked again one window later:
+    about when the next frame's group closes, and inside it when frames run late. The flush
+    makes it look at once, in the rest the loop leaves after each frame (:data:`REST_SHARE`)."""
+    with server.atomic():
+        yield
+    server.flush()
 
 
 class FrameLoop:
@@ -76,6 +100,8 @@ class FrameLoop:
                 self.step()
             except Exception as exc:  # a bug in one frame must not end the loop
                 self.failed(exc)
+            took = time.perf_counter() - start
+            time.sleep(max(MIN_REST_S, REST_SHARE * took))  # the sender's turn (see REST_SHARE)
             self._wake.wait(max(0.0, self.period - (time.perf_counter() - start)))
             self._wake.clear()
 
