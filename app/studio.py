@@ -240,7 +240,8 @@ class Studio:
 
         One message group per frame (:func:`one_message_group`): the browser applies the arm,
         the panels' controls and the 3D view of one frame together, and viser's sender is
-        woken once per frame rather than once per message (measured with ``bench/scrub.py``:
+        woken at the frame's end (the group's close and its flush) rather than once per
+        message (measured with ``bench/scrub.py``:
         each wake-up is a write to the event loop's pipe, ~7 a frame while scrubbing)."""
         with one_message_group(self.server):
             self.loop.run_tasks()

@@ -125,11 +125,7 @@ def test_a_typed_via_point_is_passed_through_and_removing_it_gives_the_prior_bac
     shaped = studio.scene.workspace.prior_tube(model, name, view.state.via_points)
     assert_allclose(studio.scene.workspace.tubes[name].vertices, region_vertices(shaped, 0.9),
                     atol=1e-6)  # fmt: skip
-    # the shaped mean, drawn and then shown (the scene shows what it drew a moment later, after
-    # _tubes_from is said: a busy machine polled in between)
-    wait_until(lambda: name in studio.scene.workspace.means
-               and studio.scene.workspace.means[name].visible, timeout=60,
-               what="the shaped mean shown")  # fmt: skip
+    assert studio.scene.workspace.means[name].visible  # the shaped mean, drawn and shown
     assert studio.session.snapshot().model is model  # the model is not touched
     page.get_by_text("via 1 · 60 %:").first.wait_for()  # listed
     # The charts show the shaped prior.

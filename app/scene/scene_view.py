@@ -130,7 +130,7 @@ class SceneView:
         panel's to give (it draws its result there, :meth:`InferenceLayer.draw`): here it is
         only shown or hidden."""
         self.snapshot = snapshot
-        self._draw_workspace(snapshot)
+        lines, tubes = self._draw_workspace(snapshot)
         scene = scene_shown(snapshot.view, snapshot.store)
         if self.robot is not None:
             self.robot.show(snapshot.store.frame.robot_shown, scene)
@@ -146,6 +146,12 @@ class SceneView:
         self._draw_vias(snapshot, shown)
         self.inference.show(self.look.inference)
         self.start.show(self.look.start)
+        # said once drawn and shown (tests wait on them): what apply() shows was drawn hidden,
+        # and a busy machine's test polled between the two
+        if lines is not None:
+            self.drawn_from = lines
+        if tubes is not None:
+            self._tubes_from = tubes
         return self.look
 
     def _draw_vias(self, snapshot: Snapshot, shown: Shown) -> None:
@@ -160,9 +166,10 @@ class SceneView:
             self.vias.draw(points, color)
             self._vias_from = (points, tuple(color))  # said once drawn (tests wait on it)
 
-    def _draw_workspace(self, snapshot: Snapshot) -> None:
+    def _draw_workspace(self, snapshot: Snapshot) -> tuple[tuple | None, tuple | None]:
         """The demonstration lines and the prior tubes, each when what it shows changed (the
-        hidden set compared by value, the immutable rest by identity)."""
+        hidden set compared by value, the immutable rest by identity); what each was drawn
+        from (None: not drawn again), for :meth:`draw` to say once they are shown."""
         store, model, hidden = snapshot.store, snapshot.model, snapshot.hidden
         lines = (hidden, store.demos, store.primitives, store.findings, store.checks)
         drawn = self.drawn_from
@@ -172,13 +179,16 @@ class SceneView:
         ):
             self._hidden = hidden
             self.workspace.draw_lines(store.demos, colors, store.layout, set(store.left_out))
-            self.drawn_from = lines  # said once drawn (tests wait on it)
+        else:
+            lines = None
         tubes = (model, store.primitives, snapshot.view.via_points, snapshot.view.tube_style)
         if any(a is not b for a, b in zip(tubes[:3], self._tubes_from[:3], strict=True)) or (
             tubes[3] != self._tubes_from[3]
         ):
             self.workspace.draw_tubes(model, colors, self.look.priors, tubes[3], tubes[2])
-            self._tubes_from = tubes  # said once every tube is written (tests wait on it)
+        else:
+            tubes = None
+        return lines, tubes
 
     # ------------------------------------------------------------------ what the camera frames
 
