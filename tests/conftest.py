@@ -318,6 +318,13 @@ def start_studio(workspace: Path, **kwargs):
 # A fixed ratio also keeps viser's adaptive resolution from changing the canvas mid-test. Tests
 # that look at the picture (README screenshots, the start view's framing) ask for 1.0.
 TEST_DPR = 0.5
+# The same for the pages a module keeps open to take pictures that a person looks at (/tmp,
+# artifacts/; not the docs' pictures, which open a page at 1.0 for the shot). At 1.0 such a
+# page drew at viser's 1 s heartbeat at a core-second a frame: a whole core for the module's
+# length, which the other test worker's studio and page then lacked (tests/test_scene_on_
+# imported_data.py alone: 176 s of CPU at 1.0, 113 s at 0.5). Their pictures keep the
+# viewport's size, with a softer 3D view; STUDIO_PICTURE_DPR=1 draws it sharp.
+PICTURE_DPR = float(os.environ.get("STUDIO_PICTURE_DPR") or TEST_DPR)
 
 
 def open_page(browser, studio, width: int = 1400, height: int = 900, dpr: float = TEST_DPR):

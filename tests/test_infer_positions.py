@@ -24,7 +24,7 @@ from promp.learn import fit
 from robots.icub.layout import HAND, HEAD, position_modalities
 from robots.icub.scenario import generate_scenario
 from tests.browser import choose, settled_screenshot
-from tests.conftest import PageSpec, StudioSpec, wait_frames, wait_until
+from tests.conftest import PICTURE_DPR, PageSpec, StudioSpec, wait_frames, wait_until
 
 PARTNER = Modality("partner", ("px", "py", "pz"), unit="m")
 LAYOUT = Layout((HAND, HEAD, PARTNER))
@@ -56,7 +56,7 @@ def make_workspace(root: Path, _request) -> None:
 
 
 STUDIO = StudioSpec(make=make_workspace, ready=lambda studio: studio.session.snapshot().model)
-PAGE = PageSpec(tab="Infer", dpr=1.0)
+PAGE = PageSpec(tab="Infer", dpr=PICTURE_DPR)
 
 
 def test_a_position_is_three_linear_columns_in_metres() -> None:

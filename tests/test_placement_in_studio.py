@@ -16,6 +16,7 @@ from robots.icub.placement import IN_REACH, reach_share
 from robots.icub.scenario import generate_scenario
 from tests.browser import choose, click, notification, open_tab, upload_file
 from tests.conftest import (
+    PICTURE_DPR,
     PageSpec,
     StudioSpec,
     wait_until,
@@ -30,7 +31,7 @@ SCREENSHOT = Path("/tmp/placement.png")
 STUDIO = StudioSpec(seed=2, n_demos=3)
 # The Data tab, tall enough for the preview and the placement (at full resolution: its picture
 # is looked at).
-PAGE = PageSpec(width=1400, height=1000, dpr=1.0, tab="Data")
+PAGE = PageSpec(width=1400, height=1000, dpr=PICTURE_DPR, tab="Data")
 
 
 def far_zip() -> bytes:

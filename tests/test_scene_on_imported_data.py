@@ -43,14 +43,14 @@ from tests.browser import (
     settled_screenshot,
     upload_file,
 )
-from tests.conftest import PageSpec, StudioSpec, wait_until
+from tests.conftest import PICTURE_DPR, PageSpec, StudioSpec, wait_until
 from tests.imported_sets import GLITCHED, HANDOVER_MODALITIES, handover_set, icub_set
 from tests.test_dataset_import import zip_folder
 from tests.test_import_in_data_tab import importer
 
 WIDTH, HEIGHT = 1600, 1000
 STUDIO = StudioSpec(seed=2, n_demos=4)  # the simulated scenario: recorded in the scene
-PAGE = PageSpec(width=WIDTH, height=HEIGHT, dpr=1.0, tab="Data",
+PAGE = PageSpec(width=WIDTH, height=HEIGHT, dpr=PICTURE_DPR, tab="Data",
                 ready=lambda page, _: page.get_by_role("button", name="Upload dataset")
                 .wait_for())  # fmt: skip
 

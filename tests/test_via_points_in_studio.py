@@ -30,10 +30,10 @@ from tests.browser import (
     set_camera,
     settled_screenshot,
 )
-from tests.conftest import PageSpec, StudioSpec, wait_until
+from tests.conftest import PICTURE_DPR, PageSpec, StudioSpec, wait_until
 
 STUDIO = StudioSpec(seed=3, n_demos=6, ready=lambda studio: studio.session.snapshot().model)
-PAGE = PageSpec(tab="Teach", dpr=1.0)
+PAGE = PageSpec(tab="Teach", dpr=PICTURE_DPR)
 SCREENSHOT = Path("/tmp/via_points_dragged.png")
 
 
