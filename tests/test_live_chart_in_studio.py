@@ -64,7 +64,9 @@ def stopped(page, studio) -> None:
         wait_until(lambda: studio.live.running is None, what="the source stopped")
 
 
-def test_the_live_chart_marks_the_commitment_at_the_committing_prediction(page, studio) -> None:
+def test_the_live_chart_marks_the_commitment_at_the_committing_prediction(
+    page, studio, artifacts
+) -> None:
     panel = infer_panel(studio)
     live, chart = panel.lsl.controls, panel.recognition.live
     hand = Replayer(unique("ChartHand"))
@@ -105,7 +107,7 @@ def test_the_live_chart_marks_the_commitment_at_the_committing_prediction(page, 
     title.wait_for()
     title.evaluate("e => e.scrollIntoView({block: 'start'})")
     wait_frames(studio)
-    screenshot(page, REPO / "docs" / "live-chart.png")
+    screenshot(page, artifacts / "live-chart.png")  # docs/live-chart.png: copied from here
     stopped(page, studio)
     wait_until(lambda: not chart.chart.visible and not chart.note.visible,
                what="the chart hidden after Stop")  # fmt: skip
@@ -218,7 +220,7 @@ def cli_session(studio, tmp_path_factory):
 
 
 def test_a_session_recorded_by_the_command_replays_in_the_page_bit_for_bit(
-    page, studio, cli_session
+    page, studio, cli_session, artifacts
 ) -> None:
     panel = infer_panel(studio)
     stopped(page, studio)
@@ -256,7 +258,7 @@ def test_a_session_recorded_by_the_command_replays_in_the_page_bit_for_bit(
     shown.evaluate("e => e.scrollIntoView({block: 'center'})")
     set_camera(page.client, position=[-1.5, -0.9, 0.8], look_at=[-0.15, -0.1, 0.15])
     wait_frames(studio)
-    screenshot(page, REPO / "docs" / "session_replay.png")
+    screenshot(page, artifacts / "session_replay.png")  # docs/: copied from here
     # a live start is refused while the replay is shown: Start reads Stop
     assert panel.lsl.controls.run.label == "Stop" and panel.lsl.replay.controls.replay.disabled
     assert not panel.lsl.controls.movement.visible  # a replay's movements are the recorded

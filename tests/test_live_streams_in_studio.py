@@ -31,7 +31,7 @@ from tests.browser import (
     open_tab,
     screenshot,
 )
-from tests.conftest import PATIENCE_S, REPO, PageSpec, StudioSpec, wait_frames, wait_until
+from tests.conftest import PATIENCE_S, PageSpec, StudioSpec, wait_frames, wait_until
 from tests.live_fakes import flt_dataset, flt_workspace, held, offset_in
 
 pylsl = pytest.importorskip("pylsl")  # the live extra (make test installs it)
@@ -503,7 +503,7 @@ def test_the_robot_takes_over_a_committed_movement_along_its_predicted_remainder
         wait_until(lambda: len(studio.live.running.session.snapshot().ended) >= 1,
                    what="the movement's end")  # the predictions after it came and went
         wait_frames(studio)
-        screenshot(page, REPO / "docs" / "takeover.png")
+        screenshot(page, artifacts / "takeover.png")  # docs/takeover.png: copied from here
     finally:
         stop.set()
         replay.move_hand = move
