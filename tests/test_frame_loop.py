@@ -4,7 +4,6 @@ robot taking over a live commitment waits for no frame period)."""
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 from app.live.frame_loop import FrameLoop
 from tests.conftest import wait_until
@@ -32,13 +31,9 @@ def test_frames_longer_than_the_period_leave_viser_a_turn_to_send() -> None:
     entry. A client on a websocket gets the frames' updates while they run: a window for most
     frames (``bench/frame_sends.py``, whose harness this is: 1 window in 3 s of 59 frames before;
     48 of 46 after, with two busy loops beside)."""
-    import importlib.util
+    from bench.frame_sends import measure
 
-    path = Path(__file__).resolve().parents[1] / "bench" / "frame_sends.py"
-    spec = importlib.util.spec_from_file_location("frame_sends", path)
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
-    result = bench.measure("flush+rest", frame_s=0.05, seconds=3.0)
+    result = measure("flush+rest", frame_s=0.05, seconds=3.0)
     assert result["frames"] >= 10, result
     assert result["windows"] >= result["frames"] / 4, result
 

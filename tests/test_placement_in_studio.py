@@ -29,8 +29,8 @@ SCREENSHOT = Path("/tmp/placement.png")
 
 
 STUDIO = StudioSpec(seed=2, n_demos=3)
-# The Data tab, tall enough for the preview and the placement (at full resolution: its picture
-# is looked at).
+# The Data tab, tall enough for the preview and the placement (at PICTURE_DPR: its picture is
+# looked at).
 PAGE = PageSpec(width=1400, height=1000, dpr=PICTURE_DPR, tab="Data")
 
 
