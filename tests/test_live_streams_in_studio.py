@@ -23,6 +23,7 @@ from app.panels.infer import InferPanel
 from app.panels.infer.view_model import LSL
 from promp.evidence.pipeline import infer
 from promp.inference import Observation
+from robots.icub.ik import POSITION_TOLERANCE_M
 from tests.browser import (
     choose,
     click,
@@ -95,6 +96,21 @@ class Replayer:
         self.last = stamps[-1] + jump
         self.sent.append((stamps + jump, values_mm / 1000.0))
         return stamps + jump
+
+    def push_paced(self, values_mm: np.ndarray, paced, chunk: int = 5) -> np.ndarray:
+        """Push ``values_mm`` (n, k) stamped one step (0.01 s) apart, ``chunk`` rows at a time,
+        each chunk when due or, when later, once ``paced()`` returned after the one before
+        (a sender that waits for its receiver: the stamps are the same whatever the
+        machine's load, only their lateness grows); their stamps."""
+        start = max(pylsl.local_clock(), self.last) + 0.02
+        stamps = start + 0.01 * np.arange(values_mm.shape[0])
+        for i in range(0, values_mm.shape[0], chunk):
+            part = slice(i, i + chunk)
+            push_when_due(self.outlet, values_mm[part], stamps[part], stamps[part])
+            paced()
+        self.last = stamps[-1]
+        self.sent.append((stamps, values_mm / 1000.0))
+        return stamps
 
 
 def top_demo(speed: float):
@@ -486,8 +502,21 @@ def test_the_robot_takes_over_a_committed_movement_along_its_predicted_remainder
 
     replay.move_hand = recorded
     before = arm.hand_position()
+
+    def paced() -> None:
+        """While a movement is under way, a prediction after each chunk: the movement gets
+        one every 50 ms of its samples however busy the machine (at a busy machine's own
+        pace, the movement of under a second can commit at its last prediction, and leave
+        none after the commitment to check, nor a remainder longer than IK's tolerance)."""
+        session = studio.live.running.session
+        seen = session.snapshot()
+        if seen.movement is not None:
+            wait_until(lambda: (session.snapshot().predictions > seen.predictions
+                                or session.snapshot().movement is None),
+                       what="a prediction on the samples pushed")  # fmt: skip
+
     try:
-        hand.push(top_demo(1.0).select(["x", "y", "z"]) * 1000.0)
+        hand.push_paced(top_demo(1.0).select(["x", "y", "z"]) * 1000.0, paced)
         start = wait_until(lambda: panel.takeover.state.started, what=lambda: (
             f"the robot taking over; the session's events so far: {events[-12:]}"))  # fmt: skip
         c = start.commitment
@@ -525,9 +554,11 @@ def test_the_robot_takes_over_a_committed_movement_along_its_predicted_remainder
     assert distance_to_path(reached, path).max() < 0.01  # every pose reached: within 1 cm
     length = np.linalg.norm(np.diff(path, axis=0), axis=1).sum()
     end = arm.hand_position()
-    # at the predicted end: within 1 cm, and within half the path's length (a busy machine
-    # commits later in the movement, and leaves a shorter path to play)
-    assert length > 0 and np.linalg.norm(end - path[-1]) < min(0.01, 0.5 * length)
+    # at the predicted end: within 1 cm, and within half the path's length (nearer its end
+    # than its start) or IK's tolerance, whichever is longer (the arm reaches a target that
+    # close, and a late commitment leaves a short path)
+    assert length > 0 and np.linalg.norm(end - path[-1]) < min(
+        0.01, max(0.5 * length, POSITION_TOLERANCE_M))
     assert np.linalg.norm(end - before) > 0.5 * np.linalg.norm(path[-1] - before)
     # nearer the committed primitive's taught ends than any other primitive's
     ends = {name: np.median([d.select(["x", "y", "z"])[-1] for d in demos], axis=0)

@@ -34,6 +34,8 @@ _DAMPING = 0.1
 # (out of reach: the closest configuration has been found).
 _STALL_M = 1e-6
 _STALL_WINDOW = 5
+# A target counts as reached this close (the default ``position_tolerance``), metres.
+POSITION_TOLERANCE_M = 1e-4
 
 
 @dataclass(frozen=True, eq=False)
@@ -221,7 +223,7 @@ def solve_ik(
     *,
     orientation_weight: float = 0.1,
     lock_torso: bool = False,
-    position_tolerance: float = 1e-4,
+    position_tolerance: float = POSITION_TOLERANCE_M,
     orientation_tolerance: float = 1e-2,
     max_iterations: int = 200,
     rest: np.ndarray | None = None,
