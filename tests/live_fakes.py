@@ -367,8 +367,9 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
     pushing "at once" does (and which cannot be told from a stream that resumes faster than it
     declares: ``promp.live.restamp``). A busy machine still delays when the samples arrive.
     Returns the
-    session's ended movements, the predictions and, per take, the push times and due times of
-    its samples (session clock)."""
+    session's ended movements, the predictions and, per take, the stamps and due times of its
+    samples (session clock; the stamps are the planned pushes, which this process's own
+    pushes can trail by most of a second on a busy machine)."""
     import pylsl
 
     from promp.live.lsl import LslTransport
@@ -409,13 +410,14 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
         planned = start + pushes
         index = np.arange(planned.size)  # a backlog's samples pushed 20 us apart
         first = np.maximum.accumulate(np.where(np.r_[True, np.diff(planned) > 0], index, 0))
-        pushed = push_when_due(outlet, table, planned, planned + 2e-5 * (index - first))
+        stamps = planned + 2e-5 * (index - first)
+        push_when_due(outlet, table, planned, stamps)
         wait_until(lambda: session.snapshot().movement is None, timeout=60.0,
                    what="the last movement's end")  # fmt: skip
         ended = list(session.snapshot().ended)
     finally:
         session.close()
-    return ended, predictions, [(pushed[a:b], start + due[a:b]) for a, b in spans]
+    return ended, predictions, [(stamps[a:b], start + due[a:b]) for a, b in spans]
 
 
 def robot_side_code(document: str, test: str, what: str, name: str) -> str:
