@@ -174,10 +174,10 @@ def test_one_take_calls_the_documented_path(traced) -> None:
     along = np.concatenate([[0.0], np.cumsum(np.maximum(*(
         np.linalg.norm(np.diff(v, axis=0), axis=1) / np.linalg.norm(np.ptp(v, axis=0))
         for v in (hand, gaze))))])  # fmt: skip
-    path = hand[np.searchsorted(along, np.linspace(0.0, along[-1], 21)).clip(0, len(hand) - 1)]
+    steps = np.searchsorted(along, np.linspace(0.0, along[-1], 21)).clip(0, len(hand) - 1)
+    path = hand[steps]
     shares = [np.linalg.norm(np.diff(v, axis=0), axis=1).max() / np.linalg.norm(np.ptp(v, axis=0))
-              for v in (path, np.array([head_orientation_looking_at(p, partner.head_position)
-                                        for p in path]))]  # fmt: skip
+              for v in (path, gaze[steps])]  # fmt: skip
     assert max(shares) < 0.15, shares  # the steps' largest, against each one's extent
     lead, partner.lead_s = partner.lead_s, 0.0
 
