@@ -16,6 +16,7 @@ from promp.live.segmenter import Segmenter, StillRule
 from promp.live.timebase import Rows
 from promp.stillness import (
     MARGIN_S,
+    MIN_MOVE_S,
     MIN_STILL_S,
     SMOOTH_S,
     MovingSpans,
@@ -44,9 +45,12 @@ def streamed(times, values, units, widths, cuts, min_still_s=MIN_STILL_S):
 
 
 def check_equal_to_offline(times, values, units, widths, cuts, min_still_s=MIN_STILL_S):
-    """The streamed starts and ends are the offline spans', each decided within
-    ``min_still_s + SMOOTH_S`` of its sample (a start: its first moving sample; an end: its
-    last)."""
+    """The streamed starts and ends are the offline spans', each decided as soon as its
+    samples allow: an end within ``min_still_s + SMOOTH_S`` of its last moving sample; a start
+    within half a window of the moving sample that made its run of motion long enough
+    (``MIN_MOVE_S`` and half a window), which comes less than ``min_still_s`` after the run's
+    moving sample before it (a run may pause for less than that and go on), so within
+    ``MIN_MOVE_S + SMOOTH_S + min_still_s`` of its first moving sample."""
     blocks, column = [], 0
     for unit, width in zip(units, widths, strict=True):
         blocks.append((values[:, column:column + width], unit))
@@ -63,9 +67,14 @@ def check_equal_to_offline(times, values, units, widths, cuts, min_still_s=MIN_S
     assert got == offline
     for event, newest, before in events:  # decided on the samples up to the chunk's last
         assert event.decided == newest
-        sample = event.first if event.kind == "start" else event.last
-        # no later than the chunk that brought the samples up to its sample + the bound
-        assert before < sample + min_still_s + SMOOTH_S
+        # no later than the chunk that brought the samples up to the bound: the chunk before
+        # it ended earlier
+        if event.kind == "end":
+            assert before < event.last + min_still_s + SMOOTH_S
+        else:
+            assert event.last - event.first >= MIN_MOVE_S + 0.5 * SMOOTH_S
+            assert before <= event.last + 0.5 * SMOOTH_S
+            assert event.last < event.first + MIN_MOVE_S + 0.5 * SMOOTH_S + min_still_s
     return offline
 
 
