@@ -17,6 +17,7 @@ from promp import metrics
 from promp.data import Layout, Modality
 from promp.datasets import write_csv_dataset
 from promp.evaluate.cli import main
+from promp.evaluate.folds import CHOICE_BLOCKS
 from promp.evaluate.methods import ProMPEngine, TrialAnswer
 from promp.evaluate.report import CSV_COLUMNS
 from promp.evaluate.sweep import n_observed_for, run_sweep, spread_subset
@@ -329,7 +330,7 @@ def test_a_subset_holds_out_only_its_demonstrations_with_every_other_one_fitted(
         assert [j for kk, j in subset if kk == k] == sorted(by_duration[i] for i in (0, 2, 4))
     assert spread_subset(dataset, 9) == [(k, j) for k in range(2) for j in range(5)]
     given = Settings(n_basis=5, width=1.0, noise_scale=1.5)  # not about the choice: quick
-    Spy.seen = []
+    Spy.seen, Spy.chose = [], []
     result = run_sweep(
         lambda: Spy(LAYOUT, given), dataset, LAYOUT, [50], ["ml"], [["hand"]], "spy",
         held_out=subset, keep_trials=True,
@@ -340,6 +341,8 @@ def test_a_subset_holds_out_only_its_demonstrations_with_every_other_one_fitted(
     everyone = {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos}
     # the folds in the subset's order, each fitted on every demonstration but its own
     assert [everyone - seen for seen, *_ in Spy.seen] == [{name} for name in expected]
+    # the settings chosen once per block tested (each demonstration its own here)
+    assert len(Spy.chose) == len(expected)
     assert result.rows[0]["trials"] == 6
     for bad in ([(0, 9)], [(0, 1), (0, 1)], []):
         with pytest.raises(ValueError):
@@ -367,31 +370,44 @@ def test_fixed_settings_scores_every_candidate_and_picks_the_lowest_log_loss(
 
 
 class Spy(ProMPEngine):
-    """The engine, recording which demonstrations every fit saw (and what it chose from them)."""
+    """The engine, recording which demonstrations every fit and every choice of settings saw
+    (and what the choice made of them)."""
 
-    seen: list = []
+    seen: list = []  # per fit: (its names, its model's evidence, the settings given it)
+    chose: list = []  # per choice: (its names, what its scorers touched, the settings chosen)
+    inner: set = set()
 
-    def fit(self, dataset, sample_period) -> None:
+    def choose(self, dataset, sample_period):
         Spy.inner = set()
-        super().fit(dataset, sample_period)
-        names = {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos}
+        chosen = super().choose(dataset, sample_period)
+        Spy.chose.append((_names(dataset), Spy.inner, chosen))
+        return chosen
+
+    def fit(self, dataset, sample_period, chosen=None) -> None:
+        super().fit(dataset, sample_period, chosen)
         report = self.model.report
-        Spy.seen.append((names, report["covariance"]["log_evidence"], Spy.inner, report))
+        Spy.seen.append((_names(dataset), report["covariance"]["log_evidence"], chosen))
 
 
-@pytest.mark.parametrize("rule", ["loo", "cv"])
-def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch, rule) -> None:
-    """Every fold fits (and so chooses its basis, noise scale and covariance prior) on the
-    others only: the fit of the fold that holds ``d`` out was given every demonstration but
-    ``d``, and every model its choice of settings fitted and every demonstration it scored
-    were among them."""
-    from promp import selection
+def _names(dataset) -> set[str]:
+    return {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos}
+
+
+@pytest.mark.parametrize(("rule", "n_demos"), [("loo", 4), ("cv", 4), ("loo", 8)])
+def test_the_automatic_settings_never_see_the_held_out_demonstration(
+    monkeypatch, rule, n_demos
+) -> None:
+    """Every fold fits on the others only, at settings chosen without its demonstration: the
+    fit of the fold that holds ``d`` out was given every demonstration but ``d``, and the
+    settings chosen in a block without ``d`` (every model the choice fitted and every
+    demonstration it scored were among that block's others). Sixteen demonstrations make ten
+    blocks, each chosen once; eight, a block each (every fold's own choice)."""
     from promp.selection import candidates, cv
 
     fit_parts, batches = candidates.fit_parts, candidates.make_batches
 
     def spy_fit(train, *args, **kwargs):
-        Spy.inner |= {f"{k}/{d.name}" for k, demos in train.items() for d in demos}
+        Spy.inner |= _names(train)
         return fit_parts(train, *args, **kwargs)
 
     def spy_batches(train, layout, trials, *args):
@@ -403,7 +419,7 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch
     fit_with, losses = cv.fit_with, cv.trial_losses
 
     def spy_fit_with(train, *args, **kwargs):
-        Spy.inner |= {f"{k}/{d.name}" for k, demos in train.items() for d in demos}
+        Spy.inner |= _names(train)
         return fit_with(train, *args, **kwargs)
 
     def spy_losses(model, demo, *args):
@@ -414,21 +430,44 @@ def test_the_automatic_settings_never_see_the_held_out_demonstration(monkeypatch
     monkeypatch.setattr(candidates, "make_batches", spy_batches)
     monkeypatch.setattr(cv, "fit_with", spy_fit_with)
     monkeypatch.setattr(cv, "trial_losses", spy_losses)
-    dataset = make_dataset(seed=4, n_demos=4)
-    everyone = {f"{k}/{d.name}" for k, demos in dataset.items() for d in demos}
-    Spy.seen = []
+    dataset = make_dataset(seed=4, n_demos=n_demos)
+    everyone = _names(dataset)
+    Spy.seen, Spy.chose = [], []
     settings = Settings(select=rule)
     run_sweep(lambda: Spy(LAYOUT, settings), dataset, LAYOUT, [50], ["ml"], [["hand"]], "spy")
     assert len(Spy.seen) == len(everyone)
     held_out = [everyone - names for names, *_ in Spy.seen]
     assert all(len(h) == 1 for h in held_out)
     assert set().union(*held_out) == everyone
-    for names, _, inner, report in Spy.seen:
-        assert inner and inner <= names  # the choice saw this fold's training set only
-        assert set(report["settings"]["chosen"]) == {"n_basis", "width", "noise_scale"}
-        assert report["settings"]["rule"] == {"loo": selection.LOO_RULE, "cv": selection.RULE}[rule]
-    # The choice is made per fold, from that fold's data (its evidence differs per fold).
+    # one choice per block, the blocks a partition of the demonstrations
+    blocks = [everyone - names for names, *_ in Spy.chose]
+    assert len(blocks) == min(len(everyone), CHOICE_BLOCKS)
+    assert sum(len(b) for b in blocks) == len(everyone) and set().union(*blocks) == everyone
+    for names, inner, chosen in Spy.chose:
+        assert inner and inner <= names  # the choice saw its training set only
+        assert chosen.automatic == () and chosen.duration_temperature is not None
+    for (names, _, given), held in zip(Spy.seen, held_out, strict=True):
+        made = [c for c in Spy.chose if c[2] is given]
+        assert len(made) == 1, "each fold is given the settings of one choice"
+        assert held.isdisjoint(made[0][0]) and made[0][0] <= names
+    # Each fold's model is its own (its evidence differs per fold).
     assert len({evidence for _, evidence, *_ in Spy.seen}) == len(everyone)
+
+
+def test_a_fold_whose_block_choice_fails_chooses_for_itself(monkeypatch) -> None:
+    """A block whose choice raises (here: every choice) serves nothing: its folds choose
+    their settings from their own training demonstrations, as fit does."""
+    dataset = make_dataset(seed=4, n_demos=3)
+
+    def refuse(self, dataset, sample_period):
+        raise ValueError("no choice here")
+
+    monkeypatch.setattr(Spy, "choose", refuse)
+    Spy.seen = []
+    result = run_sweep(lambda: Spy(LAYOUT, Settings(n_basis=5, width=1.0, noise_scale=1.5)),
+                       dataset, LAYOUT, [50], ["ml"], [["hand"]], "spy")  # fmt: skip
+    assert len(Spy.seen) == 6 and all(given is None for *_, given in Spy.seen)
+    assert result.rows[0]["trials"] == 6 and not result.failures
 
 
 def _sweep(**kwargs):

@@ -131,9 +131,9 @@ def test_decide_gives_one_row_per_method_the_in_sample_curve_and_every_trials_de
 class Counted(ProMPEngine):
     fits = 0
 
-    def fit(self, dataset, sample_period):
+    def fit(self, dataset, sample_period, chosen=None):
         Counted.fits += 1
-        super().fit(dataset, sample_period)
+        super().fit(dataset, sample_period, chosen)
 
 
 def test_a_fold_is_fitted_once_and_its_paths_are_the_methods_own_answers() -> None:

@@ -3,11 +3,15 @@ together and tests, and where they run.
 
 A fold holds out one demonstration (leave-one-out) or a whole group (``groups``: a subject's
 or a session's demonstrations, :mod:`promp.evaluate.groups`), and tests those of them the
-sweep holds out. Folds are independent: :func:`run_folds` runs them in order, on several
-processes (joblib) or on a Dask cluster, and yields their trials in the folds' order, so the
-results are identical wherever they ran. A worker process ends within :data:`PARENT_WATCH_S`
-of the process that started it, however that one ended (``kill -9`` included): a killed
-evaluation leaves no worker behind.
+sweep holds out. Leave-one-out folds share the choice of the automatic settings by blocks
+(:func:`choice_blocks`): the settings that serve a fold are chosen without its block, hence
+without the demonstration it tests.
+
+Folds are independent: :func:`run_folds` runs them in order, on several processes (joblib) or
+on a Dask cluster, and yields their trials in the folds' order, so the results are identical
+wherever they ran. A worker process ends within :data:`PARENT_WATCH_S` of the process that
+started it, however that one ended (``kill -9`` included): a killed evaluation leaves no worker
+behind.
 """
 
 from __future__ import annotations
@@ -19,17 +23,21 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 
+from promp.content_key import content_key
 from promp.data import Demonstration
 
 __all__ = [
-    "Fold", "MIN_TRAINING", "PARENT_WATCH_S", "Pair", "Progress", "check_groups",
-    "exit_with_parent", "group_folds", "run_folds",
+    "CHOICE_BLOCKS", "Fold", "MIN_TRAINING", "PARENT_WATCH_S", "Pair", "Progress",
+    "check_groups", "choice_blocks", "exit_with_parent", "group_folds", "run_folds",
 ]  # fmt: skip
 
 Pair = tuple[int, int]  # (primitive index, demonstration index)
 MIN_TRAINING = 2  # demonstrations a primitive keeps in every fold: a fit needs two
 Progress = Callable[[int, int], None]
 Fold = tuple[tuple[Pair, ...], tuple[Pair, ...]]  # (held out together, tested)
+# Blocks of a leave-one-out sweep's choice of the automatic settings: each block's choice is
+# made once, without the block, and serves the folds that test its demonstrations.
+CHOICE_BLOCKS = 10
 
 
 def _run_chunk(fold: Callable[[Fold], list], chunk: Sequence[Fold]) -> list[list]:
@@ -162,3 +170,33 @@ def group_folds(
         if tested:
             folds.append((held, tested))
     return folds
+
+
+def choice_blocks(
+    dataset: Mapping[str, Sequence[Demonstration]], n_blocks: int = CHOICE_BLOCKS
+) -> dict[Pair, int]:
+    """The block of every demonstration of ``dataset`` ({(primitive index, index): block}) for
+    the choice of the automatic settings in a leave-one-out sweep.
+
+    Choosing the settings costs a fold of the 70 x 15 set three times its fit
+    (docs/evaluation.md, "The standing rule"), and every fold chose them again from nearly the
+    same demonstrations. In blocks, the settings are chosen ``n_blocks`` times, each on every
+    demonstration outside one block, and a fold tests its demonstration with the choice made
+    without that demonstration's block: nested, as each fold's own choice was (nothing that
+    chose the settings saw the trial under test), from 90 % of the demonstrations instead of
+    all but one (ten-fold inside, leave-one-out outside). A set of ``n_blocks``
+    demonstrations or fewer has a block per demonstration: every fold's own choice, as before.
+
+    The demonstrations are dealt in the order of their content keys
+    (:func:`promp.content_key.content_key`), every ``n_blocks``-th to the same block: the
+    blocks, and so the choices and the table, do not depend on the files' names, order or
+    units.
+    """
+    if n_blocks < 1:
+        raise ValueError(f"choose the settings in one block or more, got {n_blocks}")
+    keyed = sorted(
+        (content_key(demo), (k, j))
+        for k, demos in enumerate(dataset.values())
+        for j, demo in enumerate(demos)
+    )
+    return {pair: rank % n_blocks for rank, (_, pair) in enumerate(keyed)}

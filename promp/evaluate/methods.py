@@ -15,7 +15,7 @@ import numpy as np
 from promp.data import Demonstration, Layout
 from promp.evidence.pipeline import infer, recognise
 from promp.inference import Observation
-from promp.learn import fit
+from promp.learn import choose, fit
 from promp.model import ProMPModel, Settings
 
 __all__ = ["ALPHA_ROWS", "TrialAnswer", "ProMPEngine", "TRUE_DURATION"]
@@ -66,10 +66,28 @@ class ProMPEngine:
         self.settings = settings or Settings()
         self.model: ProMPModel | None = None
 
-    def fit(self, dataset: Mapping[str, Sequence[Demonstration]], sample_period: float) -> None:
+    def choose(
+        self, dataset: Mapping[str, Sequence[Demonstration]], sample_period: float
+    ) -> Settings | None:
+        """The settings a fit on ``dataset`` chooses (:func:`promp.learn.choose`), or None when
+        every one is given (nothing to choose). The sweep chooses once for several folds
+        (:func:`promp.evaluate.sweep.run_sweep`) and hands the result to their fits."""
+        settings = self.settings
+        if not settings.automatic and settings.duration_temperature is not None:
+            return None
+        return choose(dataset, self.layout, settings, sample_period=sample_period)
+
+    def fit(
+        self,
+        dataset: Mapping[str, Sequence[Demonstration]],
+        sample_period: float,
+        chosen: Settings | None = None,
+    ) -> None:
+        """Learn ``dataset`` at this engine's settings, or at ``chosen`` (settings chosen
+        beforehand by :meth:`choose` on other demonstrations: not chosen again)."""
         # the drawn region's calibration is for the studio: nothing here reads it
-        self.model = fit(dataset, self.layout, self.settings, sample_period=sample_period,
-                         regions=False)  # fmt: skip
+        self.model = fit(dataset, self.layout, chosen or self.settings,
+                         sample_period=sample_period, regions=False)  # fmt: skip
 
     def infer(
         self, demo: Demonstration, n_observed: int, observe: Sequence[str], alpha_method: str

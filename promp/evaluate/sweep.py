@@ -56,6 +56,7 @@ from promp.evaluate.folds import (  # noqa: F401  (MIN_TRAINING, check_groups re
     Fold,
     Pair,
     check_groups,
+    choice_blocks,
     group_folds,
     run_folds,
 )
@@ -147,23 +148,26 @@ def _run_fold(
     alpha_methods: Sequence[str],
     observe_sets: Sequence[Sequence[str]],
     decide_percents: Sequence[float] = (),
+    choices: Mapping[Pair, Mapping[str, object]] | None = None,
 ) -> list[Trial | ProbabilityPath]:
     """Fit every method without the demonstrations ``fold[0]`` (a set of (primitive index,
     demonstration index) pairs), on the others in the order of their content, then infer each
     of ``fold[1]`` at every setting (and, with ``decide_percents``, at each of them: its
-    probability paths)."""
-    held, tested = set(fold[0]), fold[1]
+    probability paths). ``choices``: {held-out pair: {method name: its settings chosen
+    without that pair's block}} (:func:`_choices`), given to the methods' fits."""
+    tested = fold[1]
+    chosen = (choices or {}).get(fold[0][0], {}) if len(fold[0]) == 1 else {}
     names = list(dataset)
     pos_dims = layout.dims([position_modality(layout)])
-    train = canonical_dataset({
-        name: [d for i, d in enumerate(demos) if (kk, i) not in held]
-        for kk, (name, demos) in enumerate(dataset.items())
-    })  # fmt: skip
+    train = _without(dataset, fold[0])
     fitted = []
     for method_name, factory in methods.items():
         method = factory()
         try:
-            method.fit(train, dt)
+            if chosen.get(method_name) is not None:
+                method.fit(train, dt, chosen=chosen[method_name])
+            else:
+                method.fit(train, dt)
             fit_error = ""
         except ValueError as exc:
             fit_error = f"fit without it failed: {exc}"
@@ -262,8 +266,10 @@ def run_sweep(
     held_out = _held_out(dataset, held_out)
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
     decide_percents = checked_percents(decide_percents)
+    choices: dict[Pair, dict[str, object]] = {}
     if groups is None:
         folds: list[Fold] = [(((k, j),), ((k, j),)) for k, j in held_out]
+        choices = _choices(methods, dataset, held_out, dt, jobs, scheduler)
     else:
         folds = group_folds(dataset, groups, held_out)
     fold = functools.partial(
@@ -276,6 +282,7 @@ def run_sweep(
         alpha_methods=list(alpha_methods),
         observe_sets=[list(o) for o in observe_sets],
         decide_percents=decide_percents,
+        choices=choices,
     )
     acc: dict[tuple, list[Trial]] = {}
     result = SweepResult()
@@ -311,6 +318,67 @@ def run_sweep(
         key=lambda r: (order[r["method"]], r["observed"], r["alpha_method"], r["percent"])
     )
     return result
+
+
+def _without(
+    dataset: Mapping[str, Sequence[Demonstration]], held: Sequence[Pair]
+) -> dict[str, list[Demonstration]]:
+    """``dataset`` without the demonstrations ``held`` ((primitive index, index) pairs), each
+    primitive's in the order of their content."""
+    out = set(held)
+    return canonical_dataset({
+        name: [d for i, d in enumerate(demos) if (kk, i) not in out]
+        for kk, (name, demos) in enumerate(dataset.items())
+    })  # fmt: skip
+
+
+def _choices(
+    methods: Mapping[str, Factory],
+    dataset: Mapping[str, Sequence[Demonstration]],
+    held_out: Sequence[Pair],
+    dt: float,
+    jobs: int,
+    scheduler: str | None,
+) -> dict[Pair, dict[str, object]]:
+    """The settings of every method that chooses them (its ``choose(train, dt)``: not None),
+    chosen once per block of :func:`promp.evaluate.folds.choice_blocks` that holds a
+    demonstration of ``held_out``, on every demonstration outside the block: {held-out pair:
+    {method name: settings}}. A block whose choice fails (``ValueError``: e.g. a primitive
+    left with a single demonstration) serves nothing, and its folds choose for themselves."""
+    choosers = {name: f for name, f in methods.items() if callable(getattr(f(), "choose", None))}
+    if not choosers:
+        return {}
+    blocks = choice_blocks(dataset)
+    members: dict[int, list[Pair]] = {}
+    for pair, block in sorted(blocks.items()):
+        members.setdefault(block, []).append(pair)
+    needed = sorted({blocks[pair] for pair in held_out})
+    tasks: list[Fold] = [(tuple(members[block]), ()) for block in needed]
+    choose = functools.partial(_choose_without, choosers, dataset, dt)
+    out: dict[Pair, dict[str, object]] = {}
+    for (block_pairs, _), made in zip(tasks, run_folds(choose, tasks, jobs, scheduler, None),
+                                      strict=True):  # fmt: skip
+        for pair in block_pairs:
+            out[pair] = dict(made)
+    return out
+
+
+def _choose_without(
+    methods: Mapping[str, Factory],
+    dataset: Mapping[str, Sequence[Demonstration]],
+    dt: float,
+    task: Fold,
+) -> list[tuple[str, object]]:
+    """Each method's settings chosen on ``dataset`` without the demonstrations ``task[0]``
+    (None where the choice raised ``ValueError``)."""
+    train = _without(dataset, task[0])
+    made = []
+    for name, factory in methods.items():
+        try:
+            made.append((name, factory().choose(train, dt)))
+        except ValueError:
+            made.append((name, None))
+    return made
 
 
 def _held_out(

@@ -18,7 +18,7 @@ from promp.fitting import fit_with
 from promp.model import ProMPModel, Settings
 from promp.selection import choose_settings
 
-__all__ = ["fit"]
+__all__ = ["choose", "fit"]
 
 
 def fit(
@@ -73,6 +73,39 @@ def fit(
         the layout's columns.
     """
     settings = settings or Settings()
+    dataset, dt = _checked(dataset, sample_period)
+    if settings.automatic or settings.duration_temperature is None:
+        settings, choice = choose_settings(dataset, layout, settings, dt, previous)
+    else:
+        choice = {"rule": "given (n_basis, width, noise_scale and duration_temperature set "
+                  "explicitly)"}  # fmt: skip
+    model = fit_with(dataset, layout, settings, dt, regions=regions)
+    return dataclasses.replace(model, report={"settings": choice, **model.report})
+
+
+def choose(
+    dataset: Mapping[str, Sequence[Demonstration]],
+    layout: Layout,
+    settings: Settings | None = None,
+    sample_period: float | None = None,
+) -> Settings:
+    """The settings :func:`fit` would learn ``dataset`` with: every automatic one chosen (the
+    duration's temperature too), the given ones kept. ``fit(other, layout, choose(dataset,
+    ...))`` learns ``other`` at the settings chosen on ``dataset`` without choosing again (the
+    evaluation's folds: :func:`promp.evaluate.sweep.run_sweep`). The arguments and errors are
+    :func:`fit`'s."""
+    settings = settings or Settings()
+    dataset, dt = _checked(dataset, sample_period)
+    if settings.automatic or settings.duration_temperature is None:
+        settings, _ = choose_settings(dataset, layout, settings, dt)
+    return settings
+
+
+def _checked(
+    dataset: Mapping[str, Sequence[Demonstration]], sample_period: float | None
+) -> tuple[dict[str, list[Demonstration]], float]:
+    """``dataset`` in the order of its demonstrations' content and the sample period, checked
+    as :func:`fit` says."""
     if not dataset:
         raise ValueError("no primitive to learn: the dataset is empty")
     # Each primitive's demonstrations in the order of their content: the choice's trials and
@@ -88,10 +121,4 @@ def fit(
                 f"primitive {name!r} has {len(demos)} demonstration(s); at least 2 are needed "
                 "to learn a distribution"
             )
-    if settings.automatic or settings.duration_temperature is None:
-        settings, choice = choose_settings(dataset, layout, settings, dt, previous)
-    else:
-        choice = {"rule": "given (n_basis, width, noise_scale and duration_temperature set "
-                  "explicitly)"}  # fmt: skip
-    model = fit_with(dataset, layout, settings, dt, regions=regions)
-    return dataclasses.replace(model, report={"settings": choice, **model.report})
+    return dataset, dt
