@@ -470,6 +470,18 @@ def test_a_fold_whose_block_choice_fails_chooses_for_itself(monkeypatch) -> None
     assert result.rows[0]["trials"] == 6 and not result.failures
 
 
+def test_a_sweep_stopped_while_choosing_its_settings_ends_there() -> None:
+    """``stop()`` is asked after each block's choice too: a sweep stopped then holds no fold
+    and says it is partial (the Data tab's Cancel does not wait for ten choices)."""
+    dataset = make_dataset(seed=4, n_demos=3)
+    Spy.seen, Spy.chose = [], []
+    result = run_sweep(lambda: Spy(LAYOUT, Settings(n_basis=5, width=1.0, noise_scale=1.5)),
+                       dataset, LAYOUT, [50], ["ml"], [["hand"]], "spy",
+                       stop=lambda: len(Spy.chose) >= 2)  # fmt: skip
+    assert result.partial and not result.rows and not result.trials
+    assert len(Spy.chose) == 2 and not Spy.seen
+
+
 def _sweep(**kwargs):
     dataset = make_dataset(seed=6, n_demos=4)
     return run_sweep(

@@ -252,8 +252,9 @@ def run_sweep(
     demonstration in one group (:func:`promp.evaluate.groups.group_pairs`): each fold holds
     out a whole group and tests those of its demonstrations in ``held_out``; ValueError when
     a fold would leave a primitive fewer than :data:`MIN_TRAINING` demonstrations to learn
-    from. ``stop()`` is asked after every fold: once true, the sweep ends there and its rows
-    hold the folds done (the result says it is ``partial``).
+    from. ``stop()`` is asked after every fold (and every block's choice of the settings):
+    once true, the sweep ends there and its rows hold the folds done (the result says it is
+    ``partial``).
     ``decide_percents``: each trial's probabilities at each, too (:attr:`SweepResult.paths`).
     """
     names = list(dataset)
@@ -269,7 +270,9 @@ def run_sweep(
     choices: dict[Pair, dict[str, object]] = {}
     if groups is None:
         folds: list[Fold] = [(((k, j),), ((k, j),)) for k, j in held_out]
-        choices = _choices(methods, dataset, held_out, dt, jobs, scheduler)
+        choices = _choices(methods, dataset, held_out, dt, jobs, scheduler, stop)
+        if choices is None:  # stopped while choosing: no fold done
+            return SweepResult(partial=True)
     else:
         folds = group_folds(dataset, groups, held_out)
     fold = functools.partial(
@@ -339,12 +342,14 @@ def _choices(
     dt: float,
     jobs: int,
     scheduler: str | None,
-) -> dict[Pair, dict[str, object]]:
+    stop: Callable[[], bool] | None = None,
+) -> dict[Pair, dict[str, object]] | None:
     """The settings of every method that chooses them (its ``choose(train, dt)``: not None),
     chosen once per block of :func:`promp.evaluate.folds.choice_blocks` that holds a
     demonstration of ``held_out``, on every demonstration outside the block: {held-out pair:
     {method name: settings}}. A block whose choice fails (``ValueError``: e.g. a primitive
-    left with a single demonstration) serves nothing, and its folds choose for themselves."""
+    left with a single demonstration) serves nothing, and its folds choose for themselves.
+    None when ``stop()`` turned true after a block."""
     choosers = {name: f for name, f in methods.items() if callable(getattr(f(), "choose", None))}
     if not choosers:
         return {}
@@ -360,6 +365,8 @@ def _choices(
                                       strict=True):  # fmt: skip
         for pair in block_pairs:
             out[pair] = dict(made)
+        if stop is not None and stop():
+            return None
     return out
 
 
