@@ -482,6 +482,27 @@ def test_a_sweep_stopped_while_choosing_its_settings_ends_there() -> None:
     assert len(Spy.chose) == 2 and not Spy.seen
 
 
+def test_with_no_choice_blocks_every_fold_chooses_its_own_settings(tmp_path) -> None:
+    """``--choice-blocks 0``: each fold's fit chooses from its own training demonstrations
+    (no block choice); the report says which way the settings were chosen; a negative count
+    is refused."""
+    dataset = make_dataset(seed=4, n_demos=8)
+    Spy.seen, Spy.chose = [], []
+    run_sweep(lambda: Spy(LAYOUT, Settings(n_basis=5, width=1.0, noise_scale=1.5)), dataset,
+              LAYOUT, [50], ["ml"], [["hand"]], "spy", choice_blocks=0)  # fmt: skip
+    assert not Spy.chose and len(Spy.seen) == 16 and all(c is None for *_, c in Spy.seen)
+    with pytest.raises(ValueError, match="choice_blocks"):
+        run_sweep(lambda: Spy(LAYOUT), dataset, LAYOUT, [50], ["ml"], [["hand"]], "spy",
+                  choice_blocks=-1)  # fmt: skip
+    write_csv_dataset(tmp_path / "data", dataset)
+    out = tmp_path / "r.json"
+    args = [str(tmp_path / "data"), "--format", "csv", "--json", str(out), "--jobs", "1",
+            "--basis", "5", "--width", "1", "--noise-scale", "1.5", "--percent", "50",
+            "--choice-blocks", "4"]  # fmt: skip
+    assert main(args) == 0
+    assert json.loads(out.read_text())["settings"]["choice_blocks"] == 4
+
+
 def _sweep(**kwargs):
     dataset = make_dataset(seed=6, n_demos=4)
     return run_sweep(

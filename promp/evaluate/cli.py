@@ -23,7 +23,10 @@
 (``hand`` = x, y, z, ``head`` = roll, pitch, yaw; for lab records, ``hand`` is the hand in the
 robot's root frame). ``--observe`` (default: the hand) may be repeated to sweep several
 modality sets in one run. The folds run on every core (``--jobs``), or on a Dask cluster
-(``--backend dask --scheduler ADDRESS``); the results are the same. ``--subset N`` holds out
+(``--backend dask --scheduler ADDRESS``); the results are the same. Ours chooses its automatic
+settings once per block of a tenth of the demonstrations, without the block, for the folds that
+test its demonstrations (nested: no trial's settings saw it; :func:`promp.evaluate.folds.
+choice_blocks`). ``--subset N`` holds out
 only N demonstrations per primitive, evenly spread (each still tested by a model fitted on
 every other demonstration): a quick run, the same for every method. ``--group-by`` also holds
 out a whole group at a time (a subject's or a session's folder, :mod:`promp.evaluate.groups`),
@@ -66,6 +69,7 @@ from promp.datasets import (
 )
 from promp.evaluate import decide_options
 from promp.evaluate.baselines import SCALINGS
+from promp.evaluate.folds import CHOICE_BLOCKS
 from promp.evaluate.grouped import plan_groups, run_grouped
 from promp.evaluate.groups import GROUP_BY_HELP, parse_group_by
 from promp.evaluate.loading import Loaded, load, print_findings
@@ -270,6 +274,15 @@ def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
         "others); default: every demonstration",
     )
     parser.add_argument(
+        "--choice-blocks",
+        type=int,
+        default=CHOICE_BLOCKS,
+        metavar="N",
+        help="ours chooses its automatic settings once per block of 1/N of the demonstrations, "
+        "without the block, for the folds that test them (default %(default)s); 0: every fold "
+        "chooses its own (N times slower, the table's choices less noisy)",
+    )
+    parser.add_argument(
         "--jobs", type=int, default=-1, help="processes running the folds (-1: every core)"
     )
     parser.add_argument(
@@ -346,6 +359,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         alpha_methods=args.alpha,
         basis=basis_settings(settings),
         subset=args.subset,
+        choice_blocks=args.choice_blocks,
         findings=loaded.findings,
         excluded=loaded.excluded,
         decisions=swept.decisions,
@@ -426,6 +440,7 @@ def _sweep(args: argparse.Namespace) -> _Swept:
         scheduler=args.scheduler if args.backend == "dask" else None,
         held_out=held_out,
         decide_percents=decide_options.decide_percents(args),
+        choice_blocks=args.choice_blocks,
     )
     decisions = decide_options.judge(args, result, list(dataset))
     grouped = None

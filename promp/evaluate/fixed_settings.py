@@ -7,9 +7,10 @@ primitive, over every held-out demonstration and every observed percentage (10 .
 proper scoring rule of what the studio does, averaged over the whole movement rather than one
 percentage, so it is not tuned to a single operating point. The lowest wins. It works on any
 dataset the evaluation reads. It is an outer check of fixed candidates (each scored by the
-whole leave-one-out sweep); by default every fit chooses its own settings from its training
-demonstrations instead (:mod:`promp.selection`, the same score inside the training set), and
-the covariance prior needs no search (marginal likelihood, per fit).
+whole leave-one-out sweep); by default the sweep chooses the settings from training
+demonstrations instead, once per block of a tenth of the set (:mod:`promp.selection`, the same
+score inside the training set), and the covariance prior needs no search (marginal
+likelihood, per fit).
 """
 
 from __future__ import annotations

@@ -83,6 +83,7 @@ def results_report(
     alpha_methods: Sequence[str],
     basis: Mapping,
     subset: int | None = None,
+    choice_blocks: int | None = None,
     findings: Sequence[Finding] = (),
     excluded: Mapping[tuple[str, str], Sequence[Finding]] | None = None,
     decisions: Decisions | None = None,
@@ -109,6 +110,9 @@ def results_report(
         The learning settings, as :func:`basis_settings` writes them.
     subset : int or None
         Demonstrations held out per primitive (None: every one).
+    choice_blocks : int or None
+        The blocks the automatic settings were chosen in (0: a choice per fold;
+        :func:`promp.evaluate.sweep.run_sweep`).
     findings : sequence of Finding
         What the checks found in the demonstrations (:mod:`promp.quality`).
     excluded : mapping of (primitive, demo) to findings
@@ -149,6 +153,7 @@ def results_report(
             "basis": dict(basis),
             "demonstrations": {name: len(demos) for name, demos in dataset.items()},
             "subset": subset,
+            "choice_blocks": choice_blocks,
         },
         "primitives": list(dataset),
         "results": result.rows,

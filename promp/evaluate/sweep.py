@@ -52,6 +52,7 @@ from promp import metrics
 from promp.content_key import canonical_dataset, content_key
 from promp.data import Demonstration, Layout, sample_period_of
 from promp.evaluate.folds import (  # noqa: F401  (MIN_TRAINING, check_groups re-exported)
+    CHOICE_BLOCKS,
     MIN_TRAINING,
     Fold,
     Pair,
@@ -236,6 +237,7 @@ def run_sweep(
     stop: Callable[[], bool] | None = None,
     decide_percents: Sequence[float] = (),
     groups: Mapping[str, Sequence[Pair]] | None = None,
+    choice_blocks: int = CHOICE_BLOCKS,
 ) -> SweepResult:
     """Run the leave-one-out protocol (or the grouped one, ``groups``); one result row per
     (method, percent, alpha, observed).
@@ -256,7 +258,13 @@ def run_sweep(
     once true, the sweep ends there and its rows hold the folds done (the result says it is
     ``partial``).
     ``decide_percents``: each trial's probabilities at each, too (:attr:`SweepResult.paths`).
+    ``choice_blocks``: without ``groups``, a method that chooses its settings (``choose``)
+    does so once per block of that many (:func:`promp.evaluate.folds.choice_blocks`); 0:
+    every fold's fit chooses its own.
     """
+    if choice_blocks < 0:
+        raise ValueError(f"choice_blocks must be 0 (a choice per fold) or more, got "
+                         f"{choice_blocks}")  # fmt: skip
     names = list(dataset)
     if isinstance(method_factory, Mapping):
         methods = dict(method_factory)
@@ -267,12 +275,14 @@ def run_sweep(
     held_out = _held_out(dataset, held_out)
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
     decide_percents = checked_percents(decide_percents)
-    choices: dict[Pair, dict[str, object]] = {}
+    choices: dict[Pair, dict[str, object]] | None = {}
     if groups is None:
         folds: list[Fold] = [(((k, j),), ((k, j),)) for k, j in held_out]
-        choices = _choices(methods, dataset, held_out, dt, jobs, scheduler, stop)
-        if choices is None:  # stopped while choosing: no fold done
-            return SweepResult(partial=True)
+        if choice_blocks:
+            choices = _choices(methods, dataset, held_out, dt, jobs, scheduler, choice_blocks,
+                               stop)  # fmt: skip
+            if choices is None:  # stopped while choosing: no fold done
+                return SweepResult(partial=True)
     else:
         folds = group_folds(dataset, groups, held_out)
     fold = functools.partial(
@@ -342,6 +352,7 @@ def _choices(
     dt: float,
     jobs: int,
     scheduler: str | None,
+    n_blocks: int,
     stop: Callable[[], bool] | None = None,
 ) -> dict[Pair, dict[str, object]] | None:
     """The settings of every method that chooses them (its ``choose(train, dt)``: not None),
@@ -353,7 +364,7 @@ def _choices(
     choosers = {name: f for name, f in methods.items() if callable(getattr(f(), "choose", None))}
     if not choosers:
         return {}
-    blocks = choice_blocks(dataset)
+    blocks = choice_blocks(dataset, n_blocks)
     members: dict[int, list[Pair]] = {}
     for pair, block in sorted(blocks.items()):
         members.setdefault(block, []).append(pair)
@@ -455,8 +466,9 @@ def leave_one_out(
     ``python -m promp.evaluate`` runs, the protocol of the paper's curves (module docstring).
 
     Every demonstration is held out in turn; :func:`promp.learn.fit` learns from all the
-    others (with ``settings``: by default every fit chooses its basis, width and noise from
-    its own training demonstrations); the first ``p`` % of the held-out one's samples
+    others (with ``settings``: by default its basis, width and noise are chosen without the
+    held-out demonstration, once per block of a tenth of the set:
+    :func:`promp.evaluate.folds.choice_blocks`); the first ``p`` % of the held-out one's samples
     (``n_o = ceil(p / 100 n)``) in the ``observe`` modalities are recognised, conditioned on
     and the rest predicted (:func:`promp.evidence.infer`), and measured against it.
 
@@ -469,7 +481,7 @@ def leave_one_out(
     percents : sequence of float
         The observed shares p, each in (0, 100].
     settings : Settings, optional
-        The learning settings of every fold (default ``Settings()``: chosen by each fit).
+        The learning settings of every fold (default ``Settings()``: chosen per block).
     alpha_methods : sequence of str
         How the speed is found, rows of the result: ``"ml"`` (integrated over the
         primitive's speed prior), ``"model"`` (Eq. 7 from the early motion), ``"true"`` (the

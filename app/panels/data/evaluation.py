@@ -21,6 +21,7 @@ from app.panels.data.results_zip import drawn_figures
 from app.ui.display import ALPHA_LABELS
 from app.ui.text import escape
 from promp.evaluate.decisions import Decisions, decide
+from promp.evaluate.folds import CHOICE_BLOCKS
 from promp.evaluate.grouped import GroupedRun, run_grouped
 from promp.evaluate.groups import parse_group_by
 from promp.evaluate.paths import DECISION_PERCENTS
@@ -278,6 +279,7 @@ class EvaluationJob:
             alpha_methods=plan.alpha_methods,
             basis=basis_settings(plan.settings),
             subset=plan.subset,
+            choice_blocks=CHOICE_BLOCKS,
             findings=plan.findings,
             excluded=plan.left_out,
             decisions=self.outcome.decisions,

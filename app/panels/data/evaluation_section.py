@@ -312,7 +312,7 @@ def summary(job: EvaluationJob) -> str:
         )
     settings = plan.settings
     how = (
-        "settings chosen from the training demonstrations in every fold"
+        "settings chosen without the held-out demonstration (once per tenth of the set)"
         if settings.automatic
         else f"n_basis {settings.n_basis}, width {settings.width:g}"
     )
