@@ -68,11 +68,13 @@ ENSEMBLE, STEP, JITTER = 120, 0.05, 0.5
 _FIT: dict = {}  # the last fold's fit, shared by the variants of that fold
 
 
-def _fitted(engine: ProMPEngine, dataset, dt: float):
-    """The fold's model and each primitive's demonstrations' weights (fitted once per fold)."""
-    key = tuple((name, tuple(d.name for d in demos)) for name, demos in dataset.items())
+def _fitted(engine: ProMPEngine, dataset, dt: float, chosen=None):
+    """The fold's model and each primitive's demonstrations' weights (fitted once per fold, at
+    the settings ``chosen`` for its block: the same for every variant)."""
+    key = (tuple((name, tuple(d.name for d in demos)) for name, demos in dataset.items()),
+           repr(chosen))  # fmt: skip
     if _FIT.get("key") != key:
-        ProMPEngine.fit(engine, dataset, dt)
+        ProMPEngine.fit(engine, dataset, dt, chosen)
         model = engine.model
         _, parts = fit_parts(dataset, engine.layout, model.settings, dt, alpha_models=False)
         _FIT.clear()
@@ -89,8 +91,8 @@ class Variant(ProMPEngine):
         kind, _, value = name.partition(":")
         self.kind, self.value = kind, float(value) if value else None
 
-    def fit(self, dataset, sample_period: float) -> None:
-        self.model, parts = _fitted(self, dataset, sample_period)
+    def fit(self, dataset, sample_period: float, chosen=None) -> None:
+        self.model, parts = _fitted(self, dataset, sample_period, chosen)
         self.parts = {p.name: part for p, part in zip(self.model.primitives, parts, strict=True)}
         self._components: dict = {}
         self._ensembles: dict = {}

@@ -75,9 +75,9 @@ class Spy(ProMPEngine):
 
     seen: list = []
 
-    def fit(self, dataset, sample_period) -> None:
+    def fit(self, dataset, sample_period, chosen=None) -> None:
         Spy.seen.append({f"{k}/{d.name}" for k, demos in dataset.items() for d in demos})
-        super().fit(dataset, sample_period)
+        super().fit(dataset, sample_period, chosen)
 
 
 def test_a_grouped_sweep_holds_out_a_whole_group_and_tests_each_of_it_once() -> None:

@@ -23,10 +23,8 @@
 (``hand`` = x, y, z, ``head`` = roll, pitch, yaw; for lab records, ``hand`` is the hand in the
 robot's root frame). ``--observe`` (default: the hand) may be repeated to sweep several
 modality sets in one run. The folds run on every core (``--jobs``), or on a Dask cluster
-(``--backend dask --scheduler ADDRESS``); the results are the same. Ours chooses its automatic
-settings once per block of a tenth of the demonstrations, without the block, for the folds that
-test its demonstrations (nested: no trial's settings saw it; :func:`promp.evaluate.folds.
-choice_blocks`). ``--subset N`` holds out
+(``--backend dask --scheduler ADDRESS``); the results are the same. Ours chooses its settings
+once per tenth of the set, without it (``--choice-blocks``). ``--subset N`` holds out
 only N demonstrations per primitive, evenly spread (each still tested by a model fitted on
 every other demonstration): a quick run, the same for every method. ``--group-by`` also holds
 out a whole group at a time (a subject's or a session's folder, :mod:`promp.evaluate.groups`),
@@ -278,9 +276,8 @@ def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
         type=int,
         default=CHOICE_BLOCKS,
         metavar="N",
-        help="ours chooses its automatic settings once per block of 1/N of the demonstrations, "
-        "without the block, for the folds that test them (default %(default)s); 0: every fold "
-        "chooses its own (N times slower, the table's choices less noisy)",
+        help="ours chooses its settings once per block of 1/N of the set, without the block, "
+        "for the folds testing it (default %(default)s); 0: every fold chooses its own",
     )
     parser.add_argument(
         "--jobs", type=int, default=-1, help="processes running the folds (-1: every core)"

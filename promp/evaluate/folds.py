@@ -16,6 +16,7 @@ behind.
 
 from __future__ import annotations
 
+import functools
 import os
 import threading
 import time
@@ -23,12 +24,13 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 
-from promp.content_key import content_key
+from promp.content_key import canonical_dataset, content_key
 from promp.data import Demonstration
 
 __all__ = [
     "CHOICE_BLOCKS", "Fold", "MIN_TRAINING", "PARENT_WATCH_S", "Pair", "Progress",
-    "check_groups", "choice_blocks", "exit_with_parent", "group_folds", "run_folds",
+    "block_choices", "check_groups", "choice_blocks", "exit_with_parent", "group_folds",
+    "planned_folds", "run_folds", "without",
 ]  # fmt: skip
 
 Pair = tuple[int, int]  # (primitive index, demonstration index)
@@ -200,3 +202,99 @@ def choice_blocks(
         for j, demo in enumerate(demos)
     )
     return {pair: rank % n_blocks for rank, (_, pair) in enumerate(keyed)}
+
+
+def without(
+    dataset: Mapping[str, Sequence[Demonstration]], held: Sequence[Pair]
+) -> dict[str, list[Demonstration]]:
+    """``dataset`` without the demonstrations ``held`` ((primitive index, index) pairs), each
+    primitive's in the order of their content."""
+    out = set(held)
+    return canonical_dataset({
+        name: [d for i, d in enumerate(demos) if (kk, i) not in out]
+        for kk, (name, demos) in enumerate(dataset.items())
+    })  # fmt: skip
+
+
+def block_choices(
+    methods: Mapping[str, Callable[[], object]],
+    dataset: Mapping[str, Sequence[Demonstration]],
+    held_out: Sequence[Pair],
+    dt: float,
+    where: tuple[int, str | None],
+    n_blocks: int,
+    stop: Callable[[], bool] | None = None,
+) -> dict[Pair, dict[str, object]] | None:
+    """The settings of every method that chooses them (its ``choose(train, dt)``: not None),
+    chosen once per block of :func:`promp.evaluate.folds.choice_blocks` that holds a
+    demonstration of ``held_out``, on every demonstration outside the block: {held-out pair:
+    {method name: settings}} (``where``: :func:`run_folds`' jobs and scheduler). A block whose
+    choice fails (``ValueError``: e.g. a primitive
+    left with a single demonstration) serves nothing, and its folds choose for themselves.
+    None when ``stop()`` turned true after a block."""
+    choosers = {name: f for name, f in methods.items() if callable(getattr(f(), "choose", None))}
+    if not choosers:
+        return {}
+    blocks = choice_blocks(dataset, n_blocks)
+    members: dict[int, list[Pair]] = {}
+    for pair, block in sorted(blocks.items()):
+        members.setdefault(block, []).append(pair)
+    needed = sorted({blocks[pair] for pair in held_out})
+    tasks: list[Fold] = [(tuple(members[block]), ()) for block in needed]
+    choose = functools.partial(_choose_without, choosers, dataset, dt)
+    out: dict[Pair, dict[str, object]] = {}
+    for (block_pairs, _), made in zip(tasks, run_folds(choose, tasks, *where, None),
+                                      strict=True):  # fmt: skip
+        for pair in block_pairs:
+            out[pair] = dict(made)
+        if stop is not None and stop():
+            return None
+    return out
+
+
+def _choose_without(
+    methods: Mapping[str, Callable[[], object]],
+    dataset: Mapping[str, Sequence[Demonstration]],
+    dt: float,
+    task: Fold,
+) -> list[tuple[str, object]]:
+    """Each method's settings chosen on ``dataset`` without the demonstrations ``task[0]``
+    (None where the choice raised ``ValueError``)."""
+    train = without(dataset, task[0])
+    made = []
+    for name, factory in methods.items():
+        try:
+            made.append((name, factory().choose(train, dt)))
+        except ValueError:
+            made.append((name, None))
+    return made
+
+
+def planned_folds(
+    methods: Mapping[str, Callable[[], object]],
+    dataset: Mapping[str, Sequence[Demonstration]],
+    held_out: Sequence[Pair],
+    groups: Mapping[str, Sequence[Pair]] | None,
+    dt: float,
+    where: tuple[int, str | None],
+    n_blocks: int,
+    stop: Callable[[], bool] | None = None,
+) -> tuple[list[Fold], dict[Pair, dict[str, object]] | None]:
+    """A sweep's folds (one per demonstration of ``held_out``, or per group of ``groups``:
+    :func:`group_folds`) and the settings chosen for them (:func:`block_choices` in
+    ``n_blocks`` blocks; none with ``groups`` or ``n_blocks`` 0; None when ``stop()`` turned
+    true while choosing).
+
+    Raises
+    ------
+    ValueError
+        ``n_blocks`` below 0, or the groups' own refusals (:func:`check_groups`).
+    """
+    if n_blocks < 0:
+        raise ValueError(f"choice_blocks must be 0 (a choice per fold) or more, got {n_blocks}")
+    if groups is not None:
+        return group_folds(dataset, groups, held_out), {}
+    folds: list[Fold] = [(((k, j),), ((k, j),)) for k, j in held_out]
+    if not n_blocks:
+        return folds, {}
+    return folds, block_choices(methods, dataset, held_out, dt, where, n_blocks, stop)

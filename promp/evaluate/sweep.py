@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from promp import metrics
-from promp.content_key import canonical_dataset, content_key
+from promp.content_key import content_key
 from promp.data import Demonstration, Layout, sample_period_of
 from promp.evaluate.folds import (  # noqa: F401  (MIN_TRAINING, check_groups re-exported)
     CHOICE_BLOCKS,
@@ -57,9 +57,9 @@ from promp.evaluate.folds import (  # noqa: F401  (MIN_TRAINING, check_groups re
     Fold,
     Pair,
     check_groups,
-    choice_blocks,
-    group_folds,
+    planned_folds,
     run_folds,
+    without,
 )
 from promp.evaluate.methods import ALPHA_ROWS, ProMPEngine, TrialAnswer
 from promp.evaluate.paths import ProbabilityPath, checked_percents, probability_paths
@@ -155,12 +155,13 @@ def _run_fold(
     demonstration index) pairs), on the others in the order of their content, then infer each
     of ``fold[1]`` at every setting (and, with ``decide_percents``, at each of them: its
     probability paths). ``choices``: {held-out pair: {method name: its settings chosen
-    without that pair's block}} (:func:`_choices`), given to the methods' fits."""
+    without that pair's block}} (:func:`promp.evaluate.folds.block_choices`), given to the
+    methods' fits."""
     tested = fold[1]
     chosen = (choices or {}).get(fold[0][0], {}) if len(fold[0]) == 1 else {}
     names = list(dataset)
     pos_dims = layout.dims([position_modality(layout)])
-    train = _without(dataset, fold[0])
+    train = without(dataset, fold[0])
     fitted = []
     for method_name, factory in methods.items():
         method = factory()
@@ -262,9 +263,6 @@ def run_sweep(
     does so once per block of that many (:func:`promp.evaluate.folds.choice_blocks`); 0:
     every fold's fit chooses its own.
     """
-    if choice_blocks < 0:
-        raise ValueError(f"choice_blocks must be 0 (a choice per fold) or more, got "
-                         f"{choice_blocks}")  # fmt: skip
     names = list(dataset)
     if isinstance(method_factory, Mapping):
         methods = dict(method_factory)
@@ -275,16 +273,10 @@ def run_sweep(
     held_out = _held_out(dataset, held_out)
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
     decide_percents = checked_percents(decide_percents)
-    choices: dict[Pair, dict[str, object]] | None = {}
-    if groups is None:
-        folds: list[Fold] = [(((k, j),), ((k, j),)) for k, j in held_out]
-        if choice_blocks:
-            choices = _choices(methods, dataset, held_out, dt, jobs, scheduler, choice_blocks,
-                               stop)  # fmt: skip
-            if choices is None:  # stopped while choosing: no fold done
-                return SweepResult(partial=True)
-    else:
-        folds = group_folds(dataset, groups, held_out)
+    folds, choices = planned_folds(methods, dataset, held_out, groups, dt, (jobs, scheduler),
+                                   choice_blocks, stop)  # fmt: skip
+    if choices is None:  # stopped while choosing: no fold done
+        return SweepResult(partial=True)
     fold = functools.partial(
         _run_fold,
         methods,
@@ -331,72 +323,6 @@ def run_sweep(
         key=lambda r: (order[r["method"]], r["observed"], r["alpha_method"], r["percent"])
     )
     return result
-
-
-def _without(
-    dataset: Mapping[str, Sequence[Demonstration]], held: Sequence[Pair]
-) -> dict[str, list[Demonstration]]:
-    """``dataset`` without the demonstrations ``held`` ((primitive index, index) pairs), each
-    primitive's in the order of their content."""
-    out = set(held)
-    return canonical_dataset({
-        name: [d for i, d in enumerate(demos) if (kk, i) not in out]
-        for kk, (name, demos) in enumerate(dataset.items())
-    })  # fmt: skip
-
-
-def _choices(
-    methods: Mapping[str, Factory],
-    dataset: Mapping[str, Sequence[Demonstration]],
-    held_out: Sequence[Pair],
-    dt: float,
-    jobs: int,
-    scheduler: str | None,
-    n_blocks: int,
-    stop: Callable[[], bool] | None = None,
-) -> dict[Pair, dict[str, object]] | None:
-    """The settings of every method that chooses them (its ``choose(train, dt)``: not None),
-    chosen once per block of :func:`promp.evaluate.folds.choice_blocks` that holds a
-    demonstration of ``held_out``, on every demonstration outside the block: {held-out pair:
-    {method name: settings}}. A block whose choice fails (``ValueError``: e.g. a primitive
-    left with a single demonstration) serves nothing, and its folds choose for themselves.
-    None when ``stop()`` turned true after a block."""
-    choosers = {name: f for name, f in methods.items() if callable(getattr(f(), "choose", None))}
-    if not choosers:
-        return {}
-    blocks = choice_blocks(dataset, n_blocks)
-    members: dict[int, list[Pair]] = {}
-    for pair, block in sorted(blocks.items()):
-        members.setdefault(block, []).append(pair)
-    needed = sorted({blocks[pair] for pair in held_out})
-    tasks: list[Fold] = [(tuple(members[block]), ()) for block in needed]
-    choose = functools.partial(_choose_without, choosers, dataset, dt)
-    out: dict[Pair, dict[str, object]] = {}
-    for (block_pairs, _), made in zip(tasks, run_folds(choose, tasks, jobs, scheduler, None),
-                                      strict=True):  # fmt: skip
-        for pair in block_pairs:
-            out[pair] = dict(made)
-        if stop is not None and stop():
-            return None
-    return out
-
-
-def _choose_without(
-    methods: Mapping[str, Factory],
-    dataset: Mapping[str, Sequence[Demonstration]],
-    dt: float,
-    task: Fold,
-) -> list[tuple[str, object]]:
-    """Each method's settings chosen on ``dataset`` without the demonstrations ``task[0]``
-    (None where the choice raised ``ValueError``)."""
-    train = _without(dataset, task[0])
-    made = []
-    for name, factory in methods.items():
-        try:
-            made.append((name, factory().choose(train, dt)))
-        except ValueError:
-            made.append((name, None))
-    return made
 
 
 def _held_out(
