@@ -226,12 +226,11 @@ def block_choices(
     stop: Callable[[], bool] | None = None,
 ) -> dict[Pair, dict[str, object]] | None:
     """The settings of every method that chooses them (its ``choose(train, dt)``: not None),
-    chosen once per block of :func:`promp.evaluate.folds.choice_blocks` that holds a
-    demonstration of ``held_out``, on every demonstration outside the block: {held-out pair:
-    {method name: settings}} (``where``: :func:`run_folds`' jobs and scheduler). A block whose
-    choice fails (``ValueError``: e.g. a primitive
-    left with a single demonstration) serves nothing, and its folds choose for themselves.
-    None when ``stop()`` turned true after a block."""
+    chosen once per block of :func:`choice_blocks` that holds a demonstration of
+    ``held_out``, on every demonstration outside the block: {held-out pair: {method name:
+    settings}} (``where``: :func:`run_folds`' jobs and scheduler). A block whose choice fails
+    (``ValueError``: e.g. a primitive left with a single demonstration) serves nothing, and its
+    folds choose for themselves. None when ``stop()`` turned true after a block."""
     choosers = {name: f for name, f in methods.items() if callable(getattr(f(), "choose", None))}
     if not choosers:
         return {}
