@@ -133,6 +133,12 @@ class Settings:
         """The settings left to the data (None), in the order of :data:`FALLBACK`."""
         return tuple(name for name in FALLBACK if getattr(self, name) is None)
 
+    @property
+    def to_choose(self) -> bool:
+        """Whether a fit chooses anything from the data: an :attr:`automatic` setting or the
+        duration's temperature (:func:`promp.learn.fit`, :func:`promp.learn.choose`)."""
+        return bool(self.automatic) or self.duration_temperature is None
+
     def with_fallback(self) -> Settings:
         """These settings with every automatic one at its fallback value."""
         return dataclasses.replace(self, **{name: FALLBACK[name] for name in self.automatic})

@@ -9,7 +9,7 @@ from numpy.testing import assert_allclose
 from promp import selection
 from promp.data import Demonstration, Layout, Modality
 from promp.io import model_from_json, model_to_json
-from promp.learn import fit
+from promp.learn import choose, fit
 from promp.model import FALLBACK, Settings
 from promp.selection import batches, candidates, loo, search
 from tests.synthetic import LAYOUT, make_dataset
@@ -150,6 +150,17 @@ def test_explicit_settings_override_the_choice() -> None:
     }
     assert {c["n_basis"] for c in report["candidates"]} == {5}
     assert all(c["noise_scale"] == [2.0] for c in report["candidates"])
+
+
+def test_a_fit_chooses_unless_every_setting_and_the_temperature_are_given() -> None:
+    given = {"n_basis": 5, "width": 1.5, "noise_scale": 2.0, "duration_temperature": 0.5}
+    assert not Settings(**given).to_choose
+    for left in given:  # any one of them left to the data is a choice to make
+        assert Settings(**{k: v for k, v in given.items() if k != left}).to_choose, left
+    dataset = make_dataset(seed=1, n_demos=4)
+    assert choose(dataset, LAYOUT, Settings(**given)) == Settings(**given)
+    chosen = choose(dataset, LAYOUT, Settings(**{**given, "duration_temperature": None}))
+    assert chosen.duration_temperature is not None and chosen.n_basis == 5
 
 
 def test_nothing_to_score_falls_back_and_says_why() -> None:

@@ -72,10 +72,9 @@ class ProMPEngine:
         """The settings a fit on ``dataset`` chooses (:func:`promp.learn.choose`), or None when
         every one is given (nothing to choose). The sweep chooses once for several folds
         (:func:`promp.evaluate.sweep.run_sweep`) and hands the result to their fits."""
-        settings = self.settings
-        if not settings.automatic and settings.duration_temperature is not None:
+        if not self.settings.to_choose:
             return None
-        return choose(dataset, self.layout, settings, sample_period=sample_period)
+        return choose(dataset, self.layout, self.settings, sample_period=sample_period)
 
     def fit(
         self,

@@ -74,7 +74,7 @@ def fit(
     """
     settings = settings or Settings()
     dataset, dt = _checked(dataset, sample_period)
-    if settings.automatic or settings.duration_temperature is None:
+    if settings.to_choose:
         settings, choice = choose_settings(dataset, layout, settings, dt, previous)
     else:
         choice = {"rule": "given (n_basis, width, noise_scale and duration_temperature set "
@@ -96,7 +96,7 @@ def choose(
     :func:`fit`'s."""
     settings = settings or Settings()
     dataset, dt = _checked(dataset, sample_period)
-    if settings.automatic or settings.duration_temperature is None:
+    if settings.to_choose:
         settings, _ = choose_settings(dataset, layout, settings, dt)
     return settings
 
