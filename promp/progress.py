@@ -48,10 +48,13 @@ def clock(seconds: float) -> str:
     return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes}:{secs:02d}"
 
 
-def progress_text(done: int, total: int, elapsed_s: float, unit: str = "") -> str:
-    """``"12 / 40 trials · 0:35 elapsed · about 1:10 left"`` (see :func:`time_left`)."""
+def progress_text(done: int, total: int, elapsed_s: float, unit: str = "",
+                  pace_s: float | None = None) -> str:  # fmt: skip
+    """``"12 / 40 trials · 0:35 elapsed · about 1:10 left"`` (see :func:`time_left`); the
+    time left from the ``done`` steps' own time ``pace_s`` when the elapsed time includes an
+    earlier stage's (default: ``elapsed_s``)."""
     counted = f"{done} / {total}" + (f" {unit}" if unit else "")
-    left = time_left(done, total, elapsed_s)
+    left = time_left(done, total, elapsed_s if pace_s is None else pace_s)
     if done == total:
         return f"{counted} · {clock(elapsed_s)} elapsed"
     estimate = "estimating the time left" if left is None else f"about {clock(left)} left"

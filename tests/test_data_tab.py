@@ -636,21 +636,24 @@ def test_export_the_workspace_and_import_it_back(page, studio, artifacts) -> Non
     assert {n: [d.name for d in v] for n, v in demos.items()} == demos_before
 
 
-def gate_sweep(monkeypatch) -> threading.Event:
-    """Make the next sweep wait after its first held-out demonstration until the returned
-    event is set (the sweep itself is the real one)."""
+def gate_sweep(monkeypatch, stage: str = "progress") -> threading.Event:
+    """Make the next sweep wait after its first held-out demonstration (``stage``
+    ``"choosing"``: its first block's choice of the settings) until the returned event is set
+    (the sweep itself is the real one; gates of both stages stack)."""
     import app.panels.data.evaluation as data_panel
 
     gate = threading.Event()
-    real = run_sweep
+    real = data_panel.run_sweep
 
-    def gated(*args, progress, **kwargs):
+    def gated(*args, **kwargs):
+        told = kwargs[stage]
+
         def report(done: int, total: int) -> None:
-            progress(done, total)
+            told(done, total)
             if done == 1:
                 gate.wait(120)
 
-        return real(*args, progress=report, **kwargs)
+        return real(*args, **{**kwargs, stage: report})
 
     monkeypatch.setattr(data_panel, "run_sweep", gated)
     return gate
@@ -683,7 +686,8 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     run.click()
     job = until(lambda: panel._job, what="the evaluation to start")
     # Held after the first of 12 held-out demonstrations: the page shows a running job.
-    until(lambda: job.progress.done == 1, what="the first held-out demonstration")
+    until(lambda: not job.progress.choosing and job.progress.done == 1,
+          what="the first held-out demonstration")  # fmt: skip
     bar = page.locator("[role=progressbar]").first
     until(lambda: bar.get_attribute("aria-valuenow") == f"{100 / 12}", what="the bar at 1/12")
     cancel = page.get_by_role("button", name="Cancel evaluation")
@@ -725,7 +729,8 @@ def test_leave_one_out_evaluation_from_the_gui(page, studio, artifacts, monkeypa
     gate = gate_sweep(monkeypatch)
     run.click()
     second = until(lambda: panel._job is not job and panel._job, what="a second run")
-    until(lambda: second.progress.done == 1, what="the second run to start")
+    until(lambda: not second.progress.choosing and second.progress.done == 1,
+          what="the second run's first held-out demonstration")  # (after its blocks' choices)
     page.get_by_role("button", name="Cancel evaluation").click()
     until(second.cancel.is_set, what="the cancel click")
     gate.set()

@@ -13,6 +13,8 @@ import pytest
 
 from app.io.workspace import Workspace, WorkspaceData
 from app.io.workspace_index import PALETTE, PrimitiveEntry
+from promp.model import Settings
+from promp.progress import clock
 from tests.browser import click, open_tab, press
 from tests.conftest import StudioSpec, open_page, wait_until
 from tests.test_data_tab import gate_sweep  # the next sweep waits after its first fold
@@ -52,9 +54,20 @@ def test_progress_cancel_and_a_workspace_switch(browser, studio, monkeypatch, tm
         controls.observe_dropdown.value = "hand + head"
         controls.alpha_dropdown.value = "ML"
         gate = gate_sweep(monkeypatch)
+        chosen = gate_sweep(monkeypatch, "choosing")  # the duration's temperature is automatic
         click(page, "Run leave-one-out evaluation")
         job = until(lambda: section.job, what="the evaluation to start")
-        until(lambda: job.progress.done == 1, what="the first held-out demonstration")
+
+        # The settings chosen once per block first: said, with the bar moving.
+        page.get_by_text("Running on lab-a: choosing the settings: 1 / 10 blocks").wait_for()
+        until(lambda: controls.progress_bar.value == 10.0, what="the bar at the first block")
+        page.get_by_text("Leave-one-out evaluation", exact=True).first.evaluate(
+            "e => e.scrollIntoView({block: 'start'})"
+        )
+        page.screenshot(path="/tmp/progress_choosing.png")
+        chosen.set()
+        until(lambda: not job.progress.choosing and job.progress.done == 1,
+              what="the first held-out demonstration")  # fmt: skip
 
         # Counts, the time elapsed and the time left, in words a person plans with.
         status = page.get_by_text("Running on lab-a: 1 / 12 held-out demonstrations")
@@ -118,3 +131,55 @@ def test_an_uploaded_dataset_says_how_long_reading_and_checking_took(browser, st
         page.screenshot(path="/tmp/progress_import.png")
     finally:
         page.close()
+
+
+@pytest.mark.parametrize("settings", [Settings(), Settings(**SETTINGS, duration_temperature=1.0)],
+                         ids=["automatic", "given"])  # fmt: skip
+def test_the_progress_says_the_settings_are_being_chosen_then_counts_the_folds(
+    monkeypatch, settings
+) -> None:
+    """Automatic settings are chosen once per block before any demonstration is held out
+    (about a third of a run): the bar and the words follow the blocks, then the folds from
+    zero, with the time left from the folds' own pace. Nothing to choose: no such stage."""
+    import app.panels.data.evaluation as data_panel
+    from app.panels.data.evaluation import EvaluationJob
+    from app.panels.data.evaluation_plan import EvaluationPlan
+    from tests.synthetic import LAYOUT, make_dataset
+
+    job = EvaluationJob(EvaluationPlan(
+        dataset=make_dataset(seed=0, n_demos=3), skipped={}, percents=[50.0],
+        observe_sets=[["hand"]], alpha_methods=["ml"], settings=settings, layout=LAYOUT,
+        source="/somewhere/lab",
+    ))  # fmt: skip
+    seen, real = [], data_panel.run_sweep
+
+    def spying(*args, progress, choosing, **kwargs):
+        def spy(report):
+            def call(done: int, total: int) -> None:
+                report(done, total)
+                seen.append(job.progress)
+
+            return call
+
+        return real(*args, progress=spy(progress), choosing=spy(choosing), **kwargs)
+
+    monkeypatch.setattr(data_panel, "run_sweep", spying)
+    job.run()
+    assert job.outcome.error is None and not job.outcome.cancelled
+    stages = [p for p in seen if p.choosing]
+    folds = [p for p in seen if not p.choosing]
+    assert [(p.done, p.total) for p in folds] == [(0, 6)] * bool(stages) + [(k, 6) for k in
+                                                                             range(1, 7)]
+    assert seen[:len(stages)] == stages  # every block before any fold
+    if settings.to_choose:
+        assert [(p.done, p.total) for p in stages] == [(k, 6) for k in range(6)]
+        now = stages[1].started + 30.0
+        assert stages[1].text(now).startswith("choosing the settings: 1 / 6 blocks · 0:30 "
+                                              "elapsed · about 2:30 left")  # fmt: skip
+        since = folds[0].since  # the folds' clock: from the last block's choice
+        assert stages[-1].started < since <= folds[-1].since
+        text = folds[1].text(since + 10.0)  # 1 of 6 in 10 s: 50 s left, however long before
+        assert text.startswith("1 / 6 held-out demonstrations · ") and "about 0:50 left" in text
+        assert f"· {clock(since + 10.0 - folds[1].started)} elapsed ·" in text  # the run's
+    else:
+        assert not stages and all(p.since == 0.0 for p in folds)

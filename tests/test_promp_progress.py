@@ -63,7 +63,13 @@ def test_python_m_promp_evaluate_prints_its_progress_on_stderr(tmp_path, capsys)
             "--basis", "7", "--width", "1", "--noise-scale", "1.5", "--alpha", "ml",
             "--percent", "50", "--jobs", "1"]  # fmt: skip
     assert main(argv) == 0
-    lines = [line for line in capsys.readouterr().err.splitlines() if "leave-one-out" in line]
+    err = capsys.readouterr().err.splitlines()
+    # the duration's temperature is left to the data: chosen once per block, said first
+    choosing = [line for line in err if "choosing the settings" in line]
+    assert choosing[0].startswith("ours: choosing the settings: 0 / 6 blocks · 0:0")
+    assert choosing[-1].startswith("ours: choosing the settings: 6 / 6 blocks · ")
+    assert err.index(choosing[-1]) < min(k for k, line in enumerate(err) if "leave-one" in line)
+    lines = [line for line in err if "leave-one-out" in line]
     assert lines[0].startswith("ours: leave-one-out: 1 / 6 held-out demonstrations · 0:0")
     assert " elapsed · about " in lines[0] and lines[0].endswith(" left")
     assert lines[-1].startswith("ours: leave-one-out: 6 / 6 held-out demonstrations · ")

@@ -438,6 +438,7 @@ def _sweep(args: argparse.Namespace) -> _Swept:
         held_out=held_out,
         decide_percents=decide_options.decide_percents(args),
         choice_blocks=args.choice_blocks,
+        choosing=stderr_progress(f"{title}: choosing the settings", "blocks"),
     )
     decisions = decide_options.judge(args, result, list(dataset))
     grouped = None

@@ -224,14 +224,16 @@ def block_choices(
     where: tuple[int, str | None],
     n_blocks: int,
     stop: Callable[[], bool] | None = None,
+    progress: Progress | None = None,
 ) -> dict[Pair, dict[str, object]] | None:
-    """The settings of every method that chooses them (its ``choose(train, dt)``: not None),
-    chosen once per block of :func:`choice_blocks` that holds a demonstration of
-    ``held_out``, on every demonstration outside the block: {held-out pair: {method name:
-    settings}} (``where``: :func:`run_folds`' jobs and scheduler). A block whose choice fails
-    (``ValueError``: e.g. a primitive left with a single demonstration) serves nothing, and its
-    folds choose for themselves. None when ``stop()`` turned true after a block."""
-    choosers = {name: f for name, f in methods.items() if callable(getattr(f(), "choose", None))}
+    """The settings of every method that chooses them (its ``choose(train, dt)``, unless its
+    ``chooses`` is false), chosen once per block of :func:`choice_blocks` that holds a
+    demonstration of ``held_out``, on every demonstration outside the block: {held-out pair:
+    {method name: settings}} (``where``: :func:`run_folds`' jobs and scheduler). A block whose
+    choice fails (``ValueError``: e.g. a primitive left with a single demonstration) serves
+    nothing, and its folds choose for themselves. None when ``stop()`` turned true after a
+    block. ``progress`` is called with (blocks chosen, blocks), first with none chosen."""
+    choosers = {name: f for name, f in methods.items() if _chooses(f())}
     if not choosers:
         return {}
     blocks = choice_blocks(dataset, n_blocks)
@@ -242,13 +244,23 @@ def block_choices(
     tasks: list[Fold] = [(tuple(members[block]), ()) for block in needed]
     choose = functools.partial(_choose_without, choosers, dataset, dt)
     out: dict[Pair, dict[str, object]] = {}
-    for (block_pairs, _), made in zip(tasks, run_folds(choose, tasks, *where, None),
-                                      strict=True):  # fmt: skip
+    if progress is not None:
+        progress(0, len(tasks))
+    for done, ((block_pairs, _), made) in enumerate(
+            zip(tasks, run_folds(choose, tasks, *where, None), strict=True), 1):  # fmt: skip
         for pair in block_pairs:
             out[pair] = dict(made)
+        if progress is not None:
+            progress(done, len(tasks))
         if stop is not None and stop():
             return None
     return out
+
+
+def _chooses(method: object) -> bool:
+    """Whether ``method`` chooses settings from its training set: it has ``choose``, and its
+    ``chooses`` (if it says) is true."""
+    return callable(getattr(method, "choose", None)) and bool(getattr(method, "chooses", True))
 
 
 def _choose_without(
@@ -278,11 +290,12 @@ def planned_folds(
     where: tuple[int, str | None],
     n_blocks: int,
     stop: Callable[[], bool] | None = None,
+    choosing: Progress | None = None,
 ) -> tuple[list[Fold], dict[Pair, dict[str, object]] | None]:
     """A sweep's folds (one per demonstration of ``held_out``, or per group of ``groups``:
     :func:`group_folds`) and the settings chosen for them (:func:`block_choices` in
-    ``n_blocks`` blocks; none with ``groups`` or ``n_blocks`` 0; None when ``stop()`` turned
-    true while choosing).
+    ``n_blocks`` blocks, telling ``choosing`` how far it is; none with ``groups`` or
+    ``n_blocks`` 0; None when ``stop()`` turned true while choosing).
 
     Raises
     ------
@@ -296,4 +309,4 @@ def planned_folds(
     folds: list[Fold] = [(((k, j),), ((k, j),)) for k, j in held_out]
     if not n_blocks:
         return folds, {}
-    return folds, block_choices(methods, dataset, held_out, dt, where, n_blocks, stop)
+    return folds, block_choices(methods, dataset, held_out, dt, where, n_blocks, stop, choosing)

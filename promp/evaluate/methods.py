@@ -66,13 +66,19 @@ class ProMPEngine:
         self.settings = settings or Settings()
         self.model: ProMPModel | None = None
 
+    @property
+    def chooses(self) -> bool:
+        """Whether a fit chooses any setting from its training set (else :meth:`choose`
+        gives None, and the sweep has nothing to choose in blocks)."""
+        return self.settings.to_choose
+
     def choose(
         self, dataset: Mapping[str, Sequence[Demonstration]], sample_period: float
     ) -> Settings | None:
         """The settings a fit on ``dataset`` chooses (:func:`promp.learn.choose`), or None when
         every one is given (nothing to choose). The sweep chooses once for several folds
         (:func:`promp.evaluate.sweep.run_sweep`) and hands the result to their fits."""
-        if not self.settings.to_choose:
+        if not self.chooses:
             return None
         return choose(dataset, self.layout, self.settings, sample_period=sample_period)
 

@@ -239,6 +239,7 @@ def run_sweep(
     decide_percents: Sequence[float] = (),
     groups: Mapping[str, Sequence[Pair]] | None = None,
     choice_blocks: int = CHOICE_BLOCKS,
+    choosing: Progress | None = None,
 ) -> SweepResult:
     """Run the leave-one-out protocol (or the grouped one, ``groups``); one result row per
     (method, percent, alpha, observed).
@@ -261,7 +262,8 @@ def run_sweep(
     ``decide_percents``: each trial's probabilities at each, too (:attr:`SweepResult.paths`).
     ``choice_blocks``: without ``groups``, a method that chooses its settings (``choose``)
     does so once per block of that many (:func:`promp.evaluate.folds.choice_blocks`); 0:
-    every fold's fit chooses its own.
+    every fold's fit chooses its own. ``choosing`` is called with (blocks chosen, blocks) as
+    they are, before any fold (``progress`` then counts the folds).
     """
     names = list(dataset)
     if isinstance(method_factory, Mapping):
@@ -274,7 +276,7 @@ def run_sweep(
     dt = sample_period_of([d for demos in dataset.values() for d in demos])
     decide_percents = checked_percents(decide_percents)
     folds, choices = planned_folds(methods, dataset, held_out, groups, dt, (jobs, scheduler),
-                                   choice_blocks, stop)  # fmt: skip
+                                   choice_blocks, stop, choosing)  # fmt: skip
     if choices is None:  # stopped while choosing: no fold done
         return SweepResult(partial=True)
     fold = functools.partial(

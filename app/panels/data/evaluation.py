@@ -38,21 +38,32 @@ class EvaluationProgress:
     Attributes
     ----------
     done, total : int
-        Held-out demonstrations done, of how many.
+        Held-out demonstrations done, of how many (while ``choosing``: blocks).
     started : float
         ``time.monotonic()`` when it started (0: not yet).
+    choosing : bool
+        The settings are being chosen, once per block of the set, before any demonstration
+        is held out (:func:`promp.evaluate.folds.block_choices`).
+    since : float
+        ``time.monotonic()`` when this stage began (0: when it started): the time left is
+        estimated from this stage's pace alone.
     """
 
     done: int
     total: int
     started: float = 0.0
+    choosing: bool = False
+    since: float = 0.0
 
     def text(self, now: float) -> str:
         """``"5 / 12 held-out demonstrations · 0:35 elapsed · about 0:49 left"`` at ``now``
-        (``time.monotonic()``)."""
+        (``time.monotonic()``); while choosing, ``"choosing the settings: 3 / 10 blocks ·
+        ..."``."""
         elapsed = now - self.started if self.started else 0.0
-        return progress_text(self.done, max(self.total, self.done), elapsed,
-                             "held-out demonstrations")  # fmt: skip
+        pace = now - self.since if self.since else None  # this stage's, for the time left
+        text = progress_text(self.done, max(self.total, self.done), elapsed,
+                             "blocks" if self.choosing else "held-out demonstrations", pace)
+        return f"choosing the settings: {text}" if self.choosing else text
 
 
 @dataclass(frozen=True)
@@ -133,8 +144,17 @@ class EvaluationJob:
         started = time.monotonic()
         self.progress = replace(self.progress, started=started)
 
+        since = [0.0]  # when the folds began, once the settings were chosen
+
+        def choosing(done: int, total: int) -> None:
+            self.progress = EvaluationProgress(done, total, started, choosing=True)
+            if done == total:  # the folds begin
+                since[0] = time.monotonic()
+                self.progress = EvaluationProgress(0, plan.n_held_out, started, since=since[0])
+
         def progress(done: int, total: int) -> None:  # (the grouped sweep's count too)
-            self.progress = EvaluationProgress(done, max(total, plan.n_held_out), started)
+            self.progress = EvaluationProgress(done, max(total, plan.n_held_out), started,
+                                               since=since[0])  # fmt: skip
 
         result, error, decisions, grouped = None, None, None, None
         methods = method_factories(plan.methods, plan.layout, plan.settings)
@@ -147,6 +167,7 @@ class EvaluationJob:
                 alpha_methods=plan.alpha_methods,
                 observe_sets=plan.observe_sets,
                 progress=progress,
+                choosing=choosing,
                 keep_trials=True,
                 stop=self.cancel.is_set,
                 held_out=plan.held_out,

@@ -102,7 +102,7 @@ class EvaluationSection:
         self.notify = notify
         self._job: EvaluationJob | None = None
         self._job_shown: EvaluationJob | None = None
-        self._shown = (-1, 0.0)  # the count shown, and when the status was written
+        self._shown: tuple[object, float] = (None, 0.0)  # the progress shown, and when written
         self._root = ctx.store.state.workspace.root  # the workspace the results are of
         self._layout = ctx.store.state.layout  # whose modalities the Observed choices are
         gui = ctx.gui
@@ -228,8 +228,8 @@ class EvaluationSection:
         now = time.monotonic()
         outcome, progress = job.outcome, job.progress  # the outcome first: then progress is final
         c = self.controls
-        if progress.done != self._shown[0] or (outcome is None and now - self._shown[1] >= 1.0):
-            self._shown = (progress.done, now)
+        if progress != self._shown[0] or (outcome is None and now - self._shown[1] >= 1.0):
+            self._shown = (progress, now)
             c.progress_bar.value = 100.0 * progress.done / max(progress.total, 1)
             if outcome is None:  # the counts, and the clock every second
                 c.eval_status.content = running_text(job, now)
