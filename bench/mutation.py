@@ -7,8 +7,9 @@ Each mutant runs only the tests that reach the function it changes (mutmut's per
 selection, recorded in a first, clean run of the tests), fastest first, up to the first that
 fails; a mutant of a module of :data:`MODULE_TESTS` only those of its module's test files
 (``bench/mutation_select.py``: the pipeline's core is reached by every live test). A mutant
-that runs past ``(its tests' clean time + 10 s) x --timeout-multiplier`` (3) is stopped and
-counted as caught (mutmut's default, 15 times, let one endless loop hold the run 19 minutes).
+that runs past ``(its tests' clean time + 10 s) x --timeout-multiplier`` (3), or holds one
+test past ``its clean time x 3 + 10 s``, is stopped and counted as caught (mutmut's default,
+15 times, let one endless loop hold the run 19 minutes).
 
 The run happens in a temporary copy of the repository (the packages the paths are in,
 ``tests/``, ``docs/`` and ``pyproject.toml``, into which the ``[tool.mutmut]`` table is

@@ -13,7 +13,11 @@ exits 5, which mutmut counts as "no tests" (not caught).
 mutmut's time limit on a mutant comes from the time of every test that reaches it; for a
 module of the map the limit is the one of the tests it runs: ``(their clean time + constant) x
 multiplier`` (both in the map's file, as bench/mutation.py passes them to mutmut), after which
-the mutant's process ends with mutmut's exit code for a timeout (36: caught).
+the mutant's process ends with mutmut's exit code for a timeout (36: caught). Each test has its
+own limit within that one, ``its clean time x multiplier + constant``: a mutant that loops
+for ever is stopped in the first test it holds, not after its whole set's time (a minute and
+a half for a set of 25 s; the first run of the whole of ``promp/live`` spent a quarter of its
+time waiting out such mutants).
 
 A mutant that changes only messages (bench/mutation.py's rule, here ``mutation_rules.py``, its
 copy) is excluded from the score whatever its fate: it runs no test (pytest exits 5). Its tests
@@ -27,7 +31,10 @@ import ast
 import json
 import os
 import signal
+import time
 from pathlib import Path
+
+import pytest
 
 MAP = Path(__file__).with_name("mutation_tests.json")
 EXCLUDED = Path("mutation_excluded.json")  # per module, its mutants that change only messages
@@ -103,7 +110,26 @@ def pytest_collection_modifyitems(config, items) -> None:
         items[:] = keep
     stats = Path("mutmut-stats.json")  # mutmut's, in its folder (the tests' working one)
     durations = json.loads(stats.read_text())["duration_by_test"] if stats.exists() else {}
-    limit = (sum(durations.get(i.nodeid, 1.0) for i in keep) + chosen["timeout_constant"]) \
-        * chosen["timeout_multiplier"]  # fmt: skip
+    constant, multiplier = chosen["timeout_constant"], chosen["timeout_multiplier"]
+    limit = (sum(durations.get(i.nodeid, 1.0) for i in keep) + constant) * multiplier
+    _LIMITS.update({i.nodeid: durations.get(i.nodeid, 1.0) * multiplier + constant
+                    for i in keep})  # fmt: skip
+    _LIMITS[_WHOLE] = time.monotonic() + limit
     signal.signal(signal.SIGALRM, lambda *_: os._exit(TIMEOUT_EXIT))
     signal.setitimer(signal.ITIMER_REAL, limit)
+
+
+_LIMITS: dict[str, float] = {}  # a mutant's tests: {node id: seconds}, and the whole set's end
+_WHOLE = ""  # the key of the whole set's end (time.monotonic())
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    """Each test of a mutant within its own limit, and within what is left of its set's."""
+    if _WHOLE not in _LIMITS:  # the clean run, or a module outside the map
+        yield
+        return
+    left = _LIMITS[_WHOLE] - time.monotonic()
+    signal.setitimer(signal.ITIMER_REAL, max(min(_LIMITS.get(item.nodeid, left), left), 1e-3))
+    yield
+    signal.setitimer(signal.ITIMER_REAL, max(_LIMITS[_WHOLE] - time.monotonic(), 1e-3))
