@@ -132,6 +132,15 @@ MODULE_TESTS = {
     # session file too); the session file's test of the command replays a long recording
     # (8 s, a module fixture's), for each mutant of the command's main
     "promp.live.cli": ["tests/test_promp_live_cli.py", "tests/test_promp_live_viewer_sink.py"],
+    # reached by every session's test too (the first whole run: ~45 s of tests for each
+    # mutant of the snapshot, ~50 s for the options'); their own tests and their nearest users'
+    "promp.live.snapshot": ["tests/test_promp_live_snapshot.py",
+                            "tests/test_promp_live_session_runner.py",
+                            "tests/test_promp_live_status_line.py"],
+    "promp.live.options": ["tests/test_promp_live_options.py", "tests/test_promp_live_pipeline.py",
+                           "tests/test_promp_live_cli.py"],
+    "promp.live.session_file": ["tests/test_promp_live_session_records.py",
+                                "tests/test_promp_live_session_file.py"],
 }
 # mutmut's time limit on a mutant: (its tests' time in the clean run + CONSTANT) x MULTIPLIER
 # seconds of wall time (mutmut's defaults 1 and 15: a mutant of the pipeline's step that loops
