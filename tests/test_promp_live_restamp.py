@@ -221,3 +221,23 @@ def test_an_irregular_stream_is_given_as_it_comes_even_in_bursts() -> None:
     assert_array_equal(got, times)
     assert values.shape == (4, 2)
     assert spread.release(2.0)[0].size == 0 and spread.lateness(2.0) == 0.0
+
+
+def test_a_burst_of_two_after_a_sample_of_the_same_batch_is_put_back_after_that_sample() -> None:
+    """The shortest burst (two samples pushed together after a pause), behind an on-time
+    sample of the same pull: re-spread one step before its last, after that sample."""
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)  # up to 1.09
+    pushed = np.array([1.10, 1.125, 1.125 + 1e-5])  # on time, then 2.5 steps, then two at once
+    times, values = spread.add(pushed, np.arange(3.0)[:, None], 1.12502)
+    assert_allclose(times, [1.10, 1.125 + 1e-5 - 1 / RATE, 1.125 + 1e-5], atol=1e-12)
+    assert_array_equal(values[:, 0], [0.0, 1.0, 2.0])
+
+
+def test_nothing_arrived_or_held_gives_nothing_of_the_streams_width() -> None:
+    fresh = Respread(RATE)
+    for times, values in (fresh.add(np.zeros(0), np.zeros((0, 3)), 1.0), fresh.release(1.0)):
+        assert times.shape == (0,) and values.shape[0] == 0
+    on_time(fresh, 1.0, 5)
+    times, values = fresh.release(1.2)  # everything given already
+    assert times.shape == (0,) and values.shape == (0, 1)
