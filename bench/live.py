@@ -45,6 +45,7 @@ Run: ``.venv/bin/python bench/live.py [--seconds 60] [--slow 7]``. The last line
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import signal
@@ -211,14 +212,17 @@ def _read(name: str, into: dict, kind: str, stop: threading.Event, ready: thread
 
 
 @contextmanager
-def headless(model_path: Path, log: Path, repo: Path = REPO) -> Iterator[dict]:
+def headless(model_path: Path, log: Path, repo: Path = REPO, extra: tuple[str, ...] = ()
+             ) -> Iterator[dict]:  # fmt: skip
     """The headless predictor of the code in ``repo`` (this worktree, or a baseline's) on the
-    bench's streams; yields the dict its predictions are collected into (by seq), then stops
-    it with Ctrl-C; its closing JSON is in ``collected['summary']`` afterwards."""
+    bench's streams, with ``extra`` arguments; yields the dict its predictions are collected
+    into (by seq), then stops it with Ctrl-C; its closing JSON is in ``collected['summary']``
+    afterwards."""
     command = [sys.executable, "-m", "promp.live", "--model", str(model_path),
                *(a for spec in INPUTS for a in ("--in", spec)), "--out", OUT,
                "--remainder", "hand", "--rate", "50", "--start", "marker", "--markers",
-               MARKERS, "--lsl-config", str(LSL_CONFIG), "--status-every", "5"]  # fmt: skip
+               MARKERS, "--lsl-config", str(LSL_CONFIG), "--status-every", "5",
+               *extra]  # fmt: skip
     with open(log, "w") as out:
         # ``-m`` puts the working directory first on sys.path: ``repo``'s promp is the one run
         process = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, cwd=repo)
@@ -352,13 +356,13 @@ def bench_outlets():
     return new_outlet(info), new_outlet(markers)
 
 
-def replayed(model_path: Path, plan: Plan, tmp: Path, repo: Path = REPO
-             ) -> tuple[Pushed, dict, float]:  # fmt: skip
-    """``plan`` replayed into the predictor of the code in ``repo``: what was pushed, the
-    predictions collected (with ``'summary'``), the replay's seconds."""
+def replayed(model_path: Path, plan: Plan, tmp: Path, repo: Path = REPO,
+             extra: tuple[str, ...] = ()) -> tuple[Pushed, dict, float]:  # fmt: skip
+    """``plan`` replayed into the predictor of the code in ``repo`` (``extra`` arguments):
+    what was pushed, the predictions collected (with ``'summary'``), the replay's seconds."""
     log = tmp / "predictor.log"
     outlet, markers = bench_outlets()
-    with headless(model_path, log, repo) as published:
+    with headless(model_path, log, repo, extra) as published:
         if not (outlet.wait_for_consumers(60.0) and markers.wait_for_consumers(60.0)):
             raise RuntimeError("the predictor did not connect to the bench's streams")
         time.sleep(0.5)
@@ -381,20 +385,25 @@ def older_format(model) -> dict:
     return data
 
 
-def paired(model, plan: Plan, tmp: Path, baseline: str, rounds: int, check_every: int) -> dict:
-    """This worktree's predictor and ``baseline``'s, run one after the other ``rounds`` times
-    (their order swapped each round, ABBA), on the same plan; each side's latencies pooled
-    over its runs, and the ratio of the p99s."""
+def paired(model, plan: Plan, tmp: Path, baseline: str, rounds: int, check_every: int,
+           extra: tuple[str, ...] = ()) -> dict:  # fmt: skip
+    """This worktree's predictor (``extra`` arguments) and ``baseline``'s, run one after the
+    other ``rounds`` times (their order swapped each round, ABBA), on the same plan; each
+    side's latencies pooled over its runs, and the ratio of the p99s. ``baseline``
+    ``processes=1`` is this worktree's predictor in one process (``--processes 1``)."""
     current_path, old_path = tmp / "model.json", tmp / "model-v2.json"
     save_model(current_path, model)
     old_path.write_text(json.dumps(older_format(model)))
     sides: dict[str, dict] = {"current": {"latency": [], "runs": []},
                               "baseline": {"latency": [], "runs": []}}  # fmt: skip
-    with checkout(baseline) as old_repo:
+    one = baseline == "processes=1"
+    with contextlib.nullcontext(REPO) if one else checkout(baseline) as old_repo:
         for r in range(rounds):
-            order = [("current", REPO, current_path), ("baseline", old_repo, old_path)]
-            for side, repo, path in order if r % 2 == 0 else order[::-1]:
-                pushed, published, _ = replayed(path, plan, tmp, repo)
+            order = [("current", REPO, current_path, extra),
+                     ("baseline", old_repo, current_path if one else old_path,
+                      ("--processes", "1") if one else ())]  # fmt: skip
+            for side, repo, path, args in order if r % 2 == 0 else order[::-1]:
+                pushed, published, _ = replayed(path, plan, tmp, repo, args)
                 run = figures(model, plan, pushed, published, published.get("summary", {}),
                               check_every, sides[side]["latency"])  # fmt: skip
                 print(side, json.dumps(run))
@@ -422,7 +431,8 @@ def paired(model, plan: Plan, tmp: Path, baseline: str, rounds: int, check_every
 
 
 def main(seconds: float = 60.0, check_every: int = 1, slow: float = 1.0,
-         baseline: str | None = None, rounds: int = 2) -> dict:  # fmt: skip
+         baseline: str | None = None, rounds: int = 2, processes: int | None = None
+         ) -> dict:  # fmt: skip
     if not slow >= 1.0:
         raise ValueError(f"--slow must be at least 1 (a stretch factor), got {slow}")
     if rounds < 1:
@@ -430,13 +440,14 @@ def main(seconds: float = 60.0, check_every: int = 1, slow: float = 1.0,
     dataset = slowed(load_records_dataset(DATA), slow)
     model = fit(dataset, LAYOUT)
     plan = make_plan(dataset, seconds)
+    extra = () if processes is None else ("--processes", str(processes))
     with tempfile.TemporaryDirectory() as tmp:
         if baseline is not None:
-            result = paired(model, plan, Path(tmp), baseline, rounds, check_every)
+            result = paired(model, plan, Path(tmp), baseline, rounds, check_every, extra)
         else:
             model_path = Path(tmp) / "model.json"
             save_model(model_path, model)
-            pushed, published, replay_s = replayed(model_path, plan, Path(tmp))
+            pushed, published, replay_s = replayed(model_path, plan, Path(tmp), REPO, extra)
             result = figures(model, plan, pushed, published, published.get("summary", {}),
                              check_every)  # fmt: skip
             result["replay_s"] = round(replay_s, 1)
@@ -460,10 +471,14 @@ if __name__ == "__main__":
     parser.add_argument("--baseline", metavar="COMMIT",
                         help="also run the predictor of COMMIT (a temporary git worktree), "
                         "alternating with this one's on the same replay; prints both and the "
-                        "ratio of their p99 latencies")
+                        "ratio of their p99 latencies; 'processes=1': this worktree's in one "
+                        "process (--processes 1)")
+    parser.add_argument("--processes", type=int, choices=(1, 2), default=None,
+                        help="this worktree's predictor's --processes (default: its own "
+                        "default, 2 on two cores)")
     parser.add_argument("--rounds", type=int, default=2,
                         help="with --baseline: runs of each side, their order swapped each "
                         "round (default 2)")
     args = parser.parse_args()
     print(json.dumps(main(args.seconds, args.check_every, args.slow, args.baseline,
-                          args.rounds)))
+                          args.rounds, args.processes)))

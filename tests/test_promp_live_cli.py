@@ -429,14 +429,16 @@ def test_the_command_gives_its_options_to_the_session_and_sums_up_a_quiet_run(
                     "100", "--max-movement", "4", "--decide", "--decide-threshold", "0.8",
                     "--decide-window", "0.2", "--alpha-method", "model", "--record",
                     str(tmp_path / "takes"), "--lsl-config", str(config), "--wait", "600",
-                    "--status-every", "0.01", "--session", str(tmp_path / "s.mcap")])
+                    "--status-every", "0.01", "--session", str(tmp_path / "s.mcap"),
+                    "--processes", "2"])
     assert code == 0
     assert command.handlers == (promp.live.cli._interrupt, promp.live.cli._interrupt)
     assert os.environ["LSLAPICFG"] == str(config.resolve())
     ((args, kwargs, session),) = command.made
     assert args[3] == LiveOptions(start="still", markers="", alpha_method="model",
                                   remainder="head", remainder_rate=25.0, rate=100.0,
-                                  max_movement_s=4.0, decide=CommitRule(0.8, 0.2))  # fmt: skip
+                                  max_movement_s=4.0, decide=CommitRule(0.8, 0.2),
+                                  helper=True)  # fmt: skip
     assert sorted(transport.outlets) == ["robot-events", "robot-probabilities",
                                          "robot-remainder", "robot-timing"]  # fmt: skip
     recorder = kwargs["recorder"]

@@ -34,6 +34,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -66,7 +67,18 @@ from promp.recognition import Recognition, label_noise, with_label_noise
 from promp.timing import alpha_from_duration, check_alpha
 from promp.via_points import ViaPoint, condition_on_via_points
 
-__all__ = ["Evidence"]
+__all__ = ["Evidence", "Integral"]
+
+
+class Integral(NamedTuple):
+    """A primitive's likelihood integrated over its speed prior (:meth:`Evidence.integral`):
+    the quadrature's nodes (log alpha, increasing), their log-likelihoods and log prior
+    densities, and the log-evidence."""
+
+    nodes: np.ndarray
+    log_likelihoods: np.ndarray
+    log_prior: np.ndarray
+    log_evidence: float
 
 
 class Evidence:
@@ -129,6 +141,10 @@ class Evidence:
         # computed), and those of the evidence it extends (read, never written)
         self._refined: dict[Primitive, np.ndarray] = {}
         self._refined_before = {} if _refined is None else _refined
+        self._integrals: dict[int, Integral] = {}  # by primitive: computed or adopted
+        self._timings: dict[int, Timing] = {}  # by primitive: its timing were it recognised
+        self._posteriors: dict[int, Posterior] = {}  # the same, its conditioned weights
+        self._drawn: dict[tuple[int, int | None], tuple] = {}  # (prior, posterior) predictions
 
     def extended(self, observation: Observation) -> Evidence:
         """The evidence of ``observation``: the same movement observed longer (this one's
@@ -225,15 +241,53 @@ class Evidence:
         model = self.model
         if self.duration is not None:
             return self._recognition_at(self.duration)
-        nodes, tables, priors = [], [], []
-        evidence = np.empty(len(model.primitives))
-        for k, primitive in enumerate(model.primitives):
-            prior = alpha_prior(model, primitive, self.observation, self.alpha_method)
-            x, ll, lp, evidence[k] = self._integrate(primitive, prior)
-            nodes.append(x)
-            tables.append(ll)
-            priors.append(lp)
-        return _recognition(model, nodes, tables, priors, evidence, self.alpha_method)
+        integrals = [self.integral(k) for k in range(len(model.primitives))]
+        evidence = np.array([i.log_evidence for i in integrals], dtype=float)
+        return _recognition(model, [i.nodes for i in integrals],
+                            [i.log_likelihoods for i in integrals],
+                            [i.log_prior for i in integrals], evidence,
+                            self.alpha_method)  # fmt: skip
+
+    def integral(self, index: int) -> Integral:
+        """Primitive ``index``'s likelihood integrated over its speed prior, the part of
+        :attr:`recognition` that is the primitive's alone (computed once, or adopted)."""
+        got = self._integrals.get(index)
+        if got is None:
+            primitive = self.model.primitives[index]
+            prior = alpha_prior(self.model, primitive, self.observation, self.alpha_method)
+            got = Integral(*self._integrate(primitive, prior))
+            self._integrals[index] = got
+        return got
+
+    def adopt(self, integrals: Mapping[int, Integral]) -> None:
+        """Take primitives' :meth:`integral` from another evidence of the same observation
+        (another process's, :mod:`promp.live.helper`): :attr:`recognition` reads them
+        instead of computing them. The numbers are the same when that evidence extended the
+        same observations as this one (the same kept sums).
+
+        Raises
+        ------
+        RuntimeError
+            The recognition was already computed.
+        """
+        if "recognition" in self.__dict__:
+            raise RuntimeError("the recognition is computed: adopt integrals before reading it")
+        for index, integral in integrals.items():
+            self._integrals[int(index)] = Integral(*integral)
+
+    def prepare(self, index: int, n_points: int | None = None) -> bool:
+        """Compute ahead what :meth:`infer` (``n_points``, without via-points) needs if
+        primitive ``index`` is the one recognised: its timing, its conditioned weights and
+        their predictions, from its :meth:`integral` alone, before the other primitives' are
+        known (the live predictor does it while a helper process integrates the others).
+        :meth:`infer` uses them when the recognition names ``index``; the same numbers as
+        computed after it. False (nothing prepared) when the primitive does not explain the
+        observation."""
+        if not math.isfinite(self.integral(index).log_evidence):
+            return False
+        posterior = self._posterior_of(index)
+        self._predictions(index, posterior, n_points)
+        return True
 
     def _integrate(
         self, primitive: Primitive, prior: AlphaPrior
@@ -282,9 +336,35 @@ class Evidence:
         """The recognised primitive's duration and observed share, with their intervals
         (:func:`promp.duration.timing`, the likelihood tempered by the model's
         ``duration_temperature``), and the speed of the predictions."""
+        if self.duration is None:
+            return self._timing_of(self.recognition.index)
+        return self._timing_from(self.recognition)
+
+    def _timing_from(self, recognition: Recognition) -> Timing:
         model, settings = self.model, self.model.settings
-        return timing(self.recognition, float(self.elapsed[-1]), model.sample_period,
+        return timing(recognition, float(self.elapsed[-1]), model.sample_period,
                       settings.s_bar, settings.duration_temperature or 1.0)  # fmt: skip
+
+    def _timing_of(self, index: int) -> Timing:
+        """The timing were primitive ``index`` recognised: :func:`promp.duration.timing`
+        reads the recognised primitive's quadrature alone (its nodes, likelihoods, prior and
+        best node), so a recognition holding only that primitive's gives the same."""
+        got = self._timings.get(index)
+        if got is None:
+            i = self.integral(index)
+            k, empty = len(self.model.primitives), np.empty(0)
+
+            def only(a: np.ndarray) -> tuple[np.ndarray, ...]:
+                return tuple(a if j == index else empty for j in range(k))
+
+            best = int(np.argmax(i.log_likelihoods + i.log_prior))
+            alone = Recognition(index, self.model.primitives[index].name,
+                                float(math.exp(i.nodes[best])), np.full(k, np.nan),
+                                only(np.exp(i.nodes)), only(i.log_likelihoods),
+                                only(i.log_prior), np.full(k, np.nan),
+                                self.alpha_method)  # fmt: skip
+            got = self._timings[index] = self._timing_from(alone)
+        return got
 
     def condition(self, primitive: Primitive, alpha: float) -> Posterior:
         """The weights of ``primitive`` at speed ``alpha`` conditioned on the observation
@@ -299,7 +379,9 @@ class Evidence:
         """
         model = self.model
         duration = observed_duration(model, self.observation, alpha)  # alpha checked
-        sums = self._sums(primitive, np.array([float(alpha)]), np.array([duration]))
+        # from every sample, neither read from nor kept for the speeds recognition scores:
+        # the same numbers whichever process integrated the primitive (promp.live.helper)
+        sums = self._sums.dense(primitive, np.array([float(alpha)]), np.array([duration]))
         mean, blocks = woodbury.posterior(sums, primitive, self.dims, alpha)
 
         def full() -> np.ndarray:
@@ -312,8 +394,30 @@ class Evidence:
     @functools.cached_property
     def posterior(self) -> Posterior:
         """The recognised primitive's weights at the timing's speed given the observation."""
+        if self.duration is None:
+            return self._posterior_of(self.recognition.index)
         primitive = self.model.primitives[self.recognition.index]
         return self.condition(primitive, self.timing.alpha)
+
+    def _posterior_of(self, index: int) -> Posterior:
+        got = self._posteriors.get(index)
+        if got is None:
+            primitive = self.model.primitives[index]
+            got = self._posteriors[index] = self.condition(primitive,
+                                                           self._timing_of(index).alpha)
+        return got
+
+    def _predictions(self, index: int, posterior: Posterior, n_points: int | None) -> tuple:
+        """Primitive ``index``'s prior and ``posterior``'s predictions at its timing's speed
+        (kept by ``n_points``: ``posterior`` is the primitive's own, without via-points)."""
+        got = self._drawn.get((index, n_points))
+        if got is None:
+            alpha = self._timing_of(index).alpha
+            primitive = self.model.primitives[index]
+            got = self._drawn[index, n_points] = (
+                predict(self.model, primitive, alpha, n_points=n_points),
+                predict(self.model, posterior, alpha, n_points=n_points))  # fmt: skip
+        return got
 
     def infer(
         self,
@@ -346,18 +450,18 @@ class Evidence:
             via_points = via_points.get(recognition.primitive, ())
         vias = tuple(via_points)
         weights = condition_on_via_points(model, posterior, vias, alpha) if vias else posterior
-        prediction = predict(model, weights, alpha, n_points=n_points)
+        if vias or self.duration is not None:
+            prior = predict(model, model.primitives[recognition.index], alpha, n_points=n_points)
+            prediction = predict(model, weights, alpha, n_points=n_points)
+        else:  # (kept: prepare may have drawn them)
+            prior, prediction = self._predictions(recognition.index, posterior, n_points)
         natural, errors = None, None
         if truth is not None:
             plain = n_points is None and not vias
             natural = prediction if plain else predict(model, posterior, alpha)
             errors = measure(model, natural, timing_, truth, self.observation.n_observed)
-        primitive = model.primitives[recognition.index]
-        return Inference(
-            model, self.observation, recognition, timing_, posterior, weights,
-            predict(model, primitive, alpha, n_points=n_points), prediction, vias, natural,
-            errors, path_points,
-        )  # fmt: skip
+        return Inference(model, self.observation, recognition, timing_, posterior, weights,
+                         prior, prediction, vias, natural, errors, path_points)  # fmt: skip
 
 
 def _recognition(

@@ -69,6 +69,10 @@ def parser() -> argparse.ArgumentParser:
                    "source_id=ID)")
     p.add_argument("--alpha-method", choices=("ml", "model"), default="ml",
                    help="how the speed is estimated (promp.recognition; default ml)")
+    p.add_argument("--processes", type=int, choices=(1, 2), default=None,
+                   help="2: a helper process computes part of each update's recognition "
+                   "(about half the latency, the same numbers; promp.live.helper); default: 2 "
+                   "when this process may run on two cores or more")
     p.add_argument("--time-base", type=float, default=None, metavar="HZ",
                    help="put the inputs on a regular time base at this rate; default: the "
                    "slowest input's own samples (the others interpolated at them)")
@@ -148,7 +152,8 @@ def main(argv: list[str] | None = None) -> int:
         options = LiveOptions(start=args.start, markers=args.markers,
                               alpha_method=args.alpha_method, remainder=args.remainder,
                               remainder_rate=args.rate, rate=args.time_base,
-                              max_movement_s=args.max_movement, decide=rule)  # fmt: skip
+                              max_movement_s=args.max_movement, decide=rule,
+                              helper=processes(args.processes) == 2)  # fmt: skip
         transport = LslTransport()
         specs = outlet_specs(model, args.out, args.remainder)
         build(model, args.inputs, options)  # every refusal, before anything is opened
@@ -215,6 +220,18 @@ def decide_rule(decide: bool, threshold: float | None, window: float | None
         return CommitRule(threshold, WINDOW_S if window is None else window)
     except ValueError as exc:
         raise ValueError(f"--decide-window: {exc}") from None
+
+
+def processes(asked: int | None) -> int:
+    """The processes an update is computed in: ``asked``, or 2 when this process may run on
+    two cores or more (1 on one core: a helper would only take turns with it)."""
+    if asked is not None:
+        return asked
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # (not Linux)
+        cores = os.cpu_count() or 1
+    return 2 if cores >= 2 else 1
 
 
 def _interrupt(signum, frame) -> None:

@@ -48,6 +48,9 @@ class LiveOptions:
     decide : CommitRule or None
         Commit to a primitive in each movement by this rule (:mod:`promp.live.commitment`);
         None: no commitment.
+    helper : bool
+        Share each update's recognition with a helper process (:mod:`promp.live.helper`:
+        about half the time on two cores, the same numbers).
 
     Raises
     ------
@@ -66,6 +69,7 @@ class LiveOptions:
     n_points: int | None = None
     min_observed: int = 2
     decide: CommitRule | None = None
+    helper: bool = False
 
     def __post_init__(self) -> None:
         if self.start not in STARTS:

@@ -147,7 +147,8 @@ def build(model: ProMPModel, inputs: Sequence, options: LiveOptions, now: float 
                           [(columns[n], u) for n, u in zip(names, units, strict=True)],
                           options.max_movement_s, StillRule.of(model, watched))  # fmt: skip
     predictor = OnlinePredictor(model, columns, options.alpha_method, options.remainder,
-                                options.remainder_rate, options.n_points)  # fmt: skip
+                                options.remainder_rate, options.n_points,
+                                options.helper)  # fmt: skip
     newest = MappingProxyType(dict.fromkeys(names, float(now)))  # none yet: since the start
     committing = None if options.decide is None else \
         Committing(options.decide, tuple(p.name for p in model.primitives))  # fmt: skip
@@ -237,6 +238,11 @@ def _predict(state: PipelineState, movement: Movement, predictions: list[LivePre
         prediction = state.predictor.predict(movement.number, movement.times, movement.values)
     except ValueError as exc:
         events.append(LiveEvent(float(movement.times[-1]), f"no prediction: {exc}"))
+        prediction = None
+    if why := state.predictor.news():
+        events.append(LiveEvent(float(movement.times[-1]), f"the recognition's helper process "
+                                f"stopped ({why}): every update is computed in one process"))
+    if prediction is None:
         if state.committing is not None:  # an update without a prediction breaks the run
             missed = state.committing.missed(movement.number,
                                              float(movement.times[-1] - movement.times[0]))

@@ -139,6 +139,7 @@ class LiveSession:
 
     def start(self) -> None:
         """Run the session on its own threads until :meth:`close`."""
+        self.state.predictor.open()  # (its helper process loads the model meanwhile)
         self._threads.start()
 
     def close(self) -> None:
@@ -146,6 +147,7 @@ class LiveSession:
         the recorder's journal: a recording under way stays in its journal), close the
         inlets."""
         self._threads.stop()
+        self.state.predictor.close()
         problems = self._sinks.close()
         self._intake.close()
         now = self.transport.clock()

@@ -410,7 +410,10 @@ def replay_session(model: ProMPModel, path: Path | str, paced: bool = False,
     session = read_session(path)
     header = session.header
     check_recorded_with(model, header, path)
-    state = build(model, header["inputs"], _options(header["options"]), float(header["start"]))
+    # in one process: a helper's numbers are the same (promp.live.helper), and a replay
+    # checks that too
+    options = dataclasses.replace(_options(header["options"]), helper=False)
+    state = build(model, header["inputs"], options, float(header["start"]))
     predictions, events = [], []
     arrivals = [decode_arrivals(r) for r in session.of("a")]
     began, first = time.monotonic(), arrivals[0].now if arrivals else 0.0

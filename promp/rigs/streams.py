@@ -23,6 +23,7 @@ demonstration cannot be interpolated there: that is an error naming it.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -65,9 +66,10 @@ class Stream:
     values: np.ndarray
     units: tuple[str, ...]
 
-    @property
+    @functools.cached_property
     def step(self) -> float:
-        """Median time between samples, in seconds."""
+        """Median time between samples, in seconds (computed once: a reader and the live time
+        base ask it several times of each stream)."""
         return float(np.median(np.diff(self.times)))
 
 
