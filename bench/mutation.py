@@ -106,7 +106,10 @@ MODULE_TESTS = {
                            "tests/test_promp_live_sinks.py"],
     "promp.live.outlets": ["tests/test_promp_live_outlets.py", "tests/test_promp_live_sinks.py"],
     "promp.live.predictor": ["tests/test_promp_live_predictor.py",
-                             "tests/test_promp_live_pipeline.py"],
+                             "tests/test_promp_live_pipeline.py",
+                             "tests/test_promp_live_helper.py"],
+    # the recognition's helper process: its own tests (each spawns helpers: ~20 s in all)
+    "promp.live.helper": ["tests/test_promp_live_helper.py"],
     "promp.live.pipeline": ["tests/test_promp_live_pipeline.py",
                             "tests/test_promp_live_session_machine.py",
                             "tests/test_promp_live_faults.py",
