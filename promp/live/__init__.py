@@ -12,7 +12,9 @@ with a fake upstream and a recorded stream, only the transport knowing LSL:
   reader's :func:`promp.rigs.streams.on_one_clock`);
 * :mod:`promp.live.segmenter`: where each movement starts and ends (stillness, by the rule
   the model learned its demonstrations with, a marker stream, or calls);
-* :mod:`promp.live.predictor`: the movement so far through :func:`promp.evidence.infer`;
+* :mod:`promp.live.predictor`: the movement so far through :func:`promp.evidence.infer`
+  (part of each update's recognition in a helper process on two cores,
+  :mod:`promp.live.helper`: the same numbers);
 * :mod:`promp.live.commitment`: with ``--decide``, :class:`promp.decision.CommitRule` on each
   movement's predictions (the moment the robot acts);
 * sinks (:mod:`promp.live.sinks`: each on its own thread, behind a bounded queue):
