@@ -241,3 +241,83 @@ def test_nothing_arrived_or_held_gives_nothing_of_the_streams_width() -> None:
     on_time(fresh, 1.0, 5)
     times, values = fresh.release(1.2)  # everything given already
     assert times.shape == (0,) and values.shape == (0, 1)
+
+
+def test_the_step_follows_the_latest_steps_when_a_stream_speeds_up_later() -> None:
+    """The stream is judged on its latest RUN_GAPS steps, again at every sample: one that ran
+    at its declared rate, then clearly faster, runs at the faster step."""
+    spread = Respread(RATE)
+    end = on_time(spread, 1.0, RUN_GAPS + 8)[-1]  # at the declared rate: judged, not faster
+    assert spread.step == 1 / RATE
+    on_time(spread, end + 0.004, RUN_GAPS + 1, 0.004)
+    assert spread.step == pytest.approx(0.004)
+
+
+def test_back_to_back_bursts_in_one_pull_are_each_put_back() -> None:
+    """Two bursts in one pull: right after each other (the second's pause starts at the
+    first's end), or after a burst whose push was preempted for over two steps (a pause
+    within it), each re-spread one step apart up to its last stamp."""
+    for first, second in (
+        (1.20 + 1e-5 * np.arange(11), 1.45 + 1e-5 * np.arange(25)),  # 11, then 25 due
+        (np.concatenate([1.40 + 1e-5 * np.arange(6), 1.425 + 1e-5 * np.arange(6, 31)]),
+         1.70 + 1e-5 * np.arange(27)),  # 31 with a 25 ms hole, then 27
+    ):
+        spread = Respread(RATE)
+        on_time(spread, 1.0, 10)  # up to 1.09
+        pushed = np.concatenate([first, second])
+        times, values = spread.add(pushed, np.arange(pushed.size, dtype=float)[:, None],
+                                   pushed[-1] + 1e-5)  # fmt: skip
+        want = [burst[-1] - (burst.size - 1 - np.arange(burst.size)) / RATE
+                for burst in (first, second)]  # fmt: skip
+        assert_allclose(times, np.concatenate(want), atol=1e-12)
+        assert_array_equal(values[:, 0], np.arange(pushed.size))
+
+
+def test_a_slow_streams_quiet_time_is_two_of_its_steps() -> None:
+    """At 25 Hz a burst short of its backlog is held while something came within two steps
+    (0.08 s, longer than QUIET_S), then given."""
+    slow = Respread(25.0)
+    on_time(slow, 1.0, 10, 0.04)  # up to 1.36
+    part = 1.80 + 1e-5 * np.arange(3)  # 3 of the 11 due after a 0.44 s pause
+    assert slow.add(part, np.zeros((3, 1)), 1.8001)[0].size == 0
+    assert slow.release(1.8001 + QUIET_S + 0.02)[0].size == 0  # under two steps: may go on
+    assert slow.release(1.8001 + 0.1)[0].size == 3  # two steps quiet: given
+
+
+def test_a_burst_one_short_of_its_backlog_waits_for_its_last_sample() -> None:
+    """11 samples were due during a pause of 11 steps: 10 of them are held, and the 11th
+    brings the burst whole, re-spread one step apart."""
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)  # up to 1.09
+    burst = 1.20 + 1e-5 * np.arange(11)
+    assert spread.add(burst[:10], np.zeros((10, 1)), 1.2001)[0].size == 0
+    times, _ = spread.add(burst[10:], np.zeros((1, 1)), 1.2002)
+    assert_allclose(times, burst[-1] - (10 - np.arange(11)) / RATE, atol=1e-12)
+
+
+def test_samples_after_a_pause_at_half_the_rate_apart_are_held_as_a_backlog_may_be() -> None:
+    """Three samples half a step apart after a pause are not at the rate (their steps under
+    three quarters of a step): they may be the start of a backlog, and are held."""
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)  # up to 1.09
+    after = 1.20 + 0.005 * np.arange(3)
+    assert spread.add(after, np.zeros((3, 1)), 1.2101)[0].size == 0
+
+
+def test_a_burst_that_fits_after_the_last_sample_keeps_its_steps_and_one_that_does_not_is_even(
+        ) -> None:  # fmt: skip
+    """A pause of 9.5 steps before a burst of 10: the burst, one step apart up to its last
+    stamp, starts after the last sample given, and is kept so. A pause of 2.5 steps before a
+    burst of 4: one step apart, its first would be before the last sample given: the burst is
+    spread evenly after it."""
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)  # up to 1.09
+    burst = 1.185 + 1e-5 * np.arange(10)
+    times, _ = spread.add(burst, np.zeros((10, 1)), 1.1851)
+    assert_allclose(times, burst[-1] - (9 - np.arange(10)) / RATE, atol=1e-12)
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)
+    burst = 1.115 + 1e-5 * np.arange(4)
+    times, _ = spread.add(burst, np.zeros((4, 1)), 1.1151)
+    assert_allclose(times, 1.09 + (burst[-1] - 1.09) * np.arange(1, 5) / 4, atol=1e-12)
+    assert times[0] > 1.09 and np.all(np.diff(times) > 0)
