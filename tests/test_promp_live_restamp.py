@@ -321,3 +321,16 @@ def test_a_burst_that_fits_after_the_last_sample_keeps_its_steps_and_one_that_do
     times, _ = spread.add(burst, np.zeros((4, 1)), 1.1151)
     assert_allclose(times, 1.09 + (burst[-1] - 1.09) * np.arange(1, 5) / 4, atol=1e-12)
     assert times[0] > 1.09 and np.all(np.diff(times) > 0)
+
+
+def test_a_burst_behind_an_on_time_sample_of_its_pull_is_spread_after_that_sample() -> None:
+    """An on-time sample, then a pause of 2.5 steps and a burst of 4, in one pull: one step
+    apart, the burst's first would be before that sample: it is spread evenly after it (not
+    after the sample given before the pull)."""
+    spread = Respread(RATE)
+    on_time(spread, 1.0, 10)  # up to 1.09
+    pushed = np.concatenate([[1.10], 1.125 + 1e-5 * np.arange(4)])
+    times, _ = spread.add(pushed, np.zeros((5, 1)), 1.1251)
+    assert times[0] == 1.10
+    assert_allclose(times[1:], 1.10 + (pushed[-1] - 1.10) * np.arange(1, 5) / 4, atol=1e-12)
+    assert np.all(np.diff(times) > 0)
