@@ -282,3 +282,55 @@ def test_the_samples_kept_are_those_of_the_last_second_before_the_rows_given() -
     for name in ("hand", "head"):
         kept = base._buffers[name].times
         assert kept[0] == pytest.approx(t[-1] - KEEP_S, abs=0.015) and kept[-1] == t[-1]
+
+
+def test_a_gap_inside_a_pushed_chunk_keeps_only_the_samples_after_it() -> None:
+    """A chunk whose gap is after its first samples: the rows go on from the samples after
+    the gap, never across it (the chunk's samples before it are dropped with the old ones)."""
+    base = TimeBase(["hand"], [1])
+    t = np.arange(50) * 0.01
+    base.push("hand", t, t[:, None], ("m",))
+    assert_array_equal(base.advance().times, t)
+    chunk = np.concatenate([[0.50, 0.51], 2.0 + np.arange(5) * 0.01])
+    assert base.push("hand", chunk, chunk[:, None], ("m",))
+    rows = base.advance()
+    assert_array_equal(rows.times, chunk[2:])
+    assert_array_equal(rows.values[:, 0], chunk[2:])
+
+
+def test_the_base_chosen_by_the_declared_rates_stays_when_the_steps_disagree() -> None:
+    """A head that declares 50 Hz but runs at 200 Hz is the base (the lowest declared rate),
+    chosen once: the later rows, asked without rates, stay on its times."""
+    base = TimeBase(["hand", "head"], [1, 1])
+    hand, head = np.arange(30) * 0.01, np.arange(120) * 0.0025
+    base.push("hand", hand, hand[:, None], ("m",))
+    base.push("head", head, head[:, None], ("rad",))
+    base.advance({"hand": 100.0, "head": 50.0})
+    assert base.base == 1
+    more_hand, more_head = 0.3 + np.arange(10) * 0.01, 0.3 + np.arange(40) * 0.0025
+    base.push("hand", more_hand, more_hand[:, None], ("m",))
+    base.push("head", more_head, more_head[:, None], ("rad",))
+    rows = base.advance()
+    assert base.base == 1
+    assert_allclose(np.diff(rows.times), 0.0025, atol=1e-12)
+
+
+def test_an_input_restarted_one_sample_at_the_next_row_waits_for_its_next_sample() -> None:
+    """An input restarted whose one new sample is at the next row's time (within the time
+    base's 1e-9 of the last row given): nothing to interpolate from yet, so the rows wait
+    (before, the XDF reader's clock refused a span of one row: the step failed); with its next
+    sample, that row and the next are given, read at its samples."""
+    base = TimeBase(["a", "b"], [1, 1])
+    t = np.array([4.98, 4.99, 5.0])
+    base.push("a", t, np.full((3, 1), 1.0), ("m",))
+    base.push("b", t, np.full((3, 1), 2.0), ("m",))
+    assert_array_equal(base.advance({"a": 100.0, "b": 100.0}).times, t)
+    base.restart("b")
+    at = 5.0 + 5e-10
+    base.push("a", np.array([at, 5.01]), np.array([[3.0], [4.0]]), ("m",))
+    base.push("b", np.array([at]), np.array([[5.0]]), ("m",))
+    assert base.advance() is None
+    base.push("b", np.array([5.01]), np.array([[6.0]]), ("m",))
+    rows = base.advance()
+    assert_array_equal(rows.times, [at, 5.01])
+    assert_array_equal(rows.values, [[3.0, 5.0], [4.0, 6.0]])

@@ -165,15 +165,15 @@ class TimeBase:
         # on_one_clock needs two rows: the span starts at the last row given (dropped after)
         start = self._given if math.isfinite(self._given) and self._given >= lo - 1e-9 \
             else float(new[0])  # fmt: skip
-        if start == float(new[-1]):
-            return None  # one first row: wait for the next
-        streams = []
+        if start == float(new[-1]) or (start < lo and new.size < 2):
+            # one first row, or one row after an input that starts again within 1e-9 after
+            # the last row given (the span then starts at it): wait for the next
+            return None
+        streams = []  # (each holds a sample at or before start and one at or after the end)
         for name, b in zip(self.names, buffers, strict=True):
             a = max(int(np.searchsorted(b.times, start, side="right")) - 1, 0)
             z = int(np.searchsorted(b.times, new[-1], side="left")) + 1
             times, values = b.times[a:z], b.values[a:z]
-            if times.size == 1:  # one sample, exactly at the one new time: a step is needed
-                times, values = np.array([times[0], times[0] + 1.0]), np.vstack([values] * 2)
             streams.append(Stream(name, times, values, b.units or ("",) * values.shape[1]))
         # the pauses were judged by push, with the senders' lateness: a pause it let through
         # (a late sender catching up) is interpolated across, never refused here
