@@ -177,6 +177,10 @@ def test_a_helper_that_sends_nonsense_or_never_starts_is_given_up(monkeypatch) -
     helper = Helper("{}", "ml", ("hand", "head"), command=silent)
     assert not helper.ready() and "did not start" in helper.failure
     assert helper._process.poll() is not None
+    missing = Helper("{}", "ml", ("hand", "head"), command=["/nonexistent/python"])
+    assert not missing.ready(wait=1.0) and "could not start" in missing.failure
+    assert not missing.submit(1, None, [0]) and missing.collect() is None
+    missing.close()
     # a predictor with such a helper predicts in one process from its first movement
     alone = OnlinePredictor(model, columns(), remainder="hand")
     shared = OnlinePredictor(model, columns(), remainder="hand", helper=True)

@@ -144,10 +144,15 @@ class Helper:
         self._started = time.monotonic()
         self._sent: tuple[int, int] = (-1, 0)  # the movement and its rows the helper has
         self._waiting = 0  # frames of the update under way not read yet
-        self._process = subprocess.Popen(
-            list(command or [sys.executable, "-m", "promp.live.helper"]),
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0,
-        )  # fmt: skip
+        try:
+            self._process: subprocess.Popen | None = subprocess.Popen(
+                list(command or [sys.executable, "-m", "promp.live.helper"]),
+                stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0,
+            )  # fmt: skip
+        except OSError as exc:  # (no process left: every update in the session's)
+            self._process = None
+            self.failure = f"it could not start ({exc})"
+            return
         self._send(encode({"model": model_text, "alpha_method": alpha_method,
                            "modalities": list(modalities)}))  # fmt: skip
 
@@ -212,6 +217,8 @@ class Helper:
     def close(self) -> None:
         """Stop the helper (its input closed: it exits; killed if it does not)."""
         process = self._process
+        if process is None:
+            return
         if process.poll() is None:
             try:
                 process.stdin.close()
@@ -265,7 +272,7 @@ class Helper:
         if not self.failure:
             self.failure = why
         self._waiting = 0
-        if self._process.poll() is None:
+        if self._process is not None and self._process.poll() is None:
             self._process.kill()
             self._process.wait()
 
