@@ -365,3 +365,72 @@ def test_a_movement_keeps_its_last_moving_row_when_nothing_is_kept_after() -> No
     assert out[1].time == events[1].last
     assert out[1].movement.times[-1] == events[1].last
     assert out[0].time == out[1].movement.times[0] == events[0].first
+
+
+def test_stillness_watches_angles_too() -> None:
+    """A head's angles (radians) alone are watched: their turn is a movement."""
+    times, values = one_motion(400, 100)
+    seg = Segmenter("still", 3, [(slice(0, 3), "rad")])
+    out = fed(seg, times, values * 5.0)  # a turn of 1 rad in a second
+    assert [(b.kind, b.number) for b in out] == [("start", 1), ("end", 1)]
+
+
+def test_a_still_movement_broken_off_starts_again_from_the_rows_after_the_break() -> None:
+    """An input breaks mid-motion: the movement ends with its rows, the still rule starts
+    again, and the motion that goes on after the break is a new movement of its own rows."""
+    times, values = one_motion(500, 100)  # moving from 1.0 to 2.0 s
+    seg = Segmenter("still", 3, HAND)
+    out = fed(seg, times[:150], values[:150])
+    assert [b.kind for b in out] == ["start"]
+    (end,) = seg.abort("input 'hand' broke off")
+    assert end.movement.times[-1] == times[149]
+    assert seg.movement is None
+    out = fed(seg, times[150:], values[150:])
+    assert [(b.kind, b.number) for b in out] == [("start", 2), ("end", 2)]
+    again = out[1].movement
+    assert again.times[0] >= times[150] and len(again.values) == len(again)
+    first = int(np.searchsorted(times, again.times[0]))
+    assert_array_equal(again.times, times[first:first + len(again)])
+    assert_array_equal(again.values, values[first:first + len(again)])
+
+
+def test_the_longest_movement_is_measured_from_its_own_start() -> None:
+    """On the session's clock (100 s on), a movement of 2 s is not longer than 4 s; one
+    begun and made longer than its limit in one feed gives both its start and its end."""
+    times = 100.0 + np.arange(200) * 0.01
+    seg = Segmenter("call", 1, max_movement_s=4.0)
+    seg.begin(100.0)
+    assert [b.kind for b in seg.feed(Rows(times, times[:, None]))] == ["start"]
+    assert seg.movement is not None and len(seg.movement) == 200
+    seg = Segmenter("call", 1, max_movement_s=1.0)
+    seg.begin(100.0)
+    out = seg.feed(Rows(times, times[:, None]))
+    assert [b.kind for b in out] == ["start", "end"] and out[1].reason == "longer than 1 s"
+
+
+def test_an_end_takes_the_rows_within_its_slack_and_comes_once_a_row_passes_it() -> None:
+    """An end at 0.5 s waits while the rows are before 0.5 s + SLACK_S; a row within the slack
+    belongs inside; the end comes with the feed whose last row passes it."""
+    seg = Segmenter("call", 1)
+    seg.begin(0.0)
+    times = np.arange(50) * 0.01  # up to 0.49
+    seg.feed(Rows(times, times[:, None]))
+    seg.end(0.5)
+    assert seg.feed(Rows(np.array([0.499]), np.array([[0.499]]))) == []
+    within, after = 0.5 + SLACK_S / 2, 0.5 + SLACK_S * 1.5
+    (end,) = seg.feed(Rows(np.array([within, after]), np.array([[within], [after]])))
+    assert end.kind == "end" and end.movement.times[-1] == within
+
+
+def test_a_long_stillness_before_and_after_a_movement_keeps_its_rows_and_memory_bounded() -> None:
+    """5 s still (more than the history kept), a second of motion, 6 s still: the movement's
+    rows start where its start says, and the rows kept stay within the history."""
+    times, values = one_motion(1200, 500)
+    seg = Segmenter("still", 3, HAND)
+    out = fed(seg, times, values)
+    assert [(b.kind, b.number) for b in out] == [("start", 1), ("end", 1)]
+    ended = out[1].movement
+    assert ended.times[0] == out[0].time
+    first = int(np.searchsorted(times, ended.times[0]))
+    assert_array_equal(ended.values, values[first:first + len(ended)])
+    assert seg._times[-1] - seg._times[0] <= seg.history_s + 0.1
