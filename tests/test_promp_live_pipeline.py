@@ -331,3 +331,28 @@ def test_an_input_lags_only_past_a_movement_s_longest():
     t, v = motion(1.25, 1)
     state, *_ = step(state, Arrivals(1.26, pulled={0: Pulled(t, v)}))
     assert state.lagging == frozenset({"head"})
+
+
+def test_the_segmenter_hears_the_latest_prediction_and_the_time_base_each_inputs_lateness(
+        monkeypatch):  # fmt: skip
+    """Each step hands the segmenter what the latest prediction says of its movement (the
+    pause allowed depends on it) and the time base each input's recent lateness (a late
+    sender's pause is no gap)."""
+    from promp.live.segmenter import Segmenter
+    from promp.live.source import Source
+    from promp.live.timebase import TimeBase
+
+    state = started()
+    beliefs, lates = [], []
+    feed, push = Segmenter.feed, TimeBase.push
+    monkeypatch.setattr(Segmenter, "feed",
+                        lambda self, rows, b=None: beliefs.append(b) or feed(self, rows, b))
+    monkeypatch.setattr(TimeBase, "push", lambda self, *a: lates.append(a[-1]) or push(self, *a))
+    monkeypatch.setattr(Source, "lateness", lambda self, name, now: 0.125 if now > 0.6 else 0.0)
+    t, v = motion(0.0, 50)
+    state, _, _, [p] = step(state, Arrivals(0.5, calls=(Call("start", 0.0, "left"),),
+                                            pulled={0: Pulled(t, v)}))  # fmt: skip
+    t, v = motion(0.5, 10)
+    state, _, _, _ = step(state, Arrivals(0.7, pulled={0: Pulled(t, v)}))
+    assert beliefs == [None, belief(p)] and beliefs[1].movement == 1
+    assert lates == [0.0, 0.125]
