@@ -571,3 +571,21 @@ def test_a_rate_change_found_in_samples_released_by_an_idle_poll_is_said_at_its_
     time, now, brought = said[0]
     assert time == now and not brought
     assert source.nominal_rate("hand") == pytest.approx(12.5)
+
+
+def test_a_refused_stream_or_a_marker_pull_left_out_keeps_the_events_before_it() -> None:
+    """A look that opens a right stream then one without the channels, and a poll whose
+    marker pull is left out after an input's stream was lost: every event is kept, each at
+    its time."""
+    source = Source([LiveInput.parse(t) for t in ("a=A:x,y,z", "b=B:x,y,z")])
+    events = source.adopt([Opened(0, stream("a-1", name="A")),
+                           Opened(1, stream("b-1", name="B", labels="abcd"))], 1.0)  # fmt: skip
+    assert [e.time for e in events] == [1.0, 1.0]
+    assert [condition(source, k) for k in (0, 1)] == [Condition.OK, Condition.WRONG_CHANNELS]
+    source = Source([LiveInput.parse("hand=Hand:0,1,2")], markers=Selector.parse("Markers"))
+    source.adopt([Opened(0, stream()), Opened(1, markers_stream())], 1.0)
+    batch = source.poll({0: Pulled.LOST, 1: Pulled(np.array([2.0, 3.5]), ["start top"])}, 4.0)
+    assert [e.time for e in batch.events] == [4.0, 4.0]
+    assert [condition(source, k) for k in (0, 1)] == [Condition.VANISHED,
+                                                      Condition.WRONG_CHANNELS]  # fmt: skip
+    assert source.statuses()[1].since == 4.0
