@@ -1,6 +1,6 @@
 """A helper process for the online predictor: it integrates some primitives' likelihoods over
 their speed prior while the session's process does the others, so that an update takes about
-half its time on two cores.
+three quarters of its time on two cores (the ideal half is not reached: docs/live.md).
 
 An update's cost is recognition (every primitive's likelihood at ~30 candidate speeds, about
 three quarters of it) and then the recognised primitive's timing, conditioning and
@@ -32,6 +32,7 @@ import signal
 import struct
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Sequence
 
@@ -153,8 +154,14 @@ class Helper:
             self._process = None
             self.failure = f"it could not start ({exc})"
             return
-        self._send(encode({"model": model_text, "alpha_method": alpha_method,
-                           "modalities": list(modalities)}))  # fmt: skip
+        # the model is written by a thread: the pipe holds 64 kB and the helper reads only
+        # once it has imported numpy (~1 s), which the session's first update must not wait
+        # for (it is read whole before the helper says it is ready, and nothing is sent
+        # before that)
+        setup = encode({"model": model_text, "alpha_method": alpha_method,
+                        "modalities": list(modalities)})  # fmt: skip
+        threading.Thread(target=self._send, args=(setup,), name="live-helper-setup",
+                         daemon=True).start()  # fmt: skip
 
     @property
     def alive(self) -> bool:

@@ -50,7 +50,7 @@ class LiveOptions:
         None: no commitment.
     helper : bool
         Share each update's recognition with a helper process (:mod:`promp.live.helper`:
-        about half the time on two cores, the same numbers).
+        about three quarters of the time on two cores, the same numbers).
 
     Raises
     ------

@@ -147,9 +147,9 @@ class OnlinePredictor:
         the studio draws its tubes on a fixed number).
     helper : bool
         Share recognition with a helper process (:mod:`promp.live.helper`: an update in
-        about half the time on two cores, the same numbers). It starts with :meth:`open` or
-        the first update, and shares the movements that start once it is ready;
-        :meth:`close` stops it.
+        about three quarters of the time on two cores, the same numbers). It starts with
+        :meth:`open` or the first update, and shares the movements that start once it is
+        ready; :meth:`close` stops it.
     """
 
     def __init__(

@@ -139,7 +139,6 @@ class LiveSession:
 
     def start(self) -> None:
         """Run the session on its own threads until :meth:`close`."""
-        self.state.predictor.open()  # (its helper process loads the model meanwhile)
         self._threads.start()
 
     def close(self) -> None:
