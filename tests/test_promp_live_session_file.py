@@ -150,3 +150,17 @@ def test_the_command_records_and_replays(recorded, tmp_path, capsys) -> None:
     assert main(["--model", str(model_path), "--in", INPUTS[0], "--out", "session-test",
                  "--session", str(existing)]) == 2  # fmt: skip
     assert existing.read_bytes() == b"a user's file"
+
+
+def test_a_prediction_without_a_remainder_is_recorded_without_one() -> None:
+    """A session without ``--remainder``: its predictions' records say no remainder."""
+    from promp.live.predictor import OnlinePredictor
+    from promp.live.session_file import prediction_record
+
+    model = synthetic_model()
+    demo = make_dataset(seed=11, n_demos=1)["left"][0]
+    p = OnlinePredictor(model, {"hand": slice(0, 3)}).predict(
+        1, demo.times[:30], demo.select(["x", "y", "z"])[:30])  # fmt: skip
+    assert p.remainder is None
+    record = prediction_record(p)
+    assert record["remainder"] is None and record["n_observed"] == 30
