@@ -334,3 +334,23 @@ def test_an_input_restarted_one_sample_at_the_next_row_waits_for_its_next_sample
     rows = base.advance()
     assert_array_equal(rows.times, [at, 5.01])
     assert_array_equal(rows.values, [[3.0, 5.0], [4.0, 6.0]])
+
+
+def test_a_restarted_input_s_first_samples_behind_the_others_still_make_rows() -> None:
+    """The head restarts; the hand streams on for 0.2 s while the head is silent; the head's
+    samples then come from just after the last row: the rows go on from them (the hand's
+    samples meanwhile were kept, not cut to its last two while the head had none)."""
+    base = TimeBase(["hand", "head"], [1, 1])
+    t = np.arange(101) * 0.01  # up to 1.0
+    base.push("hand", t, t[:, None], ("m",))
+    base.push("head", t, t[:, None], ("rad",))
+    assert base.advance({"hand": 100.0, "head": 100.0}).times[-1] == 1.0
+    base.restart("head")
+    more = 1.0 + np.arange(1, 21) * 0.01  # 1.01 to 1.20
+    for k in range(20):
+        base.push("hand", more[k:k + 1], more[k:k + 1, None], ("m",))
+        assert base.advance() is None  # the head has no sample: no row
+    base.push("head", more, more[:, None], ("rad",))
+    rows = base.advance()
+    assert_allclose(rows.times, more, atol=1e-12)
+    assert_allclose(rows.values, np.column_stack([more, more]), atol=1e-12)
