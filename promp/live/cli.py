@@ -24,7 +24,7 @@ from promp.live.options import DECIDE_THRESHOLD
 from promp.live.predictor import REMAINDER_HZ
 from promp.live.segmenter import MAX_MOVEMENT_S
 
-__all__ = ["decide_rule", "EXAMPLE", "main", "parser"]
+__all__ = ["decide_rule", "EXAMPLE", "main", "parser", "processes"]
 
 EXAMPLE = (
     "example: python -m promp.live --model model.json --in hand=MocapHand:0,1,2@mm "

@@ -41,7 +41,8 @@ import numpy as np
 from promp.evidence.evidence import Evidence, Integral
 from promp.observation import Observation
 
-__all__ = ["ANSWER_TIMEOUT_S", "Helper", "READY_TIMEOUT_S", "shares"]
+__all__ = ["ANSWER_TIMEOUT_S", "decode", "encode", "Helper", "integral_arrays", "integrals_from",
+           "main", "MAX_FRAME", "read_frame", "READY_TIMEOUT_S", "serve", "shares"]
 
 ANSWER_TIMEOUT_S = 5.0  # an update's answer: the helper is stopped past it
 READY_TIMEOUT_S = 60.0  # the helper's start (a Python process importing numpy): given up past it
