@@ -275,3 +275,43 @@ def test_the_helper_answers_each_update_from_its_own_evidence_of_the_movement() 
     first = integrals_from(*read_frame(answers.read))
     assert_array_equal(first[0].log_likelihoods, again.integral(0).log_likelihoods)
     assert read_frame(answers.read) is not None and read_frame(answers.read) is None
+
+
+def test_the_helpers_command_serves_its_input_on_its_own_output_and_ignores_ctrl_c(
+        monkeypatch) -> None:  # fmt: skip
+    """``main`` (what ``python -m promp.live.helper`` runs), in this process: Ctrl-C ignored
+    (the session closes its input instead), the frames written to a copy of the standard
+    output taken before it is pointed at the error stream (a stray print cannot corrupt
+    them), its input read until it ends."""
+    import io
+    import signal as signal_module
+
+    from promp.io import model_to_json
+    from promp.live import helper
+    from promp.live.helper import read_frame
+
+    model, _ = model_and_takes(2)
+    calls, written = [], io.BytesIO()
+    setup = encode({"model": model_to_json(model), "alpha_method": "ml",
+                    "modalities": ["hand", "head"]})  # fmt: skip
+
+    class Out:
+        def write(self, data):
+            written.write(data)
+
+    class In:
+        buffer = io.BytesIO(setup)
+
+    monkeypatch.setattr(helper.signal, "signal", lambda *a: calls.append(("signal", *a)))
+    monkeypatch.setattr(helper.os, "dup", lambda fd: calls.append(("dup", fd)) or 99)
+    monkeypatch.setattr(helper.os, "dup2", lambda a, b: calls.append(("dup2", a, b)))
+    monkeypatch.setattr(helper.os, "fdopen",
+                        lambda fd, mode, buffering: calls.append(("fdopen", fd, mode, buffering))
+                        or Out())  # fmt: skip
+    monkeypatch.setattr(helper.sys, "stdin", In())
+    helper.main()
+    assert calls == [("signal", signal_module.SIGINT, signal_module.SIG_IGN), ("dup", 1),
+                     ("fdopen", 99, "wb", 0), ("dup2", 2, 1)]  # fmt: skip
+    written.seek(0)
+    assert read_frame(written.read)[0] == {"ready": True}
+    assert read_frame(written.read) is None
