@@ -125,7 +125,9 @@ def _faulty(kill_at: int, fault: str):
     alone = OnlinePredictor(model, columns(), remainder="hand")
     shared = OnlinePredictor(model, columns(), remainder="hand", helper=True)
     helper = started(shared)
-    news = []
+    news, submitted = [], []
+    submit = helper.submit
+    helper.submit = lambda *a: submitted.append(a[0]) or submit(*a)
 
     def on_update(number: int, n: int) -> None:
         if number == 2 and n == kill_at and not news:
@@ -142,6 +144,9 @@ def _faulty(kill_at: int, fault: str):
         said = [shared.news(), shared.news()]
     finally:
         shared.close()
+    # a helper stopped is never asked again (its failure said, not left empty: it would seem
+    # alive and be asked at the next movement's start)
+    assert max(submitted) == 2 and submitted.count(2) >= 1
     return one, two, said, helper
 
 
@@ -226,11 +231,13 @@ def test_processes_default_to_two_on_two_cores(monkeypatch) -> None:
     assert cli.processes(None) == 1 and cli.processes(2) == 2
 
 
-def test_the_helper_answers_each_update_from_its_own_evidence_of_the_movement() -> None:
+@pytest.mark.parametrize("alpha_method", ["ml", "model"])
+def test_the_helper_answers_each_update_from_its_own_evidence_of_the_movement(alpha_method):
     """``serve`` in this process (what ``python -m promp.live.helper`` runs): the model once,
     then per update the new rows; its answers are the integrals of an evidence extended by
-    the same rows, bit for bit, the first index alone first; a refused observation gets an
-    error frame and the next update an answer."""
+    the same rows, bit for bit, the first index alone first, at the session's speed prior; a
+    refused observation gets an error frame and the next update an answer, within the
+    movement too (from an evidence of every row)."""
     import io
 
     from promp.evidence import Evidence
@@ -244,7 +251,7 @@ def test_the_helper_answers_each_update_from_its_own_evidence_of_the_movement() 
     times = takes[1].times - takes[1].times[0]
     asked = [(1, 0, 10, [1, 0]), (1, 10, 14, [0, 1]), (1, 14, 20, [1]), (2, 0, 8, [0, 1])]
     requests = io.BytesIO()
-    requests.write(encode({"model": model_to_json(model), "alpha_method": "ml",
+    requests.write(encode({"model": model_to_json(model), "alpha_method": alpha_method,
                            "modalities": list(modalities)}))  # fmt: skip
     for movement, start, stop, indices in asked:
         requests.write(encode({"movement": movement, "start": start, "indices": indices},
@@ -254,6 +261,9 @@ def test_the_helper_answers_each_update_from_its_own_evidence_of_the_movement() 
     requests.write(encode({"movement": 3, "start": 0, "indices": [0, 1]}, [times[:5], bad]))
     requests.write(encode({"movement": 3, "start": 0, "indices": [0, 1]},
                           [times[:5], values[:5]]))  # fmt: skip
+    for start, stop, indices in [(5, 9, [7]), (9, 12, [1, 0])]:  # no primitive 7: refused
+        requests.write(encode({"movement": 3, "start": start, "indices": indices},
+                              [times[start:stop], values[start:stop]]))  # fmt: skip
     requests.seek(0)
     answers = io.BytesIO()
     serve(requests.read, answers.write)
@@ -262,7 +272,8 @@ def test_the_helper_answers_each_update_from_its_own_evidence_of_the_movement() 
     evidence = None
     for _movement, start, stop, indices in asked:
         obs = Observation(times[:stop], values[:stop], modalities)
-        evidence = Evidence(model, obs) if start == 0 else evidence.extended(obs)
+        evidence = Evidence(model, obs, alpha_method) if start == 0 \
+            else evidence.extended(obs)  # fmt: skip
         first = integrals_from(*read_frame(answers.read))
         rest = integrals_from(*read_frame(answers.read))
         assert list(first) == indices[:1] and list(rest) == indices[1:]
@@ -271,9 +282,16 @@ def test_the_helper_answers_each_update_from_its_own_evidence_of_the_movement() 
             for a, b in zip(got, want, strict=True):
                 assert_array_equal(a, b)
     assert "error" in read_frame(answers.read)[0]  # the NaN refused
-    again = Evidence(model, Observation(times[:5], values[:5], modalities))
+    again = Evidence(model, Observation(times[:5], values[:5], modalities), alpha_method)
     first = integrals_from(*read_frame(answers.read))
     assert_array_equal(first[0].log_likelihoods, again.integral(0).log_likelihoods)
+    assert read_frame(answers.read) is not None
+    assert "error" in read_frame(answers.read)[0]
+    fresh = Evidence(model, Observation(times[:12], values[:12], modalities), alpha_method)
+    first = integrals_from(*read_frame(answers.read))
+    assert list(first) == [1]
+    for a, b in zip(first[1], fresh.integral(1), strict=True):
+        assert_array_equal(a, b)
     assert read_frame(answers.read) is not None and read_frame(answers.read) is None
 
 
@@ -315,3 +333,130 @@ def test_the_helpers_command_serves_its_input_on_its_own_output_and_ignores_ctrl
     written.seek(0)
     assert read_frame(written.read)[0] == {"ready": True}
     assert read_frame(written.read) is None
+
+
+def test_a_frame_holds_several_integrals_any_numbers_as_float64_and_reads_in_pieces(
+        monkeypatch) -> None:  # fmt: skip
+    """Two integrals in one answer come back apart; integers are sent as float64; a frame
+    read a few bytes at a time (a pipe gives what it holds) is the frame; a header longer
+    than its frame, or a frame over MAX_FRAME, is refused (exactly MAX_FRAME is not)."""
+    import io
+
+    from promp.evidence.evidence import Integral
+    from promp.live.helper import integral_arrays, integrals_from, read_frame
+
+    rng = np.random.default_rng(1)
+    integrals = {2: Integral(*rng.normal(size=(3, 7)), -3.5),
+                 0: Integral(*rng.normal(size=(3, 9)), 1.25)}  # fmt: skip
+    frame = encode({"indices": [2, 0]}, [a for i in integrals.values() for a in integral_arrays(i)])
+    pieces = io.BytesIO(frame)
+    got = integrals_from(*read_frame(lambda n: pieces.read(min(n, 5))))
+    assert list(got) == [2, 0]
+    for k, want in integrals.items():
+        for a, b in zip(got[k], want, strict=True):
+            assert_array_equal(a, b)
+    header, (counts,) = read_frame(io.BytesIO(encode({}, [np.arange(4)])).read)
+    assert counts.dtype == np.float64 and counts.tolist() == [0.0, 1.0, 2.0, 3.0]
+    lying = helper_module._LENGTH.pack(4, 5) + b"{}abc"  # a 5-byte header in 4 bytes
+    with pytest.raises(ValueError):
+        read_frame(io.BytesIO(lying).read)
+    length = len(frame) - helper_module._LENGTH.size
+    monkeypatch.setattr(helper_module, "MAX_FRAME", length)
+    assert list(integrals_from(*read_frame(io.BytesIO(frame).read))) == [2, 0]
+    monkeypatch.setattr(helper_module, "MAX_FRAME", length - 1)
+    with pytest.raises(ValueError):
+        read_frame(io.BytesIO(frame).read)
+
+
+# A stand-in helper: ready, then each update answered as its mode says ("error": the engine's
+# refusal; "split": one integral's frame in two writes 0.3 s apart; "half": half a frame, then
+# silence).
+FAKE_HELPER = """
+import sys, time
+import numpy as np
+from promp.live.helper import encode, read_frame
+read, out = sys.stdin.buffer.read, sys.stdout.buffer
+mode = sys.argv[1]
+read_frame(read)
+out.write(encode({"ready": True})); out.flush()
+while read_frame(read) is not None:
+    if mode == "error":
+        out.write(encode({"error": "ValueError: refused"})); out.flush()
+        continue
+    frame = encode({"indices": [0]}, [np.arange(3.0), np.ones(3), np.zeros(3), np.array([-2.0])])
+    out.write(frame[: len(frame) // 2]); out.flush()
+    time.sleep(0.3 if mode == "split" else 60)
+    out.write(frame[len(frame) // 2 :]); out.flush()
+"""
+
+
+def _fake(mode: str) -> Helper:
+    helper = Helper("{}", "ml", ("hand", "head"),
+                    command=[sys.executable, "-c", FAKE_HELPER, mode])  # fmt: skip
+    assert helper.ready(wait=60.0), helper.failure
+    return helper
+
+
+def _observation():
+    from promp.inference import Observation
+
+    _, takes = model_and_takes(2)
+    return Observation(takes[0].times[:8] - takes[0].times[0], LAYOUT.extract(takes[0])[:8],
+                       ("hand", "head"))  # fmt: skip
+
+
+def test_a_refusal_from_the_helpers_engine_is_no_failure_of_the_helper() -> None:
+    helper = _fake("error")
+    try:
+        for _ in range(2):  # each update refused, the helper still asked
+            assert helper.submit(1, _observation(), [0, 1]) and helper.waiting == 2
+            assert helper.collect() is None
+            assert helper.waiting == 0 and helper.alive
+    finally:
+        helper.close()
+
+
+def test_an_answer_written_in_pieces_is_waited_for_and_one_cut_off_is_a_failure(
+        monkeypatch) -> None:  # fmt: skip
+    helper = _fake("split")
+    try:
+        assert helper.submit(1, _observation(), [0])
+        got = helper.collect()
+        assert got is not None and list(got) == [0], helper.failure
+        assert_array_equal(got[0].nodes, [0.0, 1.0, 2.0]) and got[0].log_evidence == -2.0
+        assert helper.alive and helper.waiting == 1
+    finally:
+        helper.close()
+    monkeypatch.setattr(helper_module, "ANSWER_TIMEOUT_S", 0.5)
+    helper = _fake("half")
+    assert helper.submit(1, _observation(), [0])
+    assert helper.collect() is None
+    assert not helper.alive and helper.failure and helper.waiting == 0
+    assert helper._process.poll() is not None  # killed
+    helper.close()
+
+
+def test_a_helper_still_starting_is_not_ready_without_waiting_and_not_given_up(
+        monkeypatch) -> None:  # fmt: skip
+    """``ready()`` only looks (a session's update never waits for the helper's start), and a
+    helper that has not answered yet is waited for until READY_TIMEOUT_S."""
+    import select as select_module
+
+    waits = []
+
+    class Looking:
+        @staticmethod
+        def select(r, w, x, timeout=None):
+            waits.append(timeout)
+            return select_module.select(r, w, x, timeout)
+
+    monkeypatch.setattr(helper_module, "select", Looking)
+    slow = [sys.executable, "-c", "import sys; sys.stdin.buffer.read()"]  # reads, never answers
+    helper = Helper("{}", "ml", ("hand", "head"), command=slow)
+    try:
+        for _ in range(3):
+            assert not helper.ready()
+        assert helper.alive and helper._process.poll() is None
+        assert waits == [0.0, 0.0, 0.0]
+    finally:
+        helper.close()
