@@ -370,23 +370,32 @@ def test_a_frame_holds_several_integrals_any_numbers_as_float64_and_reads_in_pie
 
 # A stand-in helper: ready, then each update answered as its mode says ("error": the engine's
 # refusal; "split": one integral's frame in two writes 0.3 s apart; "half": half a frame, then
-# silence).
+# silence). It speaks the frames with the standard library alone: it starts in a few ms, where
+# one importing numpy and the engine takes a second (each of the helper's mutants runs it).
 FAKE_HELPER = """
-import sys, time
-import numpy as np
-from promp.live.helper import encode, read_frame
-read, out = sys.stdin.buffer.read, sys.stdout.buffer
-mode = sys.argv[1]
-read_frame(read)
-out.write(encode({"ready": True})); out.flush()
-while read_frame(read) is not None:
+import json, struct, sys, time
+PREFIX = struct.Struct("<QI")
+read, out, mode = sys.stdin.buffer.read, sys.stdout.buffer, sys.argv[1]
+
+def request():
+    prefix = read(PREFIX.size)
+    return len(prefix) == PREFIX.size and len(read(PREFIX.unpack(prefix)[0])) >= 0
+
+def frame(header, arrays=()):
+    text = json.dumps({**header, "shapes": [[len(a)] for a in arrays]}).encode()
+    body = b"".join(struct.pack(f"<{len(a)}d", *a) for a in arrays)
+    return PREFIX.pack(len(text) + len(body), len(text)) + text + body
+
+request()
+out.write(frame({"ready": True})); out.flush()
+while request():
     if mode == "error":
-        out.write(encode({"error": "ValueError: refused"})); out.flush()
+        out.write(frame({"error": "ValueError: refused"})); out.flush()
         continue
-    frame = encode({"indices": [0]}, [np.arange(3.0), np.ones(3), np.zeros(3), np.array([-2.0])])
-    out.write(frame[: len(frame) // 2]); out.flush()
+    answer = frame({"indices": [0]}, [[0.0, 1.0, 2.0], [1.0] * 3, [0.0] * 3, [-2.0]])
+    out.write(answer[: len(answer) // 2]); out.flush()
     time.sleep(0.3 if mode == "split" else 60)
-    out.write(frame[len(frame) // 2 :]); out.flush()
+    out.write(answer[len(answer) // 2 :]); out.flush()
 """
 
 
