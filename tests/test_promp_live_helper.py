@@ -146,7 +146,7 @@ def _faulty(kill_at: int, fault: str):
         shared.close()
     # a helper stopped is never asked again (its failure said, not left empty: it would seem
     # alive and be asked at the next movement's start)
-    assert max(submitted) == 2 and submitted.count(2) >= 1
+    assert max(submitted) == 2
     return one, two, said, helper
 
 
@@ -379,7 +379,10 @@ read, out, mode = sys.stdin.buffer.read, sys.stdout.buffer, sys.argv[1]
 
 def request():
     prefix = read(PREFIX.size)
-    return len(prefix) == PREFIX.size and len(read(PREFIX.unpack(prefix)[0])) >= 0
+    if len(prefix) < PREFIX.size:
+        return False
+    length = PREFIX.unpack(prefix)[0]
+    return len(read(length)) == length
 
 def frame(header, arrays=()):
     text = json.dumps({**header, "shapes": [[len(a)] for a in arrays]}).encode()
@@ -432,7 +435,8 @@ def test_an_answer_written_in_pieces_is_waited_for_and_one_cut_off_is_a_failure(
         assert helper.submit(1, _observation(), [0])
         got = helper.collect()
         assert got is not None and list(got) == [0], helper.failure
-        assert_array_equal(got[0].nodes, [0.0, 1.0, 2.0]) and got[0].log_evidence == -2.0
+        assert_array_equal(got[0].nodes, [0.0, 1.0, 2.0])
+        assert got[0].log_evidence == -2.0
         assert helper.alive and helper.waiting == 1
     finally:
         helper.close()
