@@ -47,20 +47,16 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from scipy import special
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import promp.evidence.speed as speed  # noqa: E402
 from promp.datasets import read_dataset  # noqa: E402
 from promp.evaluate.methods import ProMPEngine  # noqa: E402
 from promp.evaluate.sweep import position_modality, run_sweep  # noqa: E402
 from promp.evidence import Evidence  # noqa: E402
-from promp.evidence.speed import logsumexp, logsumexp_rows  # noqa: E402
 from promp.fitting import fit_parts  # noqa: E402
 from promp.observation import check_observation  # noqa: E402
-from promp.quality import winsorized  # noqa: E402
 from promp.timing import duration_from_alpha  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "data"
@@ -93,6 +89,9 @@ class Variant(ProMPEngine):
 
     def fit(self, dataset, sample_period: float, chosen=None) -> None:
         self.model, parts = _fitted(self, dataset, sample_period, chosen)
+        if self.kind == "mixture":  # the engine's own (promp.evidence.mixture)
+            settings = replace(self.model.settings, recognition=self.name)
+            self.model = replace(self.model, settings=settings)
         self.parts = {p.name: part for p, part in zip(self.model.primitives, parts, strict=True)}
         self._components: dict = {}
         self._ensembles: dict = {}
@@ -103,14 +102,12 @@ class Variant(ProMPEngine):
 
     @contextlib.contextmanager
     def _scoring(self):
-        if self.kind == "promp":
+        if self.kind in ("promp", "mixture"):
             yield
             return
         original = Evidence._integrate
 
         def integrate(evidence, prim, prior):
-            if self.kind == "mixture":
-                return self._mixture(evidence, prim, prior)
             nodes, ll, lp, _ = original(evidence, prim, prior)
             return nodes, ll, lp, self._ebip(evidence.model, prim, evidence.observation)
 
@@ -119,50 +116,6 @@ class Variant(ProMPEngine):
             yield
         finally:
             Evidence._integrate = original
-
-    # -- direction (iii): the mixture over the demonstrations --------------------------------
-    def _mixture(self, evidence, prim, prior):
-        h = self.value
-        share = math.sqrt(max(1.0 - h * h, 0.0))
-        if prim.name not in self._components:
-            residuals = self.parts[prim.name].residuals
-            self._components[prim.name] = [
-                replace(prim, mean=prim.mean + share * e, cov_diag=h * h * prim.cov_diag,
-                        cov_factor=h * prim.cov_factor)
-                for e in residuals
-            ]  # fmt: skip
-        comps = self._components[prim.name]
-        bound = math.log(speed.longest_alpha(evidence.model, evidence.observation))
-        nodes, _, _ = speed.quadrature(prior, bound)
-
-        def table(x):
-            return np.stack([evidence.log_likelihoods(c, np.exp(x)) for c in comps], axis=1)
-
-        def kernels(x):
-            loc, scale, dof = prior.locs[0], prior.scales[0], prior.dofs[0]
-            centres = loc + share * (winsorized(np.log(prim.alphas)) - loc)
-            width = h * scale
-            z = (x[None, :] - centres[:, None]) / width
-            density = speed.t_logpdf(z, dof) - math.log(width)
-            with np.errstate(divide="ignore"):
-                mass = np.log(special.stdtr(dof, (bound - centres) / width))
-            return speed.quadrature_weights(x[None, :], density, mass)  # (J, A)
-
-        ll, weights = table(nodes), kernels(nodes)
-        fine = speed.refined_nodes(nodes, int(np.argmax(logsumexp_rows(ll + weights.T))))
-        if fine.size:
-            nodes = np.concatenate([nodes, fine])
-            ll = np.concatenate([ll, table(fine)])
-            order = np.argsort(nodes)
-            nodes, ll = nodes[order], ll[order]
-            weights = kernels(nodes)
-        log_j = math.log(len(comps))
-        prior_weight = logsumexp_rows(weights.T) - log_j
-        with np.errstate(invalid="ignore"):
-            joint = logsumexp_rows(ll + weights.T) - log_j
-        likelihood = np.where(np.isfinite(prior_weight), joint - prior_weight, -np.inf)
-        widths = np.gradient(nodes) if nodes.size > 1 else np.ones(1)
-        return nodes, likelihood, prior_weight - np.log(widths), logsumexp(joint)
 
     # -- direction (i): phase as a filtered state ------------------------------------------
     def _ensemble(self, model, prim, dims):

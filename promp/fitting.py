@@ -254,6 +254,7 @@ def fit_parts(
             log_alpha_mean=m.log_alpha_mean,
             alpha_slope=m.slope,
             stillness=learned_stillness(demos, layout),
+            residuals=m.residuals,
         )
         for (name, demos), m, (cov_diag, cov_factor), share in zip(
             dataset.items(), moments, covariances, shares, strict=True

@@ -1,16 +1,17 @@
-"""File formats: versioned JSON for models, NPZ (or CSV, see :mod:`promp.datasets`) for
-demonstrations. No pickle anywhere: NPZ files are read with ``allow_pickle=False``.
+"""The model file: versioned JSON (demonstrations are NPZ, :mod:`promp.demo_npz`, or CSV,
+:mod:`promp.datasets`). No pickle anywhere.
 
-Model JSON, schema version 4 (versions 1 to 3 still load: see :func:`model_from_dict`)::
+Model JSON, schema version 5 (versions 1 to 4 still load: see :func:`model_from_dict`)::
 
     {
       "format": "icub-intention-studio/promp-model",
-      "version": 4,
+      "version": 5,
       "layout": [{"name": "hand", "columns": ["x", "y", "z"], "unit": "m", "kind": "linear"},
                  ...],
       "settings": {"n_basis": 7, "width": 1.0, "ridge": 1e-06, "s_bar": 100.0,
                    "shrinkage": null, "noise_std": {}, "noise_scale": 1.0,
-                   "alpha_coupling": true, "noise_correlation": true, "select": "loo"},
+                   "alpha_coupling": true, "noise_correlation": true, "select": "loo",
+                   "recognition": "promp"},
       "sample_period": 0.02,                       # seconds
       "report": {"settings": {"rule": "...", "chosen": {"n_basis": 7, ...}, ...},
                  "covariance": {"rule": "...", "strength": 42.2, ...}},
@@ -31,9 +32,10 @@ Model JSON, schema version 4 (versions 1 to 3 still load: see :func:`model_from_
           "stillness": {"hand": {"lead": [...], "pause": [...], "trail": [...]}, ...}
                     # per modality in m or rad, each (n_demos,): how each demonstration is
                     # still, s: before its motion, the longest pause inside, after
-          "region_scale": {"hand": 1.3, ...}
+          "region_scale": {"hand": 1.3, ...},
                     # per modality: the factor on the radius of its predictive region that
                     # holds its stated share of its own demonstrations, each left out in turn
+          "residuals": [[...], ...]                # (n_demos, n_dims * n_basis) or null
       }, ...]
     }
 
@@ -43,9 +45,7 @@ round-trip representation, so saving and loading is exact.
 
 from __future__ import annotations
 
-import io
 import json
-import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -53,19 +53,18 @@ from typing import Any
 import numpy as np
 
 from promp.alpha_model import N_RBF, AlphaModel
-from promp.data import Demonstration, Layout, Modality
+from promp.data import Layout, Modality
 from promp.files import atomic_write_text
 from promp.model import STILL_PARTS, Primitive, ProMPModel, Settings
 
 __all__ = [
-    "MODEL_FORMAT", "MODEL_VERSION", "READABLE_VERSIONS", "demo_from_npz_bytes",
-    "demo_to_npz_bytes", "load_model", "model_from_dict", "model_from_json", "model_to_dict",
-    "model_to_json", "save_model"
+    "MODEL_FORMAT", "MODEL_VERSION", "READABLE_VERSIONS", "load_model", "model_from_dict",
+    "model_from_json", "model_to_dict", "model_to_json", "save_model"
 ]  # fmt: skip
 
 MODEL_FORMAT = "icub-intention-studio/promp-model"
-MODEL_VERSION = 4
-READABLE_VERSIONS = (1, 2, 3, 4)
+MODEL_VERSION = 5
+READABLE_VERSIONS = (1, 2, 3, 4, 5)
 
 
 def _has_bool(value: Any) -> bool:
@@ -188,6 +187,7 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
             "noise_correlation": s.noise_correlation,
             "duration_temperature": s.duration_temperature,
             "select": s.select,
+            "recognition": s.recognition,
         },
         "sample_period": model.sample_period,
         "report": dict(model.report),
@@ -211,6 +211,7 @@ def model_to_dict(model: ProMPModel) -> dict[str, Any]:
                                      for part, v in parts.items()}
                               for name, parts in p.stillness.items()},
                 "region_scale": {name: float(v) for name, v in p.region_scale.items()},
+                "residuals": None if p.residuals is None else p.residuals.tolist(),
             }
             for p in model.primitives
         ],
@@ -228,6 +229,9 @@ def model_from_dict(data: Any) -> ProMPModel:
     (``tests/test_promp_model_format.py`` loads a file of each writer and compares the prior it
     predicts with the one that writer's code predicted):
 
+    * version 5 adds the settings' ``recognition`` and each primitive's ``residuals``
+      (absent: ``"promp"`` and none, so the model recognises with the ProMP, as its writer
+      did);
     * version 4 adds each primitive's ``region_scale`` (absent: every region keeps the radius
       of its Gaussian, as its writer drew it);
     * version 3 adds each primitive's ``stillness`` (absent: none learned, the primitive is
@@ -312,6 +316,7 @@ def _layout_and_settings(data: Mapping) -> tuple[Layout, Settings]:
             # files before the calibration had none: the plain posterior
             duration_temperature=float(raw.get("duration_temperature", 1.0) or 1.0),
             select=str(raw.get("select", "loo")),
+            recognition=str(raw.get("recognition", "promp")),  # before version 5: the ProMP
         )
     except (TypeError, AttributeError) as exc:
         raise ValueError(f"malformed layout or settings ({exc})") from exc
@@ -355,6 +360,9 @@ def _primitive_from_dict(
                            alphas.size, what)  # fmt: skip
     region_scale = _region_scale(_field(p, "region_scale", what) if version >= 4 else {},
                                  layout, what)  # fmt: skip
+    residuals = p.get("residuals") if version >= 5 else None
+    if residuals is not None:
+        residuals = _array(residuals, f"{what} residuals", (alphas.size, n_weights))
     log_alpha_mean = _number(p, "log_alpha_mean", what)
     alpha_slope = _array(_field(p, "alpha_slope", what), f"{what} alpha_slope", (n_weights,))
     return Primitive(
@@ -371,6 +379,7 @@ def _primitive_from_dict(
         alpha_slope=alpha_slope,
         stillness=stillness,
         region_scale=region_scale,
+        residuals=residuals,
     )
 
 
@@ -456,40 +465,3 @@ def load_model(path: Path) -> ProMPModel:
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from exc
 
-
-def demo_to_npz_bytes(demo: Demonstration) -> bytes:
-    """NPZ with ``times`` (n,), ``values`` (n, D), ``columns`` (D,) unicode, ``name`` ()."""
-    buffer = io.BytesIO()
-    np.savez(
-        buffer,
-        times=demo.times,
-        values=demo.values,
-        columns=np.array(demo.columns, dtype=str),
-        name=np.array(demo.name, dtype=str),
-    )
-    return buffer.getvalue()
-
-
-def demo_from_npz_bytes(data: bytes, label: str = "demonstration") -> Demonstration:
-    """Read :func:`demo_to_npz_bytes` output (never unpickles)."""
-    try:
-        npz = np.load(io.BytesIO(data), allow_pickle=False)
-        if not isinstance(npz, np.lib.npyio.NpzFile):
-            raise ValueError("a single array, not an archive")
-        with npz:
-            missing = {"times", "values", "columns"} - set(npz.files)
-            if missing:
-                raise ValueError(f"NPZ lacks {sorted(missing)}")
-            times, values = npz["times"], npz["values"]
-            columns = tuple(str(c) for c in npz["columns"].reshape(-1))
-            name = str(npz["name"]) if "name" in npz.files else ""
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        # numpy's own message for object arrays suggests loading unsafely: never do that.
-        reason = "object arrays are refused" if "pickle" in str(exc) else str(exc)
-        raise ValueError(f"{label}: not an NPZ file of numeric arrays ({reason})") from None
-    if times.dtype.kind not in "fiu" or values.dtype.kind not in "fiu":
-        raise ValueError(f"{label}: times and values must be numeric")
-    try:
-        return Demonstration(times, values, columns, name=name)
-    except ValueError as exc:
-        raise ValueError(f"{label}: {exc}") from exc

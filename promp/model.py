@@ -30,12 +30,38 @@ from promp.covariance import compress_factor
 from promp.data import Layout
 from promp.stillness import pause_bound
 
-__all__ = ["FALLBACK", "SELECT_RULES", "Primitive", "ProMPModel", "Settings", "STILL_PARTS"]
+__all__ = [
+    "FALLBACK", "SELECT_RULES", "Primitive", "ProMPModel", "Settings", "STILL_PARTS",
+    "recognition_bandwidth",
+]  # fmt: skip
 
 # The reference settings: what a fit uses when it cannot choose (see promp.selection).
 FALLBACK = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
 # How the others are chosen (promp.selection): closed-form leave-one-out, or inner folds.
 SELECT_RULES = ("loo", "cv")
+
+
+def recognition_bandwidth(name: str) -> float:
+    """The bandwidth ``H`` of a recognition variant's name (:attr:`Settings.recognition`):
+    ``"promp"`` is 1 (the primitive's one Gaussian), ``"mixture:H"`` the mixture over the
+    training demonstrations at ``0 < H <= 1`` (:mod:`promp.evidence.mixture`).
+
+    Raises
+    ------
+    ValueError
+        Any other name.
+    """
+    kind, colon, value = str(name).partition(":")
+    if kind == "promp" and not colon:
+        return 1.0
+    try:
+        bandwidth = float(value) if kind == "mixture" else float("nan")
+    except ValueError:
+        bandwidth = float("nan")
+    if not 0.0 < bandwidth <= 1.0:  # (False for NaN)
+        raise ValueError(f"recognition must be 'promp' or 'mixture:H' with 0 < H <= 1, got "
+                         f"{name!r}")  # fmt: skip
+    return bandwidth
 
 
 @dataclass(frozen=True)
@@ -85,6 +111,12 @@ class Settings:
         default), the recognition log-loss of every training demonstration left out in closed
         form from one fit per candidate basis; ``"cv"``, the inner cross-validation that
         refits every fold (slower, for comparison).
+    recognition : str
+        How a primitive's evidence is scored (:func:`recognition_bandwidth`): ``"promp"``
+        (the default), its one Gaussian over the weights and the speed; ``"mixture:H"``, the
+        mixture over its training demonstrations, each a kernel of bandwidth ``H`` around the
+        demonstration (:mod:`promp.evidence.mixture`). The conditioning is the ProMP's either
+        way.
     """
 
     n_basis: int | None = None
@@ -98,8 +130,10 @@ class Settings:
     noise_correlation: bool = True
     duration_temperature: float | None = None
     select: str = "loo"
+    recognition: str = "promp"
 
     def __post_init__(self) -> None:
+        recognition_bandwidth(self.recognition)  # validates it
         if self.select not in SELECT_RULES:
             raise ValueError(f"select must be one of {list(SELECT_RULES)}, got {self.select!r}")
         RBFBasis(  # validates both
@@ -199,6 +233,11 @@ class Primitive:
         demonstrations, each left out in turn (:mod:`promp.region_calibration`). A modality
         not listed (every one of a model whose file predates them) keeps the radius of the
         Gaussian, 1.
+    residuals : array, shape (n_demos, n_weights), optional
+        Each training demonstration's weights less the prior mean at its own speed (the
+        regression on log alpha): the components of the mixture recognition
+        (:mod:`promp.evidence.mixture`). None for a model whose file predates them (it
+        recognises with the ProMP alone).
     """
 
     name: str
@@ -214,6 +253,7 @@ class Primitive:
     noise_tau: np.ndarray | None = None
     stillness: Mapping[str, Mapping[str, np.ndarray]] = field(default_factory=dict)
     region_scale: Mapping[str, float] = field(default_factory=dict)
+    residuals: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         blocks = np.asarray(self.cov_diag).reshape(np.asarray(self.noise_var).shape[0], -1)
@@ -226,6 +266,10 @@ class Primitive:
             object.__setattr__(self, "alpha_slope", np.zeros_like(self.mean))
         if self.noise_tau is None:
             object.__setattr__(self, "noise_tau", np.zeros_like(self.noise_var))
+        shape = (np.shape(self.alphas)[0], np.shape(self.mean)[0])  # (n_demos, n_weights)
+        if self.residuals is not None and np.shape(self.residuals) != shape:
+            raise ValueError(f"primitive {self.name!r}: residuals must be (n_demos, n_weights) "
+                             f"= {shape}, got {np.shape(self.residuals)}")  # fmt: skip
 
     def still(self, part: str, modalities: Sequence[str]) -> np.ndarray | None:
         """``part`` ("lead", "pause" or "trail") of each training demonstration when
@@ -322,6 +366,15 @@ class ProMPModel:
     sample_period: float
     primitives: tuple[Primitive, ...]
     report: Mapping = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.settings.recognition != "promp":
+            lacking = [p.name for p in self.primitives if p.residuals is None]
+            if lacking:
+                raise ValueError(
+                    f"recognition {self.settings.recognition!r} needs every primitive's "
+                    f"training residuals; {lacking} have none (a model file before version 5)"
+                )
 
     @functools.cached_property
     def basis(self) -> RBFBasis:

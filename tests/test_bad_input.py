@@ -25,9 +25,10 @@ from app.io.exchange import Limits, read_upload, workspace_zip
 from app.io.workspace import Workspace, WorkspaceData
 from app.io.workspace_index import PALETTE, PrimitiveEntry
 from promp.datasets import demo_from_csv, demo_to_csv, read_record
+from promp.demo_npz import demo_from_npz_bytes
 from promp.evidence.pipeline import infer
 from promp.inference import Observation
-from promp.io import demo_from_npz_bytes, model_to_json
+from promp.io import model_to_json
 from promp.learn import fit
 from promp.model import Settings
 from robots.icub.layout import STUDIO_LAYOUT as LAYOUT

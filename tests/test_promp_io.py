@@ -10,11 +10,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
+from promp.demo_npz import demo_from_npz_bytes, demo_to_npz_bytes
 from promp.evidence.pipeline import condition, recognise
 from promp.inference import Observation, predict
 from promp.io import (
-    demo_from_npz_bytes,
-    demo_to_npz_bytes,
     load_model,
     model_from_dict,
     model_from_json,
@@ -111,7 +110,13 @@ def _mutated(model, change) -> dict:
 @pytest.mark.parametrize(
     "change, message",
     [
-        (lambda d: d.update(version=5), "unsupported model version 5"),
+        (lambda d: d.update(version=6), "unsupported model version 6"),
+        (lambda d: d["primitives"][0].update(residuals=[[0.0]]), r"residuals: expected shape"),
+        (lambda d: d["primitives"][0]["residuals"][0].__setitem__(0, float("nan")), "NaN"),
+        (lambda d: d["settings"].update(recognition="mixture:2"), "0 < H <= 1"),
+        (lambda d: d["settings"].update(recognition="gmm"), "recognition must be"),
+        (lambda d: (d["settings"].update(recognition="mixture:0.5"),
+                    d["primitives"][1].update(residuals=None)), "needs every primitive's"),
         (lambda d: d["primitives"][0]["stillness"]["hand"].update(pause=[0.1]),
          r"stillness 'hand' pause.*shape"),
         (lambda d: d["primitives"][0]["stillness"]["hand"]["lead"].__setitem__(0, -1.0),

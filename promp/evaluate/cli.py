@@ -9,7 +9,8 @@
         [--method ours seed dtw prefix-nn] [--baseline-scaling modality|column|none]
         [--json OUT.json] [--csv OUT.csv] [--plots DIR] [--basis M] [--width W]
         [--shrinkage S|auto] [--noise-scale X] [--duration-temperature T]
-        [--select loo|cv] [--subset N] [--group-by folder|LEVEL|REGEX] [--jobs N]
+        [--select loo|cv] [--recognition promp|mixture:H] [--subset N]
+        [--group-by folder|LEVEL|REGEX] [--jobs N]
         [--backend local|dask --scheduler ADDRESS] [--include-flagged] [--repair-gaps cut|split]
         [--trials-csv OUT.csv] [--run DIR [--run-name NAME]]
         [--decide [--decide-window S] [--decisions-csv OUT.csv]]
@@ -82,6 +83,7 @@ from promp.evaluate.report import (
     results_report,
     trials_csv,
 )
+from promp.evaluate.settings_options import add_settings_arguments, settings_of
 from promp.evaluate.sweep import SweepResult, run_sweep, spread_subset
 from promp.evaluate.tables import grouped_text, results_text, side_by_side_text
 from promp.evaluate.viewer_files import (
@@ -90,7 +92,7 @@ from promp.evaluate.viewer_files import (
     write_viewer_files,
 )
 from promp.gaps import REPAIRS
-from promp.model import SELECT_RULES, Settings
+from promp.model import Settings
 from promp.progress import stderr_progress
 from promp.rigs import MAPPING_HELP, add_rig_arguments
 
@@ -163,7 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_dataset_arguments(parser)
     _add_sweep_arguments(parser)
-    _add_settings_arguments(parser)
+    add_settings_arguments(parser)
     _add_run_arguments(parser)
     add_group_arguments(parser)
     add_check_arguments(parser)
@@ -211,52 +213,6 @@ def _add_sweep_arguments(parser: argparse.ArgumentParser) -> None:
         "spread over the training demonstrations: one scale per modality of one unit (its "
         "Euclidean geometry kept) and per column otherwise (modality), every column alone "
         "(column), or none (the raw values)",
-    )
-
-
-def _add_settings_arguments(parser: argparse.ArgumentParser) -> None:
-    """The learning settings of ours (each left to every fit's choice by default)."""
-    parser.add_argument(
-        "--basis",
-        type=int,
-        default=None,
-        metavar="M",
-        help="basis functions per dimension (ours); default: chosen by every fit from its "
-        "training demonstrations (promp.selection)",
-    )
-    parser.add_argument(
-        "--width",
-        type=float,
-        default=None,
-        help="basis width, in spacings (ours); default: chosen by every fit",
-    )
-    parser.add_argument(
-        "--shrinkage",
-        default="auto",
-        help="'auto': each primitive's covariance under a prior pooled across primitives, its "
-        "strength by marginal likelihood, chosen inside every fold; or a fixed shrinkage "
-        "intensity in (0, 1] of each primitive's own sample covariance (ours)",
-    )
-    parser.add_argument(
-        "--noise-scale",
-        type=float,
-        default=None,
-        help="multiplies the estimated observation noise (ours); default: chosen by every fit",
-    )
-    parser.add_argument(
-        "--duration-temperature",
-        type=float,
-        default=None,
-        help="the power of the likelihood in the speed's posterior, which the duration's "
-        "interval comes from, in (0, 1] (ours); default: chosen by every fit",
-    )
-    parser.add_argument(
-        "--select",
-        choices=SELECT_RULES,
-        default="loo",
-        help="how every fit chooses the settings not given (ours): 'loo', the recognition "
-        "log-loss of each training demonstration left out in closed form (one fit per "
-        "candidate basis); 'cv', inner folds refitted for every candidate (slower)",
     )
 
 
@@ -400,20 +356,7 @@ def _sweep(args: argparse.Namespace) -> _Swept:
     print_findings(loaded, args.include_flagged)
     if any(not 0 < p <= 100 for p in args.percent):
         raise ValueError("--percent values must be in (0, 100]")
-    try:
-        shrinkage = None if args.shrinkage == "auto" else float(args.shrinkage)
-    except ValueError:
-        raise ValueError(
-            f"--shrinkage expects a number in (0, 1] or 'auto', got {args.shrinkage!r}"
-        ) from None
-    settings = Settings(
-        n_basis=args.basis,
-        width=args.width,
-        shrinkage=shrinkage,
-        noise_scale=args.noise_scale,
-        duration_temperature=args.duration_temperature,
-        select=args.select,
-    )
+    settings = settings_of(args)
     methods = method_factories(args.method, layout, settings, args.baseline_scaling)
     title = "+".join(methods)
     if args.backend == "dask" and not args.scheduler:

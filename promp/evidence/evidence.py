@@ -40,7 +40,8 @@ import numpy as np
 
 from promp.data import Demonstration
 from promp.duration import Timing, timing
-from promp.evidence import weight_space, woodbury
+from promp.evidence import mixture, weight_space, woodbury
+from promp.evidence.classes import recognition_of
 from promp.evidence.inference import PATH_POINTS, Inference
 from promp.evidence.speed import (
     ALPHA_METHODS,
@@ -61,9 +62,9 @@ from promp.inference import (
     predict,
 )
 from promp.metrics import measure
-from promp.model import Primitive, ProMPModel
+from promp.model import Primitive, ProMPModel, recognition_bandwidth
 from promp.observation import Observation, check_observation
-from promp.recognition import Recognition, label_noise, with_label_noise
+from promp.recognition import Recognition
 from promp.timing import alpha_from_duration, check_alpha
 from promp.via_points import ViaPoint, condition_on_via_points
 
@@ -243,7 +244,7 @@ class Evidence:
             return self._recognition_at(self.duration)
         integrals = [self.integral(k) for k in range(len(model.primitives))]
         evidence = np.array([i.log_evidence for i in integrals], dtype=float)
-        return _recognition(model, [i.nodes for i in integrals],
+        return recognition_of(model, [i.nodes for i in integrals],
                             [i.log_likelihoods for i in integrals],
                             [i.log_prior for i in integrals], evidence,
                             self.alpha_method)  # fmt: skip
@@ -294,7 +295,12 @@ class Evidence:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
         """The quadrature of ``primitive``'s likelihood over its speed ``prior``: the nodes
         (log alpha, increasing), their log-likelihoods and log prior densities, and the
-        log-evidence."""
+        log-evidence; with the mixture recognition, the mixture's
+        (:func:`promp.evidence.mixture.integrate`)."""
+        bandwidth = recognition_bandwidth(self.model.settings.recognition)
+        if bandwidth < 1.0:
+            table = functools.partial(self._components, primitive, bandwidth)
+            return mixture.integrate(table, primitive, prior, self._bound, bandwidth)
         x, lp, log_mass = quadrature(prior, self._bound)  # (finite nodes: alphas > 0)
         # The refined nodes of the evidence this one extends are scored with the coarse ones:
         # the same nodes again while the best node stays (one call instead of two); those
@@ -319,6 +325,20 @@ class Evidence:
             x, ll, lp = x[order], ll[order], lp[order]
         return x, ll, lp, logsumexp(ll + quadrature_weights(x, lp, log_mass))
 
+    def _components(self, primitive: Primitive, bandwidth: float, x: np.ndarray) -> np.ndarray:
+        """Every mixture component's log-likelihood at nodes ``x`` (log alpha), (A, J)
+        (:func:`promp.evidence.mixture.log_likelihoods`): ``-inf`` where the duration is
+        shorter than the observation."""
+        model, alphas = self.model, np.exp(x)
+        durations = (model.settings.s_bar / alphas - 1.0) * model.sample_period
+        valid = self.elapsed[-1] <= durations * (1.0 + 1e-9)
+        out = np.full((x.shape[0], primitive.residuals.shape[0]), -np.inf)
+        if valid.any():
+            sums = self._sums(primitive, alphas[valid], durations[valid])
+            out[valid] = mixture.log_likelihoods(sums, primitive, self.dims,
+                                                 primitive.noise_var[self.dims], bandwidth)
+        return out
+
     def _recognition_at(self, duration: float) -> Recognition:
         """Every primitive scored at the speed of a known ``duration`` (seconds)."""
         model = self.model
@@ -328,7 +348,7 @@ class Evidence:
         tables = [self.log_likelihoods(p, np.exp(node)) for p in model.primitives]
         evidence = np.array([float(t[0]) for t in tables])
         zeros = [np.zeros(1) for _ in model.primitives]
-        return _recognition(model, [node] * len(tables), tables, zeros, evidence,
+        return recognition_of(model, [node] * len(tables), tables, zeros, evidence,
                             "duration given")  # fmt: skip
 
     @functools.cached_property
@@ -463,32 +483,3 @@ class Evidence:
         return Inference(model, self.observation, recognition, timing_, posterior, weights,
                          prior, prediction, vias, natural, errors, path_points)  # fmt: skip
 
-
-def _recognition(
-    model: ProMPModel,
-    nodes: Sequence[np.ndarray],
-    tables: Sequence[np.ndarray],
-    priors: Sequence[np.ndarray],
-    evidence: np.ndarray,
-    alpha_method: str,
-) -> Recognition:
-    """The :class:`promp.recognition.Recognition` of every primitive's quadrature: its
-    ``nodes`` (log alpha, increasing), the log-likelihoods ``tables`` and log prior densities
-    ``priors`` there, and its log-evidence (``evidence``, (K,)); the probabilities with the
-    "none of these" hypothesis (:func:`promp.recognition.with_label_noise`)."""
-    if not np.isfinite(evidence).any():
-        raise ValueError("no primitive explains the observation (every likelihood is zero)")
-    probabilities = with_label_noise(np.exp(evidence - logsumexp(evidence)), label_noise(model))
-    index = int(np.argmax(evidence))
-    best = int(np.argmax(tables[index] + priors[index]))
-    return Recognition(
-        index=index,
-        primitive=model.primitives[index].name,
-        alpha=float(math.exp(nodes[index][best])),
-        probabilities=probabilities,
-        candidates=tuple(np.exp(x) for x in nodes),
-        log_likelihoods=tuple(tables),
-        log_prior=tuple(priors),
-        log_evidence=evidence,
-        alpha_method=alpha_method,
-    )
