@@ -56,6 +56,7 @@ from promp.evaluate.methods import ProMPEngine  # noqa: E402
 from promp.evaluate.sweep import position_modality, run_sweep  # noqa: E402
 from promp.evidence import Evidence  # noqa: E402
 from promp.fitting import fit_parts  # noqa: E402
+from promp.model import Settings  # noqa: E402
 from promp.observation import check_observation  # noqa: E402
 from promp.timing import duration_from_alpha  # noqa: E402
 
@@ -82,7 +83,8 @@ class Variant(ProMPEngine):
     """The engine with the evidence of every primitive computed by ``integrate``."""
 
     def __init__(self, layout, name: str):
-        super().__init__(layout)
+        # the ProMP's settings chosen (the recognition given: every variant shares the fit)
+        super().__init__(layout, Settings(recognition="promp"))
         self.name = name
         kind, _, value = name.partition(":")
         self.kind, self.value = kind, float(value) if value else None

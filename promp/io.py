@@ -316,7 +316,8 @@ def _layout_and_settings(data: Mapping) -> tuple[Layout, Settings]:
             # files before the calibration had none: the plain posterior
             duration_temperature=float(raw.get("duration_temperature", 1.0) or 1.0),
             select=str(raw.get("select", "loo")),
-            recognition=str(raw.get("recognition", "promp")),  # before version 5: the ProMP
+            # before version 5 (or fitted with every setting given): None, the ProMP
+            recognition=None if raw.get("recognition") is None else str(raw["recognition"]),
         )
     except (TypeError, AttributeError) as exc:
         raise ValueError(f"malformed layout or settings ({exc})") from exc

@@ -41,7 +41,7 @@ FALLBACK = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5}
 SELECT_RULES = ("loo", "cv")
 
 
-def recognition_bandwidth(name: str) -> float:
+def recognition_bandwidth(name: str | None) -> float:
     """The bandwidth ``H`` of a recognition variant's name (:attr:`Settings.recognition`):
     ``"promp"`` is 1 (the primitive's one Gaussian), ``"mixture:H"`` the mixture over the
     training demonstrations at ``0 < H <= 1`` (:mod:`promp.evidence.mixture`).
@@ -51,6 +51,8 @@ def recognition_bandwidth(name: str) -> float:
     ValueError
         Any other name.
     """
+    if name is None:  # not chosen (a fit with every setting given): the ProMP
+        return 1.0
     kind, colon, value = str(name).partition(":")
     if kind == "promp" and not colon:
         return 1.0
@@ -111,12 +113,15 @@ class Settings:
         default), the recognition log-loss of every training demonstration left out in closed
         form from one fit per candidate basis; ``"cv"``, the inner cross-validation that
         refits every fold (slower, for comparison).
-    recognition : str
-        How a primitive's evidence is scored (:func:`recognition_bandwidth`): ``"promp"``
-        (the default), its one Gaussian over the weights and the speed; ``"mixture:H"``, the
-        mixture over its training demonstrations, each a kernel of bandwidth ``H`` around the
-        demonstration (:mod:`promp.evidence.mixture`). The conditioning is the ProMP's either
-        way.
+    recognition : str or None
+        How a primitive's evidence is scored (:func:`recognition_bandwidth`): ``"promp"``,
+        its one Gaussian over the weights and the speed; ``"mixture:H"``, the mixture over its
+        training demonstrations, each a kernel of bandwidth ``H`` around the demonstration
+        (:mod:`promp.evidence.mixture`). None (the default): chosen from the training
+        demonstrations with the other automatic settings
+        (:mod:`promp.selection.recognition_choice`); a model whose settings still say None
+        (fitted with every setting given) recognises with the ProMP. The conditioning is the
+        ProMP's either way.
     """
 
     n_basis: int | None = None
@@ -130,10 +135,11 @@ class Settings:
     noise_correlation: bool = True
     duration_temperature: float | None = None
     select: str = "loo"
-    recognition: str = "promp"
+    recognition: str | None = None
 
     def __post_init__(self) -> None:
-        recognition_bandwidth(self.recognition)  # validates it
+        if self.recognition is not None:
+            recognition_bandwidth(self.recognition)  # validates it
         if self.select not in SELECT_RULES:
             raise ValueError(f"select must be one of {list(SELECT_RULES)}, got {self.select!r}")
         RBFBasis(  # validates both
@@ -170,8 +176,9 @@ class Settings:
     @property
     def to_choose(self) -> bool:
         """Whether a fit chooses anything from the data: an :attr:`automatic` setting or the
-        duration's temperature (:func:`promp.learn.fit`, :func:`promp.learn.choose`)."""
-        return bool(self.automatic) or self.duration_temperature is None
+        duration's temperature or the recognition variant (:func:`promp.learn.fit`,
+        :func:`promp.learn.choose`)."""
+        return bool(self.automatic) or None in (self.duration_temperature, self.recognition)
 
     def with_fallback(self) -> Settings:
         """These settings with every automatic one at its fallback value."""
@@ -368,7 +375,7 @@ class ProMPModel:
     report: Mapping = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.settings.recognition != "promp":
+        if recognition_bandwidth(self.settings.recognition) < 1.0:
             lacking = [p.name for p in self.primitives if p.residuals is None]
             if lacking:
                 raise ValueError(

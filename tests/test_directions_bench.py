@@ -11,6 +11,7 @@ from pathlib import Path
 
 from promp.datasets import read_dataset, write_csv_dataset
 from promp.evaluate.sweep import leave_one_out
+from promp.model import Settings
 from tests.synthetic import make_dataset
 
 BENCH = Path(__file__).resolve().parents[1] / "bench" / "directions.py"
@@ -27,7 +28,8 @@ def test_the_experiment_scores_as_the_evaluation_and_its_mixture_at_one_is_the_p
     )  # fmt: skip
     table = json.loads(done.stdout.strip().splitlines()[-1])["table"]
     read = read_dataset(tmp_path / "data", "csv")
-    ours = leave_one_out(read.dataset, read.layout, [30, 60], alpha_methods=["ml"])
+    ours = leave_one_out(read.dataset, read.layout, [30, 60], Settings(recognition="promp"),
+                         alpha_methods=["ml"])  # fmt: skip
     for row in ours.rows:
         cell = table["promp"][str(int(row["percent"]))]
         assert cell["errors"] == row["recognition_errors"]

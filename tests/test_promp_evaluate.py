@@ -179,7 +179,7 @@ def test_command_line_on_a_csv_dataset(tmp_path: Path) -> None:
     assert report["settings"]["observe"] == [["head"], ["hand", "head"]]
     assert report["settings"]["basis"] == {
         "n_basis": 8, "width": "auto", "shrinkage": "auto", "noise_scale": "auto",
-        "duration_temperature": "auto",
+        "duration_temperature": "auto", "recognition": "auto",
     }  # fmt: skip
     assert report["primitives"] == ["left", "right"]
     rows = report["results"]

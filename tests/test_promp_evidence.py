@@ -410,8 +410,8 @@ def synthetic():
     from tests.synthetic import LAYOUT as SYNTHETIC
     from tests.synthetic import make_dataset
 
-    model = fit(make_dataset(seed=3, n_demos=5), SYNTHETIC, Settings(n_basis=6, width=1.0,
-                                                                      noise_scale=1.5))  # fmt: skip
+    model = fit(make_dataset(seed=3, n_demos=5), SYNTHETIC,
+                Settings(n_basis=6, width=1.0, noise_scale=1.5, recognition="promp"))
     return model, make_dataset(seed=4, n_demos=3)[model.names[1]][0]
 
 

@@ -62,7 +62,8 @@ def learned():
 def with_regressions(primitive, alphas, hand, head):
     """``primitive`` with the training speeds ``alphas`` and the regressions' answers."""
     models = {"hand": Regression(*hand), "head": Regression(*head)}
-    return dataclasses.replace(primitive, alphas=np.array(alphas), alpha_models=models)
+    return dataclasses.replace(primitive, alphas=np.array(alphas), alpha_models=models,
+                               residuals=None)  # (its demonstrations are not these)
 
 
 def test_the_model_speed_is_each_regressions_estimate_weighted_by_its_precision(learned) -> None:

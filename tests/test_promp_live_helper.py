@@ -5,6 +5,7 @@ one process, said once; a session stops its helper when it closes."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import sys
@@ -71,9 +72,13 @@ def same_bits(a, b) -> None:
     assert_array_equal(a.remainder.std, b.remainder.std)
 
 
-@pytest.mark.parametrize("n_classes", [2, 3])
-def test_an_update_shared_with_the_helper_gives_one_process_numbers_bit_for_bit(n_classes):
+@pytest.mark.parametrize("n_classes, recognition", [(2, None), (3, None), (3, "mixture:0.5")])
+def test_an_update_shared_with_the_helper_gives_one_process_numbers_bit_for_bit(n_classes,
+                                                                               recognition):
     model, takes = model_and_takes(n_classes)
+    if recognition is not None:  # the helper reads the variant and the residuals from the file
+        model = dataclasses.replace(model, settings=dataclasses.replace(
+            model.settings, recognition=recognition))  # fmt: skip
     takes = takes + takes[::-1]  # the recognised primitive changes between movements
     alone = OnlinePredictor(model, columns(), remainder="hand")
     shared = OnlinePredictor(model, columns(), remainder="hand", helper=True)

@@ -4,7 +4,10 @@ predicted remainder at a stated rate."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
+import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from promp.evidence.pipeline import infer
@@ -38,8 +41,12 @@ def same_inference(online, offline) -> None:
     assert online.observed_until == offline.observed_until
 
 
-def test_each_update_is_the_offline_inference_on_the_samples_so_far() -> None:
+@pytest.mark.parametrize("recognition", [None, "mixture:0.6"])
+def test_each_update_is_the_offline_inference_on_the_samples_so_far(recognition) -> None:
     model = hand_model()
+    if recognition is not None:
+        model = dataclasses.replace(model, settings=dataclasses.replace(
+            model.settings, recognition=recognition))  # fmt: skip
     demo = held(flt_dataset()["left"][0], 1.0, 1.0)
     transport = FakeTransport()
     stream = transport.add(FakeStream("MocapHand", ("hx", "hy", "hz"), rate=100.0))

@@ -153,7 +153,8 @@ def test_explicit_settings_override_the_choice() -> None:
 
 
 def test_a_fit_chooses_unless_every_setting_and_the_temperature_are_given() -> None:
-    given = {"n_basis": 5, "width": 1.5, "noise_scale": 2.0, "duration_temperature": 0.5}
+    given = {"n_basis": 5, "width": 1.5, "noise_scale": 2.0, "duration_temperature": 0.5,
+             "recognition": "promp"}  # fmt: skip
     assert not Settings(**given).to_choose
     for left in given:  # any one of them left to the data is a choice to make
         assert Settings(**{k: v for k, v in given.items() if k != left}).to_choose, left

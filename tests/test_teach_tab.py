@@ -707,6 +707,27 @@ def test_a_video_file_gives_a_preview_calibration_and_an_upload_works(
     wait_text(page, "The head source failed", present=False)  # the refusal no longer holds
 
 
+def test_the_recognition_line_says_which_variant_and_why() -> None:
+    from types import SimpleNamespace
+
+    from app.panels.teach.learn import recognition_line
+
+    def model(name, why=None):
+        report = {} if why is None else {"settings": {"recognition": why}}
+        return SimpleNamespace(settings=SimpleNamespace(recognition=name), report=report)
+
+    losses = {"promp": 0.44, "mixture:0.85": 0.43, "mixture:0.5": 0.38}
+    line = recognition_line(model("mixture:0.5", {"log_loss": losses, "lowest": "mixture:0.5"}))
+    assert line.count("\n") == 1 and "mixture over the demonstrations (bandwidth 0.5)" in line
+    assert "0.380 against the ProMP's 0.440" in line
+    line = recognition_line(model("promp", {"log_loss": losses, "lowest": "mixture:0.5"}))
+    assert "the ProMP" in line and "mixture:0.5's 0.380 is within the trials' noise" in line
+    line = recognition_line(model("promp", {"log_loss": {"promp": 0.2}, "lowest": "promp"}))
+    assert "held-out log-loss 0.200, the lowest" in line
+    assert recognition_line(model("mixture:0.7")).endswith("(bandwidth 0.7), given.")
+    assert recognition_line(model(None)) == ""
+
+
 @pytest.mark.browser
 def test_learning_settings_from_the_gui_refit_and_are_saved(studio, page) -> None:
     session = studio.session
@@ -720,6 +741,7 @@ def test_learning_settings_from_the_gui_refit_and_are_saved(studio, page) -> Non
     shown = (f"Chosen from the demonstrations: M = {n_basis}",  # a search, or the choice of
              f"Kept from the last fit (it still beats the runner-up): M = {n_basis}")  # the last
     wait_until(lambda: any(line in text(page) for line in shown), what="the choice shown")
+    wait_until(lambda: "Recognition: the " in text(page), what="the recognition variant shown")
     # Unticked, the sliders set the values, starting from the chosen ones.
     row(page, "Automatic").get_by_role("checkbox").click()
     wait_until(lambda: store(studio).settings.get("n_basis") == n_basis, what="M given explicitly")

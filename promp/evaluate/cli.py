@@ -9,7 +9,7 @@
         [--method ours seed dtw prefix-nn] [--baseline-scaling modality|column|none]
         [--json OUT.json] [--csv OUT.csv] [--plots DIR] [--basis M] [--width W]
         [--shrinkage S|auto] [--noise-scale X] [--duration-temperature T]
-        [--select loo|cv] [--recognition promp|mixture:H] [--subset N]
+        [--select loo|cv] [--recognition auto|promp|mixture:H] [--subset N]
         [--group-by folder|LEVEL|REGEX] [--jobs N]
         [--backend local|dask --scheduler ADDRESS] [--include-flagged] [--repair-gaps cut|split]
         [--trials-csv OUT.csv] [--run DIR [--run-name NAME]]
@@ -59,6 +59,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -319,6 +320,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         grouped=swept.grouped,
     )
     print_table(result.rows)
+    for name, blocks in result.chosen.items():
+        counts = Counter(str(b.get("recognition")) for b in blocks)
+        print(f"{name}'s recognition, chosen per block: "
+              + ", ".join(f"{v} x{n}" for v, n in sorted(counts.items())))
     decide_options.print_decisions(swept.decisions)
     if swept.grouped is not None:
         print()

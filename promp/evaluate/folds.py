@@ -16,6 +16,7 @@ behind.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 import threading
@@ -29,8 +30,8 @@ from promp.data import Demonstration
 
 __all__ = [
     "CHOICE_BLOCKS", "Fold", "MIN_TRAINING", "PARENT_WATCH_S", "Pair", "Progress",
-    "block_choices", "check_groups", "choice_blocks", "exit_with_parent", "group_folds",
-    "planned_folds", "run_folds", "without",
+    "block_choices", "check_groups", "chosen_settings", "choice_blocks", "exit_with_parent",
+    "group_folds", "planned_folds", "run_folds", "without",
 ]  # fmt: skip
 
 Pair = tuple[int, int]  # (primitive index, demonstration index)
@@ -254,6 +255,19 @@ def block_choices(
             progress(done, len(tasks))
         if stop is not None and stop():
             return None
+    return out
+
+
+def chosen_settings(choices: Mapping[Pair, Mapping[str, object]]) -> dict[str, list[dict]]:
+    """The settings each method chose, one entry per block of :func:`block_choices` (in the
+    blocks' order), as JSON: {method name: [settings]}."""
+    out: dict[str, list[dict]] = {}
+    seen: set[int] = set()
+    for _, made in sorted(choices.items()):
+        for name, settings in made.items():
+            if dataclasses.is_dataclass(settings) and id(settings) not in seen:
+                seen.add(id(settings))
+                out.setdefault(name, []).append(dataclasses.asdict(settings))
     return out
 
 

@@ -67,6 +67,7 @@ def basis_settings(settings: Settings) -> dict:
         "shrinkage": value(settings.shrinkage),
         "noise_scale": value(settings.noise_scale),
         "duration_temperature": value(settings.duration_temperature),
+        "recognition": value(settings.recognition),
     }
 
 
@@ -161,6 +162,7 @@ def results_report(
         "trials": trials,
         "confusion": confusion_matrices(trials, list(dataset)),
         "used": {name: [d.name for d in demos] for name, demos in dataset.items()},
+        "chosen": result.chosen,
         "findings": [f.to_json() for f in findings],
         "excluded": [
             {

@@ -57,11 +57,12 @@ def add_settings_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--recognition",
-        default="promp",
-        metavar="promp|mixture:H",
+        default="auto",
+        metavar="auto|promp|mixture:H",
         help="how ours scores each primitive's evidence: 'promp' (its one Gaussian over the "
         "weights and the speed), or 'mixture:H', the mixture over its training "
-        "demonstrations, each a kernel of bandwidth H in (0, 1] (promp.evidence.mixture)",
+        "demonstrations, each a kernel of bandwidth H in (0, 1] (promp.evidence.mixture); "
+        "default 'auto': chosen by every fit (promp.selection.recognition_choice)",
     )
 
 
@@ -79,8 +80,9 @@ def settings_of(args: argparse.Namespace) -> Settings:
         raise ValueError(
             f"--shrinkage expects a number in (0, 1] or 'auto', got {args.shrinkage!r}"
         ) from None
+    recognition = None if args.recognition == "auto" else args.recognition
     try:
-        recognition_bandwidth(args.recognition)
+        recognition_bandwidth(recognition)
     except ValueError as exc:
         raise ValueError(f"--recognition: {exc}") from None
     return Settings(
@@ -90,5 +92,5 @@ def settings_of(args: argparse.Namespace) -> Settings:
         noise_scale=args.noise_scale,
         duration_temperature=args.duration_temperature,
         select=args.select,
-        recognition=args.recognition,
+        recognition=recognition,
     )

@@ -57,6 +57,7 @@ from promp.evaluate.folds import (  # noqa: F401  (MIN_TRAINING, check_groups re
     Fold,
     Pair,
     check_groups,
+    chosen_settings,
     planned_folds,
     run_folds,
     without,
@@ -130,6 +131,8 @@ class SweepResult:
         Stopped before every demonstration was held out (``stop``).
     paths : list of ProbabilityPath
         With ``decide_percents``: the probabilities at each, per trial, method, observed set.
+    chosen : dict
+        The settings each method chose per block (:func:`promp.evaluate.folds.chosen_settings`).
     """
 
     rows: list[dict] = field(default_factory=list)
@@ -137,6 +140,7 @@ class SweepResult:
     failures: list[dict] = field(default_factory=list)  # trials the method failed on
     partial: bool = False  # stopped before every demonstration was held out (``stop``)
     paths: list[ProbabilityPath] = field(default_factory=list)  # with ``decide_percents``
+    chosen: dict = field(default_factory=dict)
 
 
 def _run_fold(
@@ -292,7 +296,7 @@ def run_sweep(
         choices=choices,
     )
     acc: dict[tuple, list[Trial]] = {}
-    result = SweepResult()
+    result = SweepResult(chosen=chosen_settings(choices))
     for done, trials in enumerate(run_folds(fold, folds, jobs, scheduler, progress), 1):
         for trial in trials:
             if isinstance(trial, ProbabilityPath):

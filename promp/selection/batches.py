@@ -51,6 +51,8 @@ class Batch:
     log_alphas: np.ndarray  # (T, A) quadrature nodes shared by the primitives
     log_weights: np.ndarray  # (T, K, A) each primitive's log quadrature weights
     true_log_alphas: np.ndarray  # (T,) each trial's demonstration's own speed
+    priors: np.ndarray  # (3, T, K) each primitive's speed prior: location, scale, dof
+    bounds: np.ndarray  # (T,) the log of the longest alpha each observation allows
 
 
 def make_batches(
@@ -104,7 +106,8 @@ def make_batches(
         out.append(
             Batch(
                 index, np.array([t.primitive for t in batch]), [t.demo for t in batch], dims,
-                elapsed, mask, values, log_alphas, log_weights, np.log(truth_alphas),
+                elapsed, mask, values, log_alphas, log_weights, np.log(truth_alphas), params,
+                bounds,
             )
         )  # fmt: skip
     return out

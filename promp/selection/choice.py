@@ -22,6 +22,7 @@ from promp.selection.candidates import (
 )
 from promp.selection.cv import RULE, cv_search
 from promp.selection.keep import keep_previous
+from promp.selection.recognition_choice import choose_recognition
 from promp.selection.region import data_region
 from promp.selection.search import LOO_RULE, walk
 from promp.selection.trials import LOO_MAX_TRIALS, MAX_TRIALS, plan_trials
@@ -63,20 +64,29 @@ def choose_settings(
         :data:`~promp.selection.keep.KEEP_LIMIT` times in a row.
     """
     chosen, report, candidates = _choose(dataset, layout, settings, dt, previous)
-    if settings.duration_temperature is not None:
-        return chosen, report
-    tau, scores = 1.0, {}
+    report = dict(report)
+    scorer, scale = None, 1.0
     if candidates is not None:
         scale = chosen.noise_scale / candidates.inner.noise_scale
         scorer = candidates(chosen.n_basis, chosen.width)
-        tau, scores = choose_temperature(scorer.speed_trials(scale))
-    chosen = dataclasses.replace(chosen, duration_temperature=tau)
-    report = dict(report)
-    report["duration_temperature"] = {
-        "value": tau,
-        "rule": TEMPERATURE_RULE if scores else "1 (no demonstration could be held out)",
-        "coverage": {str(t): round(v, 4) for t, v in scores.items()},
-    }
+    if settings.duration_temperature is None:
+        tau, scores = 1.0, {}
+        if scorer is not None:
+            tau, scores = choose_temperature(scorer.speed_trials(scale))
+        chosen = dataclasses.replace(chosen, duration_temperature=tau)
+        report["duration_temperature"] = {
+            "value": tau,
+            "rule": TEMPERATURE_RULE if scores else "1 (no demonstration could be held out)",
+            "coverage": {str(t): round(v, 4) for t, v in scores.items()},
+        }
+    if settings.recognition is None:
+        if scorer is None:
+            name, why = "promp", {"value": "promp", "rule": "the ProMP (no demonstration could "
+                                  "be held out)", "log_loss": {}}  # fmt: skip
+        else:
+            name, why = choose_recognition(scorer, scale)
+        chosen = dataclasses.replace(chosen, recognition=name)
+        report["recognition"] = why
     return chosen, report
 
 

@@ -101,9 +101,7 @@ class LooScorer:
         noise_var = model.primitives[0].noise_var  # pooled: the same for every primitive
         eps = label_noise(model)
         for i, batch in enumerate(self.batches):
-            if i not in self._setups:
-                self._setups[i] = self._setup(batch)
-            precision, logdet_sigma, gram, proj, rr = self._setups[i]
+            precision, logdet_sigma, gram, proj, rr = self.setup(i)
             dims = batch.dims
             n_t, n_a = batch.log_alphas.shape
             n_do = dims.shape[0]
@@ -149,6 +147,22 @@ class LooScorer:
              b.true_log_alphas)
             for i, b in enumerate(self.batches)
         ]  # fmt: skip
+
+    def inverse_noise(self, noise_scale: float) -> np.ndarray:
+        """Each model dimension's inverse noise variance at ``noise_scale`` (the modalities
+        whose noise is given keep theirs), (n_dims,)."""
+        settings, layout = self.model.settings, self.model.layout
+        scaled = np.concatenate([np.full(len(mod.columns), mod.name not in settings.noise_std)
+                                 for mod in layout.modalities])  # fmt: skip
+        noise_var = self.model.primitives[0].noise_var  # pooled: the same for every primitive
+        return 1.0 / (noise_var * np.where(scaled, float(noise_scale) ** 2, 1.0))
+
+    def setup(self, i: int) -> tuple:
+        """Batch ``i``'s terms that no noise scale changes (:meth:`_setup`), computed on
+        first use."""
+        if i not in self._setups:
+            self._setups[i] = self._setup(self.batches[i])
+        return self._setups[i]
 
     def _setup(self, batch: Batch) -> tuple:
         """(precision (T, K, p, p), log det Sigma (T, K), gram (T, A, Do, M, M), proj

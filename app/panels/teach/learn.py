@@ -226,9 +226,36 @@ def fit_text(snapshot: Snapshot, refit_s: float | None = None) -> str:
         else:
             how = "Chosen from the demonstrations"
         text += f"  \n{how}: M = {used.n_basis}, width {used.width:g}, noise x{used.noise_scale:g}."
+    text += recognition_line(model)
     if error is not None:
         text += "  \n" + colored(escape(error), ORANGE)
     return text + refitting + left_out
+
+
+def recognition_line(model) -> str:
+    """The recognition variant the model uses, and why, in one line (empty for a model that
+    says nothing of it: a file before version 5, or every setting given): chosen by the
+    held-out log-loss (:mod:`promp.selection.recognition_choice`), or given."""
+    name = model.settings.recognition
+    if name is None:
+        return ""
+    what = ("the ProMP (one Gaussian per primitive)" if name == "promp" else
+            f"the mixture over the demonstrations (bandwidth {name.partition(':')[2]})")
+    why = model.report.get("settings", {}).get("recognition")
+    if not isinstance(why, dict):
+        return f"  \nRecognition: {what}, given."
+    losses = why.get("log_loss") or {}
+    if not losses:
+        return f"  \nRecognition: {what} ({escape(str(why.get('rule', '')))})."
+    promp, lowest = losses.get("promp"), str(why.get("lowest", name))
+    if name != "promp" and promp is not None:
+        because = f"held-out log-loss {losses[name]:.3f} against the ProMP's {promp:.3f}"
+    elif lowest != name and losses.get(lowest) is not None:
+        because = (f"held-out log-loss {promp:.3f}; {escape(lowest)}'s {losses[lowest]:.3f} is "
+                   "within the trials' noise")
+    else:
+        because = f"held-out log-loss {promp:.3f}, the lowest"
+    return f"  \nRecognition: {what}: {because}."
 
 
 def refit_clock(elapsed_s: float | None, last_s: float) -> str:

@@ -1,0 +1,156 @@
+"""The recognition variant chosen by the data (:attr:`promp.model.Settings.recognition` left
+None): the ProMP, or the mixture over the training demonstrations at one of
+:data:`BANDWIDTHS` (:mod:`promp.evidence.mixture`), whichever has the lowest recognition
+log-loss on the leave-one-out rule's own trials (:mod:`promp.selection.loo`), at the settings
+already chosen. A trial's demonstration is out of the model it is scored by: its primitive's
+mean, regression, scatter and speed prior downdated as for the ProMP, and its own component out
+of its primitive's mixture (the other demonstrations' residuals are the whole fit's: like the
+scorer's noise and pooled prior, an approximation, one demonstration moves them little). In the
+evaluation the choice is made inside every fold, without the trial under test.
+
+The choice follows the one-standard-error rule (Breiman et al. 1984; Hastie, Tibshirani &
+Friedman, 2009, section 7.10): the simplest variant whose mean loss is within one standard error
+of the lowest, the error of the trials' paired differences with it. The ProMP is the simplest,
+then the mixtures from the widest bandwidth down. So a mixture is chosen only where it beats the
+ProMP by more than the trials' own noise: a few trials' luck does not change the model.
+:data:`RECOGNITION_RULE` is the rule's line in the fit's report; the studio shows it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from scipy import special
+from scipy.linalg import lapack
+
+from promp.evidence.speed import logsumexp_rows, quadrature_weights, t_logpdf
+from promp.quality import winsorized
+from promp.recognition import label_noise, with_label_noise
+from promp.selection.loo import LooScorer
+
+__all__ = ["BANDWIDTHS", "RECOGNITION_RULE", "choose_recognition", "mixture_losses"]
+
+BANDWIDTHS = (0.85, 0.7, 0.5)  # from the simplest (the closest to the ProMP) down
+RECOGNITION_RULE = (
+    "the recognition log-loss of the training demonstrations left out in turn, the ProMP "
+    "against the mixture over the demonstrations at bandwidths "
+    + ", ".join(str(h) for h in BANDWIDTHS)
+    + ": the simplest within one standard error of the lowest"
+)
+
+
+def choose_recognition(scorer: LooScorer, noise_scale: float) -> tuple[str, dict]:
+    """The variant of the lowest mean loss on ``scorer``'s trials at ``noise_scale`` (in the
+    scorer's units), and the report: ``{"value", "rule", "log_loss": {variant: mean}}``."""
+    losses = {"promp": scorer((noise_scale,))[0]}
+    for h, loss in mixture_losses(scorer, noise_scale, BANDWIDTHS).items():
+        losses[f"mixture:{h}"] = loss
+    means = {name: float(np.mean(loss)) for name, loss in losses.items()}
+    lowest = min(means, key=lambda name: means[name])  # (the first of equals: the simplest)
+    chosen = lowest
+    if math.isfinite(means[lowest]):
+        for name, loss in losses.items():  # from the simplest
+            gap = loss - losses[lowest]
+            error = float(np.std(gap, ddof=1) / math.sqrt(gap.size)) if gap.size > 1 else 0.0
+            if means[name] - means[lowest] <= error + 1e-9:  # (round-off: a tie)
+                chosen = name
+                break
+    shown = {name: round(v, 6) if math.isfinite(v) else None for name, v in means.items()}
+    return chosen, {"value": chosen, "rule": RECOGNITION_RULE, "log_loss": shown,
+                    "lowest": lowest}  # fmt: skip
+
+
+def mixture_losses(
+    scorer: LooScorer, noise_scale: float, bandwidths: Sequence[float]
+) -> dict[float, np.ndarray]:
+    """``-ln p(true primitive)`` of every trial of ``scorer`` with each primitive scored by its
+    mixture at each bandwidth (module docstring), at ``noise_scale``: {bandwidth: (n_trials,)}.
+    At bandwidth 1 it is the ProMP's :class:`~promp.selection.loo.LooScorer` loss."""
+    out = {float(h): np.full(scorer.n_trials, np.inf) for h in bandwidths}
+    if not scorer.inside:
+        return out
+    model, parts = scorer.model, scorer.parts
+    inv_noise = scorer.inverse_noise(noise_scale)
+    m, n_prims = model.basis.n_basis, len(model.primitives)
+    eps = label_noise(model)
+    own = [winsorized(np.log(p.alphas)) for p in model.primitives]
+    for i, batch in enumerate(scorer.batches):
+        precision, logdet_sigma, gram, proj, rr = scorer.setup(i)
+        dims = batch.dims
+        cols = (dims[:, None] * m + np.arange(m)).reshape(-1)
+        residuals = [part.residuals[:, cols].reshape(-1, dims.shape[0], m) for part in parts]
+        inv_s2 = inv_noise[dims]
+        for h in out:
+            evidence = np.empty((batch.truth.shape[0], n_prims))
+            for k in range(n_prims):
+                weights = _kernels(batch, k, own[k], h)  # (T, J, A)
+                ll = _component_log_likelihoods(precision[:, k], logdet_sigma[:, k], gram,
+                                                proj[:, k], rr[:, k], residuals[k], inv_s2, h)
+                mine = np.nonzero(batch.truth == k)[0]  # its own demonstration: out
+                ll[mine, np.array(batch.demos)[mine]] = -np.inf
+                count = np.where(batch.truth == k, ll.shape[1] - 1, ll.shape[1])
+                with np.errstate(invalid="ignore"):
+                    total = logsumexp_rows((ll + weights).reshape(ll.shape[0], -1))
+                evidence[:, k] = total - np.log(np.maximum(count, 1))  # fmt: skip
+            total = logsumexp_rows(evidence)
+            with np.errstate(invalid="ignore", over="ignore"):
+                p_all = with_label_noise(np.exp(evidence - total[:, None]), eps)
+            rows = np.arange(batch.truth.shape[0])
+            out[h][batch.index] = np.where(np.isfinite(total), -np.log(p_all[rows, batch.truth]),
+                                           math.log(n_prims))  # fmt: skip
+    return out
+
+
+def _kernels(batch, k: int, own: np.ndarray, h: float) -> np.ndarray:
+    """Primitive ``k``'s components' log quadrature weights at every trial's nodes, (T, J, A)
+    (:func:`promp.evidence.mixture.speed_kernels` in batch form)."""
+    loc, scale, dof = (batch.priors[q, :, k][:, None] for q in range(3))  # (T, 1)
+    share = math.sqrt(max(1.0 - h * h, 0.0))
+    centre, width = loc + share * (own[None, :] - loc), h * scale  # (T, J), (T, 1)
+    z = (batch.log_alphas[:, None, :] - centre[..., None]) / width[..., None]
+    density = t_logpdf(z, dof[..., None]) - np.log(width)[..., None]  # (T, J, A)
+    with np.errstate(divide="ignore"):
+        mass = np.log(special.stdtr(dof, (batch.bounds[:, None] - centre) / width))  # (T, J)
+    return quadrature_weights(batch.log_alphas[:, None, :], density, mass)
+
+
+def _component_log_likelihoods(
+    precision: np.ndarray,
+    logdet_sigma: np.ndarray,
+    gram: np.ndarray,
+    proj: np.ndarray,
+    rr: np.ndarray,
+    residuals: np.ndarray,
+    inv_s2: np.ndarray,
+    h: float,
+) -> np.ndarray:
+    """Every component's log-likelihood of every trial at every node, (T, J, A), without the
+    terms every primitive shares (as :class:`~promp.selection.loo.LooScorer`): one primitive's
+    ``precision`` (T, p, p) and ``logdet_sigma`` (T,), the trials' ``gram`` (T, A, Do, M, M),
+    ``proj`` (T, A, Do, M) and ``rr`` (T, A, Do), its demonstrations' observed ``residuals``
+    (J, Do, M), the inverse noise ``inv_s2`` (Do,) and the bandwidth ``h``."""
+    n_t, n_a, n_do, m = gram.shape[:4]
+    p, h2 = n_do * m, h * h
+    shifts = math.sqrt(max(1.0 - h2, 0.0)) * residuals  # (J, Do, M)
+    out = np.empty((n_t, shifts.shape[0], n_a))
+    matrix = np.empty((p, p))
+    for t in range(n_t):
+        g_shift = np.einsum("admn,jdn->ajdm", gram[t], shifts)  # (A, J, Do, M)
+        b = inv_s2[:, None] * (proj[t][:, None] - g_shift)  # (A, J, Do, M)
+        quad = (rr[t][:, None] - 2.0 * np.einsum("jdm,adm->ajd", shifts, proj[t])
+                + np.einsum("jdm,ajdm->ajd", shifts, g_shift)) @ inv_s2  # (A, J)  # fmt: skip
+        for a in range(n_a):
+            np.divide(precision[t], h2, out=matrix)
+            for d in range(n_do):
+                matrix[d * m : (d + 1) * m, d * m : (d + 1) * m] += inv_s2[d] * gram[t, a, d]
+            factor, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower (the C array's upper)
+            if info != 0:
+                raise np.linalg.LinAlgError("Matrix is not positive definite")
+            z, info = lapack.dtrtrs(factor, b[a].reshape(-1, p).T, 1)
+            if info != 0:
+                raise np.linalg.LinAlgError("singular factor")
+            logdet = 2.0 * np.log(np.diagonal(factor)).sum() + logdet_sigma[t] + p * math.log(h2)
+            out[t, :, a] = -0.5 * (quad[a] - (z * z).sum(axis=0) + logdet)
+    return out

@@ -1,0 +1,184 @@
+"""The recognition variant chosen by the data (promp/selection/recognition_choice.py): its
+leave-one-out scorer against the ProMP's and the engine's, the trial's own demonstration out of
+its mixture, and the choice on data made for each variant."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from promp.data import Demonstration
+from promp.evidence import Evidence, mixture
+from promp.inference import Observation
+from promp.learn import choose, fit
+from promp.model import Settings
+from promp.selection import recognition_choice as rc
+from promp.selection.candidates import Candidates
+from promp.selection.region import data_region
+from promp.selection.trials import LOO_MAX_TRIALS, plan_trials
+from promp.timing import duration_from_alpha
+from tests.synthetic import COLUMNS, LAYOUT, make_dataset, make_demo, smooth_profile
+
+DT = 0.02
+GIVEN = Settings(n_basis=6, width=1.0, noise_scale=1.5, duration_temperature=1.0)
+
+
+def _scorer(dataset, n_basis=6, width=1.0):
+    trials = plan_trials(dataset, LAYOUT, max_trials=LOO_MAX_TRIALS)
+    inner = Settings(n_basis=n_basis, width=width, noise_scale=1.0)
+    return Candidates(dataset, LAYOUT, inner, DT, trials, data_region(dataset, LAYOUT))(
+        n_basis, width
+    )
+
+
+def _families(seed: int = 0, n: int = 8) -> dict:
+    """"split" reaches one of two goals far apart, "middle" the goal between them: one
+    Gaussian per primitive puts split's mass on middle's goal."""
+    rng = np.random.default_rng(seed)
+    a = np.array([0.3, -0.3, 0.1, 0.0, 0.3, -0.6])
+    b = np.array([0.3, 0.3, 0.1, 0.0, 0.3, 0.6])
+    split = [make_demo(rng, a if i % 2 else b, duration=2.0 * rng.uniform(0.8, 1.2),
+                       name=f"split{i}") for i in range(n)]  # fmt: skip
+    middle = [make_demo(rng, 0.5 * (a + b), duration=2.0 * rng.uniform(0.8, 1.2),
+                        name=f"middle{i}") for i in range(n)]  # fmt: skip
+    return {"split": split, "middle": middle}
+
+
+@pytest.fixture(scope="module")
+def scorer():
+    return _scorer(make_dataset(seed=1, n_demos=6))
+
+
+def test_at_bandwidth_one_the_mixture_scorer_is_the_promps(scorer) -> None:
+    promp = scorer((1.5,))[0]
+    got = rc.mixture_losses(scorer, 1.5, [1.0])[1.0]
+    assert np.isfinite(promp).all()
+    assert_allclose(got, promp, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("h", [0.4, 0.8])
+def test_the_scorers_component_likelihoods_are_the_engines(h) -> None:
+    """The batch form of the scorer (one primitive, its whole fit, no trial left out) gives
+    the engine's :func:`promp.evidence.mixture.log_likelihoods` less the terms every
+    primitive shares."""
+    model = fit(make_dataset(seed=1, n_demos=6), LAYOUT, GIVEN)
+    demo = make_demo(np.random.default_rng(7), np.array([0.2, -0.2, 0.1, 0.0, 0.3, -0.6]))
+    obs = Observation.from_demo(model, demo, 17, ["hand", "head"])
+    evidence = Evidence(model, obs)
+    prim, dims, m = model.primitives[0], evidence.dims, model.basis.n_basis
+    alphas = prim.alphas[:4]
+    durations = duration_from_alpha(alphas, model.sample_period, model.settings.s_bar)
+    sums = evidence._sums(prim, alphas, durations)
+    noise = prim.noise_var[dims]
+    engine = mixture.log_likelihoods(sums, prim, dims, noise, h)  # (A, J)
+    from promp.evidence.weight_space import observed_precision
+
+    padded, logdet_sigma = observed_precision(prim, dims)
+    p = dims.shape[0] * m
+    cols = (dims[:, None] * m + np.arange(m)).reshape(-1)
+    got = rc._component_log_likelihoods(
+        padded[None, :p, :p], np.array([logdet_sigma]), sums.gram[:, sums.group][None],
+        sums.proj[None], sums.rr[None], prim.residuals[:, cols].reshape(-1, dims.shape[0], m),
+        1.0 / noise, h,
+    )[0]  # (J, A)  # fmt: skip
+    shared = -0.5 * (float((sums.n * np.log(noise) + sums.logdet_k).sum())
+                     + sums.n * dims.shape[0] * math.log(2 * math.pi))  # fmt: skip
+    assert_allclose(got.T + shared, engine, rtol=1e-10, atol=1e-8)
+
+
+def test_a_trials_own_demonstration_is_out_of_its_mixture(scorer) -> None:
+    """Moving a demonstration's residual far away changes the loss of every trial scored with
+    its component, and not of the trials that hold it out."""
+    before = rc.mixture_losses(scorer, 1.5, [0.5])[0.5]
+    kept = scorer.parts
+    moved = np.array(kept[0].residuals)
+    moved[2] += 5.0 * np.abs(moved).max()
+    try:  # (the scorer's terms of the trials, computed above, keep the whole fit's)
+        scorer.parts = [dataclasses.replace(kept[0], residuals=moved), *kept[1:]]
+        after = rc.mixture_losses(scorer, 1.5, [0.5])[0.5]
+    finally:
+        scorer.parts = kept
+    own = np.zeros(scorer.n_trials, dtype=bool)
+    for batch in scorer.batches:
+        own[batch.index] = (batch.truth == 0) & (np.array(batch.demos) == 2)
+    assert own.any() and (~own).any()
+    assert_allclose(after[own], before[own], rtol=1e-12)
+    assert np.abs(after[~own] - before[~own]).max() > 1e-3
+
+
+def test_two_families_in_one_primitive_choose_the_mixture() -> None:
+    dataset = _families()
+    chosen = choose(dataset, LAYOUT, dataclasses.replace(GIVEN, recognition=None),
+                    sample_period=DT)  # fmt: skip
+    assert chosen.recognition.startswith("mixture:")
+    model = fit(dataset, LAYOUT, dataclasses.replace(GIVEN, recognition=None))
+    why = model.report["settings"]["recognition"]
+    assert why["value"] == model.settings.recognition == chosen.recognition
+    assert why["log_loss"][why["value"]] < why["log_loss"]["promp"]
+    assert why["rule"] == rc.RECOGNITION_RULE
+
+
+def _gaussian(seed: int, spread: float, noise: float, n: int = 8) -> dict:
+    """Each primitive one Gaussian over the weights (the amplitudes vary, the profile does
+    not): the ProMP is the true model."""
+    rng = np.random.default_rng(seed)
+    times = np.arange(101) / 50.0
+    targets = {"left": np.array([0.2, -0.2, 0.1, 0.0, 0.3, -0.6]),
+               "right": np.array([0.2, 0.2, 0.1, 0.0, 0.3, 0.6])}  # fmt: skip
+    return {name: [Demonstration(times, smooth_profile(times / times[-1],
+                                                       t * (1 + spread * rng.standard_normal(6)),
+                                                       0.5)
+                                 + noise * rng.standard_normal((101, 6)), COLUMNS,
+                                 name=f"{name}{i}") for i in range(n)]
+            for name, t in targets.items()}  # fmt: skip
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_a_primitive_that_is_one_gaussian_keeps_the_promp(seed) -> None:
+    model = fit(_gaussian(seed, 0.3, 0.03), LAYOUT, dataclasses.replace(GIVEN, recognition=None))
+    why = model.report["settings"]["recognition"]
+    assert model.settings.recognition == "promp" == why["value"]
+    assert set(why["log_loss"]) == {"promp", *(f"mixture:{h}" for h in rc.BANDWIDTHS)}
+
+
+def test_a_tie_is_the_promp() -> None:
+    """Every trial recognised with certainty whatever the variant: the simplest."""
+    model = fit(_gaussian(0, 0.05, 1e-3), LAYOUT, dataclasses.replace(GIVEN, recognition=None))
+    why = model.report["settings"]["recognition"]
+    assert len({round(v, 6) for v in why["log_loss"].values()}) == 1
+    assert model.settings.recognition == "promp"
+
+
+def test_a_given_variant_is_kept_and_nothing_is_scored() -> None:
+    forced = dataclasses.replace(GIVEN, recognition="mixture:0.7")
+    model = fit(_families(), LAYOUT, forced)
+    assert model.settings.recognition == "mixture:0.7"
+    assert "recognition" not in model.report.get("settings", {})
+
+
+def test_nothing_held_out_is_the_promp() -> None:
+    dataset = {k: v[:2] for k, v in make_dataset(seed=2, n_demos=4).items()}
+    model = fit(dataset, LAYOUT, dataclasses.replace(GIVEN, recognition=None))
+    assert model.settings.recognition == "promp"
+
+
+@pytest.mark.parametrize("h", [0.5, 0.85])
+def test_the_scorers_speed_kernels_are_the_engines(scorer, h) -> None:
+    """Each trial's components' quadrature weights at its nodes, in batch form, are
+    :func:`promp.evidence.mixture.speed_kernels` of the trial's prior of that primitive."""
+    from promp.evidence.speed import AlphaPrior
+    from promp.quality import winsorized
+
+    batch = scorer.batches[0]
+    for k, prim in enumerate(scorer.model.primitives):
+        got = rc._kernels(batch, k, winsorized(np.log(prim.alphas)), h)  # (T, J, A)
+        for t in range(0, batch.truth.shape[0], 7):
+            loc, scale, dof = batch.priors[:, t, k]
+            prior = AlphaPrior((float(loc),), (float(scale),), (float(dof),), (1.0,))
+            want = mixture.speed_kernels(prim, prior, batch.log_alphas[t],
+                                         float(batch.bounds[t]), h)  # fmt: skip
+            assert_allclose(got[t], want, rtol=1e-12, atol=1e-12)
