@@ -52,7 +52,8 @@ from robots.icub.scenario import generate_scenario  # noqa: E402
 SHARED = ROOT.parent / "shared" / "data"
 SETS = ("heights", "flt", "flt-shapes")
 PERCENTS = ("20", "40", "60", "80")
-GIVEN = ["--basis", "7", "--width", "1", "--noise-scale", "1.5", "--duration-temperature", "0.25"]
+GIVEN = ["--basis", "7", "--width", "1", "--noise-scale", "1.5", "--duration-temperature", "0.25",
+         "--recognition", "promp"]
 GIVEN_SETTINGS = {"n_basis": 7, "width": 1.0, "noise_scale": 1.5, "duration_temperature": 0.25}
 # The accuracy targets, against the rule replaced (same run): errors summed no more,
 # every cell's log-loss within +0.05, the 40 % ML errors summed no more than 41.

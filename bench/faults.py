@@ -40,7 +40,8 @@ from promp.evaluate import cli  # noqa: E402
 from tests.faults import write_faulty_records  # noqa: E402
 
 SHARED = REPO.parent / "shared" / "data"
-GIVEN = ["--basis", "7", "--width", "1", "--noise-scale", "1.5", "--duration-temperature", "0.25"]
+GIVEN = ["--basis", "7", "--width", "1", "--noise-scale", "1.5", "--duration-temperature", "0.25",
+         "--recognition", "promp"]
 RUNS = {
     "clean": ("clean", []),
     "given": ("clean", GIVEN),

@@ -37,7 +37,7 @@ from promp.datasets import write_csv_dataset  # noqa: E402
 from promp.evaluate import cli  # noqa: E402
 from tests.synthetic import EMG, HAND, handover_sessions  # noqa: E402
 
-GIVEN = ["--basis", "7", "--width", "1", "--noise-scale", "1.5"]
+GIVEN = ["--basis", "7", "--width", "1", "--noise-scale", "1.5", "--recognition", "promp"]
 
 
 def run(folder: Path, jobs: int, given: bool) -> tuple[str, dict, float]:

@@ -9,16 +9,17 @@ s_bar = 100, 20 demonstrations per primitive (so 20 training alphas each), obser
 a dense observation-space covariance ``Phi_o Sigma Phi_o^T + R`` per candidate, explicitly
 inverted. Both run in this process; their log-likelihoods are compared to check they agree.
 
-Run: ``.venv/bin/python bench/inference.py``. The last line is one JSON object, with the
-targets of issue 24 judged on this run: the K = 10 step at most :data:`MAX_K_RATIO` times the
-K = 2 step (their runs alternated, so that a shared machine's drifting load slows both alike),
-the K = 2 step at least :data:`MIN_NAIVE_RATIO` times faster than the naive one (both with the
-whole test movement observed), and the log-likelihoods within :data:`MAX_LOGLIK_DIFFERENCE` of
-the dense ones.
+Run: ``.venv/bin/python bench/inference.py [--recognition promp|mixture:H]``. The last line is
+one JSON object, with the targets of issue 24 judged on this run: the K = 10 step at most
+:data:`MAX_K_RATIO` times the K = 2 step (their runs alternated, so that a shared machine's
+drifting load slows both alike), the K = 2 step at least :data:`MIN_NAIVE_RATIO` times faster
+than the naive one (both with the whole test movement observed), and the log-likelihoods within
+:data:`MAX_LOGLIK_DIFFERENCE` of the dense ones.
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
 import math
@@ -39,7 +40,8 @@ from promp.model import Settings  # noqa: E402
 from promp.timing import duration_from_alpha  # noqa: E402
 
 D, M, N_DEMOS, RATE = 9, 20, 20, 50.0
-GIVEN = Settings(n_basis=M, width=1.0, noise_scale=1.5, duration_temperature=1.0)  # no choice
+GIVEN = Settings(n_basis=M, width=1.0, noise_scale=1.5, duration_temperature=1.0,
+                 recognition="promp")  # no choice (--recognition: another variant)
 LAYOUT = Layout(
     tuple(
         Modality(name, tuple(f"{name}{i}" for i in range(3)), unit="m")
@@ -142,6 +144,10 @@ def alternated_median_ms(fns: dict, repeats: int) -> dict:
 
 
 def main() -> None:
+    global GIVEN
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--recognition", default="promp", help="promp or mixture:H")
+    GIVEN = dataclasses.replace(GIVEN, recognition=parser.parse_args().recognition)
     rng = np.random.default_rng(0)
     results = {}
     test = make_primitive(np.random.default_rng(99), 0)[0]

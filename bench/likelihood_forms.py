@@ -50,7 +50,8 @@ def best_of(f, rounds: int = 5, n: int = 10) -> float:
 
 def case(dataset: dict, n_basis: int, per_class: int) -> dict:
     sub = {c: v[:per_class] for c, v in dataset.items()}
-    settings = Settings(n_basis=n_basis, width=1.0, noise_scale=1.5, duration_temperature=1.0)
+    settings = Settings(n_basis=n_basis, width=1.0, noise_scale=1.5, duration_temperature=1.0,
+                        recognition="promp")
     model = fit(sub, LAYOUT, settings)
     demo = dataset[sorted(dataset)[0]][-1]  # not learned from
     obs = Observation.first(model, demo, 40, list(LAYOUT.names))

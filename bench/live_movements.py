@@ -59,7 +59,8 @@ DATA = REPO.parent / "shared" / "data"
 SETS = {"heights": ("lab-records-heights", 4), "flt": ("lab-records-flt", 4),
         "shapes": ("lab-records-flt-shapes", 2)}  # fmt: skip
 LAYOUT = Layout((Modality("hand", ("x", "y", "z"), unit="m"),))
-SETTINGS = Settings(n_basis=7, width=1.0, noise_scale=1.5, duration_temperature=1.0)
+SETTINGS = Settings(n_basis=7, width=1.0, noise_scale=1.5, duration_temperature=1.0,
+                    recognition="promp")
 VARIANTS = {"recorded": (None, None, False), "guided+busy": ((0.5, 1.0), (0.5, 0.9), True)}
 
 

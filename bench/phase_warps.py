@@ -54,7 +54,8 @@ from promp.observation import Observation  # noqa: E402
 from promp.timing import alpha_from_duration, n_observed_for  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
-SETTINGS = Settings(n_basis=5, width=0.7, noise_scale=1.0, duration_temperature=1.0)
+SETTINGS = Settings(n_basis=5, width=0.7, noise_scale=1.0, duration_temperature=1.0,
+                    recognition="promp")
 GRID = np.linspace(0.0, 1.0, 101)
 
 
@@ -254,7 +255,7 @@ def main() -> None:
     args = parser.parse_args()
     global SETTINGS
     SETTINGS = Settings(n_basis=args.basis, width=args.width, noise_scale=args.noise_scale,
-                        duration_temperature=1.0)  # fmt: skip
+                        duration_temperature=1.0, recognition="promp")  # fmt: skip
     read = read_dataset(SHARED / f"lab-records-{args.set}", "records")
     n = sum(len(v) for v in read.dataset.values())
     runs = [("uniform", "uniform", 1), ("oracle (true duration)", "oracle", 1)]

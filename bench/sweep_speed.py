@@ -44,8 +44,8 @@ from promp.evaluate.sweep import spread_subset  # noqa: E402
 from promp.learn import fit  # noqa: E402
 from promp.model import Settings  # noqa: E402
 
-GIVEN = Settings(n_basis=7, width=1.0, noise_scale=1.5)
-GIVEN_ARGS = ["--basis", "7", "--width", "1", "--noise-scale", "1.5"]
+GIVEN = Settings(n_basis=7, width=1.0, noise_scale=1.5, recognition="promp")
+GIVEN_ARGS = ["--basis", "7", "--width", "1", "--noise-scale", "1.5", "--recognition", "promp"]
 MODALITY_ARGS = [a for n, c in MODALITIES.items() for a in ("--modality", f"{n}={','.join(c)}")]
 
 

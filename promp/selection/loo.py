@@ -22,7 +22,7 @@ from promp.selection.batches import Batch
 from promp.selection.region import within_region
 from promp.timing import duration_from_alpha
 
-__all__ = ["LooScorer", "loo_score"]
+__all__ = ["LooScorer", "held_out", "loo_score"]
 
 
 def _whiten_padded(elapsed: np.ndarray, mask: np.ndarray, tau: float, x: np.ndarray) -> np.ndarray:
@@ -195,7 +195,7 @@ class LooScorer:
             cross[:, :, group] = (psi_w.swapaxes(-1, -2) @ y_w[:, None]).swapaxes(-1, -2)
             yy[:, group] = (y_w**2).sum(axis=1)
         truth = batch.truth
-        held = _held_out(parts, model, truth, np.array(batch.demos), cols)
+        held = held_out(parts, model, truth, np.array(batch.demos), cols)
         means = np.empty((n_t, n_prims, n_a, p))
         for k, prim in enumerate(model.primitives):
             means[:, k] = prim.mean_at(np.exp(batch.log_alphas))[..., cols]
@@ -219,7 +219,7 @@ class LooScorer:
 def _prior_precisions(
     model: ProMPModel,
     parts: Sequence[FitParts],
-    held: _HeldOut,
+    held: HeldOut,
     truth: np.ndarray,
     cols: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -381,7 +381,7 @@ def _bordered_diagonals(
 
 
 @dataclasses.dataclass(frozen=True)
-class _HeldOut:
+class HeldOut:
     """Each trial's primitive refitted without its demonstration
     (:meth:`promp.fitting.FitParts.without`, vectorised): mean and slope (T, P), scatter lost
     (T, p, p), degrees of freedom (T,)."""
@@ -394,13 +394,13 @@ class _HeldOut:
     rank_one: np.ndarray  # (T,) bool
 
 
-def _held_out(
+def held_out(
     parts: Sequence[FitParts],
     model: ProMPModel,
     truth: np.ndarray,
     demos: np.ndarray,
     cols: np.ndarray,
-) -> _HeldOut:
+) -> HeldOut:
     n_t, n_w = truth.shape[0], model.primitives[0].mean.shape[0]
     mean, slope = np.empty((n_t, n_w)), np.empty((n_t, n_w))
     drop, dof = np.empty((n_t, cols.shape[0], cols.shape[0])), np.empty(n_t, dtype=int)
@@ -427,4 +427,4 @@ def _held_out(
         drop[mine] = e_o[:, :, None] * e_o[:, None, :] / (1.0 - h)[:, None, None]
         vector[mine], rank_one[mine] = e_o / np.sqrt(1.0 - h)[:, None], True
         dof[mine] = part.dof - 1
-    return _HeldOut(mean, slope, drop, dof, vector, rank_one)
+    return HeldOut(mean, slope, drop, dof, vector, rank_one)

@@ -28,7 +28,7 @@ from scipy.linalg import lapack
 from promp.evidence.speed import logsumexp_rows, quadrature_weights, t_logpdf
 from promp.quality import winsorized
 from promp.recognition import label_noise, with_label_noise
-from promp.selection.loo import LooScorer
+from promp.selection.loo import LooScorer, held_out
 
 __all__ = ["BANDWIDTHS", "RECOGNITION_RULE", "choose_recognition", "mixture_losses"]
 
@@ -71,7 +71,7 @@ def mixture_losses(
     out = {float(h): np.full(scorer.n_trials, np.inf) for h in bandwidths}
     if not scorer.inside:
         return out
-    model, parts = scorer.model, scorer.parts
+    model = scorer.model
     inv_noise = scorer.inverse_noise(noise_scale)
     m, n_prims = model.basis.n_basis, len(model.primitives)
     eps = label_noise(model)
@@ -80,14 +80,16 @@ def mixture_losses(
         precision, logdet_sigma, gram, proj, rr = scorer.setup(i)
         dims = batch.dims
         cols = (dims[:, None] * m + np.arange(m)).reshape(-1)
-        residuals = [part.residuals[:, cols].reshape(-1, dims.shape[0], m) for part in parts]
+        residuals = _residuals(scorer, batch, cols)
         inv_s2 = inv_noise[dims]
         for h in out:
             evidence = np.empty((batch.truth.shape[0], n_prims))
             for k in range(n_prims):
                 weights = _kernels(batch, k, own[k], h)  # (T, J, A)
-                ll = _component_log_likelihoods(precision[:, k], logdet_sigma[:, k], gram,
-                                                proj[:, k], rr[:, k], residuals[k], inv_s2, h)
+                ll = _component_log_likelihoods(
+                    precision[:, k], logdet_sigma[:, k], gram, proj[:, k], rr[:, k],
+                    residuals[k].reshape(residuals[k].shape[:2] + (dims.shape[0], m)), inv_s2, h,
+                )
                 mine = np.nonzero(batch.truth == k)[0]  # its own demonstration: out
                 ll[mine, np.array(batch.demos)[mine]] = -np.inf
                 count = np.where(batch.truth == k, ll.shape[1] - 1, ll.shape[1])
@@ -100,6 +102,25 @@ def mixture_losses(
             rows = np.arange(batch.truth.shape[0])
             out[h][batch.index] = np.where(np.isfinite(total), -np.log(p_all[rows, batch.truth]),
                                            math.log(n_prims))  # fmt: skip
+    return out
+
+
+def _residuals(scorer: LooScorer, batch, cols: np.ndarray) -> list[np.ndarray]:
+    """Each primitive's components' residuals of the observed weights ``cols`` in every trial
+    of ``batch``, (T, J, p): the whole fit's, but for the trial's own primitive, whose
+    demonstrations' residuals are from its regression without the trial's demonstration (the
+    components sit where the refit would put them; its own row is left out later)."""
+    n_t = batch.truth.shape[0]
+    held = held_out(scorer.parts, scorer.model, batch.truth, np.array(batch.demos), cols)
+    out = []
+    for k, part in enumerate(scorer.parts):
+        e = np.repeat(part.residuals[None][:, :, cols], n_t, axis=0)  # (T, J, p)
+        mine = batch.truth == k
+        if mine.any():
+            intercept, slope = held.mean[mine][:, cols], held.slope[mine][:, cols]  # (T_k, p)
+            e[mine] = (part.weights[None][:, :, cols] - intercept[:, None]
+                       - part.centred_log_alphas[None, :, None] * slope[:, None])  # fmt: skip
+        out.append(e)
     return out
 
 
@@ -130,13 +151,14 @@ def _component_log_likelihoods(
     terms every primitive shares (as :class:`~promp.selection.loo.LooScorer`): one primitive's
     ``precision`` (T, p, p) and ``logdet_sigma`` (T,), the trials' ``gram`` (T, A, Do, M, M),
     ``proj`` (T, A, Do, M) and ``rr`` (T, A, Do), its demonstrations' observed ``residuals``
-    (J, Do, M), the inverse noise ``inv_s2`` (Do,) and the bandwidth ``h``."""
+    in each trial (T, J, Do, M), the inverse noise ``inv_s2`` (Do,) and the bandwidth ``h``."""
     n_t, n_a, n_do, m = gram.shape[:4]
     p, h2 = n_do * m, h * h
-    shifts = math.sqrt(max(1.0 - h2, 0.0)) * residuals  # (J, Do, M)
-    out = np.empty((n_t, shifts.shape[0], n_a))
+    share = math.sqrt(max(1.0 - h2, 0.0))
+    out = np.empty((n_t, residuals.shape[1], n_a))
     matrix = np.empty((p, p))
     for t in range(n_t):
+        shifts = share * residuals[t]  # (J, Do, M)
         g_shift = np.einsum("admn,jdn->ajdm", gram[t], shifts)  # (A, J, Do, M)
         b = inv_s2[:, None] * (proj[t][:, None] - g_shift)  # (A, J, Do, M)
         quad = (rr[t][:, None] - 2.0 * np.einsum("jdm,adm->ajd", shifts, proj[t])
