@@ -47,6 +47,7 @@ from promp.evidence.pipeline import infer  # noqa: E402
 from promp.evidence.sums import ObservationSums  # noqa: E402
 from promp.inference import Observation  # noqa: E402
 from promp.learn import fit  # noqa: E402
+from promp.model import Settings  # noqa: E402
 
 sys.path.insert(0, str(REPO / "bench"))
 from live import DATA, LAYOUT, RATE_HZ, slowed  # noqa: E402
@@ -125,9 +126,11 @@ def main() -> None:
     parser.add_argument("--slow", type=float, default=12.0)
     parser.add_argument("--rate", type=float, default=RATE_HZ,
                         help="the input's time base, Hz (default 250; the model's: 100)")
+    parser.add_argument("--recognition", default=None, metavar="promp|mixture:H",
+                        help="the model's recognition variant (default: chosen by the fit)")
     args = parser.parse_args()
     dataset = slowed(load_records_dataset(DATA), args.slow)
-    model = fit(dataset, LAYOUT)
+    model = fit(dataset, LAYOUT, Settings(recognition=args.recognition))
     rows = movement(dataset, args.rate)
     figures = {}
     for seconds in args.lengths:

@@ -729,7 +729,7 @@ def test_the_recognition_line_says_which_variant_and_why() -> None:
 
 
 @pytest.mark.browser
-def test_learning_settings_from_the_gui_refit_and_are_saved(studio, page) -> None:
+def test_learning_settings_from_the_gui_refit_and_are_saved(studio, page, artifacts) -> None:
     session = studio.session
     model = session.wait_for_model()
     # Automatic: the sliders show what the fit chose, read-only.
@@ -742,6 +742,8 @@ def test_learning_settings_from_the_gui_refit_and_are_saved(studio, page) -> Non
              f"Kept from the last fit (it still beats the runner-up): M = {n_basis}")  # the last
     wait_until(lambda: any(line in text(page) for line in shown), what="the choice shown")
     wait_until(lambda: "Recognition: the " in text(page), what="the recognition variant shown")
+    page.get_by_text("Recognition: the ").first.scroll_into_view_if_needed()
+    page.screenshot(path=str(artifacts / "teach_recognition.png"))
     # Unticked, the sliders set the values, starting from the chosen ones.
     row(page, "Automatic").get_by_role("checkbox").click()
     wait_until(lambda: store(studio).settings.get("n_basis") == n_basis, what="M given explicitly")

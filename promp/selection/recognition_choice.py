@@ -23,7 +23,6 @@ from collections.abc import Sequence
 
 import numpy as np
 from scipy import special
-from scipy.linalg import lapack
 
 from promp.evidence.speed import logsumexp_rows, quadrature_weights, t_logpdf
 from promp.quality import winsorized
@@ -31,6 +30,8 @@ from promp.recognition import label_noise, with_label_noise
 from promp.selection.loo import LooScorer, held_out
 
 __all__ = ["BANDWIDTHS", "RECOGNITION_RULE", "choose_recognition", "mixture_losses"]
+
+_CHUNK_BYTES = 32 << 20  # the stack of matrices factorised at once
 
 BANDWIDTHS = (0.85, 0.7, 0.5)  # from the simplest (the closest to the ProMP) down
 RECOGNITION_RULE = (
@@ -156,23 +157,21 @@ def _component_log_likelihoods(
     p, h2 = n_do * m, h * h
     share = math.sqrt(max(1.0 - h2, 0.0))
     out = np.empty((n_t, residuals.shape[1], n_a))
-    matrix = np.empty((p, p))
-    for t in range(n_t):
-        shifts = share * residuals[t]  # (J, Do, M)
-        g_shift = np.einsum("admn,jdn->ajdm", gram[t], shifts)  # (A, J, Do, M)
-        b = inv_s2[:, None] * (proj[t][:, None] - g_shift)  # (A, J, Do, M)
-        quad = (rr[t][:, None] - 2.0 * np.einsum("jdm,adm->ajd", shifts, proj[t])
-                + np.einsum("jdm,ajdm->ajd", shifts, g_shift)) @ inv_s2  # (A, J)  # fmt: skip
-        for a in range(n_a):
-            np.divide(precision[t], h2, out=matrix)
-            for d in range(n_do):
-                matrix[d * m : (d + 1) * m, d * m : (d + 1) * m] += inv_s2[d] * gram[t, a, d]
-            factor, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower (the C array's upper)
-            if info != 0:
-                raise np.linalg.LinAlgError("Matrix is not positive definite")
-            z, info = lapack.dtrtrs(factor, b[a].reshape(-1, p).T, 1)
-            if info != 0:
-                raise np.linalg.LinAlgError("singular factor")
-            logdet = 2.0 * np.log(np.diagonal(factor)).sum() + logdet_sigma[t] + p * math.log(h2)
-            out[t, :, a] = -0.5 * (quad[a] - (z * z).sum(axis=0) + logdet)
+    step = max(1, _CHUNK_BYTES // (8 * n_a * p * p))  # trials at once
+    for first in range(0, n_t, step):
+        t = slice(first, min(first + step, n_t))
+        matrix = np.repeat(precision[t][:, None] / h2, n_a, axis=1)  # (c, A, p, p)
+        for d in range(n_do):
+            matrix[..., d * m : (d + 1) * m, d * m : (d + 1) * m] += inv_s2[d] * gram[t, :, d]
+        factor = np.linalg.cholesky(matrix)  # (raises LinAlgError if not positive definite)
+        shifts = share * residuals[t][:, None]  # (c, 1, J, Do, M)
+        # A^T K^-1 A s e_j per dimension: (c, A, Do, M, M) @ (c, 1, Do, M, J)
+        g_shift = (gram[t] @ shifts.transpose(0, 1, 3, 4, 2)).transpose(0, 1, 4, 2, 3)
+        b = (inv_s2[:, None] * (proj[t][:, :, None] - g_shift)).reshape(g_shift.shape[:3] + (p,))
+        quad = (rr[t][:, :, None] + ((g_shift - 2.0 * proj[t][:, :, None]) * shifts).sum(-1)
+                ) @ inv_s2  # (c, A, J)  # fmt: skip
+        z = np.linalg.solve(factor, b.swapaxes(-1, -2))  # (c, A, p, J): L z = b
+        logdet = (2.0 * np.log(np.diagonal(factor, axis1=-2, axis2=-1)).sum(-1)
+                  + logdet_sigma[t][:, None] + p * math.log(h2))  # (c, A)  # fmt: skip
+        out[t] = (-0.5 * (quad - (z * z).sum(axis=-2) + logdet[..., None])).swapaxes(1, 2)
     return out
