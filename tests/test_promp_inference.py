@@ -25,7 +25,7 @@ from tests.synthetic import LAYOUT, make_dataset, make_demo
 
 REPO = Path(__file__).resolve().parent.parent
 
-SMALL = Settings(n_basis=6, width=1.0, noise_scale=1.5)
+SMALL = Settings(n_basis=6, width=1.0, noise_scale=1.5, recognition="promp")  # the ProMP's engine
 
 
 @pytest.fixture(scope="module")

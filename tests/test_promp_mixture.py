@@ -22,7 +22,7 @@ from promp.timing import duration_from_alpha
 from tests import dense_reference as dense
 from tests.synthetic import LAYOUT, make_dataset, make_demo
 
-SMALL = Settings(n_basis=6, width=1.0, noise_scale=1.5)
+SMALL = Settings(n_basis=6, width=1.0, noise_scale=1.5, recognition="promp")
 
 
 @pytest.fixture(scope="module")

@@ -126,7 +126,8 @@ def priors_without_each(alphas: np.ndarray, s_bar: float) -> np.ndarray:
 
 
 def _quadrature_grid(
-    locs: np.ndarray, scales: np.ndarray, dofs: np.ndarray, bounds: np.ndarray, n_nodes: int
+    locs: np.ndarray, scales: np.ndarray, dofs: np.ndarray, bounds: np.ndarray,
+    n_nodes: int = LOO_NODES,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``n_nodes`` nodes per trial spanning every primitive's prior (Student-t in log
     alpha, parameters (T, K)) as :meth:`promp.evidence.speed.AlphaPrior.span` does

@@ -22,7 +22,7 @@ from promp.selection.batches import Batch
 from promp.selection.region import within_region
 from promp.timing import duration_from_alpha
 
-__all__ = ["LooScorer", "held_out", "loo_score"]
+__all__ = ["HeldOut", "LooScorer", "held_out", "loo_score"]
 
 
 def _whiten_padded(elapsed: np.ndarray, mask: np.ndarray, tau: float, x: np.ndarray) -> np.ndarray:

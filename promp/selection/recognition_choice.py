@@ -163,15 +163,20 @@ def _component_log_likelihoods(
         matrix = np.repeat(precision[t][:, None] / h2, n_a, axis=1)  # (c, A, p, p)
         for d in range(n_do):
             matrix[..., d * m : (d + 1) * m, d * m : (d + 1) * m] += inv_s2[d] * gram[t, :, d]
+        # equilibrated (unit diagonal): the modalities' units may be many orders of magnitude
+        # apart, and the solve below pivots (the factorisation alone would not mind)
+        scale = 1.0 / np.sqrt(np.diagonal(matrix, axis1=-2, axis2=-1))  # (c, A, p)
+        matrix *= scale[..., :, None] * scale[..., None, :]
         factor = np.linalg.cholesky(matrix)  # (raises LinAlgError if not positive definite)
         shifts = share * residuals[t][:, None]  # (c, 1, J, Do, M)
         # A^T K^-1 A s e_j per dimension: (c, A, Do, M, M) @ (c, 1, Do, M, J)
         g_shift = (gram[t] @ shifts.transpose(0, 1, 3, 4, 2)).transpose(0, 1, 4, 2, 3)
         b = (inv_s2[:, None] * (proj[t][:, :, None] - g_shift)).reshape(g_shift.shape[:3] + (p,))
+        b *= scale[:, :, None]
         quad = (rr[t][:, :, None] + ((g_shift - 2.0 * proj[t][:, :, None]) * shifts).sum(-1)
                 ) @ inv_s2  # (c, A, J)  # fmt: skip
         z = np.linalg.solve(factor, b.swapaxes(-1, -2))  # (c, A, p, J): L z = b
-        logdet = (2.0 * np.log(np.diagonal(factor, axis1=-2, axis2=-1)).sum(-1)
+        logdet = (2.0 * np.log(np.diagonal(factor, axis1=-2, axis2=-1) / scale).sum(-1)
                   + logdet_sigma[t][:, None] + p * math.log(h2))  # (c, A)  # fmt: skip
         out[t] = (-0.5 * (quad - (z * z).sum(axis=-2) + logdet[..., None])).swapaxes(1, 2)
     return out
