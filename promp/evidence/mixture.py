@@ -89,10 +89,10 @@ def log_likelihoods(
     p, n_cand = n_do * m, sums.proj.shape[0]
     gram = sums.gram[:, sums.group]  # (A, Do, M, M)
     inv_s2 = 1.0 / noise_var
-    g_shift = np.einsum("admn,jdn->ajdm", gram, shifts)  # A^T K^-1 A s e_j, per dimension
+    # A^T K^-1 A s e_j per dimension: (A, Do, M, M) @ (Do, M, J), as (A, J, Do, M)
+    g_shift = (gram @ shifts.transpose(1, 2, 0)).transpose(0, 3, 1, 2)
     proj = sums.proj[:, None] - g_shift  # (A, J, Do, M): Psi^T K^-1 r_j
-    rr = (sums.rr[:, None] - 2.0 * np.einsum("jdm,adm->ajd", shifts, sums.proj)
-          + np.einsum("jdm,ajdm->ajd", shifts, g_shift))  # (A, J, Do)  # fmt: skip
+    rr = sums.rr[:, None] + ((g_shift - 2.0 * sums.proj[:, None]) * shifts).sum(-1)  # (A, J, Do)
     b = (inv_s2[:, None] * proj).reshape(n_cand, n_j, p)
     quad = rr @ inv_s2  # r^T R^-1 r, then less b^T (...)^-1 b below
     padded, logdet_sigma = observed_precision(primitive, dims)
@@ -102,7 +102,7 @@ def log_likelihoods(
         matrix = precision.copy()
         for d in range(n_do):
             matrix[d * m : (d + 1) * m, d * m : (d + 1) * m] += inv_s2[d] * gram[a, d]
-        factor, info = lapack.dpotrf(matrix, 1, 1, 1)  # lower, cleaned, in place
+        factor, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower (the C array's upper), in place
         if info != 0:
             raise np.linalg.LinAlgError("Matrix is not positive definite")
         z, info = lapack.dtrtrs(factor, b[a].T, 1)  # lower: L z = b
