@@ -196,10 +196,8 @@ class Evidence:
     ) -> np.ndarray:
         """:meth:`log_likelihoods` at ``alphas`` (A,) known to be positive and finite (the
         quadrature's nodes: checked once, by construction, rather than at every call)."""
-        model, dims = self.model, self.dims
-        durations = (model.settings.s_bar / alphas - 1.0) * model.sample_period  # (the
-        # arithmetic of promp.timing.duration_from_alpha)
-        valid = self.elapsed[-1] <= durations * (1.0 + 1e-9)
+        dims = self.dims
+        durations, valid = self._durations(alphas)
         scaled = noise_factors is not None
         noise_var = primitive.noise_var[dims][None, :]
         if scaled:
@@ -213,6 +211,13 @@ class Evidence:
             sums = self._sums(primitive, alphas[valid], durations[valid])
             out[:, valid] = self._form(primitive)(sums, primitive, dims, noise_var)
         return out if scaled else out[0]
+
+    def _durations(self, alphas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The duration of each speed of ``alphas`` (s; the arithmetic of
+        :func:`promp.timing.duration_from_alpha`), and whether it contains the observation."""
+        model = self.model
+        durations = (model.settings.s_bar / alphas - 1.0) * model.sample_period
+        return durations, self.elapsed[-1] <= durations * (1.0 + 1e-9)
 
     def _form(self, primitive: Primitive) -> Callable[..., np.ndarray]:
         """The ``log_likelihoods`` of the cheaper exact form of ``primitive``'s likelihood for
@@ -329,9 +334,8 @@ class Evidence:
         """Every mixture component's log-likelihood at nodes ``x`` (log alpha), (A, J)
         (:func:`promp.evidence.mixture.log_likelihoods`): ``-inf`` where the duration is
         shorter than the observation."""
-        model, alphas = self.model, np.exp(x)
-        durations = (model.settings.s_bar / alphas - 1.0) * model.sample_period
-        valid = self.elapsed[-1] <= durations * (1.0 + 1e-9)
+        alphas = np.exp(x)
+        durations, valid = self._durations(alphas)
         out = np.full((x.shape[0], primitive.residuals.shape[0]), -np.inf)
         if valid.any():
             sums = self._sums(primitive, alphas[valid], durations[valid])

@@ -52,7 +52,7 @@ from promp.evidence.woodbury import LOG_2PI
 from promp.model import Primitive
 from promp.quality import winsorized
 
-__all__ = ["integrate", "log_likelihoods", "speed_kernels"]
+__all__ = ["integrate", "kernel", "log_likelihoods", "speed_kernels"]
 
 
 def _shifts(primitive: Primitive, dims: np.ndarray, share: float) -> np.ndarray:
@@ -122,20 +122,32 @@ def speed_kernels(
     the speed ``prior`` with each of its components moved ``sqrt(1 - H^2)`` of the way to the
     demonstration's own log speed (winsorized, as the prior's fit) and ``H`` times as wide,
     normalised to its mass below ``bound`` (:func:`promp.evidence.speed.quadrature_weights`)."""
-    share = math.sqrt(max(1.0 - bandwidth * bandwidth, 0.0))
     own = winsorized(np.log(np.asarray(primitive.alphas, dtype=float)))  # (J,)
     density = np.full((own.shape[0], nodes.shape[0]), -np.inf)
     mass = np.full(own.shape[0], -np.inf)
     for loc, scale, dof, weight in zip(prior.locs, prior.scales, prior.dofs, prior.weights,
                                        strict=True):  # fmt: skip
-        centre, width = loc + share * (own - loc), bandwidth * scale
-        log_w = math.log(weight) - math.log(width)
-        z = (nodes[None] - centre[:, None]) / width
-        density = np.logaddexp(density, t_logpdf(z, dof) + log_w)
-        with np.errstate(divide="ignore"):
-            below = np.log(weight * special.stdtr(dof, (bound - centre) / width))
-        mass = np.logaddexp(mass, below)
+        d, below = kernel(nodes, loc, scale, dof, own, bound, bandwidth)
+        density = np.logaddexp(density, d + math.log(weight))
+        mass = np.logaddexp(mass, below + math.log(weight))
     return quadrature_weights(nodes[None], density, mass)
+
+
+def kernel(nodes, loc, scale, dof, own: np.ndarray, bound, bandwidth: float) -> tuple:
+    """One Student-t component of a speed prior (``loc``, ``scale``, ``dof``: numbers, or
+    arrays (..., 1)) made each demonstration's kernel: moved ``sqrt(1 - H^2)`` of the way to
+    its log speed ``own`` (J,) and ``H`` times as wide. Its log density at ``nodes`` (A,) or
+    (..., A), per unit of log alpha, (..., J, A), and its log mass below ``bound`` (a number,
+    or (..., 1)), (..., J). The engine's :func:`speed_kernels` and the leave-one-out scorer's
+    batch (:mod:`promp.selection.recognition_choice`) both read it."""
+    share = math.sqrt(max(1.0 - bandwidth * bandwidth, 0.0))
+    centre = loc + share * (own - loc)  # (..., J)
+    width = np.asarray(bandwidth * scale, dtype=float)
+    z = (np.asarray(nodes)[..., None, :] - centre[..., None]) / width[..., None]
+    density = t_logpdf(z, np.asarray(dof)[..., None]) - np.log(width)[..., None]
+    with np.errstate(divide="ignore"):
+        mass = np.log(special.stdtr(dof, (bound - centre) / width))
+    return density, mass
 
 
 def integrate(table, primitive: Primitive, prior: AlphaPrior, bound: float, bandwidth: float

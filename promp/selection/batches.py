@@ -61,13 +61,11 @@ def make_batches(
     trials: Sequence[Trial],
     dt: float,
     s_bar: float,
-    n_nodes: int = LOO_NODES,
 ) -> list[Batch]:
     """The trials grouped by modality set, each observation padded, with the quadrature
-    nodes: ``n_nodes`` (:data:`LOO_NODES`) equally spaced in log alpha over the union of the
-    primitives' priors (each primitive's prior from its training alphas, the held-out
-    demonstration's own primitive without it), truncated at the longest alpha the observation
-    allows."""
+    nodes: :data:`LOO_NODES` equally spaced in log alpha over the union of the primitives'
+    priors (each primitive's prior from its training alphas, the held-out demonstration's
+    own primitive without it), truncated at the longest alpha the observation allows."""
     names = list(dataset)
     alphas = [
         np.array([alpha_from_duration(d.duration, dt, s_bar) for d in dataset[name]])
@@ -103,7 +101,7 @@ def make_batches(
                             [p.dofs[0] for p in full]]  # fmt: skip
             params[:, i, trial.primitive] = loo[trial.primitive][:, trial.demo]
         bounds = np.log(s_bar / (elapsed[:, -1] / dt + 1.0))  # (T,) the longest alpha
-        log_alphas, log_weights = _quadrature_grid(*params, bounds, n_nodes)
+        log_alphas, log_weights = _quadrature_grid(*params, bounds)
         truth_alphas = np.array([alphas[t.primitive][t.demo] for t in batch])
         out.append(
             Batch(
@@ -126,10 +124,9 @@ def priors_without_each(alphas: np.ndarray, s_bar: float) -> np.ndarray:
 
 
 def _quadrature_grid(
-    locs: np.ndarray, scales: np.ndarray, dofs: np.ndarray, bounds: np.ndarray,
-    n_nodes: int = LOO_NODES,
+    locs: np.ndarray, scales: np.ndarray, dofs: np.ndarray, bounds: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``n_nodes`` nodes per trial spanning every primitive's prior (Student-t in log
+    """:data:`LOO_NODES` nodes per trial spanning every primitive's prior (Student-t in log
     alpha, parameters (T, K)) as :meth:`promp.evidence.speed.AlphaPrior.span` does
     (:func:`promp.evidence.speed.central_range`), truncated at the trial's bound (T,); and each
     primitive's log quadrature weights there, (T, K, A), normalised to its prior mass below
@@ -140,7 +137,7 @@ def _quadrature_grid(
     empty = hi <= lo  # every plausible speed ends too early: the tail just below the bound
     lo = np.where(empty, bounds[:, None] - 4.0 * scales, lo)
     hi = np.where(empty, bounds[:, None], hi)
-    steps = np.linspace(0.0, 1.0, n_nodes)
+    steps = np.linspace(0.0, 1.0, LOO_NODES)
     start, stop = lo.min(axis=1), hi.max(axis=1)
     nodes = start[:, None] + (stop - start)[:, None] * steps  # (T, A)
     z = (nodes[:, None, :] - locs[..., None]) / scales[..., None]

@@ -63,12 +63,3 @@ class Candidates:
             fitted = fit_parts(self.dataset, self.layout, candidate, self.dt, alpha_models=False)
             self._scorers[key] = LooScorer(fitted, self._batches, self.n_trials, self.region)
         return self._scorers[key]
-
-    def finer(self, n_basis: int, width: float, n_nodes: int) -> LooScorer:
-        """The scorer of candidate ``(n_basis, width)`` (fitted once, as :meth:`__call__`'s) on
-        the same trials with ``n_nodes`` speed nodes each: what the mixture's kernels, narrower
-        than the speed prior, need (:mod:`promp.selection.recognition_choice`)."""
-        coarse = self(n_basis, width)
-        batches = make_batches(self.dataset, self.layout, self.trials, self.dt, self.inner.s_bar,
-                               n_nodes)  # fmt: skip
-        return LooScorer((coarse.model, coarse.parts), batches, self.n_trials, self.region)

@@ -82,23 +82,27 @@ class LooScorer:
         self._setups: dict[int, tuple] = {}
         # per noise scale: each batch's true primitive's log-likelihood at every node, (T, A)
         self._speed_tables: dict[float, dict[int, np.ndarray]] = {}
+        self._losses: dict[float, np.ndarray] = {}  # per noise scale, each trial's loss
 
     def __call__(self, noise_scales: Sequence[float]) -> np.ndarray:
-        """``-ln p(true primitive)`` of every trial at every scale, (n_scales, n_trials)."""
-        model, settings = self.model, self.model.settings
-        layout = model.layout
+        """``-ln p(true primitive)`` of every trial at every scale, (n_scales, n_trials); a
+        scale scored before is not scored again (the search's, then the recognition
+        variant's choice, :mod:`promp.selection.recognition_choice`)."""
+        new = [float(s) for s in dict.fromkeys(noise_scales) if float(s) not in self._losses]
+        if new:
+            self._losses.update(zip(new, self._score(new), strict=True))
+        return np.array([self._losses[float(s)] for s in noise_scales])
+
+    def _score(self, noise_scales: Sequence[float]) -> np.ndarray:
+        """:meth:`__call__` at ``noise_scales``, every one scored."""
+        model = self.model
         n_scales = len(noise_scales)
         out = np.empty((n_scales, self.n_trials))
         if not self.inside:
             out[:] = np.inf
             return out
         n_prims, m = len(model.primitives), model.basis.n_basis
-        scaled = np.array([name not in settings.noise_std for name in layout.names])
-        per_dim = np.concatenate(
-            [np.full(len(mod.columns), s) for mod, s in zip(layout.modalities, scaled, strict=True)]
-        )
-        factors = np.where(per_dim[None, :], np.square(noise_scales)[:, None], 1.0)
-        noise_var = model.primitives[0].noise_var  # pooled: the same for every primitive
+        inv_noise = np.array([self.inverse_noise(s) for s in noise_scales])  # (L, n_dims)
         eps = label_noise(model)
         for i, batch in enumerate(self.batches):
             precision, logdet_sigma, gram, proj, rr = self.setup(i)
@@ -106,7 +110,7 @@ class LooScorer:
             n_t, n_a = batch.log_alphas.shape
             n_do = dims.shape[0]
             p = n_do * m
-            inv_s2 = 1.0 / (noise_var[dims][None, :] * factors[:, dims])  # (L, Do)
+            inv_s2 = inv_noise[:, dims]  # (L, Do)
             for level in range(n_scales):
                 b = (inv_s2[level, :, None] * proj).reshape(n_t, n_prims, n_a, p)
                 corner = rr @ inv_s2[level] + 1.0

@@ -22,9 +22,9 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from scipy import special
 
-from promp.evidence.speed import logsumexp_rows, quadrature_weights, t_logpdf
+from promp.evidence.mixture import kernel
+from promp.evidence.speed import logsumexp_rows, quadrature_weights
 from promp.quality import winsorized
 from promp.recognition import label_noise, with_label_noise
 from promp.selection.loo import LooScorer, held_out
@@ -129,12 +129,7 @@ def _kernels(batch, k: int, own: np.ndarray, h: float) -> np.ndarray:
     """Primitive ``k``'s components' log quadrature weights at every trial's nodes, (T, J, A)
     (:func:`promp.evidence.mixture.speed_kernels` in batch form)."""
     loc, scale, dof = (batch.priors[q, :, k][:, None] for q in range(3))  # (T, 1)
-    share = math.sqrt(max(1.0 - h * h, 0.0))
-    centre, width = loc + share * (own[None, :] - loc), h * scale  # (T, J), (T, 1)
-    z = (batch.log_alphas[:, None, :] - centre[..., None]) / width[..., None]
-    density = t_logpdf(z, dof[..., None]) - np.log(width)[..., None]  # (T, J, A)
-    with np.errstate(divide="ignore"):
-        mass = np.log(special.stdtr(dof, (batch.bounds[:, None] - centre) / width))  # (T, J)
+    density, mass = kernel(batch.log_alphas, loc, scale, dof, own, batch.bounds[:, None], h)
     return quadrature_weights(batch.log_alphas[:, None, :], density, mass)
 
 
