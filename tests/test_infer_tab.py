@@ -13,6 +13,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from app.core.fits import FitCache, Training, held_out_training
+from app.core.learner_state import resolved_settings
 from app.live.inference import inferred
 from app.live.replay import Replay
 from app.live.stream import LiveStream
@@ -56,11 +57,8 @@ def chosen(scenario) -> Settings:
     """The settings the studio's Infer tab fits its held-out models with: the automatic ones
     at the values the workspace's model chose (``Session.resolved_settings``), not chosen
     again for every held-out demonstration (that is the evaluation's rule, tested in
-    tests/test_promp_evaluate.py; here it cost 40 choices, 70 s)."""
-    model = fit(scenario, LAYOUT, SETTINGS)
-    return dataclasses.replace(
-        SETTINGS, **{name: getattr(model.settings, name) for name in SETTINGS.automatic}
-    )
+    tests/test_promp_evaluate.py; here it cost 40 choices)."""
+    return resolved_settings(SETTINGS, LAYOUT, fit(scenario, LAYOUT, SETTINGS))
 
 
 def held_out_model(scenario, primitive: str, demo: str, settings: Settings):

@@ -27,7 +27,8 @@ from promp.model import Settings
 from tests.conftest import shared_set
 from tests.synthetic import HANDOVER_LAYOUT, LAYOUT, handover_sessions, make_dataset
 
-GIVEN = Settings(n_basis=7, width=1.0, noise_scale=1.5)  # the grouping is the subject: quick
+GIVEN = Settings(n_basis=7, width=1.0, noise_scale=1.5, recognition="promp")  # the grouping
+# is the subject: quick (nothing chosen but the duration's temperature)
 
 
 def in_sessions(dataset: dict, sessions: int) -> dict:

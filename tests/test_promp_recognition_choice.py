@@ -61,13 +61,19 @@ def test_at_bandwidth_one_the_mixture_scorer_is_the_promps(scorer) -> None:
 
 
 @pytest.mark.parametrize("h", [0.4, 0.8])
-def test_the_scorers_component_likelihoods_are_the_engines(h) -> None:
+@pytest.mark.parametrize(
+    ("n_demos", "n_basis", "observed"),
+    [(6, 6, ["hand", "head"]), (12, 3, ["head"])],
+    ids=["bordered", "factor-inverted"],  # fewer components than weights, and more
+)
+def test_the_scorers_component_likelihoods_are_the_engines(h, n_demos, n_basis, observed):
     """The batch form of the scorer (one primitive, its whole fit, no trial left out) gives
     the engine's :func:`promp.evidence.mixture.log_likelihoods` less the terms every
-    primitive shares."""
-    model = fit(make_dataset(seed=1, n_demos=6), LAYOUT, GIVEN)
+    primitive shares, by either of its two factorisations."""
+    settings = dataclasses.replace(GIVEN, n_basis=n_basis)
+    model = fit(make_dataset(seed=1, n_demos=n_demos), LAYOUT, settings)
     demo = make_demo(np.random.default_rng(7), np.array([0.2, -0.2, 0.1, 0.0, 0.3, -0.6]))
-    obs = Observation.from_demo(model, demo, 17, ["hand", "head"])
+    obs = Observation.from_demo(model, demo, 17, observed)
     evidence = Evidence(model, obs)
     prim, dims, m = model.primitives[0], evidence.dims, model.basis.n_basis
     alphas = prim.alphas[:4]
@@ -83,8 +89,8 @@ def test_the_scorers_component_likelihoods_are_the_engines(h) -> None:
     got = rc._component_log_likelihoods(
         padded[None, :p, :p], np.array([logdet_sigma]), sums.gram[:, sums.group][None],
         sums.proj[None], sums.rr[None], prim.residuals[:, cols].reshape(1, -1, dims.shape[0], m),
-        1.0 / noise, h,
-    )[0]  # (J, A)  # fmt: skip
+        1.0 / noise, (h,),
+    )[0, 0]  # (J, A)  # fmt: skip
     shared = -0.5 * (float((sums.n * np.log(noise) + sums.logdet_k).sum())
                      + sums.n * dims.shape[0] * math.log(2 * math.pi))  # fmt: skip
     assert_allclose(got.T + shared, engine, rtol=1e-10, atol=1e-8)

@@ -232,11 +232,12 @@ def test_automatic_settings_are_chosen_by_the_fit_and_can_be_given_back(session)
     chosen = learned.report["settings"]["chosen"]
     assert set(chosen) == {"n_basis", "width", "noise_scale"}
     resolved = session.snapshot().resolved_settings()  # what typicality fits with: no new choice
-    assert not resolved.automatic
-    assert (resolved.n_basis, resolved.width) == (learned.settings.n_basis, learned.settings.width)
+    assert not resolved.to_choose  # the duration's temperature and the variant included
+    assert resolved == learned.settings
     session.store.set_learning(9, 1.2)
     assert session.wait_for_model().settings.n_basis == 9
-    assert session.snapshot().resolved_settings().n_basis == 9
+    resolved = session.snapshot().resolved_settings()
+    assert resolved.n_basis == 9 and not resolved.to_choose
     index = state(session).workspace.index_path
     assert '"n_basis": 9' in index.read_text()
     session.store.set_learning(None, None)  # back to automatic: absent from studio.json

@@ -67,9 +67,15 @@ class LearnerState:
 
 
 def resolved_settings(settings: Settings, layout: Layout, model: ProMPModel | None) -> Settings:
-    """``settings`` (a workspace's, over ``layout``) with every automatic one at the value
-    ``model`` chose (its fallback value without a model of this layout): what a fit of some
-    demonstrations uses, e.g. for typicality or a held-out model, without choosing again."""
-    if model is None or model.layout != layout or not settings.automatic:
+    """``settings`` (a workspace's, over ``layout``) with every automatic one, the duration's
+    temperature and the recognition variant included, at the value ``model`` chose (the
+    automatic ones at their fallback values without a model of this layout): what a fit of
+    some demonstrations uses, e.g. for typicality or a held-out model, without choosing again
+    (a choice costs a second a fit; a given fit, tens of milliseconds)."""
+    if model is None or model.layout != layout:
         return settings.with_fallback()
-    return replace(settings, **{name: getattr(model.settings, name) for name in settings.automatic})
+    names = settings.automatic + tuple(
+        name for name in ("duration_temperature", "recognition")
+        if getattr(settings, name) is None and getattr(model.settings, name) is not None
+    )  # fmt: skip
+    return replace(settings, **{name: getattr(model.settings, name) for name in names})

@@ -353,11 +353,12 @@ def _bordered_diagonals(
     n_do, m = gram.shape[2], gram.shape[3]
     scaled = inv_s2[:, None, None] * gram  # (T, A, Do, M, M)
     if p < _LOOP_WEIGHTS:  # small: one stack, numpy's loops
-        bordered = np.empty((n_t, n_prims, n_a, p + 1, p + 1))
-        bordered[..., :p, :p] = precision[:, :, None]
+        blocks = np.zeros((n_t, 1, n_a, p, p))  # A^T R^-1 A, block-diagonal
         for d in range(n_do):
             block = slice(d * m, (d + 1) * m)
-            bordered[..., block, block] += scaled[:, None, :, d]
+            blocks[:, 0, :, block, block] = scaled[:, :, d]
+        bordered = np.empty((n_t, n_prims, n_a, p + 1, p + 1))
+        np.add(blocks, precision[:, :, None], out=bordered[..., :p, :p])
         bordered[..., :p, p] = b
         bordered[..., p, :p] = b
         bordered[..., p, p] = corner

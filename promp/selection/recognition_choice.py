@@ -22,9 +22,11 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.linalg import lapack
 
 from promp.evidence.mixture import kernel
 from promp.evidence.speed import logsumexp_rows, quadrature_weights
+from promp.evidence.weight_space import cholesky_diagonals
 from promp.quality import winsorized
 from promp.recognition import label_noise, with_label_noise
 from promp.selection.loo import LooScorer, held_out
@@ -83,24 +85,26 @@ def mixture_losses(
         cols = (dims[:, None] * m + np.arange(m)).reshape(-1)
         residuals = _residuals(scorer, batch, cols)
         inv_s2 = inv_noise[dims]
-        for h in out:
-            evidence = np.empty((batch.truth.shape[0], n_prims))
-            for k in range(n_prims):
-                weights = _kernels(batch, k, own[k], h)  # (T, J, A)
-                ll = _component_log_likelihoods(
-                    precision[:, k], logdet_sigma[:, k], gram, proj[:, k], rr[:, k],
-                    residuals[k].reshape(residuals[k].shape[:2] + (dims.shape[0], m)), inv_s2, h,
-                )
-                mine = np.nonzero(batch.truth == k)[0]  # its own demonstration: out
+        evidence = {h: np.empty((batch.truth.shape[0], n_prims)) for h in out}
+        for k in range(n_prims):
+            tables = _component_log_likelihoods(
+                precision[:, k], logdet_sigma[:, k], gram, proj[:, k], rr[:, k],
+                residuals[k].reshape(residuals[k].shape[:2] + (dims.shape[0], m)), inv_s2,
+                tuple(out),
+            )  # fmt: skip
+            mine = np.nonzero(batch.truth == k)[0]  # its own demonstration: out
+            for h, ll in zip(out, tables, strict=True):
                 ll[mine, np.array(batch.demos)[mine]] = -np.inf
                 count = np.where(batch.truth == k, ll.shape[1] - 1, ll.shape[1])
                 with np.errstate(invalid="ignore"):
-                    total = logsumexp_rows((ll + weights).reshape(ll.shape[0], -1))
-                evidence[:, k] = total - np.log(np.maximum(count, 1))  # fmt: skip
-            total = logsumexp_rows(evidence)
+                    total = logsumexp_rows((ll + _kernels(batch, k, own[k], h)).reshape(
+                        ll.shape[0], -1))  # fmt: skip
+                evidence[h][:, k] = total - np.log(np.maximum(count, 1))
+        rows = np.arange(batch.truth.shape[0])
+        for h, table in evidence.items():
+            total = logsumexp_rows(table)
             with np.errstate(invalid="ignore", over="ignore"):
-                p_all = with_label_noise(np.exp(evidence - total[:, None]), eps)
-            rows = np.arange(batch.truth.shape[0])
+                p_all = with_label_noise(np.exp(table - total[:, None]), eps)
             out[h][batch.index] = np.where(np.isfinite(total), -np.log(p_all[rows, batch.truth]),
                                            math.log(n_prims))  # fmt: skip
     return out
@@ -141,37 +145,100 @@ def _component_log_likelihoods(
     rr: np.ndarray,
     residuals: np.ndarray,
     inv_s2: np.ndarray,
-    h: float,
+    bandwidths: Sequence[float],
 ) -> np.ndarray:
-    """Every component's log-likelihood of every trial at every node, (T, J, A), without the
-    terms every primitive shares (as :class:`~promp.selection.loo.LooScorer`): one primitive's
-    ``precision`` (T, p, p) and ``logdet_sigma`` (T,), the trials' ``gram`` (T, A, Do, M, M),
-    ``proj`` (T, A, Do, M) and ``rr`` (T, A, Do), its demonstrations' observed ``residuals``
-    in each trial (T, J, Do, M), the inverse noise ``inv_s2`` (Do,) and the bandwidth ``h``."""
+    """Every component's log-likelihood of every trial at every node at each of
+    ``bandwidths``, (H, T, J, A), without the terms every primitive shares (as
+    :class:`~promp.selection.loo.LooScorer`): one primitive's ``precision`` (T, p, p) and
+    ``logdet_sigma`` (T,), the trials' ``gram`` (T, A, Do, M, M), ``proj`` (T, A, Do, M) and
+    ``rr`` (T, A, Do), its demonstrations' observed ``residuals`` in each trial (T, J, Do, M)
+    and the inverse noise ``inv_s2`` (Do,).
+
+    Each (trial, node, bandwidth) is one Cholesky factorisation of the bordered matrix
+    ``[[S, B], [B^T, c I]]`` (``S = Sigma_o^-1 / H^2 + A^T R^-1 A``, ``B``'s columns the
+    components' ``b_j``): its factor's lower-left block is ``B^T L^-T``, whose rows' squared
+    norms are the ``b_j^T S^-1 b_j``; the factor's first p columns do not depend on ``c``,
+    which only keeps the matrix positive definite (``S >= Sigma_o^-1 / H^2``, so ``B^T S^-1 B
+    <= H^2 tr(Sigma_o) ||B||_F^2 I``: twice that is enough). One factorisation of ``p + J`` in
+    place instead of one of ``p`` and a solve with J right-hand sides: 1.3-1.8x faster at p
+    21-60, J 10-20. The shifts ``s e_j`` scale with ``s = sqrt(1 - H^2)``: their products with
+    the observation's statistics are computed once for every bandwidth."""
     n_t, n_a, n_do, m = gram.shape[:4]
-    p, h2 = n_do * m, h * h
-    share = math.sqrt(max(1.0 - h2, 0.0))
-    out = np.empty((n_t, residuals.shape[1], n_a))
-    step = max(1, _CHUNK_BYTES // (8 * n_a * p * p))  # trials at once
+    n_j = residuals.shape[1]
+    p = n_do * m
+    n = p + n_j
+    bordered = n_j <= p  # (else the factor inverted: (p + J)^3 / 3 > 2 p^3 / 3 + p^2 J)
+    traces = _covariance_traces(precision)  # (T,) tr(Sigma_o)
+    out = np.empty((len(bandwidths), n_t, n_j, n_a))
+    step = max(1, _CHUNK_BYTES // (8 * n_a * n * (n if bordered else p)))  # trials at once
     for first in range(0, n_t, step):
         t = slice(first, min(first + step, n_t))
-        matrix = np.repeat(precision[t][:, None] / h2, n_a, axis=1)  # (c, A, p, p)
+        c = t.stop - t.start
+        e = residuals[t][:, None]  # (c, 1, J, Do, M)
+        # A^T K^-1 A e_j per dimension: (c, A, Do, M, M) @ (c, 1, Do, M, J), as (c, A, J, Do, M)
+        g_e = (gram[t] @ e.transpose(0, 1, 3, 4, 2)).transpose(0, 1, 4, 2, 3)
+        e_g_e = (g_e * e).sum(-1) @ inv_s2  # (c, A, J)
+        proj_e = (proj[t][:, :, None] * e).sum(-1) @ inv_s2  # (c, A, J)
+        u = (inv_s2[:, None] * proj[t]).reshape(c, n_a, p, 1)  # b_j = u - s w_j
+        w = np.ascontiguousarray((inv_s2[:, None] * g_e).reshape(c, n_a, n_j, p).swapaxes(-1, -2))
+        rr_t = (rr[t] @ inv_s2)[..., None]  # (c, A, 1)
+        # ||B||_F^2 = J u.u - 2 s u.w + s^2 w.w, for the corner's bound
+        uu, uw, ww = n_j * (u * u).sum((-1, -2)), (u * w).sum((-1, -2)), (w * w).sum((-1, -2))
+        blocks = np.zeros((c, n_a, p, p))  # A^T R^-1 A, block-diagonal
         for d in range(n_do):
-            matrix[..., d * m : (d + 1) * m, d * m : (d + 1) * m] += inv_s2[d] * gram[t, :, d]
-        # equilibrated (unit diagonal): the modalities' units may be many orders of magnitude
-        # apart, and the solve below pivots (the factorisation alone would not mind)
-        scale = 1.0 / np.sqrt(np.diagonal(matrix, axis1=-2, axis2=-1))  # (c, A, p)
-        matrix *= scale[..., :, None] * scale[..., None, :]
-        factor = np.linalg.cholesky(matrix)  # (raises LinAlgError if not positive definite)
-        shifts = share * residuals[t][:, None]  # (c, 1, J, Do, M)
-        # A^T K^-1 A s e_j per dimension: (c, A, Do, M, M) @ (c, 1, Do, M, J)
-        g_shift = (gram[t] @ shifts.transpose(0, 1, 3, 4, 2)).transpose(0, 1, 4, 2, 3)
-        b = (inv_s2[:, None] * (proj[t][:, :, None] - g_shift)).reshape(g_shift.shape[:3] + (p,))
-        b *= scale[:, :, None]
-        quad = (rr[t][:, :, None] + ((g_shift - 2.0 * proj[t][:, :, None]) * shifts).sum(-1)
-                ) @ inv_s2  # (c, A, J)  # fmt: skip
-        z = np.linalg.solve(factor, b.swapaxes(-1, -2))  # (c, A, p, J): L z = b
-        logdet = (2.0 * np.log(np.diagonal(factor, axis1=-2, axis2=-1) / scale).sum(-1)
-                  + logdet_sigma[t][:, None] + p * math.log(h2))  # (c, A)  # fmt: skip
-        out[t] = (-0.5 * (quad - (z * z).sum(axis=-2) + logdet[..., None])).swapaxes(1, 2)
+            blocks[..., d * m : (d + 1) * m, d * m : (d + 1) * m] = inv_s2[d] * gram[t, :, d]
+        stack = np.empty((c, n_a, n, n) if bordered else (c, n_a, p, p))  # LAPACK reads
+        # the C array's upper triangle alone
+        top = stack[..., :p, :p]
+        border = stack[..., :p, p:] if bordered else np.empty((c, n_a, p, n_j))
+        for index, h in enumerate(bandwidths):
+            h2 = h * h
+            share = math.sqrt(max(1.0 - h2, 0.0))
+            # (not equilibrated: a Cholesky factorisation does not pivot, so the modalities'
+            # units do not change its relative errors)
+            np.add(blocks, precision[t][:, None] / h2, out=top)
+            np.subtract(u, share * w, out=border)
+            quad = rr_t + share * share * e_g_e - 2.0 * share * proj_e  # (c, A, J)
+            frobenius = uu - 2.0 * share * uw + share * share * ww  # (c, A)
+            if bordered:
+                corner = stack[..., p:, p:]
+                corner[:] = 0.0
+                np.einsum("...jj->...j", corner)[:] = (
+                    2.0 * h2 * traces[t][:, None] * frobenius + 1.0
+                )[..., None]
+                diag = cholesky_diagonals(stack.reshape(-1, n, n))[:, :p].reshape(c, n_a, p)
+                z = border  # L^-1 B, in place
+            else:
+                diag = _inverse_factors(stack.reshape(-1, p, p)).reshape(c, n_a, p)
+                z = np.triu(stack).swapaxes(-1, -2) @ border  # L^-1 B
+            logdet = (2.0 * np.log(diag).sum(-1)
+                      + logdet_sigma[t][:, None] + p * math.log(h2))  # (c, A)  # fmt: skip
+            out[index, t] = (-0.5 * (quad - (z * z).sum(axis=-2)
+                                     + logdet[..., None])).swapaxes(1, 2)  # fmt: skip
     return out
+
+
+def _covariance_traces(precision: np.ndarray) -> np.ndarray:
+    """``tr(P^-1)`` of every precision of a stack (T, p, p), each equilibrated first."""
+    d = 1.0 / np.sqrt(np.diagonal(precision, axis1=-2, axis2=-1))  # (T, p)
+    inverse = np.linalg.inv(d[:, :, None] * precision * d[:, None, :])
+    return (np.diagonal(inverse, axis1=-2, axis2=-1) * d * d).sum(-1)
+
+
+def _inverse_factors(matrices: np.ndarray) -> np.ndarray:
+    """Every symmetric positive definite matrix of a C-ordered stack (N, p, p) replaced in
+    place by the inverse of its lower Cholesky factor ``L``, transposed, in its upper triangle
+    (the lower one is left as it was); returns the diagonals of the ``L``, (N, p).
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        A matrix is not positive definite.
+    """
+    for matrix in matrices:  # (the transpose of the C array is the matrix in Fortran order)
+        _, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower, not cleaned, in place
+        if info == 0:
+            _, info = lapack.dtrtri(matrix.T, 1, 0, 1)  # lower, not unit, in place
+        if info != 0:
+            raise np.linalg.LinAlgError("Matrix is not positive definite")
+    return 1.0 / np.diagonal(matrices, axis1=1, axis2=2)
