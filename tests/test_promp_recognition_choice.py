@@ -214,3 +214,51 @@ def test_the_scorers_speed_kernels_are_the_engines(scorer, h) -> None:
             want = mixture.speed_kernels(prim, prior, batch.log_alphas[t],
                                          float(batch.bounds[t]), h)  # fmt: skip
             assert_allclose(got[t], want, rtol=1e-12, atol=1e-12)
+
+
+def test_a_refit_that_keeps_the_settings_keeps_the_variant_while_it_beats_the_promp(
+    monkeypatch,
+) -> None:
+    """One demonstration added and the settings kept (:data:`promp.selection.KEPT_RULE`): a
+    kept ProMP scores no mixture, a kept mixture only its own bandwidth against the ProMP, by
+    the same rule; a variant off the grid, or settings searched again, score every one."""
+    from promp.selection import KEEP_LIMIT, KEPT_RULE
+    from robots.icub.layout import STUDIO_LAYOUT
+    from robots.icub.scenario import generate_scenario
+
+    dataset = generate_scenario(seed=0, n_demos=8)
+    first = next(iter(dataset))
+    fewer = {name: demos[:-1] if name == first else demos for name, demos in dataset.items()}
+    before = fit(fewer, STUDIO_LAYOUT).report["settings"]
+    scored: list = []
+    real = rc.mixture_losses
+
+    def counting(scorer, noise_scale, bandwidths):
+        scored.append(tuple(bandwidths))
+        return real(scorer, noise_scale, bandwidths)
+
+    monkeypatch.setattr(rc, "mixture_losses", counting)
+
+    def refit(previous_variant, **extra):
+        scored.clear()
+        previous = {**before, **extra, "recognition": {**before["recognition"],
+                                                       "value": previous_variant}}  # fmt: skip
+        return fit(dataset, STUDIO_LAYOUT, previous=previous).report["settings"]
+
+    kept = refit("promp")
+    assert kept["rule"] == KEPT_RULE and scored == [()]
+    assert kept["recognition"]["rule"] == rc.KEPT_RECOGNITION_RULE
+    assert kept["recognition"]["value"] == "promp" and set(kept["recognition"]["log_loss"]) == {
+        "promp"
+    }
+    kept = refit("mixture:0.7")
+    assert scored == [(0.7,)]
+    assert set(kept["recognition"]["log_loss"]) == {"promp", "mixture:0.7"}
+    losses = kept["recognition"]["log_loss"]
+    assert kept["recognition"]["value"] in losses  # the rule between the two
+    if losses["mixture:0.7"] > losses["promp"]:
+        assert kept["recognition"]["value"] == "promp"
+    for stale, extra in (("mixture:0.3", {}), ("mixture:0.7", {"kept": KEEP_LIMIT})):
+        again = refit(stale, **extra)
+        assert scored == [rc.BANDWIDTHS], (stale, extra)
+        assert again["recognition"]["rule"] == rc.RECOGNITION_RULE

@@ -711,6 +711,7 @@ def test_the_recognition_line_says_which_variant_and_why() -> None:
     from types import SimpleNamespace
 
     from app.panels.teach.learn import recognition_line
+    from promp.selection.recognition_choice import KEPT_RECOGNITION_RULE
 
     def model(name, why=None):
         report = {} if why is None else {"settings": {"recognition": why}}
@@ -724,6 +725,12 @@ def test_the_recognition_line_says_which_variant_and_why() -> None:
     assert "the ProMP" in line and "mixture:0.5's 0.380 is within the trials' noise" in line
     line = recognition_line(model("promp", {"log_loss": {"promp": 0.2}, "lowest": "promp"}))
     assert "held-out log-loss 0.200, the lowest" in line
+    kept = {"rule": KEPT_RECOGNITION_RULE}  # the settings kept: the variant against the ProMP
+    line = recognition_line(model("promp", {"log_loss": {"promp": 0.2}, "lowest": "promp", **kept}))
+    assert line.endswith("the ProMP (one Gaussian per primitive): held-out log-loss 0.200, kept "
+                         "with the settings from the last fit.")  # fmt: skip
+    line = recognition_line(model("mixture:0.5", {"log_loss": losses, **kept}))
+    assert "0.380 against the ProMP's 0.440, kept with the settings" in line
     assert recognition_line(model("mixture:0.7")).endswith("(bandwidth 0.7), given.")
     assert recognition_line(model(None)) == ""
 

@@ -21,8 +21,13 @@ from promp.selection.candidates import (
     preference,
 )
 from promp.selection.cv import RULE, cv_search
-from promp.selection.keep import keep_previous
-from promp.selection.recognition_choice import choose_recognition
+from promp.selection.keep import KEPT_RULE, keep_previous
+from promp.selection.recognition_choice import (
+    BANDWIDTHS,
+    KEPT_RECOGNITION_RULE,
+    choose_recognition,
+    kept_bandwidths,
+)
 from promp.selection.region import data_region
 from promp.selection.search import LOO_RULE, walk
 from promp.selection.trials import LOO_MAX_TRIALS, MAX_TRIALS, plan_trials
@@ -61,7 +66,10 @@ def choose_settings(
         previous choice and the previous runner-up are scored on ``dataset``'s trials (a
         paired comparison) and the choice is kept while it still wins
         (:data:`promp.selection.keep.KEPT_RULE`), at most
-        :data:`~promp.selection.keep.KEEP_LIMIT` times in a row.
+        :data:`~promp.selection.keep.KEEP_LIMIT` times in a row. The recognition variant is
+        then kept with them while it still beats the ProMP
+        (:func:`~promp.selection.recognition_choice.kept_bandwidths`): a kept ProMP costs no
+        mixture's scoring, a kept mixture one bandwidth's instead of every one's.
     """
     chosen, report, candidates = _choose(dataset, layout, settings, dt, previous)
     report = dict(report)
@@ -84,7 +92,12 @@ def choose_settings(
             name, why = "promp", {"value": "promp", "rule": "the ProMP (no demonstration could "
                                   "be held out)", "log_loss": {}}  # fmt: skip
         else:
-            name, why = choose_recognition(scorer, scale)
+            kept = None
+            if report.get("rule") == KEPT_RULE and isinstance(previous, Mapping):
+                kept = kept_bandwidths(previous.get("recognition"))
+            name, why = choose_recognition(scorer, scale, BANDWIDTHS if kept is None else kept)
+            if kept is not None:
+                why["rule"] = KEPT_RECOGNITION_RULE
         chosen = dataclasses.replace(chosen, recognition=name)
         report["recognition"] = why
     return chosen, report

@@ -19,7 +19,7 @@ ProMP by more than the trials' own noise: a few trials' luck does not change the
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from scipy.linalg import lapack
@@ -27,11 +27,19 @@ from scipy.linalg import lapack
 from promp.evidence.mixture import kernel
 from promp.evidence.speed import logsumexp_rows, quadrature_weights
 from promp.evidence.weight_space import cholesky_diagonals
+from promp.model import recognition_bandwidth
 from promp.quality import winsorized
 from promp.recognition import label_noise, with_label_noise
 from promp.selection.loo import LooScorer, held_out
 
-__all__ = ["BANDWIDTHS", "RECOGNITION_RULE", "choose_recognition", "mixture_losses"]
+__all__ = [
+    "BANDWIDTHS",
+    "KEPT_RECOGNITION_RULE",
+    "RECOGNITION_RULE",
+    "choose_recognition",
+    "kept_bandwidths",
+    "mixture_losses",
+]
 
 _CHUNK_BYTES = 4 << 20  # the stack of matrices factorised at once (in the cache: 32 MB took
 # ~10 % longer)
@@ -43,13 +51,22 @@ RECOGNITION_RULE = (
     + ", ".join(str(h) for h in BANDWIDTHS)
     + ": the simplest within one standard error of the lowest"
 )
+KEPT_RECOGNITION_RULE = (
+    "kept with the settings from the previous fit while, by the same rule, it still beats the "
+    "ProMP on these demonstrations' trials (every variant is scored again when the settings' "
+    "search runs again)"
+)
 
 
-def choose_recognition(scorer: LooScorer, noise_scale: float) -> tuple[str, dict]:
-    """The variant of the lowest mean loss on ``scorer``'s trials at ``noise_scale`` (in the
-    scorer's units), and the report: ``{"value", "rule", "log_loss": {variant: mean}}``."""
+def choose_recognition(
+    scorer: LooScorer, noise_scale: float, bandwidths: Sequence[float] = BANDWIDTHS
+) -> tuple[str, dict]:
+    """The variant chosen by the one-standard-error rule (module docstring) on ``scorer``'s
+    trials at ``noise_scale`` (in the scorer's units) among the ProMP and the mixture at
+    ``bandwidths``, and the report: ``{"value", "rule", "log_loss": {variant: mean},
+    "lowest"}``."""
     losses = {"promp": scorer((noise_scale,))[0]}
-    for h, loss in mixture_losses(scorer, noise_scale, BANDWIDTHS).items():
+    for h, loss in mixture_losses(scorer, noise_scale, bandwidths).items():
         losses[f"mixture:{h}"] = loss
     means = {name: float(np.mean(loss)) for name, loss in losses.items()}
     lowest = min(means, key=lambda name: means[name])  # (the first of equals: the simplest)
@@ -66,6 +83,22 @@ def choose_recognition(scorer: LooScorer, noise_scale: float) -> tuple[str, dict
                     "lowest": lowest}  # fmt: skip
 
 
+def kept_bandwidths(previous: Mapping | None) -> tuple[float, ...] | None:
+    """What a refit that kept the previous settings (:data:`promp.selection.keep.KEPT_RULE`)
+    scores of the variants: the previous choice's report ``previous`` (its
+    ``report["settings"]["recognition"]``) chose the ProMP, nothing more (); a mixture at
+    one of :data:`BANDWIDTHS`, that mixture against the ProMP. None (the whole choice again)
+    when the report names no such variant."""
+    value = previous.get("value") if isinstance(previous, Mapping) else None
+    if value == "promp":
+        return ()
+    try:
+        h = recognition_bandwidth(value) if isinstance(value, str) else None
+    except ValueError:
+        return None
+    return (h,) if h in BANDWIDTHS else None
+
+
 def mixture_losses(
     scorer: LooScorer, noise_scale: float, bandwidths: Sequence[float]
 ) -> dict[float, np.ndarray]:
@@ -73,7 +106,7 @@ def mixture_losses(
     mixture at each bandwidth (module docstring), at ``noise_scale``: {bandwidth: (n_trials,)}.
     At bandwidth 1 it is the ProMP's :class:`~promp.selection.loo.LooScorer` loss."""
     out = {float(h): np.full(scorer.n_trials, np.inf) for h in bandwidths}
-    if not scorer.inside:
+    if not scorer.inside or not out:
         return out
     model = scorer.model
     inv_noise = scorer.inverse_noise(noise_scale)

@@ -253,8 +253,12 @@ def recognition_line(model) -> str:
     elif lowest != name and losses.get(lowest) is not None:
         because = (f"held-out log-loss {promp:.3f}; {escape(lowest)}'s {losses[lowest]:.3f} is "
                    "within the trials' noise")
+    elif str(why.get("rule", "")).startswith("kept"):  # the ProMP alone scored
+        because = f"held-out log-loss {promp:.3f}"
     else:
         because = f"held-out log-loss {promp:.3f}, the lowest"
+    if str(why.get("rule", "")).startswith("kept"):
+        because += ", kept with the settings from the last fit"
     return f"  \nRecognition: {what}: {because}."
 
 
