@@ -64,12 +64,12 @@ def test_at_bandwidth_one_the_mixture_scorer_is_the_promps(scorer) -> None:
 @pytest.mark.parametrize(
     ("n_demos", "n_basis", "observed"),
     [(6, 6, ["hand", "head"]), (12, 3, ["head"])],
-    ids=["bordered", "factor-inverted"],  # fewer components than weights, and more
+    ids=["fewer-components-than-weights", "more"],
 )
 def test_the_scorers_component_likelihoods_are_the_engines(h, n_demos, n_basis, observed):
     """The batch form of the scorer (one primitive, its whole fit, no trial left out) gives
     the engine's :func:`promp.evidence.mixture.log_likelihoods` less the terms every
-    primitive shares, by either of its two factorisations."""
+    primitive shares."""
     settings = dataclasses.replace(GIVEN, n_basis=n_basis)
     model = fit(make_dataset(seed=1, n_demos=n_demos), LAYOUT, settings)
     demo = make_demo(np.random.default_rng(7), np.array([0.2, -0.2, 0.1, 0.0, 0.3, -0.6]))

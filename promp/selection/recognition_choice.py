@@ -26,7 +26,6 @@ from scipy.linalg import lapack
 
 from promp.evidence.mixture import kernel
 from promp.evidence.speed import logsumexp_rows, quadrature_weights
-from promp.evidence.weight_space import cholesky_diagonals
 from promp.model import recognition_bandwidth
 from promp.quality import winsorized
 from promp.recognition import label_noise, with_label_noise
@@ -188,23 +187,18 @@ def _component_log_likelihoods(
     ``rr`` (T, A, Do), its demonstrations' observed ``residuals`` in each trial (T, J, Do, M)
     and the inverse noise ``inv_s2`` (Do,).
 
-    Each (trial, node, bandwidth) is one Cholesky factorisation of the bordered matrix
-    ``[[S, B], [B^T, c I]]`` (``S = Sigma_o^-1 / H^2 + A^T R^-1 A``, ``B``'s columns the
-    components' ``b_j``): its factor's lower-left block is ``B^T L^-T``, whose rows' squared
-    norms are the ``b_j^T S^-1 b_j``; the factor's first p columns do not depend on ``c``,
-    which only keeps the matrix positive definite (``S >= Sigma_o^-1 / H^2``, so ``B^T S^-1 B
-    <= H^2 tr(Sigma_o) ||B||_F^2 I``: twice that is enough). One factorisation of ``p + J`` in
-    place instead of one of ``p`` and a solve with J right-hand sides: 1.3-1.8x faster at p
-    21-60, J 10-20. The shifts ``s e_j`` scale with ``s = sqrt(1 - H^2)``: their products with
-    the observation's statistics are computed once for every bandwidth."""
+    Each (trial, node, bandwidth) is one Cholesky factorisation of ``S = Sigma_o^-1 / H^2 +
+    A^T R^-1 A`` and one triangular solve of its factor for the components' ``b_j``, both by
+    LAPACK in place, as the engine's :func:`promp.evidence.mixture.log_likelihoods` (numpy's
+    stacked ``solve`` on the factor, the first form, factorised it again as a general matrix:
+    twice the cost). Not equilibrated: neither pivots, so the modalities' units do not change
+    their relative errors. The shifts ``s e_j`` scale with ``s = sqrt(1 - H^2)``: their
+    products with the observation's statistics are computed once for every bandwidth."""
     n_t, n_a, n_do, m = gram.shape[:4]
     n_j = residuals.shape[1]
     p = n_do * m
-    n = p + n_j
-    bordered = n_j <= p  # (else the factor inverted: (p + J)^3 / 3 > 2 p^3 / 3 + p^2 J)
-    traces = _covariance_traces(precision)  # (T,) tr(Sigma_o)
     out = np.empty((len(bandwidths), n_t, n_j, n_a))
-    step = max(1, _CHUNK_BYTES // (8 * n_a * n * (n if bordered else p)))  # trials at once
+    step = max(1, _CHUNK_BYTES // (8 * n_a * p * (p + n_j)))  # trials at once
     for first in range(0, n_t, step):
         t = slice(first, min(first + step, n_t))
         c = t.stop - t.start
@@ -213,66 +207,30 @@ def _component_log_likelihoods(
         g_e = (gram[t] @ e.transpose(0, 1, 3, 4, 2)).transpose(0, 1, 4, 2, 3)
         e_g_e = (g_e * e).sum(-1) @ inv_s2  # (c, A, J)
         proj_e = (proj[t][:, :, None] * e).sum(-1) @ inv_s2  # (c, A, J)
-        u = (inv_s2[:, None] * proj[t]).reshape(c, n_a, p, 1)  # b_j = u - s w_j
-        w = np.ascontiguousarray((inv_s2[:, None] * g_e).reshape(c, n_a, n_j, p).swapaxes(-1, -2))
+        u = (inv_s2[:, None] * proj[t]).reshape(c, n_a, 1, p)  # b_j = u - s w_j
+        w = (inv_s2[:, None] * g_e).reshape(c, n_a, n_j, p)
         rr_t = (rr[t] @ inv_s2)[..., None]  # (c, A, 1)
-        # ||B||_F^2 = J u.u - 2 s u.w + s^2 w.w, for the corner's bound
-        uu, uw, ww = n_j * (u * u).sum((-1, -2)), (u * w).sum((-1, -2)), (w * w).sum((-1, -2))
         blocks = np.zeros((c, n_a, p, p))  # A^T R^-1 A, block-diagonal
         for d in range(n_do):
             blocks[..., d * m : (d + 1) * m, d * m : (d + 1) * m] = inv_s2[d] * gram[t, :, d]
-        stack = np.empty((c, n_a, n, n) if bordered else (c, n_a, p, p))  # LAPACK reads
-        # the C array's upper triangle alone
-        top = stack[..., :p, :p]
-        border = stack[..., :p, p:] if bordered else np.empty((c, n_a, p, n_j))
+        matrices, rows = np.empty((c, n_a, p, p)), np.empty((c, n_a, n_j, p))
+        flat_matrices, flat_rows = matrices.reshape(-1, p, p), rows.reshape(-1, n_j, p)
         for index, h in enumerate(bandwidths):
             h2 = h * h
             share = math.sqrt(max(1.0 - h2, 0.0))
-            # (not equilibrated: a Cholesky factorisation does not pivot, so the modalities'
-            # units do not change its relative errors)
-            np.add(blocks, precision[t][:, None] / h2, out=top)
-            np.subtract(u, share * w, out=border)
+            np.add(blocks, precision[t][:, None] / h2, out=matrices)
+            np.subtract(u, share * w, out=rows)  # the b_j^T
             quad = rr_t + share * share * e_g_e - 2.0 * share * proj_e  # (c, A, J)
-            frobenius = uu - 2.0 * share * uw + share * share * ww  # (c, A)
-            if bordered:
-                corner = stack[..., p:, p:]
-                corner[:] = 0.0
-                np.einsum("...jj->...j", corner)[:] = (
-                    2.0 * h2 * traces[t][:, None] * frobenius + 1.0
-                )[..., None]
-                diag = cholesky_diagonals(stack.reshape(-1, n, n))[:, :p].reshape(c, n_a, p)
-                z = border  # L^-1 B, in place
-            else:
-                diag = _inverse_factors(stack.reshape(-1, p, p)).reshape(c, n_a, p)
-                z = np.triu(stack).swapaxes(-1, -2) @ border  # L^-1 B
-            logdet = (2.0 * np.log(diag).sum(-1)
+            # (the transpose of a C array is the matrix in Fortran order: LAPACK works on
+            # each in place, the factor in its upper triangle, L^-1 B over the rows)
+            for matrix, b in zip(flat_matrices, flat_rows, strict=True):
+                _, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower, not cleaned, in place
+                if info == 0:
+                    _, info = lapack.dtrtrs(matrix.T, b.T, lower=1, overwrite_b=1)
+                if info != 0:
+                    raise np.linalg.LinAlgError("Matrix is not positive definite")
+            logdet = (2.0 * np.log(np.diagonal(matrices, axis1=-2, axis2=-1)).sum(-1)
                       + logdet_sigma[t][:, None] + p * math.log(h2))  # (c, A)  # fmt: skip
-            out[index, t] = (-0.5 * (quad - (z * z).sum(axis=-2)
+            out[index, t] = (-0.5 * (quad - (rows * rows).sum(axis=-1)
                                      + logdet[..., None])).swapaxes(1, 2)  # fmt: skip
     return out
-
-
-def _covariance_traces(precision: np.ndarray) -> np.ndarray:
-    """``tr(P^-1)`` of every precision of a stack (T, p, p), each equilibrated first."""
-    d = 1.0 / np.sqrt(np.diagonal(precision, axis1=-2, axis2=-1))  # (T, p)
-    inverse = np.linalg.inv(d[:, :, None] * precision * d[:, None, :])
-    return (np.diagonal(inverse, axis1=-2, axis2=-1) * d * d).sum(-1)
-
-
-def _inverse_factors(matrices: np.ndarray) -> np.ndarray:
-    """Every symmetric positive definite matrix of a C-ordered stack (N, p, p) replaced in
-    place by the inverse of its lower Cholesky factor ``L``, transposed, in its upper triangle
-    (the lower one is left as it was); returns the diagonals of the ``L``, (N, p).
-
-    Raises
-    ------
-    numpy.linalg.LinAlgError
-        A matrix is not positive definite.
-    """
-    for matrix in matrices:  # (the transpose of the C array is the matrix in Fortran order)
-        _, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower, not cleaned, in place
-        if info == 0:
-            _, info = lapack.dtrtri(matrix.T, 1, 0, 1)  # lower, not unit, in place
-        if info != 0:
-            raise np.linalg.LinAlgError("Matrix is not positive definite")
-    return 1.0 / np.diagonal(matrices, axis1=1, axis2=2)
