@@ -47,7 +47,7 @@ from promp.evidence.speed import (
     t_logpdf,
 )
 from promp.evidence.sums import WhitenedSums
-from promp.evidence.weight_space import observed_precision
+from promp.evidence.weight_space import diagonal_blocks, observed_precision
 from promp.evidence.woodbury import LOG_2PI
 from promp.model import Primitive
 from promp.quality import winsorized
@@ -93,23 +93,27 @@ def log_likelihoods(
     g_shift = (gram @ shifts.transpose(1, 2, 0)).transpose(0, 3, 1, 2)
     proj = sums.proj[:, None] - g_shift  # (A, J, Do, M): Psi^T K^-1 r_j
     rr = sums.rr[:, None] + ((g_shift - 2.0 * sums.proj[:, None]) * shifts).sum(-1)  # (A, J, Do)
-    b = (inv_s2[:, None] * proj).reshape(n_cand, n_j, p)
+    # (C-ordered: each candidate's transpose is the Fortran array LAPACK solves in place)
+    b = np.ascontiguousarray((inv_s2[:, None] * proj).reshape(n_cand, n_j, p))
     quad = rr @ inv_s2  # r^T R^-1 r, then less b^T (...)^-1 b below
     padded, logdet_sigma = observed_precision(primitive, dims)
     precision = padded[:p, :p] / h2
-    logdet = np.empty(n_cand)
-    for a in range(n_cand):
-        matrix = precision.copy()
-        for d in range(n_do):
-            matrix[d * m : (d + 1) * m, d * m : (d + 1) * m] += inv_s2[d] * gram[a, d]
-        factor, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower (the C array's upper), in place
+    # every candidate's matrix filled at once (one numpy call, not one per dimension and
+    # candidate: at D_o = 12 those calls took a third of an update), then each factorised and
+    # solved by LAPACK in place (the C array's transpose is the matrix in Fortran order; the
+    # factor is in its upper triangle)
+    stack = np.empty((n_cand, p, p))
+    stack[:] = precision
+    diagonal_blocks(stack, n_do, m)[:] += inv_s2[None, :, None, None] * gram
+    for a, matrix in enumerate(stack):
+        _, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower, not cleaned, in place
         if info != 0:
             raise np.linalg.LinAlgError("Matrix is not positive definite")
-        z, info = lapack.dtrtrs(factor, b[a].T, 1)  # lower: L z = b
+        z, info = lapack.dtrtrs(matrix.T, b[a].T, lower=1, overwrite_b=1)  # L z = b
         if info != 0:
             raise np.linalg.LinAlgError("singular factor")
         quad[a] -= (z * z).sum(axis=0)
-        logdet[a] = 2.0 * np.log(np.diagonal(factor)).sum()
+    logdet = 2.0 * np.log(np.diagonal(stack, axis1=1, axis2=2)).sum(axis=-1)
     logdet += logdet_sigma + p * math.log(h2)
     logdet_r = float((sums.n * np.log(noise_var) + sums.logdet_k).sum())
     return -0.5 * (quad + logdet[:, None] + logdet_r + sums.n * n_do * LOG_2PI)
