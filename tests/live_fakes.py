@@ -365,7 +365,8 @@ def replay_over_lsl(model, takes, name: str, rng, late: bool, rest_s=(1.5, 1.5),
     on a loaded machine its own pushes wait for the session's threads (Python's lock) several
     milliseconds each, a backlog then arriving at half its rate or slower, which no sender
     pushing "at once" does (and which cannot be told from a stream that resumes faster than it
-    declares: ``promp.live.restamp``). A busy machine still delays when the samples arrive.
+    declares: ``promp.live.restamp``); a backlog is pushed in one chunk (:func:`tests.lsl_push.
+    push_when_due`). A busy machine still delays when the samples arrive.
     Returns the
     session's ended movements, the predictions and, per take, the stamps and due times of its
     samples (session clock; the stamps are the planned pushes, which this process's own

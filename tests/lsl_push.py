@@ -62,17 +62,33 @@ def push_when_due(outlet: pylsl.StreamOutlet, rows: np.ndarray, due: np.ndarray,
     (s, :func:`pylsl.local_clock`; a sender woken late pushes what it owes at once), stamped
     ``stamps[i]`` (s), or at its push (LSL's default) when ``stamps`` is None.
 
+    Rows due at the same time (a late sender's backlog) are pushed at once, in one chunk with
+    their stamps, as a sender pushing its backlog does. One at a time, a sender in the
+    session's own process waits for its threads (Python's lock) between rows, on a busy
+    machine for longer than :data:`promp.live.restamp.QUIET_S`: the backlog then arrives in
+    parts, which no sender pushing it at once does (a test failed that way, once in a busy
+    run: its movement ended by an "input paused" instead of stillness).
+
     Returns
     -------
     pushed : array, shape (n,)
         When each row was pushed, s on LSL's clock.
     """
+    due = np.asarray(due, dtype=float)
     pushed = np.empty(len(due))
-    for i in range(len(due)):
+    i = 0
+    while i < len(due):
+        j = i + 1
+        if stamps is not None:  # the rows due with row i
+            while j < len(due) and due[j] == due[i]:
+                j += 1
         time.sleep(max(0.0, due[i] - pylsl.local_clock()))
         if stamps is None:
             outlet.push_sample(np.asarray(rows[i]).tolist())
-        else:
+        elif j == i + 1:
             outlet.push_sample(np.asarray(rows[i]).tolist(), stamps[i])
-        pushed[i] = pylsl.local_clock()
+        else:
+            outlet.push_chunk(np.asarray(rows[i:j]), [float(t) for t in stamps[i:j]])
+        pushed[i:j] = pylsl.local_clock()
+        i = j
     return pushed
