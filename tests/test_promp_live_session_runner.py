@@ -167,6 +167,21 @@ def test_a_stream_found_but_not_opened_changes_the_snapshot_s_list():
     assert len(session.snapshot().found) == 2 and session.snapshot() is not before
 
 
+def test_a_stream_replaced_by_another_in_one_look_changes_the_snapshot_s_list():
+    """One stream gone and another come between two looks (a device restarted under a new
+    id, a marker stream started as another stopped): the same count, another list."""
+    transport, stream, session, tap, _ = connected()
+    other = transport.add(FakeStream("Other", ("a",)))
+    session.connect(0.0)
+    session.step()
+    other.gone = True
+    transport.add(FakeStream("Third", ("b",)))
+    session.connect(0.0)
+    session.step()
+    names = [s.name for s in session.snapshot().found]
+    assert "Third" in names and "Other" not in names
+
+
 def test_close_closes_the_inlets_and_the_sinks_and_publishes_last():
     transport, stream, session, tap, _ = connected()
     [inlet] = session._intake._inlets.values()

@@ -198,9 +198,11 @@ class LiveSession:
             if events or boundaries or predictions or news or kept:
                 self._record.add([*events, *news], boundaries, predictions, kept)
             snap = self._snapshot
-            # a stream's condition changes with an event, or with samples (a count): changed
+            # a stream's condition changes with an event, or with samples (a count): changed;
+            # the streams found by their content (one gone and another come in one look keep
+            # the count)
             if snap is None or changed or news or kept or sinks != snap.sinks \
-                    or len(self._intake.found) != len(snap.found):  # fmt: skip
+                    or self._intake.found != snap.found:  # fmt: skip
                 source = self.state.source
                 self._snapshot = self._record.snapshot(
                     self.transport.clock(), self._intake.found, source.statuses(),
