@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from promp.recognition import Recognition
+from promp.rows import interp_rows, pchip_rows, quantiles_rows
 from promp.timing import alpha_from_duration, duration_from_alpha
 
 __all__ = [
@@ -187,15 +188,23 @@ def choose_temperature(
         with np.errstate(invalid="ignore"):
             log_mass = np.where(np.isfinite(log_lik), tau * log_lik, -np.inf) + log_w
         log_mass -= log_mass.max(axis=1, keepdims=True)
-        masses = np.exp(log_mass)
-        bounds = np.array(
-            [weighted_quantiles(x, w, qs) for x, w in zip(nodes, masses, strict=True)]
-        )
+        bounds = _bounds(nodes, np.exp(log_mass), qs)
         coverage[tau] = float(np.mean((bounds[:, 0] <= truth) & (truth <= bounds[:, 1])))
     target = min(math.ceil((n + 1) * level) / n, 1.0)
     enough = [tau for tau in TEMPERATURES if coverage[tau] >= target - 1e-12]
     best = max(enough) if enough else min(TEMPERATURES, key=lambda tau: (-coverage[tau], -tau))
     return best, coverage
+
+
+def _bounds(nodes: np.ndarray, masses: np.ndarray, qs: np.ndarray) -> np.ndarray:
+    """:func:`weighted_quantiles` of every row, all at once where the row's nodes ascend."""
+    out = np.empty((nodes.shape[0], len(qs)))
+    ascending = np.all(np.diff(nodes, axis=1) > 0, axis=1) & (nodes.shape[1] > 1)
+    if ascending.any():
+        out[ascending] = quantiles_rows(nodes[ascending], masses[ascending], qs)
+    for t in np.flatnonzero(~ascending):
+        out[t] = weighted_quantiles(nodes[t], masses[t], qs)
+    return out
 
 
 REFINE = 8  # points per interval of the held-out trials' node grid
@@ -207,25 +216,28 @@ def _refined(
     """The held-out trials' tables on :data:`REFINE` times finer grids: the log-likelihood and
     the log prior density interpolated by monotone cubics in log alpha (both are smooth there),
     so that a posterior narrower than the coarse spacing is not read as a whole cell wide.
-    Nodes outside the observation's bound stay impossible (-inf)."""
-    from scipy.interpolate import PchipInterpolator
-
+    Nodes outside the observation's bound stay impossible (-inf). Every trial at once
+    (:mod:`promp.rows`: the same numbers as one trial at a time), the trials whose finite
+    nodes fall alike together."""
     n_t, n_a = nodes.shape
     fine_n = (n_a - 1) * REFINE + 1
     steps = np.linspace(0.0, 1.0, fine_n)
     fine = nodes[:, :1] + (nodes[:, -1:] - nodes[:, :1]) * steps  # (T, F)
     out_ll = np.full((n_t, fine_n), -np.inf)
-    out_w = np.empty((n_t, fine_n))
-    widths = np.gradient(nodes, axis=1)
-    for t in range(n_t):
-        # log prior density per unit of log alpha (the weights divided by their cells)
-        density = log_w[t] - np.log(widths[t])
-        out_w[t] = np.interp(fine[t], nodes[t], density) + np.log(np.gradient(fine[t]))
-        ok = np.isfinite(log_lik[t])
-        if ok.sum() >= 2:
-            inside = (fine[t] >= nodes[t][ok][0]) & (fine[t] <= nodes[t][ok][-1])
-            curve = PchipInterpolator(nodes[t][ok], log_lik[t][ok])
-            out_ll[t, inside] = curve(fine[t][inside])
-        elif ok.any():
-            out_ll[t, np.argmin(np.abs(fine[t] - nodes[t][ok][0]))] = log_lik[t][ok][0]
+    # log prior density per unit of log alpha (the weights divided by their cells)
+    density = log_w - np.log(np.gradient(nodes, axis=1))
+    out_w = interp_rows(fine, nodes, density) + np.log(np.gradient(fine, axis=1))
+    ok = np.isfinite(log_lik)
+    counts = ok.sum(axis=1)
+    for t in np.flatnonzero(counts == 1):
+        node = nodes[t][ok[t]][0]
+        out_ll[t, np.argmin(np.abs(fine[t] - node))] = log_lik[t][ok[t]][0]
+    several = np.flatnonzero(counts >= 2)
+    if several.size:
+        patterns, which = np.unique(ok[several], axis=0, return_inverse=True)
+        for k, pattern in enumerate(patterns):
+            rows = several[which.ravel() == k]
+            x, y, at = nodes[rows][:, pattern], log_lik[rows][:, pattern], fine[rows]
+            inside = (at >= x[:, :1]) & (at <= x[:, -1:])
+            out_ll[rows] = np.where(inside, pchip_rows(x, y, at), -np.inf)
     return fine, out_ll, out_w
