@@ -14,7 +14,11 @@ import numpy as np
 from scipy.linalg import lapack
 
 from promp.evidence.speed import logsumexp_rows
-from promp.evidence.weight_space import cholesky_diagonals, equilibrated_precision
+from promp.evidence.weight_space import (
+    cholesky_diagonals,
+    diagonal_blocks,
+    equilibrated_precision,
+)
 from promp.fitting import FitParts
 from promp.model import ProMPModel
 from promp.recognition import label_noise, with_label_noise
@@ -360,10 +364,9 @@ def _bordered_diagonals(
         for first in range(0, n_t, step):
             t = slice(first, min(first + step, n_t))
             c = t.stop - t.start
-            blocks = np.zeros((c, 1, n_a, p, p))  # A^T R^-1 A, block-diagonal
-            for d in range(n_do):
-                block = slice(d * m, (d + 1) * m)
-                blocks[:, 0, :, block, block] = scaled[t, :, d]
+            blocks = np.zeros((c * n_a, p, p))  # A^T R^-1 A, block-diagonal
+            diagonal_blocks(blocks, n_do, m)[:] = scaled[t].reshape(c * n_a, n_do, m, m)
+            blocks = blocks.reshape(c, 1, n_a, p, p)
             bordered = np.empty((c, n_prims, n_a, p + 1, p + 1))
             np.add(blocks, precision[t, :, None], out=bordered[..., :p, :p])
             bordered[..., :p, p] = b[t]  # (LAPACK reads the C array's upper triangle)

@@ -26,6 +26,7 @@ from scipy.linalg import lapack
 
 from promp.evidence.mixture import kernel
 from promp.evidence.speed import logsumexp_rows, quadrature_weights
+from promp.evidence.weight_space import diagonal_blocks
 from promp.model import recognition_bandwidth
 from promp.quality import winsorized
 from promp.recognition import label_noise, with_label_noise
@@ -210,9 +211,11 @@ def _component_log_likelihoods(
         u = (inv_s2[:, None] * proj[t]).reshape(c, n_a, 1, p)  # b_j = u - s w_j
         w = (inv_s2[:, None] * g_e).reshape(c, n_a, n_j, p)
         rr_t = (rr[t] @ inv_s2)[..., None]  # (c, A, 1)
-        blocks = np.zeros((c, n_a, p, p))  # A^T R^-1 A, block-diagonal
-        for d in range(n_do):
-            blocks[..., d * m : (d + 1) * m, d * m : (d + 1) * m] = inv_s2[d] * gram[t, :, d]
+        blocks = np.zeros((c * n_a, p, p))  # A^T R^-1 A, block-diagonal
+        diagonal_blocks(blocks, n_do, m)[:] = (inv_s2[:, None, None] * gram[t]).reshape(
+            c * n_a, n_do, m, m
+        )
+        blocks = blocks.reshape(c, n_a, p, p)
         matrices, rows = np.empty((c, n_a, p, p)), np.empty((c, n_a, n_j, p))
         flat_matrices, flat_rows = matrices.reshape(-1, p, p), rows.reshape(-1, n_j, p)
         for index, h in enumerate(bandwidths):
