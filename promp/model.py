@@ -174,11 +174,17 @@ class Settings:
         return tuple(name for name in FALLBACK if getattr(self, name) is None)
 
     @property
-    def to_choose(self) -> bool:
-        """Whether a fit chooses anything from the data: an :attr:`automatic` setting or the
-        duration's temperature or the recognition variant (:func:`promp.learn.fit`,
+    def chosen_by_fit(self) -> tuple[str, ...]:
+        """Every setting a fit chooses from the data (None): the :attr:`automatic` ones, then
+        the duration's temperature and the recognition variant (:func:`promp.learn.fit`,
         :func:`promp.learn.choose`)."""
-        return bool(self.automatic) or None in (self.duration_temperature, self.recognition)
+        later = ("duration_temperature", "recognition")
+        return self.automatic + tuple(name for name in later if getattr(self, name) is None)
+
+    @property
+    def to_choose(self) -> bool:
+        """Whether a fit chooses anything from the data (:attr:`chosen_by_fit`)."""
+        return bool(self.chosen_by_fit)
 
     def with_fallback(self) -> Settings:
         """These settings with every automatic one at its fallback value."""

@@ -74,8 +74,5 @@ def resolved_settings(settings: Settings, layout: Layout, model: ProMPModel | No
     (a choice costs a second a fit; a given fit, tens of milliseconds)."""
     if model is None or model.layout != layout:
         return settings.with_fallback()
-    names = settings.automatic + tuple(
-        name for name in ("duration_temperature", "recognition")
-        if getattr(settings, name) is None and getattr(model.settings, name) is not None
-    )  # fmt: skip
-    return replace(settings, **{name: getattr(model.settings, name) for name in names})
+    chosen = {name: getattr(model.settings, name) for name in settings.chosen_by_fit}
+    return replace(settings, **{name: v for name, v in chosen.items() if v is not None})

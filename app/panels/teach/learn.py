@@ -248,16 +248,17 @@ def recognition_line(model) -> str:
     if not losses:
         return f"  \nRecognition: {what} ({escape(str(why.get('rule', '')))})."
     promp, lowest = losses.get("promp"), str(why.get("lowest", name))
+    kept = str(why.get("rule", "")).startswith("kept")
     if name != "promp" and promp is not None:
         because = f"held-out log-loss {losses[name]:.3f} against the ProMP's {promp:.3f}"
     elif lowest != name and losses.get(lowest) is not None:
         because = (f"held-out log-loss {promp:.3f}; {escape(lowest)}'s {losses[lowest]:.3f} is "
                    "within the trials' noise")
-    elif str(why.get("rule", "")).startswith("kept"):  # the ProMP alone scored
+    elif kept:  # the ProMP alone scored
         because = f"held-out log-loss {promp:.3f}"
     else:
         because = f"held-out log-loss {promp:.3f}, the lowest"
-    if str(why.get("rule", "")).startswith("kept"):
+    if kept:
         because += ", kept with the settings from the last fit"
     return f"  \nRecognition: {what}: {because}."
 
