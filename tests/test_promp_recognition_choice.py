@@ -216,6 +216,40 @@ def test_the_scorers_speed_kernels_are_the_engines(scorer, h) -> None:
             assert_allclose(got[t], want, rtol=1e-12, atol=1e-12)
 
 
+def test_the_speeds_of_a_trials_components_are_winsorized_without_its_demonstration(
+    scorer,
+) -> None:
+    """With one demonstration far slower than the others, the trial that holds out the
+    slowest ordinary one scores its siblings' speeds as the engine does for the refit without
+    it: the far-out take is clipped to the next slowest, not to the held-out one's speed (over
+    every demonstration, the trial under test would have set its own score's clipping)."""
+    from promp.evidence.speed import AlphaPrior
+
+    batch, prim, h = scorer.batches[0], scorer.model.primitives[0], 0.5
+    alphas = np.array(prim.alphas, dtype=float)
+    demos = np.array(batch.demos)
+    mine = batch.truth == 0
+    held = demos[mine]
+    slowest = int(held[np.argmin(alphas[held])])  # a held-out demonstration, the slowest
+    far = int(np.setdiff1d(np.arange(alphas.size), [slowest])[0])
+    alphas[far] = alphas[slowest] / 20.0  # 20x slower than the slowest: far out
+    own = rc._own_speeds(np.log(alphas), mine, demos)
+    got = rc._kernels(batch, 0, own, h)
+    checked = 0
+    for t in np.flatnonzero(mine):
+        j = int(demos[t])
+        loc, scale, dof = batch.priors[:, t, 0]
+        prior = AlphaPrior((float(loc),), (float(scale),), (float(dof),), (1.0,))
+        refit = dataclasses.replace(
+            prim, alphas=np.delete(alphas, j), residuals=np.delete(prim.residuals, j, axis=0)
+        )
+        want = mixture.speed_kernels(refit, prior, batch.log_alphas[t], float(batch.bounds[t]), h)
+        assert_allclose(np.delete(got[t], j, axis=0), want, rtol=1e-12, atol=1e-12)
+        checked += j == slowest
+    assert checked  # the trial whose clipping differs is among them
+    assert not np.allclose(own[mine & (demos == slowest), far], np.log(alphas[slowest]))
+
+
 def test_a_refit_that_keeps_the_settings_keeps_the_variant_while_it_beats_the_promp(
     monkeypatch,
 ) -> None:

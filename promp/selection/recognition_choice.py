@@ -4,8 +4,9 @@ None): the ProMP, or the mixture over the training demonstrations at one of
 log-loss on the leave-one-out rule's own trials (:mod:`promp.selection.loo`), at the settings
 already chosen. A trial's demonstration is out of the model it is scored by: its primitive's
 mean, regression, scatter and speed prior downdated as for the ProMP, and its own component out
-of its primitive's mixture (the other demonstrations' residuals are the whole fit's: like the
-scorer's noise and pooled prior, an approximation, one demonstration moves them little). In the
+of its primitive's mixture; the other components placed by the regression without it, their
+speeds winsorized without it (like the scorer's noise and pooled prior, the other primitives'
+components are the whole fit's: an approximation, one demonstration moves them little). In the
 evaluation the choice is made inside every fold, without the trial under test.
 
 The choice follows the one-standard-error rule (Breiman et al. 1984; Hastie, Tibshirani &
@@ -112,7 +113,7 @@ def mixture_losses(
     inv_noise = scorer.inverse_noise(noise_scale)
     m, n_prims = model.basis.n_basis, len(model.primitives)
     eps = label_noise(model)
-    own = [winsorized(np.log(p.alphas)) for p in model.primitives]
+    log_alphas = [np.log(p.alphas) for p in model.primitives]
     for i, batch in enumerate(scorer.batches):
         precision, logdet_sigma, gram, proj, rr = scorer.setup(i)
         dims = batch.dims
@@ -127,11 +128,12 @@ def mixture_losses(
                 tuple(out),
             )  # fmt: skip
             mine = np.nonzero(batch.truth == k)[0]  # its own demonstration: out
+            own = _own_speeds(log_alphas[k], batch.truth == k, np.array(batch.demos))
             for h, ll in zip(out, tables, strict=True):
                 ll[mine, np.array(batch.demos)[mine]] = -np.inf
                 count = np.where(batch.truth == k, ll.shape[1] - 1, ll.shape[1])
                 with np.errstate(invalid="ignore"):
-                    total = logsumexp_rows((ll + _kernels(batch, k, own[k], h)).reshape(
+                    total = logsumexp_rows((ll + _kernels(batch, k, own, h)).reshape(
                         ll.shape[0], -1))  # fmt: skip
                 evidence[h][:, k] = total - np.log(np.maximum(count, 1))
         rows = np.arange(batch.truth.shape[0])
@@ -163,9 +165,24 @@ def _residuals(scorer: LooScorer, batch, cols: np.ndarray) -> list[np.ndarray]:
     return out
 
 
+def _own_speeds(log_alphas: np.ndarray, mine: np.ndarray, demos: np.ndarray) -> np.ndarray:
+    """A primitive's components' log speeds in each trial, (T, J), winsorized as its fit
+    would winsorize them (:func:`promp.evidence.mixture.speed_kernels`): over all its
+    demonstrations, but in the trials that hold one of them out (``mine``, ``demos``: which),
+    over the others, as the refit without it would. (The held-out one's own component, left
+    out later, keeps its speed.) Over all of them, a far-out held-out take would have set the
+    others' clipping: the trial under test seen by its own score."""
+    out = np.repeat(winsorized(log_alphas)[None], mine.shape[0], axis=0)
+    for j in np.unique(demos[mine]):
+        others = winsorized(np.delete(log_alphas, j))
+        out[mine & (demos == j)] = np.insert(others, j, log_alphas[j])
+    return out
+
+
 def _kernels(batch, k: int, own: np.ndarray, h: float) -> np.ndarray:
     """Primitive ``k``'s components' log quadrature weights at every trial's nodes, (T, J, A)
-    (:func:`promp.evidence.mixture.speed_kernels` in batch form)."""
+    (:func:`promp.evidence.mixture.speed_kernels` in batch form), its components at the log
+    speeds ``own``, (J,) or per trial (T, J)."""
     loc, scale, dof = (batch.priors[q, :, k][:, None] for q in range(3))  # (T, 1)
     density, mass = kernel(batch.log_alphas, loc, scale, dof, own, batch.bounds[:, None], h)
     return quadrature_weights(batch.log_alphas[:, None, :], density, mass)
