@@ -109,7 +109,7 @@ def log_likelihoods(
         _, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower, not cleaned, in place
         if info != 0:
             raise np.linalg.LinAlgError("Matrix is not positive definite")
-        z, info = lapack.dtrtrs(matrix.T, b[a].T, lower=1, overwrite_b=1)  # L z = b
+        z, info = lapack.dtrtrs(matrix.T, b[a].T, 1, 0, 0, p, 1)  # L z = b (lower, in place)
         if info != 0:
             raise np.linalg.LinAlgError("singular factor")
         quad[a] -= (z * z).sum(axis=0)

@@ -246,7 +246,7 @@ def _component_log_likelihoods(
             for matrix, b in zip(flat_matrices, flat_rows, strict=True):
                 _, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower, not cleaned, in place
                 if info == 0:
-                    _, info = lapack.dtrtrs(matrix.T, b.T, lower=1, overwrite_b=1)
+                    _, info = lapack.dtrtrs(matrix.T, b.T, 1, 0, 0, p, 1)  # lower, in place
                 if info != 0:
                     raise np.linalg.LinAlgError("Matrix is not positive definite")
             logdet = (2.0 * np.log(np.diagonal(matrices, axis1=-2, axis2=-1)).sum(-1)
