@@ -338,7 +338,9 @@ def test_faults_of_a_stream_show_their_status_and_nothing_breaks(page, studio, a
     cues_name = unique("Cues")
     cues = lsl_push.outlet(pylsl.StreamInfo(cues_name, "Markers", 1, 0, pylsl.cf_string,
                                             f"src-{cues_name}"))  # fmt: skip
-    markers = infer_panel(studio).lsl.controls.markers
+    panel = infer_panel(studio)
+    choose(page, panel.controls.source, LSL)  # (the file's first test chose it: not relied on)
+    markers = panel.lsl.controls.markers
     wait_until(lambda: any(cues_name in o for o in markers.options), what="the cues listed")
     faulty = Replayer(unique("FaultyHand"))
     start_mapped(page, studio, faulty)

@@ -68,6 +68,41 @@ def test_streams_are_listed_with_the_labels_their_inlets_tell() -> None:
         source.close()
 
 
+def test_a_stream_that_does_not_answer_does_not_hold_back_the_list() -> None:
+    """A stream whose inlet hangs (gone between the look and the open: opening gives up only
+    after seconds) while its description is read: a marker stream started meanwhile is listed
+    at the next look, and the hung one's labels come once it answers. (The look once waited
+    for each new stream's description: another program's streams coming and going then left
+    a new marker stream out of the studio's list for minutes.)"""
+    import threading
+
+    entered, answer = threading.Event(), threading.Event()
+
+    class Hanging(ResolverLike):
+        def open(self, description):
+            if description.name == "Stuck":
+                entered.set()
+                answer.wait(timeout=600.0)  # (until the test lets it answer)
+            return super().open(description)
+
+    fake = Hanging()
+    fake.add(FakeStream("Stuck", LABELS, rate=100.0))
+    source = LslSource(transport=lambda: fake)
+    try:
+        source.watch()
+        wait_until(entered.is_set, what="the hung stream's inlet opened")
+        fake.add(FakeStream("Cues", ("marker",), rate=0.0, markers=True))
+        wait_until(lambda: any(s.name == "Cues" for s in source.found()),
+                   what="the marker stream listed while the other hangs")  # fmt: skip
+        assert entered.is_set() and not answer.is_set()
+        answer.set()
+        wait_until(lambda: {s.name: s.labels for s in source.found()}.get("Stuck") == LABELS,
+                   what="the hung stream's labels once it answers")  # fmt: skip
+    finally:
+        answer.set()
+        source.close()
+
+
 def test_where_lsl_cannot_load_nothing_starts_and_the_message_says_what_to_do(
     monkeypatch,
 ) -> None:

@@ -9,10 +9,13 @@ starts a session with a mapping checked against the model and the streams found
 (:mod:`app.live.lsl_placement`), publishes its predictions as the headless command does
 (:mod:`promp.live.outlets`, switched on and off while it runs: :class:`SwitchedOutlets`), and
 stops it. LSL's resolver tells a stream's name, type, rate and channel count, not its channels'
-labels and units (its description comes with an inlet): the look opens an inlet of each new
-stream once, reads its description and closes it, so that the list and the guessed mapping
-can name channels as the stream labels them. Where liblsl cannot load,
-:attr:`LslSource.unavailable` says so and what to do, and nothing starts. The session has its
+labels and units (its description comes with an inlet): a second thread opens an inlet of
+each new stream once, reads its description and closes it, so that the list and the guessed
+mapping can name channels as the stream labels them. The list never waits for it: an inlet
+of a stream gone between the look and the open (another program's, coming and going) takes
+seconds to give up, and a look that waited for each left a new stream unlisted for minutes.
+Where liblsl cannot load, :attr:`LslSource.unavailable` says so and what to do, and nothing
+starts. The session has its
 own threads; the studio's loop reads its immutable :class:`promp.live.session.LiveSnapshot`
 (its ``running.session.snapshot()``) without a lock. A session file replayed
 (:mod:`app.live.session_replay`, :meth:`LslSource.replay`) stands in a live session's place.
@@ -129,7 +132,7 @@ class LslSource:
         self._found: tuple[StreamDescription, ...] = ()
         self._described: dict[str, StreamDescription] = {}  # by uid: with labels and units
         self._stop = threading.Event()
-        self._scanner: threading.Thread | None = None
+        self._threads: tuple[threading.Thread, ...] = ()
         self._lock = threading.Lock()  # start, stop and publish, from the loop or a test
         self._numbers = itertools.count(1)
         self.outlets = SwitchedOutlets()
@@ -150,33 +153,49 @@ class LslSource:
 
     def watch(self) -> None:
         """Look for streams from now on (idempotent; nothing where LSL is unavailable)."""
-        if self._scanner is not None or not self.available:
+        if self._threads or not self.available:
             return
-        self._scanner = threading.Thread(target=self._scan, name="lsl-scan", daemon=True)
-        self._scanner.start()
-
-    def _scan(self) -> None:
         transport = self.transport()
+        self._threads = tuple(
+            threading.Thread(target=work, args=(transport,), name=name, daemon=True)
+            for work, name in ((self._scan, "lsl-scan"), (self._describe, "lsl-describe"))
+        )
+        for thread in self._threads:
+            thread.start()
+
+    def _scan(self, transport: Transport) -> None:
+        """The streams on the network, looked for every :data:`SCAN_EVERY_S` while no session
+        runs (a session looks for its own)."""
         while not self._stop.is_set():
-            running = self.running
-            try:
-                found = (running.session.snapshot().found if running is not None
-                         else tuple(transport.find(SCAN_EVERY_S)))  # fmt: skip
-                for stream in found:
-                    if stream.uid not in self._described:
-                        self._described[stream.uid] = _described(transport, stream)
-                if running is None:
-                    self._found = found
-            except Exception:  # noqa: BLE001 (the network, not us: look again)
-                self._found = ()
+            if self.running is None:
+                try:
+                    self._found = tuple(transport.find(SCAN_EVERY_S))
+                except Exception:  # noqa: BLE001 (the network, not us: look again)
+                    self._found = ()
             self._stop.wait(SCAN_EVERY_S)
+
+    def _describe(self, transport: Transport) -> None:
+        """The labels and units of every stream listed and not yet described, one inlet each
+        (the latest list's: a stream gone meanwhile is not waited for)."""
+        while not self._stop.is_set():
+            for stream in self._listed():
+                if self._stop.is_set():
+                    return
+                if stream.uid not in self._described:
+                    try:
+                        self._described[stream.uid] = _described(transport, stream)
+                    except Exception:  # noqa: BLE001 (listed as found)
+                        self._described[stream.uid] = stream
+            self._stop.wait(SCAN_EVERY_S)
+
+    def _listed(self) -> tuple[StreamDescription, ...]:
+        running = self.running
+        return running.session.snapshot().found if running is not None else self._found
 
     def found(self) -> tuple[StreamDescription, ...]:
         """The streams on the network at the latest look (the session's, while it runs),
         with their channels' labels and units once read."""
-        running = self.running
-        found = running.session.snapshot().found if running is not None else self._found
-        return tuple(self._described.get(s.uid, s) for s in found)
+        return tuple(self._described.get(s.uid, s) for s in self._listed())
 
     # ------------------------------------------------------------------ start, stop
 
@@ -306,8 +325,8 @@ class LslSource:
         """Stop the session and the look for streams (the studio is stopping)."""
         self.stop()
         self._stop.set()
-        if self._scanner is not None:
-            self._scanner.join(timeout=5.0)
+        for thread in self._threads:
+            thread.join(timeout=5.0)
 
 
 def _described(transport: Transport, stream: StreamDescription) -> StreamDescription:
