@@ -2,23 +2,20 @@
 shared by the Infer tab (which starts it, and shows its predictions) and the Teach tab (which
 records its movements as takes: :mod:`app.live.live_takes`).
 
-:class:`LslSource` lists the streams on the network before a session runs (a look every
-:data:`SCAN_EVERY_S` on a thread of its own, started the first time the Live source is chosen),
+:class:`LslSource` lists the streams on the network before a session runs
+(:mod:`app.live.stream_watch`, started the first time the Live source is chosen),
 starts a session with a mapping checked against the model and the streams found
 (:mod:`app.live.lsl_mapping`), the workspace's hand placement applied to a live hand
 (:mod:`app.live.lsl_placement`), publishes its predictions as the headless command does
 (:mod:`promp.live.outlets`, switched on and off while it runs: :class:`SwitchedOutlets`), and
 stops it. LSL's resolver tells a stream's name, type, rate and channel count, not its channels'
-labels and units (its description comes with an inlet): a second thread opens an inlet of
-each new stream once, reads its description and closes it, so that the list and the guessed
-mapping can name channels as the stream labels them. The list never waits for it: an inlet
-of a stream gone between the look and the open (another program's, coming and going) takes
-seconds to give up, and a look that waited for each left a new stream unlisted for minutes.
-Where liblsl cannot load, :attr:`LslSource.unavailable` says so and what to do, and nothing
-starts. The session has its
-own threads; the studio's loop reads its immutable :class:`promp.live.session.LiveSnapshot`
-(its ``running.session.snapshot()``) without a lock. A session file replayed
-(:mod:`app.live.session_replay`, :meth:`LslSource.replay`) stands in a live session's place.
+labels and units (its description comes with an inlet): the watch opens an inlet of each
+new stream once to read them, so that the list and the guessed mapping can name channels as
+the stream labels them. Where liblsl cannot load, :attr:`LslSource.unavailable` says so and
+what to do, and nothing starts. The session has its own threads; the studio's loop reads its
+immutable :class:`promp.live.session.LiveSnapshot` (its ``running.session.snapshot()``)
+without a lock. A session file replayed (:mod:`app.live.session_replay`,
+:meth:`LslSource.replay`) stands in a live session's place.
 """
 
 from __future__ import annotations
@@ -37,6 +34,7 @@ from app.live.lsl_mapping import MappingCheck, parse_mapping, safe_out_name
 from app.live.lsl_placement import PlacedTransport
 from app.live.session_outputs import CommitmentWake, SwitchedOutlets
 from app.live.session_replay import SessionReplay, read_header
+from app.live.stream_watch import StreamWatch
 from promp.decision import CommitRule
 from promp.live.session import LiveOptions, LiveSession, live_columns
 from promp.live.transport import Selector, StreamDescription, Transport
@@ -44,10 +42,9 @@ from promp.model import ProMPModel
 from robots.icub.layout import HAND
 from robots.icub.placement import Placement
 
-__all__ = ["CommitmentWake", "LiveConfig", "LslSource", "Running", "SCAN_EVERY_S", "STARTS",
+__all__ = ["CommitmentWake", "LiveConfig", "LslSource", "Running", "STARTS",
            "SwitchedOutlets"]  # (the first and the last: app.live.session_outputs)
 
-SCAN_EVERY_S = 0.5
 STARTS = {"stillness": "still", "marker stream": "marker", "Begin / End buttons": "call"}
 
 
@@ -129,10 +126,7 @@ class LslSource:
             self.unavailable = ""
         self._make = transport
         self._transport: Transport | None = None
-        self._found: tuple[StreamDescription, ...] = ()
-        self._described: dict[str, StreamDescription] = {}  # by uid: with labels and units
-        self._stop = threading.Event()
-        self._threads: tuple[threading.Thread, ...] = ()
+        self._watch = StreamWatch(self._session_found)
         self._lock = threading.Lock()  # start, stop and publish, from the loop or a test
         self._numbers = itertools.count(1)
         self.outlets = SwitchedOutlets()
@@ -153,49 +147,17 @@ class LslSource:
 
     def watch(self) -> None:
         """Look for streams from now on (idempotent; nothing where LSL is unavailable)."""
-        if self._threads or not self.available:
-            return
-        transport = self.transport()
-        self._threads = tuple(
-            threading.Thread(target=work, args=(transport,), name=name, daemon=True)
-            for work, name in ((self._scan, "lsl-scan"), (self._describe, "lsl-describe"))
-        )
-        for thread in self._threads:
-            thread.start()
+        if self.available:
+            self._watch.start(self.transport())
 
-    def _scan(self, transport: Transport) -> None:
-        """The streams on the network, looked for every :data:`SCAN_EVERY_S` while no session
-        runs (a session looks for its own)."""
-        while not self._stop.is_set():
-            if self.running is None:
-                try:
-                    self._found = tuple(transport.find(SCAN_EVERY_S))
-                except Exception:  # noqa: BLE001 (the network, not us: look again)
-                    self._found = ()
-            self._stop.wait(SCAN_EVERY_S)
-
-    def _describe(self, transport: Transport) -> None:
-        """The labels and units of every stream listed and not yet described, one inlet each
-        (the latest list's: a stream gone meanwhile is not waited for)."""
-        while not self._stop.is_set():
-            for stream in self._listed():
-                if self._stop.is_set():
-                    return
-                if stream.uid not in self._described:
-                    try:
-                        self._described[stream.uid] = _described(transport, stream)
-                    except Exception:  # noqa: BLE001 (listed as found)
-                        self._described[stream.uid] = stream
-            self._stop.wait(SCAN_EVERY_S)
-
-    def _listed(self) -> tuple[StreamDescription, ...]:
+    def _session_found(self) -> tuple[StreamDescription, ...] | None:
         running = self.running
-        return running.session.snapshot().found if running is not None else self._found
+        return None if running is None else running.session.snapshot().found
 
     def found(self) -> tuple[StreamDescription, ...]:
         """The streams on the network at the latest look (the session's, while it runs),
         with their channels' labels and units once read."""
-        return tuple(self._described.get(s.uid, s) for s in self._listed())
+        return self._watch.found()
 
     # ------------------------------------------------------------------ start, stop
 
@@ -287,7 +249,7 @@ class LslSource:
             running, self.running = self.running, None
             if running is not None:
                 running.session.close()
-                self._found = running.session.snapshot().found
+                self._watch.hand_over(running.session.snapshot().found)
 
     def publish(self, on: bool, out: str) -> tuple[str, ...]:
         """Publish the running session's predictions as ``out``-probabilities, ... (or stop
@@ -324,24 +286,7 @@ class LslSource:
     def close(self) -> None:
         """Stop the session and the look for streams (the studio is stopping)."""
         self.stop()
-        self._stop.set()
-        for thread in self._threads:
-            thread.join(timeout=5.0)
-
-
-def _described(transport: Transport, stream: StreamDescription) -> StreamDescription:
-    """``stream`` with its channels' labels and units, read from an inlet opened for that
-    (as found when the stream vanished or does not answer)."""
-    if stream.is_markers or any(stream.labels):
-        return stream
-    try:
-        inlet = transport.open(stream)
-    except Exception:  # noqa: BLE001 (gone, or not answering: listed as found)
-        return stream
-    try:
-        return inlet.description
-    finally:
-        inlet.close()
+        self._watch.close()
 
 
 def _commit_rule(threshold: float | None) -> CommitRule | None:
