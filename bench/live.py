@@ -385,19 +385,32 @@ def older_format(model) -> dict:
     return data
 
 
+def baseline_model(model, repo: Path) -> dict:
+    """``model`` as the baseline checked out in ``repo`` reads it: the same file where its
+    ``promp/io.py`` reads this version (both sides then predict the same model: the pair
+    times the code, not two models), else :func:`older_format`."""
+    import re
+
+    data = model_to_dict(model)
+    found = re.search(r"^READABLE_VERSIONS = \(([^)]*)\)", (repo / "promp" / "io.py").read_text(),
+                      re.MULTILINE)  # fmt: skip
+    readable = {int(v) for v in found.group(1).replace(" ", "").split(",") if v} if found else set()
+    return data if data["version"] in readable else older_format(model)
+
+
 def paired(model, plan: Plan, tmp: Path, baseline: str, rounds: int, check_every: int,
            extra: tuple[str, ...] = ()) -> dict:  # fmt: skip
     """This worktree's predictor (``extra`` arguments) and ``baseline``'s, run one after the
     other ``rounds`` times (their order swapped each round, ABBA), on the same plan; each
     side's latencies pooled over its runs, and the ratio of the p99s. ``baseline``
     ``processes=1`` is this worktree's predictor in one process (``--processes 1``)."""
-    current_path, old_path = tmp / "model.json", tmp / "model-v2.json"
+    current_path, old_path = tmp / "model.json", tmp / "model-baseline.json"
     save_model(current_path, model)
-    old_path.write_text(json.dumps(older_format(model)))
     sides: dict[str, dict] = {"current": {"latency": [], "runs": []},
                               "baseline": {"latency": [], "runs": []}}  # fmt: skip
     one = baseline == "processes=1"
     with contextlib.nullcontext(REPO) if one else checkout(baseline) as old_repo:
+        old_path.write_text(json.dumps(baseline_model(model, Path(old_repo))))
         for r in range(rounds):
             order = [("current", REPO, current_path, extra),
                      ("baseline", old_repo, current_path if one else old_path,
