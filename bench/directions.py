@@ -5,10 +5,11 @@ another way recognise earlier? The experiment behind docs/evaluation.md, "Direct
 Every variant runs through the evaluation's own leave-one-out sweep
 (:func:`promp.evaluate.sweep.run_sweep`: the same folds, observations and metrics as ``python -m
 promp.evaluate``), each fold fitted once with the automatic settings (as ``--method ours``) and
-shared by the variants; the position modality observed (the hand on the lab sets), the speed
-integrated (``--alpha ml``). A variant changes one thing: the evidence ``p(y | k)`` of each
-primitive (and with the mixture the speed posterior); the class probabilities (with the "none
-of these" hypothesis), the conditioning and the prediction are the engine's.
+shared by the variants; the flagged takes left out (as the evaluation leaves them out); the
+position modality observed (the hand on the lab sets), the speed integrated (``--alpha ml``).
+A variant changes one thing: the evidence ``p(y | k)`` of each primitive (and with the mixture
+the speed posterior); the class probabilities (with the "none of these" hypothesis), the
+conditioning and the prediction are the engine's.
 
 * ``promp``: the engine as it is (``--method ours``; a check that the harness is the CLI's).
 * ``mixture:H``: each primitive the mixture of its training demonstrations, each a component
@@ -28,6 +29,10 @@ of these" hypothesis), the conditioning and the prediction are the engine's.
   without its correlation); the evidence the accumulated innovation log-likelihood. Its speed
   posterior (hence the prediction's duration) stays the ProMP's. 120 members, seeded: the run
   is reproducible.
+* ``start:B``: issue 37's direction (ii), the first sample's evidence tempered: each node's
+  log-likelihood less ``(1 - B) log p(y_0 | k, alpha)`` (the first sample's marginal under the
+  primitive, its observed dimensions jointly). ``B = 1`` is the ProMP, ``B = 0`` the rest of
+  the observation conditioned on its start.
 
 Run: ``.venv/bin/python bench/directions.py --set heights [--percent 20 40 60 80]
 [--variant promp mixture:0.5 ebip:1] [--jobs 1]`` (about a minute per variant on a shared set,
@@ -55,9 +60,11 @@ from promp.datasets import read_dataset  # noqa: E402
 from promp.evaluate.methods import ProMPEngine  # noqa: E402
 from promp.evaluate.sweep import position_modality, run_sweep  # noqa: E402
 from promp.evidence import Evidence  # noqa: E402
+from promp.evidence.speed import logsumexp, quadrature, quadrature_weights  # noqa: E402
 from promp.fitting import fit_parts  # noqa: E402
 from promp.model import Settings  # noqa: E402
 from promp.observation import check_observation  # noqa: E402
+from promp.quality import split_flagged  # noqa: E402
 from promp.timing import duration_from_alpha  # noqa: E402
 
 SHARED = ROOT.parent / "shared" / "data"
@@ -110,7 +117,11 @@ class Variant(ProMPEngine):
         original = Evidence._integrate
 
         def integrate(evidence, prim, prior):
-            nodes, ll, lp, _ = original(evidence, prim, prior)
+            nodes, ll, lp, log_evidence = original(evidence, prim, prior)
+            if self.kind == "start":  # direction (ii): the first sample's evidence tempered
+                ll = ll - (1.0 - self.value) * _start_log_likelihood(evidence, prim, nodes)
+                _, _, log_mass = quadrature(prior, evidence._bound)
+                return nodes, ll, lp, logsumexp(ll + quadrature_weights(nodes, lp, log_mass))
             return nodes, ll, lp, self._ebip(evidence.model, prim, evidence.observation)
 
         Evidence._integrate = integrate
@@ -174,6 +185,24 @@ class Variant(ProMPEngine):
         return total
 
 
+def _start_log_likelihood(evidence, prim, nodes: np.ndarray) -> np.ndarray:
+    """``log p(y_0 | k, alpha)`` at the speeds ``exp(nodes)``: the first sample's marginal
+    under the primitive (its observed dimensions jointly, the noise of one sample)."""
+    model, obs = evidence.model, evidence.observation
+    dims, m = evidence.dims, model.basis.n_basis
+    psi0 = model.basis(np.zeros(1))[0]  # (M,)
+    cols = (dims[:, None] * m + np.arange(m)).reshape(-1)
+    lift = np.zeros((dims.shape[0], cols.shape[0]))
+    for i in range(dims.shape[0]):
+        lift[i, i * m:(i + 1) * m] = psi0
+    mean = prim.mean_at(np.exp(nodes))[:, cols] @ lift.T  # (A, Do)
+    cov = lift @ prim.cov[np.ix_(cols, cols)] @ lift.T + np.diag(prim.noise_var[dims])
+    chol = np.linalg.cholesky(cov)
+    z = np.linalg.solve(chol, (obs.values[0][None] - mean).T)  # (Do, A)
+    return (-0.5 * (z * z).sum(0) - np.log(np.diag(chol)).sum()
+            - 0.5 * dims.shape[0] * math.log(2 * math.pi))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--set", default="heights", help="a shared set's name or a folder")
@@ -190,15 +219,17 @@ def main(argv: list[str] | None = None) -> int:
             number = math.nan
         if not ((kind == "promp" and number is None)
                 or (kind == "mixture" and number is not None and 0.0 < number <= 1.0)
-                or (kind == "ebip" and number is not None and 0.0 <= number < math.inf)):
+                or (kind == "ebip" and number is not None and 0.0 <= number < math.inf)
+                or (kind == "start" and number is not None and 0.0 <= number <= 1.0)):
             parser.error(f"unknown variant {name!r}: promp, mixture:H (0 < H <= 1) or ebip:Q "
                          "(Q >= 0)")  # fmt: skip
     folder = Path(args.set) if Path(args.set).is_dir() else SHARED / f"lab-records-{args.set}"
     read = read_dataset(folder, args.format)
+    dataset, _ = split_flagged(read.dataset, read.findings)  # left out, as the evaluation does
     factories = {name: (lambda name=name: Variant(read.layout, name)) for name in args.variant}
     start = time.perf_counter()
     observed = [position_modality(read.layout)]
-    result = run_sweep(factories, read.dataset, read.layout, args.percent, ["ml"], [observed],
+    result = run_sweep(factories, dataset, read.layout, args.percent, ["ml"], [observed],
                        jobs=args.jobs)  # fmt: skip
     wall = time.perf_counter() - start
     table: dict = {}
