@@ -27,7 +27,7 @@ from promp.timing import alpha_from_duration, duration_from_alpha
 
 __all__ = [
     "Estimate", "LEVEL", "REFINE", "TEMPERATURES", "Timing", "choose_temperature", "summarise",
-    "timing", "weighted_quantiles"
+    "timing", "timing_of", "weighted_quantiles"
 ]  # fmt: skip
 
 LEVEL = 0.9  # the central interval reported
@@ -123,6 +123,24 @@ def timing(
     within 3 % of the mode's."""
     alphas, plain = recognition.speed_posterior()
     _, tempered = recognition.speed_posterior(temperature=temperature)
+    return timing_of(alphas, plain, tempered, recognition.alpha, elapsed, dt, s_bar,
+                     temperature, level)  # fmt: skip
+
+
+def timing_of(
+    alphas: np.ndarray,
+    plain: np.ndarray,
+    tempered: np.ndarray,
+    fallback_alpha: float,
+    elapsed: float,
+    dt: float,
+    s_bar: float,
+    temperature: float = 1.0,
+    level: float = LEVEL,
+) -> Timing:
+    """:func:`timing` from a primitive's speed posterior: its nodes ``alphas``, its
+    ``plain`` and ``tempered`` masses (:func:`promp.recognition.speed_masses`), and the speed
+    ``fallback_alpha`` drawn at where the duration gives none (its best node)."""
     durations = np.asarray(duration_from_alpha(alphas, dt, s_bar), dtype=float)
     duration = summarise(durations, plain, tempered, level)
     if duration.value < elapsed:  # every node lasts as long as the observation: round-off
@@ -131,7 +149,7 @@ def timing(
     fraction = summarise(fractions, plain, tempered, level)
     alpha = alpha_from_duration(duration.value, dt, s_bar) if duration.value > 0 else math.nan
     if not math.isfinite(alpha):
-        alpha = recognition.alpha
+        alpha = fallback_alpha
     return Timing(duration, fraction, float(alpha), float(temperature))
 
 

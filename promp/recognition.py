@@ -29,7 +29,7 @@ import numpy as np
 
 from promp.model import ProMPModel
 
-__all__ = ["Recognition", "label_noise", "with_label_noise"]
+__all__ = ["Recognition", "label_noise", "speed_masses", "with_label_noise"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,13 +77,25 @@ class Recognition:
         normalised; see :mod:`promp.duration`)."""
         k = self.index if index is None else index
         alphas = self.candidates[k]
-        log_nodes = np.log(alphas)
-        widths = np.gradient(log_nodes) if log_nodes.size > 1 else np.ones(1)
-        log_mass = temperature * self.log_likelihoods[k] + self.log_prior[k] + np.log(widths)
-        if not np.isfinite(log_mass).any():
+        masses = speed_masses(alphas, self.log_likelihoods[k], self.log_prior[k], temperature)
+        if masses is None:
             raise ValueError(f"primitive {k} does not explain the observation")
-        mass = np.exp(log_mass - np.max(log_mass))
-        return alphas, mass / mass.sum()
+        return alphas, masses
+
+
+def speed_masses(
+    alphas: np.ndarray, log_likelihoods: np.ndarray, log_prior: np.ndarray, temperature: float
+) -> np.ndarray | None:
+    """A primitive's speed posterior on its quadrature nodes ``alphas`` (A,), from their
+    log-likelihoods and log prior densities: masses summing to 1 (see
+    :meth:`Recognition.speed_posterior`); None where no node explains the observation."""
+    log_nodes = np.log(alphas)
+    widths = np.gradient(log_nodes) if log_nodes.size > 1 else np.ones(1)
+    log_mass = temperature * log_likelihoods + log_prior + np.log(widths)
+    if not np.isfinite(log_mass).any():
+        return None
+    mass = np.exp(log_mass - np.max(log_mass))
+    return mass / mass.sum()
 
 
 def label_noise(model: ProMPModel) -> float:

@@ -39,7 +39,7 @@ from typing import NamedTuple
 import numpy as np
 
 from promp.data import Demonstration
-from promp.duration import Timing, timing
+from promp.duration import Timing, timing, timing_of
 from promp.evidence import mixture, weight_space, woodbury
 from promp.evidence.classes import recognition_of
 from promp.evidence.inference import PATH_POINTS, Inference
@@ -64,7 +64,7 @@ from promp.inference import (
 from promp.metrics import measure
 from promp.model import Primitive, ProMPModel, recognition_bandwidth
 from promp.observation import Observation, check_observation
-from promp.recognition import Recognition
+from promp.recognition import Recognition, speed_masses
 from promp.timing import alpha_from_duration, check_alpha
 from promp.via_points import ViaPoint, condition_on_via_points
 
@@ -370,24 +370,21 @@ class Evidence:
                       settings.s_bar, settings.duration_temperature or 1.0)  # fmt: skip
 
     def _timing_of(self, index: int) -> Timing:
-        """The timing were primitive ``index`` recognised: :func:`promp.duration.timing`
-        reads the recognised primitive's quadrature alone (its nodes, likelihoods, prior and
-        best node), so a recognition holding only that primitive's gives the same."""
+        """The timing were primitive ``index`` recognised (:func:`promp.duration.timing_of`
+        on its quadrature: the same as :meth:`timing` when it is the one recognised)."""
         got = self._timings.get(index)
         if got is None:
-            i = self.integral(index)
-            k, empty = len(self.model.primitives), np.empty(0)
-
-            def only(a: np.ndarray) -> tuple[np.ndarray, ...]:
-                return tuple(a if j == index else empty for j in range(k))
-
+            i, model, settings = self.integral(index), self.model, self.model.settings
+            alphas, temperature = np.exp(i.nodes), settings.duration_temperature or 1.0
+            plain, tempered = (speed_masses(alphas, i.log_likelihoods, i.log_prior, tau)
+                               for tau in (1.0, temperature))  # fmt: skip
+            if plain is None:
+                raise ValueError(f"primitive {index} does not explain the observation")
             best = int(np.argmax(i.log_likelihoods + i.log_prior))
-            alone = Recognition(index, self.model.primitives[index].name,
-                                float(math.exp(i.nodes[best])), np.full(k, np.nan),
-                                only(np.exp(i.nodes)), only(i.log_likelihoods),
-                                only(i.log_prior), np.full(k, np.nan),
-                                self.alpha_method)  # fmt: skip
-            got = self._timings[index] = self._timing_from(alone)
+            got = self._timings[index] = timing_of(
+                alphas, plain, tempered, float(math.exp(i.nodes[best])), float(self.elapsed[-1]),
+                model.sample_period, settings.s_bar, temperature,
+            )  # fmt: skip
         return got
 
     def condition(self, primitive: Primitive, alpha: float) -> Posterior:
