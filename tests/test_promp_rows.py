@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numpy.testing import assert_array_equal
 from scipy.interpolate import PchipInterpolator
 
 from promp.duration import REFINE, _refined, choose_temperature, weighted_quantiles
 from promp.rows import interp_rows, pchip_rows, quantiles_rows
 
 
+@pytest.mark.filterwarnings("error")  # silent, as the one-row calls are
 def test_interp_rows_is_numpy_s_interp_row_by_row():
     rng = np.random.default_rng(0)
     for case in range(120):
@@ -19,16 +21,20 @@ def test_interp_rows_is_numpy_s_interp_row_by_row():
         if case % 3 == 0:
             xp[:, 1] = xp[:, 0]  # a repeated knot, as a flat cdf has
         fp = rng.normal(size=(5, k))
+        if case % 4 == 1:  # impossible values (a log-density's -inf), some side by side
+            fp[rng.uniform(size=fp.shape) < 0.4] = -np.inf
+            fp[rng.uniform(size=fp.shape) < 0.1] = np.inf
         x = rng.uniform(xp.min() - 0.5, xp.max() + 0.5, size=(5, q))
         x[:, 0] = xp[:, -1]
         want = np.array([np.interp(x[r], xp[r], fp[r]) for r in range(5)])
-        assert np.array_equal(interp_rows(x, xp, fp), want)
+        assert_array_equal(interp_rows(x, xp, fp), want)  # (NaN where numpy gives NaN)
     # a slope that overflows: numpy reads a point on a knot as the knot's value, not inf * 0
     xp, fp = np.array([[0.0, 1e-310, 1.0]]), np.array([[0.0, 1e300, 0.0]])
     x = np.array([[0.0, 1e-310, 0.5, 1.0]])
     assert np.array_equal(interp_rows(x, xp, fp), np.interp(x[0], xp[0], fp[0])[None])
 
 
+@pytest.mark.filterwarnings("error")  # silent, as the one-row calls are
 def test_pchip_rows_is_scipy_s_pchip_row_by_row():
     rng = np.random.default_rng(1)
     for case in range(120):
@@ -41,10 +47,19 @@ def test_pchip_rows_is_scipy_s_pchip_row_by_row():
             y[:, min(2, k - 1)] = y[:, 1]
         at = np.sort(rng.uniform(x[:, :1], x[:, -1:], size=(5, q)), axis=1)
         at[:, 0], at[:, -1] = x[:, 0], x[:, -1]
+        if case % 5 == 0:  # outside the knots: extrapolated from the end pieces
+            at = np.concatenate([x[:, :1] - 0.3, at, x[:, -1:] + 0.3], axis=1)
         want = np.array([PchipInterpolator(x[r], y[r])(at[r]) for r in range(5)])
         assert np.array_equal(pchip_rows(x, y, at), want)
+    # slopes of exactly 0 and 1 (whole numbers): the zero-slope rule at its edges
+    x = np.array([[0.0, 1.0, 2.0, 3.0, 4.0], [0.0, 1.0, 2.0, 3.0, 4.0]])
+    y = np.array([[0.0, 1.0, 2.0, 5.0, 5.0], [3.0, 3.0, 4.0, 5.0, 9.0]])
+    at = np.linspace(-0.5, 4.5, 41)[None].repeat(2, axis=0)
+    want = np.array([PchipInterpolator(x[r], y[r])(at[r]) for r in range(2)])
+    assert np.array_equal(pchip_rows(x, y, at), want)
 
 
+@pytest.mark.filterwarnings("error")  # silent, as the one-row calls are
 def test_quantiles_rows_is_weighted_quantiles_row_by_row():
     rng = np.random.default_rng(2)
     qs = np.array([0.05, 0.5, 0.95])
