@@ -77,23 +77,31 @@ class Recognition:
         normalised; see :mod:`promp.duration`)."""
         k = self.index if index is None else index
         alphas = self.candidates[k]
-        masses = speed_masses(alphas, self.log_likelihoods[k], self.log_prior[k], temperature)
-        if masses is None:
-            raise ValueError(f"primitive {k} does not explain the observation")
-        return alphas, masses
+        return alphas, speed_masses(k, alphas, self.log_likelihoods[k], self.log_prior[k],
+                                    temperature)  # fmt: skip
 
 
 def speed_masses(
-    alphas: np.ndarray, log_likelihoods: np.ndarray, log_prior: np.ndarray, temperature: float
-) -> np.ndarray | None:
-    """A primitive's speed posterior on its quadrature nodes ``alphas`` (A,), from their
-    log-likelihoods and log prior densities: masses summing to 1 (see
-    :meth:`Recognition.speed_posterior`); None where no node explains the observation."""
+    index: int,
+    alphas: np.ndarray,
+    log_likelihoods: np.ndarray,
+    log_prior: np.ndarray,
+    temperature: float,
+) -> np.ndarray:
+    """Primitive ``index``'s speed posterior on its quadrature nodes ``alphas`` (A,), from
+    their log-likelihoods and log prior densities: masses summing to 1 (see
+    :meth:`Recognition.speed_posterior`).
+
+    Raises
+    ------
+    ValueError
+        No node explains the observation.
+    """
     log_nodes = np.log(alphas)
     widths = np.gradient(log_nodes) if log_nodes.size > 1 else np.ones(1)
     log_mass = temperature * log_likelihoods + log_prior + np.log(widths)
     if not np.isfinite(log_mass).any():
-        return None
+        raise ValueError(f"primitive {index} does not explain the observation")
     mass = np.exp(log_mass - np.max(log_mass))
     return mass / mass.sum()
 

@@ -172,3 +172,13 @@ def test_timing_of_a_single_node_is_that_node(model, dataset) -> None:
     reco = recognise(model, obs, duration=demo.duration)
     t = timing(reco, float(obs.elapsed[-1]), model.sample_period, model.settings.s_bar, 0.1)
     assert t.duration.low == t.duration.value == t.duration.high == pytest.approx(demo.duration)
+
+
+def test_a_speed_posterior_no_node_explains_is_refused_naming_its_primitive():
+    from promp.recognition import speed_masses
+
+    alphas = np.array([0.8, 1.0, 1.25])
+    masses = speed_masses(2, alphas, np.array([-1.0, 0.0, -np.inf]), np.zeros(3), 0.5)
+    assert masses.sum() == pytest.approx(1.0) and masses[2] == 0.0 and masses[1] > masses[0]
+    with pytest.raises(ValueError, match="primitive 2 does not explain the observation"):
+        speed_masses(2, alphas, np.full(3, -np.inf), np.zeros(3), 1.0)

@@ -376,10 +376,8 @@ class Evidence:
         if got is None:
             i, model, settings = self.integral(index), self.model, self.model.settings
             alphas, temperature = np.exp(i.nodes), settings.duration_temperature or 1.0
-            plain, tempered = (speed_masses(alphas, i.log_likelihoods, i.log_prior, tau)
+            plain, tempered = (speed_masses(index, alphas, i.log_likelihoods, i.log_prior, tau)
                                for tau in (1.0, temperature))  # fmt: skip
-            if plain is None:
-                raise ValueError(f"primitive {index} does not explain the observation")
             best = int(np.argmax(i.log_likelihoods + i.log_prior))
             got = self._timings[index] = timing_of(
                 alphas, plain, tempered, float(math.exp(i.nodes[best])), float(self.elapsed[-1]),
