@@ -227,6 +227,33 @@ def test_a_clock_jump_is_re_anchored_one_step_after_the_last_stamp(leap) -> None
     assert batch.broken == set() and batch.events == []
 
 
+@pytest.mark.parametrize("first", [False, True], ids=["after clean ones", "from the start"])
+def test_a_jump_after_bad_values_is_found_by_their_stamps(first) -> None:
+    """Bad values' stamps are the stream's clock all the same: a leap after them is a clock
+    jump, re-anchored one step after the last bad sample's stamp, also when every sample was
+    bad so far (a marker occluded from the start: a faults test of the studio sent one NaN
+    sample, then jumped 5 s, and nothing was said; the stream stayed 5 s ahead of the
+    session's clock). They are never given."""
+    source = hand_and_grip()
+    if not first:
+        source.poll({0: rows(regular(0.97, 3))}, 1.0)
+    bad = Pulled(regular(1.0, 3), np.full((3, 4), np.nan))
+    jumped = rows(regular(6.03, 3))
+    both = Pulled(np.concatenate([bad.times, jumped.times]),
+                  np.concatenate([bad.values, jumped.values]))  # fmt: skip
+    if first:
+        source.poll({0: bad}, 1.02)
+        batch = source.poll({0: jumped}, 1.05)
+    else:
+        batch = source.poll({0: both}, 1.05)
+    assert_allclose(batch.samples["hand"][0], regular(1.03, 3), atol=1e-9)
+    assert batch.broken == {"hand", "grip"} and condition(source) is Condition.CLOCK_JUMP
+    assert source.counts() == {"Hand": (6 + 3 * (not first), 3)}
+    batch = source.poll({0: rows([6.05, 6.06])}, 1.07)  # the shift stays
+    assert_allclose(batch.samples["hand"][0], [1.06], atol=1e-9)
+    assert source.counts() == {"Hand": (8 + 3 * (not first), 4)}
+
+
 @pytest.mark.parametrize("to", [0.2, 5.0], ids=["back", "a leap ahead"])
 def test_a_jump_within_a_poll_is_re_anchored_where_it_happens(to) -> None:
     source = hand_and_grip()

@@ -12,7 +12,8 @@ increasing per stream, and updates each input's :class:`StreamStatus`. What it d
 faults, never raising:
 
 * **NaN or infinite values** (or beyond :data:`promp.data.MAX_MAGNITUDE`): the sample is left
-  out (``bad values``); samples not of the stream's channel count too (``wrong channels``);
+  out (``bad values``), its stamp still the stream's clock (a jump after bad values is found
+  by them); samples not of the stream's channel count too (``wrong channels``);
 * **a stamp that goes back** a little (under :data:`JUMP_S`): left out;
 * **a clock jump**: stamps that go back by :data:`JUMP_S` or more, or that leap ahead by
   :data:`JUMP_S` more than the time that passed here and the lateness of the last delivery
@@ -305,8 +306,9 @@ class Source:
         index = np.concatenate([c.index for c in feed.channels])
         scale = np.concatenate([c.scale for c in feed.channels])
         values = values[:, index] * scale
+        stamped = np.isfinite(times)
         with np.errstate(invalid="ignore"):
-            finite = np.all(np.abs(values) <= MAX_MAGNITUDE, axis=1) & np.isfinite(times)
+            finite = np.all(np.abs(values) <= MAX_MAGNITUDE, axis=1) & stamped
         condition = feed.status.condition
         if not finite.all():
             bad = int((~finite).sum())
@@ -318,20 +320,25 @@ class Source:
             else:
                 batch.events += self._set(feed, Condition.BAD_VALUES, now, f"{bad} {BAD_DETAIL}")
             feed.clean_since = math.inf
-            times, values = times[finite], values[finite]
         elif condition is Condition.BAD_VALUES:
             feed.clean_since = min(feed.clean_since, now)
             if now - feed.clean_since >= CLEAN_S:
                 batch.events += self._set(feed, Condition.OK, now, "samples usable again")
         elif condition in (Condition.STALLED, Condition.WAITING, Condition.WRONG_CHANNELS):
             batch.events += self._set(feed, Condition.OK, now, "samples usable again")
+        # a bad sample's stamp is the stream's clock all the same: a jump after bad values
+        # (a marker occluded from the start) is found by it, and it is never given
+        times, values, finite = times[stamped], values[stamped], finite[stamped]
         if times.shape[0] == 0:
             return
         times = times + feed.shift
-        times, values = self._clock(feed, times, values, now, batch)
-        if times.shape[0] == 0:
+        kept = self._clock(feed, times, now, batch)
+        feed.left_out += int((~kept & finite).sum())  # (bad values: counted above)
+        if not kept.any():
             return
         feed.arrival = now
+        usable = kept & finite
+        times, values = times[usable], values[usable]
         self._given(feed, *feed.spread.add(times, values, now), now, batch)
 
     def _given(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
@@ -348,9 +355,10 @@ class Source:
                                               channels.units)  # fmt: skip
             start += width
 
-    def _clock(self, feed: _Feed, times: np.ndarray, values: np.ndarray, now: float,
-               batch: SourceBatch) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-        """Jumps re-anchored, stamps that go back a little left out (module docstring)."""
+    def _clock(self, feed: _Feed, times: np.ndarray, now: float,
+               batch: SourceBatch) -> np.ndarray:  # fmt: skip
+        """Jumps re-anchored in ``times`` (in place), the stamps kept (a mask: those that go
+        back a little are left out; module docstring)."""
         if math.isfinite(feed.stamp):
             diffs = np.diff(np.concatenate([[feed.stamp], times]))
             back = np.flatnonzero(diffs <= -JUMP_S)
@@ -363,7 +371,6 @@ class Source:
                 previous = feed.stamp if i == 0 else float(times[i - 1])
                 delta = previous + (feed.step or float(np.median(np.abs(diffs)))) - times[i]
                 feed.shift += delta
-                times = times.copy()
                 times[i:] += delta
                 batch.broken.update(feed.names)
                 batch.events += self._set(
@@ -371,12 +378,9 @@ class Source:
                     f"its time stamps jumped by {-delta:+.3f} s; re-anchored",
                 )  # fmt: skip
         keep = times > np.maximum.accumulate(np.concatenate([[feed.stamp], times]))[:-1]
-        if not keep.all():
-            feed.left_out += int((~keep).sum())
-            times, values = times[keep], values[keep]
-        if times.shape[0]:
-            feed.stamp = float(times[-1])
-        return times, values
+        if keep.any():
+            feed.stamp = float(times[keep][-1])
+        return keep
 
     def _check_rate(self, feed: _Feed, times: np.ndarray, now: float) -> list[LiveEvent]:
         """The rate from the median step of the last :data:`RATE_WINDOW_S` (a pause is not
