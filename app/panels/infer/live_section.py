@@ -43,7 +43,7 @@ from promp.decision import WINDOW_S
 from promp.live.options import DECIDE_THRESHOLD
 from robots.icub.layout import HAND
 
-__all__ = ["LiveControls", "LiveSection", "STATUS_PERIOD_S"]
+__all__ = ["GuessedText", "LiveControls", "LiveSection", "STATUS_PERIOD_S"]
 
 STATUS_PERIOD_S = 0.25
 NONE = "(none)"
@@ -78,6 +78,41 @@ class LiveControls:
     threshold: viser.GuiNumberHandle
     takeover: viser.GuiCheckboxHandle
     takeover_status: viser.GuiHtmlHandle
+
+
+class GuessedText:
+    """A text field the studio fills with a guess until the user edits it.
+
+    The user has edited it when its value is not the text the studio last wrote. That is read
+    from the value itself, not only from the field's ``on_update`` callback: viser sets a
+    field's value when the page's message arrives and runs the callback later, on its thread
+    pool, so a guess written in between (the streams found changed) would overwrite what the
+    user has just typed (a plain CI run of 2026-11-30 timed out on such a lost edit)."""
+
+    def __init__(self, handle) -> None:
+        self.handle = handle
+        self._written = handle.value  # the text the studio last wrote
+        self._edited = False
+
+    @property
+    def edited(self) -> bool:
+        if self.handle.value != self._written:
+            self._edited = True  # (latched: typing the guess back keeps the user's choice)
+        return self._edited
+
+    def typed(self) -> None:
+        """The field's ``on_update`` from a page: the user's (whatever the value)."""
+        self._edited = True
+
+    def offer(self, guess: str) -> None:
+        """Write ``guess`` unless the user has edited the field."""
+        if not self.edited and self.handle.value != guess:
+            self._written = self.handle.value = guess
+
+    def reset(self, guess: str) -> None:
+        """Write ``guess`` and forget the user's edit (*Guess*, a new workspace layout)."""
+        self._edited = False
+        self._written = self.handle.value = guess
 
 
 def build_controls(gui: PanelGui, layout: Layout) -> LiveControls:
@@ -133,7 +168,7 @@ class LiveSection:
             self.replay = SessionReplaySection(ctx, self.source)
         self._layout = layout
         self._pressed: list[str] = []
-        self._edited = False  # the user typed a mapping: no guess over it
+        self._mapping = GuessedText(c.mapping)  # the user's typed mapping: no guess over it
         self._found: tuple = ()
         self._outputs: tuple[str, ...] = ()  # the studio's own streams, as listed
         self._refused = ""
@@ -148,7 +183,7 @@ class LiveSection:
 
     def _typed(self, event) -> None:
         if event.client is not None:
-            self._edited = True
+            self._mapping.typed()
 
     # ------------------------------------------------------------------ the frame
 
@@ -189,9 +224,9 @@ class LiveSection:
     def _follow(self, layout: Layout) -> None:
         if layout == self._layout:
             return
-        self._layout, self._edited = layout, False
+        self._layout = layout
         self.controls.remainder.options = (NONE, *layout.names)
-        self.controls.mapping.value = guess_mapping(layout, self._found)
+        self._mapping.reset(guess_mapping(layout, self._found))
 
     def _act(self, press: str, snapshot: Snapshot, state: InferState) -> None:
         if press == "run":
@@ -200,8 +235,7 @@ class LiveSection:
             else:
                 self._start(snapshot, state)
         elif press == "guess":
-            self._edited = False
-            self.controls.mapping.value = guess_mapping(self._layout, self.source.found())
+            self._mapping.reset(guess_mapping(self._layout, self.source.found()))
         elif press == "Begin":
             self.source.begin()
         elif press == "End":
@@ -267,10 +301,8 @@ class LiveSection:
         markers = tuple(selector_text(s, found) for s in found if s.is_markers) or (NONE,)
         if tuple(c.markers.options) != markers:
             c.markers.options = markers
-        if not self._edited and self.source.running is None:
-            guessed = guess_mapping(self._layout, found)
-            if c.mapping.value != guessed:
-                c.mapping.value = guessed
+        if self.source.running is None and not self._mapping.edited:
+            self._mapping.offer(guess_mapping(self._layout, found))
 
     def _show_status(self) -> None:
         c, running = self.controls, self.source.running
