@@ -328,7 +328,8 @@ class Source:
             batch.events += self._set(feed, Condition.OK, now, "samples usable again")
         # a bad sample's stamp is the stream's clock all the same: a jump after bad values
         # (a marker occluded from the start) is found by it, and it is never given
-        times, values, finite = times[stamped], values[stamped], finite[stamped]
+        if not stamped.all():
+            times, values, finite = times[stamped], values[stamped], finite[stamped]
         if times.shape[0] == 0:
             return
         times = times + feed.shift
