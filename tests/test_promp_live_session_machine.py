@@ -1,14 +1,14 @@
 """A live session under faults nobody listed: hypothesis's rule-based state machine drives a
 session (tests/live_fakes.py: a fake transport and a manual clock) with random sequences of
-samples, pauses, stalls, backlogs, restarts, time jumps both ways, NaN and infinite values,
-changes of rate and of channel count, garbage and over-long markers, Record calls, and streams
-vanishing and appearing. After every step it checks that nothing raised; that the work is
-bounded (events and predictions per step by what arrived, the sinks' queues); that the memory
-is bounded (the arrays the stages hold, by the rates, the channels and the movement's
-longest); that every acknowledged sample is in the journal (acknowledged = flushed: after
-the sinks are flushed, every row of the movement under way); and that every prediction the
-sinks were given equals promp.infer on the samples it names (its movement's first
-``n_observed`` rows, read back from the journal) within 1e-9.
+samples, pauses, stalls, backlogs, restarts, time jumps both ways, NaN and infinite values (a
+stream's first samples too), changes of rate and of channel count, garbage and over-long
+markers, Record calls, and streams vanishing and appearing. After every step it checks that
+nothing raised; that the work is bounded (events and predictions per step by what arrived, the
+sinks' queues); that the memory is bounded (the arrays the stages hold, by the rates, the
+channels and the movement's longest); that every acknowledged sample is in the journal
+(acknowledged = flushed: after the sinks are flushed, every row of the movement under way); and
+that every prediction the sinks were given equals promp.infer on the samples it names (its
+movement's first ``n_observed`` rows, read back from the journal) within 1e-9.
 
 Bounded to :data:`EXAMPLES` sequences of at most :data:`STEPS` rules (well under a minute;
 ``LIVE_MACHINE_EXAMPLES=200`` in the environment runs more, by hand); the sequences it found
@@ -93,8 +93,12 @@ class LiveSessionMachine(RuleBasedStateMachine):
     """A session of the hand (a position, m) and head (angles, deg) streams, faulted."""
 
     @initialize(start=st.sampled_from(["still", "marker", "call"]),
-                hand_rate=st.sampled_from(RATES), head_rate=st.sampled_from(RATES))
-    def open_session(self, start: str, hand_rate: float, head_rate: float) -> None:
+                hand_rate=st.sampled_from(RATES), head_rate=st.sampled_from(RATES),
+                bad_start=st.sampled_from([None, None, "Hand", "Head"]))  # fmt: skip
+    def open_session(self, start: str, hand_rate: float, head_rate: float,
+                     bad_start: str | None = None) -> None:  # fmt: skip
+        """The session opened; its first 0.3 s of samples, after ``bad_start``'s first 0.2 s
+        of NaN values (a marker occluded from the start: its stamps are all it gives)."""
         self.folder = Path(tempfile.mkdtemp(prefix="live-machine-"))
         self.transport = FakeTransport()
         self.senders = {"Hand": Sender("Hand", ("x", "y", "z"), self.transport, hand_rate, 0.2),
@@ -113,6 +117,12 @@ class LiveSessionMachine(RuleBasedStateMachine):
         self.step()
         if start == "call":
             self.session.begin()
+        if bad_start is not None:
+            sender = self.senders[bad_start]
+            times, values = sender.samples(int(0.2 * sender.rate), True)
+            sender.stream.push(times, np.full_like(values, math.nan))
+            self.transport.now += 0.2
+            self.step()
         self.stream(0.3)
 
     def teardown(self) -> None:
@@ -454,6 +464,47 @@ def test_samples_that_can_never_be_in_a_row_are_not_kept() -> None:
     state.appear(stream="Hand", then=0.0)
     state.long_stall(moving=False, seconds=31.0, stream="Head", then=0.0)
     state.memory_is_bounded()
+    state.teardown()
+
+
+def test_an_outlet_back_after_its_clock_jumped_stays_on_the_others_clock() -> None:
+    """Found (2026-11-30, LIVE_MACHINE_EXAMPLES=200): the head's backlog is re-anchored (its
+    stamps then ahead of its sender's clock), the hand's clock goes back 15 s (re-anchored),
+    the hand vanishes and comes back (the same outlet), the head restarts without the
+    mapping's channels and is silent for 28 s. The hand came back unshifted, 15 s behind its
+    own earlier stamps and the head's, so the head did not seem to lag while the hand's
+    samples waited for it: the time base held the hand's 16 s (129 kB). The same outlet back
+    keeps its re-anchoring (promp.live.source)."""
+    state = LiveSessionMachine()
+    state.open_session(start="still", hand_rate=250.0, head_rate=25.0)
+    state.backlog(n=303, stream="Head", then=0.0)
+    state.time_jump(jump=-15.0, stream="Hand", then=0.0)
+    state.long_stall(moving=False, seconds=2.0, stream="Hand", then=0.0)
+    state.vanish(stream="Hand", then=0.0)
+    state.restart(stream="Head", then=0.0, width=2)
+    state.appear(stream="Hand", then=0.0)
+    state.long_stall(moving=False, seconds=28.0, stream="Head", then=0.0)
+    state.memory_is_bounded()
+    state.teardown()
+
+
+def test_an_input_silent_while_the_others_stamps_lag_it_is_said_to_lag() -> None:
+    """Found (2026-11-30, LIVE_MACHINE_EXAMPLES=200): the hand is silent for 15 s, then its
+    clock goes back 15 s (its stamps now lag the session's clock by 15 s, no jump seen: they
+    go on from where they stopped), the head restarts without the mapping's channels and is
+    silent. By the stamps the hand lagged the head's last sample, so the head did not lag and
+    the hand's samples waited for it: the time base held 16 s (128 kB). An input from which
+    nothing arrived for over the wait while another's did lags (promp.live.pipeline)."""
+    state = LiveSessionMachine()
+    state.open_session(start="still", hand_rate=250.0, head_rate=25.0)
+    state.long_stall(moving=False, seconds=15.0, stream="Hand", then=0.0)
+    state.time_jump(jump=-15.0, stream="Hand", then=0.0)
+    state.restart(stream="Head", then=0.0, width=2)
+    state.long_stall(moving=False, seconds=2.0, stream="Hand", then=1.0)
+    state.long_stall(moving=False, seconds=14.0, stream="Head", then=1.0)
+    state.memory_is_bounded()
+    texts = [e.text for e in state.session.snapshot().events]
+    assert any(t.startswith("input 'head' lags the others by over 4 s") for t in texts), texts
     state.teardown()
 
 

@@ -145,6 +145,25 @@ def test_a_stream_found_twice_keeps_the_first_and_comes_back_or_restarts() -> No
     assert condition(source) is Condition.RESTARTED
 
 
+@pytest.mark.parametrize("uid", ["u-1", "u-2"], ids=["back", "restarted"])
+def test_the_same_outlet_back_keeps_its_re_anchoring_and_a_new_one_starts_afresh(uid) -> None:
+    """An outlet whose clock jumped is re-anchored; when it vanishes and comes back (the same
+    uid: the same clock) its stamps are shifted as before, so it stays on the others' clock (a
+    hypothesis sequence of the live session machine: the hand's clock went back 15 s, then
+    the outlet came back unshifted, 15 s behind the head's, and its samples waited 16 s for
+    the head in the time base, beyond the memory bound). A new outlet (a new uid) has its own
+    clock: nothing shifted."""
+    source = hand_and_grip()
+    source.poll({0: rows(regular(1.0, 3))}, 1.02)
+    source.poll({0: rows(regular(1.03 - 15.0, 3))}, 1.05)  # back 15 s: re-anchored
+    source.poll({0: Pulled.LOST}, 1.1)
+    source.adopt([Opened(0, stream(uid))], 2.0)
+    batch = source.poll({0: rows(regular(2.0 - 15.0, 3))}, 2.02)
+    shift = 15.0 if uid == "u-1" else 0.0
+    assert_allclose(batch.samples["hand"][0], regular(2.0 - 15.0 + shift, 3), atol=1e-9)
+    assert batch.events == []  # (no jump said: the stream's clock goes on)
+
+
 def test_a_stream_not_found_waits_and_one_without_the_channels_is_refused() -> None:
     source = Source([LiveInput.parse("hand=Hand:x,y,z")], now=0.0)
     events = source.adopt([Opened(0, None, "two streams match")], 1.0)

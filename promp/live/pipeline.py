@@ -101,6 +101,8 @@ class PipelineState:
         The latest prediction.
     newest : mapping of str to float
         Each input's newest sample (the session's clock; the session's start before any).
+    heard : mapping of str to float
+        When each input's newest samples arrived (the session's clock; its start before any).
     lagging : frozenset of str
         The inputs said to lag (see the module docstring).
     committing : Committing or None
@@ -116,6 +118,7 @@ class PipelineState:
     predicted: tuple[int, int] = (0, 0)
     prediction: LivePrediction | None = None
     newest: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    heard: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     lagging: frozenset[str] = frozenset()
     committing: Committing | None = None
 
@@ -153,7 +156,8 @@ def build(model: ProMPModel, inputs: Sequence, options: LiveOptions, now: float 
     committing = None if options.decide is None else \
         Committing(options.decide, tuple(p.name for p in model.primitives))  # fmt: skip
     return PipelineState(source, timebase, segmenter, predictor, options.min_observed,
-                         float(options.max_movement_s), newest=newest, committing=committing)
+                         float(options.max_movement_s), newest=newest, heard=newest,
+                         committing=committing)  # fmt: skip
 
 
 def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
@@ -180,7 +184,7 @@ def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
         if gap:
             events.append(LiveEvent(now, gap))
             boundaries += segmenter.abort(gap)
-    state = _waited(state, batch.samples, events, boundaries)
+    state = _waited(state, batch.samples, now, events, boundaries)
     segmenter.markers(batch.markers)
     events += [LiveEvent(time, f"marker {shown(label)} left out (not start/end CLASS)")
                for time, label in segmenter.unknown]  # fmt: skip
@@ -200,17 +204,27 @@ def step(state: PipelineState, arrivals: Arrivals) -> StepOutputs:
     return state, tuple(events), tuple(boundaries), tuple(predictions)
 
 
-def _waited(state: PipelineState, samples: Mapping, events: list[LiveEvent],
+def _waited(state: PipelineState, samples: Mapping, now: float, events: list[LiveEvent],
             boundaries: list[Boundary]) -> PipelineState:  # fmt: skip
-    """The samples that waited too long for an input that lags, dropped (module docstring)."""
+    """The samples that waited too long for an input that lags, dropped (module docstring).
+
+    An input lags when nothing of it arrived for over ``wait_s`` on the session's clock while
+    another's did (stalled, vanished, refused), or else when its newest stamp is over
+    ``wait_s`` behind the newest of all. The first rule does not compare stamps: an input
+    silent since before another's clock jumped back, or whose stamps ran ahead, would
+    otherwise not lag while the other's samples waited for it (the live session machine's
+    test: a hand 15 s behind a silent head's last stamp held 16 s of samples)."""
     if not samples and not state.lagging:  # nothing arrived: nothing lags more than before
         return state
     newest = {**state.newest, **{n: float(t[-1]) for n, (t, _, _) in samples.items()}}
-    lead = max(newest.values(), default=-math.inf)
-    lagging = frozenset(n for n in state.timebase.names
-                        if lead - newest.get(n, lead) > state.wait_s)  # fmt: skip
+    heard = {**state.heard, **dict.fromkeys(samples, float(now))}
+    names, lead = state.timebase.names, max(newest.values(), default=-math.inf)
+    lagging = frozenset(n for n in names if now - heard.get(n, now) > state.wait_s)
+    if not lagging or len(lagging) == len(names):  # none silent (or all): by the stamps
+        lagging = frozenset(n for n in names if lead - newest.get(n, lead) > state.wait_s)
     if not lagging and not state.lagging:
-        return dataclasses.replace(state, newest=MappingProxyType(newest))
+        return dataclasses.replace(state, newest=MappingProxyType(newest),
+                                   heard=MappingProxyType(heard))  # fmt: skip
     for name in sorted(lagging - state.lagging):
         reason = (f"input {name!r} lags the others by over {state.wait_s:g} s: their samples "
                   "no longer wait for it")  # fmt: skip
@@ -219,7 +233,8 @@ def _waited(state: PipelineState, samples: Mapping, events: list[LiveEvent],
     for name in state.timebase.names if lagging else ():
         if name not in lagging:
             state.timebase.drop(name)
-    return dataclasses.replace(state, newest=MappingProxyType(newest), lagging=lagging)
+    return dataclasses.replace(state, newest=MappingProxyType(newest),
+                               heard=MappingProxyType(heard), lagging=lagging)  # fmt: skip
 
 
 def _predict(state: PipelineState, movement: Movement, predictions: list[LivePrediction],

@@ -250,7 +250,9 @@ class Source:
             feed.uid, feed.arrival = stream.uid, now
             feed.rate, feed.recent = max(stream.rate, 0.0), deque()
             feed.spread = Respread(feed.rate)  # a declared rate only: an irregular one is not
-            feed.last, feed.stamp, feed.shift = -math.inf, -math.inf, 0.0
+            feed.last, feed.stamp = -math.inf, -math.inf
+            if condition is not Condition.BACK:  # the same outlet back: the same clock,
+                feed.shift = 0.0  # re-anchored as it was (a new outlet: its own clock)
             events += self._set(feed, condition, now, stream.summary())
         return events
 
