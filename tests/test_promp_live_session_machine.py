@@ -508,6 +508,20 @@ def test_an_input_silent_while_the_others_stamps_lag_it_is_said_to_lag() -> None
     state.teardown()
 
 
+def test_the_rows_input_restarted_on_another_phase_does_not_fail_the_step() -> None:
+    """Found (2026-11-30, LIVE_MACHINE_EXAMPLES=1000, with the hand's first samples all NaN):
+    both streams at 25 Hz, the hand's clock goes back 0.5 s (re-anchored), then its outlet
+    restarts. The rows' input came back on another phase, and one row after the last given
+    was one sample on the time base: the XDF reader's clock refused it and the step raised
+    (promp.live.timebase now waits for its next sample)."""
+    state = LiveSessionMachine()
+    state.open_session(start="still", hand_rate=25.0, head_rate=25.0, bad_start="Hand")
+    state.time_jump(jump=-0.5, stream="Hand", then=1.0)
+    state.restart(stream="Hand", then=1.0, width=3)
+    state.memory_is_bounded()
+    state.teardown()
+
+
 def test_a_prediction_after_a_stall_and_its_backlog_is_the_offline_one() -> None:
     """Found: after a stall of the head and its backlog, the refined speed of the online
     update lands 7.6e-11 from the offline engine's, and the duration's low bound 1.24e-9 from

@@ -354,3 +354,25 @@ def test_a_restarted_input_s_first_samples_behind_the_others_still_make_rows() -
     rows = base.advance()
     assert_allclose(rows.times, more, atol=1e-12)
     assert_allclose(rows.values, np.column_stack([more, more]), atol=1e-12)
+
+
+def test_the_rows_input_restarted_on_another_phase_waits_for_two_of_its_samples() -> None:
+    """The rows' input (the slower, at 25 Hz) restarts on another phase: its samples are no
+    longer at the last row's time. One new sample after that row is one sample on the time
+    base, which the XDF reader's clock refuses (before, the step raised: found by the live
+    session machine); the rows wait for its next sample, then go on from the last row."""
+    base = TimeBase(["hand", "head"], [1, 1])
+    slow = 1.0 + np.arange(6) * 0.04  # 1.00 to 1.20
+    fast = 1.0 + np.arange(25) * 0.01  # 1.00 to 1.24
+    base.push("hand", slow, slow[:, None], ("m",))
+    base.push("head", fast, fast[:, None], ("rad",))
+    assert_allclose(base.advance({"hand": 25.0, "head": 100.0}).times, slow)
+    base.restart("hand")
+    shifted = np.array([1.18, 1.22])  # the restarted hand, 0.02 s off its old phase
+    base.push("hand", shifted, shifted[:, None], ("m",))
+    assert base.advance() is None  # one base sample after the row at 1.20: wait
+    base.push("hand", np.array([1.26]), np.array([[1.26]]), ("m",))
+    base.push("head", np.array([1.25, 1.26]), np.array([[1.25], [1.26]]), ("rad",))
+    rows = base.advance()
+    assert_allclose(rows.times, [1.22, 1.26], atol=1e-12)
+    assert_allclose(rows.values, [[1.22, 1.22], [1.26, 1.26]], atol=1e-12)

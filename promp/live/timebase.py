@@ -169,6 +169,11 @@ class TimeBase:
             # one first row, or one row after an input that starts again within 1e-9 after
             # the last row given (the span then starts at it): wait for the next
             return None
+        if self.rate is None and np.count_nonzero((base >= start) & (base <= new[-1])) < 2:
+            # the rows' input started again (a clock jump, a restart) on another phase: the
+            # last row given is none of its times, and one row after it is one sample on the
+            # time base (on_one_clock refuses it: found by the live session machine)
+            return None
         streams = []  # (each holds a sample at or before start and one at or after the end)
         for name, b in zip(self.names, buffers, strict=True):
             a = max(int(np.searchsorted(b.times, start, side="right")) - 1, 0)
