@@ -126,7 +126,7 @@ def speed_kernels(
     the speed ``prior`` with each of its components moved ``sqrt(1 - H^2)`` of the way to the
     demonstration's own log speed (winsorized, as the prior's fit) and ``H`` times as wide,
     normalised to its mass below ``bound`` (:func:`promp.evidence.speed.quadrature_weights`)."""
-    own = winsorized(np.log(np.asarray(primitive.alphas, dtype=float)))  # (J,)
+    own = _own_log_speeds(primitive)  # (J,)
     density = np.full((own.shape[0], nodes.shape[0]), -np.inf)
     mass = np.full(own.shape[0], -np.inf)
     for loc, scale, dof, weight in zip(prior.locs, prior.scales, prior.dofs, prior.weights,
@@ -135,6 +135,20 @@ def speed_kernels(
         density = np.logaddexp(density, d + math.log(weight))
         mass = np.logaddexp(mass, below + math.log(weight))
     return quadrature_weights(nodes[None], density, mass)
+
+
+def _own_log_speeds(primitive: Primitive) -> np.ndarray:
+    """The primitive's demonstrations' log speeds winsorized as its speed prior's fit, (J,),
+    computed once per primitive: a recognition reads them twice per primitive (the coarse
+    nodes, then the refined ones), and the median behind the winsorizing took a tenth of a
+    sweep's recognition."""
+
+    def make() -> np.ndarray:
+        own = winsorized(np.log(np.asarray(primitive.alphas, dtype=float)))
+        own.setflags(write=False)  # shared by threads: read, never written
+        return own
+
+    return cached_on(primitive, "_mixture_own_speeds", "winsorized", make)
 
 
 def kernel(nodes, loc, scale, dof, own: np.ndarray, bound, bandwidth: float) -> tuple:
