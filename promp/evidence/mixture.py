@@ -109,10 +109,10 @@ def log_likelihoods(
         _, info = lapack.dpotrf(matrix.T, 1, 0, 1)  # lower, not cleaned, in place
         if info != 0:
             raise np.linalg.LinAlgError("Matrix is not positive definite")
-        z, info = lapack.dtrtrs(matrix.T, b[a].T, 1, 0, 0, p, 1)  # L z = b (lower, in place)
+        _, info = lapack.dtrtrs(matrix.T, b[a].T, 1, 0, 0, p, 1)  # L z = b (lower, in place)
         if info != 0:
             raise np.linalg.LinAlgError("singular factor")
-        quad[a] -= (z * z).sum(axis=0)
+    quad -= (b * b).sum(axis=-1)  # (b holds each candidate's z^T now)
     logdet = 2.0 * np.log(np.diagonal(stack, axis1=1, axis2=2)).sum(axis=-1)
     logdet += logdet_sigma + p * math.log(h2)
     logdet_r = float((sums.n * np.log(noise_var) + sums.logdet_k).sum())
