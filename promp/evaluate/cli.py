@@ -86,7 +86,7 @@ from promp.evaluate.report import (
 )
 from promp.evaluate.settings_options import add_settings_arguments, settings_of
 from promp.evaluate.sweep import SweepResult, run_sweep, spread_subset
-from promp.evaluate.tables import grouped_text, results_text, side_by_side_text
+from promp.evaluate.tables import grouped_text, paired_text, results_text, side_by_side_text
 from promp.evaluate.viewer_files import (
     add_viewer_arguments,
     check_viewer_arguments,
@@ -320,6 +320,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         grouped=swept.grouped,
     )
     print_table(result.rows)
+    if report["paired"]:
+        print()
+        print(paired_text(report["paired"]))
     for name, blocks in result.chosen.items():
         counts = Counter(str(b.get("recognition")) for b in blocks)
         print(f"{name}'s recognition, chosen per block: "

@@ -5,12 +5,13 @@ The two sweeps test the same demonstrations, each once per setting, so every tri
 ``worse`` counts the trials leave-one-out recognised and the grouped sweep did not, ``better``
 the reverse, and the difference of the error counts is ``worse - better``. Without a group
 effect each discordant trial is as likely to fall either way, so ``worse`` is binomial with
-``p = 1/2`` over the ``worse + better`` discordant trials (McNemar's exact test). Its
-Clopper-Pearson interval, mapped to the difference of the error counts, is the noise band; the
-grouped and leave-one-out rows **differ** when that band excludes zero. The band's confidence
-is ``1 - 0.05 / m`` for the ``m`` rows of one method (Bonferroni: a method compared at four
-percentages is not four chances of a false alarm). The paired difference of the mean log-loss
-and its standard error are reported beside it, not tested.
+``p = 1/2`` over the ``worse + better`` discordant trials (McNemar's exact test,
+:mod:`promp.evaluate.paired`). Its Clopper-Pearson interval, mapped to the difference of the
+error counts, is the noise band; the grouped and leave-one-out rows **differ** when that band
+excludes zero. The band's confidence is ``1 - 0.05 / m`` for the ``m`` rows of one method
+(Bonferroni: a method compared at four percentages is not four chances of a false alarm). The
+paired difference of the mean log-loss and its standard error are reported beside it, not
+tested.
 
 Which modality drives a gap: the comparison is run again with each observed modality alone
 (:func:`modality_gaps`); the modality whose grouped rows lose the most recognitions against
@@ -24,13 +25,10 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
-from scipy.stats import beta
-
+from promp.evaluate.paired import ALPHA, count_band, mcnemar_p
 from promp.evaluate.sweep import SweepResult, Trial
 
 __all__ = ["ALPHA", "compare_protocols", "gap_warnings", "modality_gaps"]
-
-ALPHA = 0.05  # the family-wise false-alarm rate of one method's rows
 
 
 def _key(trial: Trial) -> tuple:
@@ -42,27 +40,6 @@ def _by_row(result: SweepResult) -> dict[tuple, dict[tuple[int, str], Trial]]:
     for trial in result.trials:
         rows.setdefault(_key(trial), {})[(trial.primitive, trial.demo)] = trial
     return rows
-
-
-def _interval(worse: int, better: int, confidence: float) -> tuple[float, float]:
-    """The Clopper-Pearson interval of ``P(worse)`` among the discordant trials, as an
-    interval of the difference of the error counts, ``worse - better``."""
-    n = worse + better
-    if n == 0:
-        return 0.0, 0.0
-    tail = (1.0 - confidence) / 2.0
-    low = 0.0 if worse == 0 else float(beta.ppf(tail, worse, better + 1))
-    high = 1.0 if better == 0 else float(beta.ppf(1.0 - tail, worse + 1, better))
-    return n * (2.0 * low - 1.0), n * (2.0 * high - 1.0)
-
-
-def _p_value(worse: int, better: int) -> float:
-    """McNemar's exact two-sided p-value."""
-    n = worse + better
-    if n == 0:
-        return 1.0
-    tail = sum(math.comb(n, i) for i in range(max(worse, better), n + 1)) / 2.0**n
-    return min(1.0, 2.0 * tail)
 
 
 def compare_protocols(
@@ -93,7 +70,7 @@ def compare_protocols(
         worse = sum(a.correct and not b.correct for a, b in pairs)
         better = sum(b.correct and not a.correct for a, b in pairs)
         confidence = 1.0 - ALPHA / per_method[method]
-        low, high = _interval(worse, better, confidence)
+        low, high = count_band(worse, better, confidence)
         gaps = [b.log_loss(n_primitives) - a.log_loss(n_primitives) for a, b in pairs]
         mean_gap = math.fsum(gaps) / len(gaps)
         spread = math.fsum((g - mean_gap) ** 2 for g in gaps) / max(len(gaps) - 1, 1)
@@ -110,7 +87,7 @@ def compare_protocols(
                 "better": better,
                 "confidence": confidence,
                 "difference_interval": [low, high],
-                "p_value": _p_value(worse, better),
+                "p_value": mcnemar_p(worse, better),
                 "differs": low > 0.0 or high < 0.0,
                 "log_loss_leave_one_out": math.fsum(a.log_loss(n_primitives) for a, _ in pairs)
                 / len(pairs),

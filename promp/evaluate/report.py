@@ -19,6 +19,7 @@ import numpy as np
 from promp.data import Demonstration, Layout
 from promp.evaluate.decisions import Decisions
 from promp.evaluate.grouped import GroupedRun, grouped_json
+from promp.evaluate.paired import compare_methods
 from promp.evaluate.sweep import LEAVE_ONE_OUT, SweepResult
 from promp.model import Settings
 from promp.quality import Finding
@@ -131,10 +132,12 @@ def results_report(
     dict
         ``dataset``, ``settings``, ``primitives``, ``results`` (the rows), ``failures``,
         ``trials`` (one row per trial, :func:`trial_rows`; empty unless the sweep kept its
-        trials), ``confusion`` (:func:`confusion_matrices`), ``used`` (the demonstrations
-        swept, by primitive), ``findings`` and ``excluded``; with ``grouped``, ``grouped``
-        (:func:`promp.evaluate.grouped.grouped_json`, with its own ``trials``) and the
-        settings' ``group_by``. Every trial names its group then.
+        trials), ``confusion`` (:func:`confusion_matrices`), ``paired`` (the first method
+        against each other one on the same trials,
+        :func:`promp.evaluate.paired.compare_methods`; empty with one method), ``used`` (the
+        demonstrations swept, by primitive), ``findings`` and ``excluded``; with ``grouped``,
+        ``grouped`` (:func:`promp.evaluate.grouped.grouped_json`, with its own ``trials``) and
+        the settings' ``group_by``. Every trial names its group then.
     """
     excluded = excluded or {}
     methods = [method] if isinstance(method, str) else list(method)
@@ -161,6 +164,7 @@ def results_report(
         "failures": result.failures,
         "trials": trials,
         "confusion": confusion_matrices(trials, list(dataset)),
+        "paired": compare_methods(result.trials),
         "used": {name: [d.name for d in demos] for name, demos in dataset.items()},
         "chosen": result.chosen,
         "findings": [f.to_json() for f in findings],

@@ -1,7 +1,8 @@
 """The tables ``python -m promp.evaluate`` prints: every result row, then, when the sweep
 compared several methods, the methods side by side (one column each) per observed modalities,
 alpha method and percentage; with ``--group-by``, the grouped sweep's rows and both protocols
-side by side (:func:`grouped_text`). A value a method does not give (the baselines predict no
+side by side (:func:`grouped_text`); and the first method against each other one on the same
+trials (:func:`paired_text`). A value a method does not give (the baselines predict no
 trajectory) is written ``n/a``.
 """
 
@@ -18,7 +19,8 @@ if TYPE_CHECKING:
     from promp.evaluate.grouped import GroupedRun
 
 __all__ = [
-    "grouped_text", "NOT_GIVEN", "number", "results_text", "SIDE_BY_SIDE", "side_by_side_text",
+    "grouped_text", "NOT_GIVEN", "number", "paired_text", "results_text", "SIDE_BY_SIDE",
+    "side_by_side_text",
 ]  # fmt: skip
 
 NOT_GIVEN = "n/a"
@@ -134,3 +136,30 @@ def grouped_text(run: GroupedRun) -> str:
         lines.append("no row differs beyond the noise between leave-one-out and the grouped "
                      "sweep")  # fmt: skip
     return "\n".join(lines)
+
+
+def paired_text(comparisons: Sequence[Mapping]) -> str:
+    """The first method against each other one on the same trials
+    (:func:`promp.evaluate.paired.compare_methods`): both error counts, the band of their
+    difference, McNemar's p and the verdict; empty without a comparison."""
+    if not comparisons:
+        return ""
+    first = comparisons[0]["method"]
+    width = max(9, *(len(str(c["against"])) for c in comparisons))
+    lines = [
+        f"{first} against each other method, on the same trials (errors; the band of their "
+        "difference at 1 - 0.05 / rows; McNemar's p)",
+        f"{'against':{width}s} {'observed':14s} {'alpha':5s} {'%':>4s} {first:>7s} "
+        f"{'other':>7s} {'difference band':>17s} {'p':>7s}  verdict",
+    ]
+    for c in comparisons:
+        low, high = (_signed(v) for v in c["difference_interval"])
+        verdict = {"fewer": f"{first} fewer", "more": f"{first} more"}.get(c["verdict"], "level")
+        lines.append(
+            f"{c['against']:{width}s} {'+'.join(c['observed']):14s} {c['alpha_method']:5s} "
+            f"{c['percent']:4.0f} {c['errors']:7d} {c['errors_against']:7d} "
+            f"{'[' + low + ', ' + high + ']':>17s} {c['p_value']:7.2g}  {verdict}"
+        )
+    lines.append("(level: the band holds 0, the two counts do not differ beyond the noise)")
+    return "\n".join(lines)
+
