@@ -14,7 +14,15 @@ import pytest
 
 from app.io.runs_folder import RUN_KIND, RUNS_DIR
 from promp.evaluate.runs import RUN_FILE, write_run
-from tests.browser import choose, click, close_notifications, notification, open_tab, press
+from tests.browser import (
+    choose,
+    click,
+    close_notifications,
+    notification,
+    open_tab,
+    press,
+    settled_screenshot,
+)
 from tests.conftest import (
     GIVEN_SETTINGS,
     StudioSpec,
@@ -159,10 +167,11 @@ def test_runs_are_kept_listed_opened_compared_deleted_and_restored(browser, stud
 
 
 @pytest.mark.browser
-def test_ours_beside_the_toolbox_and_both_baselines(browser, studio) -> None:
+def test_ours_beside_the_toolbox_and_both_baselines(browser, studio, artifacts) -> None:
     """Methods "ours + toolbox + baselines": the four run on the same trials; the results name
     each (the baselines' position errors n/a), the kept run lists each method's errors, and
-    the comparison with a run of ours alone pairs ours with ours and names the others."""
+    the comparison with a run of ours alone pairs ours with ours and names the others; ours
+    against each other method on the same trials is shown, and again when the run is opened."""
     panel = data_panel(studio)
     runs = panel.runs
     page, _client = open_page(browser, studio, width=1200, height=1400)
@@ -187,6 +196,17 @@ def test_ours_beside_the_toolbox_and_both_baselines(browser, studio) -> None:
         assert position.startswith("| 40 % |") and position.endswith("| n/a | n/a |")
         page.get_by_text("prefix 1-NN: hand, ML").first.wait_for()  # the table in the page
         assert "methods ours, seed, dtw, prefix-nn" in panel.evaluation.results.handles[0].content
+        # ours against each other method on the same trials, with McNemar's band
+        paired = panel.evaluation.results.handles[4].content
+        assert paired.startswith("**ours against each other method, on the same trials**")
+        against = [line.split(" | ")[0] for line in paired.splitlines() if line.startswith(
+            ("| toolbox", "| DTW", "| prefix"))]  # fmt: skip
+        assert against == ["| toolbox (2017)", "| DTW 1-NN", "| prefix 1-NN"]
+        heading = page.get_by_text("ours against each other method, on the same trials").first
+        heading.wait_for()
+        page.get_by_role("columnheader", name="band").first.wait_for()
+        heading.scroll_into_view_if_needed()  # the panel scrolled to the paired table
+        settled_screenshot(page, artifacts / "data_methods_paired.png")
 
         errors = ", ".join(f"{label} {r['recognition_errors']}" for label, r in zip(
             ("ours", "toolbox (2017)", "DTW 1-NN", "prefix 1-NN"), rows, strict=True))
@@ -198,6 +218,13 @@ def test_ours_beside_the_toolbox_and_both_baselines(browser, studio) -> None:
         close_notifications(page)
         pick(page, runs.controls.choice, alone)
         pick(page, runs.controls.other, newest)
+        # the kept run opened: its paired comparison shown again, the same
+        pick(page, runs.controls.choice, newest)
+        click(page, "Open run")
+        until(lambda: "with baselines" in panel.evaluation.results.handles[0].content,
+              what="the kept run opened")  # fmt: skip
+        assert panel.evaluation.results.handles[4].content == paired
+        pick(page, runs.controls.choice, alone)
         click(page, "Compare runs")
         page.get_by_text("Made differently").first.wait_for()
         text = runs.controls.comparison.content

@@ -8,7 +8,8 @@ method, observed modalities and alpha method), so the tab and ``python -m promp.
 method (``DTW 1-NN: hand, ML``) and coloured by it, so the table lays them side by side; a value
 a method does not give (the baselines predict no trajectory) is ``n/a``. An evaluation that
 also held out a whole group at a time adds the two protocols' errors side by side, and its
-warnings (:func:`grouped_markdown`).
+warnings (:func:`grouped_markdown`); one that compared several methods, the first against each
+other one on the same trials (:func:`paired_markdown`).
 """
 
 from __future__ import annotations
@@ -164,3 +165,35 @@ def grouped_markdown(run: GroupedRun) -> str:
         lines.append("No row differs beyond the noise (the band of the difference, at 1 - 0.05 "
                      "/ the method's rows, holds 0).")
     return "\n".join(lines)
+
+
+def paired_markdown(comparisons: Sequence[Mapping]) -> str:
+    """Markdown: the first method against each other one on the same trials
+    (:func:`promp.evaluate.paired.compare_methods`): both error counts, the band of their
+    difference, McNemar's p and the verdict; empty without a comparison."""
+    if not comparisons:
+        return ""
+    first = method_label(comparisons[0]["method"])
+    lines = [
+        f"**{escape(first)} against each other method, on the same trials**: the errors, the "
+        "band of their difference and McNemar's p; only the trials one gets right and the "
+        "other wrong tell them apart.",
+        "",
+        f"| against | observed, alpha | % | errors, {escape(first)}\u00a0/\u00a0other | band "
+        "| verdict |",
+        "|---|---|---:|:---:|:---:|---|",
+    ]
+    verdicts = {"fewer": f"**{escape(first)} fewer**", "more": f"**{escape(first)} more**"}
+    for c in comparisons:
+        low, high = c["difference_interval"]
+        lines.append(
+            f"| {method_label(c['against'])} | "
+            f"{escape(series_title(c['observed'], c['alpha_method']))} | {c['percent']:g} | "
+            f"{c['errors']}\u00a0/\u00a0{c['errors_against']} | "
+            f"{low:+.1f}\u00a0to\u00a0{high:+.1f} | "  # each cell kept on one line
+            f"{verdicts.get(c['verdict'], 'level')} (p\u00a0{c['p_value']:.2g}) |"
+        )
+    lines += ["", "Level: the band (at 1 - 0.05 / the rows of each pair) holds 0, so the two "
+              "counts do not differ beyond the noise."]  # fmt: skip
+    return "\n".join(lines)
+

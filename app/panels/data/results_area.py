@@ -14,9 +14,10 @@ import viser
 from app.io.exchange import format_size
 from app.panels.data.decisions import add_decisions
 from app.panels.data.evaluation import EvaluationJob
-from app.panels.data.results import add_results, grouped_markdown
+from app.panels.data.results import add_results, grouped_markdown, paired_markdown
 from app.panels.data.results_zip import results_filename, results_zip
 from promp.evaluate.decisions import Decisions
+from promp.evaluate.paired import compare_methods
 from promp.evaluate.plots import figures_unavailable
 
 Notify = Callable[[viser.ClientHandle | None, str, str, str], None]
@@ -56,22 +57,30 @@ class ResultsArea:
         export_button.on_click(lambda event: self.export(event.client))
 
     def show(
-        self, title: str, rows: Sequence[Mapping], decisions: Decisions | None = None
+        self,
+        title: str,
+        rows: Sequence[Mapping],
+        decisions: Decisions | None = None,
+        paired: Sequence[Mapping] = (),
     ) -> None:
-        """Show result ``rows`` (the sweep's, or a saved run's) under ``title`` (markdown), and
-        when each method would act when it was judged (:mod:`app.panels.data.decisions`), in
-        place of what was shown."""
+        """Show result ``rows`` (the sweep's, or a saved run's) under ``title`` (markdown), the
+        first method against each other one on the same trials (``paired``:
+        :func:`promp.evaluate.paired.compare_methods`), and when each method would act when it
+        was judged (:mod:`app.panels.data.decisions`), in place of what was shown."""
         for handle in self.handles:
             handle.remove()
         with self.folder:
-            self.handles = [self.gui.add_markdown(title), *add_results(self.gui, rows),
-                            *add_decisions(self.gui, decisions)]  # fmt: skip
+            self.handles = [self.gui.add_markdown(title), *add_results(self.gui, rows)]
+            if paired:
+                self.handles.append(self.gui.add_markdown(paired_markdown(paired)))
+            self.handles += add_decisions(self.gui, decisions)
         self.folder.visible = True
 
     def show_evaluation(self, job: EvaluationJob) -> None:
         """Show the finished ``job``'s results (partial ones when it was cancelled), and its
         grouped comparison when it has one; Export sends them from now on."""
-        self.show(job.title(), job.outcome.result.rows, job.outcome.decisions)
+        result = job.outcome.result
+        self.show(job.title(), result.rows, job.outcome.decisions, compare_methods(result.trials))
         if job.outcome.grouped is not None:
             with self.folder:
                 self.handles.append(self.gui.add_markdown(grouped_markdown(job.outcome.grouped)))

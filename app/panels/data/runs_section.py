@@ -242,7 +242,7 @@ class RunsSection:
         partial = " *(partial)*" if run.report.get("partial") else ""
         self.evaluation.results.show(
             f"**Saved run:** {escape(run.label)}{partial}  \n{how}", run.report["results"],
-            decisions_of(run.report),
+            decisions_of(run.report), run.report.get("paired", []),
         )  # fmt: skip
         self.notify(client, "Run opened", f"{run.label}: its results are shown.", "blue")
         return run
